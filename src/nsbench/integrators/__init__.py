@@ -1,0 +1,51 @@
+"""Integrators, one file per family, all behind the :class:`Integrator` protocol.
+
+Look one up by registry name with :func:`get_integrator`; the built-ins are
+registered through the ``nsbench.integrators`` entry-point group exactly as
+plug-ins are.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nsbench import registry
+from nsbench.errors import ConfigError
+from nsbench.integrators.base import (
+    ArcRequest,
+    ArcResult,
+    Capabilities,
+    Integrator,
+    Option,
+    SectionHit,
+)
+
+__all__ = [
+    "Integrator", "Capabilities", "Option", "ArcRequest", "ArcResult", "SectionHit",
+    "get_integrator", "integrator_class", "integrator_from_config", "list_integrators",
+]
+
+
+def integrator_class(name: str) -> type[Integrator]:
+    """The registered class for ``name`` (imports it on first use)."""
+    cls = registry.load("integrators", name)
+    if not (isinstance(cls, type) and issubclass(cls, Integrator)):
+        raise ConfigError(f"integrator {name!r} is registered as {cls!r}, which is not an Integrator subclass")
+    return cls
+
+
+def get_integrator(name: str, **options: Any) -> Integrator:
+    """Build a registered integrator with ``options`` (validated; unknown ones are errors)."""
+    return integrator_class(name)(**options)
+
+
+def integrator_from_config(config: dict[str, Any]) -> Integrator:
+    """Rebuild an integrator from its :meth:`Integrator.config` dict."""
+    if "name" not in config:
+        raise ConfigError(f"integrator config needs a 'name': got {config!r}")
+    return integrator_class(config["name"]).from_config(config)
+
+
+def list_integrators() -> list[str]:
+    """Names of the registered integrators."""
+    return registry.names("integrators")

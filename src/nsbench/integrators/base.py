@@ -1,0 +1,276 @@
+"""The ``Integrator`` protocol: what every integrator, built-in or plug-in, implements.
+
+The hybrid engine (:mod:`nsbench.engine`) owns the stick/slip/reverse logic; an
+integrator owns how it advances one *frozen-mode* vector field and how it
+locates the crossings of that mode's guards, since that is what nsbench measures.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from nsbench.errors import ConfigError, UnsupportedProblemError
+from nsbench.results import Status
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.modes import Guard, Mode
+    from nsbench.problems.oscillator import FrictionOscillator
+    from nsbench.sections import StateSection
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """Tags that generic code (runner, conformance kit) branches on, never names.
+
+    Attributes
+    ----------
+    event_location
+        How guard crossings are located: ``'exact-root'``, ``'dense-output-root'``,
+        ``'henon'``, ``'collocation-newton'``, ``'taylor-root'``, ...
+    order
+        Convergence order of the method for smooth problems, ``None`` if it is
+        not a fixed-order method (exact, variable-order).
+    adaptive
+        Whether the step size is chosen from error estimates.
+    needs_jacobian
+        Whether the method evaluates the mode Jacobian.
+    supports_nonlinear
+        Whether it may run on cubic-spring problems.
+    precision
+        Floating-point arithmetic of the core: ``'double'``, ``'long double'``, ``'quad'``.
+    step_option
+        Name of the option that sets the step/tolerance for convergence studies
+        (``'h'`` for fixed-step methods, ``'rtol'`` for adaptive ones), or ``None``.
+    """
+
+    event_location: str
+    order: int | None
+    adaptive: bool
+    needs_jacobian: bool = False
+    supports_nonlinear: bool = True
+    precision: str = "double"
+    step_option: str | None = None
+
+
+@dataclass(frozen=True)
+class Option:
+    """Declaration of one integrator option: default, type and allowed range."""
+
+    default: Any
+    kind: type = float
+    lower: float | None = None
+    lower_inclusive: bool = False
+    upper: float | None = None
+    choices: tuple[Any, ...] | None = None
+    nullable: bool = False
+    doc: str = ""
+
+    def check(self, owner: str, name: str, value: Any) -> Any:
+        """Return ``value`` converted to ``kind``, or raise a ``ConfigError`` naming it."""
+        if value is None and self.nullable:
+            return None
+        if self.choices is not None:
+            if value not in self.choices:
+                raise ConfigError(
+                    f"{owner}: option {name} = {value!r} is not allowed; choose one of "
+                    + ", ".join(repr(c) for c in self.choices)
+                )
+            return value
+        if self.kind in (int, float):
+            if isinstance(value, bool):
+                raise ConfigError(f"{owner}: option {name} = {value!r} must be a number")
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ConfigError(f"{owner}: option {name} = {value!r} is not a number") from None
+            if math.isnan(number) or (self.kind is int and not math.isfinite(number)):
+                raise ConfigError(f"{owner}: option {name} = {value!r} must be a finite number")
+            if self.kind is int:
+                if number != int(number):
+                    raise ConfigError(f"{owner}: option {name} = {value!r} must be an integer")
+                number = int(number)
+            if self.lower is not None:
+                bad = number < self.lower if self.lower_inclusive else number <= self.lower
+                if bad:
+                    op = ">=" if self.lower_inclusive else ">"
+                    raise ConfigError(f"{owner}: option {name} = {value!r} must be {op} {self.lower:g}")
+            if self.upper is not None and number > self.upper:
+                raise ConfigError(f"{owner}: option {name} = {value!r} must be <= {self.upper:g}")
+            return number
+        if not isinstance(value, self.kind):
+            raise ConfigError(f"{owner}: option {name} = {value!r} must be of type {self.kind.__name__}")
+        return value
+
+
+@dataclass(frozen=True, eq=False)
+class ArcRequest:
+    """One call of :meth:`Integrator.advance`: integrate ``mode`` from ``(t0, y0)``.
+
+    Attributes
+    ----------
+    problem
+        The problem (vector field, Jacobian, guards).
+    mode
+        The frozen mode of this arc.
+    t0, y0
+        Start of the arc. ``y0`` is read-only; a phase starts on its own
+        surface, so a guard may be exactly zero at ``t0``.
+    t_end
+        Stop here if no guard fires first.
+    guards
+        Guards of ``mode``, ordered by block, with their expected signs.
+    sections
+        Non-terminal state sections to record (they never stop the arc).
+    t_eval
+        Sorted times in ``(t0, t_end]`` where states are wanted (trajectory and
+        stroboscopic sections), from the integrator's dense output or steps.
+    max_steps
+        Step budget left for the whole run.
+    """
+
+    problem: "FrictionOscillator"
+    mode: "Mode"
+    t0: float
+    y0: np.ndarray
+    t_end: float
+    guards: tuple["Guard", ...]
+    sections: tuple["StateSection", ...] = ()
+    t_eval: np.ndarray = field(default_factory=lambda: np.empty(0))
+    max_steps: int = 10**7
+
+    def rhs(self, t, y):
+        """The frozen-mode vector field of this arc."""
+        return self.problem.rhs(self.mode, t, y)
+
+    def jacobian(self, t, y):
+        """The frozen-mode Jacobian of this arc."""
+        return self.problem.jacobian(self.mode, t, y)
+
+
+@dataclass(frozen=True)
+class SectionHit:
+    """A crossing of ``request.sections[index]`` at ``(t, y)``."""
+
+    index: int
+    t: float
+    y: np.ndarray
+
+
+@dataclass
+class ArcResult:
+    """What :meth:`Integrator.advance` returns.
+
+    Attributes
+    ----------
+    t, y
+        Where the arc stopped: the located event time and state (before the
+        transition), or ``t_end``.
+    fired
+        Index into ``request.guards`` of the guard that fired, or ``None`` if the
+        arc reached ``t_end``. If several fire at the same time, the lowest index.
+    y_eval
+        States at every ``request.t_eval`` that is ``<= t``, shape ``(n, k)``.
+    section_hits
+        Crossings of ``request.sections`` in ``(t0, t]``, in time order.
+    nfev, njev, nsteps
+        Cost of this arc: right-hand-side and Jacobian evaluations (each state
+        counts one, also in vectorised calls), steps or segments.
+    extra
+        Integrator-specific counters (summed over arcs by the engine).
+    status, message
+        ``Status.SUCCESS``, or the failure and its reason.
+    """
+
+    t: float
+    y: np.ndarray
+    fired: int | None
+    y_eval: np.ndarray
+    section_hits: list[SectionHit] = field(default_factory=list)
+    nfev: int = 0
+    njev: int = 0
+    nsteps: int = 0
+    extra: dict[str, float] = field(default_factory=dict)
+    status: Status = Status.SUCCESS
+    message: str = ""
+
+
+class Integrator:
+    """Base class and written contract of every nsbench integrator.
+
+    An implementer must:
+
+    1. Set the class attributes ``name`` (lowercase kebab-case, the registry
+       name), ``capabilities`` (a :class:`Capabilities`) and ``options`` (a dict
+       of :class:`Option`; the defaults are the recommended settings).
+    2. Keep every configured instance describable by :meth:`config`, a small
+       dict that :meth:`from_config` turns back into an equal integrator.
+    3. In :meth:`setup`, do the once-per-problem work (compilation, operators)
+       and refuse a problem it cannot solve with ``UnsupportedProblemError``.
+       The engine times ``setup`` separately from the run.
+    4. In :meth:`advance`, integrate only the frozen-mode field
+       ``request.rhs`` from ``(t0, y0)`` towards ``t_end``; never switch mode
+       and never evaluate the field of another mode.
+    5. Locate guard crossings itself: the arc ends at the first time ``t > t0``
+       where ``guard.expected_sign * guard.value(t, y)`` reaches zero (or the
+       other side). Test against the expected sign, never against the sign at
+       ``t0``: the guard of a phase that just started is exactly zero there.
+       Report the earliest guard; on an exact tie, the lowest index.
+    6. Record crossings of ``request.sections`` without stopping, and return
+       states at every ``request.t_eval <= t`` from its own dense output or steps.
+    7. Never mutate ``request.y0`` or anything else it did not create.
+    8. Fill the counters ``nfev``, ``njev``, ``nsteps`` honestly (one per state
+       evaluated) and put method-specific counters in ``extra``.
+    9. Respect ``request.max_steps``; on a numerical failure or an exhausted
+       budget, return an :class:`ArcResult` with the matching ``Status`` and a
+       message instead of raising. Never loop forever.
+    10. Be deterministic: the same request gives the same result.
+    """
+
+    name: ClassVar[str] = ""
+    capabilities: ClassVar[Capabilities]
+    options: ClassVar[dict[str, Option]] = {}
+
+    def __init__(self, **options: Any) -> None:
+        values = {}
+        for key, value in options.items():
+            if key not in self.options:
+                allowed = ", ".join(self.options) or "none"
+                raise ConfigError(f"{self.name}: unknown option {key!r}; allowed: {allowed}")
+            values[key] = self.options[key].check(self.name, key, value)
+        self.settings: dict[str, Any] = {k: o.default for k, o in self.options.items()}
+        self.settings.update(values)
+        self.check_settings()
+
+    def check_settings(self) -> None:
+        """Cross-option validation (override when options constrain each other)."""
+
+    def config(self) -> dict[str, Any]:
+        """``{'name': ..., 'options': {...}}`` with every option, defaults included."""
+        return {"name": self.name, "options": dict(self.settings)}
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> "Integrator":
+        """Rebuild an integrator from :meth:`config`."""
+        if config.get("name", cls.name) != cls.name:
+            raise ConfigError(f"config is for {config.get('name')!r}, not {cls.name!r}")
+        return cls(**dict(config.get("options", {})))
+
+    def setup(self, problem: "FrictionOscillator") -> None:
+        """Prepare for ``problem``; the default refuses nonlinear problems if not supported."""
+        if not self.capabilities.supports_nonlinear and not problem.is_linear:
+            raise UnsupportedProblemError(
+                f"{self.name} solves linear problems only; {problem!r} has cubic springs "
+                "(use a numerical integrator or 'reference')"
+            )
+
+    def advance(self, request: ArcRequest) -> ArcResult:  # pragma: no cover - abstract
+        """Integrate one arc of a frozen mode; see the class docstring."""
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        opts = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
+        return f"{type(self).__name__}({opts})"

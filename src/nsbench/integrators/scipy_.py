@@ -1,0 +1,183 @@
+"""``scipy-*``: ``scipy.integrate.solve_ivp`` per mode, guards as terminal events.
+
+Each guard becomes a terminal event whose direction is the crossing from its
+expected sign to the other side, so a phase that starts on its own surface
+does not stop at once. Events are located by scipy on the method's dense
+output (Brent's method). Sections are non-terminal events. A step counter,
+written as a never-firing event (scipy calls events once per step), enforces
+the step budget. The implicit methods get the analytic mode Jacobian.
+
+Step-size control sees only the vector field. While every block sticks the
+field is constant, the error estimate is zero and the step grows without
+bound, so a stick guard driven by the harmonic force (``R_2`` contains
+``F cos(w t)``) can cross and come back inside one step and be missed. The
+default ``max_step=None`` therefore caps the step at 1/16 of the forcing period
+for forced problems (no cap otherwise); pass ``max_step=inf`` to see the
+uncapped behaviour.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.results import Status
+
+
+class _BudgetExhausted(Exception):
+    def __init__(self, t: float, y: np.ndarray) -> None:
+        super().__init__(t)
+        self.t, self.y = t, np.array(y, dtype=float)
+
+
+class _StepCounter:
+    """An event function that never fires; scipy calls it once per accepted step."""
+
+    terminal = False
+    direction = 0.0
+
+    def __init__(self, budget: int) -> None:
+        self.calls = 0
+        self.budget = budget
+
+    def __call__(self, t: float, y: np.ndarray) -> float:
+        self.calls += 1
+        if self.calls - 1 > self.budget:
+            raise _BudgetExhausted(t, y)
+        return 1.0
+
+
+def _event(fn, terminal: bool, direction: float):
+    def event(t: float, y: np.ndarray) -> float:
+        return float(fn.value(t, y))
+
+    event.terminal = terminal
+    event.direction = direction
+    return event
+
+
+_TOLERANCES = {
+    "rtol": Option(1e-8, float, lower=0.0, upper=1.0, doc="relative tolerance"),
+    "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
+    "max_step": Option(None, float, lower=0.0, nullable=True,
+                       doc="largest step (time units); None: 1/16 of the forcing period if forced"),
+}
+
+
+class ScipyIntegrator(Integrator):
+    """Base of the ``solve_ivp`` adapters; subclasses set ``method``."""
+
+    method: ClassVar[str] = ""
+    implicit: ClassVar[bool] = False
+    options = dict(_TOLERANCES)
+
+    def advance(self, request: ArcRequest) -> ArcResult:
+        problem, mode = request.problem, request.mode
+        opts = self.settings
+        counter = _StepCounter(request.max_steps)
+        guard_events = [_event(g, True, -float(g.expected_sign)) for g in request.guards]
+        section_events = [_event(s, False, float(s.direction)) for s in request.sections]
+        dense = request.t_eval.size > 0
+        max_step = opts["max_step"]
+        if max_step is None:
+            c = problem.coefficients
+            max_step = (2.0 * np.pi / c.w) / 16.0 if (c.F != 0.0 and c.w > 0.0) else np.inf
+        kwargs = {}
+        if self.implicit:
+            kwargs["jac"] = lambda t, y: problem.jacobian(mode, t, y)
+        try:
+            sol = solve_ivp(
+                lambda t, y: problem.rhs(mode, t, y), (request.t0, request.t_end),
+                np.array(request.y0, dtype=float), method=self.method,
+                rtol=opts["rtol"], atol=opts["atol"], max_step=max_step,
+                events=[*guard_events, *section_events, counter], dense_output=dense, **kwargs,
+            )
+        except _BudgetExhausted as stop:
+            return ArcResult(
+                t=stop.t, y=stop.y, fired=None, y_eval=np.empty((problem.n_states, 0)),
+                nsteps=counter.calls - 1, status=Status.BUDGET_EXHAUSTED,
+                message=f"step budget exhausted at t = {stop.t:.6g}",
+            )
+        nsteps = max(len(sol.t) - 1, 0)
+        counts = dict(nfev=int(sol.nfev), njev=int(sol.njev), nsteps=nsteps,
+                      extra={"nlu": int(sol.nlu)})
+        if sol.status == -1:
+            return ArcResult(t=float(sol.t[-1]), y=sol.y[:, -1].copy(), fired=None,
+                             y_eval=np.empty((problem.n_states, 0)),
+                             status=Status.INTEGRATOR_FAILURE, message=sol.message, **counts)
+        fired = None
+        t_stop, y_stop = float(sol.t[-1]), sol.y[:, -1].copy()
+        if sol.status == 1:
+            for q in range(len(guard_events)):
+                if len(sol.t_events[q]):
+                    fired = q
+                    t_stop = float(sol.t_events[q][0])
+                    y_stop = np.array(sol.y_events[q][0], dtype=float)
+                    break
+        else:
+            t_stop = request.t_end
+        hits = []
+        offset = len(guard_events)
+        for k in range(len(section_events)):
+            for t_hit, y_hit in zip(sol.t_events[offset + k], sol.y_events[offset + k]):
+                if t_hit <= t_stop and t_hit > request.t0:
+                    hits.append(SectionHit(k, float(t_hit), np.array(y_hit, dtype=float)))
+        hits.sort(key=lambda h: h.t)
+        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right"))
+        if n_eval:
+            y_eval = np.asarray(sol.sol(request.t_eval[:n_eval])).reshape(problem.n_states, n_eval)
+        else:
+            y_eval = np.empty((problem.n_states, 0))
+        return ArcResult(t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits, **counts)
+
+
+def _caps(order: int | None, implicit: bool) -> Capabilities:
+    return Capabilities(event_location="dense-output-root", order=order, adaptive=True,
+                        needs_jacobian=implicit, supports_nonlinear=True, precision="double",
+                        step_option="rtol")
+
+
+class ScipyRK45(ScipyIntegrator):
+    """Dormand-Prince 5(4) with quartic dense output."""
+
+    name = "scipy-rk45"
+    method = "RK45"
+    capabilities = _caps(5, False)
+
+
+class ScipyDOP853(ScipyIntegrator):
+    """Dormand-Prince 8(5,3) with 7th-order dense output."""
+
+    name = "scipy-dop853"
+    method = "DOP853"
+    capabilities = _caps(8, False)
+
+
+class ScipyRadau(ScipyIntegrator):
+    """Radau IIA, implicit, order 5, analytic Jacobian."""
+
+    name = "scipy-radau"
+    method = "Radau"
+    implicit = True
+    capabilities = _caps(5, True)
+
+
+class ScipyBDF(ScipyIntegrator):
+    """Variable-order BDF (1-5), implicit, analytic Jacobian."""
+
+    name = "scipy-bdf"
+    method = "BDF"
+    implicit = True
+    capabilities = _caps(None, True)
+
+
+class ScipyLSODA(ScipyIntegrator):
+    """LSODA (Adams/BDF switching), analytic Jacobian."""
+
+    name = "scipy-lsoda"
+    method = "LSODA"
+    implicit = True
+    capabilities = _caps(None, True)

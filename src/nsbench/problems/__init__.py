@@ -1,0 +1,71 @@
+"""Problems: the dry-friction oscillators of MODEL.md, built by name from the registry.
+
+>>> from nsbench.problems import get_problem
+>>> p = get_problem("two-dof", case=2)
+>>> p.guards(p.initial_mode(0.0, p.initial_state()))  # doctest: +ELLIPSIS
+(Guard(v1-v0, expected_sign=-1), Guard(v2-v0, expected_sign=-1))
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nsbench import registry
+from nsbench.errors import ConfigError
+from nsbench.problems.modes import (
+    PHASE_NAMES,
+    SLIP_NEG,
+    SLIP_POS,
+    STICK,
+    Guard,
+    Mode,
+    Transition,
+    mode_name,
+)
+from nsbench.problems.oscillator import FrictionOscillator
+from nsbench.problems.parameters import Coefficients, Scales
+
+__all__ = [
+    "FrictionOscillator", "Guard", "Mode", "Transition", "Coefficients", "Scales",
+    "STICK", "SLIP_POS", "SLIP_NEG", "PHASE_NAMES", "mode_name",
+    "get_problem", "problem_from_config", "list_problems",
+]
+
+
+def get_problem(name: str, case: int | str | None = None, dimensional: bool = False,
+                **params: float) -> FrictionOscillator:
+    """Build a registered problem by name.
+
+    Parameters
+    ----------
+    name
+        Registry name, e.g. ``'one-dof'`` or ``'two-dof'``.
+    case
+        Preset 1..4 (MODEL.md section 3); default 1.
+    dimensional
+        Whether ``params`` are dimensional (see the problem's factory).
+    **params
+        Parameter overrides.
+
+    Raises
+    ------
+    ConfigError
+        Unknown problem, case or parameter, or a nonphysical value.
+    """
+    factory = registry.load("problems", name)
+    return factory(case=case, dimensional=dimensional, **params)
+
+
+def problem_from_config(config: dict[str, Any]) -> FrictionOscillator:
+    """Rebuild a problem from :meth:`FrictionOscillator.config`."""
+    try:
+        return get_problem(config["name"], case=config.get("case"),
+                           dimensional=bool(config.get("dimensional", False)),
+                           **dict(config.get("params", {})))
+    except KeyError as exc:
+        raise ConfigError(f"problem config needs the key {exc.args[0]!r}: got {config!r}") from None
+
+
+def list_problems() -> list[str]:
+    """Names of the registered problems."""
+    return registry.names("problems")

@@ -1,0 +1,79 @@
+"""The command line: simulate, list, and one clear line with exit status 2 on bad input."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from nsbench.cli import main
+
+
+def test_simulate_writes_the_event_log(tmp_path, capsys):
+    out = tmp_path / "ev.csv"
+    code = main(["simulate", "two-dof", "--case", "2", "--integrator", "exact", "--t-end", "300",
+                 "--events-out", str(out)])
+    assert code == 0
+    ev = pd.read_csv(out)
+    assert list(ev.columns) == ["t", "kind", "block", "x1", "v1", "x2", "v2"]
+    assert len(ev) > 100
+    text = capsys.readouterr().out
+    assert "stick@1" in text and "nfev=" in text and "wall time" in text
+
+
+def test_simulate_trajectory_and_plot(tmp_path):
+    traj, png = tmp_path / "tr.csv", tmp_path / "p.png"
+    code = main(["simulate", "one-dof", "--integrator", "henon-rk4", "--h", "0.02", "--t-end", "40",
+                 "--trajectory-out", str(traj), "--plot", str(png), "--samples", "401"])
+    assert code == 0
+    tr = pd.read_csv(traj)
+    assert len(tr) == 401 and list(tr.columns) == ["t", "x1", "v1", "phase1"]
+    assert png.stat().st_size > 10_000
+
+
+def test_simulate_dimensional_units(tmp_path):
+    out = tmp_path / "ev.csv"
+    code = main(["simulate", "two-dof", "--case", "1", "--dimensional", "--param", "m1=4",
+                 "--param", "k1=1", "--t-end", "100", "--events-out", str(out)])
+    assert code == 0
+    ev = pd.read_csv(out)
+    assert ev["t"].max() > 50  # seconds, not tau = t / 2
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["simulate", "three-dof"], "unknown problem 'three-dof'"),
+    (["simulate", "two-dof", "--integrator", "rk99"], "unknown integrator 'rk99'"),
+    (["simulate", "two-dof", "--param", "zeta=1"], "unknown parameter 'zeta'"),
+    (["simulate", "two-dof", "--param", "c1=-1"], "c1 = -1 is out of range"),
+    (["simulate", "two-dof", "--param", "c1"], "--param expects NAME=VALUE"),
+    (["simulate", "two-dof", "--param", "v0=abc"], "v0 = 'abc' is not a number"),
+    (["simulate", "two-dof", "--dimensional", "--param", "fs1=3"], "fs1 must be <= static friction"),
+    (["simulate", "two-dof", "--case", "9"], "unknown case '9'"),
+    (["simulate", "two-dof", "--case", "3", "--integrator", "exact"], "linear problems only"),
+    (["simulate", "two-dof", "--integrator", "exact", "--h", "0.1"], "unknown option 'h'"),
+    (["simulate", "two-dof", "--t-end", "-5"], "must be greater than t0"),
+    (["simulate", "two-dof", "--param", "m1=nan", "--dimensional"], "m1 = nan is not allowed"),
+])
+def test_bad_input_exits_2_with_one_line(argv, fragment, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("nsbench: error: ")
+    assert fragment in err
+
+
+def test_console_script_has_no_traceback_on_bad_input():
+    out = subprocess.run([sys.executable, "-m", "nsbench", "simulate", "two-dof", "--case", "0"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr and "unknown case" in out.stderr
+
+
+def test_list(capsys):
+    assert main(["list", "integrators"]) == 0
+    text = capsys.readouterr().out
+    for name in ("exact", "scipy-dop853", "henon-rk4", "scipy-lsoda"):
+        assert name in text
+    assert main(["list"]) == 0
+    assert "two-dof" in capsys.readouterr().out

@@ -1,0 +1,135 @@
+"""``exact`` against an independent closed form (mpmath), and its refusals."""
+
+from __future__ import annotations
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+import nsbench
+from nsbench.errors import UnsupportedProblemError
+
+mp.mp.dps = 40
+
+
+C, RF, V0 = mp.mpf("0.05"), mp.mpf(5) / 6, mp.mpf(1) / 12
+
+
+def slip_solution(x, v, s):
+    """Closed-form slip phase of ``x'' + c x' + x = -r_f s`` from ``(x, v)``: ``(x(u), v(u))``."""
+    zeta_w = C / 2
+    wd = mp.sqrt(1 - C * C / 4)
+    xe = -RF * s
+    a = x - xe
+    b = (v + zeta_w * a) / wd
+
+    def xs(u):
+        return xe + mp.e ** (-zeta_w * u) * (a * mp.cos(wd * u) + b * mp.sin(wd * u))
+
+    def vs(u):
+        return mp.e ** (-zeta_w * u) * ((b * wd - zeta_w * a) * mp.cos(wd * u)
+                                         - (a * wd + zeta_w * b) * mp.sin(wd * u))
+    return xs, vs
+
+
+def first_crossing(vs, level, step=mp.mpf("0.001")):
+    """First u > 0 with vs(u) = level: bracket on a fine grid, then refine."""
+    u0, g0 = mp.mpf(0), vs(0) - level
+    u = step
+    while True:
+        g = vs(u) - level
+        if (g0 < 0 <= g) or (g0 > 0 >= g):
+            return mp.findroot(lambda q: vs(q) - level, (u0, u), solver="anderson")
+        u0, g0 = u, g
+        u += step
+
+
+def one_dof_reference_events(t_end: float) -> list[tuple[str, mp.mpf]]:
+    """Events of the 1-DOF standard scenario from the analytic damped-oscillator solution.
+
+    Independent of nsbench: ``x'' + c x' + x = r_f`` (slip-, ``s = -1``) and
+    ``x' = v0`` (stick, until ``c v0 + x`` reaches the static limit 1), at 40 digits.
+    """
+    t, x, v = mp.mpf(0), mp.mpf(0), mp.mpf(0)
+    events = []
+    s = -1
+    while t < t_end:
+        if s == 0:  # stick: R = c v0 + x grows linearly until it reaches +1
+            dt = (1 - C * V0 - x) / V0
+            t, x, v = t + dt, x + V0 * dt, V0
+            events.append(("slip", t))
+            s = -1
+            continue
+        xs, vs = slip_solution(x, v, s)
+        root = first_crossing(vs, V0, step=mp.mpf("0.01"))
+        t, x = t + root, xs(root)
+        assert abs(C * V0 + x) <= 1, "the standard scenario never reverses"
+        events.append(("stick", t))
+        s, v = 0, V0
+    return [e for e in events if e[1] <= t_end]
+
+
+def test_exact_one_dof_standard_scenario_against_closed_form():
+    ref = one_dof_reference_events(300.0)
+    res = nsbench.simulate(nsbench.get_problem("one-dof"), "exact", 300.0)
+    assert res.ok
+    assert list(res.events["kind"]) == [k for k, _ in ref]
+    err = np.abs(res.events["t"].to_numpy() - np.array([float(t) for _, t in ref]))
+    assert err.max() <= 1e-12, err.max()
+
+
+def test_exact_matches_published_anchor_times():
+    # METHODS.md section 8: the prototype's closed-form times, cross-checked in quad precision.
+    anchor = [0.10041995006076142, 12.000125671816313, 16.136116339404921, 19.838895255577611,
+              23.974885923166219, 27.677664839338906, 31.813655506927514, 35.5164344231002]
+    res = nsbench.simulate(nsbench.get_problem("one-dof"), "exact", 36.0)
+    np.testing.assert_allclose(res.events["t"].to_numpy(), anchor, rtol=0, atol=1e-13)
+
+
+def test_exact_refuses_cubic_problems():
+    with pytest.raises(UnsupportedProblemError, match="linear problems only"):
+        nsbench.simulate(nsbench.get_problem("two-dof", case=3), "exact", 10.0)
+
+
+def test_first_two_close_events_are_both_found(case1):
+    ev = nsbench.simulate(case1, "exact", 1.0).events
+    assert list(zip(ev["kind"], ev["block"]))[:2] == [("stick", 2), ("stick", 1)]
+    assert 1e-4 < ev["t"][1] - ev["t"][0] < 3e-4  # MODEL.md: about 1.7e-4 apart
+
+
+@pytest.mark.parametrize("overshoot", [1e-6, 1e-9])
+def test_exact_catches_a_near_tangential_touch(overshoot):
+    # A slip- arc whose velocity maximum exceeds v0 by only `overshoot`: v crosses
+    # v0 twice within ~sqrt(overshoot) time units, both inside one scan interval.
+    # Sign checks at sample points see nothing; the derivative test must find the
+    # first crossing. Start 3.3 time units before the maximum (closed form, mpmath).
+    v_max = V0 + mp.mpf(overshoot)
+    x_max = RF - C * v_max  # v' = 0 at the maximum: -x - c v + r_f = 0
+    xs, vs = slip_solution(x_max, v_max, -1)
+    back = mp.mpf("3.3")
+    y0 = [float(xs(-back)), float(vs(-back))]
+    xs0, vs0 = slip_solution(mp.mpf(y0[0]), mp.mpf(y0[1]), -1)
+    t_cross = first_crossing(vs0, V0, step=mp.mpf("0.0001"))
+    res = nsbench.simulate(nsbench.get_problem("one-dof"), "exact", 5.0, y0=y0)
+    first = res.events.iloc[0]
+    assert first["kind"] == "stick"
+    assert abs(first["t"] - float(t_cross)) < 1e-9
+    # A plain sign check at the end of DOP853's steps steps over it:
+    missed = nsbench.simulate(nsbench.get_problem("one-dof"), "scipy-dop853", 5.0, y0=y0)
+    assert len(missed.events) == 0 or abs(missed.events["t"].iloc[0] - float(t_cross)) > 1e-3
+
+
+def test_dense_output_and_sections_are_exact(case2):
+    from nsbench.sections import peaks, stroboscopic
+
+    grid = np.linspace(0, 50, 501)
+    res = nsbench.simulate(case2, "exact", 50.0, t_eval=grid, sections=[peaks(case2), stroboscopic(case2)])
+    pk = res.sections[res.sections["section"] == "peaks_x1"]
+    assert len(pk) > 3
+    assert np.abs(pk["v1"]).max() < 1e-12
+    st = res.sections[res.sections["section"] == "strobe"]
+    np.testing.assert_allclose(st["t"], 2 * np.pi * np.arange(len(st)), atol=1e-12)
+    # strobe states equal the trajectory's dense output at the same times
+    again = nsbench.simulate(case2, "exact", 50.0, t_eval=st["t"].to_numpy())
+    np.testing.assert_allclose(again.trajectory[["x1", "v1", "x2", "v2"]].to_numpy(),
+                               st[["x1", "v1", "x2", "v2"]].to_numpy(), atol=1e-14)

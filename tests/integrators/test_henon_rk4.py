@@ -1,0 +1,47 @@
+"""``henon-rk4``: order-4 event times (METHODS.md section 7.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import nsbench
+from tests.conftest import exact_events, max_time_error, same_sequence
+
+
+@pytest.mark.parametrize("problem, case, t_end", [("one-dof", 1, 40.0), ("two-dof", 2, 40.0)])
+def test_event_times_converge_at_order_four(problem, case, t_end):
+    p = nsbench.get_problem(problem, case=case)
+    ref = exact_events(problem, case, t_end)
+    hs = [0.08, 0.04, 0.02, 0.01]
+    errors = []
+    for h in hs:
+        res = nsbench.simulate(p, "henon-rk4", t_end, options={"h": h})
+        assert same_sequence(res.events, ref)
+        errors.append(max_time_error(res.events, ref))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all((orders > 3.5) & (orders < 4.5)), (errors, orders)
+
+
+def test_henon_beats_stepping_to_the_grid():
+    # Same h, same field: Henon's step is what makes the event accurate.
+    p = nsbench.get_problem("one-dof")
+    res = nsbench.simulate(p, "henon-rk4", 40.0, options={"h": 0.05})
+    err = max_time_error(res.events, exact_events("one-dof", 1, 40.0))
+    assert err < 1e-5  # a switch at the step end would be off by up to h = 0.05
+
+
+def test_cases_1_and_2_over_300(case1, case2):
+    for case, p in ((1, case1), (2, case2)):
+        res = nsbench.simulate(p, "henon-rk4", 300.0, options={"h": 0.02})
+        ref = exact_events("two-dof", case)
+        assert same_sequence(res.events, ref)
+        assert max_time_error(res.events, ref) < 1e-5
+
+
+def test_counts_four_evaluations_per_step(case1):
+    res = nsbench.simulate(case1, "henon-rk4", 10.0, options={"h": 0.1})
+    c = res.counters
+    assert c.nsteps >= 100
+    # 4 per step, 4 per Henon step, one field at each arc start and event
+    assert 4 * c.nsteps <= c.nfev <= 4 * c.nsteps + 8 * c.n_events + 4 * c.extra["henon_steps"] + 8

@@ -1,0 +1,180 @@
+"""The hybrid engine: statuses, sections, trajectories, degenerate starts, integrator faults."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import nsbench
+from nsbench import registry
+from nsbench.integrators import ArcResult, Capabilities, Integrator
+from nsbench.results import Status
+from nsbench.sections import StateSection, TimeSection, peaks, stroboscopic
+
+
+def test_event_log_columns(case1):
+    res = nsbench.simulate(case1, "exact", 20.0)
+    assert list(res.events.columns) == ["t", "kind", "block", "x1", "v1", "x2", "v2"]
+    assert set(res.events["kind"]) <= {"stick", "slip", "reverse"}
+    one = nsbench.simulate(nsbench.get_problem("one-dof"), "exact", 20.0)
+    assert list(one.events.columns) == ["t", "kind", "block", "x1", "v1"]
+
+
+def test_state_after_stick_has_belt_speed(case2):
+    ev = nsbench.simulate(case2, "henon-rk4", 60.0, options={"h": 0.05}).events
+    for row in ev.itertuples():
+        assert getattr(row, f"v{row.block}") == case2.v0
+
+
+def test_trajectory_on_requested_grid(case2):
+    grid = np.linspace(0, 30, 301)
+    for name in ("exact", "scipy-dop853", "henon-rk4"):
+        res = nsbench.simulate(case2, name, 30.0, t_eval=grid)
+        tr = res.trajectory
+        np.testing.assert_array_equal(tr["t"].to_numpy(), grid)
+        assert list(tr.columns) == ["t", "x1", "v1", "x2", "v2", "phase1", "phase2"]
+        stuck = tr[tr["phase1"] == 0]
+        assert (stuck["v1"] == case2.v0).all() or np.abs(stuck["v1"] - case2.v0).max() < 1e-12
+
+
+def test_trajectories_agree_between_integrators(case2):
+    grid = np.linspace(0, 30, 61)
+    ref = nsbench.simulate(case2, "exact", 30.0, t_eval=grid).trajectory
+    for name, tol in (("scipy-dop853", 1e-7), ("henon-rk4", 1e-6)):
+        tr = nsbench.simulate(case2, name, 30.0, t_eval=grid).trajectory
+        diff = np.abs(tr[["x1", "v1", "x2", "v2"]].to_numpy() - ref[["x1", "v1", "x2", "v2"]].to_numpy())
+        assert diff.max() < tol, name
+
+
+def test_peak_sections_agree_across_integrators(case2):
+    sec = [peaks(case2, 1)]
+    ref = nsbench.simulate(case2, "exact", 60.0, sections=sec).sections
+    assert len(ref) > 5
+    for name, opts in (("scipy-dop853", {"rtol": 1e-11, "atol": 1e-13}), ("henon-rk4", {"h": 0.01})):
+        got = nsbench.simulate(case2, name, 60.0, options=opts, sections=sec).sections
+        assert len(got) == len(ref), name
+        np.testing.assert_allclose(got["t"], ref["t"], atol=1e-6)
+        np.testing.assert_allclose(got["x1"], ref["x1"], atol=1e-8)
+
+
+def test_sections_do_not_change_events(case2):
+    plain = nsbench.simulate(case2, "scipy-dop853", 60.0).events
+    observed = nsbench.simulate(case2, "scipy-dop853", 60.0,
+                                sections=[peaks(case2), stroboscopic(case2)]).events
+    np.testing.assert_array_equal(plain["t"].to_numpy(), observed["t"].to_numpy())
+
+
+def test_section_validation(case1):
+    with pytest.raises(nsbench.ConfigError, match="direction"):
+        StateSection("bad", (0, 1, 0, 0), 0.0, 2)
+    with pytest.raises(nsbench.ConfigError, match="period"):
+        TimeSection("bad", 0.0)
+    with pytest.raises(nsbench.ConfigError, match="forcing frequency"):
+        stroboscopic(nsbench.get_problem("two-dof", case=1, Omega=0.0))
+    with pytest.raises(nsbench.ConfigError, match="3 coefficients"):
+        nsbench.simulate(case1, "exact", 1.0, sections=[StateSection("s", (1.0, 0.0, 0.0))])
+
+
+@pytest.mark.parametrize("kwargs, fragment", [
+    (dict(t_end=-1.0), "must be greater than t0"),
+    (dict(t_end=float("nan")), "must be finite"),
+    (dict(t_end=1.0, y0=[0.0, 0.0]), "needs 4 states"),
+    (dict(t_end=1.0, t_eval=[0.5, 0.2]), "sorted"),
+    (dict(t_end=1.0, t_eval=[0.5, 2.0]), "must lie in"),
+])
+def test_bad_engine_input(case1, kwargs, fragment):
+    with pytest.raises(nsbench.ConfigError, match=fragment):
+        nsbench.simulate(case1, "exact", **kwargs)
+
+
+def test_unknown_integrator_and_option(case1):
+    with pytest.raises(nsbench.ConfigError, match="unknown integrator 'rk5'"):
+        nsbench.simulate(case1, "rk5", 1.0)
+    with pytest.raises(nsbench.ConfigError, match="h = -0.1 must be > 0"):
+        nsbench.simulate(case1, "henon-rk4", 1.0, options={"h": -0.1})
+
+
+def test_budget_exhaustion_keeps_events(case1):
+    res = nsbench.simulate(case1, "henon-rk4", 300.0, options={"h": 0.01}, max_steps=3000)
+    assert res.status is Status.BUDGET_EXHAUSTED
+    assert res.counters.nsteps <= 3000
+    assert len(res.events) >= 2  # the ones found before the budget ran out are kept
+    assert 20.0 < res.t_final < 40.0
+
+
+class _AlwaysFires(Integrator):
+    """A broken integrator: reports the first guard at the arc start, forever."""
+
+    name = "test-always-fires"
+    capabilities = Capabilities(event_location="none", order=None, adaptive=False)
+
+    def advance(self, request):
+        return ArcResult(t=request.t0, y=np.array(request.y0), fired=0,
+                         y_eval=np.empty((request.problem.n_states, 0)))
+
+
+class _Diverges(Integrator):
+    name = "test-diverges"
+    capabilities = Capabilities(event_location="none", order=None, adaptive=False)
+
+    def advance(self, request):
+        return ArcResult(t=request.t0 + 1.0, y=np.full(request.problem.n_states, np.nan), fired=None,
+                         y_eval=np.empty((request.problem.n_states, 0)))
+
+
+class _Raises(Integrator):
+    name = "test-raises"
+    capabilities = Capabilities(event_location="none", order=None, adaptive=False)
+
+    def advance(self, request):
+        raise RuntimeError("boom")
+
+
+def test_event_storm_is_detected(case1):
+    res = nsbench.simulate(case1, _AlwaysFires(), 10.0)
+    assert res.status is Status.EVENT_STORM
+    assert "events within" in res.message
+    assert len(res.events) == 65
+
+
+@pytest.mark.parametrize("bad, fragment", [(_Diverges, "non-finite"), (_Raises, "RuntimeError: boom")])
+def test_integrator_failures_become_statuses(case1, bad, fragment):
+    res = nsbench.simulate(case1, bad(), 10.0)
+    assert res.status is Status.INTEGRATOR_FAILURE
+    assert fragment in res.message
+
+
+def test_runtime_registration(case1):
+    registry.register("integrators", "test-always-fires", _AlwaysFires)
+    try:
+        assert "test-always-fires" in nsbench.list_integrators()
+        res = nsbench.simulate(case1, "test-always-fires", 1.0)
+        assert res.status is Status.EVENT_STORM
+    finally:
+        registry.unregister("integrators", "test-always-fires")
+    assert "test-always-fires" not in nsbench.list_integrators()
+
+
+def test_start_on_a_stick_boundary_fires_at_once():
+    # Block 1 stuck exactly at its upper static limit with R1 increasing: the
+    # stick guard is on its surface heading out, so it slips at t0.
+    p = nsbench.get_problem("one-dof")
+    c, v0 = p.parameters["c"], p.v0
+    y0 = [1.0 - c * v0, v0]  # R = c v0 + x = 1 exactly
+    res = nsbench.simulate(p, "exact", 5.0, y0=y0)
+    assert res.events.iloc[0]["kind"] == "slip"
+    assert res.events.iloc[0]["t"] == 0.0
+
+
+def test_inputs_are_not_mutated(case2):
+    y0 = np.array([0.1, 0.0, -0.1, 0.0])
+    grid = np.linspace(0, 5, 11)
+    keep_y, keep_g = y0.copy(), grid.copy()
+    nsbench.simulate(case2, "henon-rk4", 5.0, y0=y0, t_eval=grid)
+    np.testing.assert_array_equal(y0, keep_y)
+    np.testing.assert_array_equal(grid, keep_g)
+
+
+def test_summary_mentions_events_and_counters(case1):
+    text = nsbench.simulate(case1, "exact", 30.0).summary()
+    assert "stick@1" in text and "nfev=" in text and "wall time" in text

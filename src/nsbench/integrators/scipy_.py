@@ -73,6 +73,7 @@ class ScipyIntegrator(Integrator):
     method: ClassVar[str] = ""
     implicit: ClassVar[bool] = False
     options = dict(_TOLERANCES)
+    accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
     def advance(self, request: ArcRequest) -> ArcResult:
         problem, mode = request.problem, request.mode

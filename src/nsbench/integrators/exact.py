@@ -136,6 +136,9 @@ class ArcFlow:
                 u = u + (mf.z[:, None] * np.exp(1j * mf.w * (self.t0 + s))).real
             u = u + (mf.vec @ (self.coef[:, None] * np.exp(mf.lam[:, None] * s))).real
             out[mf.slip] = u
+        # The closed form reproduces y0 at s = 0 only to rounding; the arc must start
+        # exactly where the engine put it (a guard or section may be exactly zero there).
+        out[:, s == 0.0] = self.y0[:, None]
         return out
 
 

@@ -31,7 +31,7 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     """Long table: one row per (problem, integrator, target).
 
     Columns: ``problem_label, integrator, target, outcome`` (``reached``, ``not
-    reached`` or ``no reference``), and for reached targets the cheapest case's
+    reached``, ``no reference`` or ``unsupported``), and for reached targets the cheapest case's
     ``wall_time, nfev, options, level, case_id``.
     """
     rows = []
@@ -41,7 +41,9 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
             row = {"problem_label": label, "integrator": name, "target": float(target),
                    "outcome": "no reference", "wall_time": math.nan, "nfev": pd.NA,
                    "options": "", "level": pd.NA, "case_id": ""}
-            if has_ref:
+            if (group["status"] == "unsupported").all():
+                row["outcome"] = "unsupported"
+            elif has_ref:
                 ok = group[reached_mask(group, target)]
                 if len(ok):
                     best = ok.loc[ok["wall_time"].idxmin()]
@@ -57,7 +59,7 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
 def _cell(row: pd.Series) -> str:
     if row["outcome"] == "reached":
         return f"{row['wall_time']:.3g} s / {int(row['nfev'])}"
-    return "no ref" if row["outcome"] == "no reference" else "-"
+    return {"no reference": "no ref", "unsupported": "unsupported"}.get(row["outcome"], "-")
 
 
 def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
@@ -81,7 +83,7 @@ def ranking(long: pd.DataFrame) -> pd.DataFrame:
     last (the number of integrators in that group). The table gives the mean rank, the targets
     reached out of those attempted, and the geometric mean time over reached ones.
     """
-    scored = long[long["outcome"] != "no reference"]
+    scored = long[~long["outcome"].isin(["no reference", "unsupported"])]
     if scored.empty:
         return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted",
                                      "geo_mean_time"])

@@ -69,3 +69,13 @@ class StandInReference(ScipyDOP853):
 
     def __init__(self, **options):
         super().__init__(**{"rtol": 1e-13, "atol": 1e-15, **options})
+
+
+class Crashing(ScipyRK45):
+    """Kills its own process in the middle of a run, like a segfault in compiled code."""
+
+    name = "crashing-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def advance(self, request):
+        os._exit(3)

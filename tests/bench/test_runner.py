@@ -45,8 +45,9 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert list(frame.columns) == list(COLUMN_NAMES)
     assert len(frame) == summary.n_cases == 3 * (1 + 3) and frame["case_id"].is_unique
     assert set(load_results(out)["case_id"]) == set(frame["case_id"])
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "bench.md").read_text()
     for name in COLUMN_NAMES:           # the documented column list covers every column
-        assert f"`{name}`" in markdown_table()
+        assert f"`{name}`" in markdown_table() and f"| `{name}` |" in docs
     ok = frame[(frame["status"] == "success") & (frame["reference_status"] == "ok")]
     assert len(ok) == 2 * 4
     assert (ok["n_missed"] == 0).all() and (ok["n_extra"] == 0).all() and ok["sequence_ok"].all()
@@ -175,3 +176,12 @@ grids = { henon-rk4 = { grid = { h = [0.04, 0.02, 0.01, 0.008, 0.006, 0.005] } }
     assert (frame["status"] == "success").all()
     summary = run_suite(suite, out, workers=1, progress=False)
     assert summary.n_resumed == len(stored) and summary.n_computed == 6 - len(stored)
+
+
+def test_a_crashing_worker_is_a_row_and_the_others_finish(register, tmp_path):
+    register(ti.Crashing.name, ti.Crashing)
+    suite = small_suite(["scipy-rk45", ti.Crashing.name], t_span=[0.0, 20.0])
+    frame = run_suite(suite, tmp_path, workers=2, progress=False).results
+    crashed = frame[frame["integrator"] == ti.Crashing.name]
+    assert crashed["status"].tolist() == ["crashed"] and "worker process died" in crashed["message"].iloc[0]
+    assert (frame.loc[frame["integrator"] == "scipy-rk45", "status"] == "success").all() and len(frame) == 4

@@ -45,10 +45,18 @@ class Reference:
 
 def candidates(names: tuple[str, ...] | list[str]) -> list[dict[str, Any]]:
     """Default configs of the registered reference candidates, in order."""
+    from nsbench.errors import PluginLoadError
     from nsbench.integrators import get_integrator, list_integrators
 
     registered = set(list_integrators())
-    return [get_integrator(n).config() for n in names if n in registered]
+    out = []
+    for name in names:
+        if name in registered:
+            try:
+                out.append(get_integrator(name).config())
+            except PluginLoadError:  # an uninstallable plug-in is no reference, not a crash
+                continue
+    return out
 
 
 def reference_key(problem: dict[str, Any], cands: list[dict[str, Any]], t0: float, t_end: float,
@@ -78,6 +86,10 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
         except UnsupportedProblemError:
             refused.append(config["name"])
             continue
+        except Exception as exc:  # a broken reference must not end the suite
+            status = f"reference {config['name']} raised {type(exc).__name__}: {exc}"
+            return Reference(key, config["name"], config, status, empty, grid,
+                             np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan))
         if not res.ok:
             status = f"reference {config['name']} failed: {res.status.value}: {res.message}"
             return Reference(key, config["name"], config, status, res.events, grid,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import shutil
+import sys
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
@@ -175,6 +176,11 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     out.mkdir(parents=True, exist_ok=True)
     cases = list({c.case_id: c for c in suite.cases()}.values())
     prov = {**provenance(), "suite": suite.to_dict(), **(provenance_extra or {})}
+    unavailable = suite.unavailable()
+    if unavailable:
+        prov["unavailable_integrators"] = unavailable
+        for name, reason in unavailable.items():
+            print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=stream or sys.stderr)
     done = storage.done_ids(out)
     pending = [c for c in cases if c.case_id not in done]
     pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: better load balance

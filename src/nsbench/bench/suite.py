@@ -134,6 +134,7 @@ class Suite:
     reference: tuple[str, ...] = ("exact", "reference")
 
     def __post_init__(self) -> None:
+        self._unavailable: dict[str, str] = {}
         self.t_span = tuple(_number_list(list(self.t_span), "t_span"))  # type: ignore[assignment]
         if len(self.t_span) != 2 or not self.t_span[1] > self.t_span[0]:
             raise ConfigError(f"t_span = {list(self.t_span)} must be [t0, t_end] with t_end > t0")
@@ -181,7 +182,7 @@ class Suite:
         return cls.from_dict(data)
 
     def to_dict(self) -> dict[str, Any]:
-        out = asdict(self)
+        out = {k: v for k, v in asdict(self).items() if not k.startswith("_")}
         out["t_span"], out["targets"], out["reference"] = (
             list(self.t_span), list(self.targets), list(self.reference))
         return out
@@ -203,15 +204,27 @@ class Suite:
         return out
 
     def integrator_names(self) -> list[str]:
-        """Integrators of the suite, in registry order."""
-        from nsbench.integrators import list_integrators
+        """Integrators of the suite, in registry order.
+
+        A registered plug-in that fails to import is left out (and listed in
+        :meth:`unavailable`) unless the suite names it explicitly.
+        """
+        from nsbench.errors import PluginLoadError
+        from nsbench.integrators import integrator_class, list_integrators
 
         spec = self.integrators
         registered = list_integrators()
         if "only" in spec:
             names = list(spec["only"])
         elif spec.get("registered", True):
-            names = list(registered)
+            names = []
+            for name in registered:
+                try:
+                    integrator_class(name)
+                except PluginLoadError as exc:
+                    self._unavailable[name] = str(exc)
+                    continue
+                names.append(name)
         else:
             names = []
         names += [n for n in spec.get("grids", {}) if n not in names]
@@ -220,6 +233,11 @@ class Suite:
             raise ConfigError(f"unknown integrator(s) {', '.join(unknown)}; registered: {', '.join(registered)}")
         exclude = set(spec.get("exclude", []))
         return [n for n in names if n not in exclude]
+
+    def unavailable(self) -> dict[str, str]:
+        """Registered integrators left out because they fail to import, with the reason."""
+        self.integrator_names()
+        return dict(self._unavailable)
 
     def option_sets(self, name: str) -> list[tuple[int, dict[str, Any]]]:
         """``(level, options)`` pairs for one integrator, loose to tight, after skips."""

@@ -53,8 +53,12 @@ def test_markdown_and_latex(report):
     tex = rep.latex.read_text()
     assert tex.count(r"\begin{tabular}") == 2 and r"\label{tab:nsbench-fixed-target}" in tex
     assert "one-dof/1 & exact" in tex
-    # exact against itself reaches every target; the wrong-sequence rule is tested on constructed rows
+    # exact is the reference of one-dof/1: reported with its cost, not as reaching targets
     ft = rep.fixed_target
-    assert (ft[(ft["integrator"] == "exact") & (ft["problem_label"] == "one-dof/1")]["outcome"] == "reached").all()
+    own = ft[(ft["integrator"] == "exact") & (ft["problem_label"] == "one-dof/1")]
+    assert (own["outcome"] == "reference").all() and (own["wall_time"] > 0).all()
+    assert "| one-dof/1 | exact | ref (" in md and "exact" not in set(rep.ranking["integrator"])
+    rk4 = ft[(ft["integrator"] == "henon-rk4") & (ft["problem_label"] == "one-dof/1")].set_index("target")
+    assert rk4.loc[1e-6, "outcome"] == "reached" and rk4.loc[1e-12, "outcome"] == "not reached"
     cubic = ft[ft["problem_label"] == "two-dof/3"].set_index("integrator")["outcome"]
     assert (cubic.drop("exact") == "no reference").all() and (cubic["exact"] == "unsupported").all()

@@ -103,9 +103,11 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     ft_caption = ("Fixed-target cost: for each switching-time error target, the cheapest configuration "
                   "of each integrator that reaches it (warm wall time / nfev); '-' not reached "
                   "(a wrong event sequence never counts), 'no ref' no reference for that problem, "
-                  "'unsupported' the integrator refuses the problem.")
+                  "'unsupported' the integrator refuses the problem, 'ref' the problem's reference itself "
+                  "(its cost; its error is 0 by construction).")
     rank_caption = ("Ranking by time to reach each (problem, target); an integrator that does not reach "
-                    "a target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator refuses are left out.")
+                    "a target is ranked last there. geo_mean_time is over the targets it reached; problems "
+                    "an integrator refuses or is the reference of are left out.")
 
     md = ["# nsbench report", "", *_problems_text(frame, prov), "", "## Fixed-target table", "",
           ft_caption, "", markdown_table(wide), "", "## Ranking", "", rank_caption, "",

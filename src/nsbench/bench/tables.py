@@ -31,7 +31,8 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     """Long table: one row per (problem, integrator, target).
 
     Columns: ``problem_label, integrator, target, outcome`` (``reached``, ``not
-    reached``, ``no reference`` or ``unsupported``), and for reached targets the cheapest case's
+    reached``, ``no reference``, ``unsupported``, or ``reference`` for the
+    problem's reference itself), and for reached targets the cheapest case's
     ``wall_time, nfev, options, level, case_id``.
     """
     rows = []
@@ -43,6 +44,13 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                    "options": "", "level": pd.NA, "case_id": ""}
             if (group["status"] == "unsupported").all():
                 row["outcome"] = "unsupported"
+            elif has_ref and (group["reference"] == name).all():
+                # the reference against itself: its cost is informative, its error is 0 by construction
+                best = group.loc[group["wall_time"].idxmin()] if group["wall_time"].notna().any() else None
+                row["outcome"] = "reference"
+                if best is not None:
+                    row.update(wall_time=float(best["wall_time"]), nfev=best["nfev"],
+                               options=best["options"], level=best["level"], case_id=best["case_id"])
             elif has_ref:
                 ok = group[reached_mask(group, target)]
                 if len(ok):
@@ -59,6 +67,8 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
 def _cell(row: pd.Series) -> str:
     if row["outcome"] == "reached":
         return f"{row['wall_time']:.3g} s / {int(row['nfev'])}"
+    if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
+        return f"ref ({row['wall_time']:.3g} s / {int(row['nfev'])})"
     return {"no reference": "no ref", "unsupported": "unsupported"}.get(row["outcome"], "-")
 
 
@@ -83,7 +93,7 @@ def ranking(long: pd.DataFrame) -> pd.DataFrame:
     last (the number of integrators in that group). The table gives the mean rank, the targets
     reached out of those attempted, and the geometric mean time over reached ones.
     """
-    scored = long[~long["outcome"].isin(["no reference", "unsupported"])]
+    scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference"])]
     if scored.empty:
         return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted",
                                      "geo_mean_time"])

@@ -34,6 +34,8 @@ def test_noise_is_not_flagged_but_a_lost_success_is():
     assert row["time_verdict"] == "noise" and not row["flagged"]
     c = to_frame([{**base, "wall_times": [0.3, 0.10, 0.30, 0.12], "status": "integrator failure"}])
     assert compare_frames(a, c, 1.5).iloc[0]["flags"] == "status"
+    d = to_frame([{**base, "wall_times": [0.3, 0.10, 0.30, 0.12], "sequence_ok": False, "switch_err_max": 1e-10}])
+    assert compare_frames(a, d, 1.5).iloc[0]["flags"] == "event sequence"
 
 
 def test_planted_slowdown_is_flagged_and_a_rerun_is_not(tmp_path, register):

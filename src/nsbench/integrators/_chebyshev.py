@@ -19,12 +19,8 @@ from nsbench.problems.kernels import jit
 
 def cgl_nodes(N: int) -> np.ndarray:
     """The ``N + 1`` Chebyshev-Gauss-Lobatto nodes ``-cos(j pi / N)``, ascending."""
-    nodes = -np.cos(np.pi * np.arange(N + 1) / N)
-    # exact symmetry and exact end points (cos leaves ~1e-17 residues)
-    nodes[0], nodes[-1] = -1.0, 1.0
-    if N % 2 == 0:
-        nodes[N // 2] = 0.0
-    return nodes
+    # -cos(j pi / N) written as a sine of a symmetric argument: exactly antisymmetric nodes
+    return np.sin(np.pi * (2.0 * np.arange(N + 1) - N) / (2.0 * N))
 
 
 def chebyshev_basis(tau: np.ndarray, degree: int) -> np.ndarray:

@@ -6,6 +6,7 @@ import functools
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.optimize import brentq
 
@@ -149,6 +150,7 @@ def test_counters_and_config(case1):
     frozen = nsbench.simulate(case1, "ofapi", 50.0, options={"jacobian": "segment_start"})
     assert frozen.counters.njev == frozen.counters.nsteps
     picard = nsbench.simulate(case1, "mcpi", 50.0)
+    assert picard.integrator["options"]["order"] == 0
     assert picard.counters.njev == 0 and picard.counters.extra["iterations"] > 1.5 * its
     again = nsbench.simulate(case1, "ofapi", 50.0)
     assert again.events.equals(res.events)  # deterministic
@@ -186,7 +188,8 @@ def test_step_budget(case1):
     ("ofapi", {"tol": -1e-12}, "tol"),
     ("ofapi", {"adaptive": "yes"}, "adaptive"),
     ("ofapi", {"h": 1.0, "h_max": 0.5}, "h_max"),
-    ("mcpi", {"order": 1}, "unknown option"),
+    ("mcpi", {"order": 1}, "order"),
+    ("mcpi", {"jacobian": "node"}, "unknown option"),
     ("mcpi", {"max_iter": 0}, "max_iter"),
 ])
 def test_bad_options_are_config_errors(name, options, message):
@@ -198,9 +201,8 @@ def test_cli_simulate_with_ofapi(tmp_path):
     from nsbench.cli import main
 
     out = tmp_path / "ev.csv"
-    assert main(["simulate", "two-dof", "--case", "1", "--integrator", "ofapi", "--events-out", str(out)]) == 0
-    import pandas as pd
-
+    args = ["simulate", "two-dof", "--case", "1", "--integrator", "ofapi", "--events-out", str(out)]
+    assert main(args) == 0
     ev = pd.read_csv(out)
     ref = exact_events("two-dof", 1)
     assert same_sequence(ev, ref) and max_time_error(ev, ref) <= 1e-12

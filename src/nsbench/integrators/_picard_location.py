@@ -14,7 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.integrators._chebyshev import barycentric
-from nsbench.problems.kernels import guard_rate, guard_value, jit, linear_section_rate, linear_section_value, rhs
+from nsbench.problems.kernels import (
+    guard_rate,
+    guard_value,
+    jit,
+    linear_section_rate,
+    linear_section_value,
+    rhs,
+)
 
 SECTION = -1  # ``target`` code of a linear section (guards use their kind codes >= 0)
 

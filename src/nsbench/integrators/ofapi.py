@@ -11,7 +11,7 @@ with a kept bracket). The hot path is compiled (:mod:`._picard_arc`).
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +33,9 @@ def _options(feedback: bool) -> dict[str, Option]:
         opts["order"] = Option(1, int, choices=(0, 1, 2),
                                doc="feedback order: 0 Picard (MCPI), 1 the paper's OFAPI, 2 second order")
         opts["jacobian"] = Option("node", str, choices=("node", "segment_start"),
-                                  doc="feedback Jacobian at every node's current iterate, or once per segment")
+                                  doc="feedback Jacobian at each node's iterate, or once per segment")
+    else:
+        opts["order"] = Option(0, int, choices=(0,), doc="always 0, plain Picard (ofapi has the feedback)")
     opts.update({
         "N": Option(12, int, lower=2, lower_inclusive=True, upper=64,
                     doc="Chebyshev degree (N + 1 Gauss-Lobatto nodes per segment)"),
@@ -56,17 +58,10 @@ def _options(feedback: bool) -> dict[str, Option]:
 class ChebyshevPicard(Integrator):
     """Shared machinery of ``ofapi`` and ``mcpi`` (see the module docstring)."""
 
-    fixed_order: ClassVar[int | None] = None
-
     def check_settings(self) -> None:
         s = self.settings
         if s["h_max"] is not None and s["h_max"] < s["h"]:
             raise ConfigError(f"{self.name}: option h_max = {s['h_max']!r} must be >= h = {s['h']!r}")
-
-    @property
-    def order(self) -> int:
-        """The feedback order (0 for ``mcpi``)."""
-        return self.fixed_order if self.fixed_order is not None else self.settings["order"]
 
     def setup(self, problem) -> None:
         """Build (or fetch) the operators of degree ``N`` and load the compiled kernels."""
@@ -127,7 +122,7 @@ class ChebyshevPicard(Integrator):
             self._packed, *codes, sec_coeffs, sec_levels, sec_dirs, float(t0),
             np.array(y0, dtype=float), float(t_end), np.array(t_eval, dtype=float),
             int(min(max_steps, 2**62)), *self._ops, h, h_max, h * MIN_FRACTION, float(s["tol"]),
-            float(s["coef_tol"]), int(s["max_iter"]), int(self.order),
+            float(s["coef_tol"]), int(s["max_iter"]), int(s["order"]),
             s.get("jacobian", "node") == "node", bool(s["adaptive"]),
         )
 
@@ -172,7 +167,6 @@ class MCPI(ChebyshevPicard):
     """Modified Chebyshev-Picard iteration: the same segments and event location, no feedback."""
 
     name = "mcpi"
-    fixed_order = 0
     capabilities = _caps(False)
     options = _options(False)
     # measured as for ofapi: ~2e-9, ~2e-11, ~5e-13

@@ -41,7 +41,7 @@ def _options(feedback: bool) -> dict[str, Option]:
                     doc="Chebyshev degree (N + 1 Gauss-Lobatto nodes per segment)"),
         "h": Option(0.5, float, lower=0.0, doc="segment length (time units); the start value when adaptive"),
         # The increment left at the stop is ~ r tol, with r the last contraction ratio (~1e-3 for
-        # order 1, ~0.1 for order 0); 1e-12 let event times drift by 8e-12 over tau = 300 (case 1).
+        # order 1, ~0.1 for order 0); 1e-12 let event times drift by 1.6e-11 over tau = 300 (case 1).
         "tol": Option(1e-14 if feedback else 1e-15, float, lower=0.0, upper=1e-2,
                       doc="iteration stop: max|X_new - X| <= tol max(1, max|X|), or stalled at round-off"),
         "max_iter": Option(50, int, lower=1, lower_inclusive=True, upper=10_000,

@@ -133,3 +133,30 @@ def test_dense_output_and_sections_are_exact(case2):
     again = nsbench.simulate(case2, "exact", 50.0, t_eval=st["t"].to_numpy())
     np.testing.assert_allclose(again.trajectory[["x1", "v1", "x2", "v2"]].to_numpy(),
                                st[["x1", "v1", "x2", "v2"]].to_numpy(), atol=1e-14)
+
+
+def test_forced_flow_keeps_its_phase_far_from_the_origin():
+    # Block 1 stuck, block 2 slipping at resonance (Omega = omega_2): the particular
+    # solution's amplitude F/(c2 Omega) ~ 8 exceeds the state, so a phase taken from
+    # the rounded absolute time t0 + s (one ulp ~ 6e-14 at t ~ 290) would cost ~2e-13.
+    # Reference: the augmented linear system's matrix exponential at 40 digits.
+    from nsbench.integrators.exact import ModeFlow
+
+    p = nsbench.get_problem("two-dof", case=2)
+    mode = (0, -1)
+    y0 = np.array([0.3, p.v0, -0.2, 0.1])
+    t0 = 290.0 + 1 / 3
+    a, b0, bc, bs = p.linear_form(mode)
+    w = p.coefficients.w
+    m = mp.zeros(7, 7)
+    for i in range(4):
+        for j in range(4):
+            m[i, j] = mp.mpf(a[i, j])
+        m[i, 4], m[i, 5], m[i, 6] = mp.mpf(b0[i]), mp.mpf(bc[i]), mp.mpf(bs[i])
+    m[5, 6], m[6, 5] = -w, w
+    z0 = mp.matrix([*map(mp.mpf, y0), 1, mp.cos(w * mp.mpf(t0)), mp.sin(w * mp.mpf(t0))])
+    s = np.linspace(0.0123, 1.5, 12) * (1 + 1e-9 * np.pi)  # t0 + s not representable
+    states = ModeFlow(p, mode).start(t0, y0).states(s)
+    err = max(abs(float(mp.mpf(states[i, k]) - (mp.expm(m * mp.mpf(sk)) * z0)[i]))
+              for k, sk in enumerate(s) for i in range(4))
+    assert err < 2e-14, err

@@ -160,3 +160,15 @@ def test_forced_flow_keeps_its_phase_far_from_the_origin():
     err = max(abs(float(mp.mpf(states[i, k]) - (mp.expm(m * mp.mpf(sk)) * z0)[i]))
               for k, sk in enumerate(s) for i in range(4))
     assert err < 2e-14, err
+
+
+@pytest.mark.parametrize("case", [1, 2])
+def test_exact_matches_a_32_digit_closed_form_over_300(case):
+    # Roots polished in extended precision and compensated event times: the
+    # only rounding left is the state's, at each event (reference data and its
+    # generator: tests/mp_reference.py).
+    from tests.mp_reference import max_error, stored_events
+
+    res = nsbench.simulate(nsbench.get_problem("two-dof", case=case), "exact", 300.0)
+    assert res.ok
+    assert max_error(res.events, stored_events(case)) <= 1e-13

@@ -130,6 +130,13 @@ class ArcRequest:
         stroboscopic sections), from the integrator's dense output or steps.
     max_steps
         Step budget left for the whole run.
+    t0_lo
+        Low-order part of the start time: the arc starts at the exact sum
+        ``t0 + t0_lo`` (``|t0_lo|`` at most an ulp of ``t0``). The engine keeps
+        event times in this compensated form so that the rounding of ``t0`` to a
+        double does not accumulate over many events; integrators that measure
+        time from the arc start may use it (and report ``ArcResult.t_lo``),
+        others ignore it.
     """
 
     problem: "FrictionOscillator"
@@ -141,6 +148,7 @@ class ArcRequest:
     sections: tuple["StateSection", ...] = ()
     t_eval: np.ndarray = field(default_factory=lambda: np.empty(0))
     max_steps: int = 10**7
+    t0_lo: float = 0.0
 
     def rhs(self, t, y):
         """The frozen-mode vector field of this arc."""
@@ -183,6 +191,9 @@ class ArcResult:
         Integrator-specific counters (summed over arcs by the engine).
     status, message
         ``Status.SUCCESS``, or the failure and its reason.
+    t_lo
+        Optional low-order part of an event time: the event is at ``t + t_lo``
+        (see ``ArcRequest.t0_lo``); 0 when not computed.
     """
 
     t: float
@@ -196,6 +207,7 @@ class ArcResult:
     extra: dict[str, float] = field(default_factory=dict)
     status: Status = Status.SUCCESS
     message: str = ""
+    t_lo: float = 0.0
 
 
 class Integrator:

@@ -10,9 +10,14 @@ step, so no error accumulates inside an arc (``scipy.linalg.expm`` chained over
 many periods drifts by ~1e-13 per period, MODEL.md section 6). Guards are
 bracketed by a scan at a fraction of the shortest time scale, with the
 derivative's sign change catching tangential touches, and refined by Brent's
-method to a few ulps. If a mode is defective or resonant (critical damping,
-undamped resonance) its flow falls back to the matrix exponential of the
-augmented system.
+method to a few ulps. The root that ends the arc is then polished by Newton's
+method in extended precision on the augmented flow ``expm(M s) z0`` (long
+double; a scaled Taylor series), and returned with the state there and the
+event time in compensated form (``ArcResult.t_lo``): double-precision flow
+errors of a few ulps per arc, amplified by the stick durations (``1/v0``),
+otherwise add up to ~2e-13 by ``tau = 300`` in the unforced 2-DOF case. If a
+mode is defective or resonant (critical damping, undamped resonance) its flow
+falls back to the matrix exponential of the augmented system.
 """
 
 from __future__ import annotations
@@ -28,6 +33,52 @@ from nsbench.problems.modes import STICK, Mode
 from nsbench.problems.oscillator import FrictionOscillator
 
 _CHUNK = 64  # samples evaluated per vectorised scan
+
+
+_LD = np.longdouble  # 80-bit extended precision on x86; equal to double elsewhere
+
+
+def _expm_extended(m: np.ndarray) -> np.ndarray:
+    """Matrix exponential in extended precision: scaled Taylor series, then squaring."""
+    norm = float(np.max(np.sum(np.abs(m.astype(float)), axis=1)))
+    squarings = max(0, math.ceil(math.log2(norm))) if norm > 1.0 else 0
+    a = m / _LD(2.0) ** squarings
+    term = np.eye(m.shape[0], dtype=_LD)
+    out = term.copy()
+    for k in range(1, 30):  # 1 / 30! is far below the extended epsilon
+        term = (term @ a) / _LD(k)
+        out = out + term
+    for _ in range(squarings):
+        out = out @ out
+    return out
+
+
+def guard_row(problem: FrictionOscillator, guard) -> np.ndarray:
+    """``q`` with ``guard.value(t, y) = q . [y, 1, cos(w t), sin(w t)]`` (linear problems)."""
+    n = problem.n_states
+    q = np.zeros(n + 3)
+    i = guard.block - 1
+    if guard.kind == "velocity":
+        q[2 * i + 1], q[n] = 1.0, -problem.v0
+        return q
+    zero = np.zeros(n)
+    for j in range(n):
+        unit = zero.copy()
+        unit[j] = 1.0
+        q[j] = float(problem.restoring_force(guard.block, 0.0, unit)
+                     - problem.restoring_force(guard.block, 0.0, zero))
+    fr = problem.coefficients.fr[i]
+    q[n] = -fr if guard.kind == "upper" else fr
+    if i == problem.n_blocks - 1:
+        q[n + 1] = -problem.coefficients.F
+    return q
+
+
+def two_sum(a: float, b: float) -> tuple[float, float]:
+    """``(hi, lo)`` with ``hi = fl(a + b)`` and ``hi + lo = a + b`` exactly (Knuth)."""
+    hi = a + b
+    bb = hi - a
+    return hi, (a - (hi - bb)) + (b - bb)
 
 
 class ModeFlow:
@@ -76,12 +127,12 @@ class ModeFlow:
             self.use_expm = not ok
         if self.forced:
             self.rates.append(self.w)
-        if self.use_expm:
-            self._augmented = self._augmented_matrix()
+        self._augmented = self._augmented_matrix()
+        self.augmented_extended = self._augmented.astype(_LD)
 
     # -------------------------------------------------------------- set-up per arc
-    def start(self, t0: float, y0: np.ndarray) -> "ArcFlow":
-        return ArcFlow(self, t0, y0)
+    def start(self, t0: float, y0: np.ndarray, t0_lo: float = 0.0) -> "ArcFlow":
+        return ArcFlow(self, t0, y0, t0_lo)
 
     @property
     def fastest_rate(self) -> float:
@@ -102,12 +153,14 @@ class ModeFlow:
 class ArcFlow:
     """The flow of one mode from a given start ``(t0, y0)``, evaluated at any offsets ``s``."""
 
-    def __init__(self, mf: ModeFlow, t0: float, y0: np.ndarray) -> None:
+    def __init__(self, mf: ModeFlow, t0: float, y0: np.ndarray, t0_lo: float = 0.0) -> None:
         self.mf = mf
         self.t0 = t0
+        self.t0_lo = t0_lo
         self.y0 = np.array(y0, dtype=float)
+        phase = mf.w * t0 + mf.w * t0_lo  # the arc starts at t0 + t0_lo
         if mf.use_expm:
-            self.z0 = np.concatenate([self.y0, [1.0, math.cos(mf.w * t0), math.sin(mf.w * t0)]])
+            self.z0 = np.concatenate([self.y0, [1.0, math.cos(phase), math.sin(phase)]])
             return
         if mf.slip.size:
             c0 = mf.b0[mf.slip] + (mf.a_sk @ self.y0[mf.stuck] if mf.stuck.size else 0.0)
@@ -117,9 +170,39 @@ class ArcFlow:
                 # The harmonic part is advanced from the arc start, exp(i w (t0 + s)) =
                 # exp(i w t0) exp(i w s), never from the rounded absolute time t0 + s: near
                 # resonance |z| >> F and a phase error of one ulp of t costs |z| ulp(t).
-                self.zt0 = mf.z * np.exp(1j * mf.w * t0)
+                self.zt0 = mf.z * np.exp(1j * phase)
                 up0 = up0 + self.zt0.real
             self.coef = mf.vec_inv @ (self.y0[mf.slip] - up0)
+
+    def refine_root(self, row: np.ndarray, s: float) -> tuple[float, float, np.ndarray] | None:
+        """Polish a guard root ``s`` in extended precision on the augmented flow.
+
+        Newton on ``q . expm(M s) z0`` from the double root. Returns the event
+        time as ``(hi, lo)`` with ``hi + lo = t0 + t0_lo + s`` and the state,
+        or ``None`` if Newton is not usable (tangency, or it moves far away).
+        """
+        mf = self.mf
+        m = mf.augmented_extended
+        phase = _LD(mf.w) * (_LD(self.t0) + _LD(self.t0_lo))
+        z0 = np.concatenate([self.y0.astype(_LD), np.array([1.0], dtype=_LD),
+                             np.array([np.cos(phase), np.sin(phase)])])
+        q = row.astype(_LD)
+        s_x = _LD(s)
+        for _ in range(4):
+            z = _expm_extended(m * s_x) @ z0
+            rate = q @ (m @ z)
+            if not np.isfinite(rate) or rate == 0:
+                return None
+            step = (q @ z) / rate
+            if abs(float(step)) > 1e-9 * max(1.0, abs(s)):
+                return None
+            s_x = s_x - step
+            if abs(step) <= 4 * np.finfo(_LD).eps * abs(s_x):
+                break
+        z = _expm_extended(m * s_x) @ z0
+        total = _LD(self.t0) + _LD(self.t0_lo) + s_x
+        hi = float(total)
+        return hi, float(total - _LD(hi)), z[: mf.n].astype(float)
 
     def states(self, s: np.ndarray) -> np.ndarray:
         """States at offsets ``s`` (shape ``(k,)``) from the arc start: shape ``(n, k)``."""
@@ -170,9 +253,11 @@ class ExactIntegrator(Integrator):
     def advance(self, request: ArcRequest) -> ArcResult:
         problem, mode = request.problem, request.mode
         mf = self._flow(problem, mode)
-        flow = mf.start(request.t0, request.y0)
-        t0 = request.t0
-        span = request.t_end - t0
+        t0, t0_lo = request.t0, request.t0_lo
+        flow = mf.start(t0, request.y0, t0_lo)
+        # Offsets s are measured from the exact start t0 + t0_lo; absolute times
+        # t0 + s (rounded) only feed the forcing term of the guards.
+        span = (request.t_end - t0) - t0_lo
         ds = min(self.settings["max_scan"], self.settings["scan"] / max(mf.fastest_rate, 1e-300))
         guards = request.guards
         sections = request.sections
@@ -232,20 +317,31 @@ class ExactIntegrator(Integrator):
                     v_right = float(val[j + 1]) if right == s[j + 1] else f(right)
                     if sec.crossed(float(val[j]), v_right):
                         root = float(s[j + 1]) if v_right == 0.0 else bracketed_root(f, float(s[j]), right)
-                        hits.append(SectionHit(k, t0 + root, state(root)))
+                        hits.append(SectionHit(k, t0 + (t0_lo + root), state(root)))
             if best is not None:
                 fired, s_stop = best[1], best[0]
                 break
             s_a = float(s[-1])
         hits.sort(key=lambda h: h.t)
-        t_stop = t0 + s_stop if fired is not None else request.t_end
-        y_stop = state(s_stop)
+        polished = None
+        if fired is not None:
+            polished = flow.refine_root(guard_row(problem, guards[fired]), s_stop)
+            counts["nfev"] += 5
+        if polished is not None:
+            t_stop, t_lo, y_stop = polished
+        elif fired is not None:
+            t_stop, t_lo = two_sum(t0, t0_lo + s_stop)
+            y_stop = state(s_stop)
+        else:
+            t_stop, t_lo = request.t_end, 0.0
+            y_stop = state(s_stop)
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right"))
-        y_eval = flow.states(request.t_eval[:n_eval] - t0) if n_eval else np.empty((problem.n_states, 0))
+        y_eval = (flow.states((request.t_eval[:n_eval] - t0) - t0_lo) if n_eval
+                  else np.empty((problem.n_states, 0)))
         counts["nfev"] += n_eval
         return ArcResult(
             t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits,
             nfev=counts["nfev"], njev=0, nsteps=counts["nsteps"],
-            extra={"roots": counts["roots"], "expm_fallback_arcs": int(mf.use_expm)},
+            extra={"roots": counts["roots"], "expm_fallback_arcs": int(mf.use_expm)}, t_lo=t_lo,
         )
 

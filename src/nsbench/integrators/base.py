@@ -218,7 +218,8 @@ class Integrator:
     1. Set the class attributes ``name`` (lowercase kebab-case, the registry
        name), ``capabilities`` (a :class:`Capabilities`) and ``options`` (a dict
        of :class:`Option`; the defaults are the recommended settings), and
-       optionally ``accuracy_levels`` (option sets from loose to tight).
+       optionally ``accuracy_levels`` (option sets from loose to tight) and
+       ``known_gaps`` (conformance checks it knowingly fails, with the reason).
     2. Keep every configured instance describable by :meth:`config`, a small
        dict that :meth:`from_config` turns back into an equal integrator.
     3. In :meth:`setup`, do the once-per-problem work (compilation, operators)
@@ -249,6 +250,9 @@ class Integrator:
     #: Option sets from loose to tight (typically three) that benchmark suites and
     #: convergence checks use by default; empty means "the defaults only".
     accuracy_levels: ClassVar[tuple[dict[str, Any], ...]] = ()
+    #: Conformance checks (:mod:`nsbench.testing`) this integrator knowingly does
+    #: not pass, as ``{check name: reason}``; reported as expected failures.
+    known_gaps: ClassVar[dict[str, str]] = {}
 
     def __init__(self, **options: Any) -> None:
         values = {}

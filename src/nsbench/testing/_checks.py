@@ -102,8 +102,8 @@ def check_protocol_and_counters(integ: Integrator) -> None:
 def check_determinism(integ: Integrator) -> None:
     """The same run twice (same instance, then a fresh copy) gives identical events and counters."""
     problem = _problem(2)
-    runs = [_simulate(integ, problem, 40.0), _simulate(integ, problem, 40.0),
-            _simulate(type(integ).from_config(integ.config()), problem, 40.0)]
+    runs = [_simulate(integ, problem, 20.0), _simulate(integ, problem, 20.0),
+            _simulate(type(integ).from_config(integ.config()), problem, 20.0)]
     for other in runs[1:]:
         assert other.events.equals(runs[0].events), "event logs differ between identical runs"
         assert other.counters.as_dict() == runs[0].counters.as_dict(), "counters differ between identical runs"

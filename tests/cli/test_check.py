@@ -35,3 +35,12 @@ def test_check_options_and_bad_input(capsys):
     assert "did you mean 'henon-rk4'" in capsys.readouterr().err
     assert main(["check", "exact", "--check", "no-such-check"]) == 2
     assert main(["check", "exact", "--option", "scan=-1"]) == 2
+
+
+def test_every_registered_integrator_runs_by_name_from_the_cli(capsys):
+    from nsbench import list_integrators
+
+    for name in list_integrators():
+        assert main(["simulate", "two-dof", "--case", "2", "--integrator", name, "--t-end", "20"]) == 0, name
+        out = capsys.readouterr().out
+        assert f"integrator  {name}" in out and "status      success" in out

@@ -76,11 +76,16 @@ def test_inactive_guards_never_fire(case1):
 
 
 def test_sections_and_trajectory_match_exact(case2):
+    # Three state sections: one more than the slots compiled in setup(), so a
+    # wider model is compiled on demand.
+    from nsbench.sections import level_crossing
+
     grid = np.linspace(0, 50, 201)
-    secs = [peaks(case2), stroboscopic(case2)]
+    secs = [peaks(case2), peaks(case2, block=2), level_crossing(case2, "v2", 0.05, +1), stroboscopic(case2)]
     ref = nsbench.simulate(case2, "exact", 50.0, t_eval=grid, sections=secs)
     res = nsbench.simulate(case2, "heyoka", 50.0, t_eval=grid, sections=secs)
-    assert len(res.sections) == len(ref.sections) > 5
+    assert len(res.sections) == len(ref.sections) > 20
+    assert set(res.sections["section"]) == {"peaks_x1", "peaks_x2", "v2=0.05", "strobe"}
     cols = ["t", "x1", "v1", "x2", "v2"]
     np.testing.assert_allclose(res.sections[cols].to_numpy(), ref.sections[cols].to_numpy(), atol=1e-12)
     np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-12)

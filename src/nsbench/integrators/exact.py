@@ -27,58 +27,13 @@ import math
 import numpy as np
 import scipy.linalg
 
+from nsbench.integrators._extended import EXTENDED, expm_extended, guard_row, two_sum
 from nsbench.integrators._roots import bracketed_root, first_zero
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems.modes import STICK, Mode
 from nsbench.problems.oscillator import FrictionOscillator
 
 _CHUNK = 64  # samples evaluated per vectorised scan
-
-
-_LD = np.longdouble  # 80-bit extended precision on x86; equal to double elsewhere
-
-
-def _expm_extended(m: np.ndarray) -> np.ndarray:
-    """Matrix exponential in extended precision: scaled Taylor series, then squaring."""
-    norm = float(np.max(np.sum(np.abs(m.astype(float)), axis=1)))
-    squarings = max(0, math.ceil(math.log2(norm))) if norm > 1.0 else 0
-    a = m / _LD(2.0) ** squarings
-    term = np.eye(m.shape[0], dtype=_LD)
-    out = term.copy()
-    for k in range(1, 30):  # 1 / 30! is far below the extended epsilon
-        term = (term @ a) / _LD(k)
-        out = out + term
-    for _ in range(squarings):
-        out = out @ out
-    return out
-
-
-def guard_row(problem: FrictionOscillator, guard) -> np.ndarray:
-    """``q`` with ``guard.value(t, y) = q . [y, 1, cos(w t), sin(w t)]`` (linear problems)."""
-    n = problem.n_states
-    q = np.zeros(n + 3)
-    i = guard.block - 1
-    if guard.kind == "velocity":
-        q[2 * i + 1], q[n] = 1.0, -problem.v0
-        return q
-    zero = np.zeros(n)
-    for j in range(n):
-        unit = zero.copy()
-        unit[j] = 1.0
-        q[j] = float(problem.restoring_force(guard.block, 0.0, unit)
-                     - problem.restoring_force(guard.block, 0.0, zero))
-    fr = problem.coefficients.fr[i]
-    q[n] = -fr if guard.kind == "upper" else fr
-    if i == problem.n_blocks - 1:
-        q[n + 1] = -problem.coefficients.F
-    return q
-
-
-def two_sum(a: float, b: float) -> tuple[float, float]:
-    """``(hi, lo)`` with ``hi = fl(a + b)`` and ``hi + lo = a + b`` exactly (Knuth)."""
-    hi = a + b
-    bb = hi - a
-    return hi, (a - (hi - bb)) + (b - bb)
 
 
 class ModeFlow:
@@ -128,7 +83,7 @@ class ModeFlow:
         if self.forced:
             self.rates.append(self.w)
         self._augmented = self._augmented_matrix()
-        self.augmented_extended = self._augmented.astype(_LD)
+        self.augmented_extended = self._augmented.astype(EXTENDED)
 
     # -------------------------------------------------------------- set-up per arc
     def start(self, t0: float, y0: np.ndarray, t0_lo: float = 0.0) -> "ArcFlow":
@@ -174,22 +129,25 @@ class ArcFlow:
                 up0 = up0 + self.zt0.real
             self.coef = mf.vec_inv @ (self.y0[mf.slip] - up0)
 
-    def refine_root(self, row: np.ndarray, s: float) -> tuple[float, float, np.ndarray] | None:
+    def refine_root(self, row: np.ndarray, s: float) -> tuple[float, float, np.ndarray, int] | None:
         """Polish a guard root ``s`` in extended precision on the augmented flow.
 
         Newton on ``q . expm(M s) z0`` from the double root. Returns the event
-        time as ``(hi, lo)`` with ``hi + lo = t0 + t0_lo + s`` and the state,
-        or ``None`` if Newton is not usable (tangency, or it moves far away).
+        time as ``(hi, lo)`` with ``hi + lo = t0 + t0_lo + s``, the state there
+        and the number of flow evaluations, or ``None`` if Newton is not usable
+        (tangency, or it moves far away).
         """
         mf = self.mf
         m = mf.augmented_extended
-        phase = _LD(mf.w) * (_LD(self.t0) + _LD(self.t0_lo))
-        z0 = np.concatenate([self.y0.astype(_LD), np.array([1.0], dtype=_LD),
+        phase = EXTENDED(mf.w) * (EXTENDED(self.t0) + EXTENDED(self.t0_lo))
+        z0 = np.concatenate([self.y0.astype(EXTENDED), np.array([1.0], dtype=EXTENDED),
                              np.array([np.cos(phase), np.sin(phase)])])
-        q = row.astype(_LD)
-        s_x = _LD(s)
+        q = row.astype(EXTENDED)
+        s_x = EXTENDED(s)
+        evaluations = 1
         for _ in range(4):
-            z = _expm_extended(m * s_x) @ z0
+            evaluations += 1
+            z = expm_extended(m * s_x) @ z0
             rate = q @ (m @ z)
             if not np.isfinite(rate) or rate == 0:
                 return None
@@ -197,12 +155,12 @@ class ArcFlow:
             if abs(float(step)) > 1e-9 * max(1.0, abs(s)):
                 return None
             s_x = s_x - step
-            if abs(step) <= 4 * np.finfo(_LD).eps * abs(s_x):
+            if abs(step) <= 4 * np.finfo(EXTENDED).eps * abs(s_x):
                 break
-        z = _expm_extended(m * s_x) @ z0
-        total = _LD(self.t0) + _LD(self.t0_lo) + s_x
+        z = expm_extended(m * s_x) @ z0
+        total = EXTENDED(self.t0) + EXTENDED(self.t0_lo) + s_x
         hi = float(total)
-        return hi, float(total - _LD(hi)), z[: mf.n].astype(float)
+        return hi, float(total - EXTENDED(hi)), z[: mf.n].astype(float), evaluations
 
     def states(self, s: np.ndarray) -> np.ndarray:
         """States at offsets ``s`` (shape ``(k,)``) from the arc start: shape ``(n, k)``."""
@@ -326,9 +284,9 @@ class ExactIntegrator(Integrator):
         polished = None
         if fired is not None:
             polished = flow.refine_root(guard_row(problem, guards[fired]), s_stop)
-            counts["nfev"] += 5
         if polished is not None:
-            t_stop, t_lo, y_stop = polished
+            t_stop, t_lo, y_stop, evaluations = polished
+            counts["nfev"] += evaluations
         elif fired is not None:
             t_stop, t_lo = two_sum(t0, t0_lo + s_stop)
             y_stop = state(s_stop)

@@ -30,6 +30,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsbench.integrators import _sundials_kernels as sk
+from nsbench.integrators._sundials_loop import (
+    ROOT_RETURN,
+    TSTOP_RETURN,
+    CallbackData,
+    InterpolatedOutput,
+    forget_roots,
+)
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems import kernels
 from nsbench.results import Status
@@ -39,26 +46,6 @@ _OPTIONS = {
     "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
     "max_step": Option(None, float, lower=0.0, nullable=True, doc="largest step (time units); None: unbounded"),
 }
-_ROOT, _TSTOP = 2, 1  # SUNDIALS return flags (CV_/IDA_ROOT_RETURN, *_TSTOP_RETURN)
-
-
-class _Arc:
-    """The mutable data a solver's compiled callbacks read: mode, guards, sections."""
-
-    def __init__(self, n_guards: int, n_sections: int, n_states: int) -> None:
-        self.mode = np.zeros(0, dtype=np.int64)
-        self.kinds = np.zeros(n_guards, dtype=np.int64)
-        self.blocks = np.zeros(n_guards, dtype=np.int64)
-        self.signs = np.zeros(n_guards, dtype=np.int64)
-        self.sec_coeffs = np.zeros((n_sections, n_states))
-        self.sec_levels = np.zeros(n_sections)
-
-    def load(self, request: ArcRequest) -> None:
-        self.mode = kernels.mode_array(request.mode)
-        self.kinds[:], self.blocks[:], self.signs[:] = kernels.guard_codes(request.guards)
-        for j, sec in enumerate(request.sections):
-            self.sec_coeffs[j] = sec.coeffs
-            self.sec_levels[j] = sec.level
 
 
 class SundialsIntegrator(Integrator):
@@ -71,7 +58,7 @@ class SundialsIntegrator(Integrator):
         super().setup(problem)
         self._problem = problem
         self._p = kernels.pack(problem)
-        self._solvers: dict[tuple, tuple[Any, Any, _Arc]] = {}
+        self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}
 
     def _common_options(self, n_events: int, directions: list[int], eventsfn) -> dict[str, Any]:
         eventsfn.terminal = [False] * n_events  # the loop below decides what stops an arc
@@ -84,12 +71,12 @@ class SundialsIntegrator(Integrator):
     def _solver(self, request: ArcRequest):
         key = (request.mode, len(request.guards), len(request.sections))
         if key not in self._solvers:
-            arc = _Arc(len(request.guards), len(request.sections), request.problem.n_states)
+            arc = CallbackData(len(request.guards), len(request.sections), request.problem.n_states)
             directions = [-1] * len(request.guards) + [int(s.direction) for s in request.sections]
             self._solvers[key] = (*self._build(arc, len(directions), directions), arc)
         return self._solvers[key]
 
-    def _build(self, arc: _Arc, n_events: int, directions: list[int]):  # pragma: no cover - abstract
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _start(self, solver, request: ArcRequest):  # pragma: no cover - abstract
@@ -103,7 +90,7 @@ class SundialsIntegrator(Integrator):
         solver, eventsfn, arc = self._solver(request)
         arc.load(request)
         t_end = request.t_end
-        dense = _Dense(solver, request.t_eval, n)
+        dense = InterpolatedOutput(solver, request.t_eval, n)
         steps, roots = 0, 0
         hits: list[SectionHit] = []
         fired, status, message = None, Status.SUCCESS, ""
@@ -119,16 +106,16 @@ class SundialsIntegrator(Integrator):
                     status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
                     break
                 t, y, nfev, njev = float(res.t), np.asarray(res.y), int(res.nfev), int(res.njev)
-                if res.status != _ROOT:
+                if res.status != ROOT_RETURN:
                     steps += 1
                     dense.upto(t, t, (t, y))
-                    if res.status == _TSTOP or t >= t_end:
+                    if res.status == TSTOP_RETURN or t >= t_end:
                         t = t_end
                         break
                     continue
                 roots += 1
                 which = np.flatnonzero(res.i_events[-1])
-                _forget_roots(eventsfn)
+                forget_roots(eventsfn)
                 for j in which[which >= n_guards]:
                     hits.append(SectionHit(int(j - n_guards), t, y[:n].copy()))
                 guard_hits = which[which < n_guards]
@@ -138,8 +125,8 @@ class SundialsIntegrator(Integrator):
                         # Finish the step (no new one) so that its interpolant can
                         # be read at the times before the root.
                         done = solver.step(t_end, method="onestep", tstop=t_end)
-                        while done.status == _ROOT:
-                            _forget_roots(eventsfn)
+                        while done.status == ROOT_RETURN:
+                            forget_roots(eventsfn)
                             done = solver.step(t_end, method="onestep", tstop=t_end)
                         dense.upto(t, float(done.t), (t, y))
                     break
@@ -151,63 +138,6 @@ class SundialsIntegrator(Integrator):
             extra={"root_returns": roots, "dense_fallbacks": dense.fallbacks},
             status=status, message=message,
         )
-
-
-def _forget_roots(eventsfn) -> None:
-    # scikit-sundae keeps every root in lists on the events function and
-    # rebuilds arrays from them at each call: keep them short.
-    for store in (eventsfn._i, eventsfn._t, eventsfn._y):
-        store.clear()
-
-
-class _Dense:
-    """Trajectory points from the solver's own interpolant over its last step.
-
-    Read right after a plain step return (``tn``), and between two readings
-    the solver is sent back to ``tn``: SUNDIALS checks for roots between the
-    last returned time and a requested one, and read backwards from ``tn``
-    a crossing filtered out by its direction would be reported as a root.
-    """
-
-    def __init__(self, solver, t_eval: np.ndarray, n: int) -> None:
-        self.solver, self.t_eval, self.n = solver, t_eval, n
-        self.rows: list[np.ndarray] = []
-        self.done = 0
-        self.fallbacks = 0
-        self.last = None  # (t, y) of the last step end, for the rare fallback
-
-    def pending(self, t: float) -> bool:
-        return int(np.searchsorted(self.t_eval, t, side="right")) > self.done
-
-    def upto(self, t: float, tn: float, known: tuple[float, np.ndarray]) -> None:
-        """Record every requested time ``<= t``; the solver's last step ends at ``tn``.
-
-        ``known`` is a solution point at or after ``t`` (the step end, or the
-        root that ends the arc), used only by the fallback.
-        """
-        stop = int(np.searchsorted(self.t_eval, t, side="right"))
-        for te in self.t_eval[self.done:stop]:
-            got = self.solver.step(float(te), method="normal")
-            if got.status < 0 or got.status == _ROOT:  # te left the last step's window
-                self.fallbacks += 1
-                self.rows.append(self._linear(float(te), *known))
-            else:
-                self.rows.append(np.asarray(got.y)[: self.n].copy())
-            if te < tn:
-                self.solver.step(tn, method="normal")
-        self.done = max(self.done, stop)
-        self.last = (known[0], np.asarray(known[1])[: self.n].copy())
-
-    def _linear(self, te: float, tb: float, yb: np.ndarray) -> np.ndarray:
-        yb = np.asarray(yb)[: self.n]
-        if self.last is None or tb == self.last[0]:
-            return yb.copy()
-        ta, ya = self.last
-        w = (te - ta) / (tb - ta)
-        return (1.0 - w) * ya + w * yb
-
-    def states(self) -> np.ndarray:
-        return np.array(self.rows).T.reshape(self.n, -1) if self.rows else np.empty((self.n, 0))
 
 
 class CvodeIntegrator(SundialsIntegrator):
@@ -230,7 +160,7 @@ class CvodeIntegrator(SundialsIntegrator):
         sk.cvode_jacobian(self._p0, mode, 1.0, 1.0, y, np.zeros((n, n)))
         sk.cvode_roots(self._p0, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
 
-    def _build(self, arc: _Arc, n_events: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
         from sksundae.cvode import CVODE
 
         p0, F, w = self._p0, self._F, self._w
@@ -291,7 +221,7 @@ class Ida(SundialsIntegrator):
         sk.ida_roots(self._p, codes, codes, codes, np.zeros((1, n)), np.zeros(1), y, np.zeros(2))
         sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
 
-    def _build(self, arc: _Arc, n_events: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
         from sksundae.ida import IDA
 
         p = self._p

@@ -139,3 +139,14 @@ def test_checks_run_on_fresh_copies():
     assert result.status == "passed"
     assert not hasattr(integ, "_problem") or integ.settings == {"h": 0.02}
     assert np.isfinite(result.seconds)
+
+
+def test_importing_the_kit_loads_no_heavy_backend():
+    import subprocess
+    import sys
+
+    code = ("import sys, nsbench, nsbench.testing\n"
+            "nsbench.list_integrators()\n"
+            "print(','.join(m for m in ('heyoka', 'sksundae', 'numba', 'matplotlib') if m in sys.modules))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""

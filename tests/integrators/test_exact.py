@@ -172,3 +172,18 @@ def test_exact_matches_a_32_digit_closed_form_over_300(case):
     res = nsbench.simulate(nsbench.get_problem("two-dof", case=case), "exact", 300.0)
     assert res.ok
     assert max_error(res.events, stored_events(case)) <= 1e-13
+
+
+def test_grazing_start_of_a_slip_with_equal_friction_levels():
+    # rf2 = rho2 (kinetic = static friction on block 2): when block 2 slips its
+    # acceleration is zero, so its velocity guard starts with a rate at rounding
+    # level. Re-evaluated one at a time, the sampled bracket's end values can
+    # change sign; root finding must not raise (found by the property tests).
+    params = dict(c1=0.375, c2=0.375, kappa=1.75, mu=0.7106924674664972, rho2=1.75, rf1=0.875,
+                  rf2=1.75, F=0.375, Omega=2.5, v0=0.5)
+    p = nsbench.get_problem("two-dof", case=2, **params)
+    res = nsbench.simulate(p, "exact", 60.0)
+    assert res.ok, res.message
+    dop = nsbench.simulate(p, "scipy-dop853", 60.0, options={"rtol": 1e-12, "atol": 1e-14})
+    assert list(res.events["kind"]) == list(dop.events["kind"]) and len(res.events) == 8
+    assert np.abs(res.events["t"].to_numpy() - dop.events["t"].to_numpy()).max() < 1e-8

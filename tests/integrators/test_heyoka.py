@@ -106,3 +106,17 @@ def test_counters_and_options(case1):
         nsbench.get_integrator("heyoka", tol=-1.0)
     with pytest.raises(nsbench.ConfigError, match="compact_mode"):
         nsbench.get_integrator("heyoka", compact_mode="yes")
+
+
+@pytest.mark.parametrize("name", ["heyoka", "heyoka-q"])
+def test_grazing_start_is_not_an_event(name):
+    # rf2 = rho2: a fresh slip of block 2 starts with zero acceleration, so its
+    # velocity guard dips by rounding right at t0; the arc must end at t > t0 only.
+    params = dict(c1=0.375, c2=0.375, kappa=1.75, mu=0.7106924674664972, rho2=1.75, rf1=0.875,
+                  rf2=1.75, F=0.375, Omega=2.5, v0=0.5)
+    p = nsbench.get_problem("two-dof", case=2, **params)
+    res = nsbench.simulate(p, name, 60.0)
+    ref = nsbench.simulate(p, "exact", 60.0)
+    assert res.ok, res.message
+    assert same_sequence(res.events, ref.events)
+    assert max_time_error(res.events, ref.events) < 1e-12

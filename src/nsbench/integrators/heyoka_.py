@@ -122,8 +122,20 @@ class HeyokaIntegrator(Integrator):
                              y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
                              message=f"step budget exhausted at t = {request.t0:.6g}")
         want_dense = request.t_eval.size > 0
-        outcome, _, _, nsteps, c_out, _ = ta.propagate_until(
-            fp(request.t_end), max_steps=int(request.max_steps), c_output=want_dense)
+        start, nsteps = ta.dtime, 0
+        for _ in range(4):
+            if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
+                outcome, c_out = model.hy.taylor_outcome.step_limit, None
+                break
+            outcome, _, _, taken, c_out, _ = ta.propagate_until(
+                fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=want_dense)
+            nsteps += taken
+            # An event at the very start is the phase's own surface (a guard that is
+            # zero there with a rate at rounding level, e.g. fs = fr): the arc ends at
+            # t > t0 only. heyoka's automatic cooldown, set by that trigger, lets the
+            # propagation go on past it.
+            if not (int(outcome) < 0 and -int(outcome) - 1 < len(ta.t_events) and ta.dtime == start):
+                break
         hi, lo = ta.dtime
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)

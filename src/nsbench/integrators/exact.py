@@ -169,7 +169,7 @@ class ArcFlow:
         if mf.use_expm:
             out = np.empty((mf.n, s.size))
             for j, sj in enumerate(s):
-                out[:, j] = (scipy.linalg.expm(mf._augmented * sj) @ self.z0)[: mf.n]
+                out[:, j] = self.y0 if sj == 0.0 else (scipy.linalg.expm(mf._augmented * sj) @ self.z0)[: mf.n]
             return out
         out = np.empty((mf.n, s.size))
         if mf.stuck.size:
@@ -181,6 +181,10 @@ class ArcFlow:
                 u = u + (self.zt0[:, None] * np.exp(1j * mf.w * s)).real
             u = u + (mf.vec @ (self.coef[:, None] * np.exp(mf.lam[:, None] * s))).real
             out[mf.slip] = u
+        # The arc starts exactly at y0: a phase that starts on its own surface must
+        # see its guard exactly zero there, not the closed form's few-ulp offset
+        # (with a rate at rounding level that offset reads as a crossing).
+        out[:, s == 0.0] = self.y0[:, None]
         return out
 
 

@@ -170,9 +170,9 @@ def compiled(st: Structure, precision: str, tol: float | None, high_accuracy: bo
             tic = time.perf_counter()
             sys, guards, sections = _system(st)
             neg = hy.event_direction.negative
-            # heyoka's automatic cooldown only follows a trigger; since an arc ends at
-            # its first event it matters only at a degenerate start (heyoka_.py).
-            t_events = [hy.t_event(g, direction=neg, fp_type=fp) for g in guards]
+            # No cooldown: each arc is a fresh propagation that ends at its first
+            # event, and a cooldown could only hide a genuine event (MODEL.md).
+            t_events = [hy.t_event(g, direction=neg, cooldown=fp(0.0), fp_type=fp) for g in guards]
             nt_events = [hy.nt_event(e, SectionLog(q), fp_type=fp) for q, e in enumerate(sections)]
             kwargs = {} if tol is None else {"tol": fp(tol)}
             ta = hy.taylor_adaptive(

@@ -37,6 +37,27 @@ def _caps(precision: str) -> Capabilities:
                         step_option="tol")
 
 
+def _illinois(f, a, fa, b, fb, iterations: int = 100):
+    """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
+    side = 0
+    for _ in range(iterations):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b) or fb == 0:
+            break
+        fc = f(c)
+        if fc > 0:
+            a, fa = c, fc
+            if side == 1:
+                fb = fb / 2
+            side = 1
+        else:
+            b, fb = c, fc
+            if side == -1:
+                fa = fa / 2
+            side = -1
+    return b
+
+
 class HeyokaIntegrator(Integrator):
     """Base of the heyoka adapters; subclasses set the precision."""
 
@@ -122,24 +143,28 @@ class HeyokaIntegrator(Integrator):
                              y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
                              message=f"step budget exhausted at t = {request.t0:.6g}")
         want_dense = request.t_eval.size > 0
-        start, nsteps = ta.dtime, 0
-        for _ in range(4):
+        dense_rows: list[np.ndarray] = []
+        nsteps, fresh_hit, c_out = 0, None, None
+        fresh = self._fresh_guards(request)
+        if fresh:
+            outcome, fresh_hit = self._first_step(st, ta, request, fresh, dense_rows)
+            nsteps = 1
+        if fresh_hit is None and (not fresh or outcome == model.hy.taylor_outcome.success):
             if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
-                outcome, c_out = model.hy.taylor_outcome.step_limit, None
-                break
-            outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=want_dense)
-            nsteps += taken
-            # An event at the very start is the phase's own surface (a guard that is
-            # zero there with a rate at rounding level, e.g. fs = fr): the arc ends at
-            # t > t0 only. heyoka's automatic cooldown, set by that trigger, lets the
-            # propagation go on past it.
-            if not (int(outcome) < 0 and -int(outcome) - 1 < len(ta.t_events) and ta.dtime == start):
-                break
-        hi, lo = ta.dtime
+                outcome = model.hy.taylor_outcome.step_limit
+            else:
+                outcome, _, _, taken, c_out, _ = ta.propagate_until(
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=want_dense)
+                nsteps += taken
+        if fresh_hit is not None:  # a fresh guard crossed inside the first step
+            t_fp, q, y_fp = fresh_hit
+            hi, lo = t_fp, fp(0.0)
+        else:
+            hi, lo = ta.dtime
+            y_fp = ta.state
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
-        y_stop = np.asarray(ta.state[:n]).astype(float)
+        y_stop = np.asarray(y_fp[:n]).astype(float)
         counts = dict(nfev=int(nsteps), njev=0, nsteps=int(nsteps),
                       extra={"taylor_coefficients": int(nsteps) * int(ta.order)})
         if self._compiled_in_advance:  # a wider model compiled for more sections
@@ -147,7 +172,9 @@ class HeyokaIntegrator(Integrator):
             self._compiled_in_advance = 0.0
         fired, status, message, t_lo = None, Status.SUCCESS, "", t_lo
         code = int(outcome)
-        if outcome == model.hy.taylor_outcome.time_limit:
+        if fresh_hit is not None:
+            fired = fresh_hit[1]
+        elif outcome == model.hy.taylor_outcome.time_limit:
             t_stop, t_lo = request.t_end, 0.0
         elif outcome == model.hy.taylor_outcome.step_limit:
             status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
@@ -160,17 +187,76 @@ class HeyokaIntegrator(Integrator):
                     f"event {-code - 1} of an inactive phase fired at t = {t_stop:.17g}")
         else:
             status, message = Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
-        hits = self._section_hits(ta, request, t0, ta.time)
+        hits = self._section_hits(ta, request, t0, hi)
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
-        if n_eval and c_out is not None:
-            times = np.asarray(request.t_eval[:n_eval], dtype=float).astype(fp)
-            y_eval = np.asarray(c_out(times)).reshape(n_eval, -1)[:, :n].astype(float).T
-        elif n_eval:
-            y_eval = np.repeat(y_stop[:, None], n_eval, axis=1)  # no step was taken
-        else:
-            y_eval = np.empty((n, 0))
+        rows = [row for row in dense_rows[:n_eval]]
+        if len(rows) < n_eval and c_out is not None:
+            times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
+            rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
+        rows += [y_fp] * (n_eval - len(rows))  # no step was taken
+        y_eval = (np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows
+                  else np.empty((n, 0)))
         return ArcResult(t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits,
                          status=status, message=message, t_lo=t_lo, **counts)
+
+    @staticmethod
+    def _fresh_guards(request: ArcRequest) -> list[int]:
+        """Guards exactly zero at the start: the phase starts on its own surface."""
+        return [q for q, g in enumerate(request.guards)
+                if g.expected_sign * float(g.value(request.t0, request.y0)) == 0.0]
+
+    def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
+        """One Taylor step with the fresh guards' events off; their crossings found on its polynomial.
+
+        heyoka does not look for the roots of an event function that is zero
+        where a step starts, so the first step of a phase that starts on its own
+        surface would miss that surface's next crossing if the step reached it
+        (quad precision takes long steps). After this step the guard is off its
+        surface and heyoka's own detection takes over. Returns heyoka's outcome
+        and ``(t, guard index, state)`` of the earliest fresh crossing, if any.
+        """
+        fp = self._fp
+        offsets = [st.guard_offset + 2 * (3 * (request.guards[q].block - 1)
+                                          + model.GUARD_SLOT[request.guards[q].kind]) for q in fresh]
+        for off in offsets:
+            ta.pars[off] = fp(0.0)
+        t_start = ta.time
+        outcome, _ = ta.step(fp(request.t_end) - t_start)
+        t_end = ta.time
+        for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+            if fp(float(te)) > t_end:
+                break
+            dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
+        best = None
+        for q in fresh:
+            root = self._first_crossing(ta, request.guards[q], t_start, t_end)
+            if root is not None and (best is None or root < best[0]):
+                best = (root, q, np.array(ta.update_d_output(root), copy=True))
+        for off in offsets:
+            ta.pars[off] = fp(1.0)
+        return outcome, best
+
+    def _first_crossing(self, ta, guard, t_start, t_end):
+        """First zero of ``expected_sign * guard`` in ``(t_start, t_end]`` after it turned positive."""
+        fp = self._fp
+        problem = guard.problem
+        sign = guard.expected_sign
+
+        def value(t):
+            y = ta.update_d_output(t)
+            if guard.kind == "velocity":  # in the integrator's own precision
+                return fp(sign) * (y[2 * guard.block - 1] - fp(problem.v0))
+            return fp(sign * float(guard.value(float(t), np.asarray(y[: problem.n_states]).astype(float))))
+
+        lo, g_lo, positive = t_start, fp(0.0), False
+        for k in range(1, 33):
+            t = t_start + (t_end - t_start) * fp(k) / fp(32)
+            g = value(t)
+            if g > 0:
+                lo, g_lo, positive = t, g, True
+            elif positive:
+                return _illinois(value, lo, g_lo, t, g)
+        return None if positive or value(t_end) > 0 else t_start  # never off its surface: at once
 
     @staticmethod
     def _guard_index(request: ArcRequest, event: int) -> int | None:

@@ -77,7 +77,8 @@ def closed_form_events(case: int, t_end: float = 300.0, dps: int = 32) -> pd.Dat
 
         if mode[b - 1] == STICK:
             limit = f(c.fr[b - 1])
-            sign = 1 if ev.kind == "slip" and restoring(b, f(ev.t), [f(getattr(ev, k)) for k in ("x1", "v1", "x2", "v2")]) > 0 else -1
+            after = [f(getattr(ev, k)) for k in ("x1", "v1", "x2", "v2")]
+            sign = 1 if ev.kind == "slip" and restoring(b, f(ev.t), after) > 0 else -1
             g = lambda s, sign=sign: restoring(b, t + s, state(s)) - sign * limit  # noqa: E731
         else:
             g = lambda s: state(s)[2 * b - 1] - v0  # noqa: E731

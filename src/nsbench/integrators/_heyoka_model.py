@@ -34,7 +34,10 @@ from typing import TYPE_CHECKING, Any
 import heyoka as hy
 import numpy as np
 
+from nsbench.integrators.base import SectionHit
+
 if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.integrators.base import ArcRequest
     from nsbench.problems.oscillator import FrictionOscillator
 
 GUARD_SLOT = {"velocity": 0, "upper": 1, "lower": 2}
@@ -73,6 +76,10 @@ class Structure:
     @property
     def guard_offset(self) -> int:
         return self.mode_offset + 2 * self.n_blocks
+
+    def guard_par(self, guard) -> int:
+        """Index of a guard's activation flag (its expected sign follows)."""
+        return self.guard_offset + 2 * (3 * (guard.block - 1) + GUARD_SLOT[guard.kind])
 
     def section_offset(self, slot: int) -> int:
         return self.guard_offset + 6 * self.n_blocks + slot * (2 + self.n_mech)
@@ -183,3 +190,48 @@ def compiled(st: Structure, precision: str, tol: float | None, high_accuracy: bo
             hit = _CACHE[key] = (ta, time.perf_counter() - tic)
             return copy.deepcopy(ta), hit[1]
     return copy.deepcopy(hit[0]), 0.0
+
+
+def guard_index(request: "ArcRequest", event: int) -> int | None:
+    """Index in ``request.guards`` of heyoka terminal event ``event``, or ``None`` if inactive."""
+    block, slot = divmod(event, 3)
+    for q, guard in enumerate(request.guards):
+        if guard.block == block + 1 and GUARD_SLOT[guard.kind] == slot:
+            return q
+    return None
+
+
+def section_hits(ta, request: "ArcRequest", t0, t_stop) -> list[SectionHit]:
+    """Crossings recorded by the section callbacks in ``(t0, t_stop]``, in their direction."""
+    n = request.problem.n_states
+    hits = []
+    for ev in ta.nt_events:
+        for slot, t, d_sgn, y in ev.callback.hits:
+            if slot >= len(request.sections) or not (t0 < t <= t_stop) or d_sgn == 0:
+                continue  # starting on a section is not a crossing; touches are not either
+            direction = request.sections[slot].direction
+            if direction == 0 or direction == d_sgn:
+                hits.append(SectionHit(slot, float(t), np.asarray(y[:n]).astype(float)))
+    hits.sort(key=lambda h: h.t)
+    return hits
+
+
+def illinois(f, a, fa, b, fb, iterations: int = 100):
+    """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
+    side = 0
+    for _ in range(iterations):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b) or fb == 0:
+            break
+        fc = f(c)
+        if fc > 0:
+            a, fa = c, fc
+            if side == 1:
+                fb = fb / 2
+            side = 1
+        else:
+            b, fb = c, fc
+            if side == -1:
+                fa = fa / 2
+            side = -1
+    return b

@@ -24,7 +24,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import _heyoka_model as model
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.problems.modes import STICK
 from nsbench.results import Status
 
@@ -35,27 +35,6 @@ def _caps(precision: str) -> Capabilities:
     return Capabilities(event_location="taylor-root", order=None, adaptive=True,
                         needs_jacobian=False, supports_nonlinear=True, precision=precision,
                         step_option="tol")
-
-
-def _illinois(f, a, fa, b, fb, iterations: int = 100):
-    """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
-    side = 0
-    for _ in range(iterations):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b) or fb == 0:
-            break
-        fc = f(c)
-        if fc > 0:
-            a, fa = c, fc
-            if side == 1:
-                fb = fb / 2
-            side = 1
-        else:
-            b, fb = c, fc
-            if side == -1:
-                fa = fa / 2
-            side = -1
-    return b
 
 
 class HeyokaIntegrator(Integrator):
@@ -109,7 +88,7 @@ class HeyokaIntegrator(Integrator):
             pars[st.mode_offset + i] = 1.0 if phase == STICK else 0.0
             pars[st.mode_offset + nb + i] = float(phase)
         for guard in request.guards:
-            off = st.guard_offset + 2 * (3 * (guard.block - 1) + model.GUARD_SLOT[guard.kind])
+            off = st.guard_par(guard)
             pars[off], pars[off + 1] = 1.0, float(guard.expected_sign)
         for q, sec in enumerate(request.sections):
             off = st.section_offset(q)
@@ -136,68 +115,73 @@ class HeyokaIntegrator(Integrator):
             self.setup(problem)
         st, ta = self._model(len(request.sections))
         t0 = self._load(st, ta, request)
-        fp = self._fp
-        n = problem.n_states
+        fp, n = self._fp, problem.n_states
         if request.max_steps <= 0:
             return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
                              y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
                              message=f"step budget exhausted at t = {request.t0:.6g}")
-        want_dense = request.t_eval.size > 0
-        dense_rows: list[np.ndarray] = []
-        nsteps, fresh_hit, c_out = 0, None, None
-        fresh = self._fresh_guards(request)
-        if fresh:
-            outcome, fresh_hit = self._first_step(st, ta, request, fresh, dense_rows)
-            nsteps = 1
-        if fresh_hit is None and (not fresh or outcome == model.hy.taylor_outcome.success):
-            if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
-                outcome = model.hy.taylor_outcome.step_limit
-            else:
-                outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=want_dense)
-                nsteps += taken
+        outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request)
         if fresh_hit is not None:  # a fresh guard crossed inside the first step
-            t_fp, q, y_fp = fresh_hit
-            hi, lo = t_fp, fp(0.0)
+            hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
         else:
-            hi, lo = ta.dtime
-            y_fp = ta.state
+            (hi, lo), y_fp = ta.dtime, ta.state
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
-        y_stop = np.asarray(y_fp[:n]).astype(float)
-        counts = dict(nfev=int(nsteps), njev=0, nsteps=int(nsteps),
-                      extra={"taylor_coefficients": int(nsteps) * int(ta.order)})
-        if self._compiled_in_advance:  # a wider model compiled for more sections
-            counts["extra"]["compile_seconds"] = self._compiled_in_advance
-            self._compiled_in_advance = 0.0
-        fired, status, message, t_lo = None, Status.SUCCESS, "", t_lo
-        code = int(outcome)
-        if fresh_hit is not None:
-            fired = fresh_hit[1]
-        elif outcome == model.hy.taylor_outcome.time_limit:
+        fired, status, message = self._verdict(ta, outcome, fresh_hit, request, t_stop)
+        if outcome == model.hy.taylor_outcome.time_limit and fresh_hit is None:
             t_stop, t_lo = request.t_end, 0.0
-        elif outcome == model.hy.taylor_outcome.step_limit:
-            status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
-        elif outcome == model.hy.taylor_outcome.err_nf_state:
-            status, message = Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
-        elif code < 0 and -code - 1 < len(ta.t_events):
-            fired = self._guard_index(request, -code - 1)
-            if fired is None:
-                status, message = Status.INTEGRATOR_FAILURE, (
-                    f"event {-code - 1} of an inactive phase fired at t = {t_stop:.17g}")
-        else:
-            status, message = Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
-        hits = self._section_hits(ta, request, t0, hi)
+        extra = {"taylor_coefficients": nsteps * int(ta.order)}
+        if self._compiled_in_advance:  # a wider model compiled for more sections
+            extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
-        rows = [row for row in dense_rows[:n_eval]]
+        rows = first_rows[:n_eval]
         if len(rows) < n_eval and c_out is not None:
             times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
-        y_eval = (np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows
-                  else np.empty((n, 0)))
-        return ArcResult(t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits,
-                         status=status, message=message, t_lo=t_lo, **counts)
+        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
+        return ArcResult(t=t_stop, y=np.asarray(y_fp[:n]).astype(float), fired=fired, y_eval=y_eval,
+                         section_hits=model.section_hits(ta, request, t0, hi), nfev=nsteps, njev=0,
+                         nsteps=nsteps, extra=extra, status=status, message=message, t_lo=t_lo)
+
+    def _propagate(self, st, ta, request: ArcRequest):
+        """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
+        fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
+        fresh = self._fresh_guards(request)
+        outcome = model.hy.taylor_outcome.success
+        if fresh:
+            outcome, fresh_hit = self._first_step(st, ta, request, fresh, first_rows)
+            nsteps = 1
+        if fresh_hit is None and outcome == model.hy.taylor_outcome.success:
+            if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
+                outcome = model.hy.taylor_outcome.step_limit
+            else:
+                outcome, _, _, taken, c_out, _ = ta.propagate_until(
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps,
+                    c_output=request.t_eval.size > 0)
+                nsteps += int(taken)
+        return outcome, fresh_hit, c_out, nsteps, first_rows
+
+    @staticmethod
+    def _verdict(ta, outcome, fresh_hit, request: ArcRequest, t_stop: float):
+        """``(fired, status, message)`` from heyoka's outcome."""
+        taylor = model.hy.taylor_outcome
+        if fresh_hit is not None:
+            return fresh_hit[1], Status.SUCCESS, ""
+        if outcome == taylor.time_limit:
+            return None, Status.SUCCESS, ""
+        if outcome == taylor.step_limit:
+            return None, Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
+        if outcome == taylor.err_nf_state:
+            return None, Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
+        event = -int(outcome) - 1
+        if 0 <= event < len(ta.t_events):
+            fired = model.guard_index(request, event)
+            if fired is None:
+                return None, Status.INTEGRATOR_FAILURE, (
+                    f"event {event} of an inactive phase fired at t = {t_stop:.17g}")
+            return fired, Status.SUCCESS, ""
+        return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
 
     @staticmethod
     def _fresh_guards(request: ArcRequest) -> list[int]:
@@ -216,8 +200,7 @@ class HeyokaIntegrator(Integrator):
         and ``(t, guard index, state)`` of the earliest fresh crossing, if any.
         """
         fp = self._fp
-        offsets = [st.guard_offset + 2 * (3 * (request.guards[q].block - 1)
-                                          + model.GUARD_SLOT[request.guards[q].kind]) for q in fresh]
+        offsets = [st.guard_par(request.guards[q]) for q in fresh]
         for off in offsets:
             ta.pars[off] = fp(0.0)
         t_start = ta.time
@@ -255,30 +238,8 @@ class HeyokaIntegrator(Integrator):
             if g > 0:
                 lo, g_lo, positive = t, g, True
             elif positive:
-                return _illinois(value, lo, g_lo, t, g)
+                return model.illinois(value, lo, g_lo, t, g)
         return None if positive or value(t_end) > 0 else t_start  # never off its surface: at once
-
-    @staticmethod
-    def _guard_index(request: ArcRequest, event: int) -> int | None:
-        block, slot = divmod(event, 3)
-        for q, guard in enumerate(request.guards):
-            if guard.block == block + 1 and model.GUARD_SLOT[guard.kind] == slot:
-                return q
-        return None
-
-    @staticmethod
-    def _section_hits(ta, request: ArcRequest, t0, t_stop) -> list[SectionHit]:
-        n = request.problem.n_states
-        hits = []
-        for ev in ta.nt_events:
-            for slot, t, d_sgn, y in ev.callback.hits:
-                if slot >= len(request.sections) or not (t0 < t <= t_stop) or d_sgn == 0:
-                    continue  # starting on a section is not a crossing; touches are not either
-                direction = request.sections[slot].direction
-                if direction == 0 or direction == d_sgn:
-                    hits.append(SectionHit(slot, float(t), np.asarray(y[:n]).astype(float)))
-        hits.sort(key=lambda h: h.t)
-        return hits
 
 
 class Heyoka(HeyokaIntegrator):

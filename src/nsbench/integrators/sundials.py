@@ -103,7 +103,8 @@ class SundialsIntegrator(Integrator):
                     break
                 res = solver.step(t_end, method="onestep", tstop=t_end)
                 if res.status < 0:
-                    status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
+                    status = Status.INTEGRATOR_FAILURE
+                    message = f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
                     break
                 t, y, nfev, njev = float(res.t), np.asarray(res.y), int(res.nfev), int(res.njev)
                 if res.status != ROOT_RETURN:

@@ -1,4 +1,7 @@
-"""Running the checks: on one integrator (:func:`check_integrator`) or as pytest items (:func:`parametrize_with_checks`)."""
+"""Running the checks: on one integrator (:func:`check_integrator`) or as pytest items.
+
+:func:`parametrize_with_checks` turns every (integrator, check) pair into its own pytest item.
+"""
 
 from __future__ import annotations
 

@@ -65,8 +65,8 @@ class HeunBisection(Integrator):
                        if g.expected_sign * float(g.value(t1, y1)) <= 0.0]
             t_stop, fired, y_stop = t1, None, y1
             for q, g in crossed:  # earliest crossing; ties go to the lowest index
-                tq, yq = self._bisect(f, t, y, fy, t1, lambda tt, yy, g=g: g.expected_sign * float(g.value(tt, yy)),
-                                      counts)
+                signed = lambda tt, yy, g=g: g.expected_sign * float(g.value(tt, yy))  # noqa: E731
+                tq, yq = self._bisect(f, t, y, fy, t1, signed, counts)
                 if fired is None or tq < t_stop:
                     t_stop, fired, y_stop = tq, q, yq
             f_stop = f(t_stop, y_stop)

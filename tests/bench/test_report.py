@@ -14,7 +14,9 @@ from nsbench.bench.report import write_report
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2,
+    # The reference list leaves out `reference`, so the cubic problem has none and
+    # takes the cost-only figure path.
+    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "reference": ["exact"],
                              "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
                              "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"]}})
     run_suite(suite, out, workers=1, progress=False)

@@ -28,10 +28,14 @@ def small_suite(only, **kw):
 
 @pytest.fixture(scope="module")
 def pooled(tmp_path_factory):
-    """One pooled run (2 workers) over linear problems and a cubic one without reference."""
+    """One pooled run (2 workers) over linear problems and a cubic one without reference.
+
+    The reference list leaves out the registered `reference` integrator, so the
+    cubic problem takes the "no reference available" path.
+    """
     out = tmp_path_factory.mktemp("pooled")
     suite = Suite.from_dict({
-        "name": "pooled", "t_span": [0.0, 40.0], "repeats": 3,
+        "name": "pooled", "t_span": [0.0, 40.0], "repeats": 3, "reference": ["exact"],
         "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "cases": [2, 3]}],
         "integrators": {"only": ["exact", "scipy-dop853"]},
     })

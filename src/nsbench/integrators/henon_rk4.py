@@ -77,7 +77,7 @@ class HenonRK4(Integrator):
         supports_nonlinear=True, precision="double", step_option="h",
     )
     options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
-    accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025})
+    accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025}, {"h": 0.000625})
 
     def setup(self, problem) -> None:
         super().setup(problem)

@@ -278,7 +278,7 @@ def rk4_arc(p, mode, t0, y0, t_end, h, max_steps, sc, sl, sd, t_eval, i_eval, y_
         while i_eval < t_eval.shape[0] and t_eval[i_eval] <= t_b:
             hermite_into(t, y, fy, t_b, y1, f1, t_eval[i_eval], y_eval[i_eval])
             i_eval += 1
-        if n_hits >= max_hits and bq < 0:
+        if nsec > 0 and n_hits >= max_hits and bq < 0:
             t = hit_t[n_hits - 1]
             y[:] = hit_y[n_hits - 1]
             fired = -2

@@ -47,7 +47,7 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
     bifurcation points (if given) as faint vertical lines.
     """
     plt = _plt()
-    variables = [v for v in variables if v in frame and frame[v].notna().any()]
+    variables = [v for v in variables if v in frame and frame[v].notna().any()] or ["x1"]
     fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True,
                              squeeze=False)
     name = frame["param"].iloc[0] if len(frame) else "parameter"

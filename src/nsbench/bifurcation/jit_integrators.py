@@ -17,6 +17,37 @@ from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integr
 from nsbench.results import Status
 
 _CODES = {"velocity": 0, "upper": 1, "lower": 2}
+_SOURCES = ("_jit_model.py", "_jit_exact.py", "_jit_rk4.py", "_jit_hybrid.py", "../problems/kernels.py")
+_checked = False
+
+
+def _guard_cache() -> None:
+    """Drop numba's on-disk cache of the fast path when any of its sources changed.
+
+    numba keys a cached function on its own file only; the hybrid loop inlines
+    functions from several files, so an edit elsewhere would leave it stale.
+    """
+    global _checked
+    if _checked:
+        return
+    import hashlib
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for name in _SOURCES:
+        digest.update((here / name).resolve().read_bytes())
+    cache = here / "__pycache__"
+    stamp = cache / "fastpath.sha256"
+    try:
+        cache.mkdir(exist_ok=True)
+        if not stamp.exists() or stamp.read_text() != digest.hexdigest():
+            for old in list(cache.glob("_jit_*.nbi")) + list(cache.glob("_jit_*.nbc")):
+                old.unlink(missing_ok=True)
+            stamp.write_text(digest.hexdigest())
+    except OSError:  # read-only install: numba then compiles in memory
+        pass
+    _checked = True
 
 
 def _section_arrays(sections, n):
@@ -50,6 +81,7 @@ class JitIntegrator(Integrator):
             self.setup(problem)
 
     def advance(self, request: ArcRequest) -> ArcResult:
+        _guard_cache()
         from nsbench.bifurcation._jit_hybrid import _arc
 
         problem = request.problem
@@ -100,6 +132,7 @@ class JitIntegrator(Integrator):
         ``section`` is ``'peaks'`` (``v1 = 0`` downward), ``'strobe'`` (states at
         ``times``), ``'stick'`` or ``'mapping'`` (events after their transition).
         """
+        _guard_cache()
         from nsbench.bifurcation._jit_hybrid import (
             N_COUNTERS, SEC_SLIP, SEC_STATE, SEC_STICK, SEC_TIME, hybrid_run,
         )

@@ -70,9 +70,11 @@ class SweepStore:
         files = sorted(self.points_dir.glob("chunk-*.csv"))
         if not files:
             return pd.DataFrame(columns=list(COLUMNS))
-        frame = pd.concat([pd.read_csv(f, keep_default_na=False, na_values=[""]) for f in files],
-                          ignore_index=True)
-        frame["message"] = frame["message"].fillna("").astype(str)
+        text = {c: str for c in ("param", "section", "status", "message")}
+        frame = pd.concat([pd.read_csv(f, dtype=text, keep_default_na=False, na_values={"t": [""]})
+                           for f in files], ignore_index=True)
+        for col in ("t", "x1", "v1", "x2", "v2"):
+            frame[col] = pd.to_numeric(frame[col], errors="coerce")
         # a value computed twice (two runs racing on one folder) keeps its first copy
         frame = frame.drop_duplicates(subset=["index", "k"], keep="first")
         return frame.sort_values(["index", "k"], kind="stable").reset_index(drop=True)

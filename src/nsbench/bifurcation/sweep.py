@@ -120,10 +120,12 @@ class SweepSpec:
 
         for v in (self.start, self.stop):
             problem = self.problem_at(v)
-            if self.section == "strobe" and problem.coefficients.w <= 0:
-                raise ConfigError(f"section strobe needs a forcing frequency > 0; at {self.name} = {v:g} "
-                                  f"Omega = {problem.coefficients.w:g}")
-        get_integrator(self.integrator, **self.options)
+            if self.section == "strobe" and not (problem.is_forced and problem.coefficients.w > 0):
+                raise ConfigError(f"section strobe needs a harmonic force with frequency > 0; at "
+                                  f"{self.name} = {v:g} F = {problem.coefficients.F:g}, "
+                                  f"Omega = {problem.coefficients.w:g} (use peaks, stick or mapping)")
+        # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
+        get_integrator(self.integrator, **self.options).setup(problem)
 
 
 def default_section(problem) -> str:

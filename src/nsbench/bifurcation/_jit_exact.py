@@ -10,6 +10,7 @@ mode's guards (signed by their expected sign), ``ng + k`` the state sections.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from nsbench.bifurcation._jit_model import guards_of, mode_index
@@ -23,6 +24,9 @@ from nsbench.problems.kernels import (
 )
 
 _EPS = np.finfo(np.float64).eps
+# hot helpers are inlined into their callers: a call boundary costs a reference
+# count update per array of the flow table, more than the arithmetic itself
+hot = numba.njit(cache=True, nogil=True, inline="always")
 NFEV, NSTEPS, ROOTS = 0, 1, 2
 FULL = -2  # arc stopped early: the section-hit buffer is full
 
@@ -57,7 +61,7 @@ def flow_start(ft, mi, t0, y0, p0, coef):
         coef[r] = acc
 
 
-@jit
+@hot
 def flow_state(ft, mi, t0, y0, p0, coef, wc, s, out):
     """State at offset ``s`` from the arc start into ``out``."""
     v0 = ft.scal[2]
@@ -69,17 +73,28 @@ def flow_state(ft, mi, t0, y0, p0, coef, wc, s, out):
     if ns == 0:
         return
     for c in range(ns):
-        wc[c] = coef[c] * np.exp(ft.lam[mi, c] * s)
+        if ft.cw[mi, c] != 0.0:
+            lam = ft.lam[mi, c]
+            # exp of a complex number through real exp, cos, sin: faster than complex exp
+            mag = ft.cw[mi, c] * np.exp(lam.real * s)
+            ang = lam.imag * s
+            wc[c] = coef[c] * complex(mag * np.cos(ang), mag * np.sin(ang))
     forced = ft.scal[0] != 0.0
-    rot = np.exp(1j * ft.scal[1] * (t0 + s)) if forced else 0j
+    if forced:
+        wt = ft.scal[1] * (t0 + s)
+        rot_re, rot_im = np.cos(wt), np.sin(wt)
     for r in range(ns):
         u = p0[r] + ft.p1[mi, r] * s
         if forced:
-            u += (ft.z[mi, r] * rot).real
-        acc = 0j
+            zr = ft.z[mi, r]
+            u += zr.real * rot_re - zr.imag * rot_im
+        acc = 0.0
         for c in range(ns):
-            acc += ft.vec[mi, r, c] * wc[c]
-        out[ft.slip[mi, r]] = u + acc.real
+            if ft.cw[mi, c] != 0.0:
+                v = ft.vec[mi, r, c]
+                w = wc[c]
+                acc += v.real * w.real - v.imag * w.imag
+        out[ft.slip[mi, r]] = u + acc
 
 
 @jit

@@ -36,6 +36,7 @@ class FlowTable(NamedTuple):
     z: np.ndarray       # (modes, 4) complex amplitude of the harmonic particular solution
     rate: np.ndarray    # (modes,) fastest rate of the mode (scan step scale)
     scal: np.ndarray    # [forced (0/1), w, v0]
+    cw: np.ndarray      # (modes, 4) weight of each modal term: 2 for one of a conjugate pair, 0 for its partner
 
 
 def empty_table(n_modes: int = 1) -> FlowTable:
@@ -46,7 +47,7 @@ def empty_table(n_modes: int = 1) -> FlowTable:
         np.zeros((n_modes, NMAX), np.int64), np.zeros((n_modes, NMAX), c), np.zeros((n_modes, NMAX, NMAX), c),
         np.zeros((n_modes, NMAX, NMAX), c), np.zeros((n_modes, NMAX, NMAX)), np.zeros((n_modes, NMAX, NMAX)),
         np.zeros((n_modes, NMAX)), np.zeros((n_modes, NMAX)), np.zeros((n_modes, NMAX), c),
-        np.ones(n_modes), np.zeros(3),
+        np.ones(n_modes), np.zeros(3), np.ones((n_modes, NMAX)),
     )
 
 
@@ -85,9 +86,36 @@ def flow_table(problem) -> FlowTable:
             t.ainv[mi, :ns, :ns] = mf.a_inv
             if nst:
                 t.ask[mi, :ns, :nst] = mf.a_sk
+            t.cw[mi, :ns] = _pair_weights(mf.lam, mf.vec, mf.vec_inv)
             t.b0s[mi, :ns] = mf.b0[mf.slip]
             t.p1[mi, :ns] = mf.p1
             if mf.forced:
                 t.z[mi, :ns] = mf.z
     t.scal[:] = (1.0 if forced else 0.0, problem.coefficients.w, problem.v0)
     return t
+
+
+def _pair_weights(lam: np.ndarray, vec: np.ndarray, vinv: np.ndarray) -> np.ndarray:
+    """Weights that sum each conjugate pair of modal terms as twice the real part of one.
+
+    For a real system, the terms of ``lam`` and ``conj(lam)`` are conjugate
+    (their eigenvectors, inverse rows and hence coefficients are conjugate), so
+    their sum is ``2 Re`` of the first: half the exponentials. Pairs whose
+    vectors are not conjugate to rounding keep weight 1 each.
+    """
+    w = np.ones(lam.size)
+    used = set()
+    for c in range(lam.size):
+        if c in used or lam[c].imag <= 0:
+            continue
+        for d in range(lam.size):
+            if d == c or d in used:
+                continue
+            scale = max(1.0, abs(lam[c]))
+            if (abs(lam[d] - np.conj(lam[c])) <= 1e-12 * scale
+                    and np.allclose(vec[:, d], np.conj(vec[:, c]), rtol=0, atol=1e-13)
+                    and np.allclose(vinv[d], np.conj(vinv[c]), rtol=0, atol=1e-13 * max(1.0, np.abs(vinv).max()))):
+                w[c], w[d] = 2.0, 0.0
+                used.update((c, d))
+                break
+    return w

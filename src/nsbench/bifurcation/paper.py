@@ -25,6 +25,8 @@ from nsbench.bifurcation.compare import _table
 from nsbench.bifurcation.parallel import run_sweep
 from nsbench.bifurcation.sweep import SweepSpec
 
+TABLE_COLUMNS = ["case", "sweep", "paper_kind", "paper_value", "found", "difference", "refined",
+                 "refined_difference", "found_kind", "any_found", "any_difference", "any_found_kind", "statement"]
 # kind named by the paper -> kind of change detect.candidates reports
 KIND_MATCH = {"sliding": "sliding", "fixed-point": "period", "border-collision": "event-pattern"}
 
@@ -80,8 +82,13 @@ def _spec(s: PaperSweep, points: int, transient: float, record: int) -> SweepSpe
                      integrator=integrator, section=section, transient=transient, record=record)
 
 
-def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame]) -> pd.DataFrame:
-    """For each stated bifurcation: the nearest candidate of the matching kind, and of any kind."""
+def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame],
+                 specs: dict[str, SweepSpec] | None = None) -> pd.DataFrame:
+    """For each stated bifurcation: the nearest candidate of the matching kind, and of any kind.
+
+    With ``specs`` (sweep slug -> spec), the matched candidate of the same kind
+    is refined by bisection (:func:`detect.refine`) and reported as ``refined``.
+    """
     rows = []
     for c in claims.itertuples():
         stated = 0.5 * (c.low + c.high)
@@ -97,16 +104,27 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
                 row[f"{label}found"] = v
                 row[f"{label}difference"] = 0.0 if c.low <= v <= c.high else v - stated
                 row[f"{label}found_kind"] = pool["kind"].iloc[j] + ": " + pool["description"].iloc[j]
+                if label == "" and specs is not None:
+                    cand = pool.iloc[j]
+                    r = detect.refine(specs[cand["slug"]], float(cand["left"]), float(cand["right"]),
+                                      str(cand["kind"]))
+                    row["refined"] = r.value
+                    row["refined_difference"] = 0.0 if c.low <= r.value <= c.high else r.value - stated
             else:
                 row[f"{label}found"] = np.nan
                 row[f"{label}difference"] = np.nan
                 row[f"{label}found_kind"] = "none on this sweep"
         rows.append(row)
+    frame = pd.DataFrame(rows)
+    for col in ("refined", "refined_difference"):
+        if col not in frame:
+            frame[col] = np.nan
+    return frame
     return pd.DataFrame(rows)
 
 
-def run_paper(out: str | Path = "reports/paper", *, points: int = 240, transient: float = 1000.0,
-              record: int = 48, workers: int | None = None, only_case: int | None = None,
+def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient: float = 1000.0,
+              record: int = 64, workers: int | None = None, only_case: int | None = None,
               progress: bool = True, log=print) -> Path:
     """Regenerate every paper sweep, the locus figures and the report; return the Markdown path."""
     out = Path(out)
@@ -114,6 +132,7 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 240, transient
     (out / "candidates").mkdir(parents=True, exist_ok=True)
     (out / ".gitignore").write_text("data/\n")
     found: dict[tuple[int, str], list] = {}
+    specs: dict[str, SweepSpec] = {}
     summary = []
     tic_all = time.perf_counter()
     for s in SWEEPS:
@@ -126,6 +145,8 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 240, transient
         feats = detect.classify(frame)
         cands = detect.candidates(feats)
         cands.to_csv(out / "candidates" / f"{_slug(s)}.csv", index=False)
+        cands["slug"] = _slug(s)
+        specs[_slug(s)] = spec
         found.setdefault((s.case, s.name), []).append(cands)
         title = (f"case {s.case}: {s.name} in [{s.start:g}, {s.stop:g}], {spec.integrator}, {spec.section}, "
                  f"{points} values, transient {transient:g}, {record} points each")
@@ -144,9 +165,10 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 240, transient
             continue
         _locus(case, name, value, transient, out)
     found_frames = {k: pd.concat(v, ignore_index=True) for k, v in found.items()}
-    table = match_claims(paper_values(), found_frames)
+    claims = paper_values()
     if only_case is not None:
-        table = table[table["case"] == only_case]
+        claims = claims[claims["case"] == only_case]
+    table = match_claims(claims, found_frames, specs)
     table.to_csv(out / "comparison.csv", index=False)
     sweeps = pd.DataFrame(summary)
     sweeps.to_csv(out / "sweeps.csv", index=False)
@@ -173,9 +195,11 @@ def _locus(case: int, name: str, value: float, transient: float, out: Path) -> N
 
 
 def _intro(points, transient, record, total) -> list[str]:
-    from nsbench.provenance import provenance
+    import nsbench
+    from nsbench.provenance import git_commit, provenance
 
     prov = provenance()
+    prov["git_commit"] = git_commit(Path(nsbench.__file__).resolve().parent)
     return [
         "Every sweep of the paper's cases 1-4 regenerated by `nsbench paper`, with the candidate "
         "bifurcation points nsbench finds on each and, for the bifurcations the paper names, the "
@@ -210,9 +234,9 @@ def _markdown(sweeps, table, found, points, transient, record, total) -> str:
     lines += ["## Bifurcations named in the paper: stated value and what nsbench finds", "",
               "`found` is the nearest candidate of the matching kind (sliding, period for fixed-point, "
               "event-pattern for border-collision) on the same sweep; `difference` is found minus the "
-              "stated value (0 when inside a stated interval); the `any_` columns use candidates of any kind.",
-              "", _table(table[["case", "sweep", "paper_kind", "paper_value", "found", "difference",
-                                "any_found", "any_difference", "found_kind", "statement"]]), ""]
+              "stated value (0 when inside a stated interval); `refined` is that candidate narrowed by "
+              "bisection to 1e-4 of the sweep range; the `any_` columns use candidates of any kind.",
+              "", _table(table[TABLE_COLUMNS]), ""]
     lines += ["## Case 1 (not named in the paper): candidate bifurcation points found", ""]
     for (case, name), cands in found.items():
         if case != 1:
@@ -251,8 +275,7 @@ def _html(sweeps, table, found, points, transient, record, total) -> str:
              "<h1>The paper's bifurcation diagrams, reproduced by nsbench</h1>"]
     parts += [f"<p>{html.escape(p)}</p>" for p in _intro(points, transient, record, total) if p]
     parts += ["<h2>Bifurcations named in the paper: stated value and what nsbench finds</h2>",
-              _html_table(table[["case", "sweep", "paper_kind", "paper_value", "found", "difference",
-                                 "any_found", "any_difference", "found_kind", "statement"]])]
+              _html_table(table[TABLE_COLUMNS])]
     parts.append("<h2>Case 1: candidate bifurcation points found</h2>")
     for (case, name), cands in found.items():
         if case == 1:

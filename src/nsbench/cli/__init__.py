@@ -13,7 +13,7 @@ from typing import Sequence
 from nsbench.errors import NsbenchError
 
 # Sub-command modules; each defines ``add_parser(subparsers)`` and ``main(args) -> int``.
-COMMANDS = ("listing", "simulate", "run", "bifurcation", "lyapunov")
+COMMANDS = ("listing", "simulate", "run", "bifurcation", "lyapunov", "paper")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -26,7 +26,8 @@ from nsbench.bifurcation.parallel import run_sweep
 from nsbench.bifurcation.sweep import SweepSpec
 
 TABLE_COLUMNS = ["case", "sweep", "paper_kind", "paper_value", "found", "difference", "refined",
-                 "refined_difference", "found_kind", "any_found", "any_difference", "any_found_kind", "statement"]
+                 "refined_difference", "found_kind", "any_found", "any_difference", "any_found_kind",
+                 "candidates_on_sweep", "statement"]
 # kind named by the paper -> kind of change detect.candidates reports
 KIND_MATCH = {"sliding": "sliding", "fixed-point": "period", "border-collision": "event-pattern"}
 
@@ -38,6 +39,7 @@ class PaperSweep:
     start: float
     stop: float
     note: str = ""
+    section: str | None = None  # default: strobe when forced, peaks otherwise
 
 
 _COMMON = (("inv_omega_r", 1.0, 10.0, ""), ("omega_r", 1.0, 10.0, ""), ("r_f", 0.4, 1.0, ""))
@@ -46,6 +48,8 @@ SWEEPS: tuple[PaperSweep, ...] = (
     *(PaperSweep(1, n, a, b) for n, a, b, _ in _COMMON),
     PaperSweep(2, "v0", 0.04, 0.6, "range not stated in the paper; chosen to cover 0.35 and 0.43"),
     *(PaperSweep(2, n, a, b) for n, a, b, _ in _COMMON),
+    PaperSweep(2, "inv_omega_r", 1.0, 10.0, "mapping points (slip events), which the paper's statement is about",
+               section="mapping"),
     PaperSweep(2, "F", 0.02, 0.8, "range not stated in the paper"),
     PaperSweep(2, "F", 0.12, 0.16, "zoom on the sliding bifurcation and border-collision the paper names"),
     PaperSweep(2, "Omega", 0.05, 2.5, "the paper starts at 0; the stroboscopic section needs Omega > 0"),
@@ -72,12 +76,12 @@ def paper_values() -> pd.DataFrame:
 
 
 def _slug(s: PaperSweep) -> str:
-    return f"case{s.case}-{s.name}-{s.start:g}-{s.stop:g}"
+    return f"case{s.case}-{s.name}-{s.start:g}-{s.stop:g}" + (f"-{s.section}" if s.section else "")
 
 
 def _spec(s: PaperSweep, points: int, transient: float, record: int) -> SweepSpec:
     integrator = "exact-jit" if s.case in (1, 2) else "henon-rk4-jit"
-    section = "strobe" if s.case in (2, 4) else "peaks"
+    section = s.section or ("strobe" if s.case in (2, 4) else "peaks")
     return SweepSpec(problem="two-dof", case=s.case, name=s.name, start=s.start, stop=s.stop, count=points,
                      integrator=integrator, section=section, transient=transient, record=record)
 
@@ -97,9 +101,13 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
         row = dict(case=c.case, sweep=c.sweep, paper_kind=c.kind,
                    paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}", statement=c.statement)
         same = cands[cands["kind"] == KIND_MATCH.get(c.kind, c.kind)]
+        row["candidates_on_sweep"] = len(cands)
         for label, pool in (("", same), ("any_", cands)):
             if len(pool):
-                j = int(np.argmin(np.abs(pool["value"].to_numpy(float) - stated)))
+                v_all = pool["value"].to_numpy(float)
+                # inside a stated interval counts as distance 0 (then nearest to its middle)
+                outside = np.maximum(np.maximum(c.low - v_all, v_all - c.high), 0.0)
+                j = int(np.lexsort((np.abs(v_all - stated), outside))[0])
                 v = float(pool["value"].iloc[j])
                 row[f"{label}found"] = v
                 row[f"{label}difference"] = 0.0 if c.low <= v <= c.high else v - stated
@@ -116,7 +124,7 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
                 row[f"{label}found_kind"] = "none on this sweep"
         rows.append(row)
     frame = pd.DataFrame(rows)
-    for col in ("refined", "refined_difference"):
+    for col in TABLE_COLUMNS:
         if col not in frame:
             frame[col] = np.nan
     return frame
@@ -130,7 +138,8 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     (out / "candidates").mkdir(parents=True, exist_ok=True)
-    (out / ".gitignore").write_text("data/\n")
+    # raw sweep tables stay local (a rerun resumes from them); the report's tables are kept
+    (out / ".gitignore").write_text("data/\n!*.csv\n")
     found: dict[tuple[int, str], list] = {}
     specs: dict[str, SweepSpec] = {}
     summary = []
@@ -208,8 +217,9 @@ def _intro(points, transient, record, total) -> list[str]:
         f"Settings: {points} parameter values per sweep, integration from rest through a transient of "
         f"tau = {transient:g}, then {record} section points per value (stroboscopic for the forced "
         "cases 2 and 4, peaks of x1 for cases 1 and 3). Linear cases use `exact-jit` (closed form), "
-        f"cubic ones `henon-rk4-jit` (h = 0.01). Total time {total:.0f} s on "
-        f"{prov.get('cpu_count')} cores ({prov.get('cpu')}), nsbench commit {prov.get('git_commit')}.",
+        f"cubic ones `henon-rk4-jit` (h = 0.01). This run took {total:.0f} s on "
+        f"{prov.get('cpu_count')} cores ({prov.get('cpu')}; values already stored in `data/` are not "
+        f"recomputed, so a resumed run is faster than a fresh one), nsbench commit {prov.get('git_commit')}.",
         "",
         "Kinds of candidates (from the sweep data only): `sliding` = a block gains or loses its "
         "sticking phase (or pure sliding begins/ends); `period` = the period of the section points "
@@ -235,7 +245,9 @@ def _markdown(sweeps, table, found, points, transient, record, total) -> str:
               "`found` is the nearest candidate of the matching kind (sliding, period for fixed-point, "
               "event-pattern for border-collision) on the same sweep; `difference` is found minus the "
               "stated value (0 when inside a stated interval); `refined` is that candidate narrowed by "
-              "bisection to 1e-4 of the sweep range; the `any_` columns use candidates of any kind.",
+              "bisection to 1e-4 of the sweep range; the `any_` columns use candidates of any kind. "
+              "`candidates_on_sweep` says how dense the candidates are: on a sweep with many, a close "
+              "`any_` match can be chance.",
               "", _table(table[TABLE_COLUMNS]), ""]
     lines += ["## Case 1 (not named in the paper): candidate bifurcation points found", ""]
     for (case, name), cands in found.items():
@@ -246,7 +258,7 @@ def _markdown(sweeps, table, found, points, transient, record, total) -> str:
         lines.append("")
     lines += ["## Sweeps", "", _table(sweeps.drop(columns=["slug"])), ""]
     for r in sweeps.itertuples():
-        lines += [f"### Case {r.case}, {r.sweep} in {r.range}", "",
+        lines += [f"### Case {r.case}, {r.sweep} in {r.range} ({r.section})", "",
                   f"![case {r.case} {r.sweep}](figures/diagram-{r.slug}.png)", "",
                   f"Candidates: [candidates/{r.slug}.csv](candidates/{r.slug}.csv)" + (f". {r.note}" if r.note else ""),
                   ""]

@@ -9,8 +9,9 @@ coordinate), both are integrated to their next mapping point, the separation
 ``d`` is measured there, ``log(d / d0)`` is accumulated, and the copy is put
 back at distance ``d0`` along the new separation. The mean over the
 iterations is the exponent per mapping point; divided by the mean return time
-it is per unit time. The convergence check compares the estimates from the
-two halves of the iterations.
+it is per unit time. The convergence check asks for a small standard error
+(from the spread of 10 block means, which accounts for correlation between
+iterations) and for the estimates from the two halves of the iterations to agree.
 
 This uses the compiled hybrid loop, which can start in a given mode
 (``exact-jit`` for linear problems, ``henon-rk4-jit`` for any).
@@ -37,9 +38,12 @@ class LyapunovResult:
     exponent_per_time
         Per unit time (sum of logs over the elapsed time).
     first_half, second_half
-        Estimates from each half of the iterations (the convergence check).
+        Estimates from each half of the iterations.
+    standard_error
+        Standard error of ``exponent`` from 10 block means.
     converged
-        Whether the halves agree within ``max(0.1 |exponent|, tol)``.
+        ``standard_error <= max(0.05 |exponent|, tol / 2)`` and the halves agree
+        within ``max(0.1 |exponent|, tol)``.
     iterations, mean_return_time, block_mismatches
         Map iterations done, mean time between mapping points, and the
         iterations where the two copies reached their next mapping point on
@@ -52,6 +56,7 @@ class LyapunovResult:
     exponent_per_time: float
     first_half: float
     second_half: float
+    standard_error: float
     converged: bool
     iterations: int
     mean_return_time: float
@@ -63,7 +68,8 @@ class LyapunovResult:
     def summary(self) -> str:
         verdict = "converged" if self.converged else "NOT converged"
         return (f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, "
-                f"{self.exponent_per_time:+.5f} per unit time ({verdict}: halves "
+                f"{self.exponent_per_time:+.5f} per unit time, standard error {self.standard_error:.2g} "
+                f"({verdict}: halves "
                 f"{self.first_half:+.5f} / {self.second_half:+.5f}; {self.iterations} iterations, "
                 f"mean return time {self.mean_return_time:.4g}, block mismatches {self.block_mismatches})")
 
@@ -76,7 +82,7 @@ def _next_mapping(integ, problem, t, y, mode, window):
 
 
 def largest_exponent(problem, integrator: str = "exact-jit", *, options: dict | None = None,
-                     transient: float = 1000.0, iterations: int = 1000, d0: float = 1e-8,
+                     transient: float = 1000.0, iterations: int = 10000, d0: float = 1e-8,
                      window: float = 2000.0, seed: int = 0, tol: float = 0.01) -> LyapunovResult:
     """Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
 
@@ -161,8 +167,14 @@ def _result(logs, times, t_first, mismatches, tol, status="success", message="")
     b = float(logs[half:].mean()) if k - half else np.nan
     elapsed = float(times[-1] - t_first) if k else np.nan
     per_time = float(logs.sum() / elapsed) if k and elapsed > 0 else np.nan
-    converged = bool(k >= 4 and abs(a - b) <= max(0.1 * abs(lam), tol))
-    return LyapunovResult(lam, per_time, a, b, converged, k, elapsed / k if k else np.nan, mismatches,
+    if k >= 20:
+        blocks = logs[: k // 10 * 10].reshape(10, -1).mean(axis=1)
+        se = float(blocks.std(ddof=1) / math.sqrt(10))
+    else:
+        se = np.nan
+    converged = bool(k >= 20 and se <= max(0.05 * abs(lam), tol / 2)
+                     and abs(a - b) <= max(0.1 * abs(lam), tol))
+    return LyapunovResult(lam, per_time, a, b, se, converged, k, elapsed / k if k else np.nan, mismatches,
                           status, message, logs)
 
 

@@ -14,7 +14,7 @@ def add_parser(sub) -> None:
                    help="compiled integrator: exact-jit (linear problems, default) or henon-rk4-jit")
     p.add_argument("--h", default=None, help="step size of henon-rk4-jit")
     p.add_argument("--transient", default="1000", help="time before the first mapping point used (default 1000)")
-    p.add_argument("--iterations", default="2000", help="return-map iterations (default 2000)")
+    p.add_argument("--iterations", default="10000", help="return-map iterations (default 10000)")
     p.add_argument("--d0", default="1e-8", help="renormalised separation (default 1e-8)")
     p.add_argument("--seed", default="0", help="seed of the initial direction (default 0)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="write log(d/d0) per iteration")

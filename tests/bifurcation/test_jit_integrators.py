@@ -84,3 +84,26 @@ def test_exact_jit_refuses_cubic_problems():
 
     with pytest.raises(UnsupportedProblemError):
         nsbench.simulate(nsbench.get_problem("two-dof", case=3), "exact-jit", 10.0)
+
+
+def test_compiled_guards_and_transitions_follow_the_model():
+    from nsbench.bifurcation import _jit_model as jm
+    from nsbench.problems import kernels
+
+    p = nsbench.get_problem("two-dof", case=2)
+    packed = kernels.pack(p)
+    gk, gb, gs = (np.empty(4, np.int64) for _ in range(3))
+    rng = np.random.default_rng(3)
+    for index, mode in enumerate(p.modes):
+        m = np.array(mode, dtype=np.int64)
+        assert jm.mode_index(m) == index
+        ng = jm.guards_of(m, gk, gb, gs)
+        kinds, blocks, signs = kernels.guard_codes(p.guards(mode))
+        assert (gk[:ng] == kinds).all() and (gb[:ng] == blocks).all() and (gs[:ng] == signs).all()
+        for q, guard in enumerate(p.guards(mode)):
+            y, t = rng.normal(size=4), float(rng.uniform(0, 10))
+            want = p.transition(mode, guard, t, y)
+            m2, y2 = m.copy(), y.copy()
+            kind = jm.transition(packed, m2, gk[q], gb[q], t, y2)
+            assert ("stick", "slip", "reverse")[kind] == want.kind
+            assert tuple(m2) == want.mode and np.array_equal(y2, want.y)

@@ -117,3 +117,16 @@ def test_chunk_files_are_written_atomically(tmp_path):
     (store.points_dir / "chunk-000000-dead.tmp").write_text("partial")
     assert store.done() == set()
     assert Path(tmp_path / "a" / "meta.json").exists()
+
+
+def test_motion_at_rest_is_recorded_as_its_equilibrium(tmp_path):
+    # past the pure-sliding threshold the motion damps out: RK4 settles on the equilibrium and
+    # has no more peaks; the value is kept as status "rest" with its final state as one point.
+    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.21, stop=0.22, count=2,
+                     integrator="henon-rk4-jit", transient=1500.0, record=20, window=200.0)
+    frame = run_sweep(spec, tmp_path / "rest", workers=1, progress=False)
+    assert (frame["status"] == "rest").all() and (frame["n_points"] == 1).all()
+    # both blocks slipping backwards (friction +r_f on each): x1 = 2 r_f, x2 = x1 + r_f / kappa
+    r_f = 5.0 / 6.0
+    np.testing.assert_allclose(frame["x1"], 2 * r_f, atol=1e-8)
+    np.testing.assert_allclose(frame["x2"], 3 * r_f, atol=1e-8)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from nsbench.bifurcation.sweep import OK_STATUSES
+
 
 def hausdorff(a: np.ndarray, b: np.ndarray) -> float:
     """Symmetric Hausdorff distance between two point sets (rows); NaN if either is empty."""
@@ -37,7 +39,7 @@ def agreement(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
         for name in names[1:]:
             other = frames[name]
             opts = other[other["index"] == index]
-            ok = (rpts["status"].iloc[0] == "success" and len(opts) and opts["status"].iloc[0] == "success")
+            ok = (rpts["status"].iloc[0] in OK_STATUSES and len(opts) and opts["status"].iloc[0] in OK_STATUSES)
             row[name] = hausdorff(rpts[cols].to_numpy(float), opts[cols].to_numpy(float)) if ok else np.nan
         rows.append(row)
     return pd.DataFrame(rows)
@@ -48,7 +50,7 @@ def costs(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = None
     rows = []
     for name, frame in frames.items():
         pts = frame.groupby("index").first()
-        rows.append(dict(integrator=name, values=len(pts), failed=int((pts["status"] != "success").sum()),
+        rows.append(dict(integrator=name, values=len(pts), failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
                          point_wall_time_s=float(pts["wall_time"].sum()),
                          run_wall_time_s=(walls or {}).get(name, np.nan),
                          nfev=int(pts["nfev"].sum()), nsteps=int(pts["nsteps"].sum()),

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from nsbench.bifurcation.sweep import SweepSpec, compute_point
+from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec, compute_point
 
 
 def _features(points: pd.DataFrame, section: str) -> np.ndarray:
@@ -61,11 +61,11 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
     rows = []
     for index, pts in frame.groupby("index", sort=True):
         first = pts.iloc[0]
-        ok = first["status"] == "success"
+        ok = first["status"] in OK_STATUSES
         section = first["section"]
         feats = _features(pts, section) if ok else np.empty((0, 1))
         scale = max(1.0, float(np.nanmax(np.abs(feats)))) if feats.size else 1.0
-        period = period_of(feats, tol * scale) if ok else -1
+        period = (1 if len(feats) == 1 else period_of(feats, tol * scale)) if ok else -1
         n = int(first["n_points"])
         cycles = n / period if period > 0 else np.nan
         rows.append(dict(
@@ -111,7 +111,7 @@ def candidates(features: pd.DataFrame) -> pd.DataFrame:
     feats = features.sort_values("value").reset_index(drop=True)
     for j in range(len(feats) - 1):
         a, b = feats.iloc[j], feats.iloc[j + 1]
-        if a["status"] != "success" or b["status"] != "success":
+        if a["status"] not in OK_STATUSES or b["status"] not in OK_STATUSES:
             continue
         for kind, text in _changes(a, b):
             rows.append(dict(kind=kind, description=text, left=a["value"], right=b["value"],
@@ -159,7 +159,7 @@ def refine(spec: SweepSpec, left: float, right: float, kind: str, xtol: float | 
         mid = 0.5 * (left + right)
         m = _signature(spec, mid, integ, tol)
         n += 1
-        if m["status"] != "success":
+        if m["status"] not in OK_STATUSES:
             break
         if any(k == kind for k, _ in _changes(a, m)):
             right, b = mid, m

@@ -51,8 +51,11 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
     fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True,
                              squeeze=False)
     name = frame["param"].iloc[0] if len(frame) else "parameter"
-    ok = frame[frame["status"] == "success"]
-    bad = frame[frame["status"] != "success"].groupby("index").first()
+    from nsbench.bifurcation.sweep import OK_STATUSES
+
+    good = frame["status"].isin(OK_STATUSES)
+    ok = frame[good]
+    bad = frame[~good].groupby("index").first()
     for ax, var in zip(axes[:, 0], variables):
         ax.plot(ok["value"], ok[var], ",", color="k", alpha=0.8, rasterized=True)
         ax.plot(ok["value"], ok[var], ".", ms=1.0, color="k", alpha=0.5, rasterized=True)

@@ -22,6 +22,10 @@ import pandas as pd
 from nsbench.errors import ConfigError, NsbenchError
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
+#: statuses of a value whose points are usable: ``rest`` is a motion that came to rest
+#: (pure sliding damped out) before ``record`` points: its final state is its one point
+OK_STATUSES = ("success", "rest")
+REST_SPEED = 1e-9
 STATE_COLUMNS = ("x1", "v1", "x2", "v2")
 COUNTER_COLUMNS = ("n_events", "sticks1", "sticks2", "slips1", "slips2", "reverses1", "reverses2",
                    "nfev", "nsteps")
@@ -181,9 +185,19 @@ def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
     return _rows(spec, index, value, t, y, blocks, status, message, counters, time.perf_counter() - tic)
 
 
-def _finish(spec, n_found, status, t_last) -> tuple[str, str]:
+def _at_rest(y_final, counters) -> bool:
+    """No event in the recording window and every velocity ~0: a sliding equilibrium."""
+    moved = sum(int(counters.get(k, 0)) for k in ("sticks1", "sticks2", "slips1", "slips2",
+                                                   "reverses1", "reverses2"))
+    return moved == 0 and float(np.max(np.abs(np.asarray(y_final)[1::2]))) <= REST_SPEED
+
+
+def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
     if status != "success":
         return status, f"stopped at t = {t_last:.6g}"
+    if n_found < spec.record and rest:
+        return "rest", (f"at rest (sliding equilibrium) by t = {t_last:.6g} after {n_found} "
+                        f"{spec.section} points; the final state is recorded")
     if n_found < spec.record:
         return "incomplete", (f"{n_found} of {spec.record} {spec.section} points by t = {t_last:.6g} "
                               f"(window {spec.record_window:g} after the transient)")
@@ -198,7 +212,10 @@ def _fast_point(spec, problem, integ):
         t_end = float(times[-1])
     run = integ.run(problem, t_end=t_end, section=spec.section, t_rec=spec.transient,
                     n_rec=spec.record, times=times)
-    status, message = _finish(spec, run.n, run.status, run.t)
+    rest = run.n < spec.record and _at_rest(run.y, run.counters)
+    status, message = _finish(spec, run.n, run.status, run.t, rest)
+    if status == "rest":
+        return (np.array([run.t]), run.y[None, :], np.zeros(1, np.int64), status, message, run.counters)
     return run.rec_t, run.rec_y, run.rec_block, status, message, run.counters
 
 
@@ -258,5 +275,8 @@ def _engine_point(spec, problem, integ):
     for kind, key in (("stick", "sticks"), ("slip", "slips"), ("reverse", "reverses")):
         for b in (1, 2):
             counters[f"{key}{b}"] = int(((ev["kind"] == kind) & (ev["block"] == b)).sum())
-    status, message = _finish(spec, n, status, t_last)
+    rest = n < spec.record and status == "success" and _at_rest(res.y_final, counters)
+    status, message = _finish(spec, n, status, t_last, rest)
+    if status == "rest":
+        return np.array([t_last]), np.array(res.y_final)[None, :], np.zeros(1, np.int64), status, message, counters
     return t, y, np.array(found_b[:n]), status, message, counters

@@ -124,7 +124,9 @@ def main(args: argparse.Namespace) -> int:
         for text in args.portrait:
             value = parse_number(text, "--portrait")
             _portrait(spec, value, out, formats)
-        n_bad = int((summary["status"] != "success").sum())
+        from nsbench.bifurcation.sweep import OK_STATUSES
+
+        n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
         print(f"{spec.integrator}: {len(summary)} values ({n_bad} failed or incomplete) in {walls[spec.integrator]:.1f} s "
               f"-> {out}")
         print(f"  diagram -> {written[0]}")

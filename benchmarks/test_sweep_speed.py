@@ -20,7 +20,7 @@ import pytest
 
 from nsbench.bifurcation.compare import hausdorff
 from nsbench.bifurcation.parallel import run_sweep
-from nsbench.bifurcation.sweep import SweepSpec
+from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec
 from nsbench.integrators import integrator_class, list_integrators
 from nsbench.problems import get_problem
 
@@ -64,7 +64,8 @@ def test_case1_v0_sweep(benchmark, tmp_path_factory, name):
     estimate = wall * COUNT / count
     pts = frame.groupby("index").first()
     info = dict(values_timed=count, sweep_1000_s=estimate, measured=full,
-                failed=int((pts["status"] != "success").sum()), nfev=int(pts["nfev"].sum()))
+                failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
+                at_rest=int((pts["status"] == "rest").sum()), nfev=int(pts["nfev"].sum()))
     if name == "exact-jit":
         _reference["frame"] = frame
     ref = _reference.get("frame")

@@ -130,3 +130,14 @@ def test_motion_at_rest_is_recorded_as_its_equilibrium(tmp_path):
     r_f = 5.0 / 6.0
     np.testing.assert_allclose(frame["x1"], 2 * r_f, atol=1e-8)
     np.testing.assert_allclose(frame["x2"], 3 * r_f, atol=1e-8)
+
+
+def test_strobe_sweep_of_the_force_amplitude_may_start_at_zero():
+    from nsbench.bifurcation.sweep import default_section
+
+    spec = SweepSpec(problem="two-dof", case=2, name="F", start=0.0, stop=0.2, count=3, section="strobe")
+    spec.check()
+    assert default_section(spec.problem_at(0.0), spec.problem_at(0.2)) == "strobe"
+    assert default_section(spec.problem_at(0.0)) == "peaks"
+    with pytest.raises(ConfigError, match="Omega > 0"):
+        SweepSpec(problem="two-dof", case=2, name="Omega", start=0.0, stop=1.0, count=3, section="strobe").check()

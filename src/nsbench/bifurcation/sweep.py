@@ -122,19 +122,25 @@ class SweepSpec:
         """Fail early: build the problem at both ends and the integrator, check the section."""
         from nsbench.integrators import get_integrator
 
-        for v in (self.start, self.stop):
-            problem = self.problem_at(v)
-            if self.section == "strobe" and not (problem.is_forced and problem.coefficients.w > 0):
-                raise ConfigError(f"section strobe needs a harmonic force with frequency > 0; at "
-                                  f"{self.name} = {v:g} F = {problem.coefficients.F:g}, "
-                                  f"Omega = {problem.coefficients.w:g} (use peaks, stick or mapping)")
+        ends = [self.problem_at(v) for v in (self.start, self.stop)]
+        if self.section == "strobe":
+            # the forcing period must exist everywhere; F may be 0 at one end of an F sweep
+            for v, problem in zip((self.start, self.stop), ends):
+                if problem.coefficients.w <= 0:
+                    raise ConfigError(f"section strobe needs Omega > 0; at {self.name} = {v:g} "
+                                      f"Omega = {problem.coefficients.w:g}")
+            if not any(p.is_forced for p in ends):
+                raise ConfigError("section strobe needs a harmonic force (F > 0) in the sweep; "
+                                  "use peaks, stick or mapping")
+        problem = ends[0]
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
         get_integrator(self.integrator, **self.options).setup(problem)
 
 
-def default_section(problem) -> str:
-    """``strobe`` for forced problems, ``peaks`` otherwise."""
-    return "strobe" if problem.is_forced and problem.coefficients.w > 0 else "peaks"
+def default_section(*problems) -> str:
+    """``strobe`` if any of ``problems`` (e.g. both ends of a sweep) is forced, ``peaks`` otherwise."""
+    forced = any(p.is_forced for p in problems)
+    return "strobe" if forced and all(p.coefficients.w > 0 for p in problems) else "peaks"
 
 
 def strobe_times(problem, transient: float, record: int) -> np.ndarray:

@@ -52,7 +52,8 @@ def _spec(args, problem_probe, integrator: str, options: dict):
         params[key] = parse_number(value, f"parameter {key}")
     window = parse_number(args.window, "--window") if args.window is not None else None
     record = parse_number(args.record, "--record")
-    section = args.section or default_section(problem_probe(name, start, params))
+    section = args.section or default_section(problem_probe(name, start, params),
+                                              problem_probe(name, stop, params))
     return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
                      start=start, stop=stop, count=count, integrator=integrator, options=options,
                      section=section, transient=parse_number(args.transient, "--transient"),

@@ -178,3 +178,31 @@ def test_inputs_are_not_mutated(case2):
 def test_summary_mentions_events_and_counters(case1):
     text = nsbench.simulate(case1, "exact", 30.0).summary()
     assert "stick@1" in text and "nfev=" in text and "wall time" in text
+
+
+def test_compensated_time_is_carried_between_arcs(case1):
+    # The engine keeps each event time as t + t_lo and hands t_lo back as the
+    # next arc's t0_lo, so rounding t to a double does not accumulate.
+    from nsbench.integrators.exact import ExactIntegrator
+
+    class Recording(ExactIntegrator):
+        def advance(self, request):
+            arc = super().advance(request)
+            self.seen.append((request.t0_lo, arc.t_lo))
+            return arc
+
+    integ = Recording()
+    integ.seen = []
+    nsbench.simulate(case1, integ, 100.0)
+    handed = [lo for lo, _ in integ.seen[1:]]
+    returned = [lo for _, lo in integ.seen[:-1]]
+    assert handed == returned
+    assert any(lo != 0.0 for lo in handed)
+
+
+def test_invalid_low_time_parts_are_dropped():
+    from nsbench.engine import _low_part
+
+    assert _low_part(100.0, 1e-15) == 1e-15
+    assert _low_part(100.0, 1e-3) == 0.0  # not a correction below one ulp
+    assert _low_part(100.0, float("nan")) == 0.0

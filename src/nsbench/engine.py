@@ -57,6 +57,12 @@ def _check_inputs(problem: FrictionOscillator, t0: float, t_end: float, y0: np.n
             raise ConfigError(f"t_eval must lie in [t0, t_end] = [{t0:g}, {t_end:g}]")
 
 
+def _low_part(t: float, t_lo: float) -> float:
+    """An integrator's low-order time part, or 0 if it is not a valid correction of ``t``."""
+    t_lo = float(t_lo)
+    return t_lo if math.isfinite(t_lo) and abs(t_lo) <= math.ulp(t) else 0.0
+
+
 def _wrong_side(guard: Guard, t: float, y: np.ndarray, dydt: np.ndarray) -> bool:
     """Whether ``guard`` is already past its surface, or on it and heading the wrong way."""
     g = float(guard.value(t, y))
@@ -228,6 +234,7 @@ def simulate(
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.scales.time if problem.dimensional else 1.0)
     recent: deque[float] = deque(maxlen=zeno_events + 1)
     t = t0
+    t_lo = 0.0  # compensated time: the current time is t + t_lo (see ArcRequest.t0_lo)
     tic = time.perf_counter()
 
     def settle(mode: Mode, t: float, y: np.ndarray, guard: Guard | None,
@@ -271,7 +278,7 @@ def simulate(
         request = ArcRequest(
             problem=problem, mode=mode, t0=t, y0=y_in, t_end=t_end, guards=guards,
             sections=state_sections, t_eval=dense_times[rec.n_dense:],
-            max_steps=max_steps - counters.nsteps,
+            max_steps=max_steps - counters.nsteps, t0_lo=t_lo,
         )
         try:
             arc = integ.advance(request)
@@ -302,6 +309,7 @@ def simulate(
             )
             break
         t, y = float(arc.t), np.array(arc.y, dtype=float)
+        t_lo = _low_part(t, arc.t_lo)
         if arc.fired is None:
             if t < t_end:
                 status, message = Status.INTEGRATOR_FAILURE, (

@@ -131,6 +131,11 @@ def register(kind: Kind, name: str, obj: Any) -> None:
     _RUNTIME[kind][name] = obj
 
 
+def runtime_components() -> dict[str, dict[str, Any]]:
+    """A copy of what :func:`register` added in this process (to re-register it in workers)."""
+    return {kind: dict(objs) for kind, objs in _RUNTIME.items()}
+
+
 def unregister(kind: Kind, name: str) -> None:
     """Remove a component registered with :func:`register`."""
     _RUNTIME[kind].pop(name, None)

@@ -17,8 +17,17 @@ Scalar = Callable[[float], float]
 
 
 def bracketed_root(f: Scalar, a: float, b: float) -> float:
-    """Root of ``f`` in ``[a, b]`` where ``f`` changes sign, to a few ulps (Brent)."""
-    return brentq(f, a, b, xtol=1e-300, rtol=4 * _EPS, maxiter=200)
+    """Root of ``f`` in ``[a, b]`` where ``f`` changes sign, to a few ulps (Brent).
+
+    The bracket comes from vectorised samples; re-evaluated one at a time, an
+    end value within rounding of zero can come out with the other sign (at a
+    grazing start, for instance). Then the end closer to zero is the root.
+    """
+    try:
+        return brentq(f, a, b, xtol=1e-300, rtol=4 * _EPS, maxiter=200)
+    except ValueError:  # f(a) and f(b) have the same sign: rounding noise at an end
+        fa, fb = f(a), f(b)
+        return a if abs(fa) <= abs(fb) else b
 
 
 _root = bracketed_root  # phi(a) > 0 >= phi(b)

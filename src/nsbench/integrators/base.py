@@ -130,6 +130,13 @@ class ArcRequest:
         stroboscopic sections), from the integrator's dense output or steps.
     max_steps
         Step budget left for the whole run.
+    t0_lo
+        Low-order part of the start time: the arc starts at the exact sum
+        ``t0 + t0_lo`` (``|t0_lo|`` at most an ulp of ``t0``). The engine keeps
+        event times in this compensated form so that the rounding of ``t0`` to a
+        double does not accumulate over many events; integrators that measure
+        time from the arc start may use it (and report ``ArcResult.t_lo``),
+        others ignore it.
     """
 
     problem: "FrictionOscillator"
@@ -141,6 +148,7 @@ class ArcRequest:
     sections: tuple["StateSection", ...] = ()
     t_eval: np.ndarray = field(default_factory=lambda: np.empty(0))
     max_steps: int = 10**7
+    t0_lo: float = 0.0
 
     def rhs(self, t, y):
         """The frozen-mode vector field of this arc."""
@@ -183,6 +191,9 @@ class ArcResult:
         Integrator-specific counters (summed over arcs by the engine).
     status, message
         ``Status.SUCCESS``, or the failure and its reason.
+    t_lo
+        Optional low-order part of an event time: the event is at ``t + t_lo``
+        (see ``ArcRequest.t0_lo``); 0 when not computed.
     """
 
     t: float
@@ -196,6 +207,7 @@ class ArcResult:
     extra: dict[str, float] = field(default_factory=dict)
     status: Status = Status.SUCCESS
     message: str = ""
+    t_lo: float = 0.0
 
 
 class Integrator:
@@ -206,7 +218,8 @@ class Integrator:
     1. Set the class attributes ``name`` (lowercase kebab-case, the registry
        name), ``capabilities`` (a :class:`Capabilities`) and ``options`` (a dict
        of :class:`Option`; the defaults are the recommended settings), and
-       optionally ``accuracy_levels`` (option sets from loose to tight).
+       optionally ``accuracy_levels`` (option sets from loose to tight) and
+       ``known_gaps`` (conformance checks it knowingly fails, with the reason).
     2. Keep every configured instance describable by :meth:`config`, a small
        dict that :meth:`from_config` turns back into an equal integrator.
     3. In :meth:`setup`, do the once-per-problem work (compilation, operators)
@@ -237,6 +250,9 @@ class Integrator:
     #: Option sets from loose to tight (typically three) that benchmark suites and
     #: convergence checks use by default; empty means "the defaults only".
     accuracy_levels: ClassVar[tuple[dict[str, Any], ...]] = ()
+    #: Conformance checks (:mod:`nsbench.testing`) this integrator knowingly does
+    #: not pass, as ``{check name: reason}``; reported as expected failures.
+    known_gaps: ClassVar[dict[str, str]] = {}
 
     def __init__(self, **options: Any) -> None:
         values = {}

@@ -10,9 +10,14 @@ step, so no error accumulates inside an arc (``scipy.linalg.expm`` chained over
 many periods drifts by ~1e-13 per period, MODEL.md section 6). Guards are
 bracketed by a scan at a fraction of the shortest time scale, with the
 derivative's sign change catching tangential touches, and refined by Brent's
-method to a few ulps. If a mode is defective or resonant (critical damping,
-undamped resonance) its flow falls back to the matrix exponential of the
-augmented system.
+method to a few ulps. The root that ends the arc is then polished by Newton's
+method in extended precision on the augmented flow ``expm(M s) z0`` (long
+double; a scaled Taylor series), and returned with the state there and the
+event time in compensated form (``ArcResult.t_lo``): double-precision flow
+errors of a few ulps per arc, amplified by the stick durations (``1/v0``),
+otherwise add up to ~2e-13 by ``tau = 300`` in the unforced 2-DOF case. If a
+mode is defective or resonant (critical damping, undamped resonance) its flow
+falls back to the matrix exponential of the augmented system.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ import math
 import numpy as np
 import scipy.linalg
 
+from nsbench.integrators._extended import EXTENDED, expm_extended, guard_row, two_sum
 from nsbench.integrators._roots import bracketed_root, first_zero
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems.modes import STICK, Mode
@@ -76,12 +82,12 @@ class ModeFlow:
             self.use_expm = not ok
         if self.forced:
             self.rates.append(self.w)
-        if self.use_expm:
-            self._augmented = self._augmented_matrix()
+        self._augmented = self._augmented_matrix()
+        self.augmented_extended = self._augmented.astype(EXTENDED)
 
     # -------------------------------------------------------------- set-up per arc
-    def start(self, t0: float, y0: np.ndarray) -> "ArcFlow":
-        return ArcFlow(self, t0, y0)
+    def start(self, t0: float, y0: np.ndarray, t0_lo: float = 0.0) -> "ArcFlow":
+        return ArcFlow(self, t0, y0, t0_lo)
 
     @property
     def fastest_rate(self) -> float:
@@ -102,20 +108,59 @@ class ModeFlow:
 class ArcFlow:
     """The flow of one mode from a given start ``(t0, y0)``, evaluated at any offsets ``s``."""
 
-    def __init__(self, mf: ModeFlow, t0: float, y0: np.ndarray) -> None:
+    def __init__(self, mf: ModeFlow, t0: float, y0: np.ndarray, t0_lo: float = 0.0) -> None:
         self.mf = mf
         self.t0 = t0
+        self.t0_lo = t0_lo
         self.y0 = np.array(y0, dtype=float)
+        phase = mf.w * t0 + mf.w * t0_lo  # the arc starts at t0 + t0_lo
         if mf.use_expm:
-            self.z0 = np.concatenate([self.y0, [1.0, math.cos(mf.w * t0), math.sin(mf.w * t0)]])
+            self.z0 = np.concatenate([self.y0, [1.0, math.cos(phase), math.sin(phase)]])
             return
         if mf.slip.size:
             c0 = mf.b0[mf.slip] + (mf.a_sk @ self.y0[mf.stuck] if mf.stuck.size else 0.0)
             self.p0 = mf.a_inv @ (mf.p1 - c0)
             up0 = self.p0.copy()
             if mf.forced:
-                up0 = up0 + (mf.z * np.exp(1j * mf.w * t0)).real
+                # The harmonic part is advanced from the arc start, exp(i w (t0 + s)) =
+                # exp(i w t0) exp(i w s), never from the rounded absolute time t0 + s: near
+                # resonance |z| >> F and a phase error of one ulp of t costs |z| ulp(t).
+                self.zt0 = mf.z * np.exp(1j * phase)
+                up0 = up0 + self.zt0.real
             self.coef = mf.vec_inv @ (self.y0[mf.slip] - up0)
+
+    def refine_root(self, row: np.ndarray, s: float) -> tuple[float, float, np.ndarray, int] | None:
+        """Polish a guard root ``s`` in extended precision on the augmented flow.
+
+        Newton on ``q . expm(M s) z0`` from the double root. Returns the event
+        time as ``(hi, lo)`` with ``hi + lo = t0 + t0_lo + s``, the state there
+        and the number of flow evaluations, or ``None`` if Newton is not usable
+        (tangency, or it moves far away).
+        """
+        mf = self.mf
+        m = mf.augmented_extended
+        phase = EXTENDED(mf.w) * (EXTENDED(self.t0) + EXTENDED(self.t0_lo))
+        z0 = np.concatenate([self.y0.astype(EXTENDED), np.array([1.0], dtype=EXTENDED),
+                             np.array([np.cos(phase), np.sin(phase)])])
+        q = row.astype(EXTENDED)
+        s_x = EXTENDED(s)
+        evaluations = 1
+        for _ in range(4):
+            evaluations += 1
+            z = expm_extended(m * s_x) @ z0
+            rate = q @ (m @ z)
+            if not np.isfinite(rate) or rate == 0:
+                return None
+            step = (q @ z) / rate
+            if abs(float(step)) > 1e-9 * max(1.0, abs(s)):
+                return None
+            s_x = s_x - step
+            if abs(step) <= 4 * np.finfo(EXTENDED).eps * abs(s_x):
+                break
+        z = expm_extended(m * s_x) @ z0
+        total = EXTENDED(self.t0) + EXTENDED(self.t0_lo) + s_x
+        hi = float(total)
+        return hi, float(total - EXTENDED(hi)), z[: mf.n].astype(float), evaluations
 
     def states(self, s: np.ndarray) -> np.ndarray:
         """States at offsets ``s`` (shape ``(k,)``) from the arc start: shape ``(n, k)``."""
@@ -124,7 +169,7 @@ class ArcFlow:
         if mf.use_expm:
             out = np.empty((mf.n, s.size))
             for j, sj in enumerate(s):
-                out[:, j] = (scipy.linalg.expm(mf._augmented * sj) @ self.z0)[: mf.n]
+                out[:, j] = self.y0 if sj == 0.0 else (scipy.linalg.expm(mf._augmented * sj) @ self.z0)[: mf.n]
             return out
         out = np.empty((mf.n, s.size))
         if mf.stuck.size:
@@ -133,9 +178,13 @@ class ArcFlow:
         if mf.slip.size:
             u = self.p0[:, None] + mf.p1[:, None] * s
             if mf.forced:
-                u = u + (mf.z[:, None] * np.exp(1j * mf.w * (self.t0 + s))).real
+                u = u + (self.zt0[:, None] * np.exp(1j * mf.w * s)).real
             u = u + (mf.vec @ (self.coef[:, None] * np.exp(mf.lam[:, None] * s))).real
             out[mf.slip] = u
+        # The arc starts exactly at y0: a phase that starts on its own surface must
+        # see its guard exactly zero there, not the closed form's few-ulp offset
+        # (with a rate at rounding level that offset reads as a crossing).
+        out[:, s == 0.0] = self.y0[:, None]
         return out
 
 
@@ -166,9 +215,11 @@ class ExactIntegrator(Integrator):
     def advance(self, request: ArcRequest) -> ArcResult:
         problem, mode = request.problem, request.mode
         mf = self._flow(problem, mode)
-        flow = mf.start(request.t0, request.y0)
-        t0 = request.t0
-        span = request.t_end - t0
+        t0, t0_lo = request.t0, request.t0_lo
+        flow = mf.start(t0, request.y0, t0_lo)
+        # Offsets s are measured from the exact start t0 + t0_lo; absolute times
+        # t0 + s (rounded) only feed the forcing term of the guards.
+        span = (request.t_end - t0) - t0_lo
         ds = min(self.settings["max_scan"], self.settings["scan"] / max(mf.fastest_rate, 1e-300))
         guards = request.guards
         sections = request.sections
@@ -228,20 +279,31 @@ class ExactIntegrator(Integrator):
                     v_right = float(val[j + 1]) if right == s[j + 1] else f(right)
                     if sec.crossed(float(val[j]), v_right):
                         root = float(s[j + 1]) if v_right == 0.0 else bracketed_root(f, float(s[j]), right)
-                        hits.append(SectionHit(k, t0 + root, state(root)))
+                        hits.append(SectionHit(k, t0 + (t0_lo + root), state(root)))
             if best is not None:
                 fired, s_stop = best[1], best[0]
                 break
             s_a = float(s[-1])
         hits.sort(key=lambda h: h.t)
-        t_stop = t0 + s_stop if fired is not None else request.t_end
-        y_stop = state(s_stop)
+        polished = None
+        if fired is not None:
+            polished = flow.refine_root(guard_row(problem, guards[fired]), s_stop)
+        if polished is not None:
+            t_stop, t_lo, y_stop, evaluations = polished
+            counts["nfev"] += evaluations
+        elif fired is not None:
+            t_stop, t_lo = two_sum(t0, t0_lo + s_stop)
+            y_stop = state(s_stop)
+        else:
+            t_stop, t_lo = request.t_end, 0.0
+            y_stop = state(s_stop)
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right"))
-        y_eval = flow.states(request.t_eval[:n_eval] - t0) if n_eval else np.empty((problem.n_states, 0))
+        y_eval = (flow.states((request.t_eval[:n_eval] - t0) - t0_lo) if n_eval
+                  else np.empty((problem.n_states, 0)))
         counts["nfev"] += n_eval
         return ArcResult(
             t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits,
             nfev=counts["nfev"], njev=0, nsteps=counts["nsteps"],
-            extra={"roots": counts["roots"], "expm_fallback_arcs": int(mf.use_expm)},
+            extra={"roots": counts["roots"], "expm_fallback_arcs": int(mf.use_expm)}, t_lo=t_lo,
         )
 

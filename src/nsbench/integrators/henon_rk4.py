@@ -9,6 +9,11 @@ interpolant of the guard (values and rates at the step ends), and located by
 bisection on RK4 sub-steps, as is any Henon point outside its step (near-grazing).
 Sections use the same Henon step; dense output is the cubic Hermite
 interpolant, consistent with order 4.
+
+For the friction oscillator the whole arc runs in compiled code
+(:mod:`nsbench.integrators._henon_kernel`); the Python loop below is the same
+algorithm for any other problem that implements the problem interface, and
+the reference the compiled arc is tested against.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.problems.oscillator import FrictionOscillator
 from nsbench.results import Status
 
 Field = Callable[[float, np.ndarray], np.ndarray]
@@ -71,9 +77,26 @@ class HenonRK4(Integrator):
         supports_nonlinear=True, precision="double", step_option="h",
     )
     options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
-    accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025})
+    accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025}, {"h": 0.000625})
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        self._packed = None
+        if isinstance(problem, FrictionOscillator):
+            from nsbench.problems import kernels
+
+            self._packed = (problem, kernels.pack(problem))
+            _compiled_arc(self, ArcRequest(problem, problem.modes[0], 0.0, problem.initial_state(),
+                                           self.settings["h"], problem.guards(problem.modes[0])))
 
     def advance(self, request: ArcRequest) -> ArcResult:
+        packed = getattr(self, "_packed", None)
+        if packed is not None and packed[0] is request.problem:
+            return _compiled_arc(self, request)
+        return self.advance_python(request)
+
+    def advance_python(self, request: ArcRequest) -> ArcResult:
+        """The generic (uncompiled) arc: any problem with ``rhs`` and guard objects."""
         problem, mode = request.problem, request.mode
         counts = {"nfev": 0, "henon_steps": 0, "bisections": 0}
 
@@ -239,3 +262,55 @@ class HenonRK4(Integrator):
                     if found is not None:
                         hits.append(SectionHit(k, found[0], found[1]))
             values[k] = vb
+
+
+_HIT_BUFFER = 256
+
+
+def _compiled_arc(integ: HenonRK4, request: ArcRequest) -> ArcResult:
+    """Run the arc in the compiled kernel, resuming on the same grid when the hit buffer fills."""
+    from nsbench.integrators import _henon_kernel as kernel
+    from nsbench.problems import kernels
+
+    problem = request.problem
+    p = integ._packed[1]
+    n = problem.n_states
+    mode = kernels.mode_array(request.mode)
+    kinds, blocks, signs = kernels.guard_codes(request.guards)
+    ns = len(request.sections)
+    sec_c = np.array([s.coeffs for s in request.sections], dtype=float).reshape(ns, n)
+    sec_l = np.array([s.level for s in request.sections], dtype=float)
+    sec_dir = np.array([s.direction for s in request.sections], dtype=np.int64)
+    t_eval = np.ascontiguousarray(request.t_eval, dtype=float)
+    y_eval = np.empty((n, t_eval.size))
+    h = integ.settings["h"]
+    t0, t_end = request.t0, request.t_end
+    n_total = max(1, math.ceil((t_end - t0) / h - 1e-9))
+    hit_idx = np.empty(_HIT_BUFFER, dtype=np.int64)
+    hit_t = np.empty(_HIT_BUFFER)
+    hit_y = np.empty((_HIT_BUFFER, n))
+    y_stop = np.empty(n)
+    counters = np.zeros(6, dtype=np.int64)
+    totals = np.zeros(4, dtype=np.int64)
+    hits: list[SectionHit] = []
+    t, y, step, n_done = t0, np.array(request.y0, dtype=float), 0, 0
+    while True:
+        status, t, fired, step = kernel.henon_arc(
+            p, mode, t0, step, t, y, t_end, h, n_total, kinds, blocks, signs, sec_c, sec_l, sec_dir,
+            t_eval, n_done, request.max_steps - int(totals[0]), y_eval, hit_idx, hit_t, hit_y, y_stop,
+            counters)
+        totals += counters[:4]
+        n_done = int(counters[4])
+        hits.extend(SectionHit(int(hit_idx[k]), float(hit_t[k]), hit_y[k].copy())
+                    for k in range(int(counters[5])))
+        y = y_stop.copy()
+        if status != kernel.BUFFER_FULL:
+            break
+    extra = {"henon_steps": int(totals[2]), "bisections": int(totals[3])}
+    statuses = {kernel.SUCCESS: (Status.SUCCESS, ""),
+                kernel.BUDGET: (Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"),
+                kernel.FAILURE: (Status.INTEGRATOR_FAILURE, f"non-finite state after t = {t:.6g}")}
+    code, message = statuses[status]
+    return ArcResult(t=float(t), y=y, fired=None if fired < 0 else int(fired), y_eval=y_eval[:, :n_done],
+                     section_hits=hits, nfev=int(totals[1]), njev=0, nsteps=int(totals[0]), extra=extra,
+                     status=code, message=message)

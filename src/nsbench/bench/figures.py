@@ -1,0 +1,157 @@
+"""Report figures (matplotlib, imported on first use), saved as PNG and SVG.
+
+Per problem: work-precision diagrams (max switching-time error against warm wall
+time and against ``nfev``), and the switching-time error along the trajectory of
+each integrator's tightest successful configuration. A problem without a
+reference gets a cost-only figure instead.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+#: Errors below this are drawn at it (log axes cannot show 0; ``exact`` against itself is 0).
+ERROR_FLOOR = 1e-16
+_MARKERS = "osD^v<>pPX*hd"
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One saved figure: a stable ``name`` (file stem), title, caption and file paths."""
+
+    name: str
+    title: str
+    caption: str
+    png: Path
+    svg: Path
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.=-]+", "_", text).strip("_")
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _styles(names: list[str]) -> dict[str, dict]:
+    plt = _pyplot()
+    cmap = plt.get_cmap("tab20" if len(names) > 10 else "tab10")
+    return {n: {"color": cmap(i % cmap.N), "marker": _MARKERS[i % len(_MARKERS)]}
+            for i, n in enumerate(sorted(names))}
+
+
+def _save(fig, out: Path, name: str, title: str, caption: str) -> Figure:
+    out.mkdir(parents=True, exist_ok=True)
+    png, svg = out / f"{name}.png", out / f"{name}.svg"
+    fig.savefig(png, dpi=110, bbox_inches="tight")
+    fig.savefig(svg, bbox_inches="tight")
+    _pyplot().close(fig)
+    return Figure(name, title, caption, png, svg)
+
+
+def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out: Path) -> Figure:
+    """Max switching-time error against ``cost`` (``'wall_time'`` or ``'nfev'``), one line per integrator."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    for name, rows in group.groupby("integrator", sort=True):
+        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna()].sort_values("level")
+        if rows.empty:
+            continue
+        x = rows[cost].astype(float).to_numpy()
+        y = np.maximum(rows["switch_err_max"].to_numpy(dtype=float), ERROR_FLOOR)
+        good = (rows["sequence_ok"].fillna(False).to_numpy(dtype=bool)
+                & (rows["status"] == "success").to_numpy())
+        st = styles[name]
+        ax.plot(x, y, "-", color=st["color"], lw=1.0, alpha=0.7)
+        ax.plot(x[good], y[good], st["marker"], color=st["color"], ms=6, ls="none", label=name)
+        ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("warm wall time (s)" if cost == "wall_time" else "right-hand-side evaluations (nfev)")
+    ax.set_ylabel("max switching-time error")
+    ax.set_title(f"{label}: error vs {'time' if cost == 'wall_time' else 'nfev'}")
+    ax.grid(True, which="major", alpha=0.3)
+    if ax.lines:
+        ax.legend(fontsize=7, loc="best", ncol=2)
+    kind = "time" if cost == "wall_time" else "nfev"
+    caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
+               f"{'warm median wall time' if kind == 'time' else 'nfev'}; one point per configuration. "
+               f"Hollow markers: wrong event sequence or unsuccessful run. Errors below "
+               f"{ERROR_FLOOR:g} are drawn at {ERROR_FLOOR:g}.")
+    return _save(fig, out, f"wp_{kind}_{slug(label)}", f"{label}: error vs {kind}", caption)
+
+
+def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figure:
+    """|t - t_ref| against t_ref for each integrator's tightest successful configuration."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.2, 4.4))
+    for name, rows in group.groupby("integrator", sort=True):
+        ok = rows[(rows["status"] == "success") & rows["event_t"].map(len).gt(0)]
+        if ok.empty:
+            continue
+        best = ok.sort_values("level").iloc[-1]
+        t = np.asarray(best["event_t"], dtype=float)
+        err = np.maximum(np.abs(np.asarray(best["event_err"], dtype=float)), ERROR_FLOOR)
+        st = styles[name]
+        ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5,
+                label=f"{name} (level {int(best['level'])})")
+    ax.set_yscale("log")
+    ax.set_xlabel("reference switching time")
+    ax.set_ylabel("|switching-time error|")
+    ax.set_title(f"{label}: switching-time error along the trajectory")
+    ax.grid(True, alpha=0.3)
+    if ax.lines:
+        ax.legend(fontsize=7, loc="best", ncol=2)
+    caption = (f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
+               f"successful configuration of each integrator (the line stops where its event sequence "
+               f"departs from the reference).")
+    return _save(fig, out, f"event_err_{slug(label)}", f"{label}: error along the trajectory", caption)
+
+
+def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figure:
+    """Wall time per configuration, for a problem that has no reference."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for name, rows in group.groupby("integrator", sort=True):
+        rows = rows[rows["wall_time"].notna()].sort_values("level")
+        if rows.empty:
+            continue
+        st = styles[name]
+        ax.plot(rows["level"].astype(int), rows["wall_time"], "-", marker=st["marker"],
+                color=st["color"], label=name)
+    ax.set_yscale("log")
+    ax.set_xlabel("configuration (loose to tight)")
+    ax.set_ylabel("warm wall time (s)")
+    ax.set_title(f"{label}: cost only (no reference available)")
+    ax.grid(True, alpha=0.3)
+    if ax.lines:
+        ax.legend(fontsize=7, ncol=2)
+    reason = str(group["reference_status"].iloc[0])
+    caption = f"Cost of each configuration on {label}; accuracy is not measured: {reason}."
+    return _save(fig, out, f"cost_{slug(label)}", f"{label}: cost only", caption)
+
+
+def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
+    """Every figure of a report, in report order, saved under ``out``."""
+    out = Path(out)
+    styles = _styles(sorted(frame["integrator"].unique()))
+    figures: list[Figure] = []
+    for label, group in frame.groupby("problem_label", sort=True):
+        if (group["reference_status"] == "ok").any():
+            figures.append(work_precision(group, label, "wall_time", styles, out))
+            figures.append(work_precision(group, label, "nfev", styles, out))
+            figures.append(event_error_along(group, label, styles, out))
+        else:
+            figures.append(cost_only(group, label, styles, out))
+    return figures

@@ -1,0 +1,138 @@
+"""References: the run every case of a problem is compared with, computed once and cached.
+
+The reference of a problem is the first integrator of the suite's ``reference``
+list that is registered and accepts the problem (``exact`` for linear problems,
+the high-precision ``reference`` for cubic ones when it is registered). It is
+cached on disk under ``OUT/references/``, keyed by the problem config, the
+configs of the registered candidates, the span and the dense grid, so a resumed
+run never recomputes it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from nsbench.bench.suite import stable_key
+from nsbench.errors import UnsupportedProblemError
+
+
+@dataclass
+class Reference:
+    """A reference run (or why there is none): events, dense states and final state."""
+
+    key: str
+    name: str | None
+    config: dict[str, Any] | None
+    status: str  # "ok" or the reason there is no usable reference
+    events: pd.DataFrame
+    t_dense: np.ndarray
+    y_dense: np.ndarray  # (n_states, k)
+    y_final: np.ndarray
+    wall_time: float = math.nan
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def candidates(names: tuple[str, ...] | list[str]) -> list[dict[str, Any]]:
+    """Default configs of the registered reference candidates, in order."""
+    from nsbench.errors import PluginLoadError
+    from nsbench.integrators import get_integrator, list_integrators
+
+    registered = set(list_integrators())
+    out = []
+    for name in names:
+        if name in registered:
+            try:
+                out.append(get_integrator(name).config())
+            except PluginLoadError:  # an uninstallable plug-in is no reference, not a crash
+                continue
+    return out
+
+
+def reference_key(problem: dict[str, Any], cands: list[dict[str, Any]], t0: float, t_end: float,
+                  dense_points: int) -> str:
+    from nsbench import __version__
+
+    return stable_key({"problem": problem, "candidates": cands, "t": [t0, t_end],
+                       "dense": dense_points, "nsbench": __version__})
+
+
+def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]], t0: float,
+                      t_end: float, dense_points: int) -> Reference:
+    """Run the first candidate that accepts the problem (worker-side; no caching here)."""
+    from nsbench.engine import simulate
+    from nsbench.integrators import integrator_from_config
+    from nsbench.problems import problem_from_config
+
+    key = reference_key(problem_config, cands, t0, t_end, dense_points)
+    problem = problem_from_config(problem_config)
+    grid = np.linspace(t0, t_end, dense_points)
+    empty = pd.DataFrame(columns=["t", "kind", "block"])
+    refused = []
+    for config in cands:
+        try:
+            res = simulate(problem, integrator_from_config(config), t_end, t0=t0, t_eval=grid,
+                           max_steps=10**9)
+        except UnsupportedProblemError:
+            refused.append(config["name"])
+            continue
+        except Exception as exc:  # a broken reference must not end the suite
+            status = f"reference {config['name']} raised {type(exc).__name__}: {exc}"
+            return Reference(key, config["name"], config, status, empty, grid,
+                             np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan))
+        if not res.ok:
+            status = f"reference {config['name']} failed: {res.status.value}: {res.message}"
+            return Reference(key, config["name"], config, status, res.events, grid,
+                             np.empty((problem.n_states, 0)), res.y_final, res.wall_time)
+        dense = res.trajectory[list(problem.state_names)].to_numpy().T
+        return Reference(key, config["name"], config, "ok", res.events, grid, dense,
+                         res.y_final, res.wall_time + res.setup_time)
+    if refused:
+        reason = "no reference available: " + ", ".join(f"{n} refused the problem" for n in refused)
+    else:
+        reason = "no reference available: no candidate is registered"
+    return Reference(key, None, None, reason, empty, grid, np.empty((problem.n_states, 0)),
+                     np.full(problem.n_states, np.nan))
+
+
+def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
+    return (directory / f"{key}.json", directory / f"{key}.events.parquet",
+            directory / f"{key}.dense.npy")
+
+
+def save_reference(directory: str | Path, ref: Reference) -> None:
+    """Write ``ref`` to the cache; the JSON file is written last, so it marks completion."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    meta, events, dense = _paths(d, ref.key)
+    ref.events.to_parquet(events, index=False)
+    with open(dense, "wb") as fh:
+        np.save(fh, np.vstack([ref.t_dense[None, :], ref.y_dense]) if ref.y_dense.size
+                else ref.t_dense[None, :])
+    data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
+            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time}
+    tmp = meta.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, meta)
+
+
+def load_reference(directory: str | Path, key: str) -> Reference | None:
+    """The cached reference ``key``, or ``None`` if it is not (completely) cached."""
+    meta, events, dense = _paths(Path(directory), key)
+    if not meta.exists():
+        return None
+    data = json.loads(meta.read_text())
+    table = np.load(dense)
+    t_dense, y_dense = table[0], table[1:]
+    return Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
+                     t_dense, y_dense, np.array(data["y_final"], dtype=float), data["wall_time"])

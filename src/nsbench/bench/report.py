@@ -1,0 +1,160 @@
+"""``nsbench report DIR``: report.md, a self-contained index.html (figures embedded as
+base64 PNG), table.tex for papers, and the figures as PNG and SVG under ``figures/``."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from nsbench.bench import storage
+from nsbench.bench.figures import Figure, report_figures
+from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, ranking
+
+_RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "setup_time",
+                   "nfev", "n_events", "n_missed", "n_extra", "switch_err_max", "switch_digits",
+                   "state_err_l2"]
+
+
+@dataclass
+class Report:
+    """Paths of what :func:`write_report` wrote, and the tables it computed."""
+
+    markdown: Path
+    html: Path
+    latex: Path
+    figures: list[Figure]
+    fixed_target: pd.DataFrame
+    ranking: pd.DataFrame
+
+
+def _fmt(value) -> str:
+    if value is None or value is pd.NA or (isinstance(value, float) and value != value):
+        return ""
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return str(value)
+
+
+def markdown_table(frame: pd.DataFrame) -> str:
+    """A GitHub-flavoured Markdown table (no optional dependency)."""
+    cols = list(frame.columns)
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for row in frame.itertuples(index=False):
+        lines.append("| " + " | ".join(_fmt(v).replace("|", "\\|") for v in row) + " |")
+    return "\n".join(lines)
+
+
+def _tex_escape(text: str) -> str:
+    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
+                 ("#", r"\#"), ("{", r"\{"), ("}", r"\}"), ("$", r"\$")):
+        text = text.replace(a, b) if a != "\\" else text.replace(a, "\x00")
+    return text.replace("\x00", r"\textbackslash{}")
+
+
+def latex_table(frame: pd.DataFrame, caption: str, label: str) -> str:
+    """A booktabs ``table`` environment."""
+    cols = list(frame.columns)
+    lines = [r"\begin{table}[htbp]", r"\centering", r"\small",
+             r"\begin{tabular}{" + "l" * 2 + "r" * (len(cols) - 2) + "}", r"\toprule",
+             " & ".join(_tex_escape(str(c)) for c in cols) + r" \\", r"\midrule"]
+    for row in frame.itertuples(index=False):
+        lines.append(" & ".join(_tex_escape(_fmt(v)) for v in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}", rf"\caption{{{_tex_escape(caption)}}}",
+              rf"\label{{{label}}}", r"\end{table}"]
+    return "\n".join(lines)
+
+
+def _status_counts(frame: pd.DataFrame) -> pd.DataFrame:
+    counts = frame.groupby("status").size().rename("cases").reset_index()
+    return counts.sort_values("cases", ascending=False)
+
+
+def _problems_text(frame: pd.DataFrame, prov: dict) -> list[str]:
+    suite = prov.get("suite", {})
+    span = suite.get("t_span", [frame["t0"].min(), frame["t_end"].max()])
+    lines = [f"Suite `{suite.get('name', frame['suite'].iloc[0])}`: {len(frame)} cases, "
+             f"{frame['problem_label'].nunique()} problems, {frame['integrator'].nunique()} integrators, "
+             f"time span [{span[0]:g}, {span[1]:g}]."]
+    for label, group in frame.groupby("problem_label"):
+        ref = group["reference"].iloc[0] or "none"
+        status = group["reference_status"].iloc[0]
+        lines.append(f"- `{label}`: reference `{ref}`" + ("" if status == "ok" else f" ({status})"))
+    return lines
+
+
+def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
+    """Write the report of the results stored in ``directory`` (or of ``results``) into it."""
+    d = Path(directory)
+    frame = storage.load_results(d) if results is None else results
+    prov = storage.read_provenance(d)
+    targets = tuple(prov.get("suite", {}).get("targets", DEFAULT_TARGETS))
+    long = fixed_target(frame, targets)
+    wide = fixed_target_wide(long)
+    rank = ranking(long)
+    figures = report_figures(frame, d / "figures")
+    results_view = frame[_RESULT_COLUMNS].rename(columns={"problem_label": "problem"})
+    failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status",
+                                                     "message"]]
+    ft_caption = ("Fixed-target cost: for each switching-time error target, the cheapest configuration "
+                  "of each integrator that reaches it (warm wall time / nfev); '-' not reached "
+                  "(a wrong event sequence never counts), 'no ref' no reference for that problem, "
+                  "'unsupported' the integrator refuses the problem, 'ref' the problem's reference itself "
+                  "(its cost; its error is 0 by construction).")
+    rank_caption = ("Ranking by time to reach each (problem, target); an integrator that does not reach "
+                    "a target is ranked last there. geo_mean_time is over the targets it reached; problems "
+                    "an integrator refuses or is the reference of are left out.")
+
+    md = ["# nsbench report", "", *_problems_text(frame, prov), "", "## Fixed-target table", "",
+          ft_caption, "", markdown_table(wide), "", "## Ranking", "", rank_caption, "",
+          markdown_table(rank), "", "## Figures", ""]
+    for fig in figures:
+        md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
+    md += ["## Statuses", "", markdown_table(_status_counts(frame)), ""]
+    if len(failures):
+        md += ["Cases that did not succeed:", "", markdown_table(failures), ""]
+    md += ["## All cases", "", markdown_table(results_view), "", "## Provenance", ""]
+    md += [f"- {k}: `{json.dumps(v, default=str)}`" for k, v in prov.items()]
+    (d / "report.md").write_text("\n".join(md) + "\n")
+
+    tex = [f"% nsbench report tables; provenance: {json.dumps({k: v for k, v in prov.items() if k != 'suite'}, default=str)}",
+           latex_table(wide, ft_caption, "tab:nsbench-fixed-target"), "",
+           latex_table(rank, rank_caption, "tab:nsbench-ranking"), ""]
+    (d / "table.tex").write_text("\n".join(tex))
+
+    (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
+                                        ft_caption, rank_caption))
+    return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
+
+
+def _html_table(frame: pd.DataFrame) -> str:
+    return frame.map(_fmt).to_html(index=False, border=0, classes="tbl", escape=True)
+
+
+def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption) -> str:
+    esc = html.escape
+    parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
+             "<title>nsbench report</title><style>",
+             "body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}"
+             ".tbl{border-collapse:collapse;font-size:13px}.tbl td,.tbl th{padding:2px 8px;"
+             "border-bottom:1px solid #ddd;text-align:right}figure{margin:1.5em 0}"
+             "figcaption{font-size:13px;color:#444}img{max-width:100%}pre{background:#f6f6f6;padding:1em}",
+             "</style></head><body>", "<h1>nsbench report</h1>"]
+    text = _problems_text(frame, prov)
+    parts.append(f"<p>{esc(text[0])}</p><ul>" + "".join(f"<li>{esc(t[2:])}</li>" for t in text[1:]) + "</ul>")
+    parts += ["<h2>Fixed-target table</h2>", f"<p>{esc(ft_caption)}</p>", _html_table(wide),
+              "<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank), "<h2>Figures</h2>"]
+    for fig in figures:
+        data = base64.b64encode(fig.png.read_bytes()).decode()
+        parts.append(f"<figure id='{esc(fig.name)}'><img alt='{esc(fig.title)}' "
+                     f"src='data:image/png;base64,{data}'><figcaption>{esc(fig.caption)}</figcaption></figure>")
+    parts += ["<h2>Statuses</h2>", _html_table(_status_counts(frame))]
+    if len(failures):
+        parts += ["<p>Cases that did not succeed:</p>", _html_table(failures)]
+    parts += ["<h2>All cases</h2>", _html_table(results_view), "<h2>Provenance</h2>",
+              f"<pre>{esc(json.dumps(prov, indent=1, default=str))}</pre>", "</body></html>"]
+    return "\n".join(parts)

@@ -1,0 +1,72 @@
+"""The tidy schema: one row per case, these columns, in this order.
+
+Config columns hold JSON text (the dicts that rebuild the problem and the
+integrator); list columns hold one value per event of the matched prefix.
+Statuses are the engine's (``success``, ``step budget exhausted``, ``event storm
+(Zeno)``, ``integrator failure``) plus the runner's (``unsupported``, ``time
+limit``, ``error``, ``crashed``).
+"""
+
+from __future__ import annotations
+
+#: ``(column, meaning)`` for every column of a result row.
+COLUMNS: tuple[tuple[str, str], ...] = (
+    ("case_id", "stable id of (problem, integrator config, span, dense grid, step budget)"),
+    ("suite", "suite name"),
+    ("problem", "registered problem name"),
+    ("case", "problem preset 1..4"),
+    ("problem_label", "readable problem label, e.g. 'two-dof/2' or 'two-dof/2 v0=0.1'"),
+    ("problem_config", "JSON: the dict that rebuilds the problem (nsbench.problem_from_config)"),
+    ("integrator", "registered integrator name"),
+    ("integrator_config", "JSON: the dict that rebuilds the integrator (nsbench.integrator_from_config)"),
+    ("options", "JSON: the options the suite set (the rest are defaults)"),
+    ("level", "index of the option set, loose to tight"),
+    ("step_option", "name of the integrator's step/tolerance option (capabilities.step_option)"),
+    ("step_value", "value of that option in this case"),
+    ("t0", "start of the time span"),
+    ("t_end", "end of the time span"),
+    ("status", "how the case ended"),
+    ("message", "why, when not success"),
+    ("t_final", "where the run stopped"),
+    ("nfev", "right-hand-side evaluations (one per state)"),
+    ("njev", "Jacobian evaluations"),
+    ("nsteps", "steps or segments"),
+    ("n_events", "events logged by the run"),
+    ("counters_extra", "JSON: integrator-specific counters"),
+    ("wall_time", "seconds integrating: median of the warm repeats (the single run if timed once)"),
+    ("wall_times", "list: wall time of every run, cold first"),
+    ("n_repeats", "number of timed runs"),
+    ("setup_time", "seconds in the integrator's setup on the first (cold) run: compilation, operators"),
+    ("reference", "name of the reference integrator, empty if none"),
+    ("reference_config", "JSON: its config"),
+    ("reference_status", "'ok', or why there is no usable reference"),
+    ("n_ref", "events in the reference"),
+    ("n_prefix", "length of the matched prefix of the (kind, block) sequence"),
+    ("n_matched", "events matched by the best alignment (longest common subsequence)"),
+    ("n_missed", "reference events the run does not have"),
+    ("n_extra", "events of the run the reference does not have"),
+    ("first_divergence_index", "first index where the sequences differ, -1 if identical"),
+    ("first_divergence_time", "reference time of that event, NaN if identical"),
+    ("sequence_ok", "the (kind, block) sequences are identical"),
+    ("switch_err_max", "max |t - t_ref| over the matched prefix"),
+    ("switch_err_rms", "RMS |t - t_ref| over the matched prefix"),
+    ("switch_err_median", "median |t - t_ref| over the matched prefix"),
+    ("switch_digits", "significant correct digits of the worst switching time, -log10 max |dt|/|t_ref|"),
+    ("final_state_err", "max-norm of the state error at t_end (NaN unless success)"),
+    ("state_err_l2", "RMS over the dense points of the Euclidean state error (NaN unless success)"),
+    ("event_t", "list: reference times of the matched prefix"),
+    ("event_err", "list: signed switching-time errors t - t_ref of the matched prefix"),
+    ("timestamp", "UTC time the case finished"),
+)
+
+COLUMN_NAMES: tuple[str, ...] = tuple(name for name, _ in COLUMNS)
+LIST_COLUMNS = ("wall_times", "event_t", "event_err")
+JSON_COLUMNS = ("problem_config", "integrator_config", "options", "counters_extra", "reference_config")
+RUNNER_STATUSES = ("unsupported", "time limit", "error", "crashed")
+
+
+def markdown_table() -> str:
+    """The column list as a Markdown table (for docs and reports)."""
+    rows = ["| column | meaning |", "|---|---|"]
+    rows += [f"| `{name}` | {meaning} |" for name, meaning in COLUMNS]
+    return "\n".join(rows)

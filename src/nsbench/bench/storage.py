@@ -1,0 +1,152 @@
+"""Result storage: one Parquet file per finished case (append-only), a consolidated
+Parquet file and a CSV export, every file carrying its provenance.
+
+Layout of an output directory::
+
+    cases/<case_id>.parquet     one row each, written atomically when the case ends
+    references/                 cached reference runs (see nsbench.bench.reference)
+    results.parquet             all rows (rewritten by the runner, report and ingest)
+    results.csv                 the same, '#' comment lines of provenance first
+    provenance.json             the provenance of the latest run into this directory
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any, Iterable
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
+from nsbench.errors import ConfigError
+
+PROVENANCE_KEY = b"nsbench.provenance"
+_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
+        "n_matched", "n_missed", "n_extra", "first_divergence_index")
+_FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "setup_time", "first_divergence_time",
+          "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
+          "final_state_err", "state_err_l2")
+_BOOL = ("sequence_ok",)
+
+
+def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
+    """Rows as a frame with the schema's columns and dtypes (extra keys are dropped)."""
+    frame = pd.DataFrame(list(rows))
+    for name in COLUMN_NAMES:
+        if name not in frame:
+            frame[name] = None
+    frame = frame[list(COLUMN_NAMES)].copy()
+    for name in _INT:
+        frame[name] = pd.to_numeric(frame[name], errors="coerce").astype("Int64")
+    for name in _FLOAT:
+        frame[name] = pd.to_numeric(frame[name], errors="coerce").astype("float64")
+    for name in _BOOL:
+        frame[name] = frame[name].astype("boolean")
+    for name in LIST_COLUMNS:
+        frame[name] = frame[name].apply(lambda v: [float(x) for x in v] if isinstance(v, (list, tuple)) or
+                                        hasattr(v, "tolist") else [])
+    for name in COLUMN_NAMES:
+        if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS:
+            frame[name] = frame[name].map(lambda v: "" if v is None else str(v)).astype("string")
+    return frame
+
+
+def _table(frame: pd.DataFrame, provenance: dict[str, Any]) -> pa.Table:
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[PROVENANCE_KEY] = json.dumps(provenance, default=str).encode()
+    return table.replace_schema_metadata(meta)
+
+
+def _write_atomic(table: pa.Table, path: Path) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)  # a reader never sees a half-written file
+
+
+def append_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) -> Path:
+    """Store one finished case as ``cases/<case_id>.parquet``."""
+    cases = Path(out) / "cases"
+    cases.mkdir(parents=True, exist_ok=True)
+    path = cases / f"{row['case_id']}.parquet"
+    _write_atomic(_table(to_frame([row]), provenance), path)
+    return path
+
+
+def done_ids(out: str | Path) -> set[str]:
+    """Ids of the cases already stored in ``out`` (what a resumed run skips)."""
+    cases = Path(out) / "cases"
+    return {p.name[: -len(".parquet")] for p in cases.glob("*.parquet")} if cases.is_dir() else set()
+
+
+def read_provenance(path: str | Path) -> dict[str, Any]:
+    """The provenance stored in a Parquet file, a CSV export, or an output directory."""
+    p = Path(path)
+    if p.is_dir():
+        prov = p / "provenance.json"
+        return json.loads(prov.read_text()) if prov.exists() else {}
+    if p.suffix == ".csv":
+        out = {}
+        with open(p) as fh:
+            for line in fh:
+                if not line.startswith("# "):
+                    break
+                key, _, value = line[2:].rstrip("\n").partition(": ")
+                out[key] = json.loads(value)
+        return out
+    meta = pq.read_schema(p).metadata or {}
+    return json.loads(meta[PROVENANCE_KEY]) if PROVENANCE_KEY in meta else {}
+
+
+def load_results(path: str | Path) -> pd.DataFrame:
+    """Every row stored in an output directory, a results Parquet file, or a CSV export."""
+    p = Path(path)
+    if p.is_dir():
+        files = sorted((p / "cases").glob("*.parquet")) if (p / "cases").is_dir() else []
+        if files:
+            frame = to_frame(row for f in files for row in pd.read_parquet(f).to_dict("records"))
+            return frame.sort_values(["problem_label", "integrator", "level"], kind="stable",
+                                     ignore_index=True)
+        if (p / "results.parquet").exists():
+            return load_results(p / "results.parquet")
+        raise ConfigError(f"{str(path)!r} holds no results (no cases/*.parquet or results.parquet)")
+    if not p.exists():
+        raise ConfigError(f"results {str(path)!r} do not exist")
+    if p.suffix == ".csv":
+        frame = pd.read_csv(p, comment="#")
+        for name in LIST_COLUMNS:
+            frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
+        return to_frame(frame.to_dict("records"))
+    if p.suffix == ".parquet":
+        return to_frame(pd.read_parquet(p).to_dict("records"))
+    raise ConfigError(f"cannot read results from {str(path)!r}: expected a directory, .parquet or .csv")
+
+
+def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:
+    """Write ``results.parquet``, ``results.csv`` and ``provenance.json`` from the stored cases."""
+    o = Path(out)
+    frame = load_results(o)
+    prov = provenance if provenance is not None else read_provenance(o)
+    _write_atomic(_table(frame, prov), o / "results.parquet")
+    csv = frame.copy()
+    for name in LIST_COLUMNS:
+        csv[name] = csv[name].map(json.dumps)
+    tmp = o / "results.csv.tmp"
+    with open(tmp, "w") as fh:
+        for key, value in prov.items():
+            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
+        csv.to_csv(fh, index=False, float_format="%.17g")
+    os.replace(tmp, o / "results.csv")
+    (o / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
+    return frame
+
+
+def json_column(frame: pd.DataFrame, name: str) -> pd.Series:
+    """Decode a JSON config column (see :data:`nsbench.bench.schema.JSON_COLUMNS`)."""
+    if name not in JSON_COLUMNS:
+        raise ConfigError(f"{name!r} is not a JSON column; JSON columns: {', '.join(JSON_COLUMNS)}")
+    return frame[name].map(lambda s: json.loads(s) if s else None)

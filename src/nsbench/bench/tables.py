@@ -1,0 +1,113 @@
+"""Summary tables of a result frame: the fixed-target table (COCO style) and a ranking.
+
+The fixed-target table answers, per problem and integrator: what is the cheapest
+configuration (by warm wall time) that reaches a switching-time error target, and
+what does it cost (time and ``nfev``)? A run with a wrong event sequence never
+reaches a target (:func:`nsbench.bench.metrics.reaches`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from nsbench.bench.metrics import reaches
+
+DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
+
+
+def reached_mask(frame: pd.DataFrame, target: float) -> pd.Series:
+    """Which rows reach ``target`` (success, exact event sequence, max error <= target)."""
+    return pd.Series([
+        reaches(target, status=str(s), sequence_ok=bool(ok) if ok is not pd.NA else False,
+                err_max=float(e) if pd.notna(e) else math.nan)
+        for s, ok, e in zip(frame["status"], frame["sequence_ok"], frame["switch_err_max"])
+    ], index=frame.index, dtype=bool)
+
+
+def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
+    """Long table: one row per (problem, integrator, target).
+
+    Columns: ``problem_label, integrator, target, outcome`` (``reached``, ``not
+    reached``, ``no reference``, ``unsupported``, or ``reference`` for the
+    problem's reference itself), and for reached targets the cheapest case's
+    ``wall_time, nfev, options, level, case_id``.
+    """
+    rows = []
+    for (label, name), group in frame.groupby(["problem_label", "integrator"], sort=True):
+        has_ref = bool((group["reference_status"] == "ok").any())
+        for target in targets:
+            row = {"problem_label": label, "integrator": name, "target": float(target),
+                   "outcome": "no reference", "wall_time": math.nan, "nfev": pd.NA,
+                   "options": "", "level": pd.NA, "case_id": ""}
+            if (group["status"] == "unsupported").all():
+                row["outcome"] = "unsupported"
+            elif has_ref and (group["reference"] == name).all():
+                # the reference against itself: its cost is informative, its error is 0 by construction
+                best = group.loc[group["wall_time"].idxmin()] if group["wall_time"].notna().any() else None
+                row["outcome"] = "reference"
+                if best is not None:
+                    row.update(wall_time=float(best["wall_time"]), nfev=best["nfev"],
+                               options=best["options"], level=best["level"], case_id=best["case_id"])
+            elif has_ref:
+                ok = group[reached_mask(group, target)]
+                if len(ok):
+                    best = ok.loc[ok["wall_time"].idxmin()]
+                    row.update(outcome="reached", wall_time=float(best["wall_time"]), nfev=best["nfev"],
+                               options=best["options"], level=best["level"], case_id=best["case_id"])
+                else:
+                    row["outcome"] = "not reached"
+            rows.append(row)
+    return pd.DataFrame(rows, columns=["problem_label", "integrator", "target", "outcome", "wall_time",
+                                       "nfev", "options", "level", "case_id"])
+
+
+def _cell(row: pd.Series) -> str:
+    if row["outcome"] == "reached":
+        return f"{row['wall_time']:.3g} s / {int(row['nfev'])}"
+    if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
+        return f"ref ({row['wall_time']:.3g} s / {int(row['nfev'])})"
+    return {"no reference": "no ref", "unsupported": "unsupported"}.get(row["outcome"], "-")
+
+
+def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
+    """Display form: rows (problem, integrator), one column per target, cells ``'time s / nfev'``."""
+    if long.empty:
+        return pd.DataFrame(columns=["problem", "integrator"])
+    cells = long.assign(cell=long.apply(_cell, axis=1), col=long["target"].map(lambda t: f"{t:.0e}"))
+    wide = cells.pivot_table(index=["problem_label", "integrator"], columns="col", values="cell",
+                             aggfunc="first", sort=False)
+    order = [f"{t:.0e}" for t in sorted(long["target"].unique(), reverse=True)]
+    wide = wide[order].reset_index().rename(columns={"problem_label": "problem"})
+    wide.columns.name = None
+    return wide
+
+
+def ranking(long: pd.DataFrame) -> pd.DataFrame:
+    """Rank integrators by time to reach each (problem, target) that has a reference.
+
+    In each (problem, target) the integrators that reach it are ranked by wall
+    time (1 = fastest, ties share the lower rank); those that do not are ranked
+    last (the number of integrators in that group). The table gives the mean rank, the targets
+    reached out of those attempted, and the geometric mean time over reached ones.
+    """
+    scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference"])]
+    if scored.empty:
+        return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted",
+                                     "geo_mean_time"])
+    ranks = []
+    for _, group in scored.groupby(["problem_label", "target"]):
+        t = group["wall_time"].where(group["outcome"] == "reached", np.inf)
+        r = t.rank(method="min").where(np.isfinite(t), float(len(group)))
+        ranks.append(pd.DataFrame({"integrator": group["integrator"], "r": r,
+                                   "hit": group["outcome"] == "reached", "t": group["wall_time"]}))
+    all_ranks = pd.concat(ranks)
+    table = all_ranks.groupby("integrator").agg(
+        mean_rank=("r", "mean"), reached=("hit", "sum"), attempted=("hit", "size"),
+        geo_mean_time=("t", lambda s: float(np.exp(np.log(s.dropna()).mean())) if s.notna().any() else math.nan),
+    ).reset_index()
+    table = table.sort_values(["mean_rank", "reached"], ascending=[True, False], kind="stable")
+    table.insert(0, "rank", range(1, len(table) + 1))
+    return table.reset_index(drop=True)

@@ -1,0 +1,43 @@
+"""``nsbench bench SUITE.toml --out DIR``: run a suite across all cores, then write its report."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("bench", help="run a benchmark suite (TOML) into an output directory")
+    p.add_argument("suite", metavar="SUITE.toml", help="suite file, or 'default' for the packaged suite")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores; 1: in-process)")
+    p.add_argument("--fresh", action="store_true",
+                   help="discard the cases already stored in DIR (default: resume, computing only missing cases)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-report", action="store_true", help="do not write the report afterwards")
+    p.set_defaults(handler=main)
+
+
+def run_and_report(suite, out: str, workers: int | None, resume: bool, progress: bool, report: bool) -> int:
+    """Shared by ``bench`` and ``run``: run, print a summary, write the report."""
+    from nsbench.bench import load_suite, run_suite
+    from nsbench.errors import ConfigError
+
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers = {workers} must be >= 1")
+    suite = load_suite(suite)
+    summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress)
+    counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
+    print(f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "
+          + ", ".join(f"{k}: {v}" for k, v in counts.items()))
+    print(f"results -> {summary.out / 'results.parquet'} (and results.csv)")
+    if report and len(summary.results):
+        from nsbench.bench.report import write_report
+
+        rep = write_report(summary.out, summary.results)
+        print(f"report  -> {rep.html} (and report.md, table.tex, figures/)")
+    return 0
+
+
+def main(args: argparse.Namespace) -> int:
+    return run_and_report(args.suite, args.out, args.workers, not args.fresh, not args.no_progress,
+                          not args.no_report)

@@ -1,0 +1,43 @@
+"""``nsbench check INTEGRATOR``: run the conformance kit on one integrator and print a pass/fail table."""
+
+from __future__ import annotations
+
+import argparse
+
+from nsbench.cli._common import parse_assignment, parse_value
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("check", help="run the conformance kit on a registered integrator")
+    p.add_argument("integrator", metavar="INTEGRATOR", help="registered integrator (built-in or plug-in)")
+    p.add_argument("--check", action="append", default=None, metavar="NAME",
+                   help="run only this check (repeatable); default: all")
+    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                   help="integrator option (repeatable)")
+    p.set_defaults(handler=main)
+
+
+def _one_line(text: str, width: int = 100) -> str:
+    line = text.strip().splitlines()[0] if text.strip() else ""
+    return line if len(line) <= width else line[: width - 3] + "..."
+
+
+def main(args: argparse.Namespace) -> int:
+    from nsbench.integrators import get_integrator
+    from nsbench.testing import check_integrator
+
+    options = {}
+    for text in args.option:
+        key, value = parse_assignment(text, "--option")
+        options[key] = parse_value(value)
+    integ = get_integrator(args.integrator, **options)
+    print(f"conformance of {integ.name} {integ.settings}")
+    results = check_integrator(integ, args.check)
+    width = max(len(r.check) for r in results)
+    print(f"  {'check':<{width}}  {'status':<7}  {'seconds':>7}  note")
+    for r in results:
+        note = "" if r.status == "passed" else _one_line(r.message)
+        print(f"  {r.check:<{width}}  {r.status.upper():<7}  {r.seconds:7.2f}  {note}".rstrip())
+    counts = {s: sum(r.status == s for r in results) for s in ("passed", "failed", "skipped", "xfail", "xpass")}
+    print(f"{len(results)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.items() if n))
+    return 1 if counts["failed"] else 0

@@ -1,0 +1,36 @@
+"""``nsbench compare A B``: per-case time and error ratios; flags only changes beyond a
+factor that the repeats say are not noise. Exit status 1 if anything is flagged."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("compare", help="compare two result directories (or Parquet/CSV files)")
+    p.add_argument("a", metavar="A", help="baseline results")
+    p.add_argument("b", metavar="B", help="new results")
+    p.add_argument("--factor", type=float, default=1.5,
+                   help="smallest ratio that counts as a change (default 1.5)")
+    p.add_argument("--all", action="store_true", help="list every common case, not only the changes")
+    p.add_argument("--out", default=None, metavar="FILE.csv", help="write the full comparison table")
+    p.set_defaults(handler=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from nsbench.bench.compare import compare
+    from nsbench.bench.report import markdown_table
+
+    table, counts = compare(args.a, args.b, args.factor)
+    print(f"{counts['common']} common cases ({counts['only_a']} only in A, {counts['only_b']} only in B); "
+          f"factor {args.factor:g}; {counts['flagged']} flagged")
+    changed = table["flagged"] | ~table["time_verdict"].isin(["same", "n/a"]) | ~table["err_verdict"].isin(["same", "n/a"])
+    view = table if args.all else table[changed]
+    if len(view):
+        cols = ["problem", "integrator", "options", "time_ratio", "time_verdict", "err_ratio", "err_verdict",
+                "status_b", "flags"]
+        print(markdown_table(view[cols]))
+    if args.out:
+        table.to_csv(args.out, index=False)
+        print(f"comparison -> {args.out}")
+    return 1 if counts["flagged"] else 0

@@ -1,0 +1,25 @@
+"""``nsbench report DIR``: report.md, a self-contained index.html, table.tex and figures."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nsbench.errors import ConfigError
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("report", help="write the report of a results directory")
+    p.add_argument("directory", metavar="DIR", help="output directory of 'nsbench bench', 'run' or 'ingest'")
+    p.set_defaults(handler=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from nsbench.bench.report import write_report
+
+    if not Path(args.directory).is_dir():
+        raise ConfigError(f"{args.directory!r} is not a directory")
+    rep = write_report(args.directory)
+    print(f"report -> {rep.html}")
+    print(f"          {rep.markdown}, {rep.latex}, {len(rep.figures)} figures (PNG and SVG)")
+    return 0

@@ -1,0 +1,237 @@
+"""The friction oscillator as one heyoka Taylor integrator whose mode lives in runtime parameters.
+
+Shared by the ``heyoka*`` integrators (and so by ``reference``). The compiled
+object depends only on the problem's *structure* (number of blocks, which
+springs are cubic, forced or not, number of section slots, precision and
+tolerance); the coefficients, the mode and the sections are runtime
+parameters, so a mode switch or a new parameter value never recompiles.
+
+Parameter layout: ``m, c, k, h, fs, fr`` (one per block each), ``F, w, v0``,
+then per block a stick flag ``sigma_i`` (1 stuck, 0 slipping) and a slip sign
+``s_i``, then per guard (three per block: velocity ``v_i - v0``, upper
+``R_i - fr_i`` and lower ``R_i + fr_i`` static limit) an activation flag and
+its expected sign, then per section slot ``active, level`` and one coefficient
+per mechanical state. Each guard is a terminal event written as
+``expected_sign * guard``, so that it ends its phase when it *decreases*
+through zero; an inactive one is the constant 1 and can never fire.
+
+With every block stuck the mechanical states are polynomials in time and say
+nothing about the forcing ``F cos(w t)``, which drives the stick guards; a step
+size chosen from the state's Taylor coefficients would then jump over a
+force-driven slip. The forcing therefore enters through two extra states
+``c = cos(w t)``, ``s = sin(w t)`` (``c' = -w s``, ``s' = w c``), which keep
+the step at a fraction of the forcing period.
+"""
+
+from __future__ import annotations
+
+import copy
+import threading
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import heyoka as hy
+import numpy as np
+
+from nsbench.integrators.base import SectionHit
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.integrators.base import ArcRequest
+    from nsbench.problems.oscillator import FrictionOscillator
+
+GUARD_SLOT = {"velocity": 0, "upper": 1, "lower": 2}
+
+#: Floating-point types by the precision names of :class:`Capabilities`.
+FP_TYPES: dict[str, Any] = {"double": float, "long double": np.longdouble,
+                            "quad": getattr(hy, "real128", None)}
+
+
+@dataclass(frozen=True)
+class Structure:
+    """What the compiled code depends on; problems that share it share the code."""
+
+    n_blocks: int
+    cubic: tuple[bool, ...]
+    forced: bool
+    n_sections: int
+
+    @classmethod
+    def of(cls, problem: "FrictionOscillator", n_sections: int) -> "Structure":
+        c = problem.coefficients
+        return cls(c.n_blocks, tuple(h != 0.0 for h in c.h), c.F != 0.0, n_sections)
+
+    @property
+    def n_mech(self) -> int:
+        return 2 * self.n_blocks
+
+    @property
+    def n_states(self) -> int:
+        return self.n_mech + (2 if self.forced else 0)
+
+    @property
+    def mode_offset(self) -> int:
+        return 6 * self.n_blocks + 3
+
+    @property
+    def guard_offset(self) -> int:
+        return self.mode_offset + 2 * self.n_blocks
+
+    def guard_par(self, guard) -> int:
+        """Index of a guard's activation flag (its expected sign follows)."""
+        return self.guard_offset + 2 * (3 * (guard.block - 1) + GUARD_SLOT[guard.kind])
+
+    def section_offset(self, slot: int) -> int:
+        return self.guard_offset + 6 * self.n_blocks + slot * (2 + self.n_mech)
+
+    @property
+    def n_pars(self) -> int:
+        return self.section_offset(self.n_sections)
+
+
+def coefficient_values(problem: "FrictionOscillator") -> list[float]:
+    """The first ``6 n_blocks + 3`` parameters: the problem's coefficients."""
+    c = problem.coefficients
+    return [*c.m, *c.c, *c.k, *c.h, *c.fs, *c.fr, c.F, c.w, c.v0]
+
+
+class SectionLog:
+    """Callback of one section slot: records ``(slot, t, direction, state)`` of each crossing."""
+
+    def __init__(self, slot: int) -> None:
+        self.slot = slot
+        self.hits: list[tuple[int, Any, int, np.ndarray]] = []
+
+    def __call__(self, ta, t, d_sgn) -> None:
+        self.hits.append((self.slot, t, int(d_sgn), np.array(ta.update_d_output(t), copy=True)))
+
+
+def _system(st: Structure):
+    """State variables, equations, terminal and non-terminal event expressions."""
+    nb = st.n_blocks
+    mech = hy.make_vars(*[f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v")])
+    x, v = mech[0::2], mech[1::2]
+    par = hy.par
+    m, c, k, h, fs, fr = ([par[j * nb + i] for i in range(nb)] for j in range(6))
+    F, w, v0 = par[6 * nb], par[6 * nb + 1], par[6 * nb + 2]
+    sigma = [par[st.mode_offset + i] for i in range(nb)]
+    sign = [par[st.mode_offset + nb + i] for i in range(nb)]
+    cos_wt, sin_wt = hy.make_vars("cos_wt", "sin_wt") if st.forced else (None, None)
+
+    tension = []
+    for j in range(nb):
+        d = x[j] - x[j - 1] if j > 0 else x[0]
+        s = k[j] * d
+        if st.cubic[j]:
+            s = s + h[j] * (d * d * d)  # not d**3: its Taylor coefficients are NaN at d = 0
+        tension.append(s)
+    restoring = []
+    for i in range(nb):
+        r = c[i] * v[i] + tension[i]
+        if i + 1 < nb:
+            r = r - tension[i + 1]
+        if i == nb - 1 and st.forced:
+            r = r - F * cos_wt
+        restoring.append(r)
+
+    sys = []
+    for i in range(nb):
+        slipping = 1.0 - sigma[i]
+        sys.append((x[i], sigma[i] * v0 + slipping * v[i]))
+        sys.append((v[i], slipping * (-restoring[i] - fs[i] * sign[i]) / m[i]))
+    if st.forced:
+        sys += [(cos_wt, -w * sin_wt), (sin_wt, w * cos_wt)]
+
+    guards = []
+    for i in range(nb):
+        for slot, value in enumerate((v[i] - v0, restoring[i] - fr[i], restoring[i] + fr[i])):
+            off = st.guard_offset + 2 * (3 * i + slot)
+            active, expected = par[off], par[off + 1]
+            guards.append(active * (expected * value) + (1.0 - active))
+    sections = []
+    for q in range(st.n_sections):
+        off = st.section_offset(q)
+        value = par[off + 2] * mech[0]
+        for j in range(1, st.n_mech):
+            value = value + par[off + 2 + j] * mech[j]
+        sections.append(par[off] * (value - par[off + 1]) + (1.0 - par[off]))
+    return sys, guards, sections
+
+
+_CACHE: dict[tuple, tuple[Any, float]] = {}
+_LOCK = threading.Lock()
+
+
+def compiled(st: Structure, precision: str, tol: float | None, high_accuracy: bool,
+             compact_mode: bool) -> tuple[Any, float]:
+    """A fresh copy of the compiled integrator for ``st`` and the seconds its compilation took.
+
+    Compilations are cached per process; a cache hit costs a copy (about a
+    millisecond) and reports a compile time of 0.
+    """
+    key = (st, precision, tol, high_accuracy, compact_mode)
+    with _LOCK:
+        hit = _CACHE.get(key)
+        if hit is None:
+            fp = FP_TYPES[precision]
+            tic = time.perf_counter()
+            sys, guards, sections = _system(st)
+            neg = hy.event_direction.negative
+            # No cooldown: each arc is a fresh propagation that ends at its first
+            # event, and a cooldown could only hide a genuine event (MODEL.md).
+            t_events = [hy.t_event(g, direction=neg, cooldown=fp(0.0), fp_type=fp) for g in guards]
+            nt_events = [hy.nt_event(e, SectionLog(q), fp_type=fp) for q, e in enumerate(sections)]
+            kwargs = {} if tol is None else {"tol": fp(tol)}
+            ta = hy.taylor_adaptive(
+                sys, np.zeros(st.n_states, dtype=fp), pars=np.zeros(st.n_pars, dtype=fp),
+                fp_type=fp, t_events=t_events, nt_events=nt_events,
+                high_accuracy=high_accuracy, compact_mode=compact_mode, **kwargs,
+            )
+            hit = _CACHE[key] = (ta, time.perf_counter() - tic)
+            return copy.deepcopy(ta), hit[1]
+    return copy.deepcopy(hit[0]), 0.0
+
+
+def guard_index(request: "ArcRequest", event: int) -> int | None:
+    """Index in ``request.guards`` of heyoka terminal event ``event``, or ``None`` if inactive."""
+    block, slot = divmod(event, 3)
+    for q, guard in enumerate(request.guards):
+        if guard.block == block + 1 and GUARD_SLOT[guard.kind] == slot:
+            return q
+    return None
+
+
+def section_hits(ta, request: "ArcRequest", t0, t_stop) -> list[SectionHit]:
+    """Crossings recorded by the section callbacks in ``(t0, t_stop]``, in their direction."""
+    n = request.problem.n_states
+    hits = []
+    for ev in ta.nt_events:
+        for slot, t, d_sgn, y in ev.callback.hits:
+            if slot >= len(request.sections) or not (t0 < t <= t_stop) or d_sgn == 0:
+                continue  # starting on a section is not a crossing; touches are not either
+            direction = request.sections[slot].direction
+            if direction == 0 or direction == d_sgn:
+                hits.append(SectionHit(slot, float(t), np.asarray(y[:n]).astype(float)))
+    hits.sort(key=lambda h: h.t)
+    return hits
+
+
+def illinois(f, a, fa, b, fb, iterations: int = 100):
+    """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
+    side = 0
+    for _ in range(iterations):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b) or fb == 0:
+            break
+        fc = f(c)
+        if fc > 0:
+            a, fa = c, fc
+            if side == 1:
+                fb = fb / 2
+            side = 1
+        else:
+            b, fb = c, fc
+            if side == -1:
+                fa = fa / 2
+            side = -1
+    return b

@@ -1,0 +1,89 @@
+"""Pieces of the SUNDIALS stepping loop: data for the compiled callbacks, trajectory output, root bookkeeping."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nsbench.integrators.base import ArcRequest
+from nsbench.problems import kernels
+
+ROOT_RETURN, TSTOP_RETURN = 2, 1  # SUNDIALS return flags (CV_/IDA_ROOT_RETURN, *_TSTOP_RETURN)
+
+
+class CallbackData:
+    """The mutable data a solver's compiled callbacks read: mode, guards, sections (set per arc)."""
+
+    def __init__(self, n_guards: int, n_sections: int, n_states: int) -> None:
+        self.mode = np.zeros(0, dtype=np.int64)
+        self.kinds = np.zeros(n_guards, dtype=np.int64)
+        self.blocks = np.zeros(n_guards, dtype=np.int64)
+        self.signs = np.zeros(n_guards, dtype=np.int64)
+        self.sec_coeffs = np.zeros((n_sections, n_states))
+        self.sec_levels = np.zeros(n_sections)
+
+    def load(self, request: ArcRequest) -> None:
+        self.mode = kernels.mode_array(request.mode)
+        self.kinds[:], self.blocks[:], self.signs[:] = kernels.guard_codes(request.guards)
+        for j, sec in enumerate(request.sections):
+            self.sec_coeffs[j] = sec.coeffs
+            self.sec_levels[j] = sec.level
+
+
+def forget_roots(eventsfn) -> None:
+    """Empty the root lists scikit-sundae keeps on the events function.
+
+    It appends every root to them and rebuilds arrays from them at each call,
+    which would grow costly over a long run.
+    """
+    for store in (eventsfn._i, eventsfn._t, eventsfn._y):
+        store.clear()
+
+
+class InterpolatedOutput:
+    """Trajectory points from the solver's own interpolant over its last step.
+
+    Read right after a plain step return (``tn``), and between two readings
+    the solver is sent back to ``tn``: SUNDIALS checks for roots between the
+    last returned time and a requested one, and read backwards from ``tn``
+    a crossing filtered out by its direction would be reported as a root.
+    """
+
+    def __init__(self, solver, t_eval: np.ndarray, n: int) -> None:
+        self.solver, self.t_eval, self.n = solver, t_eval, n
+        self.rows: list[np.ndarray] = []
+        self.done = 0
+        self.fallbacks = 0
+        self.last = None  # (t, y) of the last step end, for the rare fallback
+
+    def pending(self, t: float) -> bool:
+        return int(np.searchsorted(self.t_eval, t, side="right")) > self.done
+
+    def upto(self, t: float, tn: float, known: tuple[float, np.ndarray]) -> None:
+        """Record every requested time ``<= t``; the solver's last step ends at ``tn``.
+
+        ``known`` is a solution point at or after ``t`` (the step end, or the
+        root that ends the arc), used only by the fallback.
+        """
+        stop = int(np.searchsorted(self.t_eval, t, side="right"))
+        for te in self.t_eval[self.done:stop]:
+            got = self.solver.step(float(te), method="normal")
+            if got.status < 0 or got.status == ROOT_RETURN:  # te left the last step's window
+                self.fallbacks += 1
+                self.rows.append(self._linear(float(te), *known))
+            else:
+                self.rows.append(np.asarray(got.y)[: self.n].copy())
+            if te < tn:
+                self.solver.step(tn, method="normal")
+        self.done = max(self.done, stop)
+        self.last = (known[0], np.asarray(known[1])[: self.n].copy())
+
+    def _linear(self, te: float, tb: float, yb: np.ndarray) -> np.ndarray:
+        yb = np.asarray(yb)[: self.n]
+        if self.last is None or tb == self.last[0]:
+            return yb.copy()
+        ta, ya = self.last
+        w = (te - ta) / (tb - ta)
+        return (1.0 - w) * ya + w * yb
+
+    def states(self) -> np.ndarray:
+        return np.array(self.rows).T.reshape(self.n, -1) if self.rows else np.empty((self.n, 0))

@@ -1,0 +1,268 @@
+"""``heyoka``, ``heyoka-ld``, ``heyoka-q``: heyoka's adaptive Taylor method in double, long double and quad.
+
+One ``taylor_adaptive`` is compiled per problem structure in :meth:`setup`
+(see :mod:`nsbench.integrators._heyoka_model`); an arc sets the mode, the
+coefficients and the sections as runtime parameters, the time and the state in
+the integrator's own precision, and propagates to ``t_end``. Guards are
+terminal events located by heyoka on the Taylor polynomial of each step
+(direction "decreasing", so a phase that starts on its own surface does not
+stop at once); sections are non-terminal events; trajectory points come from
+heyoka's continuous output. Times and states cross the protocol as doubles.
+
+Counters: ``nsteps`` Taylor steps; ``nfev`` counts one Taylor jet (all
+coefficients up to the order, about ``order`` field evaluations' worth of
+work) per step, and ``extra['taylor_coefficients']`` the jets times the order.
+Compilation happens in :meth:`setup` (two section slots); a request with more
+sections compiles a wider model once, reported in ``extra['compile_seconds']``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from nsbench.errors import ConfigError
+from nsbench.integrators import _heyoka_model as model
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
+from nsbench.problems.modes import STICK
+from nsbench.results import Status
+
+_SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
+
+
+def _caps(precision: str) -> Capabilities:
+    return Capabilities(event_location="taylor-root", order=None, adaptive=True,
+                        needs_jacobian=False, supports_nonlinear=True, precision=precision,
+                        step_option="tol")
+
+
+class HeyokaIntegrator(Integrator):
+    """Base of the heyoka adapters; subclasses set the precision."""
+
+    precision: ClassVar[str] = "double"
+    options = {
+        "tol": Option(None, float, lower=0.0, upper=1e-2, nullable=True,
+                      doc="Taylor tolerance (relative and absolute); None: the precision's epsilon"),
+        "high_accuracy": Option(False, bool, doc="heyoka's compensated summation for long runs"),
+        "compact_mode": Option(None, bool, nullable=True,
+                               doc="compile in compact mode; None: only for quad precision"),
+    }
+    accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        self._problem = problem
+        self._models: dict[int, Any] = {}
+        self._fp = model.FP_TYPES.get(self.precision)
+        if self._fp is None:  # pragma: no cover - depends on the heyoka build
+            raise ConfigError(f"{self.name}: this heyoka build has no {self.precision} type")
+        self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
+        self.compile_time = 0.0
+        self._model(_SECTION_SLOTS)
+        self._compiled_in_advance = 0.0
+
+    def _model(self, n_sections: int):
+        """The compiled integrator with at least ``n_sections`` section slots."""
+        usable = [n for n in self._models if n >= n_sections]
+        if usable:
+            return self._models[min(usable)]
+        compact = self.settings["compact_mode"]
+        if compact is None:
+            compact = self.precision == "quad"
+        st = model.Structure.of(self._problem, max(n_sections, _SECTION_SLOTS))
+        ta, seconds = model.compiled(st, self.precision, self.settings["tol"],
+                                     self.settings["high_accuracy"], compact)
+        self.compile_time += seconds  # setup's share lands in setup_time; later ones in extra
+        self._compiled_in_advance = getattr(self, "_compiled_in_advance", 0.0) + seconds
+        self._models[st.n_sections] = (st, ta)
+        return self._models[st.n_sections]
+
+    def _load(self, st: model.Structure, ta, request: ArcRequest):
+        """Write coefficients, mode, sections, time and state into ``ta``; return the start time."""
+        fp = self._fp
+        pars = np.zeros(st.n_pars)
+        pars[: self._coefficients.size] = self._coefficients
+        nb = st.n_blocks
+        for i, phase in enumerate(request.mode):
+            pars[st.mode_offset + i] = 1.0 if phase == STICK else 0.0
+            pars[st.mode_offset + nb + i] = float(phase)
+        for guard in request.guards:
+            off = st.guard_par(guard)
+            pars[off], pars[off + 1] = 1.0, float(guard.expected_sign)
+        for q, sec in enumerate(request.sections):
+            off = st.section_offset(q)
+            pars[off], pars[off + 1] = 1.0, sec.level
+            pars[off + 2: off + 2 + st.n_mech] = sec.coeffs
+        ta.pars[:] = pars.astype(fp)
+        state = np.asarray(request.y0, dtype=float).astype(fp)
+        # heyoka keeps time as a double-length number: the start t0 + t0_lo is exact.
+        ta.dtime = (fp(request.t0), fp(request.t0_lo))
+        t0 = ta.time
+        if st.forced:
+            w = np.array([pars[6 * nb + 1]], dtype=float).astype(fp)
+            phase = w * (fp(request.t0) + fp(request.t0_lo))
+            state = np.concatenate([state, np.cos(phase), np.sin(phase)])
+        ta.state[:] = state
+        ta.reset_cooldowns()
+        for ev in ta.nt_events:
+            ev.callback.hits.clear()
+        return t0
+
+    def advance(self, request: ArcRequest) -> ArcResult:
+        problem = request.problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        st, ta = self._model(len(request.sections))
+        t0 = self._load(st, ta, request)
+        fp, n = self._fp, problem.n_states
+        if request.max_steps <= 0:
+            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
+                             y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
+                             message=f"step budget exhausted at t = {request.t0:.6g}")
+        outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request)
+        if fresh_hit is not None:  # a fresh guard crossed inside the first step
+            hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
+        else:
+            (hi, lo), y_fp = ta.dtime, ta.state
+        t_stop = float(hi)
+        t_lo = float((hi - fp(t_stop)) + lo)
+        fired, status, message = self._verdict(ta, outcome, fresh_hit, request, t_stop)
+        if outcome == model.hy.taylor_outcome.time_limit and fresh_hit is None:
+            t_stop, t_lo = request.t_end, 0.0
+        extra = {"taylor_coefficients": nsteps * int(ta.order)}
+        if self._compiled_in_advance:  # a wider model compiled for more sections
+            extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
+        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
+        rows = first_rows[:n_eval]
+        if len(rows) < n_eval and c_out is not None:
+            times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
+            rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
+        rows += [y_fp] * (n_eval - len(rows))  # no step was taken
+        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
+        return ArcResult(t=t_stop, y=np.asarray(y_fp[:n]).astype(float), fired=fired, y_eval=y_eval,
+                         section_hits=model.section_hits(ta, request, t0, hi), nfev=nsteps, njev=0,
+                         nsteps=nsteps, extra=extra, status=status, message=message, t_lo=t_lo)
+
+    def _propagate(self, st, ta, request: ArcRequest):
+        """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
+        fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
+        fresh = self._fresh_guards(request)
+        outcome = model.hy.taylor_outcome.success
+        if fresh:
+            outcome, fresh_hit = self._first_step(st, ta, request, fresh, first_rows)
+            nsteps = 1
+        if fresh_hit is None and outcome == model.hy.taylor_outcome.success:
+            if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
+                outcome = model.hy.taylor_outcome.step_limit
+            else:
+                outcome, _, _, taken, c_out, _ = ta.propagate_until(
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps,
+                    c_output=request.t_eval.size > 0)
+                nsteps += int(taken)
+        return outcome, fresh_hit, c_out, nsteps, first_rows
+
+    @staticmethod
+    def _verdict(ta, outcome, fresh_hit, request: ArcRequest, t_stop: float):
+        """``(fired, status, message)`` from heyoka's outcome."""
+        taylor = model.hy.taylor_outcome
+        if fresh_hit is not None:
+            return fresh_hit[1], Status.SUCCESS, ""
+        if outcome == taylor.time_limit:
+            return None, Status.SUCCESS, ""
+        if outcome == taylor.step_limit:
+            return None, Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
+        if outcome == taylor.err_nf_state:
+            return None, Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
+        event = -int(outcome) - 1
+        if 0 <= event < len(ta.t_events):
+            fired = model.guard_index(request, event)
+            if fired is None:
+                return None, Status.INTEGRATOR_FAILURE, (
+                    f"event {event} of an inactive phase fired at t = {t_stop:.17g}")
+            return fired, Status.SUCCESS, ""
+        return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
+
+    @staticmethod
+    def _fresh_guards(request: ArcRequest) -> list[int]:
+        """Guards exactly zero at the start: the phase starts on its own surface."""
+        return [q for q, g in enumerate(request.guards)
+                if g.expected_sign * float(g.value(request.t0, request.y0)) == 0.0]
+
+    def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
+        """One Taylor step with the fresh guards' events off; their crossings found on its polynomial.
+
+        heyoka does not look for the roots of an event function that is zero
+        where a step starts, so the first step of a phase that starts on its own
+        surface would miss that surface's next crossing if the step reached it
+        (quad precision takes long steps). After this step the guard is off its
+        surface and heyoka's own detection takes over. Returns heyoka's outcome
+        and ``(t, guard index, state)`` of the earliest fresh crossing, if any.
+        """
+        fp = self._fp
+        offsets = [st.guard_par(request.guards[q]) for q in fresh]
+        for off in offsets:
+            ta.pars[off] = fp(0.0)
+        t_start = ta.time
+        outcome, _ = ta.step(fp(request.t_end) - t_start)
+        t_end = ta.time
+        for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+            if fp(float(te)) > t_end:
+                break
+            dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
+        best = None
+        for q in fresh:
+            root = self._first_crossing(ta, request.guards[q], t_start, t_end)
+            if root is not None and (best is None or root < best[0]):
+                best = (root, q, np.array(ta.update_d_output(root), copy=True))
+        for off in offsets:
+            ta.pars[off] = fp(1.0)
+        return outcome, best
+
+    def _first_crossing(self, ta, guard, t_start, t_end):
+        """First zero of ``expected_sign * guard`` in ``(t_start, t_end]`` after it turned positive."""
+        fp = self._fp
+        problem = guard.problem
+        sign = guard.expected_sign
+
+        def value(t):
+            y = ta.update_d_output(t)
+            if guard.kind == "velocity":  # in the integrator's own precision
+                return fp(sign) * (y[2 * guard.block - 1] - fp(problem.v0))
+            return fp(sign * float(guard.value(float(t), np.asarray(y[: problem.n_states]).astype(float))))
+
+        lo, g_lo, positive = t_start, fp(0.0), False
+        for k in range(1, 33):
+            t = t_start + (t_end - t_start) * fp(k) / fp(32)
+            g = value(t)
+            if g > 0:
+                lo, g_lo, positive = t, g, True
+            elif positive:
+                return model.illinois(value, lo, g_lo, t, g)
+        return None if positive or value(t_end) > 0 else t_start  # never off its surface: at once
+
+
+class Heyoka(HeyokaIntegrator):
+    """heyoka's Taylor method in double precision, guards as terminal events."""
+
+    name = "heyoka"
+    precision = "double"
+    capabilities = _caps("double")
+
+
+class HeyokaLongDouble(HeyokaIntegrator):
+    """heyoka's Taylor method in extended (80-bit long double) precision."""
+
+    name = "heyoka-ld"
+    precision = "long double"
+    capabilities = _caps("long double")
+
+
+class HeyokaQuad(HeyokaIntegrator):
+    """heyoka's Taylor method in quadruple (real128) precision."""
+
+    name = "heyoka-q"
+    precision = "quad"
+    capabilities = _caps("quad")
+    accuracy_levels = ({"tol": 1e-10}, {"tol": 1e-20}, {"tol": 1e-30})
+

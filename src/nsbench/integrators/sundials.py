@@ -1,0 +1,255 @@
+"""``cvode-bdf``, ``cvode-adams``, ``ida``: SUNDIALS through scikit-sundae, per mode, with its own root finding.
+
+Each arc (re)initialises a solver kept per (mode, number of sections), steps
+with ``onestep`` towards ``t_end`` (``tstop`` set there) and lets SUNDIALS'
+root finding locate the guards (direction: ``expected_sign * guard``
+decreasing, so a phase starting on its own surface does not stop at once) and
+the sections. The first root return of a guard ends the arc; section roots are
+recorded and stepping goes on. Trajectory points are SUNDIALS' interpolant
+(``normal`` output inside the last step). Right-hand sides, residuals,
+Jacobians (analytic) and root functions are compiled numba kernels
+(:mod:`nsbench.integrators._sundials_kernels`).
+
+``cvode-*`` integrate the frozen-mode ODE with ``cos(w t)``, ``sin(w t)`` as two
+extra states for forced problems: with every block stuck the mechanical states
+are linear in time, and only these states make the step-size control follow
+the forcing that drives the stick guards. ``ida`` integrates the DAE with the
+friction forces as algebraic variables (the stuck block's ``v = v0`` is an
+algebraic constraint and ``|f| <= fr`` its guard); a stuck block's force
+carries the forcing into the error test. Consistent initial values are
+computed at every switch.
+
+Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
+internal steps; ``extra['root_returns']`` the solver's root stops.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from nsbench.integrators import _sundials_kernels as sk
+from nsbench.integrators._sundials_loop import (
+    ROOT_RETURN,
+    TSTOP_RETURN,
+    CallbackData,
+    InterpolatedOutput,
+    forget_roots,
+)
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.problems import kernels
+from nsbench.results import Status
+
+_OPTIONS = {
+    "rtol": Option(1e-8, float, lower=0.0, upper=1e-3, doc="relative tolerance"),
+    "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
+    "max_step": Option(None, float, lower=0.0, nullable=True, doc="largest step (time units); None: unbounded"),
+}
+
+
+class SundialsIntegrator(Integrator):
+    """Shared stepping loop of the CVODE and IDA adapters."""
+
+    options = dict(_OPTIONS)
+    accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        self._problem = problem
+        self._p = kernels.pack(problem)
+        self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}
+
+    def _common_options(self, n_events: int, directions: list[int], eventsfn) -> dict[str, Any]:
+        eventsfn.terminal = [False] * n_events  # the loop below decides what stops an arc
+        eventsfn.direction = directions
+        opts = dict(rtol=self.settings["rtol"], atol=self.settings["atol"],
+                    max_step=self.settings["max_step"] or 0.0, max_num_steps=10**9,
+                    eventsfn=eventsfn if n_events else None, num_events=n_events)
+        return opts
+
+    def _solver(self, request: ArcRequest):
+        key = (request.mode, len(request.guards), len(request.sections))
+        if key not in self._solvers:
+            arc = CallbackData(len(request.guards), len(request.sections), request.problem.n_states)
+            directions = [-1] * len(request.guards) + [int(s.direction) for s in request.sections]
+            self._solvers[key] = (*self._build(arc, len(directions), directions), arc)
+        return self._solvers[key]
+
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _start(self, solver, request: ArcRequest):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def advance(self, request: ArcRequest) -> ArcResult:
+        problem = request.problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        n, n_guards = problem.n_states, len(request.guards)
+        solver, eventsfn, arc = self._solver(request)
+        arc.load(request)
+        t_end = request.t_end
+        dense = InterpolatedOutput(solver, request.t_eval, n)
+        steps, roots = 0, 0
+        hits: list[SectionHit] = []
+        fired, status, message = None, Status.SUCCESS, ""
+        t, y, nfev, njev = float(request.t0), np.array(request.y0, dtype=float), 0, 0
+        try:
+            self._start(solver, request)
+            while True:
+                if steps >= request.max_steps:
+                    status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
+                    break
+                res = solver.step(t_end, method="onestep", tstop=t_end)
+                if res.status < 0:
+                    status = Status.INTEGRATOR_FAILURE
+                    message = f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
+                    break
+                t, y, nfev, njev = float(res.t), np.asarray(res.y), int(res.nfev), int(res.njev)
+                if res.status != ROOT_RETURN:
+                    steps += 1
+                    dense.upto(t, t, (t, y))
+                    if res.status == TSTOP_RETURN or t >= t_end:
+                        t = t_end
+                        break
+                    continue
+                roots += 1
+                which = np.flatnonzero(res.i_events[-1])
+                forget_roots(eventsfn)
+                for j in which[which >= n_guards]:
+                    hits.append(SectionHit(int(j - n_guards), t, y[:n].copy()))
+                guard_hits = which[which < n_guards]
+                if guard_hits.size:
+                    fired = int(guard_hits[0])
+                    if dense.pending(t):
+                        # Finish the step (no new one) so that its interpolant can
+                        # be read at the times before the root.
+                        done = solver.step(t_end, method="onestep", tstop=t_end)
+                        while done.status == ROOT_RETURN:
+                            forget_roots(eventsfn)
+                            done = solver.step(t_end, method="onestep", tstop=t_end)
+                        dense.upto(t, float(done.t), (t, y))
+                    break
+        except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
+            status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {exc}"
+        return ArcResult(
+            t=t, y=np.array(y[:n], dtype=float), fired=fired, y_eval=dense.states(), section_hits=hits,
+            nfev=nfev, njev=njev, nsteps=steps,
+            extra={"root_returns": roots, "dense_fallbacks": dense.fallbacks},
+            status=status, message=message,
+        )
+
+
+class CvodeIntegrator(SundialsIntegrator):
+    """CVODE on the frozen-mode ODE; subclasses choose the linear multistep method."""
+
+    method: ClassVar[str] = "BDF"
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        c = problem.coefficients
+        self._F, self._w = float(c.F), float(c.w)
+        self._p0 = self._p.copy()
+        self._p0[1 + 6 * problem.n_blocks] = 0.0  # the force enters through the cos state
+        self._n_extra = 2 if self._F != 0.0 else 0
+        # Compile the kernels here, so that setup_time holds the compilation.
+        n = problem.n_states + 2
+        y, out = np.zeros(n), np.zeros(n)
+        mode, codes = kernels.mode_array((1,) * problem.n_blocks), np.zeros(1, dtype=np.int64)
+        sk.cvode_rhs(self._p0, mode, 1.0, 1.0, y, out)
+        sk.cvode_jacobian(self._p0, mode, 1.0, 1.0, y, np.zeros((n, n)))
+        sk.cvode_roots(self._p0, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
+
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
+        from sksundae.cvode import CVODE
+
+        p0, F, w = self._p0, self._F, self._w
+
+        def rhsfn(t, y, yp):
+            sk.cvode_rhs(p0, arc.mode, F, w, y, yp)
+
+        def jacfn(t, y, yp, jj):
+            sk.cvode_jacobian(p0, arc.mode, F, w, y, jj)
+
+        def eventsfn(t, y, events):
+            sk.cvode_roots(p0, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
+
+        opts = self._common_options(n_events, directions, eventsfn)
+        return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
+
+    def _start(self, solver, request: ArcRequest):
+        y0 = np.asarray(request.y0, dtype=float)
+        if self._n_extra:
+            y0 = np.concatenate([y0, [np.cos(self._w * request.t0), np.sin(self._w * request.t0)]])
+        return solver.init_step(float(request.t0), y0)
+
+
+class CvodeBDF(CvodeIntegrator):
+    """SUNDIALS CVODE, variable-order BDF (1-5) with Newton iterations and the analytic Jacobian."""
+
+    name = "cvode-bdf"
+    method = "BDF"
+    capabilities = Capabilities(event_location="solver-rootfinding", order=None, adaptive=True,
+                                needs_jacobian=True, supports_nonlinear=True, precision="double",
+                                step_option="rtol")
+
+
+class CvodeAdams(CvodeIntegrator):
+    """SUNDIALS CVODE, variable-order Adams-Moulton (1-12) with Newton iterations and the analytic Jacobian."""
+
+    name = "cvode-adams"
+    method = "Adams"
+    capabilities = CvodeBDF.capabilities
+
+
+class Ida(SundialsIntegrator):
+    """SUNDIALS IDA on the DAE with friction forces as algebraic variables (BDF 1-5)."""
+
+    name = "ida"
+    capabilities = Capabilities(event_location="solver-rootfinding", order=None, adaptive=True,
+                                needs_jacobian=True, supports_nonlinear=True, precision="double",
+                                step_option="rtol")
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        # Compile the kernels here, so that setup_time holds the compilation.
+        nb, n = problem.n_blocks, problem.n_states
+        mode, codes = kernels.mode_array((0,) * nb), np.zeros(1, dtype=np.int64)
+        y, out = np.zeros(n + nb), np.zeros(n + nb)
+        sk.ida_residual(self._p, mode, 0.0, y, y, out)
+        sk.ida_jacobian(self._p, mode, mode, 0.0, y, 1.0, np.zeros((n, n)), np.zeros((n + nb, n + nb)))
+        sk.ida_roots(self._p, codes, codes, codes, np.zeros((1, n)), np.zeros(1), y, np.zeros(2))
+        sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
+
+    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
+        from sksundae.ida import IDA
+
+        p = self._p
+        nb = int(p[0])
+        n = 2 * nb
+        slip_all = np.full(nb, -1, dtype=np.int64)
+        scratch = np.zeros((n, n))
+
+        def resfn(t, y, yp, res):
+            sk.ida_residual(p, arc.mode, t, y, yp, res)
+
+        def jacfn(t, y, yp, res, cj, jj):
+            sk.ida_jacobian(p, arc.mode, slip_all, t, y, cj, scratch, jj)
+
+        def eventsfn(t, y, yp, events):
+            sk.ida_roots(p, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
+
+        mode = kernels.mode_array(self._pending_mode)
+        algebraic = [n + i for i in range(nb)] + [2 * i + 1 for i in range(nb) if mode[i] == 0]
+        opts = self._common_options(n_events, directions, eventsfn)
+        return IDA(resfn, jacfn=jacfn, algebraic_idx=sorted(algebraic), **opts), eventsfn
+
+    def _solver(self, request: ArcRequest):
+        self._pending_mode = request.mode  # the algebraic variables depend on the mode
+        return super()._solver(request)
+
+    def _start(self, solver, request: ArcRequest):
+        y0, yp0 = sk.consistent_start(self._p, kernels.mode_array(request.mode),
+                                      float(request.t0), np.asarray(request.y0, dtype=float))
+        return solver.init_step(float(request.t0), y0, yp0)

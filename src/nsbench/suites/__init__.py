@@ -1,0 +1,1 @@
+"""Packaged benchmark suites (TOML data files read with ``importlib.resources``)."""

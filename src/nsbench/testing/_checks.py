@@ -1,0 +1,306 @@
+"""The conformance checks: one function per property an nsbench integrator must have.
+
+Each check takes a configured :class:`~nsbench.integrators.Integrator` (a fresh
+copy built from its config) and raises ``AssertionError`` with a reason when
+the integrator falls short. :data:`CHECKS` lists them with the capability
+test that decides whether each applies. Problems are the 2-DOF presets:
+case 2 (linear, forced: both kinds of guard, the forcing, ``exact`` as the
+reference), case 1 for a stuck phase, case 4 for cubic springs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from nsbench.errors import ConfigError, UnsupportedProblemError
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
+from nsbench.results import Status
+
+PRECISIONS = ("double", "long double", "quad")
+_EVENT_BOUND = 1e-5  # event times at the middle accuracy level, tau in [0, 60]
+_ENERGY_BOUND = 1e-6  # energy-balance residual at the middle accuracy level, tau in [0, 40]
+
+
+def _problem(case: int):
+    from nsbench.problems import get_problem
+
+    return get_problem("two-dof", case=case)
+
+
+def _simulate(integ: Integrator, problem, t_end: float, **kwargs):
+    from nsbench.engine import simulate
+
+    return simulate(problem, integ, t_end, **kwargs)
+
+
+def middle_level(integ: Integrator) -> Integrator:
+    """The integrator at the middle of its accuracy levels (its defaults if it declares none)."""
+    levels = type(integ).accuracy_levels
+    if not levels:
+        return integ
+    options = {**integ.settings, **levels[len(levels) // 2]}
+    return type(integ)(**options)
+
+
+def _compare_events(events, reference, bound: float, what: str) -> float:
+    got = list(zip(events["kind"], events["block"]))
+    want = list(zip(reference["kind"], reference["block"]))
+    if got != want:
+        first = next((i for i, (a, b) in enumerate(zip(got, want)) if a != b), min(len(got), len(want)))
+        raise AssertionError(f"event sequence differs from {what} at event {first}: "
+                             f"{len(got)} events against {len(want)}")
+    err = float(np.max(np.abs(events["t"].to_numpy() - reference["t"].to_numpy()))) if got else 0.0
+    assert err <= bound, f"event times differ from {what} by {err:.3g} > {bound:g}"
+    return err
+
+
+# ---------------------------------------------------------------------- the checks
+def check_protocol_and_counters(integ: Integrator) -> None:
+    """Class attributes, one arc through ``advance``, and honest counters on a full run."""
+    cls = type(integ)
+    assert re.fullmatch(r"[a-z0-9]+(-[a-z0-9]+)*", cls.name or ""), f"name {cls.name!r} is not kebab-case"
+    caps = cls.capabilities
+    assert isinstance(caps, Capabilities), "capabilities must be a Capabilities instance"
+    assert caps.precision in PRECISIONS, f"precision {caps.precision!r} not in {PRECISIONS}"
+    assert caps.event_location, "capabilities.event_location is empty"
+    assert all(isinstance(o, Option) for o in cls.options.values()), "options must be Option declarations"
+    if caps.step_option is not None:
+        assert caps.step_option in cls.options, f"step_option {caps.step_option!r} is not an option"
+    for level in cls.accuracy_levels:
+        assert set(level) <= set(cls.options), f"accuracy level {level} names unknown options"
+        cls(**{**integ.settings, **level})
+    problem = _problem(2)
+    integ.setup(problem)
+    mode = problem.initial_mode(0.0, problem.initial_state())
+    t_eval = np.array([0.01, 0.02, 5.0])
+    arc = integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=problem.initial_state(),
+                                   t_end=5.0, guards=problem.guards(mode), t_eval=t_eval))
+    assert isinstance(arc, ArcResult), f"advance returned {type(arc).__name__}, not ArcResult"
+    assert isinstance(arc.status, Status) and arc.status.ok, f"first arc failed: {arc.message}"
+    assert 0.0 < arc.t <= 5.0 and np.shape(arc.y) == (problem.n_states,), "bad stop time or state shape"
+    assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), \
+        "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
+    expected = int(np.searchsorted(t_eval, arc.t, side="right"))
+    assert np.shape(arc.y_eval) == (problem.n_states, expected), "y_eval must hold every t_eval <= t"
+    res = _simulate(integ, problem, 30.0)
+    assert res.ok, f"run failed: {res.message}"
+    c = res.counters
+    assert c.nsteps > 0 or c.nfev > 0, "no work reported: nsteps and nfev are both 0"
+    assert c.nfev >= 0 and c.njev >= 0 and c.nsteps >= 0
+    if caps.needs_jacobian:
+        assert c.njev > 0, "declares needs_jacobian but reports njev = 0"
+    for key, value in c.extra.items():
+        assert isinstance(value, (int, float)) and math.isfinite(value), f"extra counter {key} = {value!r}"
+
+
+def check_determinism(integ: Integrator) -> None:
+    """The same run twice (same instance, then a fresh copy) gives identical events and counters."""
+    problem = _problem(2)
+    runs = [_simulate(integ, problem, 20.0), _simulate(integ, problem, 20.0),
+            _simulate(type(integ).from_config(integ.config()), problem, 20.0)]
+    for other in runs[1:]:
+        assert other.events.equals(runs[0].events), "event logs differ between identical runs"
+        assert other.counters.as_dict() == runs[0].counters.as_dict(), "counters differ between identical runs"
+
+
+def check_inputs_not_mutated(integ: Integrator) -> None:
+    """``advance`` leaves the request's state and times alone (given writable copies)."""
+    problem = _problem(2)
+    integ.setup(problem)
+    y0 = np.array([0.2, -0.1, 0.3, 0.05])
+    t_eval = np.linspace(0.1, 3.0, 7)
+    saved = (y0.copy(), t_eval.copy())
+    mode = problem.initial_mode(0.0, y0)
+    integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0,
+                             guards=problem.guards(mode), t_eval=t_eval))
+    assert np.array_equal(y0, saved[0]), "advance changed request.y0"
+    assert np.array_equal(t_eval, saved[1]), "advance changed request.t_eval"
+
+
+def _smooth_error(integ: Integrator) -> float:
+    """End-state error of one smooth slip arc of case 1 over 4 time units, against ``exact``.
+
+    Both blocks slip backwards near the mode's equilibrium (x1 = rf1 + rf2,
+    x2 = x1 + rf2) with speeds well below the belt's, so no guard fires.
+    """
+    from nsbench.integrators.exact import ExactIntegrator
+
+    problem = _problem(1)
+    c = problem.coefficients
+    x1 = c.fs[0] + c.fs[1]
+    y0 = np.array([x1 + 0.02, 0.0, x1 + c.fs[1] / c.k[1] - 0.02, 0.01])
+    mode = (-1, -1)
+    request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=4.0, guards=problem.guards(mode))
+    exact = ExactIntegrator()
+    exact.setup(problem)
+    integ.setup(problem)
+    arc = integ.advance(request)
+    assert arc.status.ok and arc.fired is None and arc.t == 4.0, \
+        f"smooth arc did not reach its end: {arc.message or f'guard {arc.fired} fired at {arc.t}'}"
+    return float(np.max(np.abs(arc.y - exact.advance(request).y)))
+
+
+def _levels(integ: Integrator) -> list[dict[str, Any]]:
+    cls, name = type(integ), type(integ).capabilities.step_option
+    if len(cls.accuracy_levels) >= 2:
+        return [dict(level) for level in cls.accuracy_levels]
+    base = float(integ.settings[name] or cls.options[name].default or 1e-6)
+    factor = 4.0 if not cls.capabilities.adaptive else 1e3
+    return [{name: base * factor}, {name: base}, {name: base / factor}]
+
+
+def check_declared_order(integ: Integrator) -> None:
+    """Step halving on a smooth arc shows the declared convergence order (within 0.6)."""
+    caps, name = type(integ).capabilities, type(integ).capabilities.step_option
+    steps, errors = [], []
+    for level in _levels(integ):
+        errors.append(_smooth_error(type(integ)(**{**integ.settings, **level})))
+        steps.append(float(level[name]))
+    floor = 1e-12
+    orders = [math.log(errors[i] / errors[i + 1]) / math.log(steps[i] / steps[i + 1])
+              for i in range(len(errors) - 1) if errors[i + 1] > floor]
+    if not orders:
+        assert max(errors) <= floor, f"errors {errors} do not decrease"
+        return  # already at rounding level at every step: accurate beyond measurement
+    assert abs(orders[-1] - caps.order) <= 0.6, \
+        f"observed order {orders[-1]:.2f} (steps {steps}, errors {errors}) against declared {caps.order}"
+
+
+def check_convergence(integ: Integrator) -> None:
+    """Tightening the step option (loose to tight) never makes a smooth arc less accurate."""
+    errors = [_smooth_error(type(integ)(**{**integ.settings, **lv})) for lv in _levels(integ)]
+    for a, b in zip(errors, errors[1:]):
+        assert b <= max(a, 1e-12) * 1.5, f"errors {errors} grow as the step option tightens"
+    assert errors[-1] < 1e-5, f"tightest level still has error {errors[-1]:.3g}"
+
+
+def check_event_times(integ: Integrator) -> None:
+    """Event sequence and times of case 2 over [0, 60] at the middle accuracy level, against ``exact``."""
+    from nsbench.integrators.exact import ExactIntegrator
+
+    problem = _problem(2)
+    ref = _simulate(ExactIntegrator(), problem, 60.0).events
+    res = _simulate(middle_level(integ), problem, 60.0)
+    assert res.ok, res.message
+    _compare_events(res.events, ref, _EVENT_BOUND, "exact")
+
+
+def check_cubic_event_times(integ: Integrator) -> None:
+    """Case 4 (cubic springs, forced) over [0, 30] at the middle accuracy level, against ``reference``."""
+    from nsbench.integrators.reference import Reference
+
+    problem = _problem(4)
+    ref = _simulate(Reference(), problem, 30.0).events
+    res = _simulate(middle_level(integ), problem, 30.0)
+    assert res.ok, res.message
+    _compare_events(res.events, ref, _EVENT_BOUND, "reference")
+
+
+def check_refuses_unsupported_problems(integ: Integrator) -> None:
+    """A linear-only integrator refuses cubic springs with ``UnsupportedProblemError``."""
+    try:
+        integ.setup(_problem(3))
+    except UnsupportedProblemError:
+        return
+    raise AssertionError("declares supports_nonlinear=False but accepts a cubic problem")
+
+
+def check_stuck_block_stays_stuck(integ: Integrator) -> None:
+    """Both blocks stuck inside their sliding regions: no event until block 1 slips, no drift."""
+    problem = _problem(1)
+    v0 = problem.v0
+    y0 = [0.3, v0, 0.3, v0]  # R1 ~ 0.304 grows at v0 per time unit, reaching 1 at t ~ 8.35
+    grid = np.linspace(0.0, 8.0, 161)
+    res = _simulate(middle_level(integ), problem, 10.0, y0=y0, t_eval=grid)
+    assert res.ok, res.message
+    ev = res.events
+    assert len(ev) >= 1 and (ev["kind"].iloc[0], ev["block"].iloc[0]) == ("slip", 1), \
+        f"expected block 1 to slip first, got {list(zip(ev['kind'], ev['block']))[:3]}"
+    t_slip = (1.0 - problem.coefficients.c[0] * v0 - 0.3) / v0  # R1 is linear in t while stuck
+    assert abs(ev["t"].iloc[0] - t_slip) < 1e-6, f"slip at {ev['t'].iloc[0]:.9g}, expected {t_slip:.9g}"
+    tr = res.trajectory
+    assert (tr["phase1"] == 0).all() and (tr["phase2"] == 0).all(), "a stuck block left stick before t = 8"
+    drift = max(np.abs(tr["v1"] - v0).max(), np.abs(tr["v2"] - v0).max(),
+                np.abs(tr["x1"] - (0.3 + v0 * tr["t"])).max())
+    assert drift <= 1e-9, f"stuck blocks drift by {drift:.3g} from the belt"
+
+
+def check_energy_balance(integ: Integrator) -> None:
+    """Energy change equals the work of friction, damping and force along case 2's trajectory."""
+    from nsbench.problems.energy import energy_balance
+
+    problem = _problem(2)
+    res = _simulate(middle_level(integ), problem, 40.0, t_eval=np.linspace(0.0, 40.0, 4001))
+    assert res.ok, res.message
+    worst = float(energy_balance(res)["residual"].abs().max())
+    assert worst <= _ENERGY_BOUND, f"energy-balance residual {worst:.3g} > {_ENERGY_BOUND:g}"
+
+
+def check_failure_is_a_status(integ: Integrator) -> None:
+    """An exhausted step budget ends the run with a status and a message, never an exception."""
+    res = _simulate(integ, _problem(2), 300.0, max_steps=3)
+    assert not res.ok, "a budget of 3 steps did not stop a run over [0, 300]"
+    assert res.status in (Status.BUDGET_EXHAUSTED, Status.INTEGRATOR_FAILURE), res.status
+    assert res.message and res.t_final < 300.0
+
+
+def check_config_round_trip(integ: Integrator) -> None:
+    """``config()`` is a small JSON-able dict that rebuilds an equal integrator; bad options are refused."""
+    cls = type(integ)
+    for level in [{}, *cls.accuracy_levels]:
+        one = cls(**{**integ.settings, **level})
+        config = one.config()
+        assert config["name"] == cls.name and set(config["options"]) == set(cls.options)
+        text = json.dumps(config)
+        again = cls.from_config(json.loads(text))
+        assert type(again) is cls and again.config() == config, f"{config} does not round-trip"
+    try:
+        cls(**{"no_such_option_name": 1})
+    except ConfigError:
+        pass
+    else:
+        raise AssertionError("an unknown option was accepted")
+
+
+@dataclass(frozen=True)
+class Check:
+    """A named check and the capability test that decides whether it applies."""
+
+    name: str
+    run: Callable[[Integrator], None]
+    applies: Callable[[Capabilities], str | None] = lambda caps: None  # a reason when it does not apply
+
+    @property
+    def doc(self) -> str:
+        return (self.run.__doc__ or "").strip().splitlines()[0]
+
+
+def _needs(test: Callable[[Capabilities], bool], reason: str) -> Callable[[Capabilities], str | None]:
+    return lambda caps: None if test(caps) else reason
+
+
+CHECKS: tuple[Check, ...] = (
+    Check("protocol", check_protocol_and_counters),
+    Check("determinism", check_determinism),
+    Check("inputs-not-mutated", check_inputs_not_mutated),
+    Check("declared-order", check_declared_order,
+          _needs(lambda c: c.order is not None and c.step_option is not None and not c.adaptive,
+                 "no fixed order with a step-size option declared")),
+    Check("convergence", check_convergence,
+          _needs(lambda c: c.step_option is not None, "no step or tolerance option declared")),
+    Check("event-times", check_event_times),
+    Check("cubic-event-times", check_cubic_event_times,
+          _needs(lambda c: c.supports_nonlinear, "linear problems only")),
+    Check("refuses-unsupported", check_refuses_unsupported_problems,
+          _needs(lambda c: not c.supports_nonlinear, "supports cubic springs")),
+    Check("stuck-stays-stuck", check_stuck_block_stays_stuck),
+    Check("energy-balance", check_energy_balance),
+    Check("failure-status", check_failure_is_a_status),
+    Check("config-round-trip", check_config_round_trip),
+)

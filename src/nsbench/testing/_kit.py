@@ -1,0 +1,163 @@
+"""Running the checks: on one integrator (:func:`check_integrator`) or as pytest items.
+
+:func:`parametrize_with_checks` turns every (integrator, check) pair into its own pytest item.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass
+from typing import Any, Iterable, Sequence
+
+from nsbench.errors import ConfigError
+from nsbench.integrators.base import Integrator
+from nsbench.testing._checks import CHECKS, Check
+
+PASSED, FAILED, SKIPPED, XFAIL, XPASS = "passed", "failed", "skipped", "xfail", "xpass"
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """Outcome of one check on one integrator.
+
+    ``status`` is ``'passed'``, ``'failed'``, ``'skipped'`` (does not apply to
+    the integrator's capabilities), ``'xfail'`` (a declared known gap that
+    fails) or ``'xpass'`` (a declared known gap that passes); ``message`` says why.
+    """
+
+    integrator: str
+    check: str
+    status: str
+    message: str
+    seconds: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status != FAILED
+
+
+def as_integrator(obj: Any) -> Integrator:
+    """An integrator from a registry name, an :class:`Integrator` subclass or an instance."""
+    if isinstance(obj, Integrator):
+        return obj
+    if isinstance(obj, type) and issubclass(obj, Integrator):
+        return obj()
+    if isinstance(obj, str):
+        from nsbench.integrators import get_integrator
+
+        return get_integrator(obj)
+    raise ConfigError(f"expected an integrator name, class or instance, got {obj!r}")
+
+
+def known_gaps(integ: Integrator) -> dict[str, str]:
+    """The checks an integrator declares it does not pass, with the reason."""
+    gaps = dict(getattr(type(integ), "known_gaps", {}) or {})
+    unknown = set(gaps) - {c.name for c in CHECKS}
+    if unknown:
+        raise ConfigError(f"{type(integ).name}: known_gaps names unknown checks {sorted(unknown)}")
+    return gaps
+
+
+def checks_for(integ: Integrator, only: Sequence[str] | None = None) -> list[Check]:
+    """The checks to run, all of them or the named ones."""
+    if only is None:
+        return list(CHECKS)
+    names = {c.name: c for c in CHECKS}
+    missing = [n for n in only if n not in names]
+    if missing:
+        raise ConfigError(f"unknown checks {missing}; available: {', '.join(names)}")
+    return [names[n] for n in only]
+
+
+def run_check(integ: Integrator, check: Check) -> CheckResult:
+    """Run one check on a fresh copy of ``integ`` and classify the outcome."""
+    cls = type(integ)
+    reason = check.applies(cls.capabilities)
+    if reason is not None:
+        return CheckResult(cls.name, check.name, SKIPPED, reason, 0.0)
+    gap = known_gaps(integ).get(check.name)
+    tic = time.perf_counter()
+    try:
+        check.run(cls.from_config(integ.config()))
+    except Exception as exc:  # a failing check, whatever the integrator raised
+        seconds = time.perf_counter() - tic
+        if gap is not None:
+            return CheckResult(cls.name, check.name, XFAIL, f"known gap: {gap}", seconds)
+        detail = str(exc) if isinstance(exc, AssertionError) else \
+            f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"
+        return CheckResult(cls.name, check.name, FAILED, detail, seconds)
+    seconds = time.perf_counter() - tic
+    if gap is not None:
+        return CheckResult(cls.name, check.name, XPASS, f"declared gap passes: {gap}", seconds)
+    return CheckResult(cls.name, check.name, PASSED, check.doc, seconds)
+
+
+def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
+                     raise_on_failure: bool = False) -> list[CheckResult]:
+    """Run the conformance kit on one integrator.
+
+    Parameters
+    ----------
+    obj
+        A registry name, an :class:`Integrator` subclass or a configured instance.
+    checks
+        Names of the checks to run (default: all; see :data:`nsbench.testing.CHECKS`).
+    raise_on_failure
+        Raise ``AssertionError`` listing the failed checks instead of returning.
+
+    Returns
+    -------
+    list of CheckResult
+        One per check, in the kit's order.
+    """
+    integ = as_integrator(obj)
+    results = [run_check(integ, check) for check in checks_for(integ, checks)]
+    failed = [r for r in results if r.status == FAILED]
+    if raise_on_failure and failed:
+        raise AssertionError("; ".join(f"{r.check}: {r.message}" for r in failed))
+    return results
+
+
+def parametrize_with_checks(integrators: Iterable[Any]):
+    """A ``pytest.mark.parametrize`` over every (integrator, check) pair.
+
+    The test receives the integrator and a callable that runs the check on a
+    fresh copy of it. Checks that do not apply are skipped and declared known
+    gaps are expected failures, each with its reason::
+
+        from nsbench.testing import parametrize_with_checks
+
+        @parametrize_with_checks(["exact", MyIntegrator(h=0.01)])
+        def test_conformance(integrator, check):
+            check(integrator)
+    """
+    import pytest
+
+    params = []
+    for obj in integrators:
+        integ = as_integrator(obj)
+        cls = type(integ)
+        gaps = known_gaps(integ)
+        for check in CHECKS:
+            marks = []
+            reason = check.applies(cls.capabilities)
+            if reason is not None:
+                marks.append(pytest.mark.skip(reason=reason))
+            elif check.name in gaps:
+                marks.append(pytest.mark.xfail(reason=gaps[check.name], strict=False))
+            params.append(pytest.param(integ, _Runner(check), id=f"{cls.name}-{check.name}", marks=marks))
+    return pytest.mark.parametrize("integrator, check", params)
+
+
+class _Runner:
+    """Callable handed to the test: runs one check on a fresh copy of the integrator."""
+
+    def __init__(self, check: Check) -> None:
+        self.check = check
+
+    def __call__(self, integ: Integrator) -> None:
+        self.check.run(type(integ).from_config(integ.config()))
+
+    def __repr__(self) -> str:
+        return f"<check {self.check.name}>"

@@ -1,0 +1,81 @@
+"""Test-only integrators for the runner tests, importable by spawned worker processes.
+
+They wrap real integrators (no fake results): a slowed-down RK45 (a planted
+slowdown), one that sleeps per arc (to hit the time limit), one that fails in
+``setup``, one that can interrupt a run, and a tight DOP853 that stands in for the
+high-precision cubic reference. The stand-in is *not* a certified reference: it
+only lets the tests exercise the reference path on cubic problems.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+from nsbench.integrators.scipy_ import ScipyDOP853, ScipyRK45
+
+
+class SlowRK45(ScipyRK45):
+    """scipy-rk45 that computes every arc ``repeat`` times: a planted slowdown by that factor."""
+
+    name = "scipy-rk45"
+    repeat = 4
+
+    def advance(self, request):
+        for _ in range(self.repeat - 1):
+            super().advance(request)
+        return super().advance(request)
+
+
+class SleepyRK45(ScipyRK45):
+    """Sleeps 30 ms per arc, so a short wall-clock limit ends its runs."""
+
+    name = "sleepy-rk45-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def advance(self, request):
+        time.sleep(0.03)
+        return super().advance(request)
+
+
+class BrokenSetup(ScipyRK45):
+    """Raises an unexpected exception in setup (a bug in a plug-in)."""
+
+    name = "broken-setup-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def setup(self, problem):
+        raise RuntimeError("plug-in bug in setup")
+
+
+class Interrupting(ScipyRK45):
+    """Raises KeyboardInterrupt (like Ctrl-C) while NSBENCH_TEST_INTERRUPT is set."""
+
+    name = "interrupting-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def advance(self, request):
+        if os.environ.get("NSBENCH_TEST_INTERRUPT"):
+            raise KeyboardInterrupt
+        return super().advance(request)
+
+
+class StandInReference(ScipyDOP853):
+    """A tight DOP853 standing in for the quad-precision cubic reference (tests only)."""
+
+    name = "standin-reference-test"
+    options = {**ScipyDOP853.options}
+    accuracy_levels = ({"rtol": 1e-13, "atol": 1e-15},)
+
+    def __init__(self, **options):
+        super().__init__(**{"rtol": 1e-13, "atol": 1e-15, **options})
+
+
+class Crashing(ScipyRK45):
+    """Kills its own process in the middle of a run, like a segfault in compiled code."""
+
+    name = "crashing-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def advance(self, request):
+        os._exit(3)

@@ -1,0 +1,64 @@
+"""The bench commands end to end: bench, report, compare, ingest, run; bad input exits 2."""
+
+from __future__ import annotations
+
+import pytest
+
+from nsbench.cli import main
+
+TINY = """
+name = "tiny"
+t_span = [0, 20]
+repeats = 2
+problems = [{ name = "one-dof", case = 1 }]
+[integrators]
+only = ["exact", "scipy-rk45"]
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    (d / "tiny.toml").write_text(TINY)
+    return d
+
+
+def test_bench_report_compare(tiny, capsys):
+    out = tiny / "out"
+    assert main(["bench", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "4 cases: 4 computed, 0 already stored" in text and "index.html" in text
+    for name in ("results.parquet", "results.csv", "report.md", "index.html", "table.tex", "provenance.json"):
+        assert (out / name).exists(), name
+    assert main(["bench", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1", "--no-report"]) == 0
+    assert "4 cases: 0 computed, 4 already stored" in capsys.readouterr().out
+    assert main(["report", str(out)]) == 0
+    assert main(["compare", str(out), str(out / "results.parquet")]) == 0
+    assert "4 common cases (0 only in A, 0 only in B); factor 1.5; 0 flagged" in capsys.readouterr().out
+
+
+def test_run_writes_the_report(tiny, capsys):
+    out = tiny / "latest"
+    assert main(["run", "--suite", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1",
+                 "--no-progress"]) == 0
+    assert (out / "index.html").stat().st_size > 10_000
+    assert "nsbench run took" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["bench", "nope.toml", "--out", "x"], "suite file 'nope.toml' does not exist"),
+    (["report", "no-such-dir"], "'no-such-dir' is not a directory"),
+    (["compare", "no-a", "no-b"], "results 'no-a' do not exist"),
+    (["ingest", "no.json"], "benchmark file 'no.json' does not exist"),
+    (["compare", ".", ".", "--factor", "0.5"], "holds no results"),
+])
+def test_bad_input_exits_2_with_one_line(argv, fragment, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and fragment in err
+
+
+def test_bad_workers(tiny, capsys):
+    assert main(["bench", str(tiny / "tiny.toml"), "--out", str(tiny / "w"), "--workers", "0"]) == 2
+    assert "--workers = 0 must be >= 1" in capsys.readouterr().err

@@ -1,0 +1,68 @@
+"""ingest: a real pytest-benchmark JSON (written by a pytest subprocess) into the tidy schema."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from nsbench.bench import Suite, run_suite
+from nsbench.bench.ingest import ingest, read_benchmark_json
+from nsbench.bench.report import write_report
+from nsbench.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def bench_json(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("pb")
+    out = tmp / "bench.json"
+    env = {**os.environ, "NSBENCH_BENCH_T_END": "30"}
+    cmd = [sys.executable, "-m", "pytest", str(ROOT / "benchmarks" / "test_registry.py"), "-q",
+           "-p", "no:cacheprovider", "--benchmark-only", f"--benchmark-json={out}",
+           "--benchmark-save-data", "-k", "one-dof-1 and (scipy-dop853 or exact)"]
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out
+
+
+def test_ingest_round_trips_a_pytest_benchmark_file(bench_json, tmp_path):
+    raw = json.loads(bench_json.read_text())
+    assert len(raw["benchmarks"]) == 2
+    frame = ingest(bench_json, tmp_path / "ing")
+    assert len(frame) == 2 and set(frame["integrator"]) == {"exact", "scipy-dop853"}
+    for bench in raw["benchmarks"]:
+        row = frame[frame["case_id"] == bench["extra_info"]["case_id"]].iloc[0]
+        assert row["wall_time"] == bench["stats"]["median"]
+        assert list(row["wall_times"]) == bench["stats"]["data"] and row["n_repeats"] == bench["stats"]["rounds"]
+        for key in ("switch_err_max", "n_prefix", "n_missed", "nfev", "status", "problem_config"):
+            assert row[key] == bench["extra_info"][key], key
+        assert list(row["event_err"]) == bench["extra_info"]["event_err"]
+    assert "machine_info" in json.loads((tmp_path / "ing" / "provenance.json").read_text())
+    rep = write_report(tmp_path / "ing")
+    assert rep.html.exists() and len(rep.figures) == 3
+
+
+def test_ingested_rows_match_the_runner_on_the_same_cases(bench_json, tmp_path):
+    frame = ingest(bench_json, tmp_path / "ing")
+    suite = Suite.from_dict({"t_span": [0.0, 30.0], "problems": [{"name": "one-dof", "case": 1}], "repeats": 1,
+                             "integrators": {"only": ["exact", "scipy-dop853"],
+                                             "grids": {"scipy-dop853": {"options": [{}]}}}})
+    runner = run_suite(suite, tmp_path / "run", workers=1, progress=False).results
+    merged = frame.merge(runner, on="case_id", suffixes=("_bench", "_run"))
+    assert len(merged) == 2                                   # same case ids
+    for key in ("switch_err_max", "n_prefix", "nfev", "state_err_l2"):
+        assert (merged[f"{key}_bench"] == merged[f"{key}_run"]).all(), key  # deterministic runs agree
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(ConfigError, match="does not exist"):
+        read_benchmark_json(tmp_path / "nope.json")
+    (tmp_path / "x.json").write_text('{"a": 1}')
+    with pytest.raises(ConfigError, match="not a pytest-benchmark file"):
+        read_benchmark_json(tmp_path / "x.json")

@@ -1,0 +1,120 @@
+"""Metrics on constructed event logs, with expected values derived by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nsbench.bench.metrics import align, case_metrics, lcs_length, reaches, state_errors, switching_errors
+from nsbench.bench.storage import to_frame
+from nsbench.bench.tables import fixed_target, ranking
+
+KINDS = [("stick", 1), ("slip", 1), ("stick", 2), ("slip", 2), ("stick", 1)]
+T_REF = [1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def log(times, kinds):
+    return pd.DataFrame({"t": times, "kind": [k for k, _ in kinds], "block": [b for _, b in kinds]})
+
+
+REF = log(T_REF, KINDS)
+
+
+def test_known_shift():
+    shift = np.array([1e-6, -2e-6, 3e-6, 0.0, 1e-6])
+    run = log(np.array(T_REF) + shift, KINDS)
+    al = align(REF, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (5, 5, 0, 0)
+    assert al.sequence_ok and al.first_divergence_index == -1 and math.isnan(al.first_divergence_time)
+    sw, t_ref, dt = switching_errors(REF, run, al.n_prefix)
+    assert sw.err_max == pytest.approx(3e-6, rel=1e-9)
+    assert sw.err_rms == pytest.approx(math.sqrt(15 / 5) * 1e-6, rel=1e-9)   # (1+4+9+0+1)/5
+    assert sw.err_median == pytest.approx(1e-6, rel=1e-9)
+    # relative errors 1e-6, 1e-6, 1e-6, 0, 2e-7: the worst time has 6 correct digits
+    assert sw.digits == pytest.approx(6.0, abs=1e-6)
+    assert np.allclose(dt, shift, atol=1e-15) and list(t_ref) == T_REF
+
+
+def test_missing_event_limits_errors_to_the_matched_prefix():
+    kinds = KINDS[:2] + KINDS[3:]                      # stick@2 at t = 3 is missed
+    times = [1.0 + 1e-9, 2.0 - 2e-9, 4.5, 5.5]           # later events would look 1.5 off if compared
+    run = log(times, kinds)
+    al = align(REF, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (2, 4, 1, 0)
+    assert al.first_divergence_index == 2 and al.first_divergence_time == 3.0
+    assert not al.sequence_ok
+    sw, _, _ = switching_errors(REF, run, al.n_prefix)
+    assert sw.err_max == pytest.approx(2e-9, rel=1e-6)
+    assert not reaches(1e-6, status="success", sequence_ok=al.sequence_ok, err_max=sw.err_max)
+
+
+def test_extra_event():
+    kinds = KINDS[:2] + [("reverse", 1)] + KINDS[2:]
+    run = log([1.0, 2.0, 2.5, 3.0, 4.0, 5.0], kinds)
+    al = align(REF, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (2, 5, 0, 1)
+    assert al.first_divergence_index == 2 and al.first_divergence_time == 3.0
+
+
+def test_extra_event_after_the_reference_ends():
+    run = log(T_REF + [6.0], KINDS + [("slip", 1)])
+    al = align(REF, run)
+    assert (al.n_prefix, al.n_missed, al.n_extra, al.first_divergence_index) == (5, 0, 1, 5)
+    assert al.first_divergence_time == 6.0          # the run's time: the reference has none there
+
+
+def test_empty_run_and_digits_cap():
+    al = align(REF, log([], []))
+    assert (al.n_prefix, al.n_matched, al.n_missed) == (0, 0, 5)
+    assert math.isnan(switching_errors(REF, log([], []), 0)[0].err_max)
+    exact = switching_errors(REF, REF, 5)[0]
+    assert exact.err_max == 0.0 and exact.digits == pytest.approx(-math.log10(2.0 ** -53))
+
+
+def test_lcs_length_small_cases():
+    assert lcs_length(list("ABCBDAB"), list("BDCABA")) == 4   # textbook example
+    assert lcs_length(list("AAAA"), list("AA")) == 2
+    assert lcs_length([], list("AB")) == 0
+
+
+def test_state_errors_by_hand():
+    ref = np.zeros((2, 4))
+    run = np.array([[3.0, 0.0, 0.0, 0.0], [4.0, 0.0, 0.0, 1.0]])   # norms 5, 0, 0, 1
+    final, l2 = state_errors(ref, run, np.zeros(2), np.array([0.5, -2.0]))
+    assert final == 2.0
+    assert l2 == pytest.approx(math.sqrt((25 + 1) / 4))
+    assert all(math.isnan(v) for v in state_errors(ref, run[:, :3], np.zeros(2), np.zeros(2)))
+
+
+def test_case_metrics_has_every_metric_column():
+    m = case_metrics(REF, REF, None, None, None, None)
+    assert m["n_prefix"] == 5 and m["switch_err_max"] == 0.0 and math.isnan(m["state_err_l2"])
+
+
+def _row(integrator, options, err, time, ok=True, status="success", label="p/1"):
+    return {"case_id": f"{integrator}{options}", "problem_label": label, "integrator": integrator,
+            "options": options, "status": status, "sequence_ok": ok, "switch_err_max": err,
+            "wall_time": time, "nfev": int(time * 1000), "reference_status": "ok", "level": 0}
+
+
+def test_fixed_target_picks_the_cheapest_reaching_config_and_ignores_wrong_sequences():
+    frame = to_frame([
+        _row("a", "loose", 1e-7, 0.1), _row("a", "tight", 1e-10, 0.5),
+        _row("b", "wrong-seq", 1e-13, 0.01, ok=False),      # never counts
+        _row("b", "failed", 1e-13, 0.02, status="integrator failure"),
+        _row("b", "ok", 1e-7, 0.3),
+    ])
+    long = fixed_target(frame, (1e-6, 1e-9, 1e-12))
+    got = {(r.integrator, r.target): (r.outcome, r.wall_time) for r in long.itertuples()}
+    assert got[("a", 1e-6)] == ("reached", 0.1)
+    assert got[("a", 1e-9)] == ("reached", 0.5)
+    assert got[("a", 1e-12)][0] == "not reached"
+    assert got[("b", 1e-6)] == ("reached", 0.3)
+    assert got[("b", 1e-9)][0] == "not reached" and got[("b", 1e-12)][0] == "not reached"
+    rank = ranking(long)
+    # a: ranks 1, 1, 2 (nobody reaches 1e-12: both last = 2); b: 2, 2, 2
+    assert list(rank["integrator"]) == ["a", "b"]
+    assert rank["mean_rank"].tolist() == pytest.approx([4 / 3, 2.0])

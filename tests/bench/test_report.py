@@ -1,0 +1,69 @@
+"""The report: report.md, a self-contained index.html holding every figure, table.tex, PNG+SVG."""
+
+from __future__ import annotations
+
+import base64
+import re
+
+import pytest
+
+from nsbench.bench import Suite, run_suite
+from nsbench.bench.report import write_report
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    # The reference list leaves out `reference`, so the cubic problem has none and
+    # takes the cost-only figure path.
+    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "reference": ["exact"],
+                             "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
+                             "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"],
+                                             # RK4 steps whose event error is ~1e-5 and ~1e-8:
+                                             # 1e-6 is reached, 1e-12 is not
+                                             "grids": {"henon-rk4": {"options": [{"h": 0.04}, {"h": 0.01}]}}}})
+    run_suite(suite, out, workers=1, progress=False)
+    return out, write_report(out)
+
+
+def test_every_figure_is_saved_as_png_and_svg(report):
+    out, rep = report
+    names = [f.name for f in rep.figures]
+    assert names == ["wp_time_one-dof_1", "wp_nfev_one-dof_1", "event_err_one-dof_1", "cost_two-dof_3"]
+    for fig in rep.figures:
+        assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert fig.svg.read_text().lstrip().startswith(("<?xml", "<svg"))
+
+
+def test_html_is_self_contained_and_embeds_each_figure(report):
+    out, rep = report
+    html = rep.html.read_text()
+    for fig in rep.figures:
+        assert f"id='{fig.name}'" in html
+        assert base64.b64encode(fig.png.read_bytes()).decode() in html
+    sources = re.findall(r"src=['\"]([^'\"]+)['\"]", html)
+    assert len(sources) == len(rep.figures) and all(s.startswith("data:image/png;base64,") for s in sources)
+    assert "<link" not in html and "http://" not in html and "https://" not in html
+    for section in ("Fixed-target table", "Ranking", "Figures", "Provenance", "version_nsbench"):
+        assert section in html
+
+
+def test_markdown_and_latex(report):
+    out, rep = report
+    md = rep.markdown.read_text()
+    for fig in rep.figures:
+        assert f"figures/{fig.png.name}" in md
+    assert "| problem | integrator | 1e-06 | 1e-09 | 1e-12 |" in md
+    assert "reference `exact`" in md and "no reference available" in md
+    tex = rep.latex.read_text()
+    assert tex.count(r"\begin{tabular}") == 2 and r"\label{tab:nsbench-fixed-target}" in tex
+    assert "one-dof/1 & exact" in tex
+    # exact is the reference of one-dof/1: reported with its cost, not as reaching targets
+    ft = rep.fixed_target
+    own = ft[(ft["integrator"] == "exact") & (ft["problem_label"] == "one-dof/1")]
+    assert (own["outcome"] == "reference").all() and (own["wall_time"] > 0).all()
+    assert "| one-dof/1 | exact | ref (" in md and "exact" not in set(rep.ranking["integrator"])
+    rk4 = ft[(ft["integrator"] == "henon-rk4") & (ft["problem_label"] == "one-dof/1")].set_index("target")
+    assert rk4.loc[1e-6, "outcome"] == "reached" and rk4.loc[1e-12, "outcome"] == "not reached"
+    cubic = ft[ft["problem_label"] == "two-dof/3"].set_index("integrator")["outcome"]
+    assert (cubic.drop("exact") == "no reference").all() and (cubic["exact"] == "unsupported").all()

@@ -1,0 +1,113 @@
+"""Suites: TOML and dict forms, expansion into cases, grids, data-driven skips, bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+from nsbench.bench.suite import Suite, default_suite, load_suite
+from nsbench.errors import ConfigError
+
+TOML = """
+name = "tiny"
+t_span = [0, 50]
+repeats = 2
+
+[[problems]]
+name = "one-dof"
+case = 1
+
+[[problems]]
+name = "two-dof"
+cases = [1, 2]
+params = { v0 = 0.1 }
+
+[integrators]
+only = ["exact", "henon-rk4"]
+
+[integrators.grids.scipy-dop853]
+grid = { rtol = [1e-4, 1e-8, 1e-12] }
+fixed = { atol = 1e-14 }
+
+[integrators.grids.henon-rk4]
+options = [{ h = 0.05 }, { h = 0.02 }]
+
+[integrators.skip_levels.henon-rk4]
+levels = [0]
+reason = "test"
+"""
+
+
+def test_toml_and_dict_give_the_same_cases(tmp_path):
+    import tomllib
+
+    path = tmp_path / "s.toml"
+    path.write_text(TOML)
+    a, b = Suite.from_toml(path), Suite.from_dict(tomllib.loads(TOML))
+    assert [c.case_id for c in a.cases()] == [c.case_id for c in b.cases()]
+    cases = a.cases()
+    # 3 problems x (exact 1 + henon-rk4 2-1 skipped + dop853 3)
+    assert len(cases) == 3 * 5
+    henon = [c for c in cases if c.integrator == "henon-rk4"]
+    assert {c.options["h"] for c in henon} == {0.02} and {c.level for c in henon} == {1}
+    dop = [c.options for c in cases if c.integrator == "scipy-dop853" and c.problem["name"] == "one-dof"]
+    assert dop == [{"atol": 1e-14, "rtol": r} for r in (1e-4, 1e-8, 1e-12)]
+    two = [c.problem for c in cases if c.problem["name"] == "two-dof"]
+    assert {p["case"] for p in two} == {1, 2} and all(p["params"] == {"v0": 0.1} for p in two)
+
+
+def test_default_suite_is_packaged_and_uses_accuracy_levels():
+    suite = load_suite("default")
+    assert suite.t_span == (0.0, 300.0) and suite.targets == (1e-6, 1e-9, 1e-12)
+    labels = {(p["name"], p["case"]) for p in suite.problem_configs()}
+    assert labels == {("one-dof", 1), ("two-dof", 1), ("two-dof", 2), ("two-dof", 3), ("two-dof", 4)}
+    from nsbench.integrators import integrator_class, list_integrators
+
+    names = {c.integrator for c in suite.cases()}
+    assert names == set(list_integrators())
+    for name in names:  # every level of every integrator, minus the ones the data skips
+        levels = integrator_class(name).accuracy_levels or ({},)
+        skip = suite.integrators.get("skip_levels", {}).get(name, {}).get("levels", [])
+        got = [c.options for c in suite.cases() if c.integrator == name and c.problem["case"] == 1
+               and c.problem["name"] == "one-dof"]
+        assert got == [dict(o) for i, o in enumerate(levels) if i not in skip]
+    assert default_suite().to_dict() == suite.to_dict()
+
+
+def test_case_ids_are_stable_and_distinct():
+    suite = Suite.from_dict({"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}})
+    ids = [c.case_id for c in suite.cases()]
+    assert len(set(ids)) == 3 and ids == [c.case_id for c in suite.cases()]
+    longer = Suite.from_dict({"problems": [{"name": "one-dof"}], "integrators": {"only": ["scipy-rk45"]},
+                              "t_span": [0, 100]})
+    assert set(ids).isdisjoint(c.case_id for c in longer.cases())
+
+
+@pytest.mark.parametrize("data, fragment", [
+    ({"problems": []}, "at least one entry in problems"),
+    ({"problems": [{"name": "one-dof"}], "colour": 1}, "unknown key(s) colour"),
+    ({"problems": [{"name": "one-dof", "cas": 1}]}, "unknown key(s) cas"),
+    ({"problems": [{"name": "three-dof"}]}, "unknown problem 'three-dof'"),
+    ({"problems": [{"name": "one-dof", "params": {"c": -1}}]}, "out of range"),
+    ({"problems": [{"name": "one-dof"}], "t_span": [5, 1]}, "t_end > t0"),
+    ({"problems": [{"name": "one-dof"}], "repeats": 0}, "repeats = 0"),
+    ({"problems": [{"name": "one-dof"}], "time_limit": -1}, "time_limit = -1"),
+    ({"problems": [{"name": "one-dof"}], "targets": [0]}, "must be positive"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"only": ["rk99"]}}, "unknown integrator(s) rk99"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": {"scipy-rk45": {"grid": {"rtol": [-1]}}}}},
+     "rtol = -1"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": {"henon-rk4": {"grid": {"k": [1]}}}}},
+     "unknown option 'k'"),
+])
+def test_bad_suites_raise_config_error(data, fragment):
+    with pytest.raises(ConfigError, match=None) as info:
+        Suite.from_dict(data).cases()
+    assert fragment in str(info.value)
+
+
+def test_missing_and_invalid_files(tmp_path):
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_suite(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("name = [")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_suite(bad)

@@ -1,0 +1,46 @@
+"""``nsbench check``: the conformance table and its exit status."""
+
+from __future__ import annotations
+
+from nsbench import registry
+from nsbench.cli import main
+from tests.testing.test_conformance import LateEvents
+
+
+def test_check_prints_a_table_and_passes(capsys):
+    assert main(["check", "exact"]) == 0
+    out = capsys.readouterr().out
+    assert "conformance of exact" in out
+    for line in ("protocol", "event-times", "config-round-trip"):
+        assert any(row.split()[:2] == [line, "PASSED"] for row in out.splitlines())
+    assert "convergence          SKIPPED" in out and "no step or tolerance option declared" in out
+    assert "12 checks:" in out
+
+
+def test_check_exit_status_is_nonzero_on_failure(capsys):
+    registry.register("integrators", "test-late-events", LateEvents)
+    try:
+        assert main(["check", "test-late-events", "--check", "event-times", "--check", "protocol"]) == 1
+    finally:
+        registry.unregister("integrators", "test-late-events")
+    out = capsys.readouterr().out
+    assert "event-times  FAILED" in out and "event times differ from exact" in out
+    assert "protocol     PASSED" in out
+
+
+def test_check_options_and_bad_input(capsys):
+    assert main(["check", "henon-rk4", "--option", "h=0.02", "--check", "config-round-trip"]) == 0
+    assert "{'h': 0.02}" in capsys.readouterr().out
+    assert main(["check", "henon-rk5"]) == 2
+    assert "did you mean 'henon-rk4'" in capsys.readouterr().err
+    assert main(["check", "exact", "--check", "no-such-check"]) == 2
+    assert main(["check", "exact", "--option", "scan=-1"]) == 2
+
+
+def test_every_registered_integrator_runs_by_name_from_the_cli(capsys):
+    from nsbench import list_integrators
+
+    for name in list_integrators():
+        assert main(["simulate", "two-dof", "--case", "2", "--integrator", name, "--t-end", "20"]) == 0, name
+        out = capsys.readouterr().out
+        assert f"integrator  {name}" in out and "status      success" in out

@@ -1,0 +1,178 @@
+"""``cvode-bdf``, ``cvode-adams``, ``ida``: event times against exact, the DAE's structure, the kernels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import nsbench
+from nsbench.integrators import _sundials_kernels as sk
+from nsbench.problems import kernels
+from tests.conftest import exact_events, max_time_error, same_sequence
+from tests.integrators.runs import two_dof_run
+
+SUNDIALS = ["cvode-bdf", "cvode-adams", "ida"]
+TIGHT = (("atol", 1e-14), ("rtol", 1e-12))
+
+
+def _check(name, case, options, bound):
+    res = two_dof_run(name, case, 300.0, options)
+    ref = exact_events("two-dof", case)
+    assert res.ok, res.message
+    assert same_sequence(res.events, ref)
+    assert max_time_error(res.events, ref) <= bound
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+def test_case_2_at_rtol_1e12_within_1e8(name):
+    _check(name, 2, TIGHT, 1e-8)
+
+
+def test_adams_case_1_at_rtol_1e12_within_1e8():
+    _check("cvode-adams", 1, TIGHT, 1e-8)
+
+
+@pytest.mark.parametrize("name", ["cvode-bdf", "ida"])
+@pytest.mark.xfail(reason="BDF's phase error drifts linearly on the unforced cycle: 2.3e-8 (cvode-bdf) and "
+                          "1.5e-8 (ida) by tau = 300 at rtol = 1e-12 (scipy-bdf: 1.8e-8); within 1e-8 from "
+                          "rtol = 1e-13 on", strict=False)
+def test_bdf_case_1_at_rtol_1e12_within_1e8(name):
+    _check(name, 1, TIGHT, 1e-8)
+
+
+@pytest.mark.parametrize("name", ["cvode-bdf", "ida"])
+def test_bdf_case_1_at_rtol_1e13_within_1e8(name):
+    _check(name, 1, (("atol", 1e-15), ("rtol", 1e-13)), 1e-8)
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+def test_cubic_forced_case_against_quad(name):
+    res = two_dof_run(name, 4, 300.0, (("atol", 1e-12), ("rtol", 1e-10)))
+    quad = two_dof_run("heyoka-q", 4)
+    assert same_sequence(res.events, quad.events)
+    assert max_time_error(res.events, quad.events) <= 1e-6
+
+
+def test_plain_cvode_misses_a_force_driven_slip():
+    # The pitfall the cos/sin states cure: from t ~ 31.38 both blocks stick and the
+    # mechanical states are linear in t, so CVODE's steps grow past the forcing
+    # period; block 2's force-driven slip at t ~ 33.46 is stepped over.
+    from sksundae.cvode import CVODE
+
+    p = nsbench.get_problem("two-dof", case=2)
+    ref = exact_events("two-dof", 2)
+    start = ref.iloc[11]  # both blocks stuck from here
+    assert (start["kind"], start["block"]) == ("stick", 1)
+    guards = p.guards((0, 0))
+
+    def rhs(t, y, yp):
+        yp[:] = p.rhs((0, 0), t, y)
+
+    def events(t, y, out):
+        for q, g in enumerate(guards):
+            out[q] = g.expected_sign * float(g.value(t, y))
+
+    events.terminal, events.direction = [True] * 4, [-1] * 4
+    y0 = start[["x1", "v1", "x2", "v2"]].to_numpy(dtype=float)
+    plain = CVODE(rhs, rtol=1e-12, atol=1e-14, eventsfn=events, num_events=4).solve([start["t"], 60.0], y0)
+    assert plain.t[-1] > 35.0  # stopped at a later event: the slip at 33.46 was missed
+    res = two_dof_run("cvode-bdf", 2, 60.0, (("atol", 1e-8), ("rtol", 1e-6)))
+    assert same_sequence(res.events, exact_events("two-dof", 2, 60.0))
+
+
+def test_cvode_kernels_match_the_problem():
+    p = nsbench.get_problem("two-dof", case=4)
+    pk = kernels.pack(p)
+    pk[1 + 6 * 2] = 0.0  # CVODE's coefficients: the force enters through cos(w t)
+    F, w = p.coefficients.F, p.coefficients.w
+    rng = np.random.default_rng(3)
+    for mode in p.modes:
+        t = float(rng.uniform(0, 50))
+        y = rng.uniform(-1, 1, 4)
+        for i, ph in enumerate(mode):
+            if ph == 0:
+                y[2 * i + 1] = p.v0
+        z = np.concatenate([y, [np.cos(w * t), np.sin(w * t)]])
+        out = np.empty(6)
+        sk.cvode_rhs(pk, kernels.mode_array(mode), F, w, z, out)
+        np.testing.assert_allclose(out[:4], p.rhs(mode, t, y), atol=1e-14)
+        jac = np.empty((6, 6))
+        sk.cvode_jacobian(pk, kernels.mode_array(mode), F, w, z, jac)
+        np.testing.assert_allclose(jac[:4, :4], p.jacobian(mode, t, y), atol=1e-14)
+        guards = p.guards(mode)
+        kinds, blocks, signs = kernels.guard_codes(guards)
+        roots = np.empty(len(guards))
+        sk.cvode_roots(pk, F, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0), z, roots)
+        expected = [g.expected_sign * float(g.value(t, y)) for g in guards]
+        np.testing.assert_allclose(roots, expected, atol=1e-14)
+
+
+@pytest.mark.parametrize("mode", [(-1, -1), (0, 1), (1, 0), (0, 0)])
+def test_ida_dae_structure(mode):
+    # Consistent values at a switch: zero residual; a stuck block's velocity is
+    # pinned algebraically and its friction force equals R, whose bound is the
+    # guard; the Jacobian is dF/dy + cj dF/dyp.
+    p = nsbench.get_problem("two-dof", case=4)
+    pk, m = kernels.pack(p), kernels.mode_array(mode)
+    rng = np.random.default_rng(7)
+    t = 12.3
+    y = rng.uniform(-1, 1, 4)
+    for i, ph in enumerate(mode):
+        if ph == 0:
+            y[2 * i + 1] = p.v0
+    yy, yp = sk.consistent_start(pk, m, t, y)
+    res = np.empty(6)
+    sk.ida_residual(pk, m, t, yy, yp, res)
+    np.testing.assert_allclose(res, 0.0, atol=1e-15)
+    for i, ph in enumerate(mode):
+        force = p.friction_forces(mode, t, y)[i]
+        assert yy[4 + i] == pytest.approx(float(force), abs=1e-15)
+    guards = p.guards(mode)
+    kinds, blocks, signs = kernels.guard_codes(guards)
+    roots = np.empty(len(guards))
+    sk.ida_roots(pk, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0), yy, roots)
+    np.testing.assert_allclose(roots, [g.expected_sign * float(g.value(t, y)) for g in guards], atol=1e-14)
+    cj, jac, scratch = 3.7, np.empty((6, 6)), np.empty((4, 4))
+    sk.ida_jacobian(pk, m, np.full(2, -1, dtype=np.int64), t, yy, cj, scratch, jac)
+    numeric = np.empty((6, 6))
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = 1e-6
+        hi, lo = np.empty(6), np.empty(6)
+        sk.ida_residual(pk, m, t, yy + e, yp + cj * e, hi)
+        sk.ida_residual(pk, m, t, yy - e, yp - cj * e, lo)
+        numeric[:, j] = (hi - lo) / 2e-6
+    np.testing.assert_allclose(jac, numeric, atol=1e-7)
+
+
+def test_ida_follows_the_forcing_through_the_stuck_force():
+    # With both blocks stuck only the algebraic force f2 = R2 carries the forcing;
+    # IDA's error test includes it, so a loose tolerance still finds the slip at 33.46.
+    res = two_dof_run("ida", 2, 60.0, (("atol", 1e-8), ("rtol", 1e-6)))
+    assert same_sequence(res.events, exact_events("two-dof", 2, 60.0))
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+def test_counters_budget_and_options(name, case1):
+    res = two_dof_run(name, 2, 300.0, TIGHT)
+    c = res.counters
+    assert c.nfev > c.nsteps > 0 and c.njev > 0 and c.extra["root_returns"] >= len(res.events)
+    short = nsbench.simulate(case1, name, 300.0, max_steps=50)
+    assert short.status is nsbench.Status.BUDGET_EXHAUSTED and short.counters.nsteps <= 50
+    with pytest.raises(nsbench.ConfigError, match="rtol"):
+        nsbench.get_integrator(name, rtol=0.5)
+
+
+def test_sections_and_trajectory_match_exact(case2):
+    from nsbench.sections import peaks, stroboscopic
+
+    grid = np.linspace(0, 50, 201)
+    secs = [peaks(case2), stroboscopic(case2)]
+    ref = nsbench.simulate(case2, "exact", 50.0, t_eval=grid, sections=secs)
+    cols = ["t", "x1", "v1", "x2", "v2"]
+    for name in SUNDIALS:
+        res = nsbench.simulate(case2, name, 50.0, t_eval=grid, sections=secs,
+                               options={"rtol": 1e-11, "atol": 1e-13})
+        assert len(res.sections) == len(ref.sections) > 5
+        np.testing.assert_allclose(res.sections[cols].to_numpy(), ref.sections[cols].to_numpy(), atol=1e-8)
+        np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-8)

@@ -1,0 +1,61 @@
+"""The example out-of-tree plug-in (examples/plugin): installed, discovered through its entry point, checked.
+
+It is installed with pip into a temporary directory (never into the
+developer's environment) and exercised in subprocesses that have that
+directory on their path.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PLUGIN = Path(__file__).resolve().parents[1] / "examples" / "plugin"
+
+
+@pytest.fixture(scope="module")
+def plugin_env(tmp_path_factory):
+    work = tmp_path_factory.mktemp("plugin")
+    source = work / "source"
+    shutil.copytree(PLUGIN, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
+    site = work / "site"
+    install = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index",
+         "--quiet", "--target", str(site), str(source)],
+        capture_output=True, text=True)
+    assert install.returncode == 0, install.stderr[-2000:]
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    return env
+
+
+def _nsbench(env, *args):
+    return subprocess.run([sys.executable, "-m", "nsbench", *args], capture_output=True, text=True,
+                          env=env, timeout=600)
+
+
+def test_plugin_is_listed_through_its_entry_point(plugin_env):
+    out = _nsbench(plugin_env, "list", "integrators")
+    assert out.returncode == 0, out.stderr
+    (line,) = [row for row in out.stdout.splitlines() if row.split()[:1] == ["heun-bisect"]]
+    assert "[plug-in: nsbench-heun-example]" in line and "order=2" in line
+    assert "heun-bisect" not in _nsbench(dict(os.environ), "list", "integrators").stdout  # not installed here
+
+
+def test_plugin_passes_the_conformance_kit(plugin_env):
+    out = _nsbench(plugin_env, "check", "heun-bisect")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "FAILED" not in out.stdout
+    assert "12 checks: 11 passed, 1 skipped" in out.stdout
+
+
+def test_plugin_runs_by_name(plugin_env):
+    out = _nsbench(plugin_env, "simulate", "two-dof", "--case", "1", "--integrator", "heun-bisect",
+                   "--t-end", "20", "--h", "0.002")
+    assert out.returncode == 0, out.stderr
+    assert "heun-bisect" in out.stdout and "status      success" in out.stdout

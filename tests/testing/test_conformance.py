@@ -1,0 +1,152 @@
+"""The conformance kit over every built-in integrator (found through the registry), and the kit's own checks."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from nsbench import registry
+from nsbench.errors import ConfigError
+from nsbench.integrators.exact import ExactIntegrator
+from nsbench.integrators.henon_rk4 import HenonRK4
+from nsbench.testing import CHECKS, check_integrator, parametrize_with_checks, run_check
+
+BUILTINS = [e.name for e in registry.entries("integrators") if e.distribution == "nsbench"]
+
+
+def test_builtins_are_found_through_the_registry():
+    assert {"exact", "henon-rk4", "heyoka", "cvode-bdf", "ida", "reference"} <= set(BUILTINS)
+
+
+@parametrize_with_checks(BUILTINS)
+def test_builtin_conformance(integrator, check):
+    check(integrator)
+
+
+# ---------------------------------------------------------------------- the kit catches faults
+# Deliberately broken variants of real integrators: each must fail its check.
+
+class WrongOrder(HenonRK4):
+    name = "test-wrong-order"
+    capabilities = replace(HenonRK4.capabilities, order=2)
+
+
+class MutatesInput(ExactIntegrator):
+    name = "test-mutates-input"
+
+    def advance(self, request):
+        arc = super().advance(request)
+        if request.y0.flags.writeable:
+            request.y0[0] += 1.0
+        return arc
+
+
+class Jitters(ExactIntegrator):
+    name = "test-jitters"
+    calls = 0
+
+    def advance(self, request):
+        arc = super().advance(request)
+        Jitters.calls += 1
+        arc.t = min(arc.t + 1e-12 * (Jitters.calls % 7), request.t_end)
+        return arc
+
+
+class LateEvents(ExactIntegrator):
+    name = "test-late-events"
+
+    def advance(self, request):
+        arc = super().advance(request)
+        if arc.fired is not None:
+            arc.t += 1e-4
+        return arc
+
+
+class Chatters(ExactIntegrator):
+    """Lets a stuck block slip half a time unit into every stick phase."""
+
+    name = "test-chatters"
+
+    def advance(self, request):
+        stuck = [q for q, g in enumerate(request.guards) if g.kind == "upper"]
+        if stuck and request.t_end - request.t0 > 0.5:
+            arc = super().advance(replace(request, t_end=request.t0 + 0.5))
+            if arc.fired is None:
+                arc.fired = stuck[0]
+            return arc
+        return super().advance(request)
+
+
+@pytest.mark.parametrize("broken, check, fragment", [
+    (WrongOrder, "declared-order", "observed order 4"),
+    (MutatesInput, "inputs-not-mutated", "changed request.y0"),
+    (Jitters, "determinism", "differ"),
+    (LateEvents, "event-times", "event times differ"),
+    (Chatters, "stuck-stays-stuck", "slip at 0.5, expected 8.35"),
+])
+def test_kit_detects_a_broken_integrator(broken, check, fragment):
+    (result,) = check_integrator(broken(), [check])
+    assert result.status == "failed"
+    assert fragment in result.message
+
+
+def test_known_gaps_are_expected_failures_with_their_reason():
+    class Declared(WrongOrder):
+        name = "test-declared-gap"
+        known_gaps = {"declared-order": "order is misdeclared on purpose"}
+
+    class DeclaredButFine(HenonRK4):
+        name = "test-declared-fine"
+        known_gaps = {"declared-order": "was once wrong"}
+
+    (gap,) = check_integrator(Declared(), ["declared-order"])
+    assert gap.status == "xfail" and "misdeclared on purpose" in gap.message
+    (fine,) = check_integrator(DeclaredButFine(), ["declared-order"])
+    assert fine.status == "xpass"
+    marks = {p.id: p.marks for p in parametrize_with_checks([Declared()]).args[1]}
+    (mark,) = marks["test-declared-gap-declared-order"]
+    assert mark.name == "xfail" and mark.kwargs["reason"] == "order is misdeclared on purpose"
+
+
+def test_capabilities_decide_which_checks_apply():
+    results = {r.check: r for r in check_integrator("exact", ["convergence", "declared-order",
+                                                              "cubic-event-times", "refuses-unsupported"])}
+    assert results["convergence"].status == "skipped"
+    assert results["declared-order"].status == "skipped"
+    assert results["cubic-event-times"].status == "skipped"
+    assert results["refuses-unsupported"].status == "passed"
+    marks = {p.id: p.marks for p in parametrize_with_checks(["exact"]).args[1]}
+    assert [m.name for m in marks["exact-convergence"]] == ["skip"]
+
+
+def test_each_pair_is_its_own_item_and_bad_input_is_refused():
+    params = parametrize_with_checks(["exact", HenonRK4(h=0.02)]).args[1]
+    assert len(params) == 2 * len(CHECKS)
+    assert params[len(CHECKS)].values[0].settings["h"] == 0.02  # configured instances are kept
+    with pytest.raises(ConfigError, match="unknown checks"):
+        check_integrator("exact", ["no-such-check"])
+    with pytest.raises(ConfigError, match="expected an integrator"):
+        check_integrator(3.5)
+    with pytest.raises(AssertionError, match="event-times"):
+        check_integrator(LateEvents(), ["event-times"], raise_on_failure=True)
+
+
+def test_checks_run_on_fresh_copies():
+    integ = HenonRK4(h=0.02)
+    result = run_check(integ, CHECKS[0])
+    assert result.status == "passed"
+    assert not hasattr(integ, "_problem") or integ.settings == {"h": 0.02}
+    assert np.isfinite(result.seconds)
+
+
+def test_importing_the_kit_loads_no_heavy_backend():
+    import subprocess
+    import sys
+
+    code = ("import sys, nsbench, nsbench.testing\n"
+            "nsbench.list_integrators()\n"
+            "print(','.join(m for m in ('heyoka', 'sksundae', 'numba', 'matplotlib') if m in sys.modules))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""

@@ -161,7 +161,9 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient
                             section=spec.section, values=len(pts),
                             failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
                             candidates=len(cands), pure_sliding_values=int(feats["pure_sliding"].sum()),
-                            aperiodic_values=int((feats["period"] == 0).sum()), seconds=round(wall, 1),
+                            aperiodic_values=int((feats["period"] == 0).sum()),
+                            # per-value compute time summed (stable when a run resumes)
+                            point_seconds=round(float(pts["wall_time"].sum()), 1),
                             note=s.note, slug=_slug(s)))
         log(f"case {s.case} {s.name}: {len(pts)} values, {len(cands)} candidates, {wall:.1f} s")
     for case, name, value in LOCUS_VALUES:

@@ -13,7 +13,8 @@ from typing import Sequence
 from nsbench.errors import NsbenchError
 
 # Sub-command modules; each defines ``add_parser(subparsers)`` and ``main(args) -> int``.
-COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "ingest")
+COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "ingest",
+            "bifurcation", "lyapunov", "paper")
 
 
 def build_parser() -> argparse.ArgumentParser:

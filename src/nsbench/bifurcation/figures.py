@@ -1,0 +1,145 @@
+"""Figures of a sweep: the bifurcation diagram, the locus of sticking phase, portraits and time series.
+
+matplotlib is imported here on first use. Every figure is written as PNG
+(compact, for reports), SVG and PDF unless fewer formats are asked for.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+BLUE, RED = "tab:blue", "tab:red"
+FORMATS = ("png", "svg", "pdf")
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100) -> list[Path]:
+    """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths."""
+    plt = _plt()
+    base = Path(base)
+    base.parent.mkdir(parents=True, exist_ok=True)
+    out = []
+    for fmt in formats:
+        path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
+        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None)
+        out.append(path)
+    plt.close(fig)
+    return out
+
+
+def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: pd.DataFrame | None = None,
+            formats: Sequence[str] = FORMATS, variables: Sequence[str] = ("x1", "x2")) -> list[Path]:
+    """Bifurcation diagram: section-point coordinates against the swept parameter.
+
+    Failed or incomplete values are marked along the bottom; candidate
+    bifurcation points (if given) as faint vertical lines.
+    """
+    plt = _plt()
+    variables = [v for v in variables if v in frame and frame[v].notna().any()] or ["x1"]
+    fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True,
+                             squeeze=False)
+    name = frame["param"].iloc[0] if len(frame) else "parameter"
+    from nsbench.bifurcation.sweep import OK_STATUSES
+
+    good = frame["status"].isin(OK_STATUSES)
+    ok = frame[good]
+    bad = frame[~good].groupby("index").first()
+    for ax, var in zip(axes[:, 0], variables):
+        ax.plot(ok["value"], ok[var], ",", color="k", alpha=0.8, rasterized=True)
+        ax.plot(ok["value"], ok[var], ".", ms=1.0, color="k", alpha=0.5, rasterized=True)
+        if len(bad):
+            lo = ok[var].min() if len(ok) else 0.0
+            ax.plot(bad["value"], np.full(len(bad), lo), "x", color=RED, ms=3, label="failed/incomplete")
+            ax.legend(fontsize=7, loc="best")
+        if candidates is not None:
+            for v in candidates["value"]:
+                ax.axvline(v, color="tab:orange", lw=0.5, alpha=0.5)
+        ax.set_ylabel(var)
+    axes[-1, 0].set_xlabel(name)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return save(fig, base, formats)
+
+
+def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS,
+          phase_time: float | None = None) -> list[Path]:
+    """Locus of sticking phase over sliding regions I, II, III (block 1 blue, block 2 red).
+
+    For forced problems region II is drawn at ``phase_time`` (default: the
+    first forcing period boundary in the window, the stroboscopic phase).
+    """
+    from nsbench.bifurcation.locus import region_masks
+
+    plt = _plt()
+    problem = run.problem
+    traj = run.trajectory
+    x1, x2 = traj["x1"].to_numpy(), traj["x2"].to_numpy()
+    pad1 = max(0.3, 0.25 * np.ptp(x1))
+    pad2 = max(0.3, 0.25 * np.ptp(x2))
+    g1 = np.linspace(x1.min() - pad1, x1.max() + pad1, 300)
+    g2 = np.linspace(x2.min() - pad2, x2.max() + pad2, 300)
+    m1, m2 = np.meshgrid(g1, g2)
+    t = run.t_start
+    if problem.is_forced and problem.coefficients.w > 0:
+        period = 2 * np.pi / problem.coefficients.w
+        t = phase_time if phase_time is not None else np.ceil(run.t_start / period) * period
+    r1, r2 = region_masks(problem, t, m1, m2)
+    fig, ax = plt.subplots(figsize=(5.6, 4.8))
+    ax.contourf(m1, m2, r1.astype(float), levels=[0.5, 1.5], colors=[BLUE], alpha=0.10)
+    ax.contourf(m1, m2, r2.astype(float), levels=[0.5, 1.5], colors=[RED], alpha=0.10)
+    ax.contour(m1, m2, r1.astype(float), levels=[0.5], colors=[BLUE], linewidths=0.6)
+    ax.contour(m1, m2, r2.astype(float), levels=[0.5], colors=[RED], linewidths=0.6)
+    ax.plot(x1, x2, color="0.75", lw=0.4, label="trajectory")
+    # block 1 wider and underneath: where both stick (slope-1 lines) both colours show
+    for block, colour, lw in ((1, BLUE, 3.2), (2, RED, 1.3)):
+        for j, seg in enumerate(run.sticking_segments(block)):
+            ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=lw,
+                    label=f"block {block} sticks" if j == 0 else None)
+    mp = run.mapping_points
+    if len(mp):
+        ax.plot(mp["x1"], mp["x2"], "o", ms=3, color="k", label="mapping points")
+    ax.text(0.02, 0.97, "I: blue band, II: red band, III: overlap", transform=ax.transAxes,
+            fontsize=7, va="top")
+    ax.set_xlabel("x1")
+    ax.set_ylabel("x2")
+    ax.legend(fontsize=7, loc="lower right")
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return save(fig, base, formats)
+
+
+def portrait(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS) -> list[Path]:
+    """Time series of ``x1, x2`` and the phase portraits ``(x_i, v_i)`` over the recording window."""
+    plt = _plt()
+    traj = run.trajectory
+    nb = run.problem.n_blocks
+    fig, axes = plt.subplots(1, 1 + nb, figsize=(4.0 * (1 + nb), 3.2),
+                             gridspec_kw={"width_ratios": [1.6] + [1.0] * nb})
+    ax = axes[0]
+    for i, colour in zip(range(1, nb + 1), (BLUE, RED)):
+        ax.plot(traj["t"], traj[f"x{i}"], color=colour, lw=0.7, label=f"x{i}")
+        ax_p = axes[i]
+        ax_p.plot(traj[f"x{i}"], traj[f"v{i}"], color=colour, lw=0.6)
+        ax_p.axhline(run.problem.v0, color="0.5", lw=0.5, ls="--")
+        ax_p.set_xlabel(f"x{i}")
+        ax_p.set_ylabel(f"v{i}")
+    ax.set_xlabel("t")
+    ax.legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return save(fig, base, formats)

@@ -1,0 +1,163 @@
+"""``nsbench bifurcation PROBLEM --case N --sweep NAME=START:STOP:COUNT ...``: a bifurcation sweep."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from nsbench.cli._common import parse_assignment, parse_number, parse_value
+from nsbench.errors import ConfigError
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("bifurcation", help="sweep one parameter and draw the bifurcation diagram")
+    p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
+    p.add_argument("--case", default="1", help="preset 1..4 (default 1)")
+    p.add_argument("--sweep", required=True, metavar="NAME=START:STOP:COUNT",
+                   help="swept dimensionless parameter (v0, omega_r, inv_omega_r, r_f, F, Omega, h1, ...)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="fixed parameter override (repeatable)")
+    p.add_argument("--integrator", action="append", default=[], metavar="NAME",
+                   help="registered integrator; repeat to compare several (default: exact-jit for "
+                        "linear problems, henon-rk4-jit otherwise)")
+    p.add_argument("--h", default=None, help="step size of fixed-step integrators")
+    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                   help="integrator option (repeatable; applies to every integrator that has it)")
+    p.add_argument("--section", default=None, choices=("peaks", "strobe", "stick", "mapping"),
+                   help="recorded points (default: strobe if forced, else peaks)")
+    p.add_argument("--transient", default="1500", help="time integrated before recording (default 1500)")
+    p.add_argument("--record", default="100", help="section points recorded per value (default 100)")
+    p.add_argument("--window", default=None, help="longest recording time after the transient "
+                                                  "(default 40 * record + 400)")
+    grp = p.add_mutually_exclusive_group()
+    grp.add_argument("--workers", default=None, help="local processes (default: all cores)")
+    grp.add_argument("--dask", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--out", default=None, help="results folder (default bifurcation/<problem>-case<N>-<NAME>)")
+    p.add_argument("--refine", action="store_true", help="refine candidate bifurcation points by bisection")
+    p.add_argument("--portrait", action="append", default=[], metavar="VALUE",
+                   help="also draw the locus of sticking phase and phase portraits at this value (repeatable)")
+    p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(handler=main)
+
+
+def _spec(args, problem_probe, integrator: str, options: dict):
+    from nsbench.bifurcation.sweep import SweepSpec, default_section, parse_sweep
+
+    name, start, stop, count = parse_sweep(args.sweep)
+    params = {}
+    for text in args.param:
+        key, value = parse_assignment(text, "--param")
+        params[key] = parse_number(value, f"parameter {key}")
+    window = parse_number(args.window, "--window") if args.window is not None else None
+    record = parse_number(args.record, "--record")
+    section = args.section or default_section(problem_probe(name, start, params),
+                                              problem_probe(name, stop, params))
+    return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
+                     start=start, stop=stop, count=count, integrator=integrator, options=options,
+                     section=section, transient=parse_number(args.transient, "--transient"),
+                     record=int(record) if record == int(record) else record, window=window, params=params)
+
+
+def _probe(problem: str, case: str):
+    from nsbench.problems import get_problem
+
+    def build(name, value, params):
+        return get_problem(problem, case=case, **{**params, name: value})
+    return build
+
+
+def main(args: argparse.Namespace) -> int:
+    from nsbench.bifurcation import detect, figures
+    from nsbench.bifurcation.parallel import run_sweep
+    from nsbench.bifurcation.storage import SweepStore, points_summary
+    from nsbench.integrators import integrator_class
+
+    probe = _probe(args.problem, args.case)
+    names = args.integrator or [None]
+    workers = int(parse_number(args.workers, "--workers")) if args.workers is not None else None
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers = {workers} must be at least 1")
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    bad = [f for f in formats if f not in figures.FORMATS]
+    if bad:
+        raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
+    extra = {}
+    if args.h is not None:
+        extra["h"] = parse_number(args.h, "--h")
+    for text in args.option:
+        key, value = parse_assignment(text, "--option")
+        extra[key] = parse_value(value)
+    specs = []
+    for name in names:
+        if name is None:
+            from nsbench.bifurcation.sweep import parse_sweep
+
+            sw, start, _, _ = parse_sweep(args.sweep)
+            name = "exact-jit" if probe(sw, start, {}).is_linear else "henon-rk4-jit"
+        allowed = integrator_class(name).options
+        unknown = [k for k in extra if all(k not in integrator_class(n).options for n in names if n)]
+        if unknown:
+            raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
+        specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
+    base = Path(args.out or f"bifurcation/{args.problem}-case{specs[0].case}-{specs[0].name}")
+    frames, walls = {}, {}
+    for spec in specs:
+        out = base if len(specs) == 1 else base / spec.integrator
+        tic = time.perf_counter()
+        frame = run_sweep(spec, out, workers=workers, dask=args.dask, progress=not args.no_progress)
+        walls[spec.integrator] = time.perf_counter() - tic
+        frames[spec.integrator] = frame
+        feats = detect.classify(frame)
+        cands = detect.candidates(feats)
+        if args.refine and len(cands):
+            refined = [detect.refine(spec, r.left, r.right, r.kind) for r in cands.itertuples()]
+            cands["refined_left"] = [r.left for r in refined]
+            cands["refined_right"] = [r.right for r in refined]
+            cands["refined_value"] = [r.value for r in refined]
+        feats.to_csv(out / "features.csv", index=False)
+        cands.to_csv(out / "candidates.csv", index=False)
+        summary = points_summary(frame)
+        title = (f"{spec.problem} case {spec.case}: {spec.name} sweep, {spec.integrator}, "
+                 f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
+        written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
+        for text in args.portrait:
+            value = parse_number(text, "--portrait")
+            _portrait(spec, value, out, formats)
+        from nsbench.bifurcation.sweep import OK_STATUSES
+
+        n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
+        print(f"{spec.integrator}: {len(summary)} values ({n_bad} failed or incomplete) in {walls[spec.integrator]:.1f} s "
+              f"-> {out}")
+        print(f"  diagram -> {written[0]}")
+        if len(cands):
+            print(f"  candidate bifurcation points ({len(cands)}):")
+            for r in cands.itertuples():
+                ref = f" refined {r.refined_value:.6g}" if "refined_value" in cands else ""
+                print(f"    {spec.name} in [{r.left:.6g}, {r.right:.6g}]{ref}: {r.kind}: {r.description}")
+        else:
+            print("  no qualitative change along the sweep")
+        SweepStore(out)  # the folder is complete and readable
+    if len(specs) > 1:
+        from nsbench.bifurcation import compare
+
+        (base / "compare.md").write_text(compare.report(frames, walls))
+        compare.agreement(frames).to_csv(base / "agreement.csv", index=False)
+        print(f"comparison -> {base / 'compare.md'}")
+    return 0
+
+
+def _portrait(spec, value: float, out: Path, formats) -> None:
+    from nsbench.bifurcation import figures
+    from nsbench.bifurcation.locus import locus_run
+
+    problem = spec.problem_at(value)
+    integ = spec.integrator
+    run = locus_run(problem, integ, transient=spec.transient, duration=min(300.0, spec.record_window),
+                    options=spec.options, value=value)
+    tag = f"{spec.name}_{value:g}"
+    figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
+    figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}",
+                     formats=formats)
+    print(f"  locus and portrait at {tag} -> {out}")

@@ -1,0 +1,143 @@
+"""Sweeps: the tidy frame, the engine path against the compiled path, resume after interruption."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nsbench
+from nsbench.bifurcation.parallel import run_sweep
+from nsbench.bifurcation.storage import SweepStore
+from nsbench.bifurcation.sweep import COLUMNS, SweepSpec, parse_sweep
+from nsbench.errors import ConfigError
+from nsbench.sections import peaks
+
+SMALL = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=6, transient=200.0, record=12)
+
+
+def test_small_sweep_with_exact(tmp_path):
+    spec = SweepSpec(integrator="exact", **SMALL)
+    frame = run_sweep(spec, tmp_path / "s", workers=1, progress=False)
+    assert list(frame.columns) == list(COLUMNS)
+    assert sorted(frame["index"].unique()) == list(range(6))
+    assert (frame["status"] == "success").all()
+    assert (frame.groupby("index").size() == 12).all()
+    # every recorded peak is a peak of an independent engine run, after the transient
+    v = float(spec.values[2])
+    p = nsbench.get_problem("two-dof", case=1, v0=v)
+    ref = nsbench.simulate(p, "exact", 400.0, sections=[peaks(p)]).sections
+    ref = ref[ref["t"] >= 200.0].iloc[:12]
+    got = frame[frame["index"] == 2]
+    np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got["x1"], ref["x1"], rtol=0, atol=1e-12)
+    assert (got["v1"].abs() < 1e-9).all()  # peaks: v1 = 0
+
+
+def test_compiled_sweep_agrees_with_the_engine_sweep(tmp_path):
+    a = run_sweep(SweepSpec(integrator="exact", **SMALL), tmp_path / "a", workers=1, progress=False)
+    b = run_sweep(SweepSpec(integrator="exact-jit", **SMALL), tmp_path / "b", workers=1, progress=False)
+    assert np.abs(a["x1"].to_numpy() - b["x1"].to_numpy()).max() < 1e-10
+    assert (a.groupby("index")["sticks1"].first() == b.groupby("index")["sticks1"].first()).all()
+
+
+def test_resume_computes_only_missing_values(tmp_path):
+    spec = SweepSpec(integrator="exact-jit", **SMALL)
+    out = tmp_path / "r"
+    run_sweep(spec, out, workers=1, progress=False, limit=2, chunk_size=1)
+    store = SweepStore(out)
+    assert store.done() == {0, 1}
+    first_files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.csv")}
+    full = run_sweep(spec, out, workers=1, progress=False, chunk_size=1)
+    files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.csv")}
+    assert len(files) == 6 and all(files[k] == v for k, v in first_files.items())
+    fresh = run_sweep(spec, tmp_path / "fresh", workers=1, progress=False)
+    assert full.drop(columns="wall_time").equals(fresh.drop(columns="wall_time"))
+    with pytest.raises(ConfigError, match="different sweep"):
+        run_sweep(SweepSpec(integrator="exact-jit", **{**SMALL, "count": 7}), out, workers=1, progress=False)
+
+
+def test_killed_run_keeps_whole_chunks_and_resumes(tmp_path):
+    out = tmp_path / "k"
+    cmd = [sys.executable, "-m", "nsbench", "bifurcation", "two-dof", "--case", "1",
+           "--sweep", "v0=0.06:0.2:40", "--integrator", "exact", "--transient", "300", "--record", "10",
+           "--workers", "1", "--out", str(out), "--formats", "png", "--no-progress"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(list((out / "points").glob("*.csv"))) < 2:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    store = SweepStore(out)
+    done = store.done()
+    assert 0 < len(done) < 40  # killed part-way; what is stored is whole chunks
+    assert (store.load().groupby("index").size() == 10).all()
+    before = {f.name for f in store.points_dir.glob("*.csv")}
+    frame = run_sweep(store.spec, out, workers=1, progress=False)
+    assert sorted(frame["index"].unique()) == list(range(40))
+    new = {f.name for f in store.points_dir.glob("*.csv")} - before
+    recomputed = set()
+    for name in new:
+        recomputed |= set(np.loadtxt(store.points_dir / name, delimiter=",", skiprows=1, usecols=2, dtype=str)
+                          .astype(float).astype(int).ravel().tolist())
+    assert recomputed == set(range(40)) - done
+
+
+def test_failures_are_recorded_not_raised(tmp_path):
+    # r_f = 1.05 is nonphysical (kinetic > static): the sweep refuses the range early
+    with pytest.raises(ConfigError, match="r_f"):
+        run_sweep(SweepSpec(**{**SMALL, "name": "r_f", "start": 0.5, "stop": 1.05}), tmp_path / "f",
+                  workers=1, progress=False)
+    # a point whose run stops early is kept with its status and reason
+    spec = SweepSpec(integrator="henon-rk4-jit", options={"h": 0.02}, **{**SMALL, "count": 2, "window": 5.0})
+    frame = run_sweep(spec, tmp_path / "g", workers=1, progress=False)
+    assert (frame["status"] == "incomplete").all() and frame["message"].str.contains("points by").all()
+
+
+@pytest.mark.parametrize("text", ["v0=0.1:0.2", "v0", "v0=a:b:3", "v0=0.1:0.2:0", "v0=0.1:0.2:2.5"])
+def test_bad_sweep_text(text):
+    with pytest.raises(ConfigError):
+        parse_sweep(text)
+
+
+def test_bad_section_for_unforced_problem(tmp_path):
+    with pytest.raises(ConfigError, match="strobe"):
+        run_sweep(SweepSpec(section="strobe", **SMALL), tmp_path / "x", workers=1, progress=False)
+
+
+def test_chunk_files_are_written_atomically(tmp_path):
+    spec = SweepSpec(**SMALL)
+    store = SweepStore(tmp_path / "a", spec)
+    (store.points_dir / "chunk-000000-dead.tmp").write_text("partial")
+    assert store.done() == set()
+    assert Path(tmp_path / "a" / "meta.json").exists()
+
+
+def test_motion_at_rest_is_recorded_as_its_equilibrium(tmp_path):
+    # past the pure-sliding threshold the motion damps out: RK4 settles on the equilibrium and
+    # has no more peaks; the value is kept as status "rest" with its final state as one point.
+    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.21, stop=0.22, count=2,
+                     integrator="henon-rk4-jit", transient=1500.0, record=20, window=200.0)
+    frame = run_sweep(spec, tmp_path / "rest", workers=1, progress=False)
+    assert (frame["status"] == "rest").all() and (frame["n_points"] == 1).all()
+    # both blocks slipping backwards (friction +r_f on each): x1 = 2 r_f, x2 = x1 + r_f / kappa
+    r_f = 5.0 / 6.0
+    np.testing.assert_allclose(frame["x1"], 2 * r_f, atol=1e-8)
+    np.testing.assert_allclose(frame["x2"], 3 * r_f, atol=1e-8)
+
+
+def test_strobe_sweep_of_the_force_amplitude_may_start_at_zero():
+    from nsbench.bifurcation.sweep import default_section
+
+    spec = SweepSpec(problem="two-dof", case=2, name="F", start=0.0, stop=0.2, count=3, section="strobe")
+    spec.check()
+    assert default_section(spec.problem_at(0.0), spec.problem_at(0.2)) == "strobe"
+    assert default_section(spec.problem_at(0.0)) == "peaks"
+    with pytest.raises(ConfigError, match="Omega > 0"):
+        SweepSpec(problem="two-dof", case=2, name="Omega", start=0.0, stop=1.0, count=3, section="strobe").check()

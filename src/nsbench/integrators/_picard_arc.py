@@ -14,8 +14,8 @@ import numpy as np
 
 from nsbench.integrators._chebyshev import barycentric
 from nsbench.integrators._picard_iteration import CONVERGED, picard_iterations
-from nsbench.integrators._picard_location import SECTION, crossed, first_zero, root, state_at
-from nsbench.problems.kernels import guard_rate, guard_value, jit, linear_section_value, rhs
+from nsbench.integrators._picard_location import SECTION, first_zero, root, state_at
+from nsbench.problems.kernels import guard_rate, guard_value, jit, linear_section_value, rhs, section_crossed
 
 #: Status codes of :func:`advance_arc`.
 SUCCESS, BUDGET_EXHAUSTED, NOT_CONVERGED, INACCURATE = 0, 1, 2, 3
@@ -213,7 +213,7 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
                     after = linear_section_value(sec_coeffs[s], sec_levels[s], ystop)
                 else:
                     after = linear_section_value(sec_coeffs[s], sec_levels[s], X[j])
-                if crossed(before, after, sec_dirs[s]):
+                if section_crossed(sec_dirs[s], before, after):
                     tau = b
                     if after != 0.0:
                         sgn = 1.0 if before > 0.0 else -1.0

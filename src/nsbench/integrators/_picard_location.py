@@ -152,11 +152,3 @@ def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes
             return True, tau, nf + nf2
         return True, a, nf
     return False, b, 0
-
-
-@jit
-def crossed(before, after, direction):
-    """The section crossing rule of :meth:`nsbench.sections.StateSection.crossed`."""
-    if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):
-        return False
-    return direction == 0 or (direction > 0) == (before < 0.0)

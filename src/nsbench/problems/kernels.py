@@ -13,6 +13,8 @@ Importing this module imports numba: only compiled integrators do so.
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 import numba
@@ -25,6 +27,36 @@ if TYPE_CHECKING:  # pragma: no cover
 VELOCITY, UPPER, LOWER = 0, 1, 2
 _KIND_CODES = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}
 
+
+def _drop_stale_numba_caches() -> None:
+    """Delete nsbench's on-disk numba caches when any compiled source changed.
+
+    numba invalidates a cached function only when its *own* file changes, but
+    the compiled arcs inline these kernels and each other's helpers across
+    files; an edit of one file would otherwise leave stale machine code in
+    the others' caches. One hash over every compiled source decides.
+    """
+    root = Path(__file__).resolve().parents[1]
+    sources = sorted(path for path in root.rglob("*.py")
+                     if "@jit" in path.read_text(encoding="utf-8", errors="ignore"))
+    digest = hashlib.sha256()
+    for path in sources:
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    stamp = root / "__pycache__" / "numba-sources.sha256"
+    try:
+        if stamp.exists() and stamp.read_text() == digest.hexdigest():
+            return
+        for path in sources:
+            for cached in path.parent.glob(f"__pycache__/{path.stem}.*.nb[ic]"):
+                cached.unlink(missing_ok=True)
+        stamp.parent.mkdir(exist_ok=True)
+        stamp.write_text(digest.hexdigest())
+    except OSError:  # a read-only install: numba then caches elsewhere or compiles in memory
+        pass
+
+
+_drop_stale_numba_caches()
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 
@@ -180,3 +212,12 @@ def linear_section_rate(coeffs, dy):
     for j in range(dy.shape[0]):
         out += coeffs[j] * dy[j]
     return out
+
+
+@jit
+def section_crossed(direction, before, after):
+    """:meth:`nsbench.sections.StateSection.crossed` compiled (``direction`` -1, 0 or +1)."""
+    if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):
+        return False
+    upward = before < 0.0
+    return direction == 0 or (direction > 0) == upward

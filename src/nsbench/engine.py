@@ -1,18 +1,19 @@
-"""The hybrid event-driven engine: it owns the stick/slip/reverse logic of MODEL.md.
+"""``nsbench.simulate``: one run of a problem with an integrator, as tidy frames.
 
-The engine asks an integrator to advance one frozen mode until a guard fires,
-applies the problem's transition map, fires at once any guard of the new mode
-that is already on its wrong side (degenerate points only), and repeats. It
-records the event log, the section hits and the trajectory, sums the counters,
-and turns budget exhaustion, event storms and integrator failures into a
-:class:`~nsbench.results.Status` instead of an exception or a hang.
+The work is done by the hybrid core (:mod:`nsbench.hybrid`): the compiled loop
+applies the stick/slip/reverse rules of MODEL.md, runs the integrator's compiled
+arc kernel or calls its ``advance`` once per arc, records events, section hits
+and states, and turns budget exhaustion, event storms and integrator failures
+into a :class:`~nsbench.results.Status` instead of an exception or a hang. This
+module checks the input, merges the requested times with stroboscopic
+sections, times the run (``wall_time``; ``integrator_time`` is the part spent
+inside the integrator) and builds the frames.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections import deque
 from typing import Any, Iterable, Sequence
 
 import numpy as np
@@ -20,14 +21,11 @@ import pandas as pd
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import Integrator, get_integrator
-from nsbench.integrators.base import ArcRequest
-from nsbench.problems.modes import STICK, Guard, Mode, mode_name
+from nsbench.hybrid.records import event_frame
+from nsbench.hybrid.run import run_hybrid, warm_up
 from nsbench.problems.oscillator import FrictionOscillator
-from nsbench.results import Counters, SimulationResult, Status, event_columns
+from nsbench.results import SimulationResult
 from nsbench.sections import Section, StateSection, TimeSection
-
-_EPS = np.finfo(float).eps
-
 
 def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | None) -> Integrator:
     if isinstance(integrator, str):
@@ -57,94 +55,50 @@ def _check_inputs(problem: FrictionOscillator, t0: float, t_end: float, y0: np.n
             raise ConfigError(f"t_eval must lie in [t0, t_end] = [{t0:g}, {t_end:g}]")
 
 
-def _low_part(t: float, t_lo: float) -> float:
-    """An integrator's low-order time part, or 0 if it is not a valid correction of ``t``."""
-    t_lo = float(t_lo)
-    return t_lo if math.isfinite(t_lo) and abs(t_lo) <= math.ulp(t) else 0.0
+def _frames(problem: FrictionOscillator, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
+            strobe_names: list[str | None], state_sections: Sequence[StateSection]):
+    """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
+    names = list(problem.state_names)
+    rec = raw.records
+    events = event_frame(rec, raw.n_events, problem.state_names)
+    rows = [(state_sections[int(rec.hk[j])].name, float(rec.ht[j]), *rec.hy[j]) for j in range(raw.n_hits)]
+    k = raw.n_dense
+    states = rec.y_eval[:k]
+    times = dense_times[:k]
+    for j in range(k):
+        if strobe_names[j] is not None:
+            for sec_name in strobe_names[j].split("\n"):
+                rows.append((sec_name, float(times[j]), *states[j]))
+    sections = pd.DataFrame(rows, columns=["section", "t", *names])
+    sections = sections.sort_values(["t"], kind="stable").reset_index(drop=True)
+    mask = traj_mask[:k]
+    traj = pd.DataFrame(states[mask], columns=names)
+    traj.insert(0, "t", times[mask])
+    phases = _phases_at(events, raw, times[mask], problem)
+    for i in range(problem.n_blocks):
+        traj[f"phase{i + 1}"] = phases[:, i]
+    return events, sections, traj
 
 
-def _wrong_side(guard: Guard, t: float, y: np.ndarray, dydt: np.ndarray) -> bool:
-    """Whether ``guard`` is already past its surface, or on it and heading the wrong way."""
-    g = float(guard.value(t, y))
-    phi = guard.expected_sign * g
-    scale = max(1.0, abs(g), float(np.max(np.abs(y))))
-    tol = 64.0 * _EPS * scale
-    if phi < -tol:
-        return True
-    if abs(phi) <= tol:
-        return guard.expected_sign * float(guard.rate(t, y, dydt)) < 0.0
-    return False
-
-
-def _pending_guard(problem: FrictionOscillator, mode: Mode, t: float, y: np.ndarray,
-                   fresh: set[int]) -> Guard | None:
-    """First guard of ``mode`` that must fire at once at ``(t, y)``.
-
-    Blocks in ``fresh`` have just started a slip phase whose direction the
-    transition rule chose from the forces; their velocity guard is zero by
-    construction and is not re-tested.
-    """
-    dydt = None
-    for guard in problem.guards(mode):
-        if guard.kind == "velocity" and guard.block in fresh:
-            continue
-        if dydt is None:
-            dydt = problem.rhs(mode, t, y)
-        if _wrong_side(guard, t, y, dydt):
-            return guard
-    return None
-
-
-class _Recorder:
-    """Accumulates event rows, section rows and trajectory samples."""
-
-    def __init__(self, problem: FrictionOscillator, dense_times: np.ndarray, traj_mask: np.ndarray,
-                 strobe_names: list[str | None], state_sections: Sequence[StateSection]) -> None:
-        self.problem = problem
-        self.events: list[tuple] = []
-        self.section_rows: list[tuple] = []
-        self.dense_times = dense_times
-        self.traj_mask = traj_mask
-        self.strobe_names = strobe_names
-        self.state_sections = state_sections
-        self.dense_states: list[np.ndarray] = []
-        self.dense_modes: list[Mode] = []
-        self.n_dense = 0
-
-    def event(self, t: float, kind: str, block: int, y: np.ndarray) -> None:
-        self.events.append((t, kind, block, *map(float, y)))
-
-    def dense(self, y_eval: np.ndarray, mode: Mode) -> None:
-        k = y_eval.shape[1]
-        if k:
-            self.dense_states.append(np.array(y_eval, dtype=float))
-            self.dense_modes.extend([mode] * k)
-            self.n_dense += k
-
-    def section(self, name: str, t: float, y: np.ndarray) -> None:
-        self.section_rows.append((name, t, *map(float, y)))
-
-    def frames(self) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-        names = self.problem.state_names
-        events = pd.DataFrame(self.events, columns=event_columns(names))
-        events["block"] = events["block"].astype("int64")
-        states = (np.hstack(self.dense_states) if self.dense_states
-                  else np.empty((self.problem.n_states, 0)))
-        times = self.dense_times[: self.n_dense]
-        for j in range(self.n_dense):
-            name = self.strobe_names[j]
-            if name is not None:
-                for sec_name in name.split("\n"):
-                    self.section(sec_name, float(times[j]), states[:, j])
-        sections = pd.DataFrame(self.section_rows, columns=["section", "t", *names])
-        sections = sections.sort_values(["t"], kind="stable").reset_index(drop=True)
-        mask = self.traj_mask[: self.n_dense]
-        traj = pd.DataFrame(states[:, mask].T, columns=list(names))
-        traj.insert(0, "t", times[mask])
-        modes = np.array(self.dense_modes, dtype=np.int8).reshape(self.n_dense, self.problem.n_blocks)
-        for i in range(self.problem.n_blocks):
-            traj[f"phase{i + 1}"] = modes[mask, i]
-        return events, sections, traj
+def _phases_at(events: pd.DataFrame, raw, times: np.ndarray, problem: FrictionOscillator) -> np.ndarray:
+    """The mode at each trajectory time: the mode after the last event at or before it (before the first
+    event: the start mode), from the event log's ``mode`` column."""
+    nb = problem.n_blocks
+    out = np.empty((times.size, nb), np.int8)
+    if not times.size:
+        return out
+    ev_modes = raw.records.ev_mode[: raw.n_events]
+    ev_t = raw.records.ev_t[: raw.n_events]
+    start = np.asarray(raw.start_mode, np.int8)
+    # a state at an event time is the one just before the transition (the arc's end), except at the
+    # start, where the requested states are those after the start's own transitions
+    idx = np.searchsorted(ev_t, times, side="left") - 1
+    at_start = times <= raw.t0
+    idx[at_start] = np.searchsorted(ev_t, times[at_start], side="right") - 1
+    out[:] = start
+    has = idx >= 0
+    out[has] = ev_modes[idx[has]]
+    return out
 
 
 def simulate(
@@ -223,110 +177,22 @@ def simulate(
     dense_times = np.union1d(grid, np.array(sorted(labels), dtype=float))
     traj_mask = np.isin(dense_times, grid)
     strobe_names = ["\n".join(labels[float(ts)]) if float(ts) in labels else None for ts in dense_times]
-    rec = _Recorder(problem, dense_times, traj_mask, strobe_names, state_sections)
 
     tic = time.perf_counter()
     integ.setup(problem)
+    warm_up(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
     setup_time = time.perf_counter() - tic
 
-    counters = Counters()
-    status, message = Status.SUCCESS, ""
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.scales.time if problem.dimensional else 1.0)
-    recent: deque[float] = deque(maxlen=zeno_events + 1)
-    t = t0
-    t_lo = 0.0  # compensated time: the current time is t + t_lo (see ArcRequest.t0_lo)
     tic = time.perf_counter()
-
-    def settle(mode: Mode, t: float, y: np.ndarray, guard: Guard | None,
-               fresh: set[int]) -> tuple[Mode, np.ndarray, tuple[Status, str] | None]:
-        """Apply ``guard``'s transition and every one that must follow at the same time."""
-        while guard is not None:
-            tr = problem.transition(mode, guard, t, y)
-            rec.event(t, tr.kind, tr.block, tr.y)
-            counters.n_events += 1
-            recent.append(t)
-            if counters.n_events >= max_events:
-                return tr.mode, tr.y, (Status.BUDGET_EXHAUSTED,
-                                       f"event budget of {max_events} events reached at t = {t:.17g}")
-            if len(recent) > zeno_events and recent[-1] - recent[0] <= span:
-                return tr.mode, tr.y, (Status.EVENT_STORM, (
-                    f"{zeno_events + 1} events within {recent[-1] - recent[0]:.3g} time units "
-                    f"ending at t = {t:.17g} (mode {mode_name(tr.mode)})"
-                ))
-            mode, y = tr.mode, tr.y
-            if tr.mode[tr.block - 1] != STICK:
-                fresh = fresh | {tr.block}
-            else:
-                fresh = fresh - {tr.block}
-            guard = _pending_guard(problem, mode, t, y, fresh)
-        return mode, y, None
-
-    # At t0 the state may sit on a surface: the same rule as after a transition.
-    mode = problem.initial_mode(t0, y)
-    fresh0 = {i + 1 for i, p in enumerate(mode) if p != STICK and y[2 * i + 1] == problem.v0}
-    mode, y, stop = settle(mode, t0, y, _pending_guard(problem, mode, t0, y, fresh0), fresh0)
-    n_at_start = int(np.searchsorted(dense_times, t0, side="right"))
-    if n_at_start:
-        rec.dense(np.repeat(y[:, None], n_at_start, axis=1), mode)
-    if stop is not None:
-        status, message = stop
-
-    while status.ok and t < t_end:
-        guards = problem.guards(mode)
-        y_in = y.copy()
-        y_in.flags.writeable = False
-        request = ArcRequest(
-            problem=problem, mode=mode, t0=t, y0=y_in, t_end=t_end, guards=guards,
-            sections=state_sections, t_eval=dense_times[rec.n_dense:],
-            max_steps=max_steps - counters.nsteps, t0_lo=t_lo,
-        )
-        try:
-            arc = integ.advance(request)
-        except Exception as exc:  # protocol violation by the integrator: keep what we have
-            status, message = Status.INTEGRATOR_FAILURE, f"{type(exc).__name__}: {exc}"
-            break
-        counters.add(arc.nfev, arc.njev, arc.nsteps, arc.extra)
-        expected = int(np.searchsorted(request.t_eval, arc.t, side="right"))
-        y_eval = np.asarray(arc.y_eval, dtype=float).reshape(problem.n_states, -1)
-        if arc.status.ok and y_eval.shape[1] != expected:
-            status, message = Status.INTEGRATOR_FAILURE, (
-                f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"
-            )
-            break
-        rec.dense(y_eval[:, :expected], mode)
-        for hit in arc.section_hits:
-            rec.section(state_sections[hit.index].name, float(hit.t), np.asarray(hit.y))
-        if not arc.status.ok:
-            status, message = arc.status, arc.message
-            t, y = float(arc.t), np.asarray(arc.y, dtype=float)
-            break
-        if not (math.isfinite(arc.t) and np.all(np.isfinite(arc.y))):
-            status, message = Status.INTEGRATOR_FAILURE, f"non-finite state at t = {arc.t}"
-            break
-        if arc.t < t or arc.t > t_end:
-            status, message = Status.INTEGRATOR_FAILURE, (
-                f"{integ.name} stopped at t = {arc.t!r} outside the arc [{t!r}, {t_end!r}]"
-            )
-            break
-        t, y = float(arc.t), np.array(arc.y, dtype=float)
-        t_lo = _low_part(t, arc.t_lo)
-        if arc.fired is None:
-            if t < t_end:
-                status, message = Status.INTEGRATOR_FAILURE, (
-                    f"{integ.name} stopped at t = {t!r} < t_end without an event"
-                )
-            break
-        if counters.nsteps >= max_steps:
-            status, message = Status.BUDGET_EXHAUSTED, f"{max_steps} steps used by t = {t:.6g}"
-        mode, y, stop = settle(mode, t, y, guards[arc.fired], set())
-        if stop is not None:
-            status, message = stop
-
+    raw = run_hybrid(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
+                     max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span)
     wall = time.perf_counter() - tic
-    events, section_frame, trajectory = rec.frames()
+    events, section_frame, trajectory = _frames(problem, raw, dense_times, traj_mask, strobe_names,
+                                                state_sections)
     return SimulationResult(
-        problem=problem, integrator=integ.config(), status=status, message=message,
-        events=events, sections=section_frame, trajectory=trajectory, counters=counters,
-        t_final=t, y_final=np.array(y, dtype=float), mode_final=mode,
-        wall_time=wall, setup_time=setup_time,
+        problem=problem, integrator=integ.config(), status=raw.status, message=raw.message,
+        events=events, sections=section_frame, trajectory=trajectory, counters=raw.counters,
+        t_final=raw.t, y_final=np.array(raw.y, dtype=float), mode_final=raw.mode,
+        wall_time=wall, setup_time=setup_time, integrator_time=raw.integrator_time,
     )

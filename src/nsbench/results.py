@@ -2,8 +2,8 @@
 
 Column conventions (documented, relied on by reports):
 
-- events: ``t, kind, block, x1, v1[, x2, v2]``; ``kind`` in ``stick, slip, reverse``;
-  the state is the one *after* the transition.
+- events: ``t, kind, block, x1, v1[, x2, v2, ...], mode``; ``kind`` in ``stick, slip,
+  reverse``; the state and the mode (e.g. ``'stick|slip-'``) are those *after* the transition.
 - sections: ``section, t, x1, v1[, x2, v2]``.
 - trajectory: ``t, x1, v1[, x2, v2], phase1[, phase2]`` with phases -1 (slip-),
   0 (stick), +1 (slip+).
@@ -65,7 +65,7 @@ class Counters:
 
 def event_columns(state_names: tuple[str, ...]) -> list[str]:
     """Columns of an event log for a problem with these state names."""
-    return ["t", "kind", "block", *state_names]
+    return ["t", "kind", "block", *state_names, "mode"]
 
 
 @dataclass(frozen=True)
@@ -91,9 +91,13 @@ class SimulationResult:
     t_final, y_final, mode_final
         Where the run stopped.
     wall_time
-        Seconds spent integrating (excluding ``setup_time``).
+        Seconds the run took (excluding ``setup_time``): the integrator and nsbench's hybrid core.
     setup_time
-        Seconds spent in the integrator's ``setup`` (compilation, operators).
+        Seconds spent in the integrator's ``setup`` (compilation, operators) and loading the core.
+    integrator_time
+        Seconds spent inside the integrator: its compiled arc kernels, or its ``advance``
+        calls; ``wall_time - integrator_time`` is the core's share (events, records).
+        NaN where the platform offers no clock to compiled code.
     """
 
     problem: "FrictionOscillator"
@@ -109,6 +113,7 @@ class SimulationResult:
     mode_final: Mode
     wall_time: float
     setup_time: float
+    integrator_time: float = float("nan")
 
     @property
     def ok(self) -> bool:
@@ -130,7 +135,8 @@ class SimulationResult:
             lines.append("events      0")
         counters = ", ".join(f"{k}={v:g}" for k, v in self.counters.as_dict().items())
         lines.append(f"counters    {counters}")
-        lines.append(f"wall time   {self.wall_time:.4g} s (setup {self.setup_time:.3g} s)")
+        lines.append(f"wall time   {self.wall_time:.4g} s, of which {self.integrator_time:.4g} s in the "
+                     f"integrator (setup {self.setup_time:.3g} s)")
         return "\n".join(lines)
 
     def dimensionless(self) -> "SimulationResult":

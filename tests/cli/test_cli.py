@@ -17,7 +17,7 @@ def test_simulate_writes_the_event_log(tmp_path, capsys):
                  "--events-out", str(out)])
     assert code == 0
     ev = pd.read_csv(out)
-    assert list(ev.columns) == ["t", "kind", "block", "x1", "v1", "x2", "v2"]
+    assert list(ev.columns) == ["t", "kind", "block", "x1", "v1", "x2", "v2", "mode"]
     assert len(ev) > 100
     text = capsys.readouterr().out
     assert "stick@1" in text and "nfev=" in text and "wall time" in text

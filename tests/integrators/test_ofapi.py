@@ -15,7 +15,7 @@ from nsbench.errors import ConfigError
 from nsbench.integrators import get_integrator
 from nsbench.integrators._chebyshev import cgl_nodes
 from nsbench.integrators.base import ArcRequest
-from nsbench.integrators.exact import ModeFlow
+from nsbench.integrators.exact import closed_form_states
 from nsbench.integrators.ofapi import iterate_segment
 from nsbench.results import Status
 from nsbench.sections import peaks
@@ -42,7 +42,7 @@ def pure_mode_run(name: str, mode, t_eval, **options):
     req = ArcRequest(problem=p, mode=mode, t0=0.0, y0=SLIP_STATE, t_end=float(t_eval[-1]), guards=(),
                      t_eval=t_eval)
     arc = integ.advance(req)
-    exact = ModeFlow(p, mode).start(0.0, SLIP_STATE).states(t_eval)
+    exact = closed_form_states(p, mode, 0.0, SLIP_STATE, t_eval)
     return arc, float(np.abs(arc.y_eval - exact).max())
 
 
@@ -73,7 +73,7 @@ def test_single_segment_converges_to_the_exact_flow():
     p = nsbench.get_problem("two-dof", case=2)
     X, converged, its = iterate_segment(p, (-1, -1), 1.0, SLIP_STATE, 0.5, order=1, tol=1e-14)
     t = 1.0 + 0.25 * (cgl_nodes(12) + 1.0)
-    exact = ModeFlow(p, (-1, -1)).start(1.0, SLIP_STATE).states(t - 1.0)
+    exact = closed_form_states(p, (-1, -1), 1.0, SLIP_STATE, t)
     assert converged and its <= 10
     assert np.abs(X - exact.T).max() < 1e-14
 

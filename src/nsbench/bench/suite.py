@@ -210,7 +210,7 @@ class Suite:
         :meth:`unavailable`) unless the suite names it explicitly.
         """
         from nsbench.errors import PluginLoadError
-        from nsbench.integrators import integrator_class, list_integrators
+        from nsbench.integrators import canonical_name, integrator_class, list_integrators
 
         spec = self.integrators
         registered = list_integrators()
@@ -228,10 +228,11 @@ class Suite:
         else:
             names = []
         names += [n for n in spec.get("grids", {}) if n not in names]
+        names = list(dict.fromkeys(canonical_name(n) for n in names))  # old aliases name the same integrator
         unknown = [n for n in names if n not in registered]
         if unknown:
             raise ConfigError(f"unknown integrator(s) {', '.join(unknown)}; registered: {', '.join(registered)}")
-        exclude = set(spec.get("exclude", []))
+        exclude = {canonical_name(n) for n in spec.get("exclude", [])}
         return [n for n in names if n not in exclude]
 
     def unavailable(self) -> dict[str, str]:
@@ -244,7 +245,10 @@ class Suite:
         from nsbench.integrators import integrator_class
 
         cls = integrator_class(name)
-        grid = self.integrators.get("grids", {}).get(name)
+        from nsbench.integrators import canonical_name
+
+        grids = {canonical_name(k): v for k, v in self.integrators.get("grids", {}).items()}
+        grid = grids.get(name)
         if grid is None:
             sets = [dict(o) for o in cls.accuracy_levels] or [{}]
         elif "options" in grid:

@@ -4,9 +4,10 @@ Each point integrates from rest (the standard initial condition) through the
 transient, then records ``record`` section points: ``peaks`` (local maxima of
 ``x1``), ``strobe`` (states at ``t = 2 pi k / Omega``), ``stick`` (stick events)
 or ``mapping`` (slip events: where the locus of sticking phase leaves a
-sliding region). Compiled integrators (``exact-jit``, ``henon-rk4-jit``) run the
-whole hybrid loop compiled; any other registered integrator runs through the
-ordinary engine, window by window.
+sliding region). Every integrator runs through the hybrid core
+(:func:`nsbench.hybrid.run.run_hybrid`), which stops at the last point wanted;
+an integrator with a compiled kernel runs the whole point in compiled code.
+The columns follow the problem: its state names, and event counts per block.
 """
 
 from __future__ import annotations
@@ -26,11 +27,20 @@ SECTIONS = ("peaks", "strobe", "stick", "mapping")
 #: (pure sliding damped out) before ``record`` points: its final state is its one point
 OK_STATUSES = ("success", "rest")
 REST_SPEED = 1e-9
-STATE_COLUMNS = ("x1", "v1", "x2", "v2")
-COUNTER_COLUMNS = ("n_events", "sticks1", "sticks2", "slips1", "slips2", "reverses1", "reverses2",
-                   "nfev", "nsteps")
-COLUMNS = ("param", "value", "index", "section", "k", "t", *STATE_COLUMNS, "event_block", "status",
-           "message", "n_points", *COUNTER_COLUMNS, "wall_time")
+EVENT_COUNTS = (("stick", "sticks"), ("slip", "slips"), ("reverse", "reverses"))
+
+
+def counter_columns(n_blocks: int) -> tuple[str, ...]:
+    """``n_events``, then stick, slip and reverse counts per block, then ``nfev, nsteps``."""
+    per_block = tuple(f"{name}{b}" for _, name in EVENT_COUNTS for b in range(1, n_blocks + 1))
+    return ("n_events", *per_block, "nfev", "nsteps")
+
+
+def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
+    """The tidy columns of a sweep of a problem with these state names."""
+    n_blocks = len(state_names) // 2
+    return ("param", "value", "index", "section", "k", "t", *state_names, "event_block", "status",
+            "message", "n_points", *counter_columns(n_blocks), "wall_time")
 
 
 def parse_sweep(text: str) -> tuple[str, float, float, int]:
@@ -77,7 +87,7 @@ class SweepSpec:
     start: float
     stop: float
     count: int
-    integrator: str = "exact-jit"
+    integrator: str = "exact"
     options: dict[str, Any] = field(default_factory=dict)
     section: str = "peaks"
     transient: float = 1500.0
@@ -118,6 +128,15 @@ class SweepSpec:
 
         return get_problem(self.problem, case=self.case, **{**self.params, self.name: float(value)})
 
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """State names of the swept problem (the same at every value)."""
+        return self.problem_at(self.start).state_names
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return sweep_columns(self.state_names)
+
     def check(self) -> None:
         """Fail early: build the problem at both ends and the integrator, check the section."""
         from nsbench.integrators import get_integrator
@@ -150,26 +169,28 @@ def strobe_times(problem, transient: float, record: int) -> np.ndarray:
     return period * np.arange(k0, k0 + record)
 
 
-def _rows(spec: SweepSpec, index: int, value: float, t, y, blocks, status: str, message: str,
-          counters: dict[str, int], wall: float) -> pd.DataFrame:
+def _rows(spec: SweepSpec, names: tuple[str, ...], index: int, value: float, t, y, blocks, status: str,
+          message: str, counters: dict[str, int], wall: float) -> pd.DataFrame:
     n = len(t)
-    states = np.full((max(n, 1), 4), np.nan)
+    rows = max(n, 1)
+    states = np.full((rows, len(names)), np.nan)
     if n:
-        states[:n, : y.shape[1]] = y
-    frame = pd.DataFrame({
-        "param": spec.name, "value": float(value), "index": int(index), "section": spec.section,
-        "k": np.arange(n) if n else np.array([-1]), "t": np.asarray(t, dtype=float) if n else np.array([np.nan]),
-    })
-    for j, col in enumerate(STATE_COLUMNS):
-        frame[col] = states[:, j]
-    frame["event_block"] = np.asarray(blocks, dtype=np.int64) if n else np.array([0])
-    frame["status"] = status
-    frame["message"] = message
-    frame["n_points"] = n
-    for col in COUNTER_COLUMNS:
-        frame[col] = int(counters.get(col, 0))
-    frame["wall_time"] = wall
-    return frame
+        states[:n] = y
+    data: dict[str, Any] = {
+        "param": [spec.name] * rows, "value": np.full(rows, float(value)), "index": np.full(rows, int(index)),
+        "section": [spec.section] * rows, "k": np.arange(n) if n else np.array([-1]),
+        "t": np.asarray(t, dtype=float) if n else np.array([np.nan]),
+    }
+    for j, col in enumerate(names):
+        data[col] = states[:, j]
+    data["event_block"] = np.asarray(blocks, dtype=np.int64) if n else np.array([0])
+    data["status"] = [status] * rows
+    data["message"] = [message] * rows
+    data["n_points"] = np.full(rows, n)
+    for col in counter_columns(len(names) // 2):
+        data[col] = np.full(rows, int(counters.get(col, 0)))
+    data["wall_time"] = np.full(rows, wall)
+    return pd.DataFrame(data)
 
 
 def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
@@ -178,24 +199,16 @@ def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
 
     value = float(spec.values[index])
     tic = time.perf_counter()
+    names = spec.state_names
     try:
         problem = spec.problem_at(value)
         integ = integrator if integrator is not None else get_integrator(spec.integrator, **spec.options)
-        if hasattr(integ, "run"):
-            t, y, blocks, status, message, counters = _fast_point(spec, problem, integ)
-        else:
-            t, y, blocks, status, message, counters = _engine_point(spec, problem, integ)
+        t, y, blocks, status, message, counters = _point(spec, problem, integ)
     except (NsbenchError, ArithmeticError, ValueError, RuntimeError) as exc:
-        return _rows(spec, index, value, [], None, [], "failure", f"{type(exc).__name__}: {exc}", {},
+        return _rows(spec, names, index, value, [], None, [], "failure", f"{type(exc).__name__}: {exc}", {},
                      time.perf_counter() - tic)
-    return _rows(spec, index, value, t, y, blocks, status, message, counters, time.perf_counter() - tic)
-
-
-def _at_rest(y_final, counters) -> bool:
-    """No event in the recording window and every velocity ~0: a sliding equilibrium."""
-    moved = sum(int(counters.get(k, 0)) for k in ("sticks1", "sticks2", "slips1", "slips2",
-                                                   "reverses1", "reverses2"))
-    return moved == 0 and float(np.max(np.abs(np.asarray(y_final)[1::2]))) <= REST_SPEED
+    return _rows(spec, names, index, value, t, y, blocks, status, message, counters,
+                 time.perf_counter() - tic)
 
 
 def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
@@ -210,79 +223,48 @@ def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
     return "success", ""
 
 
-def _fast_point(spec, problem, integ):
-    times = None
+def _point(spec: SweepSpec, problem, integ):
+    """One value through the hybrid core: the recorded points, status and counters of the recording window."""
+    from nsbench.hybrid.run import run_hybrid
+    from nsbench.problems.modes import EVENT_KINDS
+    from nsbench.sections import peaks
+
+    integ.setup(problem)
     t_end = spec.transient + spec.record_window
-    if spec.section == "strobe":
+    kwargs: dict[str, Any] = {}
+    if spec.section == "peaks":
+        kwargs = dict(sections=[peaks(problem)], hit_from=spec.transient, hit_stop=spec.record)
+    elif spec.section == "strobe":
         times = strobe_times(problem, spec.transient, spec.record)
         t_end = float(times[-1])
-    run = integ.run(problem, t_end=t_end, section=spec.section, t_rec=spec.transient,
-                    n_rec=spec.record, times=times)
-    rest = run.n < spec.record and _at_rest(run.y, run.counters)
-    status, message = _finish(spec, run.n, run.status, run.t, rest)
-    if status == "rest":
-        return (np.array([run.t]), run.y[None, :], np.zeros(1, np.int64), status, message, run.counters)
-    return run.rec_t, run.rec_y, run.rec_block, status, message, run.counters
-
-
-def _engine_point(spec, problem, integ):
-    """The same point through :func:`nsbench.engine.simulate`, continued window by window."""
-    from nsbench.engine import simulate
-    from nsbench.sections import peaks, stroboscopic
-
-    sections = []
+        kwargs = dict(t_eval=times)
+    else:
+        kwargs = dict(stop_kind="stick" if spec.section == "stick" else "slip", stop_count=spec.record)
+    raw = run_hybrid(problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000,
+                     max_events=5_000_000, **kwargs)
+    rec = raw.records
+    kinds = rec.ev_kind[: raw.n_events]
+    blocks_ev = rec.ev_block[: raw.n_events]
+    counters: dict[str, int] = {"n_events": raw.n_events_total, "nfev": raw.counters.nfev,
+                                "nsteps": raw.counters.nsteps}
+    for code, (_, name) in enumerate(EVENT_COUNTS):
+        for b in range(1, problem.n_blocks + 1):
+            counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b)))
     if spec.section == "peaks":
-        sections = [peaks(problem)]
+        t, y, blocks = rec.ht[: raw.n_hits], rec.hy[: raw.n_hits], np.ones(raw.n_hits, np.int64)
     elif spec.section == "strobe":
-        sections = [stroboscopic(problem)]
-    t_stop_all = spec.transient + spec.record_window
-    if spec.section == "strobe":
-        t_stop_all = float(strobe_times(problem, spec.transient, spec.record)[-1]) + 1e-9
-    t0, y0 = 0.0, None
-    step = min(spec.record_window, 12.0 * spec.record + 50.0)
-    t1 = min(spec.transient + step, t_stop_all)
-    found_t, found_y, found_b = [], [], []
-    events = []
-    counters = {"nfev": 0, "nsteps": 0, "n_events": 0}
-    status, t_last = "success", 0.0
-    while True:
-        res = simulate(problem, integ, t1, t0=t0, y0=y0, sections=sections)
-        counters["nfev"] += res.counters.nfev
-        counters["nsteps"] += res.counters.nsteps
-        counters["n_events"] += res.counters.n_events
-        ev = res.events[res.events["t"] >= spec.transient]
-        events.append(ev)
-        if spec.section in ("stick", "mapping"):
-            kind = "stick" if spec.section == "stick" else "slip"
-            pts = ev[ev["kind"] == kind]
-            found_b.extend(pts["block"].tolist())
-        else:
-            pts = res.sections[res.sections["t"] >= spec.transient - 1e-9]
-            if t0 > 0.0:  # a continued window: its start was the previous window's end
-                pts = pts[pts["t"] > t0]
-            found_b.extend([1 if spec.section == "peaks" else 0] * len(pts))
-        found_t.extend(pts["t"].tolist())
-        found_y.extend(pts[list(problem.state_names)].to_numpy().tolist())
-        t_last = res.t_final
-        if not res.ok:
-            status = res.status.value
-            break
-        if len(found_t) >= spec.record or t1 >= t_stop_all:
-            break
-        t0, y0 = res.t_final, res.y_final
-        step *= 2.0
-        t1 = min(t1 + step, t_stop_all)
-    n = min(len(found_t), spec.record)
-    t = np.array(found_t[:n])
-    y = np.array(found_y[:n]).reshape(n, problem.n_states)
-    t_cut = t[-1] if n == spec.record else np.inf
-    ev = pd.concat(events) if events else pd.DataFrame(columns=["t", "kind", "block"])
-    ev = ev[ev["t"] <= t_cut]
-    for kind, key in (("stick", "sticks"), ("slip", "slips"), ("reverse", "reverses")):
-        for b in (1, 2):
-            counters[f"{key}{b}"] = int(((ev["kind"] == kind) & (ev["block"] == b)).sum())
-    rest = n < spec.record and status == "success" and _at_rest(res.y_final, counters)
-    status, message = _finish(spec, n, status, t_last, rest)
+        t, y = kwargs["t_eval"][: raw.n_dense], rec.y_eval[: raw.n_dense]
+        blocks = np.zeros(raw.n_dense, np.int64)
+    else:
+        want = EVENT_KINDS.index(kwargs["stop_kind"])
+        pick = np.flatnonzero(kinds == want)[: spec.record]
+        t, y, blocks = rec.ev_t[pick], rec.ev_y[pick], blocks_ev[pick]
+    moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, problem.n_blocks + 1))
+    rest = (len(t) < spec.record and raw.status.ok and moved == 0
+            and float(np.max(np.abs(raw.y[1::2]))) <= REST_SPEED)
+    status, message = _finish(spec, len(t), raw.status.value, raw.t, rest)
+    if raw.status.ok is False:
+        message = f"{message}: {raw.message}" if raw.message else message
     if status == "rest":
-        return np.array([t_last]), np.array(res.y_final)[None, :], np.zeros(1, np.int64), status, message, counters
-    return t, y, np.array(found_b[:n]), status, message, counters
+        return np.array([raw.t]), raw.y[None, :], np.zeros(1, np.int64), status, message, counters
+    return np.asarray(t), np.asarray(y), np.asarray(blocks), status, message, counters

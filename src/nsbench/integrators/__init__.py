@@ -15,20 +15,32 @@ from nsbench.integrators.base import (
     ArcRequest,
     ArcResult,
     Capabilities,
+    CompiledArcs,
     Integrator,
     Option,
     SectionHit,
 )
 
 __all__ = [
-    "Integrator", "Capabilities", "Option", "ArcRequest", "ArcResult", "SectionHit",
-    "get_integrator", "integrator_class", "integrator_from_config", "list_integrators",
+    "Integrator", "CompiledArcs", "Capabilities", "Option", "ArcRequest", "ArcResult", "SectionHit",
+    "get_integrator", "integrator_class", "integrator_from_config", "list_integrators", "ALIASES",
+    "canonical_name",
 ]
 
 
+#: Former names, kept so that stored results and old commands still work: the compiled
+#: whole-run paths they named are what ``exact`` and ``henon-rk4`` do now.
+ALIASES = {"exact-jit": "exact", "henon-rk4-jit": "henon-rk4"}
+
+
+def canonical_name(name: str) -> str:
+    """``name``, or the integrator an old alias stands for."""
+    return ALIASES.get(name, name)
+
+
 def integrator_class(name: str) -> type[Integrator]:
-    """The registered class for ``name`` (imports it on first use)."""
-    cls = registry.load("integrators", name)
+    """The registered class for ``name`` or one of its :data:`ALIASES` (imports it on first use)."""
+    cls = registry.load("integrators", canonical_name(name))
     if not (isinstance(cls, type) and issubclass(cls, Integrator)):
         raise ConfigError(f"integrator {name!r} is registered as {cls!r}, which is not an Integrator subclass")
     return cls

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nsbench.problems.kernels import jit
+from nsbench.problems.kernels import hot
 
 
 def cgl_nodes(N: int) -> np.ndarray:
@@ -111,7 +111,7 @@ def operators(N: int) -> ChebyshevOperators:
     return ops
 
 
-@jit
+@hot
 def barycentric(nodes, weights, values, tau, out):
     """Interpolant of ``values`` (rows = nodes) at ``tau`` into ``out`` (second barycentric form)."""
     m, n = values.shape
@@ -132,7 +132,7 @@ def barycentric(nodes, weights, values, tau, out):
         out[i] /= denominator
 
 
-@jit
+@hot
 def clenshaw(coefficients, tau, out):
     """Evaluate ``sum_k a_k T_k(tau)`` (rows of ``coefficients`` = ``k``) into ``out``."""
     m, n = coefficients.shape

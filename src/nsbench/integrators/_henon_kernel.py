@@ -1,43 +1,59 @@
-"""Compiled arc of ``henon-rk4``: fixed-step RK4, Henon steps, grazing checks, sections, dense output.
+"""Compiled arc kernel of ``henon-rk4``: fixed-step RK4, Henon steps, grazing checks, sections, dense output.
 
-The same algorithm as the generic Python loop in :mod:`nsbench.integrators.henon_rk4`,
-on the numba kernels of the friction oscillator. One call advances one frozen
-mode until a guard fires, ``t_end``, the step budget, or the section buffer is
-full (the caller then resumes from the returned state on the same step grid).
+After a step that crosses a guard ``S``, one RK4 step of size ``-S`` in the
+independent variable ``sigma = S`` (field ``(f, 1) / dS/dt`` over ``(y, t)``, with
+the *old* mode's field) lands on the surface; this keeps RK4's order 4 for
+event times (METHODS.md section 7). A guard that dips across and back within
+one step is caught from the cubic Hermite interpolant of the guard (values and
+rates at the step ends), and located by bisection on RK4 sub-steps, as is any
+Henon point outside its step (near-grazing). Sections use the same Henon step;
+dense output is the cubic Hermite interpolant, consistent with order 4. The
+step grid starts at the arc's start. Calling convention: :mod:`nsbench.hybrid.abi`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from nsbench.problems.kernels import (
-    guard_rate,
-    guard_value,
-    jit,
-    linear_section_rate,
-    linear_section_value,
-    rhs,
+from nsbench.hybrid.abi import (
+    K_BUDGET,
+    K_HIT_FULL,
+    K_HIT_STOP,
+    K_NONFINITE,
+    K_OK,
+    NFEV,
+    NSTEPS,
+    SI_IEVAL,
+    SI_NHITS,
+    X0,
+    X1,
+    copy_into,
+    hot,
+    inline,
+    record_hit,
+    sort_hits,
     section_crossed,
 )
+from nsbench.problems.kernels import guard_rate, guard_value, linear_section_rate, linear_section_value, rhs
 
-SUCCESS, BUDGET, FAILURE, BUFFER_FULL = 0, 1, 2, 3
+HENON_STEPS, BISECTIONS = X0, X1  # counter slots of this kernel
 
 
-@jit
+@inline
 def _value(p, fn, idx, kinds, blocks, sec_c, sec_l, t, y):
     if fn == 0:
         return guard_value(p, kinds[idx], blocks[idx], t, y)
     return linear_section_value(sec_c[idx], sec_l[idx], y)
 
 
-@jit
+@inline
 def _rate(p, fn, idx, kinds, blocks, sec_c, t, y, dy):
     if fn == 0:
         return guard_rate(p, kinds[idx], blocks[idx], t, y, dy)
     return linear_section_rate(sec_c[idx], dy)
 
 
-@jit
+@inline
 def _rk4(p, mode, t, y, h, fy, out, work):
     """One RK4 step into ``out``; ``fy = f(t, y)`` known. Three new evaluations."""
     n = y.shape[0]
@@ -55,7 +71,7 @@ def _rk4(p, mode, t, y, h, fy, out, work):
         out[j] = y[j] + (h / 6.0) * (fy[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
 
 
-@jit
+@hot
 def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, work):
     """RK4 step in sigma = fn from (t1, y1) to fn = 0. Returns (ok, t_star); state into out."""
     n = y1.shape[0]
@@ -90,7 +106,7 @@ def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, w
     return True, t_star
 
 
-@jit
+@hot
 def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, start, out, work):
     """First zero of sign*fn in (t, t1] from RK4 sub-steps of (t, y).
 
@@ -111,7 +127,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
             lo = tau
         elif positive_seen:
             hi = tau
-            out[:] = ys
+            copy_into(out, ys)
             break
     if hi < 0.0:
         return False, 0.0, n_sub
@@ -126,32 +142,36 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
             lo = mid
         else:
             hi = mid
-            out[:] = ys
+            copy_into(out, ys)
     return True, hi, n_sub
 
 
-@jit
+@inline
 def _dips(p0, p1, d0, d1, skip_start):
     """Whether the cubic Hermite with positive ends p0, p1 and end slopes d0, d1 dips to <= 0."""
+    # p(s) = h00 p0 + h01 p1 + h10 d0 + h11 d1 with h00 + h01 = 1 and |h10|, |h11| <= 4/27:
+    # far from zero compared with the slopes it cannot dip (most steps end here)
+    if min(p0, p1) > (4.0 / 27.0) * (abs(d0) + abs(d1)):
+        return False
     a = 2.0 * p0 - 2.0 * p1 + d0 + d1
     b = -3.0 * p0 + 3.0 * p1 - 2.0 * d0 - d1
     # critical points: 3a s^2 + 2b s + d0 = 0
     qa, qb, qc = 3.0 * a, 2.0 * b, d0
-    roots = np.empty(2)
+    r0, r1 = 0.0, 0.0
     nroots = 0
     if qa == 0.0:
         if qb != 0.0:
-            roots[0] = -qc / qb
+            r0 = -qc / qb
             nroots = 1
     else:
         disc = qb * qb - 4.0 * qa * qc
         if disc >= 0.0:
             sq = np.sqrt(disc)
-            roots[0] = (-qb - sq) / (2.0 * qa)
-            roots[1] = (-qb + sq) / (2.0 * qa)
+            r0 = (-qb - sq) / (2.0 * qa)
+            r1 = (-qb + sq) / (2.0 * qa)
             nroots = 2
     for k in range(nroots):
-        s = roots[k]
+        s = r0 if k == 0 else r1
         if 0.0 < s < 1.0 and 6.0 * a * s + 2.0 * b > 0.0:
             if skip_start and s < 1e-6:
                 continue
@@ -160,7 +180,7 @@ def _dips(p0, p1, d0, d1, skip_start):
     return False
 
 
-@jit
+@inline
 def _hermite_into(ta, ya, fa, tb, yb, fb, t, out, col):
     h = tb - ta
     th = (t - ta) / h
@@ -169,74 +189,65 @@ def _hermite_into(ta, ya, fa, tb, yb, fb, t, out, col):
     h01 = th * th * (3.0 - 2.0 * th)
     h11 = th * th * (th - 1.0)
     for j in range(ya.shape[0]):
-        out[j, col] = h00 * ya[j] + h * h10 * fa[j] + h01 * yb[j] + h * h11 * fb[j]
+        out[col, j] = h00 * ya[j] + h * h10 * fa[j] + h01 * yb[j] + h * h11 * fb[j]
 
 
-@jit
-def henon_arc(p, mode, grid_t0, step0, t_start, y_start, t_end, h, n_steps_total, kinds, blocks, signs,
-              sec_c, sec_l, sec_dir, t_eval, n_eval_done, max_steps,
-              y_eval, hit_idx, hit_t, hit_y, y_stop, counters):
-    """Advance one frozen mode from ``(t_start, y_start)``; see the module docstring.
+def scratch(n_states: int, n_sections: int) -> np.ndarray:
+    """The kernel's scratch (``kd[0]``) for a problem with ``n_states`` states and ``n_sections`` sections."""
+    return np.zeros((N_ROWS, max(n_states, n_sections, 1)))
 
-    The step grid is ``grid_t0 + k h`` for ``k = step0 + 1 ..``, the last point
-    being ``t_end`` (``n_steps_total`` steps from ``grid_t0``). ``counters`` receives
-    ``[nsteps, nfev, henon_steps, bisections, n_eval_done, n_hits]``.
 
-    Returns ``(status, t_stop, fired, steps_done)``; ``y_stop`` receives the state.
+N_ROWS = 20  # rows of the scratch: 8 RK4 stages and temporaries, 6 states, 4 guard rows, sections, a spare
+
+
+@hot
+def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
+              sc, sl, sd, hit_from, hit_stop, hk, ht, hy, si, t_eval, y_eval, y_out, cnt):
+    """Advance one frozen mode from ``(t0, y0)`` on the grid ``t0 + k h``, the last point ``t_end``.
+
+    ``kd = (scratch,)`` (:func:`scratch`), ``fo = [h]``. Arguments and result:
+    :mod:`nsbench.hybrid.abi` (``t0_lo`` is not used: the method's own error is far above it).
     """
-    n = y_start.shape[0]
-    ng = kinds.shape[0]
-    ns = sec_l.shape[0]
-    work = np.empty((8, n))
-    y = y_start.copy()
-    fy = np.empty(n)
-    y1 = np.empty(n)
-    f1 = np.empty(n)
-    ystar = np.empty(n)
-    ybest = np.empty(n)
-    phi = np.empty(ng)
-    psi = np.empty(ng)
-    phi1 = np.empty(ng)
-    psi1 = np.empty(ng)
-    sec_v = np.empty(ns)
-    dummy_l = np.zeros(1)
-    t = t_start
+    h = fo[0]
+    n = y0.shape[0]
+    ns = sl.shape[0]
+    kinds, blocks, signs = gk[:ng], gb[:ng], gs[:ng]
+    n_steps_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
+    wk = kd[0]
+    work = wk[0:8, :n]
+    y, fy, y1, f1, ystar, ybest = wk[8, :n], wk[9, :n], wk[10, :n], wk[11, :n], wk[12, :n], wk[13, :n]
+    phi, psi, phi1, psi1 = wk[14, :ng], wk[15, :ng], wk[16, :ng], wk[17, :ng]
+    sec_v = wk[18, :ns]
+    dummy_l = wk[19, :1]
+    copy_into(y, y0)
+    t = t0
     rhs(p, mode, t, y, fy)
-    nfev = 1
+    cnt[NFEV] += 1
     for q in range(ng):
         phi[q] = signs[q] * guard_value(p, kinds[q], blocks[q], t, y)
         psi[q] = signs[q] * guard_rate(p, kinds[q], blocks[q], t, y, fy)
     for k in range(ns):
-        sec_v[k] = linear_section_value(sec_c[k], sec_l[k], y)
-    n_done = n_eval_done
-    n_hits = 0
-    steps = 0
-    henon_steps = 0
-    bisections = 0
-    status = SUCCESS
+        sec_v[k] = linear_section_value(sc[k], sl[k], y)
+    status = K_OK
     fired = -1
-    step = step0
-    cap = hit_t.shape[0]
+    step = 0
     while t < t_end:
-        if steps >= max_steps:
-            status = BUDGET
-            break
-        if n_hits + ns > cap:
-            status = BUFFER_FULL
+        if step >= max_steps:
+            status = K_BUDGET
             break
         step += 1
-        t1 = t_end if step >= n_steps_total else grid_t0 + step * h
-        hk = t1 - t
-        _rk4(p, mode, t, y, hk, fy, y1, work)
+        t1 = t_end if step >= n_steps_total else t0 + step * h
+        hk_ = t1 - t
+        _rk4(p, mode, t, y, hk_, fy, y1, work)
         rhs(p, mode, t1, y1, f1)
-        nfev += 4
-        steps += 1
+        cnt[NFEV] += 4
+        cnt[NSTEPS] += 1
         finite = True
         for j in range(n):
             if not np.isfinite(y1[j]):
                 finite = False
         if not finite:
-            status = FAILURE
+            status = K_NONFINITE
             break
         start = step == 1  # the arc's first step starts on the surface of its phase
         best_t = np.inf
@@ -247,72 +258,80 @@ def henon_arc(p, mode, grid_t0, step0, t_start, y_start, t_end, h, n_steps_total
             psi1[q] = d1
             end_crossed = p1 <= 0.0
             crossed = end_crossed or ((phi[q] > 0.0 or start)
-                                      and _dips(phi[q], p1, hk * psi[q], hk * d1, start))
+                                      and _dips(phi[q], p1, hk_ * psi[q], hk_ * d1, start))
             if not crossed:
                 continue
             ok = False
             t_hit = 0.0
             if end_crossed:
-                henon_steps += 1
-                nfev += 4
-                ok, t_hit = _henon(p, mode, 0, q, kinds, blocks, sec_c, dummy_l, t, t1, t1, y1, ystar, work)
+                cnt[HENON_STEPS] += 1
+                cnt[NFEV] += 4
+                ok, t_hit = _henon(p, mode, 0, q, kinds, blocks, sc, dummy_l, t, t1, t1, y1, ystar, work)
             if not ok:
-                bisections += 1
-                ok, t_hit, n_sub = _bisect(p, mode, 0, q, signs[q], kinds, blocks, sec_c, dummy_l,
+                cnt[BISECTIONS] += 1
+                ok, t_hit, n_sub = _bisect(p, mode, 0, q, signs[q], kinds, blocks, sc, dummy_l,
                                            t, y, fy, t1, start, ystar, work)
-                nfev += 3 * n_sub
-            if ok and t_hit < best_t:
+                cnt[NFEV] += 3 * n_sub
+            if ok and t_hit < best_t:  # earliest; the lowest index on a tie
                 best_t = t_hit
                 fired = q
-                ybest[:] = ystar
+                copy_into(ybest, ystar)
         tb = t1
         if fired >= 0:
             tb = best_t
-            y1[:] = ybest
+            copy_into(y1, ybest)
             rhs(p, mode, tb, y1, f1)
-            nfev += 1
+            cnt[NFEV] += 1
         # sections between t and tb
+        first_new = si[SI_NHITS]
         for k in range(ns):
-            vb = linear_section_value(sec_c[k], sec_l[k], y1)
-            if section_crossed(sec_dir[k], sec_v[k], vb):
+            vb = linear_section_value(sc[k], sl[k], y1)
+            if section_crossed(sd[k], sec_v[k], vb):
+                ok = True
+                t_hit = tb
                 if vb == 0.0:
-                    hit_idx[n_hits] = k
-                    hit_t[n_hits] = tb
-                    hit_y[n_hits, :] = y1
-                    n_hits += 1
+                    copy_into(ystar, y1)
                 else:
-                    henon_steps += 1
-                    nfev += 4
-                    ok, t_hit = _henon(p, mode, 1, k, kinds, blocks, sec_c, sec_l, t, tb, tb, y1, ystar, work)
+                    cnt[HENON_STEPS] += 1
+                    cnt[NFEV] += 4
+                    ok, t_hit = _henon(p, mode, 1, k, kinds, blocks, sc, sl, t, tb, tb, y1, ystar, work)
                     if not ok:
-                        bisections += 1
+                        cnt[BISECTIONS] += 1
                         sgn = 1.0 if sec_v[k] > 0.0 else -1.0
-                        ok, t_hit, n_sub = _bisect(p, mode, 1, k, sgn, kinds, blocks, sec_c, sec_l,
+                        ok, t_hit, n_sub = _bisect(p, mode, 1, k, sgn, kinds, blocks, sc, sl,
                                                    t, y, fy, tb, False, ystar, work)
-                        nfev += 3 * n_sub
-                    if ok:
-                        hit_idx[n_hits] = k
-                        hit_t[n_hits] = t_hit
-                        hit_y[n_hits, :] = ystar
-                        n_hits += 1
+                        cnt[NFEV] += 3 * n_sub
+                if ok and t_hit >= hit_from:
+                    if si[SI_NHITS] >= hk.shape[0]:
+                        return K_HIT_FULL, t, 0.0, -1
+                    record_hit(hk, ht, hy, si, k, t_hit, ystar)
             sec_v[k] = vb
+        if si[SI_NHITS] > first_new:
+            sort_hits(hk, ht, hy, first_new, si[SI_NHITS])
+            if 0 <= hit_stop <= si[SI_NHITS]:
+                si[SI_NHITS] = hit_stop
+                t_stop = ht[hit_stop - 1]
+                i = si[SI_IEVAL]
+                while i < t_eval.shape[0] and t_eval[i] <= t_stop:
+                    _hermite_into(t, y, fy, tb, y1, f1, t_eval[i], y_eval, i)
+                    i += 1
+                si[SI_IEVAL] = i
+                copy_into(y_out, hy[hit_stop - 1])
+                return K_HIT_STOP, t_stop, 0.0, -1
         # dense output on (t, tb]
-        while n_done < t_eval.shape[0] and t_eval[n_done] <= tb:
-            _hermite_into(t, y, fy, tb, y1, f1, t_eval[n_done], y_eval, n_done)
-            n_done += 1
+        i = si[SI_IEVAL]
+        while i < t_eval.shape[0] and t_eval[i] <= tb:
+            _hermite_into(t, y, fy, tb, y1, f1, t_eval[i], y_eval, i)
+            i += 1
+        si[SI_IEVAL] = i
         t = tb
-        y[:] = y1
-        fy[:] = f1
+        copy_into(y, y1)
+        copy_into(fy, f1)
         for q in range(ng):
             phi[q] = phi1[q]
             psi[q] = psi1[q]
         if fired >= 0:
             break
-    y_stop[:] = y
-    counters[0] = steps
-    counters[1] = nfev
-    counters[2] = henon_steps
-    counters[3] = bisections
-    counters[4] = n_done
-    counters[5] = n_hits
-    return status, t, fired, step
+    copy_into(y_out, y)
+    return status, t, 0.0, fired
+

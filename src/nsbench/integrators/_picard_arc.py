@@ -1,6 +1,6 @@
-"""Compiled (numba) loop over the collocation segments of one frozen-mode arc.
+"""Compiled arc kernel of ``ofapi``/``mcpi``: the loop over the collocation segments of one frozen-mode arc.
 
-:func:`advance_arc` is the whole hot path of ``ofapi``/``mcpi``: segment-length
+:func:`picard_arc` is the whole hot path of ``ofapi``/``mcpi``: segment-length
 control, the iteration (:mod:`._picard_iteration`), guard location, section
 crossings and dense output on the converged interpolant
 (:mod:`._picard_location`). Times inside the arc are offsets from ``t0`` and the
@@ -12,39 +12,41 @@ from __future__ import annotations
 
 import numpy as np
 
+from nsbench.hybrid.abi import (
+    K_BUDGET,
+    K_FAIL,
+    K_HIT_FULL,
+    K_HIT_STOP,
+    K_OK,
+    NFEV,
+    NJEV,
+    NSTEPS,
+    SI_IEVAL,
+    SI_NHITS,
+    X0,
+    X1,
+    X2,
+    X3,
+    copy_into,
+    hot,
+    record_hit,
+    section_crossed,
+    sort_hits,
+)
 from nsbench.integrators._chebyshev import barycentric
 from nsbench.integrators._picard_iteration import CONVERGED, picard_iterations
 from nsbench.integrators._picard_location import SECTION, first_zero, root, state_at
-from nsbench.problems.kernels import guard_rate, guard_value, jit, linear_section_value, rhs, section_crossed
+from nsbench.problems.kernels import guard_rate, guard_value, linear_section_value, rhs
 
-#: Status codes of :func:`advance_arc`.
-SUCCESS, BUDGET_EXHAUSTED, NOT_CONVERGED, INACCURATE = 0, 1, 2, 3
-#: Slots of the counter array returned by :func:`advance_arc`.
-NFEV, NJEV, NSTEPS, SEGMENTS, ITERATIONS, HALVINGS, REJECTIONS = range(7)
-N_COUNTERS = 7
+#: Failure codes of :func:`picard_arc` (beyond the common ones of the ABI).
+NOT_CONVERGED, INACCURATE = K_FAIL, K_FAIL + 1
+#: Counter slots of this kernel.
+ITERATIONS, SEGMENTS, HALVINGS, REJECTIONS = X0, X1, X2, X3
 GROWTH = 1.5  # largest factor between consecutive adaptive segment lengths
 SAFETY = 0.9
 
 
-@jit
-def _store_hit(hit_index, hit_t, hit_y, n_hits, index, t, y):
-    """Append a section hit, doubling the buffers when full; returns the buffers."""
-    if n_hits == hit_t.shape[0]:
-        cap = 2 * hit_t.shape[0]
-        new_index = np.empty(cap, np.int64)
-        new_t = np.empty(cap)
-        new_y = np.empty((cap, hit_y.shape[1]))
-        new_index[:n_hits] = hit_index[:n_hits]
-        new_t[:n_hits] = hit_t[:n_hits]
-        new_y[:n_hits] = hit_y[:n_hits]
-        hit_index, hit_t, hit_y = new_index, new_t, new_y
-    hit_index[n_hits] = index
-    hit_t[n_hits] = t
-    hit_y[n_hits, :] = y
-    return hit_index, hit_t, hit_y
-
-
-@jit
+@hot
 def _trailing(A, D, scale):
     """Largest of the two trailing Chebyshev coefficients of the increments, relative to ``scale``."""
     m, n = D.shape
@@ -59,73 +61,70 @@ def _trailing(A, D, scale):
     return out / scale
 
 
-@jit
-def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs, t0, y0, t_end,
-                t_eval, max_steps, nodes, weights, E, A, h, h_max, h_min, tol, coef_tol, max_iter,
-                order, jac_node, adaptive):
+def scratch(n_nodes: int, n_states: int, n_sections: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The kernel's scratch (the last three items of ``kd``): node arrays, node Jacobians, vectors."""
+    rows = max(n_states, n_sections, n_nodes, 1)
+    return (np.zeros((6, n_nodes, n_states)), np.zeros((n_nodes, n_states, n_states)),
+            np.zeros((8 + 2 * n_states, max(rows, n_nodes))))
+
+
+@hot
+def picard_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
+               sc, sl, sd, hit_from, hit_stop, hk, ht, hy, si, t_eval, y_eval, y_out, cnt):
     """Integrate one frozen-mode arc from ``(t0, y0)`` to the first guard zero or ``t_end``.
+
+    ``kd = (nodes, weights, E, A, nodal, jacobians, vectors)``: the CGL operators of degree
+    ``N`` and the scratch of :func:`scratch`;
+    ``fo = [h, h_max, h_min, tol, coef_tol, max_iter, order, jac_node, adaptive]``.
+    Arguments and result: :mod:`nsbench.hybrid.abi` (``t0_lo`` is not used).
 
     Segment control: a segment whose iteration does not converge within
     ``max_iter`` is halved and redone. With ``adaptive``, a converged segment
     whose trailing Chebyshev coefficients exceed ``coef_tol`` is shrunk and
     redone, and the next segment grows by up to :data:`GROWTH` (at most
     ``h_max``) when they are smaller. Segments shorter than ``h_min`` end the
-    arc with a failure status. Every attempted segment counts as a step.
-
-    Returns
-    -------
-    (status, t, y, fired, y_eval, n_eval, hit_index, hit_t, hit_y, n_hits, counts)
-        ``fired`` is the guard index or -1; ``y_eval[:, :n_eval]`` are the
-        states at ``t_eval[:n_eval]``; the section hits come in section order;
-        ``counts`` follows the slot constants of this module.
+    arc with :data:`NOT_CONVERGED` or :data:`INACCURATE`. Every attempted
+    segment counts as a step.
     """
+    nodes, weights, E, A, nodal, J, vec = kd
+    h, h_max, h_min, tol, coef_tol = fo[0], fo[1], fo[2], fo[3], fo[4]
+    max_iter, order, jac_node, adaptive = int(fo[5]), int(fo[6]), fo[7] != 0.0, fo[8] != 0.0
+    kinds, blocks, signs = gk[:ng], gb[:ng], gs[:ng]
     m = nodes.shape[0]
     N = m - 1
     n = y0.shape[0]
-    nq = kinds.shape[0]
-    ns = sec_levels.shape[0]
-    D = np.empty((m, n))
-    X = np.empty((m, n))
-    G = np.empty((m, n))
-    P = np.empty((m, n))
-    Y = np.empty((m, n))
-    Z = np.empty((m, n))
-    J = np.empty((m, n, n))
-    base = y0.copy()  # segment start state, rounded ...
-    comp = np.zeros(n)  # ... and what the rounding dropped
-    dstop = np.empty(n)
-    ystop = np.empty(n)
-    ybuf = np.empty(n)
-    dybuf = np.empty(n)
-    g0 = np.empty(n)
-    phi = np.empty((nq, m))
-    dphi = np.empty((nq, m))
-    sec_prev = np.empty(ns)
+    nq = ng
+    ns = sl.shape[0]
+    D, X, G, P, Y, Z = nodal[0], nodal[1], nodal[2], nodal[3], nodal[4], nodal[5]
+    base, comp, dstop, ystop, ybuf, dybuf, g0 = vec[0, :n], vec[1, :n], vec[2, :n], vec[3, :n], vec[4, :n], \
+        vec[5, :n], vec[6, :n]
+    copy_into(base, y0)  # segment start state, rounded ...
+    for i in range(n):
+        comp[i] = 0.0  # ... and what the rounding dropped
+    phi = vec[8:8 + nq, :m]
+    dphi = vec[8 + nq:8 + 2 * nq, :m]
+    sec_prev = vec[7, :ns]
     for s in range(ns):
-        sec_prev[s] = linear_section_value(sec_coeffs[s], sec_levels[s], base)
+        sec_prev[s] = linear_section_value(sc[s], sl[s], base)
     k_eval = t_eval.shape[0]
-    y_eval = np.empty((n, k_eval))
-    n_eval = 0
+    n_eval = si[SI_IEVAL]
     while n_eval < k_eval and t_eval[n_eval] <= t0:
-        y_eval[:, n_eval] = base
+        copy_into(y_eval[n_eval], base)
         n_eval += 1
-    hit_index = np.empty(8, np.int64)
-    hit_t = np.empty(8)
-    hit_y = np.empty((8, n))
-    n_hits = 0
-    counts = np.zeros(N_COUNTERS, np.int64)
-    status = SUCCESS
+    si[SI_IEVAL] = n_eval
+    status = K_OK
     fired = -1
     span = t_end - t0
     s_a = 0.0  # offset of the segment start from t0
     t_a = t0
     hseg = h
     retried = False
+    steps = 0
     rhs(p, mode, t_a, base, g0)
-    counts[NFEV] += 1
+    cnt[NFEV] += 1
     while s_a < span:
-        if counts[NSTEPS] >= max_steps:
-            status = BUDGET_EXHAUSTED
+        if steps >= max_steps:
+            status = K_BUDGET
             break
         hs = hseg
         last = span - s_a <= 1.01 * hs  # no sliver of a segment before t_end
@@ -136,15 +135,17 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
             for i in range(n):
                 D[j, i] = w * (nodes[j] + 1.0) * g0[i]
                 G[j, i] = g0[i]
-        D[0, :] = 0.0
+        for i in range(n):
+            D[0, i] = 0.0
         code, its, nf, nj = picard_iterations(p, mode, t_a, base, w, nodes, E, D, X, G, J, P, Y, Z,
                                               order, jac_node, tol, max_iter)
-        counts[NSTEPS] += 1
-        counts[ITERATIONS] += its
-        counts[NFEV] += nf
-        counts[NJEV] += nj
+        steps += 1
+        cnt[NSTEPS] += 1
+        cnt[ITERATIONS] += its
+        cnt[NFEV] += nf
+        cnt[NJEV] += nj
         if code != CONVERGED:
-            counts[HALVINGS] += 1
+            cnt[HALVINGS] += 1
             hseg = 0.5 * hs
             retried = True
             if hseg < h_min:
@@ -158,7 +159,7 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
                     scale = max(scale, abs(X[j, i]))
             trailing = _trailing(A, D, scale)
             if trailing > coef_tol:
-                counts[REJECTIONS] += 1
+                cnt[REJECTIONS] += 1
                 hseg = hs * max(0.2, SAFETY * (coef_tol / trailing) ** (1.0 / N))
                 retried = True
                 if hseg < h_min:
@@ -183,11 +184,11 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
         j_stop = N
         for j in range(1, m):
             for q in range(nq):
-                found, tau, nf = first_zero(p, mode, kinds[q], blocks[q], float(signs[q]), sec_coeffs,
-                                            sec_levels, t_a, w, nodes, weights, D, base, comp,
+                found, tau, nf = first_zero(p, mode, kinds[q], blocks[q], float(signs[q]), sc,
+                                            sl, t_a, w, nodes, weights, D, base, comp,
                                             nodes[j - 1], nodes[j], phi[q, j - 1], phi[q, j],
                                             dphi[q, j - 1], dphi[q, j], ybuf, dybuf)
-                counts[NFEV] += nf
+                cnt[NFEV] += nf
                 if found and tau < best_tau:  # earliest; the lowest index on a tie
                     best_tau = tau
                     best_q = q
@@ -204,38 +205,44 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
             t_stop = t_end if last else t0 + s_stop
         state_at(nodes, weights, D, base, comp, tau_stop, ystop)
         # section crossings on [t_a, t_stop]
+        first_new = si[SI_NHITS]
         for s in range(ns):
             before = sec_prev[s]
             for j in range(1, j_stop + 1):
                 b = nodes[j]
                 if j == j_stop:
                     b = tau_stop
-                    after = linear_section_value(sec_coeffs[s], sec_levels[s], ystop)
+                    after = linear_section_value(sc[s], sl[s], ystop)
                 else:
-                    after = linear_section_value(sec_coeffs[s], sec_levels[s], X[j])
-                if section_crossed(sec_dirs[s], before, after):
+                    after = linear_section_value(sc[s], sl[s], X[j])
+                if section_crossed(sd[s], before, after):
                     tau = b
                     if after != 0.0:
                         sgn = 1.0 if before > 0.0 else -1.0
-                        tau, nf = root(p, mode, SECTION, s, sgn, sec_coeffs, sec_levels, t_a, w, nodes,
+                        tau, nf = root(p, mode, SECTION, s, sgn, sc, sl, t_a, w, nodes,
                                        weights, D, base, comp, nodes[j - 1], b, sgn * before,
                                        sgn * after, ybuf, dybuf)
-                        counts[NFEV] += nf
-                    state_at(nodes, weights, D, base, comp, tau, ybuf)
-                    hit_index, hit_t, hit_y = _store_hit(hit_index, hit_t, hit_y, n_hits, s,
-                                                         t0 + (s_a + w * (tau + 1.0)), ybuf)
-                    n_hits += 1
+                        cnt[NFEV] += nf
+                    t_hit = t0 + (s_a + w * (tau + 1.0))
+                    if t_hit >= hit_from:
+                        if si[SI_NHITS] >= hk.shape[0]:
+                            return K_HIT_FULL, t0, 0.0, -1
+                        state_at(nodes, weights, D, base, comp, tau, ybuf)
+                        record_hit(hk, ht, hy, si, s, t_hit, ybuf)
                 before = after
             sec_prev[s] = before
-        # dense output
-        while n_eval < k_eval and t_eval[n_eval] <= t_stop:
-            tau = min(max(((t_eval[n_eval] - t0) - s_a) / w - 1.0, -1.0), tau_stop)
-            state_at(nodes, weights, D, base, comp, tau, ybuf)
-            y_eval[:, n_eval] = ybuf
-            n_eval += 1
+        if si[SI_NHITS] > first_new:
+            sort_hits(hk, ht, hy, first_new, si[SI_NHITS])
+            if 0 <= hit_stop <= si[SI_NHITS]:
+                si[SI_NHITS] = hit_stop
+                t_stop = ht[hit_stop - 1]
+                _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, 1.0, nodes, weights, D, base, comp, ybuf)
+                copy_into(y_out, hy[hit_stop - 1])
+                return K_HIT_STOP, t_stop, 0.0, -1
+        _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, tau_stop, nodes, weights, D, base, comp, ybuf)
         # next start state, compensated: base + comp += increment at tau_stop
         if tau_stop == 1.0:
-            dstop[:] = D[N]
+            copy_into(dstop, D[N])
         else:
             barycentric(nodes, weights, D, tau_stop, dstop)
         for i in range(n):
@@ -243,7 +250,7 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
             new = base[i] + increment
             comp[i] = increment - (new - base[i])
             base[i] = new
-        counts[SEGMENTS] += 1
+        cnt[SEGMENTS] += 1
         s_a = s_stop
         t_a = t_stop
         if best_q >= 0:
@@ -251,6 +258,19 @@ def advance_arc(p, mode, kinds, blocks, signs, sec_coeffs, sec_levels, sec_dirs,
             break
         if not last:
             rhs(p, mode, t_a, base, g0)
-            counts[NFEV] += 1
+            cnt[NFEV] += 1
         hseg = h_next
-    return status, t_a, base, fired, y_eval, n_eval, hit_index, hit_t, hit_y, n_hits, counts
+    copy_into(y_out, base)
+    return status, t_a, 0.0, fired
+
+
+@hot
+def _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, tau_max, nodes, weights, D, base, comp, ybuf):
+    """States at the requested times up to ``t_stop`` from the segment's interpolant."""
+    i = si[SI_IEVAL]
+    while i < t_eval.shape[0] and t_eval[i] <= t_stop:
+        tau = min(max(((t_eval[i] - t0) - s_a) / w - 1.0, -1.0), tau_max)
+        state_at(nodes, weights, D, base, comp, tau, ybuf)
+        copy_into(y_eval[i], ybuf)
+        i += 1
+    si[SI_IEVAL] = i

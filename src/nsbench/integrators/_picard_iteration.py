@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.problems.kernels import jacobian, jit, rhs
+from nsbench.problems.kernels import hot, jacobian, rhs
 
 #: Return codes of :func:`picard_iterations`.
 CONVERGED, MAX_ITER = 0, 1
@@ -18,7 +18,7 @@ CONVERGED, MAX_ITER = 0, 1
 ROUNDOFF = 64.0 * np.finfo(np.float64).eps
 
 
-@jit
+@hot
 def integrate_rows(E, w, F, out):
     """``out = w E F`` (node values to node values of the running integral; row 0 is zero)."""
     m, n = F.shape
@@ -32,7 +32,7 @@ def integrate_rows(E, w, F, out):
             out[j, i] = w * s
 
 
-@jit
+@hot
 def _jacobian_times(J, Z, out, accumulate):
     """``out[j] (+)= J[j] @ Z[j]`` for the nodes ``j >= 1``."""
     m, n = Z.shape
@@ -44,7 +44,7 @@ def _jacobian_times(J, Z, out, accumulate):
             out[j, a] = out[j, a] + s if accumulate else s
 
 
-@jit
+@hot
 def picard_iterations(p, mode, t_a, y_a, w, nodes, E, D, X, G, J, P, Y, Z, order, jac_node, tol,
                       max_iter):
     """Iterate the segment ``[t_a, t_a + 2w]`` of the frozen-mode field in place.
@@ -77,7 +77,9 @@ def picard_iterations(p, mode, t_a, y_a, w, nodes, E, D, X, G, J, P, Y, Z, order
         jacobian(p, mode, t_a, y_a, J[0])
         njev += 1
         for j in range(1, m):
-            J[j, :, :] = J[0]
+            for a in range(n):
+                for b in range(n):
+                    J[j, a, b] = J[0, a, b]
     previous = np.inf
     it = 0
     while it < max_iter:

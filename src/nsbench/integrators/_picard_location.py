@@ -17,7 +17,7 @@ from nsbench.integrators._chebyshev import barycentric
 from nsbench.problems.kernels import (
     guard_rate,
     guard_value,
-    jit,
+    hot,
     linear_section_rate,
     linear_section_value,
     rhs,
@@ -26,7 +26,7 @@ from nsbench.problems.kernels import (
 SECTION = -1  # ``target`` code of a linear section (guards use their kind codes >= 0)
 
 
-@jit
+@hot
 def state_at(nodes, weights, D, base, comp, tau, out):
     """The interpolated state at ``tau`` into ``out``."""
     barycentric(nodes, weights, D, tau, out)
@@ -34,7 +34,7 @@ def state_at(nodes, weights, D, base, comp, tau, out):
         out[i] = base[i] + (out[i] + comp[i])
 
 
-@jit
+@hot
 def evaluate(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base,
              comp, tau, y, dy, want_rate):
     """``sign *`` guard (kind ``target``, block ``index``) or section ``index`` at ``tau``.
@@ -57,7 +57,7 @@ def evaluate(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes
     return f, w * d
 
 
-@jit
+@hot
 def root(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
          lo, hi, f_lo, f_hi, y, dy):
     """Zero in ``[lo, hi]`` where ``f_lo > 0 >= f_hi``: Newton from the secant point, bracket kept.
@@ -91,7 +91,7 @@ def root(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, we
     return tau, nfev
 
 
-@jit
+@hot
 def extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
              lo, hi, minimum, y, dy):
     """Bisection on the sign of the rate for the minimum (or maximum) of a guard in ``[lo, hi]``.
@@ -117,7 +117,7 @@ def extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, 
     return mid, f, nfev
 
 
-@jit
+@hot
 def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
                a, b, fa, fb, da, db, y, dy):
     """First zero of a signed guard in the node interval ``[a, b]`` from its end values and rates.

@@ -291,6 +291,58 @@ class Integrator:
         """Integrate one arc of a frozen mode; see the class docstring."""
         raise NotImplementedError
 
+    def kernel(self, problem: "FrictionOscillator"):
+        """The compiled arc kernel for ``problem`` (an :class:`~nsbench.hybrid.run.ArcKernel`), or ``None``.
+
+        ``None`` (the default) means the hybrid core calls :meth:`advance` once per
+        arc. Built-in integrators with a compiled kernel derive from
+        :class:`CompiledArcs`; their whole run, events included, stays in compiled code.
+        """
+        return None
+
     def __repr__(self) -> str:
         opts = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
         return f"{type(self).__name__}({opts})"
+
+
+class CompiledArcs(Integrator):
+    """Base of the integrators whose arcs run in a compiled kernel of the hybrid core.
+
+    A subclass implements :meth:`build_kernel` (and lists the names of its
+    method-specific counters in ``counter_names``); :meth:`advance` then runs one
+    arc of that kernel, so the Python protocol holds too, and
+    :func:`nsbench.simulate` runs whole simulations in compiled code.
+    """
+
+    counter_names: ClassVar[tuple[str, ...]] = ()
+
+    def build_kernel(self, problem: "FrictionOscillator"):  # pragma: no cover - abstract
+        """The :class:`~nsbench.hybrid.run.ArcKernel` of this configuration for ``problem``."""
+        raise NotImplementedError
+
+    def setup(self, problem: "FrictionOscillator") -> None:
+        """Build the kernel's data and load the compiled loop (compiling it on first use), untimed."""
+        super().setup(problem)
+        from nsbench.hybrid.run import warm_up
+
+        self._kernel = self.build_kernel(problem)
+        self._kernel_problem = problem
+        warm_up(problem, self)
+
+    def compiled_kernel(self, problem: "FrictionOscillator"):
+        """The kernel itself, also for a subclass that overrides :meth:`advance` (which then calls it)."""
+        if getattr(self, "_kernel_problem", None) is not problem:
+            self.setup(problem)
+        return self._kernel
+
+    def kernel(self, problem: "FrictionOscillator"):
+        if type(self).advance is not CompiledArcs.advance:
+            return None  # a subclass that overrides advance is run through it, once per arc
+        if getattr(self, "_kernel_problem", None) is not problem:
+            self.setup(problem)
+        return self._kernel
+
+    def advance(self, request: ArcRequest) -> ArcResult:
+        from nsbench.hybrid.run import kernel_advance
+
+        return kernel_advance(self, request)

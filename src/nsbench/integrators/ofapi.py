@@ -11,19 +11,16 @@ with a kept bracket). The hot path is compiled (:mod:`._picard_arc`).
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
 
 from nsbench.errors import ConfigError
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
-from nsbench.results import Status
+from nsbench.integrators.base import Capabilities, CompiledArcs, Option
 
 #: A segment halved or shrunk below ``h * MIN_FRACTION`` is a failure.
 MIN_FRACTION = 2.0**-24
 #: Default cap of the adaptive segment length, as a multiple of ``h``.
 H_MAX_FACTOR = 8.0
-_WARM: list[bool] = []  # whether the compiled kernels were loaded in this process
 
 
 def _options(feedback: bool) -> dict[str, Option]:
@@ -55,93 +52,55 @@ def _options(feedback: bool) -> dict[str, Option]:
     return opts
 
 
-class ChebyshevPicard(Integrator):
+class ChebyshevPicard(CompiledArcs):
     """Shared machinery of ``ofapi`` and ``mcpi`` (see the module docstring)."""
+
+    counter_names = ("iterations", "segments", "halvings", "rejections")
 
     def check_settings(self) -> None:
         s = self.settings
         if s["h_max"] is not None and s["h_max"] < s["h"]:
             raise ConfigError(f"{self.name}: option h_max = {s['h_max']!r} must be >= h = {s['h']!r}")
 
-    def setup(self, problem) -> None:
-        """Build (or fetch) the operators of degree ``N`` and load the compiled kernels."""
-        super().setup(problem)
+    def build_kernel(self, problem):
+        """The CGL operators of degree ``N`` and the options as the compiled arc reads them."""
+        from nsbench.hybrid.loop import M_PICARD
+        from nsbench.hybrid.run import ArcKernel
         from nsbench.integrators import _chebyshev
-        from nsbench.problems import kernels
 
         ops = _chebyshev.operators(self.settings["N"])
         # writable copies: the same numba specialisation for every call
-        self._ops = (ops.nodes.copy(), ops.weights.copy(), ops.integration.copy(),
-                     ops.to_coefficients.copy())
-        self._packed = kernels.pack(problem)
-        self._problem = problem
-        self._modes: dict[Any, tuple] = {}
-        if not _WARM:  # compile or load the kernels here, so that setup_time holds that cost
-            mode = problem.modes[0]
-            self._run(problem, mode, problem.guards(mode), 0.0, problem.initial_state(), 1e-3, (),
-                      np.empty(0), 10)
-            _WARM.append(True)
-
-    def advance(self, request: ArcRequest) -> ArcResult:
-        from nsbench.integrators import _picard_arc as arc
-
-        if getattr(self, "_problem", None) is not request.problem:
-            self.setup(request.problem)
-        out = self._run(request.problem, request.mode, request.guards, request.t0, request.y0,
-                        request.t_end, request.sections, request.t_eval, request.max_steps)
-        code, t, y, fired, y_eval, n_eval, hit_index, hit_t, hit_y, n_hits, counts = out
-        hits = [SectionHit(int(hit_index[k]), float(hit_t[k]), hit_y[k].copy()) for k in range(n_hits)]
-        hits.sort(key=lambda hit: hit.t)
-        status, message = self._status(int(code), float(t))
-        return ArcResult(
-            t=float(t), y=np.array(y), fired=None if fired < 0 else int(fired),
-            y_eval=y_eval[:, :n_eval], section_hits=hits,
-            nfev=int(counts[arc.NFEV]), njev=int(counts[arc.NJEV]), nsteps=int(counts[arc.NSTEPS]),
-            extra={"iterations": int(counts[arc.ITERATIONS]), "segments": int(counts[arc.SEGMENTS]),
-                   "halvings": int(counts[arc.HALVINGS]), "rejections": int(counts[arc.REJECTIONS])},
-            status=status, message=message,
-        )
-
-    def _run(self, problem, mode, guards, t0, y0, t_end, sections, t_eval, max_steps) -> tuple:
-        """Call the compiled arc kernel (argument types fixed here, for one specialisation)."""
-        from nsbench.integrators import _picard_arc as arc
-        from nsbench.problems import kernels
-
-        key = (mode, tuple((g.kind, g.block, g.expected_sign) for g in guards))
-        codes = self._modes.get(key)
-        if codes is None:
-            codes = self._modes[key] = (kernels.mode_array(mode), *kernels.guard_codes(guards))
-        n = problem.n_states
-        sec_coeffs = np.array([sec.coeffs for sec in sections], dtype=float).reshape(len(sections), n)
-        sec_levels = np.array([sec.level for sec in sections], dtype=float)
-        sec_dirs = np.array([sec.direction for sec in sections], dtype=np.int64)
+        data = (ops.nodes.copy(), ops.weights.copy(), ops.integration.copy(), ops.to_coefficients.copy())
         s = self.settings
         h = float(s["h"])
         h_max = float(s["h_max"]) if s["h_max"] is not None else H_MAX_FACTOR * h
-        return arc.advance_arc(
-            self._packed, *codes, sec_coeffs, sec_levels, sec_dirs, float(t0),
-            np.array(y0, dtype=float), float(t_end), np.array(t_eval, dtype=float),
-            int(min(max_steps, 2**62)), *self._ops, h, h_max, h * MIN_FRACTION, float(s["tol"]),
-            float(s["coef_tol"]), int(s["max_iter"]), int(s["order"]),
-            s.get("jacobian", "node") == "node", bool(s["adaptive"]),
-        )
+        options = np.array([h, h_max, h * MIN_FRACTION, float(s["tol"]), float(s["coef_tol"]),
+                            float(s["max_iter"]), float(s["order"]),
+                            1.0 if s.get("jacobian", "node") == "node" else 0.0, 1.0 if s["adaptive"] else 0.0])
+        from nsbench.integrators._picard_arc import scratch
 
-    def _status(self, code: int, t: float) -> tuple[Status, str]:
+        m, n = data[0].size, problem.n_states
+        kernel = ArcKernel(M_PICARD, (*data, *scratch(m, n, 2)), options, self.counter_names,
+                           failure=self._failure)
+
+        def prepare_run(n_sections: int) -> tuple:
+            if kernel.data[-1].shape[1] < n_sections:
+                kernel.data = (*data, *scratch(m, n, n_sections))
+            return kernel.data
+
+        kernel.prepare_run = prepare_run
+        return kernel
+
+    def _failure(self, code: int, t: float) -> str:
         from nsbench.integrators import _picard_arc as arc
 
         s = self.settings
         floor = s["h"] * MIN_FRACTION
-        if code == arc.SUCCESS:
-            return Status.SUCCESS, ""
-        if code == arc.BUDGET_EXHAUSTED:
-            return Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
         if code == arc.NOT_CONVERGED:
-            return Status.INTEGRATOR_FAILURE, (
-                f"{self.name}: the Picard iteration did not converge to tol = {s['tol']:g} within "
-                f"max_iter = {s['max_iter']} on a segment from t = {t:.17g}, even halved below {floor:.3g}")
-        return Status.INTEGRATOR_FAILURE, (
-            f"{self.name}: the trailing Chebyshev coefficients stay above coef_tol = {s['coef_tol']:g} "
-            f"on segments from t = {t:.17g} shorter than {floor:.3g} (raise N or coef_tol)")
+            return (f"{self.name}: the Picard iteration did not converge to tol = {s['tol']:g} within "
+                    f"max_iter = {s['max_iter']} on a segment from t = {t:.17g}, even halved below {floor:.3g}")
+        return (f"{self.name}: the trailing Chebyshev coefficients stay above coef_tol = {s['coef_tol']:g} "
+                f"on segments from t = {t:.17g} shorter than {floor:.3g} (raise N or coef_tol)")
 
 
 def _caps(needs_jacobian: bool) -> Capabilities:

@@ -1,5 +1,9 @@
 """``reference``: the most accurate integrator nsbench has for each problem, chosen per problem.
 
+``result.integrator`` names ``reference``; which solver ran is in the module docstring's rule
+(linear: ``exact``; cubic: ``heyoka-q``) and in the counters (``exact``'s ``roots`` or heyoka's
+``taylor_coefficients``).
+
 Linear problems go to ``exact`` (closed-form flow, guard roots polished in
 extended precision); cubic ones to ``heyoka-q`` at its tightest tolerance (the
 real128 epsilon) with compensated summation. Both carry event times in
@@ -37,9 +41,13 @@ class Reference(Integrator):
         self.delegate.setup(problem)
         self._problem = problem
 
+    def kernel(self, problem):
+        """The delegate's compiled kernel (``exact``'s for linear problems), so the whole run stays compiled."""
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        return self.delegate.kernel(problem)
+
     def advance(self, request: ArcRequest) -> ArcResult:
         if getattr(self, "_problem", None) is not request.problem:
             self.setup(request.problem)
-        arc = self.delegate.advance(request)
-        arc.extra = {**arc.extra, f"{self.delegate.name}_arcs": 1}
-        return arc
+        return self.delegate.advance(request)

@@ -50,11 +50,29 @@ class _StepCounter:
         return 1.0
 
 
-def _event(fn, terminal: bool, direction: float):
+def _guard_event(p: np.ndarray, guard, terminal: bool, direction: float):
+    """A guard as a scipy event function, evaluated by the compiled kernel of the problem."""
+    from nsbench.hybrid.rules import LOWER, UPPER, VELOCITY
+    from nsbench.problems.kernels import guard_value
+
+    kind = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}[guard.kind]
+    block = guard.block - 1
+
     def event(t: float, y: np.ndarray) -> float:
-        return float(fn.value(t, y))
+        return guard_value(p, kind, block, t, y)
 
     event.terminal = terminal
+    event.direction = direction
+    return event
+
+
+def _section_event(section, direction: float):
+    coeffs, level = np.asarray(section.coeffs, dtype=float), float(section.level)
+
+    def event(t: float, y: np.ndarray) -> float:
+        return float(coeffs @ y) - level
+
+    event.terminal = False
     event.direction = direction
     return event
 
@@ -78,20 +96,38 @@ class ScipyIntegrator(Integrator):
     def advance(self, request: ArcRequest) -> ArcResult:
         problem, mode = request.problem, request.mode
         opts = self.settings
+        from nsbench.problems import kernels
+
         counter = _StepCounter(request.max_steps)
-        guard_events = [_event(g, True, -float(g.expected_sign)) for g in request.guards]
-        section_events = [_event(s, False, float(s.direction)) for s in request.sections]
+        p = problem.packed
+        guard_events = [_guard_event(p, g, True, -float(g.expected_sign)) for g in request.guards]
+        section_events = [_section_event(s, float(s.direction)) for s in request.sections]
         dense = request.t_eval.size > 0
         max_step = opts["max_step"]
         if max_step is None:
             c = problem.coefficients
             max_step = (2.0 * np.pi / c.w) / 16.0 if (c.F != 0.0 and c.w > 0.0) else np.inf
+        # the field, Jacobian and guards of the mode are the problem's compiled kernels: scipy's own
+        # work is what is measured, not a Python re-evaluation of the model
+        m = kernels.mode_array(mode)
+        n = problem.n_states
+
+        def fun(t, y):
+            out = np.empty(n)
+            kernels.rhs(p, m, t, y, out)
+            return out
+
         kwargs = {}
         if self.implicit:
-            kwargs["jac"] = lambda t, y: problem.jacobian(mode, t, y)
+            def jac(t, y):
+                out = np.empty((n, n))
+                kernels.jacobian(p, m, t, y, out)
+                return out
+
+            kwargs["jac"] = jac
         try:
             sol = solve_ivp(
-                lambda t, y: problem.rhs(mode, t, y), (request.t0, request.t_end),
+                fun, (request.t0, request.t_end),
                 np.array(request.y0, dtype=float), method=self.method,
                 rtol=opts["rtol"], atol=opts["atol"], max_step=max_step,
                 events=[*guard_events, *section_events, counter], dense_output=dense, **kwargs,

@@ -60,6 +60,12 @@ class SundialsIntegrator(Integrator):
         self._p = kernels.pack(problem)
         self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}
 
+    def _first_arc(self, problem) -> None:
+        """A short arc, so that the callbacks compile (or load) for the types SUNDIALS hands them, in setup."""
+        mode = problem.initial_mode(0.0, problem.initial_state())
+        self.advance(ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
+        self._solvers.clear()
+
     def _common_options(self, n_events: int, directions: list[int], eventsfn) -> dict[str, Any]:
         eventsfn.terminal = [False] * n_events  # the loop below decides what stops an arc
         eventsfn.direction = directions
@@ -160,6 +166,7 @@ class CvodeIntegrator(SundialsIntegrator):
         sk.cvode_rhs(self._p0, mode, 1.0, 1.0, y, out)
         sk.cvode_jacobian(self._p0, mode, 1.0, 1.0, y, np.zeros((n, n)))
         sk.cvode_roots(self._p0, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
+        self._first_arc(problem)
 
     def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
         from sksundae.cvode import CVODE
@@ -221,6 +228,7 @@ class Ida(SundialsIntegrator):
         sk.ida_jacobian(self._p, mode, mode, 0.0, y, 1.0, np.zeros((n, n)), np.zeros((n + nb, n + nb)))
         sk.ida_roots(self._p, codes, codes, codes, np.zeros((1, n)), np.zeros(1), y, np.zeros(2))
         sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
+        self._first_arc(problem)
 
     def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
         from sksundae.ida import IDA

@@ -16,7 +16,6 @@ import pandas as pd
 from scipy.integrate import cumulative_simpson
 
 from nsbench.errors import ConfigError
-from nsbench.problems.modes import STICK
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.results import SimulationResult
@@ -24,21 +23,11 @@ if TYPE_CHECKING:  # pragma: no cover
 COLUMNS = ["t", "energy_change", "work_friction", "work_damping", "work_force", "residual"]
 
 
-def _replay_modes(result: "SimulationResult", y_start: np.ndarray, t_start: float) -> list[tuple]:
-    """The mode after each event, replayed from the event log with the transition rules."""
-    problem = result.problem
-    mode = list(problem.initial_mode(t_start, y_start))
-    modes = []
-    for row in result.events.itertuples(index=False):
-        i = int(row.block) - 1
-        y = np.array([getattr(row, name) for name in problem.state_names])
-        if row.kind == "stick":
-            mode[i] = STICK
-        else:
-            r = float(problem.restoring_force(row.block, row.t, y))
-            mode[i] = -1 if r > 0 else 1
-        modes.append(tuple(mode))
-    return modes
+def _modes_after(result: "SimulationResult") -> list[tuple]:
+    """The mode after each event, from the event log's ``mode`` column."""
+    from nsbench.hybrid.records import parse_mode
+
+    return [parse_mode(text) for text in result.events["mode"]]
 
 
 def _cumulative(t: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -66,7 +55,7 @@ def energy_balance(result: "SimulationResult") -> pd.DataFrame:
     states = traj[names].to_numpy().T
     phases = traj[[f"phase{i + 1}" for i in range(problem.n_blocks)]].to_numpy()
     t_start, y_start = float(times[0]), states[:, 0]
-    modes_after = _replay_modes(result, y_start, t_start)
+    modes_after = _modes_after(result)
     ev_t = result.events["t"].to_numpy()
     ev_y = result.events[names].to_numpy().T
 

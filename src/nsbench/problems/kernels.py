@@ -14,6 +14,8 @@ Importing this module imports numba: only compiled integrators do so.
 from __future__ import annotations
 
 import hashlib
+import json
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -28,36 +30,77 @@ VELOCITY, UPPER, LOWER = 0, 1, 2
 _KIND_CODES = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}
 
 
+_IMPORTS = re.compile(r"^\s*(?:from\s+(nsbench[\w.]*)\s+import\s+\(?([\w\s,]*)|import\s+(nsbench[\w.]*))",
+                      re.MULTILINE)
+
+
 def _drop_stale_numba_caches() -> None:
-    """Delete nsbench's on-disk numba caches when any compiled source changed.
+    """Delete the on-disk numba caches of every compiled source whose code, or code it uses, changed.
 
     numba invalidates a cached function only when its *own* file changes, but
-    the compiled arcs inline these kernels and each other's helpers across
-    files; an edit of one file would otherwise leave stale machine code in
-    the others' caches. One hash over every compiled source decides.
+    compiled code calls (and inlines) functions and constants of other files:
+    the hybrid loop holds the arc kernels' machine code. So each compiled file
+    gets a stamp over its own text and the stamps of every nsbench module it
+    imports, recursively; a file whose stamp changed loses its caches, the
+    others keep them.
     """
     root = Path(__file__).resolve().parents[1]
-    sources = sorted(path for path in root.rglob("*.py")
-                     if "@jit" in path.read_text(encoding="utf-8", errors="ignore"))
-    digest = hashlib.sha256()
-    for path in sources:
-        digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(path.read_bytes())
-    stamp = root / "__pycache__" / "numba-sources.sha256"
+    paths = {".".join(("nsbench",) + p.relative_to(root).with_suffix("").parts).removesuffix(".__init__"): p
+             for p in root.rglob("*.py")}
+    texts = {name: path.read_text(encoding="utf-8", errors="ignore") for name, path in paths.items()}
+
+    def imports(name: str) -> set[str]:
+        out = set()
+        for frm, names, plain in _IMPORTS.findall(texts[name]):
+            module = frm or plain
+            if module in paths:
+                out.add(module)
+            for item in names.replace("\n", " ").split(","):
+                sub = f"{frm}.{item.strip()}"
+                if frm and sub in paths:
+                    out.add(sub)
+        return out
+
+    stamps: dict[str, str] = {}
+
+    def stamp(name: str, seen: frozenset[str]) -> str:
+        if name not in stamps:
+            digest = hashlib.sha256(texts[name].encode())
+            for dep in sorted(imports(name) - seen - {name}):
+                digest.update(stamp(dep, seen | {name}).encode())
+            stamps[name] = digest.hexdigest()
+        return stamps[name]
+
+    compiled = [name for name, text in texts.items() if "@jit" in text or "@hot" in text]
+    record = root / "__pycache__" / "numba-sources.json"
     try:
-        if stamp.exists() and stamp.read_text() == digest.hexdigest():
-            return
-        for path in sources:
-            for cached in path.parent.glob(f"__pycache__/{path.stem}.*.nb[ic]"):
-                cached.unlink(missing_ok=True)
-        stamp.parent.mkdir(exist_ok=True)
-        stamp.write_text(digest.hexdigest())
+        old = json.loads(record.read_text()) if record.exists() else {}
+    except (OSError, ValueError):
+        old = {}
+    new = {name: stamp(name, frozenset()) for name in compiled}
+    if new == old:
+        return
+    try:
+        for name in compiled:
+            if old.get(name) != new[name]:
+                path = paths[name]
+                for cached in path.parent.glob(f"__pycache__/{path.stem}.*.nb[ic]"):
+                    cached.unlink(missing_ok=True)
+        record.parent.mkdir(exist_ok=True)
+        record.write_text(json.dumps(new, indent=0, sort_keys=True))
     except OSError:  # a read-only install: numba then caches elsewhere or compiles in memory
         pass
 
 
 _drop_stale_numba_caches()
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
+#: Functions that allocate nothing are compiled without numba's reference counting: in the hot
+#: loops its updates (two calls per array argument and per inlined helper) cost far more than the
+#: arithmetic (``rhs`` of the 2-DOF problem: 160 ns with them, 18 ns without). LLVM inlines them.
+hot = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
+#: The smallest of them are also inlined by numba itself: LLVM keeps some as calls, whose
+#: argument passing costs as much as their arithmetic.
+inline = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False, inline="always")
 
 
 def pack(problem: "FrictionOscillator") -> np.ndarray:
@@ -80,18 +123,18 @@ def guard_codes(guards: Sequence["Guard"]) -> tuple[np.ndarray, np.ndarray, np.n
     return kinds, blocks, signs
 
 
-@jit
+@inline
 def n_blocks(p):
     return int(p[0])
 
 
-@jit
+@inline
 def v0_of(p):
     nb = int(p[0])
     return p[3 + 6 * nb]
 
 
-@jit
+@inline
 def link_tension(p, y, j):
     """Tension of spring link j (0: ground to block 1) and its stiffness d(tension)/d(extension)."""
     nb = int(p[0])
@@ -103,7 +146,7 @@ def link_tension(p, y, j):
     return k * d, k
 
 
-@jit
+@inline
 def restoring(p, t, y, i):
     """R_i (0-based block i): every force on block i except friction."""
     nb = int(p[0])
@@ -119,7 +162,7 @@ def restoring(p, t, y, i):
     return r
 
 
-@jit
+@inline
 def restoring_rate(p, t, y, dy, i):
     """dR_i/dt along the direction dy, including the forcing's explicit time dependence."""
     nb = int(p[0])
@@ -138,7 +181,7 @@ def restoring_rate(p, t, y, dy, i):
     return out
 
 
-@jit
+@inline
 def rhs(p, mode, t, y, out):
     """Frozen-mode vector field into ``out``."""
     nb = int(p[0])
@@ -154,7 +197,7 @@ def rhs(p, mode, t, y, out):
             out[2 * i + 1] = (-r - p[1 + 4 * nb + i] * phase) / p[1 + i]
 
 
-@jit
+@hot
 def jacobian(p, mode, t, y, out):
     """Frozen-mode Jacobian into ``out`` (n x n)."""
     nb = int(p[0])
@@ -179,7 +222,7 @@ def jacobian(p, mode, t, y, out):
         out[2 * i + 1, 2 * i + 1] = -p[1 + nb + i] / m
 
 
-@jit
+@inline
 def guard_value(p, kind, i, t, y):
     """Guard value: v_i - v0 (VELOCITY), R_i - fr_i (UPPER) or R_i + fr_i (LOWER)."""
     nb = int(p[0])
@@ -190,7 +233,7 @@ def guard_value(p, kind, i, t, y):
     return r - fr if kind == 1 else r + fr
 
 
-@jit
+@inline
 def guard_rate(p, kind, i, t, y, dy):
     """Time derivative of a guard along ``dy``."""
     if kind == 0:
@@ -198,7 +241,7 @@ def guard_rate(p, kind, i, t, y, dy):
     return restoring_rate(p, t, y, dy, i)
 
 
-@jit
+@inline
 def linear_section_value(coeffs, level, y):
     out = -level
     for j in range(y.shape[0]):
@@ -206,7 +249,7 @@ def linear_section_value(coeffs, level, y):
     return out
 
 
-@jit
+@inline
 def linear_section_rate(coeffs, dy):
     out = 0.0
     for j in range(dy.shape[0]):
@@ -214,7 +257,7 @@ def linear_section_rate(coeffs, dy):
     return out
 
 
-@jit
+@inline
 def section_crossed(direction, before, after):
     """:meth:`nsbench.sections.StateSection.crossed` compiled (``direction`` -1, 0 or +1)."""
     if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):

@@ -74,8 +74,8 @@ class FrictionOscillator:
         self.n_blocks = nb
         self.n_states = 2 * nb
         self.state_names = tuple(f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v"))
-        self.modes: tuple[Mode, ...] = all_modes(nb)
         self._guards: dict[Mode, tuple[Guard, ...]] = {}
+        self._packed: np.ndarray | None = None
         c = coefficients
         self._m = np.array(c.m)
         self._c = np.array(c.c)
@@ -85,6 +85,22 @@ class FrictionOscillator:
         self._fr = np.array(c.fr)
 
     # ------------------------------------------------------------------ identity
+    @property
+    def modes(self) -> tuple[Mode, ...]:
+        """All ``3**n_blocks`` modes (for small problems: tests, tables; the core never enumerates them)."""
+        if self.n_blocks > 10:
+            raise ValueError(f"{self.name} has 3**{self.n_blocks} modes: too many to list")
+        return all_modes(self.n_blocks)
+
+    @property
+    def packed(self) -> np.ndarray:
+        """The coefficients as the compiled kernels read them (:func:`nsbench.problems.kernels.pack`)."""
+        if self._packed is None:
+            from nsbench.problems.kernels import pack
+
+            self._packed = pack(self)
+        return self._packed
+
     @property
     def is_linear(self) -> bool:
         """True when every cubic coefficient is zero (the exact solver applies)."""
@@ -259,17 +275,19 @@ class FrictionOscillator:
 
     # ------------------------------------------------------------------ guards
     def guards(self, mode: Mode) -> tuple[Guard, ...]:
-        """Guards of ``mode``, ordered by block (ties go to block 1, MODEL.md)."""
+        """Guards of ``mode`` in the core's order: block by block, stick upper then lower (ties: lowest block).
+
+        The list comes from :func:`nsbench.hybrid.rules.guards_of`, the one definition.
+        """
         cached = self._guards.get(mode)
         if cached is None:
-            out: list[Guard] = []
-            for i, phase in enumerate(mode, start=1):
-                if phase == STICK:
-                    out.append(Guard(self, i, "upper", -1))
-                    out.append(Guard(self, i, "lower", +1))
-                else:
-                    out.append(Guard(self, i, "velocity", phase))
-            cached = self._guards[mode] = tuple(out)
+            from nsbench.hybrid.rules import guards_of
+
+            gk, gb, gs = (np.empty(2 * self.n_blocks, np.int64) for _ in range(3))
+            ng = guards_of(np.asarray(mode, np.int64), gk, gb, gs)
+            kinds = ("velocity", "upper", "lower")
+            cached = self._guards[mode] = tuple(
+                Guard(self, int(gb[q]) + 1, kinds[int(gk[q])], int(gs[q])) for q in range(ng))
         return cached
 
     def guard_value(self, guard: Guard, t, y):
@@ -305,46 +323,31 @@ class FrictionOscillator:
 
     # ------------------------------------------------------------------ transitions
     def initial_mode(self, t: float, y) -> Mode:
-        """The mode of a state: slip with ``sign(v_i - v0)``, or stick if the friction holds."""
-        y = np.asarray(y, dtype=float)
-        c = self.coefficients
-        x = [float(y[2 * i]) for i in range(self.n_blocks)]
-        v = [float(y[2 * i + 1]) for i in range(self.n_blocks)]
-        r = self.restoring_forces(t, x, v)
-        mode = []
-        for i in range(self.n_blocks):
-            if v[i] != c.v0:
-                mode.append(1 if v[i] > c.v0 else -1)
-            elif abs(r[i]) <= c.fr[i]:
-                mode.append(STICK)
-            else:
-                mode.append(-1 if r[i] > 0 else 1)
-        return tuple(mode)
+        """The mode of a state: slip with ``sign(v_i - v0)``, or stick if the friction holds.
+
+        :func:`nsbench.hybrid.rules.initial_mode`, the one definition.
+        """
+        from nsbench.hybrid.rules import initial_mode
+
+        mode = np.zeros(self.n_blocks, np.int64)
+        initial_mode(self.packed, float(t), np.asarray(y, dtype=float), mode)
+        return tuple(int(v) for v in mode)
 
     def transition(self, mode: Mode, guard: Guard, t: float, y) -> Transition:
         """Apply the transition map of MODEL.md when ``guard`` fires at ``(t, y)``.
 
-        Slip guard: set ``v_i = v0``; stick if ``|R_i| <= fr_i`` else reverse with
-        ``s_i = -sign(R_i)``. Stick guard: slip with ``s_i = -sign(R_i)`` (``-1`` at the
-        upper limit, ``+1`` at the lower one).
+        :func:`nsbench.hybrid.rules.transition`, the one definition: slip guard, ``v_i = v0``
+        then stick if ``|R_i| <= fr_i`` else reverse with ``s_i = -sign(R_i)``; stick
+        guard, slip with ``s_i = -sign(R_i)``.
         """
-        i = guard.block - 1
+        from nsbench.hybrid.rules import transition
+        from nsbench.problems.modes import EVENT_KINDS
+
+        codes = {"velocity": 0, "upper": 1, "lower": 2}
+        new = np.asarray(mode, np.int64).copy()
         y_new = np.array(y, dtype=float, copy=True)
-        new = list(mode)
-        if guard.kind == "velocity":
-            y_new[2 * i + 1] = self.v0
-            r = float(self.restoring_force(guard.block, t, y_new))
-            if abs(r) <= self.coefficients.fr[i]:
-                new[i] = STICK
-                kind = "stick"
-            else:
-                new[i] = -1 if r > 0 else 1
-                kind = "reverse"
-        else:
-            y_new[2 * i + 1] = self.v0  # removes rounding only; it is v0 during stick
-            new[i] = -1 if guard.kind == "upper" else 1
-            kind = "slip"
-        return Transition(tuple(new), y_new, kind, guard.block)
+        ev = transition(self.packed, new, codes[guard.kind], guard.block - 1, float(t), y_new)
+        return Transition(tuple(int(v) for v in new), y_new, EVENT_KINDS[ev], guard.block)
 
     # ------------------------------------------------------------------ energy
     def energy(self, y):

@@ -1,0 +1,170 @@
+"""Double-double arithmetic for compiled code: about 32 significant digits from pairs of doubles.
+
+A number is ``(hi, lo)`` with ``|lo| <= ulp(hi) / 2``; a complex one is
+``(re_hi, re_lo, im_hi, im_lo)``. Only what the exact solver's event polish
+needs: sums and products (Dekker's error-free transformations, so no FMA is
+needed), and ``exp``, ``cos``/``sin`` of double-double arguments by argument
+reduction and Taylor series. Accuracy: a few units of 2^-104 relative (tested
+against mpmath).
+"""
+
+from __future__ import annotations
+
+import math
+
+from nsbench.problems.kernels import hot, inline
+
+_SPLIT = 134217729.0  # 2^27 + 1
+# ln 2 and pi/2 to double-double
+LN2_HI, LN2_LO = 0.6931471805599453, 2.3190468138462996e-17
+PIO2_HI, PIO2_LO = 1.5707963267948966, 6.123233995736766e-17
+
+
+@inline
+def two_sum(a, b):
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+@inline
+def quick_two_sum(a, b):  # |a| >= |b|
+    s = a + b
+    return s, b - (s - a)
+
+
+@inline
+def two_prod(a, b):
+    p = a * b
+    c = _SPLIT * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLIT * b
+    bh = c - (c - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+@inline
+def add(ah, al, bh, bl):
+    s, e = two_sum(ah, bh)
+    t, f = two_sum(al, bl)
+    e += t
+    s, e = quick_two_sum(s, e)
+    e += f
+    return quick_two_sum(s, e)
+
+
+@inline
+def add_d(ah, al, b):
+    s, e = two_sum(ah, b)
+    e += al
+    return quick_two_sum(s, e)
+
+
+@inline
+def mul(ah, al, bh, bl):
+    p, e = two_prod(ah, bh)
+    e += ah * bl + al * bh
+    return quick_two_sum(p, e)
+
+
+@inline
+def mul_d(ah, al, b):
+    p, e = two_prod(ah, b)
+    e += al * b
+    return quick_two_sum(p, e)
+
+
+@inline
+def div_d(ah, al, b):
+    """A double-double divided by a double."""
+    q1 = ah / b
+    ph, pl = two_prod(q1, b)
+    r = ((ah - ph) - pl) + al
+    return quick_two_sum(q1, r / b)
+
+
+@inline
+def cmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Product of two complex double-doubles."""
+    rr = mul(a0, a1, b0, b1)
+    ii = mul(a2, a3, b2, b3)
+    ri = mul(a0, a1, b2, b3)
+    ir = mul(a2, a3, b0, b1)
+    re = add(rr[0], rr[1], -ii[0], -ii[1])
+    im = add(ri[0], ri[1], ir[0], ir[1])
+    return re[0], re[1], im[0], im[1]
+
+
+@hot
+def exp(xh, xl):
+    """``exp`` of a double-double: ``x = k ln2 + r``, ``exp(r / 2^8)`` by Taylor, squared 8 times."""
+    if xh > 709.0:
+        return math.inf, 0.0
+    if xh < -745.0:
+        return 0.0, 0.0
+    k = math.floor(xh / LN2_HI + 0.5)
+    ph, pl = mul_d(LN2_HI, LN2_LO, -k)
+    rh, rl = add(xh, xl, ph, pl)
+    rh, rl = rh * 2.0 ** -8, rl * 2.0 ** -8
+    # sum_{j>=1} r^j / j!  (|r| < 2^-9: 11 terms reach 2^-104)
+    th, tl = rh, rl
+    sh, sl = rh, rl
+    for j in range(2, 12):
+        th, tl = mul(th, tl, rh, rl)
+        th, tl = div_d(th, tl, float(j))
+        sh, sl = add(sh, sl, th, tl)
+    # (1 + s)^2 - 1 = 2 s + s^2, eight times, keeps the small part exact
+    for _ in range(8):
+        qh, ql = mul(sh, sl, sh, sl)
+        sh, sl = add(2.0 * sh, 2.0 * sl, qh, ql)
+    eh, el = add_d(sh, sl, 1.0)
+    scale = 2.0 ** k
+    return eh * scale, el * scale
+
+
+@hot
+def cos_sin(xh, xl):
+    """``(cos x, sin x)`` of a double-double, each as ``(hi, lo)``: ``x = k pi/2 + r``, Taylor on ``r / 8``."""
+    k = math.floor(xh / PIO2_HI + 0.5)
+    ph, pl = mul_d(PIO2_HI, PIO2_LO, -k)
+    rh, rl = add(xh, xl, ph, pl)
+    rh, rl = rh * 0.125, rl * 0.125
+    # sin and cos of |r| <= pi/32 by Taylor (13 terms: below 2^-104)
+    r2h, r2l = mul(rh, rl, rh, rl)
+    th, tl = rh, rl
+    sh, sl = rh, rl
+    ch, cl = 1.0, 0.0
+    uh, ul = 1.0, 0.0
+    for j in range(1, 13):
+        uh, ul = mul(uh, ul, r2h, r2l)
+        uh, ul = div_d(-uh, -ul, float((2 * j - 1) * (2 * j)))
+        ch, cl = add(ch, cl, uh, ul)
+        th, tl = mul(th, tl, r2h, r2l)
+        th, tl = div_d(-th, -tl, float((2 * j) * (2 * j + 1)))
+        sh, sl = add(sh, sl, th, tl)
+    # three doublings: cos 2a = 1 - 2 sin^2 a, sin 2a = 2 sin a cos a
+    for _ in range(3):
+        s2h, s2l = mul(sh, sl, sh, sl)
+        nsh, nsl = mul(sh, sl, ch, cl)
+        ch, cl = add_d(-2.0 * s2h, -2.0 * s2l, 1.0)
+        sh, sl = 2.0 * nsh, 2.0 * nsl
+    q = int(k) % 4
+    if q == 0:
+        return ch, cl, sh, sl
+    if q == 1:
+        return -sh, -sl, ch, cl
+    if q == 2:
+        return -ch, -cl, -sh, -sl
+    return sh, sl, -ch, -cl
+
+
+@hot
+def cexp(ah, al, bh, bl):
+    """``exp(a + i b)`` of a complex double-double, as ``(re_hi, re_lo, im_hi, im_lo)``."""
+    mh, ml = exp(ah, al)
+    ch, cl, sh, sl = cos_sin(bh, bl)
+    re = mul(mh, ml, ch, cl)
+    im = mul(mh, ml, sh, sl)
+    return re[0], re[1], im[0], im[1]

@@ -85,7 +85,7 @@ def div_d(ah, al, b):
     return quick_two_sum(q1, r / b)
 
 
-@inline
+@hot
 def cmul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Product of two complex double-doubles."""
     rr = mul(a0, a1, b0, b1)

@@ -215,7 +215,7 @@ def _lower_bound(fa, pa, fb, pb, h, m):
 
 # --------------------------------------------------------------------- the objective
 # ``cx = (wr, wc, wv, tf, tc, cnt, (mi, ns, n, nq, defective, aug_offset), w, wm)``: the arc's context.
-@inline
+@hot
 def _objective(cx, j, s, deriv):
     """Signed guard ``j`` (or section ``j - ng``) at offset ``s``, or its derivative; one evaluation."""
     wr, wc, wv, tf, tc, cnt, ints, w, wm = cx

@@ -53,7 +53,7 @@ def _rate(p, fn, idx, kinds, blocks, sec_c, t, y, dy):
     return linear_section_rate(sec_c[idx], dy)
 
 
-@inline
+@hot
 def _rk4(p, mode, t, y, h, fy, out, work):
     """One RK4 step into ``out``; ``fy = f(t, y)`` known. Three new evaluations."""
     n = y.shape[0]
@@ -146,7 +146,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
     return True, hi, n_sub
 
 
-@inline
+@hot
 def _dips(p0, p1, d0, d1, skip_start):
     """Whether the cubic Hermite with positive ends p0, p1 and end slopes d0, d1 dips to <= 0."""
     # p(s) = h00 p0 + h01 p1 + h10 d0 + h11 d1 with h00 + h01 = 1 and |h10|, |h11| <= 4/27:
@@ -180,7 +180,7 @@ def _dips(p0, p1, d0, d1, skip_start):
     return False
 
 
-@inline
+@hot
 def _hermite_into(ta, ya, fa, tb, yb, fb, t, out, col):
     h = tb - ta
     th = (t - ta) / h

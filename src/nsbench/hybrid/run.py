@@ -85,6 +85,7 @@ class RawRun:
     stopped: bool
     t0: float
     start_mode: tuple[int, ...]
+    prepare_time: float = 0.0  # seconds building tables of newly visited modes (first use, not the run)
 
 
 _DUMMY: dict[str, Any] = {}
@@ -176,6 +177,7 @@ def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float,
     iw = np.zeros(abi.N_COUNTERS + 2, np.int64)
     kind_code = -1 if stop_kind is None else EVENT_KINDS.index(stop_kind)
     start_mode = tuple(int(v) for v in mode_arr)
+    prepare_time = 0.0
     py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from),
                      int(hit_stop))
     while True:
@@ -191,7 +193,9 @@ def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float,
         elif code == loop.R_GROW_HITS:
             rec.grow_hits(int(si[abi.SI_NHITS]))
         elif code == loop.R_NEED_MODE:
+            tic = time.perf_counter()
             kd = _kd(method, kernel.prepare_mode(mode_arr.copy()))
+            prepare_time += time.perf_counter() - tic
         else:  # R_NEED_ARC
             py.arc(rec, y, mode_arr, gk, gb, gs, sf, si, cnt, y_arc)
     status, message = _outcome(int(si[abi.SI_STATUS]), int(si[abi.SI_DETAIL]), sf, ring, si, py, kernel,
@@ -212,7 +216,7 @@ def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float,
                   n_events=int(si[rules.SI_RECORDED]), n_hits=int(si[abi.SI_NHITS]),
                   n_dense=int(si[abi.SI_IEVAL]), n_events_total=int(si[rules.SI_EVENTS]),
                   counters=counters, integrator_time=float(integ_time), stopped=bool(si[abi.SI_STOPPED]),
-                  t0=float(t0), start_mode=start_mode)
+                  t0=float(t0), start_mode=start_mode, prepare_time=prepare_time)
 
 
 def _outcome(run_status, detail, sf, ring, si, py, kernel, mode_arr, max_steps, max_events,

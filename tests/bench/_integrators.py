@@ -2,7 +2,8 @@
 
 They wrap real integrators (no fake results): a slowed-down RK45 (a planted
 slowdown), one that sleeps per arc (to hit the time limit), one that fails in
-``setup``, one that can interrupt a run, and a tight DOP853 that stands in for the
+``setup``, one that can interrupt a run, ones that crash or hang only in the
+timed runs (not in the short warm-up), and a tight DOP853 that stands in for the
 high-precision cubic reference. The stand-in is *not* a certified reference: it
 only lets the tests exercise the reference path on cubic problems.
 """
@@ -48,14 +49,18 @@ class BrokenSetup(ScipyRK45):
         raise RuntimeError("plug-in bug in setup")
 
 
+#: Runs whose span ends past this are the timed ones in the tests (their warm-up covers a tenth).
+TIMED_AFTER = 10.0
+
+
 class Interrupting(ScipyRK45):
-    """Raises KeyboardInterrupt (like Ctrl-C) while NSBENCH_TEST_INTERRUPT is set."""
+    """Raises KeyboardInterrupt (like Ctrl-C) in a timed run while NSBENCH_TEST_INTERRUPT is set."""
 
     name = "interrupting-test"
     accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
 
     def advance(self, request):
-        if os.environ.get("NSBENCH_TEST_INTERRUPT"):
+        if os.environ.get("NSBENCH_TEST_INTERRUPT") and request.t_end > TIMED_AFTER:
             raise KeyboardInterrupt
         return super().advance(request)
 
@@ -79,3 +84,27 @@ class Crashing(ScipyRK45):
 
     def advance(self, request):
         os._exit(3)
+
+
+class CrashingWhenTimed(ScipyRK45):
+    """Warms up cleanly, then kills its process in the first timed run (a crash while timing)."""
+
+    name = "crashing-when-timed-test"
+    accuracy_levels = ({"rtol": 1e-9, "atol": 1e-11},)  # tighter than the others of its test: timed first
+
+    def advance(self, request):
+        if request.t_end > TIMED_AFTER:
+            os._exit(5)
+        return super().advance(request)
+
+
+class HangingWhenTimed(ScipyRK45):
+    """Warms up cleanly, then never returns from a timed run (only the parent can stop it)."""
+
+    name = "hanging-when-timed-test"
+    accuracy_levels = ({"rtol": 1e-9, "atol": 1e-11},)  # tighter than the others of its test: timed first
+
+    def advance(self, request):
+        if request.t_end > TIMED_AFTER:
+            time.sleep(3600)
+        return super().advance(request)

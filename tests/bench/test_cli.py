@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from nsbench.cli import main
+from tests.bench import _integrators as ti
 
 TINY = """
 name = "tiny"
@@ -62,3 +63,29 @@ def test_bad_input_exits_2_with_one_line(argv, fragment, capsys, tmp_path, monke
 def test_bad_workers(tiny, capsys):
     assert main(["bench", str(tiny / "tiny.toml"), "--out", str(tiny / "w"), "--workers", "0"]) == 2
     assert "--workers = 0 must be >= 1" in capsys.readouterr().err
+
+
+def test_a_crashed_reference_is_named_and_the_exit_status_is_1(tmp_path, register, capsys):
+    register(ti.Crashing.name, ti.Crashing)
+    (tmp_path / "s.toml").write_text(f"""
+t_span = [0, 20]
+reference = ["{ti.Crashing.name}"]
+problems = [{{ name = "one-dof", case = 1 }}]
+[integrators]
+only = ["scipy-rk45"]
+""")
+    out = tmp_path / "out"
+    assert main(["bench", str(tmp_path / "s.toml"), "--out", str(out), "--workers", "1", "--no-progress"]) == 1
+    printed = capsys.readouterr()
+    assert "INCOMPLETE: the reference of one-dof/1 could not be computed" in printed.out
+    assert "exit code 3" in printed.out
+    md = (out / "report.md").read_text()
+    top = md[: md.index("## Fixed-target table")]
+    assert "**This run is incomplete:**" in top and "The reference of `one-dof/1` could not be computed" in top
+    assert "(reference failed: crashed: the worker process died (exit code 3))" in top
+    assert not list((out / "references").glob("*.json"))            # a failure is not cached
+    from nsbench.bench import load_results
+
+    frame = load_results(out)
+    assert (frame["status"] == "success").all()
+    assert frame["reference_status"].str.startswith("reference failed").all()

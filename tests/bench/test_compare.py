@@ -9,17 +9,21 @@ from nsbench.bench.compare import compare, compare_frames, error_verdict, time_v
 from nsbench.bench.storage import to_frame
 from tests.bench import _integrators as ti
 
-SUITE = {"name": "cmp", "t_span": [0.0, 25.0], "repeats": 5, "repeat_budget": 10.0,
+SUITE = {"name": "cmp", "t_span": [0.0, 25.0], "repeats": 5,
          "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
 
 
 def test_time_verdicts_on_constructed_repeats():
-    a = [0.50, 0.10, 0.12, 0.11, 0.13]                     # cold first run, then warm ones
-    assert time_verdict(a, [0.5, 0.30, 0.33, 0.31, 0.32], 1.5) == (pytest.approx(0.315 / 0.115), "slower")
-    assert time_verdict(a, [0.5, 0.05, 0.06, 0.05, 0.06], 1.5)[1] == "faster"
+    a = [0.10, 0.12, 0.11, 0.13]                           # warm timed runs
+    assert time_verdict(a, [0.30, 0.33, 0.31, 0.32], 1.5) == (pytest.approx(0.315 / 0.115), "slower")
+    assert time_verdict(a, [0.05, 0.06, 0.05, 0.06], 1.5)[1] == "faster"
     # medians 0.115 -> 0.20 (ratio 1.7) but the repeats overlap: noise
-    assert time_verdict(a, [0.5, 0.11, 0.20, 0.25, 0.20], 1.5)[1] == "noise"
+    assert time_verdict(a, [0.11, 0.20, 0.25, 0.20], 1.5)[1] == "noise"
     assert time_verdict(a, [0.12], 1.5)[1] == "same"
+    # results from before timing isolation listed the cold run first: it is left out
+    legacy = [0.50] + a
+    assert time_verdict(legacy, [0.5, 0.30, 0.33, 0.31, 0.32], 1.5, cold_first=(True, True)) == \
+        (pytest.approx(0.315 / 0.115), "slower")
     assert time_verdict([0.1], [0.3], 1.5)[1] == "unverified"
     assert error_verdict(1e-9, 5e-9, 1.5)[1] == "worse"
     assert error_verdict(1e-17, 5e-16, 1.5)[1] == "same"          # both below the round-off floor
@@ -28,13 +32,13 @@ def test_time_verdicts_on_constructed_repeats():
 def test_noise_is_not_flagged_but_a_lost_success_is():
     base = {"case_id": "x", "problem_label": "p", "integrator": "i", "options": "{}", "status": "success",
             "sequence_ok": True, "switch_err_max": 1e-9}
-    a = to_frame([{**base, "wall_times": [0.3, 0.10, 0.30, 0.12], "wall_time": 0.12}])
-    b = to_frame([{**base, "wall_times": [0.3, 0.11, 0.31, 0.29], "wall_time": 0.29}])
+    a = to_frame([{**base, "wall_times": [0.10, 0.30, 0.12], "wall_time": 0.12, "wall_time_min": 0.10}])
+    b = to_frame([{**base, "wall_times": [0.11, 0.31, 0.29], "wall_time": 0.29, "wall_time_min": 0.11}])
     row = compare_frames(a, b, 1.5).iloc[0]
     assert row["time_verdict"] == "noise" and not row["flagged"]
-    c = to_frame([{**base, "wall_times": [0.3, 0.10, 0.30, 0.12], "status": "integrator failure"}])
+    c = to_frame([{**base, "wall_times": [0.10, 0.30, 0.12], "status": "integrator failure"}])
     assert compare_frames(a, c, 1.5).iloc[0]["flags"] == "status"
-    d = to_frame([{**base, "wall_times": [0.3, 0.10, 0.30, 0.12], "sequence_ok": False, "switch_err_max": 1e-10}])
+    d = to_frame([{**base, "wall_times": [0.10, 0.30, 0.12], "sequence_ok": False, "switch_err_max": 1e-10}])
     assert compare_frames(a, d, 1.5).iloc[0]["flags"] == "event sequence"
 
 

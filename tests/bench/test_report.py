@@ -67,3 +67,34 @@ def test_markdown_and_latex(report):
     assert rk4.loc[1e-6, "outcome"] == "reached" and rk4.loc[1e-12, "outcome"] == "not reached"
     cubic = ft[ft["problem_label"] == "two-dof/3"].set_index("integrator")["outcome"]
     assert (cubic.drop("exact") == "no reference").all() and (cubic["exact"] == "unsupported").all()
+
+
+def test_timing_spread_is_shown(report):
+    out, rep = report
+    md = rep.markdown.read_text()
+    ft = rep.fixed_target
+    reached = ft[ft["outcome"] == "reached"]
+    assert len(reached) and reached["wall_spread"].notna().all()
+    row = md[md.index("| one-dof/1 | henon-rk4 |"):].splitlines()[0]
+    assert " s ±" in row                                    # median ± half its min-max range
+    assert "## Timing spread" in md and "Times are medians of 3 timed runs per case" in md
+    assert "This run is incomplete" not in md
+
+
+def test_work_precision_whiskers_span_min_to_max():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    import pandas as pd
+
+    from nsbench.bench.figures import _whiskers
+
+    rows = pd.DataFrame({"wall_time_min": [0.9, 1.8, np.nan], "wall_time_max": [1.2, 2.5, np.nan]})
+    fig, ax = plt.subplots()
+    _whiskers(ax, rows, np.array([1.0, 2.0, 3.0]), np.array([1e-6, 1e-8, 1e-10]), "k")
+    segments = [seg for coll in ax.collections for seg in coll.get_segments()]
+    plt.close(fig)
+    spans = sorted((float(s[0][0]), float(s[1][0])) for s in segments)
+    assert spans == [(0.9, 1.2), (1.8, 2.5)]                 # no whisker where the range is unknown

@@ -1,5 +1,6 @@
 """The runner: the tidy schema, statuses instead of lost suites, the time limit, the
-reference cache, resume after an interruption (in-process and by Ctrl-C of a CLI run)."""
+reference cache, resume after an interruption (in-process and by Ctrl-C of a CLI run),
+crashes, and scripts without a main guard."""
 
 from __future__ import annotations
 
@@ -60,11 +61,17 @@ def test_tidy_schema_one_row_per_case(pooled):
     for _, g in dop.groupby("problem_label"):  # tighter tolerance, smaller error
         assert g["switch_err_max"].iloc[-1] < g["switch_err_max"].iloc[0] < 1e-4
         assert np.isfinite(g["state_err_l2"]).all()
-    # warm median of repeats; setup time in its own column; configs rebuild the components
-    cheap = frame[frame["n_repeats"] == 3]
-    assert len(cheap) and all(len(w) == 3 for w in cheap["wall_times"])
-    assert np.allclose(cheap["wall_time"], [np.median(w[1:]) for w in cheap["wall_times"]])
-    assert (frame.loc[frame["status"] == "success", "setup_time"] >= 0).all()
+    # every success: median of 3 warm timed runs, its range and spread; setup and warm-up apart
+    timed = frame[frame["status"] == "success"]
+    assert (timed["n_repeats"] == 3).all() and all(len(w) == 3 for w in timed["wall_times"])
+    assert np.allclose(timed["wall_time"], [np.median(w) for w in timed["wall_times"]])
+    assert np.allclose(timed["wall_time_min"], [min(w) for w in timed["wall_times"]])
+    assert np.allclose(timed["wall_time_max"], [max(w) for w in timed["wall_times"]])
+    assert np.allclose(timed["wall_spread"], (timed["wall_time_max"] - timed["wall_time_min"]) / timed["wall_time"])
+    assert all(len(t) == 3 for t in timed["integrator_times"])   # NaN until the engine reports it
+    assert (timed["setup_time"] >= 0).all() and (timed["setup_time_timed"] >= 0).all()
+    assert (timed["warmup_time"] > 0).all()
+    assert not summary.in_process and summary.ok and summary.problems() == []
     import json
 
     import nsbench
@@ -114,8 +121,8 @@ def test_failures_become_rows_with_a_reason(register, tmp_path):
     suite = small_suite([ti.SleepyRK45.name, ti.BrokenSetup.name, "exact"], time_limit=0.15)
     frame = run_suite(suite, tmp_path, workers=1, progress=False).results.set_index("integrator")
     assert frame.loc["sleepy-rk45-test", "status"] == "time limit"
-    assert "wall-clock limit of 0.15 s" in frame.loc["sleepy-rk45-test", "message"]
-    assert 0 < frame.loc["sleepy-rk45-test", "t_final"] < 40
+    assert "wall-clock limit of 0.15 s per run reached" in frame.loc["sleepy-rk45-test", "message"]
+    assert "the worker process was stopped" in frame.loc["sleepy-rk45-test", "message"]
     assert frame.loc["broken-setup-test", "status"] == "error"
     assert "RuntimeError: plug-in bug in setup" in frame.loc["broken-setup-test", "message"]
     assert frame.loc["exact", "status"] == "success"
@@ -136,55 +143,160 @@ def test_stand_in_reference_for_a_cubic_problem(register, tmp_path):
 
 
 def test_resume_after_interrupt_computes_only_missing_cases(register, tmp_path, monkeypatch):
+    # The interrupt comes from the timed runs of the cheapest case; the tighter (longer)
+    # cases are timed first, so some rows are finished when it comes.
     register(ti.Interrupting.name, ti.Interrupting)
     suite = small_suite(["scipy-rk45", "scipy-dop853", ti.Interrupting.name])
-    order = sorted(suite.cases(), key=lambda c: -c.level)    # the runner's order
-    k = [c.integrator for c in order].index(ti.Interrupting.name)
+    n = len(suite.cases())
     monkeypatch.setenv("NSBENCH_TEST_INTERRUPT", "1")
     with pytest.raises(KeyboardInterrupt):
         run_suite(suite, tmp_path, workers=1, progress=False)
     stored = sorted((tmp_path / "cases").glob("*.parquet"))
-    assert len(stored) == k > 0
+    k = len(stored)
+    assert 0 < k < n
+    assert (load_results(tmp_path)["status"] == "success").all()
     before = {p.name: p.read_bytes() for p in stored}
     monkeypatch.delenv("NSBENCH_TEST_INTERRUPT")
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
-    assert (summary.n_resumed, summary.n_computed) == (k, len(order) - k)
-    assert all((tmp_path / "cases" / n).read_bytes() == b for n, b in before.items())
-    assert len(summary.results) == len(order) and (summary.results["status"] == "success").all()
+    assert (summary.n_resumed, summary.n_computed) == (k, n - k)
+    assert all((tmp_path / "cases" / name).read_bytes() == b for name, b in before.items())
+    assert len(summary.results) == n and (summary.results["status"] == "success").all()
 
 
 def test_ctrl_c_of_a_parallel_cli_run_keeps_finished_cases(tmp_path):
+    # Twelve cases of similar cost: once two are stored, the other ten take far
+    # longer than the moment between seeing the files and the interrupt, on any
+    # machine; the wait itself has no clock (a cold compile may take minutes).
+    steps = [0.004 - 0.0002 * k for k in range(12)]
     suite = tmp_path / "s.toml"
-    suite.write_text("""
-t_span = [0, 25]
-repeats = 1
-problems = [{ name = "one-dof", case = 1 }]
+    suite.write_text(f"""
+t_span = [0, 100]
+repeats = 3
+problems = [{{ name = "one-dof", case = 1 }}]
 [integrators]
 only = ["henon-rk4"]
-grids = { henon-rk4 = { grid = { h = [0.04, 0.02, 0.01, 0.008, 0.006, 0.005] } } }
+grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
 """)
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out),
                              "--workers", "2", "--no-progress"], start_new_session=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list((out / "cases").glob("*.parquet"))) < 2:
-        time.sleep(0.05)
+    while proc.poll() is None and len(list((out / "cases").glob("*.parquet"))) < 2:
+        time.sleep(0.01)
+    assert proc.poll() is None, "the suite ended before it could be interrupted"
     os.killpg(proc.pid, signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=600)
     assert proc.returncode == 130, err
     stored = {p.name for p in (out / "cases").glob("*.parquet")}
-    assert 2 <= len(stored) < 6
+    assert 2 <= len(stored) < len(steps)
     frame = load_results(out)                          # what was stored is whole and readable
     assert (frame["status"] == "success").all()
     summary = run_suite(suite, out, workers=1, progress=False)
-    assert summary.n_resumed == len(stored) and summary.n_computed == 6 - len(stored)
+    assert summary.n_resumed == len(stored) and summary.n_computed == len(steps) - len(stored)
 
 
 def test_a_crashing_worker_is_a_row_and_the_others_finish(register, tmp_path):
     register(ti.Crashing.name, ti.Crashing)
     suite = small_suite(["scipy-rk45", ti.Crashing.name], t_span=[0.0, 20.0])
-    frame = run_suite(suite, tmp_path, workers=2, progress=False).results
+    summary = run_suite(suite, tmp_path, workers=2, progress=False)
+    frame = summary.results
+    assert not summary.ok and "1 case(s) crashed" in summary.problems()[0]
     crashed = frame[frame["integrator"] == ti.Crashing.name]
-    assert crashed["status"].tolist() == ["crashed"] and "worker process died" in crashed["message"].iloc[0]
+    assert crashed["status"].tolist() == ["crashed"]
+    assert "worker process died (exit code 3) during the warm-up run" in crashed["message"].iloc[0]
     assert (frame.loc[frame["integrator"] == "scipy-rk45", "status"] == "success").all() and len(frame) == 4
+
+
+def assert_nothing_else_while_timing(timeline):
+    """No worker start, reference or warm-up overlaps any timed case (parent-side bounds)."""
+    timed = [r for r in timeline if r.kind == "time"]
+    for other in (r for r in timeline if r.kind != "time"):
+        for t in timed:
+            assert other.end <= t.start or t.end <= other.start, (other, t)
+
+
+def test_crash_and_hang_while_timing_are_rows_and_the_pool_recovers(register, tmp_path):
+    register(ti.CrashingWhenTimed.name, ti.CrashingWhenTimed)
+    register(ti.HangingWhenTimed.name, ti.HangingWhenTimed)
+    # The crashing and hanging cases are tighter than the rk45 ones, so they are timed first and
+    # cheaper cases remain after them: the lost workers must be replaced.
+    suite = small_suite(["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
+                        t_span=[0.0, 20.0], time_limit=5.0,
+                        integrators={"only": ["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
+                                     "grids": {"scipy-rk45": {"grid": {"rtol": [1e-3, 1e-4, 1e-5, 1e-6]}}}})
+    summary = run_suite(suite, tmp_path, workers=2, progress=False)
+    frame = summary.results.set_index("integrator")
+    crashed, hung = frame.loc[ti.CrashingWhenTimed.name], frame.loc[ti.HangingWhenTimed.name]
+    assert crashed["status"] == "crashed"
+    assert "died (exit code 5) during the timed run 1 of 3" in crashed["message"]
+    assert hung["status"] == "time limit"
+    assert "limit of 5 s per run reached in the timed run 1 of 3" in hung["message"]
+    assert crashed["setup_time"] >= 0 and hung["warmup_time"] > 0     # their warm-ups went through
+    rk45 = frame.loc["scipy-rk45"]
+    assert len(rk45) == 4 and (rk45["status"] == "success").all() and (rk45["n_repeats"] == 3).all()
+    assert not summary.ok and (tmp_path / "results.parquet").exists()
+    timeline = summary.timeline
+    starts = [r for r in timeline if r.kind == "start"]
+    assert len(starts) >= 3 and len({r.pid for r in starts}) == len(starts)
+    for lost in (r for r in timeline if r.outcome in ("crashed", "time limit")):
+        later = [r for r in timeline if r.kind == "time" and r.start >= lost.end and r.slot == lost.slot]
+        if later:  # the slot timed again: through a fresh worker that started and warmed up first
+            fresh = [r for r in timeline if r.slot == lost.slot and lost.end <= r.start <= later[0].start]
+            assert [r.kind for r in fresh][:2] == ["start", "warm-up"]
+    assert_nothing_else_while_timing(summary.timeline)
+
+
+def test_the_phases_keep_warm_ups_apart_from_timing(pooled):
+    timeline = pooled[1].timeline
+    kinds = [r.kind for r in timeline]
+    assert kinds.count("start") == 2 and kinds.count("reference") == 3
+    assert kinds.count("time") == sum(pooled[1].results["status"] == "success")
+    first_time = min(r.start for r in timeline if r.kind == "time")
+    assert all(r.end <= first_time for r in timeline if r.kind != "time")   # one barrier, no replacement
+    assert_nothing_else_while_timing(timeline)
+
+
+SCRIPT = """
+from nsbench.bench import Suite, run_suite
+{extra}
+suite = Suite(problems=[{{"name": "one-dof", "case": 1}}], t_span=(0, 20),
+              integrators={{"only": {only!r}}})
+summary = run_suite(suite, {out!r}, workers=2, progress=False)
+print("ROWS", len(summary.results), "IN_PROCESS", summary.in_process, "OK", summary.ok)
+"""
+
+
+def run_script(tmp_path, only, extra=""):
+    script = tmp_path / "script.py"
+    script.write_text(SCRIPT.format(extra=extra, only=only, out=str(tmp_path / "out")))
+    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=600)
+    return proc, load_results(tmp_path / "out")
+
+
+def test_a_script_without_main_guard_runs_in_workers(tmp_path):
+    proc, frame = run_script(tmp_path, ["exact", "scipy-rk45"])
+    assert proc.returncode == 0, proc.stderr
+    assert "ROWS 4 IN_PROCESS False OK True" in proc.stdout and "Traceback" not in proc.stderr
+    assert (frame["status"] == "success").all() and (frame["reference"] == "exact").all()
+    assert (frame["reference_status"] == "ok").all() and frame["switch_err_max"].notna().all()
+    assert len(list((tmp_path / "out" / "references").glob("*.json"))) == 1
+
+
+def test_a_component_defined_in_main_runs_in_process_with_a_warning(tmp_path):
+    extra = """
+from nsbench import registry
+from nsbench.integrators.scipy_ import ScipyRK45
+
+class MyRK45(ScipyRK45):
+    name = "my-rk45"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+registry.register("integrators", "my-rk45", MyRK45)
+"""
+    proc, frame = run_script(tmp_path, ["my-rk45", "exact"], extra)
+    assert proc.returncode == 0, proc.stderr
+    assert "integrator 'my-rk45' is defined in __main__" in proc.stderr
+    assert "ROWS 2 IN_PROCESS True OK True" in proc.stdout
+    assert (frame["status"] == "success").all() and (frame["n_repeats"] == 3).all()
+    assert frame["switch_err_max"].notna().all()

@@ -82,6 +82,15 @@ def test_case_ids_are_stable_and_distinct():
     assert set(ids).isdisjoint(c.case_id for c in longer.cases())
 
 
+def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
+    base = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
+    assert Suite.from_dict({**base, "repeats": 1}).repeats == 3          # a spread needs three runs
+    assert {c.repeats for c in Suite.from_dict({**base, "repeats": 5}).cases()} == {5}
+    old = Suite.from_dict({**base, "repeat_budget": 0.5})                 # an older suite file still loads
+    assert old.cases() == Suite.from_dict(base).cases()                   # ... and times the same way
+    assert not hasattr(old.cases()[0], "repeat_budget")
+
+
 @pytest.mark.parametrize("data, fragment", [
     ({"problems": []}, "at least one entry in problems"),
     ({"problems": [{"name": "one-dof"}], "colour": 1}, "unknown key(s) colour"),
@@ -91,6 +100,7 @@ def test_case_ids_are_stable_and_distinct():
     ({"problems": [{"name": "one-dof"}], "t_span": [5, 1]}, "t_end > t0"),
     ({"problems": [{"name": "one-dof"}], "repeats": 0}, "repeats = 0"),
     ({"problems": [{"name": "one-dof"}], "time_limit": -1}, "time_limit = -1"),
+    ({"problems": [{"name": "one-dof"}], "repeat_budget": "x"}, "repeat_budget = 'x'"),
     ({"problems": [{"name": "one-dof"}], "targets": [0]}, "must be positive"),
     ({"problems": [{"name": "one-dof"}], "integrators": {"only": ["rk99"]}}, "unknown integrator(s) rk99"),
     ({"problems": [{"name": "one-dof"}], "integrators": {"grids": {"scipy-rk45": {"grid": {"rtol": [-1]}}}}},

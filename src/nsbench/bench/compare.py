@@ -2,8 +2,10 @@
 
 A time change is flagged only when the ratio of the medians exceeds ``factor``
 *and* the repeats say it is not noise: every timed run of one side is slower
-than every timed run of the other (the ranges do not overlap). With a single
-timed run on either side a change is reported as ``unverified``, never flagged.
+than every timed run of the other (the ranges do not overlap). Every run in
+``wall_times`` is warm; in results written before that, the first run was the
+cold one and is left out. With a single timed run on either side a change is
+reported as ``unverified``, never flagged.
 Errors are deterministic, so an error change is flagged when it exceeds
 ``factor`` (above a floor of :data:`ERROR_FLOOR`). A lost success or a broken
 event sequence is always flagged.
@@ -23,14 +25,28 @@ from nsbench.bench import storage
 ERROR_FLOOR = 1e-15
 
 
-def _samples(times) -> np.ndarray:
+def _samples(times, cold_first: bool = False) -> np.ndarray:
     t = np.asarray(list(times), dtype=float)
-    return t[1:] if t.size >= 3 else t  # the first run is cold: drop it when there are warm ones
+    return t[1:] if cold_first and t.size >= 3 else t
 
 
-def time_verdict(a_times, b_times, factor: float) -> tuple[float, str]:
-    """``(ratio of medians B/A, verdict)``; verdict in ``same, slower, faster, noise, unverified, n/a``."""
-    a, b = _samples(a_times), _samples(b_times)
+def legacy_layout(row: pd.Series, side: str) -> bool:
+    """Whether a row (columns suffixed ``_a``/``_b``) comes from a run that stored its cold run first.
+
+    Runs before timing isolation had no ``wall_time_min`` and listed the cold
+    first run in ``wall_times``; now every listed run is warm.
+    """
+    return pd.isna(row.get(f"wall_time_min_{side}", np.nan))
+
+
+def time_verdict(a_times, b_times, factor: float,
+                 cold_first: tuple[bool, bool] = (False, False)) -> tuple[float, str]:
+    """``(ratio of medians B/A, verdict)``; verdict in ``same, slower, faster, noise, unverified, n/a``.
+
+    ``cold_first`` says, per side, that the first time is a cold run to leave out
+    (results written before every timed run was warm).
+    """
+    a, b = _samples(a_times, cold_first[0]), _samples(b_times, cold_first[1])
     if a.size == 0 or b.size == 0:
         return math.nan, "n/a"
     ratio = float(np.median(b) / np.median(a))
@@ -66,7 +82,8 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = 1.5) -> pd.
     merged = a.merge(b, on="case_id", suffixes=("_a", "_b"))
     rows = []
     for _, r in merged.iterrows():
-        t_ratio, t_verdict = time_verdict(r["wall_times_a"], r["wall_times_b"], factor)
+        t_ratio, t_verdict = time_verdict(r["wall_times_a"], r["wall_times_b"], factor,
+                                          (legacy_layout(r, "a"), legacy_layout(r, "b")))
         e_a = float(r["switch_err_max_a"]) if pd.notna(r["switch_err_max_a"]) else math.nan
         e_b = float(r["switch_err_max_b"]) if pd.notna(r["switch_err_max_b"]) else math.nan
         e_ratio, e_verdict = error_verdict(e_a, e_b, factor)

@@ -1,25 +1,35 @@
-"""Running one case (in a worker process): repeats, time limit, metrics, the tidy row.
+"""Running one case, in a worker process: the untimed warm-up, the timed repeats, the row.
 
-Nothing a case does may end the suite: an integrator that refuses the problem, fails,
-diverges, exceeds its budget or raises comes back as a row with its status and
-reason. Only ``KeyboardInterrupt`` (and other ``BaseException``) propagates.
+A case runs in two steps, which the runner schedules apart (see
+:mod:`nsbench.bench.scheduler`): :func:`warm_up` sets the integrator up
+(compilation, operators) and runs a short untimed stretch of the span (first
+use), and :func:`time_case` times ``case.repeats`` full runs and computes the
+metrics of the first one. Nothing a case does may end the suite: an integrator
+that refuses the problem, fails, diverges or raises comes back as a row with its
+status and reason. Only ``KeyboardInterrupt`` (and other ``BaseException``) propagates.
+
+In a worker the wall-clock limit is enforced by the parent, which stops the
+worker; :func:`run_case` (the in-process fallback) can only check it between
+arcs, with :class:`TimeLimited`.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import gc
 import json
 import math
-import statistics
 import time
 import traceback
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
+from nsbench.bench.timing import summarize
 from nsbench.bench.suite import Case
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Integrator
@@ -30,8 +40,11 @@ class TimeLimited(Integrator):
     """Wraps an integrator so that a run ends once ``limit`` seconds have passed.
 
     The check happens between arcs (one arc spans at most one phase), so a run
-    overshoots the limit by at most one arc. The wrapped integrator's name, config
-    and capabilities are reported unchanged.
+    overshoots the limit by at most one arc, and an integrator that runs the whole
+    span in compiled code is not stopped at all. It is therefore only the
+    in-process fallback's limit; in a worker the parent enforces the limit by
+    ending the worker. The wrapped integrator's name, config and capabilities are
+    reported unchanged.
     """
 
     def __init__(self, inner: Integrator, limit: float) -> None:  # no option parsing: a wrapper
@@ -94,10 +107,11 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         integrator=case.integrator, integrator_config=_jsonable(config), options=_jsonable(case.options),
         level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
-        t0=case.t0, t_end=case.t_end, message="", wall_times=[], n_repeats=0,
+        t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], n_repeats=0,
         counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[],
     )
     return row
+
 
 
 def _finish(row: dict[str, Any]) -> dict[str, Any]:
@@ -105,42 +119,121 @@ def _finish(row: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str, Any]:
-    """Run ``case`` (repeats included) and return its tidy row."""
-    from nsbench.engine import simulate
+#: Share of the span the warm-up run covers: enough to reach every mode's code, short next to the timing.
+WARMUP_FRACTION = 0.1
+
+#: ``stage(what, limit)``: told before each step of a case (the worker forwards it to the parent).
+StageCallback = Callable[[str, "float | None"], None]
+
+
+def _quiet(what: str, limit: float | None) -> None:
+    return None
+
+
+def _error_message(exc: Exception) -> str:
+    return (f"{type(exc).__name__}: {exc} | "
+            + traceback.format_exc(limit=3).strip().splitlines()[-2].strip())
+
+
+@dataclass(frozen=True)
+class WarmResult:
+    """What a warm-up leaves for the row: the cold setup and warm-up times, or a final row.
+
+    ``row`` is set when the case cannot be timed (``unsupported``, ``error``,
+    ``time limit`` in-process); it is then the case's row.
+    """
+
+    setup_time: float
+    warmup_time: float
+    row: dict[str, Any] | None = None
+
+
+def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
     from nsbench.integrators import get_integrator
     from nsbench.problems import problem_from_config
+
+    integ = get_integrator(case.integrator, **case.options)
+    return problem_from_config(case.problem), (TimeLimited(integ, limit) if limit is not None else integ)
+
+
+def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
+            in_process: bool = False) -> WarmResult:
+    """Set ``case`` up and run the first :data:`WARMUP_FRACTION` of its span, untimed.
+
+    The setup compiles what the integrator compiles (numba kernels into numba's
+    disk cache, heyoka models into heyoka's per-process cache); the short run
+    pays every other first-use cost, so the timed runs that follow are warm.
+    ``in_process`` checks the time limit between arcs (a worker is stopped by its parent instead).
+    """
+    from nsbench.engine import simulate
+
+    row = base_row(case, suite)
+    t_end = case.t0 + WARMUP_FRACTION * (case.t_end - case.t0)
+    grid = np.linspace(case.t0, case.t_end, case.dense_points)
+    try:
+        problem, integ = _components(case, case.time_limit if in_process else None)
+        stage("setup", None)  # compilation is not limited (it was never part of a timed run)
+        tic = time.perf_counter()
+        integ.setup(problem)
+        setup_time = time.perf_counter() - tic
+        stage("warm-up run", case.time_limit)
+        res = simulate(problem, integ, t_end, t0=case.t0, t_eval=grid[grid <= t_end],
+                       max_steps=case.max_steps)
+    except UnsupportedProblemError as exc:
+        row.update(status="unsupported", message=str(exc))
+        return WarmResult(math.nan, math.nan, _finish(row))
+    except Exception as exc:  # a bug or a refusal we do not know: a row, never a lost suite
+        row.update(status="error", message=_error_message(exc))
+        return WarmResult(math.nan, math.nan, _finish(row))
+    if isinstance(integ, TimeLimited) and integ.hit:
+        row.update(status="time limit", message=f"{res.message} (warm-up run)", t_final=res.t_final,
+                   setup_time=setup_time)
+        return WarmResult(setup_time, res.wall_time, _finish(row))
+    return WarmResult(setup_time, res.wall_time)
+
+
+def time_case(case: Case, reference: Reference, suite: str = "suite", stage: StageCallback = _quiet,
+              in_process: bool = False) -> dict[str, Any]:
+    """Time ``case.repeats`` full runs (after :func:`warm_up` in this process) and return the row.
+
+    Every run is timed; the first one gives the events, counters and metrics
+    (runs are deterministic). A run that does not succeed is not repeated. The
+    row's ``setup_time`` and ``warmup_time`` are the warm-up's: the caller sets them.
+    """
+    from nsbench.engine import simulate
 
     row = base_row(case, suite)
     row.update(reference=reference.name or "", reference_config=_jsonable(reference.config),
                reference_status=reference.status)
     grid = np.linspace(case.t0, case.t_end, case.dense_points)
+    runs = []
     try:
-        problem = problem_from_config(case.problem)
-        integ = TimeLimited(get_integrator(case.integrator, **case.options), case.time_limit)
-        first = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
-    except UnsupportedProblemError as exc:
-        row.update(status="unsupported", message=str(exc))
+        problem, integ = _components(case, case.time_limit if in_process else None)
+        for k in range(case.repeats):
+            gc.collect()  # the garbage of the previous run is not this run's to collect
+            stage(f"timed run {k + 1} of {case.repeats}", case.time_limit)
+            runs.append(simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps))
+            if (isinstance(integ, TimeLimited) and integ.hit) or not runs[0].ok:
+                break  # a failed run is not repeated
+    except Exception as exc:  # after a clean warm-up: rare, but a row all the same
+        row.update(status="error", message=_error_message(exc))
         return _finish(row)
-    except Exception as exc:  # a bug or a refusal we do not know: a row, never a lost suite
-        row.update(status="error", message=f"{type(exc).__name__}: {exc} | "
-                   + traceback.format_exc(limit=3).strip().splitlines()[-2].strip())
+    first = runs[0]
+    if isinstance(integ, TimeLimited) and integ.hit:
+        row.update(status="time limit", message=runs[-1].message, t_final=runs[-1].t_final)
         return _finish(row)
-    times = [first.wall_time]
-    status = "time limit" if integ.hit else first.status.value
-    # Warm repeats: only for cheap, successful cases (an expensive case is its own average).
-    if first.ok and not integ.hit and first.wall_time < case.repeat_budget:
-        for _ in range(case.repeats - 1):
-            again = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
-            times.append(again.wall_time)
-    warm = times[1:] or times
+    notes = [first.message] if first.message else []
+    notes += [f"timed run {k + 1} ended with {r.status.value}: {r.message}"
+              for k, r in enumerate(runs) if r.status != first.status]
+    wall = [float(r.wall_time) for r in runs]
+    inner = [float(getattr(r, "integrator_time", math.nan)) for r in runs]  # the new engine's own clock
     counters = first.counters.as_dict()
     extra = {k: v for k, v in counters.items() if k not in ("nfev", "njev", "nsteps", "n_events")}
-    row.update(status=status, message=first.message, t_final=first.t_final,
+    row.update(status=first.status.value, message=" | ".join(notes), t_final=first.t_final,
                nfev=int(counters["nfev"]), njev=int(counters["njev"]), nsteps=int(counters["nsteps"]),
                n_events=int(counters["n_events"]), counters_extra=_jsonable(extra),
-               wall_time=float(statistics.median(warm)), wall_times=[float(t) for t in times],
-               n_repeats=len(times), setup_time=float(first.setup_time))
+               wall_times=wall, n_repeats=len(wall), integrator_times=inner,
+               setup_time_timed=max(float(r.setup_time) for r in runs), **summarize(wall, inner))
     if reference.ok:
         dense = None
         if first.ok and len(first.trajectory) == case.dense_points:
@@ -152,3 +245,17 @@ def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str
                 "event logs too long: only their starts were aligned"
         row.update(metrics)
     return _finish(row)
+
+
+def complete_row(row: dict[str, Any], warm: WarmResult) -> dict[str, Any]:
+    """The timed ``row`` with the warm-up's cold setup time and warm-up run time."""
+    row.update(setup_time=warm.setup_time, warmup_time=warm.warmup_time)
+    return row
+
+
+def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str, Any]:
+    """Warm ``case`` up and time it in this process (the fallback without workers); its row."""
+    warm = warm_up(case, suite, in_process=True)
+    if warm.row is not None:
+        return warm.row
+    return complete_row(time_case(case, reference, suite, in_process=True), warm)

@@ -1,7 +1,8 @@
 """Report figures (matplotlib, imported on first use), saved as PNG and SVG.
 
 Per problem: work-precision diagrams (max switching-time error against warm wall
-time and against ``nfev``), and the switching-time error along the trajectory of
+time, with min-max whiskers over the timed runs, and against ``nfev``), and the
+switching-time error along the trajectory of
 each integrator's tightest successful configuration. A problem without a
 reference gets a cost-only figure instead.
 """
@@ -18,6 +19,7 @@ import pandas as pd
 #: Errors below this are drawn at it (log axes cannot show 0; ``exact`` against itself is 0).
 ERROR_FLOOR = 1e-16
 _MARKERS = "osD^v<>pPX*hd"
+_TIME_LABEL = "warm median wall time (whiskers: fastest to slowest timed run)"
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,17 @@ def _save(fig, out: Path, name: str, title: str, caption: str) -> Figure:
     return Figure(name, title, caption, png, svg)
 
 
+def _whiskers(ax, rows: pd.DataFrame, x: np.ndarray, y: np.ndarray, color) -> None:
+    """Horizontal min-max whiskers around the median times ``x`` (where the range is known)."""
+    low = rows["wall_time_min"].to_numpy(dtype=float)
+    high = rows["wall_time_max"].to_numpy(dtype=float)
+    known = np.isfinite(low) & np.isfinite(high)
+    if known.any():
+        xerr = np.vstack([np.maximum(x - low, 0.0), np.maximum(high - x, 0.0)])[:, known]
+        ax.errorbar(x[known], y[known], xerr=xerr, fmt="none", ecolor=color, elinewidth=1.0, capsize=2.5,
+                    alpha=0.8)
+
+
 def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out: Path) -> Figure:
     """Max switching-time error against ``cost`` (``'wall_time'`` or ``'nfev'``), one line per integrator."""
     plt = _pyplot()
@@ -73,6 +86,8 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
         good = (rows["sequence_ok"].fillna(False).to_numpy(dtype=bool)
                 & (rows["status"] == "success").to_numpy())
         st = styles[name]
+        if cost == "wall_time":
+            _whiskers(ax, rows, x, y, st["color"])
         ax.plot(x, y, "-", color=st["color"], lw=1.0, alpha=0.7)
         ax.plot(x[good], y[good], st["marker"], color=st["color"], ms=6, ls="none", label=name)
         ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
@@ -86,7 +101,8 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
         ax.legend(fontsize=7, loc="best", ncol=2)
     kind = "time" if cost == "wall_time" else "nfev"
     caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
-               f"{'warm median wall time' if kind == 'time' else 'nfev'}; one point per configuration. "
+               f"{_TIME_LABEL if kind == 'time' else 'nfev'}; "
+               f"one point per configuration. "
                f"Hollow markers: wrong event sequence or unsuccessful run. Errors below "
                f"{ERROR_FLOOR:g} are drawn at {ERROR_FLOOR:g}.")
     return _save(fig, out, f"wp_{kind}_{slug(label)}", f"{label}: error vs {kind}", caption)
@@ -128,8 +144,14 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
         if rows.empty:
             continue
         st = styles[name]
-        ax.plot(rows["level"].astype(int), rows["wall_time"], "-", marker=st["marker"],
-                color=st["color"], label=name)
+        levels = rows["level"].astype(int).to_numpy(dtype=float)
+        times = rows["wall_time"].to_numpy(dtype=float)
+        low, high = rows["wall_time_min"].to_numpy(dtype=float), rows["wall_time_max"].to_numpy(dtype=float)
+        known = np.isfinite(low) & np.isfinite(high)
+        if known.any():
+            ax.errorbar(levels[known], times[known], yerr=np.vstack([times - low, high - times])[:, known],
+                        fmt="none", ecolor=st["color"], elinewidth=1.0, capsize=2.5, alpha=0.8)
+        ax.plot(levels, times, "-", marker=st["marker"], color=st["color"], label=name)
     ax.set_yscale("log")
     ax.set_xlabel("configuration (loose to tight)")
     ax.set_ylabel("warm wall time (s)")
@@ -138,7 +160,8 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
     if ax.lines:
         ax.legend(fontsize=7, ncol=2)
     reason = str(group["reference_status"].iloc[0])
-    caption = f"Cost of each configuration on {label}; accuracy is not measured: {reason}."
+    caption = (f"Cost of each configuration on {label} (median warm wall time; whiskers: fastest to "
+               f"slowest timed run); accuracy is not measured: {reason}.")
     return _save(fig, out, f"cost_{slug(label)}", f"{label}: cost only", caption)
 
 

@@ -2,8 +2,9 @@
 
 Benchmarks written with :func:`nsbench.bench.pytest_bench.bench_case` carry the
 tidy-row columns in ``extra_info``; the timing comes from pytest-benchmark's
-statistics (``wall_time`` = median of the rounds; ``wall_times`` = the rounds if
-the file was saved with ``--benchmark-save-data``). Other benchmarks become rows
+statistics (``wall_time`` = median of the rounds, ``wall_time_min``/``max`` and
+``wall_spread`` from its min and max; ``wall_times`` = the rounds if the file was
+saved with ``--benchmark-save-data``). Other benchmarks become rows
 with their timing only. The machine and commit info become the provenance.
 """
 
@@ -34,8 +35,12 @@ def _row(bench: dict[str, Any]) -> dict[str, Any]:
     row.setdefault("suite", "pytest-benchmark")
     row.setdefault("reference_status", "no accuracy metrics in extra_info")
     data = stats.get("data") or []
-    row.update(wall_time=float(stats.get("median", math.nan)), wall_times=[float(t) for t in data],
-               n_repeats=int(stats.get("rounds", len(data)) or 0))
+    median = float(stats.get("median", math.nan))
+    low, high = float(stats.get("min", math.nan)), float(stats.get("max", math.nan))
+    rounds = int(stats.get("rounds", len(data)) or 0)
+    row.update(wall_time=median, wall_times=[float(t) for t in data], n_repeats=rounds,
+               wall_time_min=low, wall_time_max=high,
+               wall_spread=(high - low) / median if rounds > 1 and median > 0 else math.nan)
     for key in ("switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
                 "final_state_err", "state_err_l2", "first_divergence_time"):
         if row.get(key) is None and key in row:

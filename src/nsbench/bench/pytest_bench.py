@@ -23,11 +23,34 @@ BENCH_PROBLEMS: tuple[tuple[str, int], ...] = (("one-dof", 1), ("two-dof", 1), (
                                                ("two-dof", 3), ("two-dof", 4))
 REFERENCES = ("exact", "reference")
 DENSE_POINTS = 100
+#: Row columns that pytest-benchmark's own statistics provide (see nsbench.bench.ingest).
+_TIMING = ("wall_time", "wall_time_min", "wall_time_max", "wall_spread", "wall_times", "n_repeats",
+           "integrator_time", "integrator_times", "setup_time_timed", "warmup_time", "timestamp")
 
 
 def bench_t_end() -> float:
     """Time span of the benchmarks: ``NSBENCH_BENCH_T_END`` or 100."""
     return float(os.environ.get("NSBENCH_BENCH_T_END", "100"))
+
+
+def bench_span(full: float) -> float:
+    """Span of a benchmark whose full size integrates over ``full`` time units.
+
+    Parameters
+    ----------
+    full
+        The benchmark's own span when ``NSBENCH_BENCH_T_END`` is unset.
+
+    Returns
+    -------
+    float
+        ``min(full, NSBENCH_BENCH_T_END)`` when the variable is set, else ``full``:
+        the variable bounds every benchmark module (a quick smoke run), while a
+        module whose full size differs from :func:`bench_t_end`'s default of 100
+        keeps its own size when it is unset.
+    """
+    value = os.environ.get("NSBENCH_BENCH_T_END")
+    return float(full) if value is None else min(float(full), float(value))
 
 
 def registered_integrators() -> list[str]:
@@ -88,7 +111,7 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
     t_end = bench_t_end() if t_end is None else float(t_end)
     options = dict(options or {})
     case = Case(problem=problem, integrator=integrator, options=options, level=-1, t0=0.0, t_end=t_end,
-                repeats=rounds, repeat_budget=math.inf, time_limit=math.inf, max_steps=2_000_000,
+                repeats=rounds, time_limit=math.inf, max_steps=2_000_000,
                 dense_points=DENSE_POINTS)
     ref = get_reference(cache, problem, t_end)
     prob = problem_from_config(problem)
@@ -113,6 +136,6 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
         metrics.pop("truncated")
         row.update(metrics)
     for key, value in row.items():
-        if key not in ("wall_time", "wall_times", "n_repeats", "timestamp"):  # timing: pytest-benchmark's
+        if key not in _TIMING:  # timing: pytest-benchmark's
             benchmark.extra_info[key] = _json_safe(value)
     return row

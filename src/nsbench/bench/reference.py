@@ -24,6 +24,16 @@ from nsbench.bench.suite import stable_key
 from nsbench.errors import UnsupportedProblemError
 
 
+#: How the status of a reference that could not be computed begins (a failure of the run,
+#: unlike "no reference available": no candidate accepts the problem).
+FAILED = "reference failed"
+
+
+def failed_status(status: str) -> bool:
+    """Whether a ``reference_status`` says the reference run failed (raised, failed, crashed)."""
+    return str(status).startswith(FAILED)
+
+
 @dataclass
 class Reference:
     """A reference run (or why there is none): events, dense states and final state."""
@@ -37,6 +47,9 @@ class Reference:
     y_dense: np.ndarray  # (n_states, k)
     y_final: np.ndarray
     wall_time: float = math.nan
+    #: A candidate accepted the problem but its run raised, failed or crashed: a
+    #: failure of the suite run (unlike "no candidate accepts the problem").
+    failed: bool = False
 
     @property
     def ok(self) -> bool:
@@ -87,13 +100,13 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
             refused.append(config["name"])
             continue
         except Exception as exc:  # a broken reference must not end the suite
-            status = f"reference {config['name']} raised {type(exc).__name__}: {exc}"
+            status = f"{FAILED}: {config['name']} raised {type(exc).__name__}: {exc}"
             return Reference(key, config["name"], config, status, empty, grid,
-                             np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan))
+                             np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan), failed=True)
         if not res.ok:
-            status = f"reference {config['name']} failed: {res.status.value}: {res.message}"
+            status = f"{FAILED}: {config['name']} ended with {res.status.value}: {res.message}"
             return Reference(key, config["name"], config, status, res.events, grid,
-                             np.empty((problem.n_states, 0)), res.y_final, res.wall_time)
+                             np.empty((problem.n_states, 0)), res.y_final, res.wall_time, failed=True)
         dense = res.trajectory[list(problem.state_names)].to_numpy().T
         return Reference(key, config["name"], config, "ok", res.events, grid, dense,
                          res.y_final, res.wall_time + res.setup_time)
@@ -120,7 +133,7 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
         np.save(fh, np.vstack([ref.t_dense[None, :], ref.y_dense]) if ref.y_dense.size
                 else ref.t_dense[None, :])
     data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
-            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time}
+            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed}
     tmp = meta.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(data, indent=1))
     os.replace(tmp, meta)
@@ -135,4 +148,5 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
     table = np.load(dense)
     t_dense, y_dense = table[0], table[1:]
     return Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
-                     t_dense, y_dense, np.array(data["y_final"], dtype=float), data["wall_time"])
+                     t_dense, y_dense, np.array(data["y_final"], dtype=float), data["wall_time"],
+                     bool(data.get("failed", False)))

@@ -13,10 +13,13 @@ import pandas as pd
 
 from nsbench.bench import storage
 from nsbench.bench.figures import Figure, report_figures
+from nsbench.bench.reference import failed_status
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, ranking
+from nsbench.bench.timing import WIDE_SPREAD, wide_spread
 
-_RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "setup_time",
-                   "nfev", "n_events", "n_missed", "n_extra", "switch_err_max", "switch_digits",
+_RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
+                   "n_repeats", "setup_time", "nfev", "n_events", "n_missed", "n_extra", "switch_err_max",
+                   "switch_digits",
                    "state_err_l2"]
 
 
@@ -81,10 +84,46 @@ def _problems_text(frame: pd.DataFrame, prov: dict) -> list[str]:
              f"{frame['problem_label'].nunique()} problems, {frame['integrator'].nunique()} integrators, "
              f"time span [{span[0]:g}, {span[1]:g}]."]
     for label, group in frame.groupby("problem_label"):
-        ref = group["reference"].iloc[0] or "none"
-        status = group["reference_status"].iloc[0]
+        known = group[group["reference_status"].fillna("") != ""]  # rows of an old crash may lack it
+        first = (known if len(known) else group).iloc[0]
+        ref, status = first["reference"] or "none", first["reference_status"]
         lines.append(f"- `{label}`: reference `{ref}`" + ("" if status == "ok" else f" ({status})"))
     return lines
+
+
+def run_failures(frame: pd.DataFrame) -> list[str]:
+    """What went wrong in the run itself (not an integrator's failure): failed references, crashes."""
+    lines = []
+    bad = frame[frame["reference_status"].map(failed_status)]
+    for label, group in bad.groupby("problem_label", sort=True):
+        lines.append(f"The reference of `{label}` could not be computed ({group['reference_status'].iloc[0]}): "
+                     "its cases have no accuracy metrics.")
+    crashed = frame[frame["status"] == "crashed"]
+    if len(crashed):
+        names = ", ".join(f"`{r.problem_label} {r.integrator}`" for r in crashed.itertuples())
+        lines.append(f"{len(crashed)} case(s) crashed their worker process: {names} (see Statuses).")
+    return lines
+
+
+#: Rows of the wide-spread list in a report (the widest; the rest are counted).
+SPREAD_ROWS = 15
+
+
+def _spread_table(frame: pd.DataFrame) -> pd.DataFrame:
+    wide = wide_spread(frame)
+    table = wide[["problem_label", "integrator", "options", "wall_time", "wall_time_min", "wall_time_max"]]
+    table = table.rename(columns={"problem_label": "problem"}).assign(
+        spread=wide["wall_spread"].map(lambda s: f"{100 * s:.0f}%"))
+    return table.head(SPREAD_ROWS).assign(_more=len(table) - min(len(table), SPREAD_ROWS))
+
+
+def _timing_text(frame: pd.DataFrame) -> str:
+    reps = frame.loc[frame["status"] == "success", "n_repeats"].dropna()
+    runs = f"{int(reps.min())}" if len(reps) and reps.min() == reps.max() else \
+        (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
+    return (f"Times are medians of {runs} timed runs per case, all after an untimed warm-up (setup and "
+            "compilation apart, never while another case was timed); '±' is half the min-max range of "
+            "the runs relative to the median.")
 
 
 def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
@@ -101,7 +140,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status",
                                                      "message"]]
     ft_caption = ("Fixed-target cost: for each switching-time error target, the cheapest configuration "
-                  "of each integrator that reaches it (warm wall time / nfev); '-' not reached "
+                  "of each integrator that reaches it (median warm wall time ± half its min-max range "
+                  "/ nfev); '-' not reached "
                   "(a wrong event sequence never counts), 'no ref' no reference for that problem, "
                   "'unsupported' the integrator refuses the problem, 'ref' the problem's reference itself "
                   "(its cost; its error is 0 by construction).")
@@ -109,9 +149,21 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
                     "a target is ranked last there. geo_mean_time is over the targets it reached; problems "
                     "an integrator refuses or is the reference of are left out.")
 
-    md = ["# nsbench report", "", *_problems_text(frame, prov), "", "## Fixed-target table", "",
-          ft_caption, "", markdown_table(wide), "", "## Ranking", "", rank_caption, "",
-          markdown_table(rank), "", "## Figures", ""]
+    problems = run_failures(frame)
+    spread = _spread_table(frame)
+    more = int(spread.pop("_more").iloc[0]) if len(spread) else 0
+    spread_caption = (f"Cases whose timed runs spread by more than {WIDE_SPREAD:.0%} ((max - min) / median), "
+                      "widest first: their times are less certain (a busy machine, or a run that is not "
+                      "repeatable)." + (f" {more} more are not listed (see wall_spread in the results)."
+                                        if more else ""))
+    md = ["# nsbench report", ""]
+    if problems:
+        md += ["**This run is incomplete:**", "", *[f"- {line}" for line in problems], ""]
+    md += [*_problems_text(frame, prov), "", _timing_text(frame), "", "## Fixed-target table", "",
+           ft_caption, "", markdown_table(wide), "", "## Timing spread", ""]
+    md += ([spread_caption, "", markdown_table(spread), ""] if len(spread) else
+           [f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).", ""])
+    md += ["## Ranking", "", rank_caption, "", markdown_table(rank), "", "## Figures", ""]
     for fig in figures:
         md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
     md += ["## Statuses", "", markdown_table(_status_counts(frame)), ""]
@@ -127,7 +179,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     (d / "table.tex").write_text("\n".join(tex))
 
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
-                                        ft_caption, rank_caption))
+                                        ft_caption, rank_caption, problems, spread, spread_caption))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
 
 
@@ -135,7 +187,8 @@ def _html_table(frame: pd.DataFrame) -> str:
     return frame.map(_fmt).to_html(index=False, border=0, classes="tbl", escape=True)
 
 
-def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption) -> str:
+def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
+          spread, spread_caption) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
@@ -144,10 +197,16 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
              "border-bottom:1px solid #ddd;text-align:right}figure{margin:1.5em 0}"
              "figcaption{font-size:13px;color:#444}img{max-width:100%}pre{background:#f6f6f6;padding:1em}",
              "</style></head><body>", "<h1>nsbench report</h1>"]
+    if problems:
+        parts.append("<p><strong>This run is incomplete:</strong></p><ul>"
+                     + "".join(f"<li>{esc(p)}</li>" for p in problems) + "</ul>")
     text = _problems_text(frame, prov)
     parts.append(f"<p>{esc(text[0])}</p><ul>" + "".join(f"<li>{esc(t[2:])}</li>" for t in text[1:]) + "</ul>")
-    parts += ["<h2>Fixed-target table</h2>", f"<p>{esc(ft_caption)}</p>", _html_table(wide),
-              "<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank), "<h2>Figures</h2>"]
+    parts += [f"<p>{esc(_timing_text(frame))}</p>", "<h2>Fixed-target table</h2>", f"<p>{esc(ft_caption)}</p>",
+              _html_table(wide), "<h2>Timing spread</h2>"]
+    parts += ([f"<p>{esc(spread_caption)}</p>", _html_table(spread)] if len(spread) else
+              [f"<p>Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).</p>"])
+    parts += ["<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank), "<h2>Figures</h2>"]
     for fig in figures:
         data = base64.b64encode(fig.png.read_bytes()).decode()
         parts.append(f"<figure id='{esc(fig.name)}'><img alt='{esc(fig.title)}' "

@@ -1,154 +1,166 @@
-"""The suite runner: expand a suite into cases, run the missing ones across processes,
-append each row as it finishes.
+"""The suite runner: expand a suite into cases, run the missing ones, store each row as it
+finishes, export the results.
 
-Workers are fresh interpreters (``spawn``), so integrators with compiled state are
-built inside them. At most one case per worker is in flight, so when a worker
-dies (a crash in compiled code) the suspects are known: each is re-run alone and
-recorded as ``crashed`` if it brings its worker down again. An interruption
-keeps every finished row; the next run with ``resume`` computes only the rest.
+The cases run in worker processes (:mod:`nsbench.bench.worker`, started with
+:mod:`subprocess`, so the user's script is never re-imported), in the phases of
+:mod:`nsbench.bench.scheduler`: references and warm-ups (compilation, first use)
+first, then the timed repeats, never both at once. Even with ``workers=1`` the
+cases run in a child process, so that a case past its time limit can be stopped
+and a crash cannot end the run. The one exception: a component registered from
+``__main__`` (a class defined in the script or notebook itself), which no other
+process can import; then everything runs in this process, with a warning.
+
+An interruption keeps every finished row; the next run with ``resume`` computes
+only the rest.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import os
+import pickle
 import shutil
 import sys
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, TextIO
+from typing import Any, TextIO
 
 import pandas as pd
 
 from nsbench.bench import storage
-from nsbench.bench.execute import base_row, run_case
+from nsbench.bench.execute import run_case
 from nsbench.bench.progress import Progress
-from nsbench.bench.reference import Reference, candidates, compute_reference, load_reference, reference_key, save_reference
+from nsbench.bench.reference import (Reference, candidates, compute_reference, failed_status, load_reference,
+                                     reference_key, save_reference)
+from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
 from nsbench.bench.suite import Case, Suite, load_suite
 
 
 @dataclass
 class RunSummary:
-    """What a run did: how many cases the suite has, were already stored, were computed."""
+    """What a run did, and whether every case and reference could be computed.
+
+    Attributes
+    ----------
+    out
+        The output directory.
+    n_cases, n_resumed, n_computed
+        Cases of the suite, already stored before this run, computed by this run.
+    results
+        Every stored row (this run's and the resumed ones).
+    in_process
+        The cases ran in this process (a component defined in ``__main__``), not in workers.
+    timeline
+        Every task of the workers (start, reference, warm-up, time) with its slot and times.
+    """
 
     out: Path
     n_cases: int
     n_resumed: int
     n_computed: int
     results: pd.DataFrame
+    in_process: bool = False
+    timeline: list[TaskRecord] = field(default_factory=list)
+
+    @property
+    def crashed(self) -> pd.DataFrame:
+        """Rows of cases whose worker process died."""
+        return self.results[self.results["status"] == "crashed"]
+
+    @property
+    def reference_failures(self) -> dict[str, str]:
+        """Problem label -> why its reference run failed (raised, failed or crashed)."""
+        bad = self.results[self.results["reference_status"].map(failed_status)]
+        return dict(zip(bad["problem_label"], bad["reference_status"]))
+
+    @property
+    def ok(self) -> bool:
+        """No case crashed and every reference that a candidate accepted was computed."""
+        return self.crashed.empty and not self.reference_failures
+
+    def problems(self) -> list[str]:
+        """One line per failure that makes the run not :attr:`ok`."""
+        lines = [f"the reference of {label} could not be computed: {why}"
+                 for label, why in self.reference_failures.items()]
+        if not self.crashed.empty:
+            lines.append(f"{len(self.crashed)} case(s) crashed their worker: "
+                         + ", ".join(sorted(self.crashed["problem_label"] + " " + self.crashed["integrator"])))
+        return lines
 
 
-def _init_worker(runtime: dict[str, dict[str, Any]]) -> None:
+# ---------------------------------------------------------------------- the __main__ rule
+def _unimportable(obj: Any) -> bool:
+    """Whether a worker process could not unpickle ``obj`` (pickled by reference)."""
+    if getattr(obj, "__module__", None) == "__main__":
+        return True
+    try:
+        pickle.dumps(obj)
+    except Exception:  # a local class, a lambda...
+        return True
+    return False
+
+
+def _components(cases: list[Case], suite: Suite) -> tuple[dict[str, dict[str, Any]], list[str]]:
+    """Runtime registrations the workers can import, and those of the suite they cannot."""
     from nsbench import registry
 
-    for kind, objs in runtime.items():
+    used = {"integrators": {c.integrator for c in cases} | set(suite.reference),
+            "problems": {c.problem["name"] for c in cases}}
+    shareable: dict[str, dict[str, Any]] = {}
+    local = []
+    for kind, objs in registry.runtime_components().items():
+        shareable[kind] = {}
         for name, obj in objs.items():
-            registry.register(kind, name, obj)  # in-process registrations follow the work
+            if not _unimportable(obj):
+                shareable[kind][name] = obj
+            elif name in used.get(kind, ()):
+                local.append(f"{kind[:-1]} {name!r}")
+    return shareable, local
 
 
-def _pool(workers: int) -> ProcessPoolExecutor:
-    from nsbench import registry
+# ---------------------------------------------------------------------- references
+class _References:
+    """The references of the pending cases: cached ones, the ones to compute, and rows waiting for them."""
 
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_init_worker, initargs=(registry.runtime_components(),))
+    def __init__(self, suite: Suite, pending: list[Case], out: Path) -> None:
+        self.cands = candidates(suite.reference)
+        self.suite, self.dir = suite, out / "references"
+        self.known: dict[str, Reference] = {}
+        self.todo: dict[str, ReferenceTask] = {}
+        t0, t_end = suite.t_span
+        for case in pending:
+            key = self.key(case)
+            if key in self.known or key in self.todo:
+                continue
+            cached = load_reference(self.dir, key)
+            if cached is not None and not cached.failed:
+                self.known[key] = cached
+            else:
+                self.todo[key] = ReferenceTask(key, case.problem, self.cands, t0, t_end, suite.dense_points)
 
+    def key(self, case: Case) -> str:
+        return reference_key(case.problem, self.cands, self.suite.t_span[0], self.suite.t_span[1],
+                             self.suite.dense_points)
 
-def _kill(pool: ProcessPoolExecutor) -> None:
-    """Stop a pool now, running tasks included (an interrupt must not wait for them)."""
-    for proc in list(getattr(pool, "_processes", {}).values()):
-        if proc.is_alive():
-            proc.terminate()
-    pool.shutdown(wait=True, cancel_futures=True)
+    def of(self, case: Case) -> Reference:
+        return self.known[self.key(case)]
 
-
-def _map(fn: Callable, tasks: list[tuple], workers: int, on_done: Callable[[tuple, Any], None],
-         on_crash: Callable[[tuple], None]) -> None:
-    """Run ``fn(*task)`` for every task with ``workers`` processes (in-process if 1).
-
-    ``on_done(task, result)`` runs in this process as each task finishes.
-    """
-    if workers <= 1:
-        for task in tasks:
-            on_done(task, fn(*task))
-        return
-    queue = list(reversed(tasks))
-    suspects: list[tuple] = []
-    pool = _pool(workers)
-    running: dict[Future, tuple] = {}
-    try:
-        while queue or running:
-            while queue and len(running) < workers:
-                task = queue.pop()
-                running[pool.submit(fn, *task)] = task
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                task = running.pop(fut)
-                try:
-                    result = fut.result()
-                except BrokenProcessPool:
-                    suspects.append(task)
-                    continue
-                on_done(task, result)
-            if suspects:  # the pool is dead: every task in flight is a suspect
-                suspects.extend(running.values())
-                running.clear()
-                pool.shutdown(wait=True, cancel_futures=True)
-                for task in suspects:
-                    _isolated(fn, task, on_done, on_crash)
-                suspects = []
-                pool = _pool(workers)
-    except BaseException:
-        # Keep what finished before the interrupt, then stop the workers at once.
-        for fut, task in list(running.items()):
-            if fut.done() and not fut.cancelled() and fut.exception() is None:
-                on_done(task, fut.result())
-        _kill(pool)
-        raise
-    pool.shutdown(wait=True)
+    def add(self, key: str, ref: Reference) -> None:
+        if not ref.failed:  # a failure is not cached: the next run tries again
+            save_reference(self.dir, ref)
+        self.known[key] = ref
 
 
-def _isolated(fn: Callable, task: tuple, on_done, on_crash) -> None:
-    pool = _pool(1)
-    try:
-        on_done(task, pool.submit(fn, *task).result())
-    except BrokenProcessPool:
-        on_crash(task)
-    finally:
-        pool.shutdown(wait=True)
+def _with_reference(row: dict[str, Any], ref: Reference) -> dict[str, Any]:
+    """Fill the reference columns of a row built without them (failures, crashes)."""
+    import json
+
+    if not row.get("reference_status"):
+        row.update(reference=ref.name or "", reference_status=ref.status,
+                   reference_config=json.dumps(ref.config, sort_keys=True, default=float))
+    return row
 
 
-def _references(suite: Suite, pending: list[Case], out: Path, workers: int) -> dict[str, Reference]:
-    """The reference of every problem of ``pending``: from the cache, else computed (in parallel)."""
-    cands = candidates(suite.reference)
-    t0, t_end = suite.t_span
-    refs: dict[str, Reference] = {}
-    todo: dict[str, tuple] = {}
-    for case in pending:
-        key = reference_key(case.problem, cands, t0, t_end, suite.dense_points)
-        if key in refs or key in todo:
-            continue
-        cached = load_reference(out / "references", key)
-        if cached is not None:
-            refs[key] = cached
-        else:
-            todo[key] = (case.problem, cands, t0, t_end, suite.dense_points)
-
-    def done(task: tuple, ref: Reference) -> None:
-        save_reference(out / "references", ref)
-        refs[ref.key] = ref
-
-    def crashed(task: tuple) -> None:
-        key = reference_key(task[0], cands, t0, t_end, suite.dense_points)
-        refs[key] = compute_reference(task[0], [], t0, t_end, suite.dense_points)
-        refs[key].status = "no reference available: the reference run crashed its worker"
-        refs[key].key = key
-
-    _map(compute_reference, list(todo.values()), min(workers, len(todo)), done, crashed)
-    return refs
-
-
+# ---------------------------------------------------------------------- running
 def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int | None = None,
               resume: bool = True, progress: bool = True, stream: TextIO | None = None,
               provenance_extra: dict[str, Any] | None = None) -> RunSummary:
@@ -161,14 +173,22 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     out
         Output directory (see :mod:`nsbench.bench.storage` for its layout).
     workers
-        Processes (default: all cores); 1 runs in this process.
+        Worker processes (default: all cores). With 1, the cases still run in one
+        child process (so that the time limit can stop them).
     resume
         Keep the cases already stored in ``out`` (default); ``False`` discards them first.
     progress, stream
-        Show a progress bar on ``stream`` (default stderr).
+        Show a progress bar and warnings on ``stream`` (default stderr).
+
+    Returns
+    -------
+    RunSummary
+        Counts, the results, and :attr:`RunSummary.ok`: ``False`` when a case
+        crashed or a reference could not be computed (the CLI then exits with 1).
     """
     from nsbench.provenance import provenance
 
+    err = stream or sys.stderr
     suite = load_suite(suite)
     out = Path(out)
     if not resume and (out / "cases").exists():
@@ -176,37 +196,75 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     out.mkdir(parents=True, exist_ok=True)
     cases = list({c.case_id: c for c in suite.cases()}.values())
     prov = {**provenance(), "suite": suite.to_dict(), **(provenance_extra or {})}
-    unavailable = suite.unavailable()
-    if unavailable:
-        prov["unavailable_integrators"] = unavailable
-        for name, reason in unavailable.items():
-            print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=stream or sys.stderr)
+    for name, reason in suite.unavailable().items():
+        prov.setdefault("unavailable_integrators", {})[name] = reason
+        print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)
     done = storage.done_ids(out)
     pending = [c for c in cases if c.case_id not in done]
-    pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: better load balance
+    pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: the best start for the balance
+    shareable, local = _components(pending, suite)
     workers = max(1, int(workers or os.cpu_count() or 1))
-    refs = _references(suite, pending, out, workers)
-    cands = candidates(suite.reference)
-    bar = Progress(len(pending), stream=stream, enabled=progress)
+    prov["workers"] = 1 if local else min(workers, max(1, len(pending)))
+    refs = _References(suite, pending, out)
+    # One step per reference, two per case (its first warm-up, then its timing).
+    bar = Progress(len(refs.todo) + 2 * len(pending), label="steps",
+                   stream=err, enabled=progress)
+    waiting: dict[str, list[dict[str, Any]]] = {}
 
-    def ref_of(case: Case) -> Reference:
-        return refs[reference_key(case.problem, cands, suite.t_span[0], suite.t_span[1], suite.dense_points)]
+    def store(row: dict[str, Any], stored: bool = False) -> None:
+        case = row_case[row["case_id"]]
+        key = refs.key(case)
+        if key not in refs.known:  # a row from the warm-ups can come before its reference
+            waiting.setdefault(key, []).append(row)
+            return
+        if not stored:
+            storage.append_row(out, _with_reference(row, refs.known[key]), prov)
+        bar.update(case.label)
 
-    def done_case(task: tuple, row: dict[str, Any]) -> None:
-        storage.append_row(out, row, prov)
-        bar.update(task[0].label)
+    def reference_done(key: str, ref: Reference) -> None:
+        refs.add(key, ref)
+        bar.update("reference")
+        for row in waiting.pop(key, []):
+            store(row)
 
-    def crashed(task: tuple) -> None:
-        row = base_row(task[0], suite.name)
-        row.update(status="crashed", message="the worker process died while running this case")
-        done_case(task, row)
-
-    tasks = [(case, ref_of(case), suite.name) for case in pending]
+    row_case = {c.case_id: c for c in pending}
+    timeline: list[TaskRecord] = []
     try:
-        _map(run_case, tasks, min(workers, max(1, len(tasks))), done_case, crashed)
+        if local:
+            print(f"nsbench: warning: {', '.join(local)} is defined in __main__, which worker processes "
+                  "cannot import: running every case in this process (no parallelism, time limit checked "
+                  "between arcs only, a crash ends the run); define it in an importable module to use workers",
+                  file=err)
+            _run_in_process(pending, refs, suite.name, store, reference_done, bar)
+        elif pending:
+            scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
+                                  _hello(shareable, out, prov), prov["workers"], suite.name,
+                                  on_warm=lambda label: bar.update(label))
+            timeline = scheduler.timeline
+            scheduler.run()
     finally:
         bar.close()
+        if timeline:  # kept after an interruption too: where did the time go
+            storage.write_timeline(out, timeline)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
-    return RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),
-                      n_computed=len(pending), results=results)
+    summary = RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),
+                         n_computed=len(pending), results=results, in_process=bool(local), timeline=timeline)
+    for line in summary.problems():
+        print(f"nsbench: warning: {line}", file=err)
+    return summary
 
+
+def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any]):
+    from nsbench.bench.pool import hello
+
+    return hello(components, out, prov)
+
+
+def _run_in_process(pending: list[Case], refs: _References, suite: str, store, reference_done, bar) -> None:
+    """The fallback without workers: references, then each case warmed up and timed in turn."""
+    for key, task in list(refs.todo.items()):
+        reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end,
+                                              task.dense_points))
+    for case in pending:
+        bar.update(case.label)  # its warm-up step
+        store(run_case(case, refs.of(case), suite))

@@ -33,10 +33,19 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("nsteps", "steps or segments"),
     ("n_events", "events logged by the run"),
     ("counters_extra", "JSON: integrator-specific counters"),
-    ("wall_time", "seconds integrating: median of the warm repeats (the single run if timed once)"),
-    ("wall_times", "list: wall time of every run, cold first"),
-    ("n_repeats", "number of timed runs"),
-    ("setup_time", "seconds in the integrator's setup on the first (cold) run: compilation, operators"),
+    ("wall_time", "seconds integrating: median of the timed runs (all warm: after an untimed warm-up)"),
+    ("wall_time_min", "fastest timed run (seconds)"),
+    ("wall_time_max", "slowest timed run (seconds)"),
+    ("wall_spread", "relative spread of the timed runs, (max - min) / median; NaN with one run"),
+    ("wall_times", "list: wall time of every timed run, in order (the warm-up is not among them)"),
+    ("n_repeats", "number of timed runs: the suite's repeats (at least 3) if successful, 1 if the run failed"),
+    ("integrator_time", "seconds inside the integrator (engine's own clock): median over the timed runs; "
+                        "NaN if the engine does not report it"),
+    ("integrator_times", "list: integrator_time of every timed run"),
+    ("setup_time", "seconds in the integrator's setup in the warm-up (cold): compilation, operators"),
+    ("setup_time_timed", "longest setup among the timed runs: near 0 when warm; a large value means "
+                         "compilation happened while timing"),
+    ("warmup_time", "seconds of the untimed warm-up run (the first tenth of the span, cold)"),
     ("reference", "name of the reference integrator, empty if none"),
     ("reference_config", "JSON: its config"),
     ("reference_status", "'ok', or why there is no usable reference"),
@@ -60,7 +69,7 @@ COLUMNS: tuple[tuple[str, str], ...] = (
 )
 
 COLUMN_NAMES: tuple[str, ...] = tuple(name for name, _ in COLUMNS)
-LIST_COLUMNS = ("wall_times", "event_t", "event_err")
+LIST_COLUMNS = ("wall_times", "integrator_times", "event_t", "event_err")
 JSON_COLUMNS = ("problem_config", "integrator_config", "options", "counters_extra", "reference_config")
 RUNNER_STATUSES = ("unsupported", "time limit", "error", "crashed")
 

@@ -8,11 +8,13 @@ Layout of an output directory::
     results.parquet             all rows (rewritten by the runner, report and ingest)
     results.csv                 the same, '#' comment lines of provenance first
     provenance.json             the provenance of the latest run into this directory
+    timeline.csv                the worker tasks of the latest run (start, reference, warm-up, time)
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any, Iterable
@@ -27,10 +29,19 @@ from nsbench.errors import ConfigError
 PROVENANCE_KEY = b"nsbench.provenance"
 _INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
         "n_matched", "n_missed", "n_extra", "first_divergence_index")
-_FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "setup_time", "first_divergence_time",
+_FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
+          "wall_spread", "integrator_time", "setup_time", "setup_time_timed", "warmup_time",
+          "first_divergence_time",
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
           "final_state_err", "state_err_l2")
 _BOOL = ("sequence_ok",)
+
+
+def _float_list(value: Any) -> list[float]:
+    """A list column's cell as floats; Arrow stores NaN in a list as null, read back as None."""
+    if not (isinstance(value, (list, tuple)) or hasattr(value, "tolist")):
+        return []
+    return [math.nan if x is None else float(x) for x in value]
 
 
 def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
@@ -47,8 +58,7 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     for name in _BOOL:
         frame[name] = frame[name].astype("boolean")
     for name in LIST_COLUMNS:
-        frame[name] = frame[name].apply(lambda v: [float(x) for x in v] if isinstance(v, (list, tuple)) or
-                                        hasattr(v, "tolist") else [])
+        frame[name] = frame[name].apply(_float_list)
     for name in COLUMN_NAMES:
         if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS:
             frame[name] = frame[name].map(lambda v: "" if v is None else str(v)).astype("string")
@@ -119,7 +129,8 @@ def load_results(path: str | Path) -> pd.DataFrame:
     if p.suffix == ".csv":
         frame = pd.read_csv(p, comment="#")
         for name in LIST_COLUMNS:
-            frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
+            if name in frame:  # an older export may lack a newer list column
+                frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
         return to_frame(frame.to_dict("records"))
     if p.suffix == ".parquet":
         return to_frame(pd.read_parquet(p).to_dict("records"))
@@ -143,6 +154,22 @@ def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.Data
     os.replace(tmp, o / "results.csv")
     (o / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
     return frame
+
+
+def write_timeline(out: str | Path, records: Iterable[Any]) -> Path:
+    """Write ``timeline.csv``: one line per worker task, seconds from the first task's start.
+
+    ``records`` are :class:`nsbench.bench.scheduler.TaskRecord`; the file shows
+    the phases (no warm-up overlaps a timed case) and where a worker was lost.
+    """
+    frame = pd.DataFrame([vars(r) for r in records],
+                         columns=["slot", "pid", "kind", "label", "start", "end", "outcome"])
+    if len(frame):
+        t0 = frame["start"].min()
+        frame["start"], frame["end"] = frame["start"] - t0, frame["end"] - t0
+    path = Path(out) / "timeline.csv"
+    frame.to_csv(path, index=False, float_format="%.3f")
+    return path
 
 
 def json_column(frame: pd.DataFrame, name: str) -> pd.Series:

@@ -17,6 +17,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from nsbench.bench.timing import MIN_REPEATS
 from nsbench.errors import ConfigError
 
 _SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "max_steps",
@@ -46,7 +47,6 @@ class Case:
     t0: float
     t_end: float
     repeats: int
-    repeat_budget: float
     time_limit: float
     max_steps: int
     dense_points: int
@@ -105,11 +105,15 @@ class Suite:
         (name -> ``{'levels': [indices], 'reason': str}``, data that keeps known
         slow levels out of a suite).
     repeats
-        Timed runs per case; the wall time is the median of the warm ones.
+        Timed runs per case, all after an untimed warm-up; the wall time is their
+        median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS` (3) are raised to 3.
     repeat_budget
-        Seconds: a case whose first run took longer is timed once (cost control).
+        Deprecated and ignored (accepted so that older suite files still load):
+        every successful case is now timed on ``repeats`` warm runs.
     time_limit
-        Wall-clock seconds per run; past it the case ends with status ``time limit``.
+        Wall-clock seconds per run (the warm-up run and each timed run; setup,
+        i.e. compilation, is not limited). Past it the runner ends the worker
+        process and the case is recorded with status ``time limit``.
     max_steps
         Step budget per run.
     dense_points
@@ -126,7 +130,7 @@ class Suite:
     problems: list[dict[str, Any]] = field(default_factory=list)
     integrators: dict[str, Any] = field(default_factory=lambda: {"registered": True})
     repeats: int = 3
-    repeat_budget: float = 1.0
+    repeat_budget: float | None = None
     time_limit: float = 30.0
     max_steps: int = 2_000_000
     dense_points: int = 100
@@ -145,8 +149,11 @@ class Suite:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ConfigError(f"{key} = {value!r} must be an integer >= {low}")
+        self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
         for key in ("repeat_budget", "time_limit"):
             value = getattr(self, key)
+            if key == "repeat_budget" and value is None:
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ConfigError(f"{key} = {value!r} must be a positive number of seconds")
         if isinstance(self.reference, str):
@@ -275,7 +282,6 @@ class Suite:
                 for level, options in sets:
                     out.append(Case(problem=problem, integrator=name, options=options, level=level,
                                     t0=self.t_span[0], t_end=self.t_span[1], repeats=self.repeats,
-                                    repeat_budget=float(self.repeat_budget),
                                     time_limit=float(self.time_limit), max_steps=self.max_steps,
                                     dense_points=self.dense_points))
         return out

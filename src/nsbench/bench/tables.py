@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.bench.metrics import reaches
+from nsbench.bench.timing import spread_label
 
 DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
 
@@ -33,14 +34,15 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     Columns: ``problem_label, integrator, target, outcome`` (``reached``, ``not
     reached``, ``no reference``, ``unsupported``, or ``reference`` for the
     problem's reference itself), and for reached targets the cheapest case's
-    ``wall_time, nfev, options, level, case_id``.
+    ``wall_time`` (median of its timed runs), ``wall_spread`` (``(max - min) /
+    median``), ``nfev, options, level, case_id``.
     """
     rows = []
     for (label, name), group in frame.groupby(["problem_label", "integrator"], sort=True):
         has_ref = bool((group["reference_status"] == "ok").any())
         for target in targets:
             row = {"problem_label": label, "integrator": name, "target": float(target),
-                   "outcome": "no reference", "wall_time": math.nan, "nfev": pd.NA,
+                   "outcome": "no reference", "wall_time": math.nan, "wall_spread": math.nan, "nfev": pd.NA,
                    "options": "", "level": pd.NA, "case_id": ""}
             if (group["status"] == "unsupported").all():
                 row["outcome"] = "unsupported"
@@ -49,31 +51,41 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 best = group.loc[group["wall_time"].idxmin()] if group["wall_time"].notna().any() else None
                 row["outcome"] = "reference"
                 if best is not None:
-                    row.update(wall_time=float(best["wall_time"]), nfev=best["nfev"],
-                               options=best["options"], level=best["level"], case_id=best["case_id"])
+                    row.update(_cost(best))
             elif has_ref:
                 ok = group[reached_mask(group, target)]
                 if len(ok):
                     best = ok.loc[ok["wall_time"].idxmin()]
-                    row.update(outcome="reached", wall_time=float(best["wall_time"]), nfev=best["nfev"],
-                               options=best["options"], level=best["level"], case_id=best["case_id"])
+                    row.update(outcome="reached", **_cost(best))
                 else:
                     row["outcome"] = "not reached"
             rows.append(row)
     return pd.DataFrame(rows, columns=["problem_label", "integrator", "target", "outcome", "wall_time",
-                                       "nfev", "options", "level", "case_id"])
+                                       "wall_spread", "nfev", "options", "level", "case_id"])
+
+
+def _cost(best: pd.Series) -> dict:
+    spread = best["wall_spread"] if "wall_spread" in best and pd.notna(best["wall_spread"]) else math.nan
+    return {"wall_time": float(best["wall_time"]), "wall_spread": float(spread), "nfev": best["nfev"],
+            "options": best["options"], "level": best["level"], "case_id": best["case_id"]}
+
+
+def _time(row: pd.Series) -> str:
+    """``'0.123 s ±4%'``: the median and half its min-max range (no ± for a single run)."""
+    label = spread_label(row["wall_spread"])
+    return f"{row['wall_time']:.3g} s" + (f" {label}" if label else "")
 
 
 def _cell(row: pd.Series) -> str:
     if row["outcome"] == "reached":
-        return f"{row['wall_time']:.3g} s / {int(row['nfev'])}"
+        return f"{_time(row)} / {int(row['nfev'])}"
     if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
-        return f"ref ({row['wall_time']:.3g} s / {int(row['nfev'])})"
+        return f"ref ({_time(row)} / {int(row['nfev'])})"
     return {"no reference": "no ref", "unsupported": "unsupported"}.get(row["outcome"], "-")
 
 
 def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
-    """Display form: rows (problem, integrator), one column per target, cells ``'time s / nfev'``."""
+    """Display form: rows (problem, integrator), one column per target, cells ``'time s ±x% / nfev'``."""
     if long.empty:
         return pd.DataFrame(columns=["problem", "integrator"])
     cells = long.assign(cell=long.apply(_cell, axis=1), col=long["target"].map(lambda t: f"{t:.0e}"))

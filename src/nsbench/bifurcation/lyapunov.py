@@ -1,4 +1,4 @@
-"""Largest Lyapunov exponent of the mapping-point return map (Benettin's two-trajectory method).
+"""Largest Lyapunov exponent of the mapping-point return map: an ensemble of Benettin estimates.
 
 A mapping point is a slip event: the state where the locus of sticking phase
 leaves a sliding region. The return map takes one mapping point to the next.
@@ -7,14 +7,43 @@ coordinates that are free there: velocities pinned at the belt speed are left
 alone; for forced problems the forcing phase ``Omega t`` counts as a
 coordinate), both are integrated to their next mapping point, the separation
 ``d`` is measured there, ``log(d / d0)`` is accumulated, and the copy is put
-back at distance ``d0`` along the new separation. The mean over the
-iterations is the exponent per mapping point; divided by the mean return time
-it is per unit time. The convergence check asks for a small standard error
-(from the spread of 10 block means, which accounts for correlation between
-iterations) and for the estimates from the two halves of the iterations to agree.
+back at distance ``d0`` along the new separation (Benettin's two-trajectory
+method). The mean of the logs is the exponent per mapping point; divided by
+the elapsed time instead of the iteration count it is per unit time.
 
-This uses the compiled hybrid loop, which can start in a given mode
-(``exact-jit`` for linear problems, ``henon-rk4-jit`` for any).
+Why an ensemble. On a chaotic attractor the course of one trajectory depends on
+the last bits of floating point (LAPACK kernels, CPU features), so one long
+run gives a different estimate on another machine, and the error computed from
+that run alone (block means of one correlated series) does not say by how
+much. Here ``members`` independent estimates are made instead: each member
+starts from its own seeded perturbation (size ``spread``) of the standard
+initial condition, runs its own transient and its own Benettin iterations with
+its own random initial direction. On a chaotic attractor the transient spreads
+the members over the attractor (the perturbation grows by
+``exp(exponent per unit time * transient)``), so their estimates are
+independent draws of exactly the kind of variation another machine or another
+start produces. The exponent is the ensemble mean, its standard error the
+spread across members over ``sqrt(members)``, with a Student-t confidence
+interval. What the ensemble cannot see is a bias common to all members (of
+``d0``, of the integrator's discretisation, of the finite run length): compare
+integrators or settings for that.
+
+Verdict (``converged``), see :func:`_verdict`: the standard error is small,
+``<= max(0.05 |exponent|, tol / 2)``, and no member is an outlier from the
+others, both statistically (leave-one-out t test, Bonferroni over the members)
+and by a relevant amount (``> max(0.1 |exponent|, tol)``). An outlier means the
+members do not sample one common distribution: some ended on another
+attractor. This happens on the chaotic test case (two-dof case 2, F = 0.1417):
+a coexisting stable motion (exponent about -0.21 per mapping point) captures
+about one member in 100, mostly during its transient from rest, and a chaotic
+run about once per 10^5 mapping points. The ensemble mean keeps such a
+member (dropping it would bias the estimate), its spread widens the standard
+error, and the verdict says which member disagrees; many short members (the
+default 32) keep one capture from dominating the mean.
+
+The map is advanced by the compiled hybrid loop, which can start in a given
+mode (``exact-jit`` for linear problems, ``henon-rk4-jit`` for any); everything
+that depends on it is in :func:`_can_map` and :func:`_mapping_point`.
 """
 
 from __future__ import annotations
@@ -26,160 +55,436 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 
+#: Family-wise false-alarm rate of the outlier test over all members.
+OUTLIER_ALPHA = 1e-3
+#: Number of block means of the within-member standard error (a diagnostic).
+N_BLOCKS = 10
+#: Each member first advances a random number of mapping points in ``0 .. PHASES - 1``.
+#: 60 is a multiple of every period up to 6 (and of 10, 12, 15, 20, 30).
+PHASES = 60
+
 
 @dataclass
 class LyapunovResult:
-    """Estimate of the largest Lyapunov exponent of the mapping-point return map.
+    """Ensemble estimate of the largest Lyapunov exponent of the mapping-point return map.
 
     Attributes
     ----------
     exponent
-        Per mapping point (mean of ``log(d_k / d0)``).
-    exponent_per_time
-        Per unit time (sum of logs over the elapsed time).
-    first_half, second_half
-        Estimates from each half of the iterations.
+        Ensemble mean of the members' estimates, per mapping point.
     standard_error
-        Standard error of ``exponent`` from 10 block means.
+        Standard deviation of the members' estimates over ``sqrt(members)``: the
+        uncertainty of ``exponent`` against another start or another machine.
+    ci_low, ci_high, confidence
+        Student-t confidence interval of ``exponent`` (``members - 1`` degrees of
+        freedom) at level ``confidence``.
+    exponent_per_time, standard_error_per_time
+        The same per unit time (each member: sum of logs over its elapsed time).
+    members
+        Each member's estimate per mapping point (mean of its ``log(d_k / d0)``);
+        NaN for a member that failed.
+    members_per_time
+        Each member's estimate per unit time.
+    member_errors
+        Each member's standard error from its own 10 block means: a diagnostic
+        only (one correlated series understates what another start gives).
     converged
-        ``standard_error <= max(0.05 |exponent|, tol / 2)`` and the halves agree
-        within ``max(0.1 |exponent|, tol)``.
-    iterations, mean_return_time, block_mismatches
-        Map iterations done, mean time between mapping points, and the
-        iterations where the two copies reached their next mapping point on
-        different blocks (near a border-collision).
+        ``precise and consistent`` (and the run succeeded).
+    precise
+        ``standard_error <= max(0.05 |exponent|, tol / 2)``.
+    outliers
+        Indices of members that disagree with the others (see :func:`_verdict`);
+        ``consistent`` is ``not outliers``.
+    iterations, iterations_per_member
+        Map iterations done in all and by each member.
+    mean_return_time
+        Mean time between mapping points over all members.
+    block_mismatches
+        Iterations where the two copies reached their next mapping point on
+        different blocks (near a border-collision), over all members.
+    seed
+        Seed of the members' start perturbations, phases and initial directions
+        (member ``i`` draws from child ``i`` of ``SeedSequence(seed)``, whatever
+        the number of members or workers).
     logs
-        ``log(d_k / d0)`` per iteration.
+        ``log(d_k / d0)``, one row per member (NaN after a member's failure).
     """
 
     exponent: float
-    exponent_per_time: float
-    first_half: float
-    second_half: float
     standard_error: float
+    ci_low: float
+    ci_high: float
+    confidence: float
+    exponent_per_time: float
+    standard_error_per_time: float
+    members: np.ndarray
+    members_per_time: np.ndarray
+    member_errors: np.ndarray
     converged: bool
+    precise: bool
+    outliers: tuple[int, ...]
     iterations: int
+    iterations_per_member: int
     mean_return_time: float
     block_mismatches: int
+    seed: int
     status: str = "success"
     message: str = ""
-    logs: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
+    logs: np.ndarray = field(default_factory=lambda: np.empty((0, 0)), repr=False)
+
+    @property
+    def consistent(self) -> bool:
+        """No member is an outlier from the others."""
+        return not self.outliers
+
+    @property
+    def n_members(self) -> int:
+        """Members run (including any that failed)."""
+        return len(self.members)
 
     def summary(self) -> str:
-        verdict = "converged" if self.converged else "NOT converged"
-        return (f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, "
-                f"{self.exponent_per_time:+.5f} per unit time, standard error {self.standard_error:.2g} "
-                f"({verdict}: halves "
-                f"{self.first_half:+.5f} / {self.second_half:+.5f}; {self.iterations} iterations, "
+        """One line with the estimate, its uncertainty, the verdict and how it was made."""
+        if self.converged:
+            verdict = "converged"
+        else:
+            why = []
+            if self.status != "success":
+                why.append(self.status)
+            if not self.precise:
+                why.append("standard error too large")
+            if self.outliers:
+                why.append("inconsistent member(s) "
+                           + ", ".join(f"{i} ({self.members[i]:+.4f})" for i in self.outliers))
+            verdict = "NOT converged: " + "; ".join(why)
+        spread = (f"members {np.nanmin(self.members):+.4f} .. {np.nanmax(self.members):+.4f}"
+                  if np.isfinite(self.members).any() else "no member finished")
+        return (f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, standard error "
+                f"{self.standard_error:.2g}, {100 * self.confidence:g}% CI [{self.ci_low:+.5f}, "
+                f"{self.ci_high:+.5f}]; {self.exponent_per_time:+.5f} per unit time (standard error "
+                f"{self.standard_error_per_time:.2g}) ({verdict}; {self.n_members} members x "
+                f"{self.iterations_per_member} iterations, {spread}, seed {self.seed}, "
                 f"mean return time {self.mean_return_time:.4g}, block mismatches {self.block_mismatches})")
 
 
-def _next_mapping(integ, problem, t, y, mode, window):
-    run = integ.run(problem, t_end=t + window, section="mapping", t_rec=t, n_rec=1, t0=t, y0=y, mode=mode)
-    if run.n < 1:
-        return None, run
-    return (float(run.rec_t[0]), np.array(run.rec_y[0]), run.mode.copy(), int(run.rec_block[0])), run
+@dataclass
+class _Member:
+    """One member's run: its logs, the times of its mapping points, and how it ended."""
 
+    logs: np.ndarray
+    times: np.ndarray
+    t_first: float
+    mismatches: int
+    message: str = ""
+
+
+# -- the only use of the compiled loop's ``run`` --------------------------------------------------
+
+def _can_map(integ) -> bool:
+    """Whether ``integ`` can run from mapping point to mapping point (the compiled loop)."""
+    return hasattr(integ, "run")
+
+
+def _mapping_point(integ, problem, t, y, mode, t_rec, window):
+    """First mapping point at or after ``t_rec`` of the motion from ``(t, y)``.
+
+    ``mode`` is the mode at the start (None: the mode of ``y``). Returns
+    ``((t, y, mode, block), status)``, or ``(None, status)`` if there is none
+    before ``t_rec + window``.
+    """
+    run = integ.run(problem, t_end=t_rec + window, section="mapping", t_rec=t_rec, n_rec=1, t0=t, y0=y,
+                    mode=mode)
+    if run.n < 1:
+        return None, run.status
+    return (float(run.rec_t[0]), np.array(run.rec_y[0]), run.mode.copy(), int(run.rec_block[0])), run.status
+
+
+# -- one member ----------------------------------------------------------------------------------
+
+def _free_direction(vec, y, problem, forced):
+    """``vec`` with the pinned coordinates zeroed, normalised; None if nothing is left."""
+    vec = vec.copy()
+    v0 = problem.v0
+    pinned = [2 * i + 1 for i in range(problem.n_blocks) if y[2 * i + 1] == v0]
+    vec[pinned] = 0.0
+    if not forced:
+        vec[problem.n_states] = 0.0
+    norm = math.sqrt(float(vec @ vec))
+    return vec / norm if norm > 0 else None
+
+
+def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, align) -> _Member:
+    """Benettin iterations of one member from its own perturbed start.
+
+    After the transient the member advances a random number of mapping points
+    (uniform in ``0 .. PHASES - 1``), so that members on one periodic orbit start
+    at different points of it: the error of averaging over a fraction of a
+    period then differs between members and shows in their spread (it averages
+    out over the phases), instead of being the same for all and invisible. In
+    case 1, v0 = 0.1 (period 3, exponent -0.1251), 25 iterations from one fixed
+    phase give -0.1069 in every member.
+
+    The first ``align`` Benettin iterations are not counted: the random initial
+    direction is not yet the most expanding one, and its first stretch is
+    atypical (measured in case 2, F = 0.1417: +0.93 +- 0.16 on the first
+    iteration against +0.08 on average, indistinguishable from it afterwards).
+    """
+    forced = problem.is_forced and problem.coefficients.w > 0
+    w = problem.coefficients.w if forced else 0.0
+    n = problem.n_states
+    y0 = problem.initial_state() + spread * rng.normal(size=n)
+    ref, status = _mapping_point(integ, problem, 0.0, y0, None, transient, window)
+    for _ in range(int(rng.integers(PHASES))):
+        if ref is None:
+            break
+        ref, status = _mapping_point(integ, problem, ref[0], ref[1], ref[2], ref[0], window)
+    if ref is None:
+        return _Member(np.empty(0), np.empty(0), 0.0, 0,
+                       f"no mapping point within {window:g} after the transient ({status}): "
+                       "the motion has no slip events (pure sliding or permanent sticking)")
+    u = _free_direction(rng.normal(size=n + 1), ref[1], problem, forced)
+    logs, times, mismatches = [], [], 0
+    t_first = ref[0]
+    for k in range(align + iterations):
+        if k == align:  # the direction has aligned: count from here
+            logs, times, mismatches, t_first = [], [], 0, ref[0]
+        if u is None:  # every free direction collapsed: restart from a random one
+            u = _free_direction(rng.normal(size=n + 1), ref[1], problem, forced)
+        t, y, mode, _ = ref
+        pert_y = y + d0 * u[:n]
+        pert_t = t + d0 * u[n] / w if forced else t
+        nxt, status = _mapping_point(integ, problem, t, y, mode, t, window)
+        pnx, pstatus = (None, "") if nxt is None else _mapping_point(integ, problem, pert_t, pert_y,
+                                                                      mode.copy(), pert_t, window)
+        if nxt is None or pnx is None:
+            return _Member(np.array(logs), np.array(times), t_first, mismatches,
+                           f"no next mapping point within {window:g} ({status if nxt is None else pstatus})")
+        mismatches += int(nxt[3] != pnx[3])
+        diff = np.append(pnx[1] - nxt[1], w * (pnx[0] - nxt[0]))
+        d = math.sqrt(float(diff @ diff))
+        # a vanishing separation (both copies stuck to the same state) is a strong contraction:
+        # count it as a factor 1e-16 rather than log(0)
+        logs.append(math.log(max(d, d0 * 1e-16) / d0))
+        times.append(nxt[0])
+        ref = nxt
+        u = _free_direction(diff, nxt[1], problem, forced) if d > 0 else None
+    return _Member(np.array(logs), np.array(times), t_first, mismatches)
+
+
+# -- running the members, in this process or in forked workers ------------------------------------
+
+_FORK_STATE: dict = {}
+
+
+def _member_task(index: int, seed_seq: np.random.SeedSequence) -> tuple[int, _Member]:
+    """Run member ``index`` in a forked worker, with the integrator the parent set up."""
+    s = _FORK_STATE
+    rng = np.random.default_rng(seed_seq)
+    return index, _run_member(s["integ"], s["problem"], rng, **s["params"])
+
+
+def _run_members(integ, problem, seeds, params, workers) -> list[_Member]:
+    import multiprocessing
+
+    if workers <= 1 or len(seeds) == 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [_run_member(integ, problem, np.random.default_rng(s), **params) for s in seeds]
+    from concurrent.futures import ProcessPoolExecutor
+
+    # fork hands the workers the integrator already set up (compiled code loaded)
+    # through this module's state; only member indices and seeds are sent
+    _FORK_STATE.update(integ=integ, problem=problem, params=params)
+    ctx = multiprocessing.get_context("fork")
+    try:
+        with ProcessPoolExecutor(max_workers=min(workers, len(seeds)), mp_context=ctx) as pool:
+            done = dict(pool.map(_member_task, range(len(seeds)), seeds))
+    finally:
+        _FORK_STATE.clear()
+    return [done[i] for i in range(len(seeds))]
+
+
+# -- public entry point --------------------------------------------------------------------------
 
 def largest_exponent(problem, integrator: str = "exact-jit", *, options: dict | None = None,
-                     transient: float = 1000.0, iterations: int = 10000, d0: float = 1e-8,
-                     window: float = 2000.0, seed: int = 0, tol: float = 0.01) -> LyapunovResult:
-    """Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
+                     transient: float = 1000.0, iterations: int = 10000, members: int = 32,
+                     d0: float = 1e-8, window: float = 2000.0, seed: int = 0, spread: float = 1e-3,
+                     align: int = 10, tol: float = 0.01, confidence: float = 0.95,
+                     workers: int = 1) -> LyapunovResult:
+    """Ensemble Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
 
     Parameters
     ----------
+    problem
+        The oscillator (any problem the integrator accepts).
     integrator
         A compiled integrator (``exact-jit`` or ``henon-rk4-jit``).
+    options
+        Options of the integrator (e.g. ``{"h": 0.01}`` for ``henon-rk4-jit``).
     transient
-        Time integrated from rest before the first mapping point used.
+        Time each member integrates from its start before its first mapping point used.
     iterations
-        Return-map iterations averaged.
+        Return-map iterations in all, split evenly over the members
+        (``iterations // members`` each, at least 20).
+    members
+        Independent estimates (at least 4): the spread across them gives the
+        standard error. Many short members beat a few long ones when a member
+        can fall onto another attractor (see the module notes): one such member
+        then moves the mean by ``1 / members`` of its difference.
     d0
         Separation the copy is renormalised to at each mapping point.
     window
         Longest time allowed between two mapping points.
     seed
-        Seed of the random initial direction.
+        Seed of the members' start perturbations and initial directions.
+    spread
+        Standard deviation of each member's random perturbation of every
+        coordinate of the standard initial condition (rest at the origin).
+    align
+        Iterations each member runs before counting, so that its random initial
+        direction aligns with the most expanding one (not part of ``iterations``).
     tol
-        Absolute tolerance of the convergence check.
+        Absolute tolerance of the verdict (see :func:`_verdict`).
+    confidence
+        Level of the Student-t confidence interval.
+    workers
+        Processes running members at once (fork); 1 runs them in this process.
+        The result does not depend on it.
+
+    Returns
+    -------
+    LyapunovResult
+        Per-member and ensemble estimates, uncertainty and verdict; status
+        ``failure`` with a message if a member found no next mapping point.
     """
     from nsbench.integrators import get_integrator
 
+    _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed)
     integ = get_integrator(integrator, **(options or {}))
-    if not hasattr(integ, "run"):
+    if not _can_map(integ):
         raise ConfigError(f"lyapunov needs a compiled integrator (exact-jit, henon-rk4-jit), not {integrator!r}")
-    if iterations < 4:
-        raise ConfigError(f"iterations = {iterations} must be at least 4")
+    integ.setup(problem)
+    members, per_member = int(members), int(iterations // members)
+    seeds = np.random.SeedSequence(int(seed)).spawn(members)
+    params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread,
+                  align=int(align))
+    runs = _run_members(integ, problem, seeds, params, workers)
+    return _result(runs, per_member, int(seed), tol, confidence)
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, (int, np.integer)) or (isinstance(x, float) and x.is_integer())
+
+
+def _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed) -> None:
+    if not _is_int(members) or members < 4:
+        raise ConfigError(f"members = {members!r} must be an integer of at least 4 "
+                          "(the standard error comes from their spread)")
+    if not _is_int(iterations) or iterations // members < 20:
+        raise ConfigError(f"iterations = {iterations!r} must be an integer of at least 20 per member "
+                          f"({20 * members} for {members} members)")
     if not (0.0 < d0 < 1e-2):
         raise ConfigError(f"d0 = {d0!r} must be in (0, 0.01)")
-    integ.setup(problem)
-    forced = problem.is_forced and problem.coefficients.w > 0
-    w = problem.coefficients.w if forced else 0.0
-    v0 = problem.v0
-    n = problem.n_states
-    start = integ.run(problem, t_end=transient + window, section="mapping", t_rec=transient, n_rec=1)
-    if start.n < 1:
-        return _failed(f"no mapping point within {window:g} after the transient ({start.status}): "
-                       "the motion has no slip events (pure sliding or permanent sticking)")
-    ref = (float(start.rec_t[0]), np.array(start.rec_y[0]), start.mode.copy(), int(start.rec_block[0]))
-    rng = np.random.default_rng(seed)
-    u = rng.normal(size=n + 1)
-
-    def project(vec, y):
-        vec = vec.copy()
-        pinned = [2 * i + 1 for i in range(problem.n_blocks) if y[2 * i + 1] == v0]
-        vec[pinned] = 0.0
-        if not forced:
-            vec[n] = 0.0
-        norm = math.sqrt(float(vec @ vec))
-        return vec / norm if norm > 0 else None
-
-    u = project(u, ref[1])
-    logs, times, mismatches = [], [], 0
-    t_first = ref[0]
-    for _ in range(iterations):
-        if u is None:  # every free direction collapsed: restart from a random one
-            u = project(rng.normal(size=n + 1), ref[1])
-        t, y, mode, _ = ref
-        pert_y = y + d0 * u[:n]
-        pert_t = t + d0 * u[n] / w if forced else t
-        nxt, run = _next_mapping(integ, problem, t, y, mode, window)
-        pnx, prun = _next_mapping(integ, problem, pert_t, pert_y, mode.copy(), window)
-        if nxt is None or pnx is None:
-            bad = run if nxt is None else prun
-            return _failed(f"no next mapping point within {window:g} ({bad.status})", logs, times, t_first,
-                           mismatches)
-        mismatches += int(nxt[3] != pnx[3])
-        diff = np.append(pnx[1] - nxt[1], w * (pnx[0] - nxt[0]))
-        d = math.sqrt(float(diff @ diff))
-        logs.append(math.log(max(d, d0 * 1e-16) / d0))
-        times.append(nxt[0])
-        ref = nxt
-        u = project(diff, nxt[1]) if d > 0 else None
-    return _result(np.array(logs), np.array(times), t_first, mismatches, tol)
+    if not (transient >= 0.0 and math.isfinite(transient)):
+        raise ConfigError(f"transient = {transient!r} must be finite and >= 0")
+    if not (window > 0.0 and math.isfinite(window)):
+        raise ConfigError(f"window = {window!r} must be finite and > 0")
+    if not (0.0 < spread < 1.0):
+        raise ConfigError(f"spread = {spread!r} must be in (0, 1)")
+    if not _is_int(align) or align < 0:
+        raise ConfigError(f"align = {align!r} must be an integer >= 0")
+    if not (tol > 0.0):
+        raise ConfigError(f"tol = {tol!r} must be > 0")
+    if not (0.0 < confidence < 1.0):
+        raise ConfigError(f"confidence = {confidence!r} must be in (0, 1)")
+    if not _is_int(workers) or workers < 1:
+        raise ConfigError(f"workers = {workers!r} must be an integer of at least 1")
+    if not _is_int(seed) or seed < 0:
+        raise ConfigError(f"seed = {seed!r} must be an integer >= 0")
 
 
-def _result(logs, times, t_first, mismatches, tol, status="success", message=""):
-    k = len(logs)
-    lam = float(logs.mean()) if k else np.nan
-    half = k // 2
-    a = float(logs[:half].mean()) if half else np.nan
-    b = float(logs[half:].mean()) if k - half else np.nan
-    elapsed = float(times[-1] - t_first) if k else np.nan
-    per_time = float(logs.sum() / elapsed) if k and elapsed > 0 else np.nan
-    if k >= 20:
-        blocks = logs[: k // 10 * 10].reshape(10, -1).mean(axis=1)
-        se = float(blocks.std(ddof=1) / math.sqrt(10))
-    else:
-        se = np.nan
-    converged = bool(k >= 20 and se <= max(0.05 * abs(lam), tol / 2)
-                     and abs(a - b) <= max(0.1 * abs(lam), tol))
-    return LyapunovResult(lam, per_time, a, b, se, converged, k, elapsed / k if k else np.nan, mismatches,
-                          status, message, logs)
+# -- statistics ----------------------------------------------------------------------------------
+
+def _block_error(logs: np.ndarray) -> float:
+    """Standard error of the mean of one correlated series from ``N_BLOCKS`` block means."""
+    k = len(logs) // N_BLOCKS * N_BLOCKS
+    if k < 2 * N_BLOCKS:
+        return np.nan
+    blocks = logs[:k].reshape(N_BLOCKS, -1).mean(axis=1)
+    return float(blocks.std(ddof=1) / math.sqrt(N_BLOCKS))
 
 
-def _failed(message, logs=(), times=(), t_first=0.0, mismatches=0):
-    res = _result(np.array(logs, dtype=float), np.array(times, dtype=float), t_first, mismatches, 0.01,
-                  status="failure", message=message)
-    res.converged = False
-    return res
+def _mean_and_error(values: np.ndarray) -> tuple[float, float]:
+    k = len(values)
+    if k == 0:
+        return np.nan, np.nan
+    mean = float(values.mean())
+    return mean, float(values.std(ddof=1) / math.sqrt(k)) if k >= 2 else np.nan
+
+
+def _outliers(values: np.ndarray, relevant: float, alpha: float = OUTLIER_ALPHA) -> tuple[int, ...]:
+    """Members that disagree with the others, statistically and by more than ``relevant``.
+
+    For member ``i`` with the others' mean ``m`` and standard deviation ``s``
+    (``K - 1`` values), ``(x_i - m) / (s sqrt(1 + 1/(K-1)))`` follows Student's
+    t with ``K - 2`` degrees of freedom when all members are independent normal
+    draws of one distribution (the externally studentised residual). A member is
+    flagged when this exceeds the two-sided ``alpha / K`` quantile (Bonferroni:
+    at most ``alpha`` false alarms over the whole ensemble) and
+    ``|x_i - m| > relevant``: members of a periodic orbit agree to rounding, so
+    a tiny spread would make harmless differences "significant".
+    """
+    from scipy.stats import t as student
+
+    k = len(values)
+    if k < 3:
+        return ()
+    limit = float(student.ppf(1.0 - alpha / (2 * k), k - 2))
+    flagged = []
+    for i in range(k):
+        others = np.delete(values, i)
+        dev = abs(float(values[i] - others.mean()))
+        scale = float(others.std(ddof=1)) * math.sqrt(1.0 + 1.0 / (k - 1))
+        if dev > relevant and (scale == 0.0 or dev / scale > limit):
+            flagged.append(i)
+    return tuple(flagged)
+
+
+def _verdict(values: np.ndarray, tol: float) -> tuple[float, float, bool, tuple[int, ...]]:
+    """Ensemble mean, standard error, precision and outliers of the members' ``values``.
+
+    ``precise``: standard error ``<= max(0.05 |mean|, tol / 2)`` (5 % relative,
+    or an absolute floor near zero, where a relative rule cannot be met).
+    Outliers: :func:`_outliers` with relevance ``max(0.1 |mean|, tol)``.
+    """
+    mean, se = _mean_and_error(values)
+    precise = bool(np.isfinite(se) and se <= max(0.05 * abs(mean), tol / 2))
+    outliers = _outliers(values, max(0.1 * abs(mean), tol)) if np.isfinite(mean) else ()
+    return mean, se, precise, outliers
+
+
+def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confidence: float) -> LyapunovResult:
+    """Ensemble statistics of the members; a failed member is NaN and makes the status ``failure``."""
+    from scipy.stats import t as student
+
+    ok = np.array([not r.message for r in runs])
+    lam = np.array([r.logs.mean() if k else np.nan for r, k in zip(runs, ok)])
+    per_time = np.array([r.logs.sum() / (r.times[-1] - r.t_first) if k else np.nan for r, k in zip(runs, ok)])
+    index = np.flatnonzero(ok)
+    mean, se, precise, outliers = _verdict(lam[ok], tol)
+    outliers = tuple(int(index[j]) for j in outliers)
+    mean_t, se_t = _mean_and_error(per_time[ok])
+    n_ok = int(ok.sum())
+    half = float(student.ppf(0.5 + confidence / 2, n_ok - 1)) * se if n_ok >= 2 else np.nan
+    logs = np.full((len(runs), per_member), np.nan)
+    for row, r in zip(logs, runs):
+        row[:len(r.logs)] = r.logs
+    n_done = sum(len(r.logs) for r in runs)
+    total_time = float(sum(r.times[-1] - r.t_first for r in runs if len(r.times)))
+    failed = [f"member {i}: {r.message}" for i, r in enumerate(runs) if r.message]
+    return LyapunovResult(
+        exponent=mean, standard_error=se, ci_low=mean - half, ci_high=mean + half, confidence=confidence,
+        exponent_per_time=mean_t, standard_error_per_time=se_t, members=lam, members_per_time=per_time,
+        member_errors=np.array([_block_error(r.logs) if k else np.nan for r, k in zip(runs, ok)]),
+        converged=bool(not failed and precise and not outliers), precise=precise, outliers=outliers,
+        iterations=n_done, iterations_per_member=per_member,
+        mean_return_time=total_time / n_done if n_done else np.nan,
+        block_mismatches=sum(r.mismatches for r in runs), seed=seed,
+        status="failure" if failed else "success", message="; ".join(failed), logs=logs)

@@ -1,4 +1,8 @@
-"""``nsbench bench SUITE.toml --out DIR``: run a suite across all cores, then write its report."""
+"""``nsbench bench SUITE.toml --out DIR``: run a suite across all cores, then write its report.
+
+Exit status 1 when a case crashed or a reference could not be computed (see
+:attr:`nsbench.bench.RunSummary.ok`); the results and the report are written anyway.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +13,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="run a benchmark suite (TOML) into an output directory")
     p.add_argument("suite", metavar="SUITE.toml", help="suite file, or 'default' for the packaged suite")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
-    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores; 1: in-process)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: all cores; 1: one worker, still a child process)")
     p.add_argument("--fresh", action="store_true",
                    help="discard the cases already stored in DIR (default: resume, computing only missing cases)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -18,7 +23,11 @@ def add_parser(sub) -> None:
 
 
 def run_and_report(suite, out: str, workers: int | None, resume: bool, progress: bool, report: bool) -> int:
-    """Shared by ``bench`` and ``run``: run, print a summary, write the report."""
+    """Shared by ``bench`` and ``run``: run, print a summary, write the report.
+
+    Returns 0, or 1 when a case crashed or a reference could not be computed
+    (the results and the report are written all the same).
+    """
     from nsbench.bench import load_suite, run_suite
     from nsbench.errors import ConfigError
 
@@ -35,6 +44,9 @@ def run_and_report(suite, out: str, workers: int | None, resume: bool, progress:
 
         rep = write_report(summary.out, summary.results)
         print(f"report  -> {rep.html} (and report.md, table.tex, figures/)")
+    if not summary.ok:
+        print("INCOMPLETE: " + "; ".join(summary.problems()))
+        return 1
     return 0
 
 

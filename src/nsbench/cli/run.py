@@ -1,6 +1,7 @@
 """``nsbench run``: the main job. Runs the packaged default suite (every registered
 integrator at three accuracy levels on the 1-DOF standard scenario and the 2-DOF
-cases 1-4, tau in [0, 300]) and writes the report to ``reports/latest``."""
+cases 1-4, tau in [0, 300]) and writes the report to ``reports/latest``. Exit status 1
+when a case crashed or a reference could not be computed."""
 
 from __future__ import annotations
 

@@ -1,0 +1,159 @@
+"""The messages between the runner and its worker processes, and their framing.
+
+A worker is our own child (:mod:`nsbench.bench.worker`), so messages are
+pickled objects: an 8-byte big-endian length, then the pickle. Classes travel by
+reference, so a worker can unpickle only what it can import (hence the runner's
+rule on components defined in ``__main__``).
+
+Parent to worker: :class:`Hello` (once), then :class:`ComputeReference`,
+:class:`WarmUp`, :class:`TimeCase`, :class:`Stop`. Worker to parent:
+:class:`Ready` or :class:`InitFailed` (once), then any number of
+:class:`Stage` per task and exactly one :class:`Done`, :class:`Failed` or
+:class:`Interrupted`.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import struct
+from dataclasses import dataclass
+from typing import Any, BinaryIO
+
+from nsbench.bench.execute import WarmResult
+from nsbench.bench.reference import Reference
+from nsbench.bench.suite import Case
+
+_HEADER = struct.Struct(">Q")
+
+
+# ---------------------------------------------------------------- parent -> worker
+@dataclass(frozen=True)
+class Hello:
+    """First message: the parent's ``sys.path``, its runtime registrations, where rows go.
+
+    ``components`` is a separate pickle so that the worker can extend its path
+    before it imports the modules the components live in. A worker stores the
+    rows it times itself (``out``, with ``provenance``), so that the parent stays
+    idle while others are timing.
+    """
+
+    sys_path: list[str]
+    components: bytes
+    out: str
+    provenance: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class ComputeReference:
+    task: int
+    problem: dict[str, Any]
+    candidates: list[dict[str, Any]]
+    t0: float
+    t_end: float
+    dense_points: int
+
+
+@dataclass(frozen=True)
+class WarmUp:
+    """Set up ``case`` and run it once, short and untimed (compilation, first use)."""
+
+    task: int
+    case: Case
+    suite: str
+
+
+@dataclass(frozen=True)
+class TimeCase:
+    """Time ``case`` on its warm repeats, store its row (metrics against ``reference``), return it.
+
+    ``warm`` is the case's first warm-up (its cold setup and warm-up times go in the row).
+    """
+
+    task: int
+    case: Case
+    suite: str
+    reference: Reference
+    warm: WarmResult
+
+
+@dataclass(frozen=True)
+class Stop:
+    pass
+
+
+# ---------------------------------------------------------------- worker -> parent
+@dataclass(frozen=True)
+class Ready:
+    pid: int
+
+
+@dataclass(frozen=True)
+class InitFailed:
+    error: str
+
+
+@dataclass(frozen=True)
+class Stage:
+    """The worker starts ``what`` (``'setup'``, ``'warm-up run'``, ``'timed run 2 of 3'``).
+
+    ``limit`` is the wall-clock seconds it may take (``None``: not limited); the
+    parent stops the worker past it.
+    """
+
+    task: int
+    what: str
+    limit: float | None
+
+
+@dataclass(frozen=True)
+class Done:
+    task: int
+    result: Any
+
+
+@dataclass(frozen=True)
+class Failed:
+    """A task raised an exception that the task itself did not turn into a result (a bug)."""
+
+    task: int
+    error: str
+
+
+@dataclass(frozen=True)
+class Interrupted:
+    """A task raised ``KeyboardInterrupt``: the parent stops the run as if interrupted."""
+
+    task: int
+
+
+# ---------------------------------------------------------------- framing
+def write_message(stream: BinaryIO, message: Any) -> None:
+    """Write one message to a buffered binary stream and flush it."""
+    data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    stream.write(_HEADER.pack(len(data)) + data)
+    stream.flush()
+
+
+def read_message(stream: BinaryIO) -> Any:
+    """Read one message; ``EOFError`` if the other side has closed the pipe."""
+    return pickle.loads(_read_exact(stream, _HEADER.unpack(_read_exact(stream, _HEADER.size))[0]))
+
+
+def _read_exact(stream: BinaryIO, n: int) -> bytes:
+    chunks, left = [], n
+    while left:
+        chunk = stream.read(left)  # a raw stream may return fewer bytes than asked
+        if not chunk:
+            raise EOFError("the other end of the pipe is closed")
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
+
+
+def write_fd(fd: int, message: Any) -> None:
+    """Write one message to a raw file descriptor (the parent's side of a worker's stdin)."""
+    data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    view = memoryview(_HEADER.pack(len(data)) + data)
+    while view:
+        view = view[os.write(fd, view):]

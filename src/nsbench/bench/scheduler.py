@@ -1,0 +1,416 @@
+"""The phases of a suite run across worker processes: no compilation while anyone is timing.
+
+1. **Prepare.** References first, then every case is warmed up once
+   (:func:`nsbench.bench.execute.warm_up`: setup, i.e. compilation, and a short
+   untimed run) by whichever worker is free; that worker is the case's *home*.
+   Then every other worker warms up the cases whose setup is cheap (under
+   :data:`STICKY_SETUP` seconds), so that any worker can time them; a case with
+   an expensive setup (a long compilation) is *sticky*: only its home times it.
+2. **Barrier.** Timing starts when every worker is idle and warm for every case it may time.
+3. **Time.** Each free worker times the longest remaining case it is warm for
+   (:func:`nsbench.bench.execute.time_case`), one case per worker at a time;
+   cases whose warm-up predicts a run near the time limit come last, so
+   that the worker their limit ends has few cases left to warm up again.
+
+A worker that dies (a crash) or is ended (its run passed the time limit) takes
+its case with it: the case becomes a ``crashed`` or ``time limit`` row with the
+exit code or signal, and a fresh process replaces the worker. In the timing
+phase dispatch is held until no case is being timed; the replacement then
+starts and warms up before timing resumes. Every task is recorded in a
+timeline (:class:`TaskRecord`), which the tests use to check the phases.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from nsbench.bench import protocol as msg
+from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row
+from nsbench.bench.pool import WorkerProcess, readable
+from nsbench.bench.reference import FAILED, Reference
+from nsbench.bench.suite import Case
+from nsbench.errors import ConfigError
+
+#: Seconds of setup (and more than its timing) above which a case is timed only where it
+#: was compiled (its home). The first case of a kind in a process pays the loading of
+#: shared compiled code too, so a setup under a second is not worth keeping in one place.
+STICKY_SETUP = 1.0
+#: A case whose warm-up predicts a run longer than this share of the time limit is timed
+#: last: the prediction (a tenth of the span, scaled up) is off by up to a few times.
+RISKY_SHARE = 0.5
+#: Consecutive failed starts of a worker after which the run gives up.
+MAX_FAILED_STARTS = 3
+
+
+@dataclass
+class ReferenceTask:
+    """A reference to compute: its cache key and the arguments of ``compute_reference``."""
+
+    key: str
+    problem: dict[str, Any]
+    candidates: list[dict[str, Any]]
+    t0: float
+    t_end: float
+    dense_points: int
+
+
+@dataclass
+class TaskRecord:
+    """One task in the timeline: which worker slot, what, when (monotonic seconds), how it ended."""
+
+    slot: int
+    pid: int
+    kind: str  # 'start', 'reference', 'warm-up', 'time'
+    label: str
+    start: float
+    end: float = math.nan
+    outcome: str = ""
+
+
+@dataclass
+class _CaseState:
+    case: Case
+    warm: WarmResult | None = None
+    home: int | None = None
+    estimate: float = 0.0  # expected seconds of its timed runs
+    done: bool = False
+
+    @property
+    def risky(self) -> bool:
+        """Its warm-up predicts a run near or past the time limit (its worker may be ended)."""
+        return self.estimate / self.case.repeats > RISKY_SHARE * self.case.time_limit
+
+    @property
+    def order(self) -> tuple[bool, float]:
+        """Timing order (largest first): likely to finish, then longest."""
+        return (not self.risky, self.estimate)
+
+    @property
+    def sticky(self) -> bool:
+        """Its setup (a compilation) costs more than :data:`STICKY_SETUP` and than its timing:
+        warming it up elsewhere would cost more than the balance gains."""
+        return self.warm is not None and self.warm.setup_time >= max(STICKY_SETUP, self.estimate)
+
+
+@dataclass
+class _Slot:
+    index: int
+    worker: WorkerProcess | None = None
+    ready: bool = False
+    warm: set[str] = field(default_factory=set)
+    task: tuple[int, str, Any] | None = None  # (task id, kind, payload)
+    record: TaskRecord | None = None
+    stage: str = ""
+    limit: float | None = None
+    deadline: float = math.inf
+    failed_starts: int = 0
+
+    @property
+    def alive(self) -> bool:
+        return self.worker is not None
+
+    @property
+    def idle(self) -> bool:
+        return self.alive and self.ready and self.task is None
+
+
+class Scheduler:
+    """Runs the references and cases of a suite on ``workers`` worker processes.
+
+    Parameters
+    ----------
+    cases
+        Cases to run (none of them stored yet).
+    references
+        References to compute first.
+    reference_of
+        The reference of a case (called once references are computed).
+    on_reference, on_row
+        Called in this process with each computed reference and each finished
+        row (``on_row(row, stored=...)``: a worker stores the rows it times itself).
+    hello
+        The first message of every worker (:func:`nsbench.bench.pool.hello`).
+    suite
+        Suite name stored in the rows.
+    """
+
+    def __init__(self, cases: list[Case], references: list[ReferenceTask],
+                 reference_of: Callable[[Case], Reference], on_reference: Callable[[str, Reference], None],
+                 on_row: Callable[..., None], hello: msg.Hello, workers: int,
+                 suite: str = "suite", on_warm: Callable[[str], None] | None = None) -> None:
+        self.cases = {c.case_id: _CaseState(c) for c in cases}
+        self.ref_queue = deque(references)
+        self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
+        self.reference_of, self.on_reference, self.on_row = reference_of, on_reference, on_row
+        self.on_warm = on_warm or (lambda label: None)
+        self.hello, self.suite = hello, suite
+        self.slots = [_Slot(i) for i in range(max(1, workers))]
+        self.timing = False  # the phase: False while preparing
+        self.timeline: list[TaskRecord] = []
+        self._refs_pending = len(references)
+        self._next_task = 0
+
+    # ------------------------------------------------------------------ the loop
+    def run(self) -> None:
+        """Run everything; on any exception (Ctrl-C included) keep what finished, end the workers."""
+        try:
+            while not self._finished():
+                self._dispatch()
+                self._check_progress()
+                self._wait()
+        except BaseException:
+            self._drain()
+            self._end_all()
+            raise
+        for slot in self.slots:
+            if slot.worker is not None:
+                slot.worker.stop()
+                slot.worker = None
+
+    def _finished(self) -> bool:
+        return self._refs_pending == 0 and all(s.done for s in self.cases.values())
+
+    def _dispatch(self) -> None:
+        if not self.timing and self._prepared():
+            self.timing = True
+        for slot in self.slots:
+            if self._finished():
+                return
+            if not slot.alive and (not self.timing or self._quiet()):
+                self._start(slot)  # a process start is first-use work too: never while timing
+            elif slot.idle:
+                self._give_work(slot)
+
+    def _give_work(self, slot: _Slot) -> None:
+        if not self.timing:
+            if self.ref_queue:
+                ref = self.ref_queue.popleft()
+                return self._send(slot, "reference", ref, msg.ComputeReference(
+                    0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points), ref.key)
+            while self.queue:
+                state = self.cases[self.queue.popleft()]
+                if not state.done:
+                    return self._send_warm(slot, state)
+        elif self._holding():
+            if not self._quiet():
+                return  # hold: nothing compiles or warms up while a case is timed
+        else:
+            free = [s for s in self.cases.values() if not s.done and s.case.case_id in slot.warm
+                    and not self._in_flight(s.case.case_id)]
+            if free:
+                state = max(free, key=lambda s: s.order)  # longest first: the best balance
+                message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm)
+                return self._send(slot, "time", state, message, state.case.label)
+            return
+        need = self._needs(slot)
+        if need:
+            self._send_warm(slot, max(need, key=lambda s: s.estimate))
+
+    def _check_progress(self) -> None:
+        """Fail loudly rather than wait forever if a rule above leaves work unassigned."""
+        if all(s.alive and s.ready and s.task is None for s in self.slots) and not self._finished():
+            raise RuntimeError("nsbench scheduler: work remains but no worker was given any (a bug)")
+
+    # ------------------------------------------------------------------ phase rules
+    def _needs(self, slot: _Slot) -> list[_CaseState]:
+        """Cases ``slot`` must still warm up: warm elsewhere, not done, not sticky to another home."""
+        if self.queue and not self.timing:
+            return []  # first every case gets a home
+        return [s for s in self.cases.values()
+                if not s.done and s.warm is not None and s.case.case_id not in slot.warm
+                and (not s.sticky or s.home == slot.index) and not self._in_flight(s.case.case_id, slot)]
+
+    def _prepared(self) -> bool:
+        """The barrier: references and first warm-ups done, every worker idle and warm."""
+        return (self._refs_pending == 0 and not self.queue
+                and all(s.idle and not self._needs(s) for s in self.slots))
+
+    def _holding(self) -> bool:
+        """Timing must pause: a worker is dead, starting, warming up, or not warm for its cases."""
+        return any(not s.alive or not s.ready or (s.task is not None and s.task[1] != "time")
+                   or self._needs(s) for s in self.slots)
+
+    def _quiet(self) -> bool:
+        return not any(s.task is not None and s.task[1] == "time" for s in self.slots)
+
+    def _in_flight(self, case_id: str, on: _Slot | None = None) -> bool:
+        """Whether ``case_id`` is being warmed up or timed (on ``on`` only, if given)."""
+        return any(s.task is not None and s.task[1] in ("warm-up", "time")
+                   and s.task[2].case.case_id == case_id for s in self.slots if on is None or s is on)
+
+    # ------------------------------------------------------------------ sending
+    def _start(self, slot: _Slot) -> None:
+        slot.worker = WorkerProcess(self.hello)
+        slot.ready, slot.warm, slot.task = False, set(), None
+        slot.record = self._record(slot, "start", "worker start")
+
+    def _send_warm(self, slot: _Slot, state: _CaseState) -> None:
+        self._send(slot, "warm-up", state, msg.WarmUp(0, state.case, self.suite), state.case.label)
+
+    def _send(self, slot: _Slot, kind: str, payload: Any, message: Any, label: str) -> None:
+        self._next_task += 1
+        task = self._next_task
+        message = dataclasses.replace(message, task=task)
+        slot.task, slot.stage, slot.limit, slot.deadline = (task, kind, payload), "", None, math.inf
+        slot.record = self._record(slot, kind, label)
+        try:
+            slot.worker.send(message)
+        except (BrokenPipeError, OSError):
+            self._lost(slot)
+
+    def _record(self, slot: _Slot, kind: str, label: str) -> TaskRecord:
+        rec = TaskRecord(slot.index, slot.worker.pid if slot.worker else -1, kind, label, time.monotonic())
+        self.timeline.append(rec)
+        return rec
+
+    def _close_record(self, slot: _Slot, outcome: str) -> None:
+        if slot.record is not None:
+            slot.record.end, slot.record.outcome = time.monotonic(), outcome
+            slot.record = None
+
+    # ------------------------------------------------------------------ receiving
+    def _wait(self) -> None:
+        live = [s for s in self.slots if s.worker is not None]
+        if not live:
+            return
+        deadline = min(s.deadline for s in live)
+        timeout = None if deadline == math.inf else max(0.0, deadline - time.monotonic())
+        by_worker = {id(s.worker): s for s in live}
+        for worker in readable([s.worker for s in live], timeout):
+            self._receive(by_worker[id(worker)])
+        now = time.monotonic()
+        for slot in live:
+            if slot.worker is not None and slot.task is not None and now > slot.deadline:
+                self._time_out(slot)
+
+    def _receive(self, slot: _Slot) -> None:
+        try:
+            message = slot.worker.receive()
+        except (EOFError, OSError):
+            return self._lost(slot)
+        if isinstance(message, msg.Ready):
+            slot.ready, slot.failed_starts = True, 0
+            self._close_record(slot, "ready")
+        elif isinstance(message, msg.InitFailed):
+            raise ConfigError("a worker process cannot load the components registered in this process: "
+                              f"{message.error}; register components defined in an importable module")
+        elif isinstance(message, msg.Stage):
+            slot.stage, slot.limit = message.what, message.limit
+            slot.deadline = math.inf if message.limit is None else time.monotonic() + message.limit
+        elif isinstance(message, msg.Interrupted):
+            raise KeyboardInterrupt
+        elif isinstance(message, (msg.Done, msg.Failed)):
+            self._finish(slot, message)
+
+    def _finish(self, slot: _Slot, message: msg.Done | msg.Failed) -> None:
+        _, kind, payload = slot.task
+        slot.task, slot.deadline = None, math.inf
+        failed = isinstance(message, msg.Failed)
+        self._close_record(slot, "failed" if failed else "done")
+        if kind == "reference":
+            self._refs_pending -= 1
+            ref = _failed_reference(payload, f"its run raised {message.error}") if failed else message.result
+            self.on_reference(payload.key, ref)
+        elif failed:
+            self._final(payload, "error", message.error)
+        elif kind == "warm-up":
+            self._warmed(slot, payload, message.result)
+        else:
+            payload.done = True
+            self.on_row(message.result, stored=True)
+
+    def _warmed(self, slot: _Slot, state: _CaseState, warm: WarmResult) -> None:
+        if state.done:  # its row is written already (a late copy of a warm-up)
+            return
+        if state.warm is None:
+            self.on_warm(state.case.label)
+        if warm.row is not None:  # unsupported or error: the row is final
+            state.done = True
+            self.on_row(warm.row)
+            return
+        slot.warm.add(state.case.case_id)
+        if state.warm is None:
+            state.warm, state.home = warm, slot.index
+            state.estimate = state.case.repeats * warm.warmup_time / WARMUP_FRACTION
+
+    # ------------------------------------------------------------------ losses
+    def _time_out(self, slot: _Slot) -> None:
+        limit, stage = slot.limit, slot.stage
+        slot.worker.kill()
+        self._lose(slot, "time limit", f"wall-clock limit of {limit:g} s per run reached in the {stage}; "
+                                       "the worker process was stopped")
+
+    def _lost(self, slot: _Slot) -> None:
+        reason = slot.worker.exit_reason()
+        slot.worker.kill()
+        what = f" during the {slot.stage}" if slot.stage else ""
+        self._lose(slot, "crashed", f"the worker process died ({reason}){what}")
+
+    def _lose(self, slot: _Slot, status: str, message: str) -> None:
+        """The worker of ``slot`` is gone: its task becomes a row, the slot waits for a fresh worker."""
+        task, was_ready = slot.task, slot.ready
+        self._close_record(slot, status)
+        slot.worker, slot.ready, slot.warm, slot.task, slot.deadline = None, False, set(), None, math.inf
+        if not was_ready:
+            slot.failed_starts += 1
+            if slot.failed_starts >= MAX_FAILED_STARTS:
+                raise RuntimeError(f"worker processes die as they start ({message}); see the errors above")
+        if task is None:
+            return
+        _, kind, payload = task
+        if kind == "reference":
+            self._refs_pending -= 1
+            self.on_reference(payload.key, _failed_reference(payload, f"{status}: {message}"))
+        else:
+            self._final(payload, status, message)
+
+    def _final(self, state: _CaseState, status: str, message: str) -> None:
+        if state.done:  # never overwrite a finished row
+            return
+        if state.warm is None:  # its first warm-up ended here
+            self.on_warm(state.case.label)
+        row = base_row(state.case, self.suite)
+        row.update(status=status, message=message)
+        if state.warm is not None:
+            complete_row(row, state.warm)
+        state.done = True
+        self.on_row(row)
+
+    # ------------------------------------------------------------------ interruption
+    def _drain(self) -> None:
+        """Keep every row already sent back (an interrupt must not lose a finished case)."""
+        for slot in self.slots:
+            while slot.worker is not None and slot.task is not None:
+                try:
+                    if not readable([slot.worker], 0):
+                        break
+                    message = slot.worker.receive()
+                except Exception:  # a dead worker, or a message cut by the interrupt
+                    break
+                if isinstance(message, msg.Done) and slot.task[1] == "time":
+                    _, _, state = slot.task
+                    slot.task = None
+                    state.done = True
+                    self.on_row(message.result, stored=True)
+
+    def _end_all(self) -> None:
+        for slot in self.slots:
+            if slot.worker is not None:
+                slot.worker.kill()
+                self._close_record(slot, "interrupted")
+                slot.worker = None
+
+
+def _failed_reference(task: ReferenceTask, reason: str) -> Reference:
+    """A reference that could not be computed (not cached: the next run tries again)."""
+    import numpy as np
+    import pandas as pd
+
+    grid = np.linspace(task.t0, task.t_end, task.dense_points)
+    return Reference(task.key, None, None, f"{FAILED}: {reason}", pd.DataFrame(columns=["t", "kind", "block"]),
+                     grid, np.empty((0, 0)), np.empty(0), failed=True)

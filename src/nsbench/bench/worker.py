@@ -1,0 +1,119 @@
+"""A worker process of the suite runner: ``python -m nsbench.bench.worker``.
+
+The runner starts workers with :mod:`subprocess`, never with ``multiprocessing``,
+so a worker never imports the user's ``__main__`` (a script without a
+``if __name__ == "__main__":`` guard would otherwise run again in every worker).
+The worker speaks :mod:`nsbench.bench.protocol` on private duplicates of its
+stdin and stdout; file descriptor 1 is then pointed at stderr, so whatever an
+integrator prints (Python or C) cannot corrupt the protocol.
+
+It ignores SIGINT: on Ctrl-C the runner keeps the finished rows and ends its
+workers itself. If the runner disappears without ending it (killed), the worker
+notices within a second and exits.
+"""
+
+from __future__ import annotations
+
+import faulthandler
+import os
+import pickle
+import signal
+import sys
+import threading
+import time
+import traceback
+from typing import Any, BinaryIO
+
+from nsbench.bench import protocol as msg
+
+
+def _channels() -> tuple[BinaryIO, BinaryIO]:
+    """The protocol streams; fds 0 and 1 are then /dev/null and stderr."""
+    inp = os.fdopen(os.dup(0), "rb")
+    out = os.fdopen(os.dup(1), "wb")
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(devnull, 0)
+    os.close(devnull)
+    os.dup2(2, 1)
+    return inp, out
+
+
+def _register(hello: msg.Hello) -> None:
+    from nsbench import registry
+
+    sys.path[:] = [p for p in hello.sys_path] + [p for p in sys.path if p not in hello.sys_path]
+    for kind, objs in pickle.loads(hello.components).items():
+        for name, obj in objs.items():
+            registry.register(kind, name, obj)  # the parent's runtime registrations follow the work
+
+
+def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
+    from nsbench.bench import storage
+    from nsbench.bench.execute import complete_row, time_case, warm_up
+    from nsbench.bench.reference import compute_reference
+
+    def stage(what: str, limit: float | None) -> None:
+        msg.write_message(out, msg.Stage(task.task, what, limit))
+
+    if isinstance(task, msg.ComputeReference):
+        return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
+    if isinstance(task, msg.WarmUp):
+        return warm_up(task.case, task.suite, stage)
+    if isinstance(task, msg.TimeCase):
+        row = complete_row(time_case(task.case, task.reference, task.suite, stage), task.warm)
+        storage.append_row(hello.out, row, hello.provenance)  # here, not in the busy parent
+        return row
+    raise TypeError(f"unknown task {task!r}")
+
+
+def serve(inp: BinaryIO, out: BinaryIO) -> None:
+    """Answer tasks until :class:`~nsbench.bench.protocol.Stop` or the end of the input."""
+    try:
+        hello = msg.read_message(inp)
+        _register(hello)
+    except Exception as exc:  # e.g. a component whose module this process cannot import
+        msg.write_message(out, msg.InitFailed(f"{type(exc).__name__}: {exc}"))
+        return
+    msg.write_message(out, msg.Ready(os.getpid()))
+    while True:
+        try:
+            task = msg.read_message(inp)
+        except EOFError:  # the parent is gone
+            return
+        if isinstance(task, msg.Stop):
+            return
+        try:
+            result = _handle(task, out, hello)
+        except KeyboardInterrupt:
+            msg.write_message(out, msg.Interrupted(task.task))
+            continue
+        except Exception as exc:  # a bug outside the task's own guard: report it, keep serving
+            traceback.print_exc()
+            msg.write_message(out, msg.Failed(task.task, f"{type(exc).__name__}: {exc}"))
+            continue
+        msg.write_message(out, msg.Done(task.task, result))
+
+
+def _exit_with_parent(parent: int) -> None:
+    """End this process once its parent is gone (a blocked or busy worker would not notice)."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(0)
+
+
+def main() -> None:
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    faulthandler.enable()  # a crash in compiled code leaves a traceback on stderr
+    inp, out = _channels()
+    try:
+        serve(inp, out)
+    except BrokenPipeError:  # the parent has ended: nothing left to report to
+        pass
+    except Exception:
+        traceback.print_exc()
+        raise
+
+
+if __name__ == "__main__":
+    main()

@@ -2,8 +2,8 @@
 
 Run with ``python -m pytest benchmarks/test_sweep_speed.py --benchmark-only`` (not
 part of the default test run). Every capable integrator is timed on 2 worker
-processes: the compiled ones (those with the whole-loop ``run`` that sweeps use,
-see :func:`compiled`) on every value; the ones that run through the Python engine
+processes: the ones with a compiled arc kernel (the whole hybrid loop runs in
+compiled code, see :func:`compiled`) on every value; the ones whose arcs are Python calls
 on ``NSBENCH_SWEEP_SUBSET`` (default 10) values of the same range, with the time
 of every value extrapolated from that and labelled so in ``extra_info``.
 
@@ -16,8 +16,8 @@ the same session) and the agreement of its section points with :data:`REFERENCE`
 (median Hausdorff distance over the common values). Compared with the baseline:
 ``ratio_to_reference``, and ``sweep_s`` for :data:`REFERENCE` itself. The CPU figures
 are recorded for diagnosis only: on the shared development VM CPU time rose with the
-load too (``exact-jit``: 81 CPU-s under a load average of about 5, against at most
-2 x 14 s when quiet).
+load too (the old ``exact-jit``: 81 CPU-s under a load average of about 5, against at
+most 2 x 14 s when quiet).
 
 ``NSBENCH_BENCH_T_END`` scales the sweep down (a smoke run): factor
 ``s = min(1, NSBENCH_BENCH_T_END / 1500)``, transient ``1500 s``, recorded peaks
@@ -50,20 +50,22 @@ COUNT = FULL_COUNT if SCALE == 1 else max(10, round(FULL_COUNT * SCALE))
 # transient), so their subset shrinks too unless NSBENCH_SWEEP_SUBSET says otherwise
 SUBSET = min(int(os.environ.get("NSBENCH_SWEEP_SUBSET", 10 if SCALE == 1 else max(2, round(10 * SCALE)))),
              COUNT)
-#: the integrator every other one is compared with (timed first; the same name stays valid
-#: when the compiled integrators become aliases of ``exact`` and ``henon-rk4``)
-REFERENCE = "exact-jit"
+#: the integrator every other one is compared with (timed first)
+REFERENCE = "exact"
 _reference: dict[str, object] = {}
 
 
 def compiled(name: str) -> bool:
-    """Whether a sweep runs ``name`` through its compiled whole loop (all values timed).
+    """Whether a sweep runs ``name`` entirely in compiled code (all values timed).
 
-    The criterion of :func:`nsbench.bifurcation.sweep.compute_point` itself (the
-    integrator has a ``run`` method), so the list follows the registry rather than
-    a list of names.
+    The criterion of the hybrid core itself: the set-up integrator hands it a
+    compiled arc kernel (:meth:`nsbench.integrators.base.Integrator.kernel`), so the
+    list follows the registry rather than a list of names.
     """
-    return callable(getattr(integrator_class(name), "run", None))
+    integ = integrator_class(name)()
+    problem = get_problem("two-dof", case=1)
+    integ.setup(problem)
+    return integ.kernel(problem) is not None
 
 
 def _capable() -> list[str]:

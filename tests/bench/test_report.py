@@ -98,3 +98,20 @@ def test_work_precision_whiskers_span_min_to_max():
     plt.close(fig)
     spans = sorted((float(s[0][0]), float(s[1][0])) for s in segments)
     assert spans == [(0.9, 1.2), (1.8, 2.5)]                 # no whisker where the range is unknown
+
+
+def test_integrator_time_and_engine_share_are_reported(report):
+    from nsbench.bench import load_results
+    from nsbench.bench.report import engine_share_table, with_engine_share
+
+    out, rep = report
+    frame = with_engine_share(load_results(out))
+    ok = frame[frame["status"] == "success"]
+    # the core's clock runs inside the wall-clock span of each run, so its time is a part of it
+    assert (ok["integrator_time"] > 0).all() and (ok["integrator_time"] <= ok["wall_time"]).all()
+    assert ok["engine_share"].between(0.0, 1.0).all()
+    table = engine_share_table(frame)
+    assert set(table["integrator"]) == set(ok["integrator"])
+    md = rep.markdown.read_text()
+    assert "## Integrator time and engine share" in md and "integrator_time" in md and "wall times" in md
+    assert "engine_share" in rep.html.read_text()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wid
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
 
 _RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
-                   "n_repeats", "setup_time", "nfev", "n_events", "n_missed", "n_extra", "switch_err_max",
+                   "integrator_time", "engine_share", "n_repeats", "setup_time", "nfev", "n_events", "n_missed", "n_extra", "switch_err_max",
                    "switch_digits",
                    "state_err_l2"]
 
@@ -126,10 +127,40 @@ def _timing_text(frame: pd.DataFrame) -> str:
             "the runs relative to the median.")
 
 
+def with_engine_share(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with ``engine_share = 1 - integrator_time / wall_time``: the part of a run's wall
+    time spent in nsbench's hybrid core (events, records, callbacks) rather than in the integrator."""
+    if "integrator_time" not in frame:
+        frame = frame.assign(integrator_time=math.nan)
+    wall = pd.to_numeric(frame["wall_time"], errors="coerce")
+    inner = pd.to_numeric(frame["integrator_time"], errors="coerce")
+    return frame.assign(engine_share=(1.0 - inner / wall).where(wall > 0).clip(lower=0.0))
+
+
+def engine_share_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """Per integrator, over its successful cases: median and largest engine share, and median
+    wall and integrator time (what a reader needs to see whether the ranking ranks the integrator)."""
+    ok = with_engine_share(frame)
+    ok = ok[(ok["status"] == "success") & ok["engine_share"].notna()]
+    if ok.empty:
+        return pd.DataFrame(columns=["integrator", "cases", "engine_share_median", "engine_share_max"])
+    table = ok.groupby("integrator").agg(cases=("engine_share", "size"),
+                                         engine_share_median=("engine_share", "median"),
+                                         engine_share_max=("engine_share", "max"))
+    return table.sort_values("engine_share_median", ascending=False).reset_index()
+
+
+ENGINE_CAPTION = ("Ranking and fixed-target times are wall times: the whole run as a user calls it. "
+                  "integrator_time is the part spent inside the integrator's own code (its compiled arc "
+                  "kernel, or its per-arc Python call), measured by the hybrid core's clock; engine_share "
+                  "= 1 - integrator_time / wall_time is nsbench's own part (event handling, records, the "
+                  "per-arc callback). Per integrator, over its successful cases:")
+
+
 def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
     """Write the report of the results stored in ``directory`` (or of ``results``) into it."""
     d = Path(directory)
-    frame = storage.load_results(d) if results is None else results
+    frame = with_engine_share(storage.load_results(d) if results is None else results)
     prov = storage.read_provenance(d)
     targets = tuple(prov.get("suite", {}).get("targets", DEFAULT_TARGETS))
     long = fixed_target(frame, targets)
@@ -163,7 +194,9 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
            ft_caption, "", markdown_table(wide), "", "## Timing spread", ""]
     md += ([spread_caption, "", markdown_table(spread), ""] if len(spread) else
            [f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).", ""])
-    md += ["## Ranking", "", rank_caption, "", markdown_table(rank), "", "## Figures", ""]
+    engine = engine_share_table(frame)
+    md += ["## Ranking", "", rank_caption, "", markdown_table(rank), "", "## Integrator time and engine share",
+           "", ENGINE_CAPTION, "", markdown_table(engine), "", "## Figures", ""]
     for fig in figures:
         md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
     md += ["## Statuses", "", markdown_table(_status_counts(frame)), ""]
@@ -179,7 +212,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     (d / "table.tex").write_text("\n".join(tex))
 
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
-                                        ft_caption, rank_caption, problems, spread, spread_caption))
+                                        ft_caption, rank_caption, problems, spread, spread_caption, engine))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
 
 
@@ -188,7 +221,7 @@ def _html_table(frame: pd.DataFrame) -> str:
 
 
 def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
-          spread, spread_caption) -> str:
+          spread, spread_caption, engine) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
@@ -206,7 +239,9 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
               _html_table(wide), "<h2>Timing spread</h2>"]
     parts += ([f"<p>{esc(spread_caption)}</p>", _html_table(spread)] if len(spread) else
               [f"<p>Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).</p>"])
-    parts += ["<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank), "<h2>Figures</h2>"]
+    parts += ["<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank),
+              "<h2>Integrator time and engine share</h2>", f"<p>{esc(ENGINE_CAPTION)}</p>", _html_table(engine),
+              "<h2>Figures</h2>"]
     for fig in figures:
         data = base64.b64encode(fig.png.read_bytes()).decode()
         parts.append(f"<figure id='{esc(fig.name)}'><img alt='{esc(fig.title)}' "

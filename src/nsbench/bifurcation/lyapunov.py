@@ -41,9 +41,10 @@ member (dropping it would bias the estimate), its spread widens the standard
 error, and the verdict says which member disagrees; many short members (the
 default 32) keep one capture from dominating the mean.
 
-The map is advanced by the compiled hybrid loop, which can start in a given
-mode (``exact-jit`` for linear problems, ``henon-rk4-jit`` for any); everything
-that depends on it is in :func:`_can_map` and :func:`_mapping_point`.
+The map is advanced by the hybrid core (:func:`nsbench.hybrid.run.run_hybrid`),
+which starts in a given mode and stops at the next slip event; any registered
+integrator runs there (``exact`` for linear problems and ``henon-rk4`` for any
+are compiled end to end, the fastest).
 """
 
 from __future__ import annotations
@@ -177,25 +178,26 @@ class _Member:
     message: str = ""
 
 
-# -- the only use of the compiled loop's ``run`` --------------------------------------------------
-
-def _can_map(integ) -> bool:
-    """Whether ``integ`` can run from mapping point to mapping point (the compiled loop)."""
-    return hasattr(integ, "run")
-
+# -- one step of the return map ------------------------------------------------------------------
 
 def _mapping_point(integ, problem, t, y, mode, t_rec, window):
     """First mapping point at or after ``t_rec`` of the motion from ``(t, y)``.
 
     ``mode`` is the mode at the start (None: the mode of ``y``). Returns
     ``((t, y, mode, block), status)``, or ``(None, status)`` if there is none
-    before ``t_rec + window``.
+    before ``t_rec + window``. The hybrid core stops right after the settle step
+    of that slip event, so the returned state and mode are the ones to continue from.
     """
-    run = integ.run(problem, t_end=t_rec + window, section="mapping", t_rec=t_rec, n_rec=1, t0=t, y0=y,
-                    mode=mode)
-    if run.n < 1:
-        return None, run.status
-    return (float(run.rec_t[0]), np.array(run.rec_y[0]), run.mode.copy(), int(run.rec_block[0])), run.status
+    from nsbench.hybrid.run import run_hybrid
+    from nsbench.problems.modes import EVENT_KINDS
+
+    raw = run_hybrid(problem, integ, t_rec + window, t0=t, y0=y, mode=mode, record_from=t_rec,
+                     stop_kind="slip", stop_count=1)
+    slips = np.flatnonzero(raw.records.ev_kind[: raw.n_events] == EVENT_KINDS.index("slip"))
+    if not raw.stopped or slips.size == 0:
+        return None, raw.status.value if raw.status.ok else f"{raw.status.value}: {raw.message}"
+    block = int(raw.records.ev_block[slips[0]])
+    return (raw.t, raw.y.copy(), np.array(raw.mode, dtype=np.int64), block), raw.status.value
 
 
 # -- one member ----------------------------------------------------------------------------------
@@ -303,7 +305,7 @@ def _run_members(integ, problem, seeds, params, workers) -> list[_Member]:
 
 # -- public entry point --------------------------------------------------------------------------
 
-def largest_exponent(problem, integrator: str = "exact-jit", *, options: dict | None = None,
+def largest_exponent(problem, integrator: str | None = None, *, options: dict | None = None,
                      transient: float = 1000.0, iterations: int = 10000, members: int = 32,
                      d0: float = 1e-8, window: float = 2000.0, seed: int = 0, spread: float = 1e-3,
                      align: int = 10, tol: float = 0.01, confidence: float = 0.95,
@@ -315,9 +317,11 @@ def largest_exponent(problem, integrator: str = "exact-jit", *, options: dict | 
     problem
         The oscillator (any problem the integrator accepts).
     integrator
-        A compiled integrator (``exact-jit`` or ``henon-rk4-jit``).
+        Registered integrator; default ``exact`` for linear problems,
+        ``henon-rk4`` otherwise (both compiled end to end through the core;
+        any other integrator runs too, arc by arc).
     options
-        Options of the integrator (e.g. ``{"h": 0.01}`` for ``henon-rk4-jit``).
+        Options of the integrator (e.g. ``{"h": 0.01}`` for ``henon-rk4``).
     transient
         Time each member integrates from its start before its first mapping point used.
     iterations
@@ -357,9 +361,9 @@ def largest_exponent(problem, integrator: str = "exact-jit", *, options: dict | 
     from nsbench.integrators import get_integrator
 
     _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed)
+    if integrator is None:
+        integrator = "exact" if problem.is_linear else "henon-rk4"
     integ = get_integrator(integrator, **(options or {}))
-    if not _can_map(integ):
-        raise ConfigError(f"lyapunov needs a compiled integrator (exact-jit, henon-rk4-jit), not {integrator!r}")
     integ.setup(problem)
     members, per_member = int(members), int(iterations // members)
     seeds = np.random.SeedSequence(int(seed)).spawn(members)

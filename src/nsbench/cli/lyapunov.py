@@ -12,8 +12,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("lyapunov", help="largest Lyapunov exponent of the mapping points (ensemble of Benettin runs)")
     add_problem_arguments(p)
     p.add_argument("--integrator", default=None,
-                   help="compiled integrator: exact-jit (linear problems, default) or henon-rk4-jit")
-    p.add_argument("--h", default=None, help="step size of henon-rk4-jit")
+                   help="registered integrator (default: exact for linear problems, henon-rk4 otherwise)")
+    p.add_argument("--h", default=None, help="step size of henon-rk4")
     p.add_argument("--transient", default="1000",
                    help="time each member runs before its first mapping point used (default 1000)")
     p.add_argument("--iterations", default="10000",
@@ -39,7 +39,7 @@ def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.lyapunov import largest_exponent
 
     problem = problem_from_args(args)
-    name = args.integrator or ("exact-jit" if problem.is_linear else "henon-rk4-jit")
+    name = args.integrator or ("exact" if problem.is_linear else "henon-rk4")
     options = {"h": parse_number(args.h, "--h")} if args.h is not None else {}
     res = largest_exponent(problem, name, options=options,
                            transient=parse_number(args.transient, "--transient"),

@@ -25,19 +25,20 @@ def test_bifurcation_command_writes_figures(tmp_path, capsys):
 def test_several_integrators_are_compared(tmp_path):
     out = tmp_path / "c"
     code = main(["bifurcation", "two-dof", "--case", "2", "--sweep", "F=0.2:0.4:3", "--transient", "200",
-                 "--record", "8", "--workers", "1", "--out", str(out), "--integrator", "exact-jit",
-                 "--integrator", "henon-rk4-jit", "--h", "0.01", "--formats", "png", "--no-progress"])
+                 "--record", "8", "--workers", "1", "--out", str(out), "--integrator", "exact",
+                 "--integrator", "ofapi", "--formats", "png", "--no-progress"])
     assert code == 0
     text = (out / "compare.md").read_text()
-    assert "henon-rk4-jit" in text and "Hausdorff" in text
+    assert "ofapi" in text and "Hausdorff" in text
     agree = pd.read_csv(out / "agreement.csv")
-    assert (agree["henon-rk4-jit"] < 1e-5).all()  # RK4 at h = 0.01 on periodic points: close to exact
+    # OFAPI at its default tolerance (1e-13) on periodic stroboscopic points: within 1e-9 of the closed form
+    assert (agree["ofapi"] < 1e-9).all()
 
 
 def test_bad_input_exits_2(tmp_path, capsys):
     assert main(["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2", "--out", str(tmp_path / "x")]) == 2
     assert main(["bifurcation", "two-dof", "--sweep", "nope=0.1:0.2:3", "--out", str(tmp_path / "y")]) == 2
     assert main(["bifurcation", "two-dof", "--case", "3", "--sweep", "v0=0.1:0.2:3",
-                 "--integrator", "exact-jit", "--out", str(tmp_path / "z"), "--no-progress"]) == 2
+                 "--integrator", "exact", "--out", str(tmp_path / "z"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert err.count("nsbench: error:") == 3

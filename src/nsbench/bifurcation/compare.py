@@ -1,7 +1,7 @@
 """The same sweep with several integrators: agreement per parameter value and the cost of each diagram.
 
 Agreement is the symmetric Hausdorff distance between the section-point sets
-(``x1, x2`` of the recorded points) of an integrator and of the reference (the
+(the block positions ``x1, ..., xn`` of the recorded points) of an integrator and of the reference (the
 first integrator) at each parameter value; cost is the summed wall time and
 right-hand-side evaluations of the whole diagram.
 """
@@ -25,7 +25,11 @@ def hausdorff(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _coords(frame: pd.DataFrame) -> list[str]:
-    return [c for c in ("x1", "x2") if c in frame and frame[c].notna().any()]
+    """The position columns ``x1 .. xn`` that hold values (peaks sections record them all)."""
+    from nsbench.bifurcation.storage import n_blocks_of
+
+    names = [f"x{b}" for b in range(1, n_blocks_of(frame) + 1)]
+    return [c for c in names if frame[c].notna().any()]
 
 
 def agreement(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
@@ -64,7 +68,8 @@ def report(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = Non
     agree = agreement(frames)
     lines = [f"# Sweep across integrators (reference: {names[0]})", "", "## Cost of each diagram", "",
              _table(costs(frames, walls)), "", "## Agreement with the reference",
-             "", "Symmetric Hausdorff distance between the (x1, x2) section-point sets, per parameter value.", ""]
+             "", "Symmetric Hausdorff distance between the section-point sets (block positions), per parameter "
+             "value.", ""]
     rows = []
     for name in names[1:]:
         d = agree[name].to_numpy(float)

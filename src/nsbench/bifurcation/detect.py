@@ -20,13 +20,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
+from nsbench.bifurcation.storage import n_blocks_of
 from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec, compute_point
 
 
 def _features(points: pd.DataFrame, section: str) -> np.ndarray:
-    cols = ["x1"] if section == "peaks" else ["x1", "v1", "x2", "v2"]
+    """What must repeat for a point to repeat: the peaked position, the whole state on the
+    stroboscopic section, the positions (and the block) at stick or slip events."""
+    blocks = range(1, n_blocks_of(points) + 1)
+    cols = ["x1"] if section == "peaks" else [c for b in blocks for c in (f"x{b}", f"v{b}")]
     if section in ("stick", "mapping"):
-        cols = ["x1", "x2"]
+        cols = [f"x{b}" for b in blocks]
     feats = points[cols].to_numpy(dtype=float)
     if section in ("stick", "mapping"):
         feats = np.column_stack([feats, 10.0 * points["event_block"].to_numpy(dtype=float)])
@@ -54,10 +58,11 @@ def distinct_count(feats: np.ndarray, tol: float) -> int:
 def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
     """One row per parameter value with its qualitative features.
 
-    Columns: ``index, value, status, n_points, period, n_distinct, sticks1, sticks2,
-    sticks1_per_cycle, sticks2_per_cycle, block1_sticks, block2_sticks, pure_sliding``.
+    Columns: ``index, value, status, n_points, period, n_distinct``, then per block
+    ``B``: ``sticksB, sticksB_per_cycle, blockB_sticks``, and ``pure_sliding``.
     ``period`` 0 means no period up to half the recorded points (aperiodic or long).
     """
+    blocks = range(1, n_blocks_of(frame) + 1)
     rows = []
     for index, pts in frame.groupby("index", sort=True):
         first = pts.iloc[0]
@@ -68,21 +73,27 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
         period = (1 if len(feats) == 1 else period_of(feats, tol * scale)) if ok else -1
         n = int(first["n_points"])
         cycles = n / period if period > 0 else np.nan
-        rows.append(dict(
-            index=int(index), value=float(first["value"]), status=first["status"], n_points=n,
-            period=period, n_distinct=distinct_count(feats, tol * scale) if ok else -1,
-            sticks1=int(first["sticks1"]), sticks2=int(first["sticks2"]),
-            sticks1_per_cycle=float(round(first["sticks1"] / cycles)) if period > 0 else np.nan,
-            sticks2_per_cycle=float(round(first["sticks2"] / cycles)) if period > 0 else np.nan,
-            block1_sticks=bool(first["sticks1"] > 0), block2_sticks=bool(first["sticks2"] > 0),
-            pure_sliding=bool(first["sticks1"] == 0 and first["sticks2"] == 0),
-        ))
+        row = dict(index=int(index), value=float(first["value"]), status=first["status"], n_points=n,
+                   period=period, n_distinct=distinct_count(feats, tol * scale) if ok else -1)
+        sticks = {b: int(first[f"sticks{b}"]) for b in blocks}
+        row.update({f"sticks{b}": sticks[b] for b in blocks})
+        row.update({f"sticks{b}_per_cycle": float(round(sticks[b] / cycles)) if period > 0 else np.nan
+                    for b in blocks})
+        row.update({f"block{b}_sticks": sticks[b] > 0 for b in blocks})
+        row["pure_sliding"] = not any(sticks.values())
+        rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _blocks(features: pd.Series | pd.DataFrame) -> list[int]:
+    keys = features.index if isinstance(features, pd.Series) else features.columns
+    return sorted(int(k[5:-7]) for k in keys if k.startswith("block") and k.endswith("_sticks"))
 
 
 def _changes(a: pd.Series, b: pd.Series) -> list[tuple[str, str]]:
     out = []
-    for blk in (1, 2):
+    blocks = _blocks(a)
+    for blk in blocks:
         if a[f"block{blk}_sticks"] != b[f"block{blk}_sticks"]:
             what = "stops" if a[f"block{blk}_sticks"] else "starts"
             out.append(("sliding", f"block {blk} {what} sticking"))
@@ -90,11 +101,11 @@ def _changes(a: pd.Series, b: pd.Series) -> list[tuple[str, str]]:
         out.append(("sliding", "pure sliding " + ("begins" if b["pure_sliding"] else "ends")))
     if a["period"] != b["period"]:
         out.append(("period", f"period {_p(a['period'])} -> {_p(b['period'])}"))
-    elif a["period"] > 0 and (a["sticks1_per_cycle"] != b["sticks1_per_cycle"]
-                              or a["sticks2_per_cycle"] != b["sticks2_per_cycle"]):
-        out.append(("event-pattern", "sticking phases per cycle "
-                    f"({a['sticks1_per_cycle']:g}, {a['sticks2_per_cycle']:g}) -> "
-                    f"({b['sticks1_per_cycle']:g}, {b['sticks2_per_cycle']:g})"))
+    elif a["period"] > 0 and any(a[f"sticks{k}_per_cycle"] != b[f"sticks{k}_per_cycle"] for k in blocks):
+        def per_cycle(row: pd.Series) -> str:
+            return "(" + ", ".join(f"{row[f'sticks{k}_per_cycle']:g}" for k in blocks) + ")"
+
+        out.append(("event-pattern", f"sticking phases per cycle {per_cycle(a)} -> {per_cycle(b)}"))
     return out
 
 

@@ -40,13 +40,19 @@ def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100
 
 
 def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: pd.DataFrame | None = None,
-            formats: Sequence[str] = FORMATS, variables: Sequence[str] = ("x1", "x2")) -> list[Path]:
+            formats: Sequence[str] = FORMATS, variables: Sequence[str] | None = None) -> list[Path]:
     """Bifurcation diagram: section-point coordinates against the swept parameter.
+
+    ``variables`` default to the block positions ``x1 .. xn`` (one panel each).
 
     Failed or incomplete values are marked along the bottom; candidate
     bifurcation points (if given) as faint vertical lines.
     """
     plt = _plt()
+    if variables is None:
+        from nsbench.bifurcation.storage import n_blocks_of
+
+        variables = [f"x{k}" for k in range(1, n_blocks_of(frame) + 1)]
     variables = [v for v in variables if v in frame and frame[v].notna().any()] or ["x1"]
     fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True,
                              squeeze=False)
@@ -76,17 +82,21 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
 
 def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS,
           phase_time: float | None = None) -> list[Path]:
-    """Locus of sticking phase over sliding regions I, II, III (block 1 blue, block 2 red).
+    """Locus of sticking phase over sliding regions I, II, III for the run's pair of blocks
+    (the first blue, the second red; default blocks 1 and 2).
 
     For forced problems region II is drawn at ``phase_time`` (default: the
     first forcing period boundary in the window, the stroboscopic phase).
+    With more than two blocks, the regions are slices at the other blocks'
+    positions at that time.
     """
     from nsbench.bifurcation.locus import region_masks
 
     plt = _plt()
     problem = run.problem
     traj = run.trajectory
-    x1, x2 = traj["x1"].to_numpy(), traj["x2"].to_numpy()
+    a, b = run.pair
+    x1, x2 = traj[f"x{a}"].to_numpy(), traj[f"x{b}"].to_numpy()
     pad1 = max(0.3, 0.25 * np.ptp(x1))
     pad2 = max(0.3, 0.25 * np.ptp(x2))
     g1 = np.linspace(x1.min() - pad1, x1.max() + pad1, 300)
@@ -96,7 +106,9 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
     if problem.is_forced and problem.coefficients.w > 0:
         period = 2 * np.pi / problem.coefficients.w
         t = phase_time if phase_time is not None else np.ceil(run.t_start / period) * period
-    r1, r2 = region_masks(problem, t, m1, m2)
+    at = int(np.argmin(np.abs(traj["t"].to_numpy() - t)))  # the other blocks where the trajectory is then
+    others = {k: float(traj[f"x{k}"].iloc[at]) for k in range(1, problem.n_blocks + 1) if k not in (a, b)}
+    r1, r2 = region_masks(problem, t, m1, m2, (a, b), others)
     fig, ax = plt.subplots(figsize=(5.6, 4.8))
     ax.contourf(m1, m2, r1.astype(float), levels=[0.5, 1.5], colors=[BLUE], alpha=0.10)
     ax.contourf(m1, m2, r2.astype(float), levels=[0.5, 1.5], colors=[RED], alpha=0.10)
@@ -104,17 +116,17 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
     ax.contour(m1, m2, r2.astype(float), levels=[0.5], colors=[RED], linewidths=0.6)
     ax.plot(x1, x2, color="0.75", lw=0.4, label="trajectory")
     # block 1 wider and underneath: where both stick (slope-1 lines) both colours show
-    for block, colour, lw in ((1, BLUE, 3.2), (2, RED, 1.3)):
+    for block, colour, lw in ((a, BLUE, 3.2), (b, RED, 1.3)):
         for j, seg in enumerate(run.sticking_segments(block)):
             ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=lw,
                     label=f"block {block} sticks" if j == 0 else None)
     mp = run.mapping_points
     if len(mp):
-        ax.plot(mp["x1"], mp["x2"], "o", ms=3, color="k", label="mapping points")
+        ax.plot(mp[f"x{a}"], mp[f"x{b}"], "o", ms=3, color="k", label="mapping points")
     ax.text(0.02, 0.97, "I: blue band, II: red band, III: overlap", transform=ax.transAxes,
             fontsize=7, va="top")
-    ax.set_xlabel("x1")
-    ax.set_ylabel("x2")
+    ax.set_xlabel(f"x{a}")
+    ax.set_ylabel(f"x{b}")
     ax.legend(fontsize=7, loc="lower right")
     if title:
         ax.set_title(title, fontsize=9)
@@ -123,16 +135,17 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
 
 
 def portrait(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS) -> list[Path]:
-    """Time series of ``x1, x2`` and the phase portraits ``(x_i, v_i)`` over the recording window."""
+    """Time series of the pair's positions and their phase portraits ``(x_i, v_i)`` over the recording window."""
     plt = _plt()
     traj = run.trajectory
-    nb = run.problem.n_blocks
+    blocks = run.pair if run.problem.n_blocks >= 2 else (1,)  # the locus's pair of a longer chain
+    nb = len(blocks)
     fig, axes = plt.subplots(1, 1 + nb, figsize=(4.0 * (1 + nb), 3.2),
                              gridspec_kw={"width_ratios": [1.6] + [1.0] * nb})
     ax = axes[0]
-    for i, colour in zip(range(1, nb + 1), (BLUE, RED)):
+    for j, (i, colour) in enumerate(zip(blocks, (BLUE, RED)), start=1):
         ax.plot(traj["t"], traj[f"x{i}"], color=colour, lw=0.7, label=f"x{i}")
-        ax_p = axes[i]
+        ax_p = axes[j]
         ax_p.plot(traj[f"x{i}"], traj[f"v{i}"], color=colour, lw=0.6)
         ax_p.axhline(run.problem.v0, color="0.5", lw=0.5, ls="--")
         ax_p.set_xlabel(f"x{i}")

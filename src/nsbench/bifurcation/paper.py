@@ -75,7 +75,7 @@ def _slug(s: PaperSweep) -> str:
 
 
 def _spec(s: PaperSweep, points: int, transient: float, record: int) -> SweepSpec:
-    integrator = "exact-jit" if s.case in (1, 2) else "henon-rk4-jit"
+    integrator = "exact" if s.case in (1, 2) else "henon-rk4"
     section = s.section or ("strobe" if s.case in (2, 4) else "peaks")
     return SweepSpec(problem="two-dof", case=s.case, name=s.name, start=s.start, stop=s.stop, count=points,
                      integrator=integrator, section=section, transient=transient, record=record)
@@ -191,8 +191,7 @@ def _locus(case: int, name: str, value: float, transient: float, out: Path) -> N
     from nsbench.problems import get_problem
 
     problem = get_problem("two-dof", case=case, **{name: value})
-    integ = "exact-jit" if problem.is_linear else "henon-rk4-jit"
-    run = locus_run(problem, integ, transient=transient, duration=120.0, value=value)
+    run = locus_run(problem, transient=transient, duration=120.0, value=value)
     tag = f"case{case}-{name}-{value:.6g}"
     figures.locus(run, out / "figures" / f"locus-{tag}", title=f"case {case}, {name} = {value:.6g}: "
                   "locus of sticking phase", formats=("png",))

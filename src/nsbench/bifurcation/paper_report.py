@@ -28,8 +28,8 @@ def _intro(points, transient, record, total) -> list[str]:
         "",
         f"Settings: {points} parameter values per sweep, integration from rest through a transient of "
         f"tau = {transient:g}, then {record} section points per value (stroboscopic for the forced "
-        "cases 2 and 4, peaks of x1 for cases 1 and 3). Linear cases use `exact-jit` (closed form), "
-        f"cubic ones `henon-rk4-jit` (h = 0.01). This run took {total:.0f} s on "
+        "cases 2 and 4, peaks of x1 for cases 1 and 3). Linear cases use `exact` (closed form), "
+        f"cubic ones `henon-rk4` (h = 0.01). This run took {total:.0f} s on "
         f"{prov.get('cpu_count')} cores ({prov.get('cpu')}; values already stored in `data/` are not "
         f"recomputed, so a resumed run is faster than a fresh one), nsbench commit {prov.get('git_commit')}.",
         "",

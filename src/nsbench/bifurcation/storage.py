@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from nsbench.bifurcation.sweep import COLUMNS, SweepSpec
+from nsbench.bifurcation.sweep import SweepSpec, counter_columns
 from nsbench.errors import ConfigError
 
 
@@ -39,6 +39,7 @@ class SweepStore:
         if meta_path.exists():
             meta = json.loads(meta_path.read_text())
             stored = SweepSpec.from_dict(meta["spec"])
+            self._columns: tuple[str, ...] | None = tuple(meta.get("columns", ())) or None
             if spec is not None and _canonical(stored) != _canonical(spec):
                 raise ConfigError(
                     f"{self.directory} holds a different sweep ({_describe(stored)}); "
@@ -51,17 +52,31 @@ class SweepStore:
             from nsbench.provenance import provenance
 
             self.spec = spec
-            self.meta = {"spec": spec.to_dict(), "provenance": provenance()}
+            self._columns = spec.columns
+            self.meta = {"spec": spec.to_dict(), "columns": list(self._columns), "provenance": provenance()}
             self.points_dir.mkdir(parents=True, exist_ok=True)
             _atomic_write(meta_path, json.dumps(self.meta, indent=2, default=str))
         self.points_dir.mkdir(parents=True, exist_ok=True)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The tidy columns of this sweep (the problem's state names and per-block counters)."""
+        if self._columns is None:  # a store written before the columns were kept in meta.json
+            self._columns = self.spec.columns
+        return self._columns
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """``x1, v1, ..., xn, vn`` of the swept problem."""
+        cols = self.columns
+        return tuple(cols[cols.index("t") + 1: cols.index("event_block")])
 
     def write(self, frame: pd.DataFrame) -> Path:
         """Store the rows of some finished parameter values (one chunk file)."""
         first = int(frame["index"].min())
         path = self.points_dir / f"chunk-{first:06d}-{uuid.uuid4().hex[:8]}.csv"
         tmp = path.with_suffix(".tmp")
-        frame.loc[:, list(COLUMNS)].to_csv(tmp, index=False, float_format="%.17g")
+        frame.loc[:, list(self.columns)].to_csv(tmp, index=False, float_format="%.17g")
         os.replace(tmp, path)
         return path
 
@@ -69,11 +84,11 @@ class SweepStore:
         """All stored rows, sorted by parameter index and point index (one row per value kept once)."""
         files = sorted(self.points_dir.glob("chunk-*.csv"))
         if not files:
-            return pd.DataFrame(columns=list(COLUMNS))
+            return pd.DataFrame(columns=list(self.columns))
         text = {c: str for c in ("param", "section", "status", "message")}
         frame = pd.concat([pd.read_csv(f, dtype=text, keep_default_na=False, na_values={"t": [""]})
                            for f in files], ignore_index=True)
-        for col in ("t", "x1", "v1", "x2", "v2"):
+        for col in ("t", *self.state_names):
             frame[col] = pd.to_numeric(frame[col], errors="coerce")
         # a value computed twice (two runs racing on one folder) keeps its first copy
         frame = frame.drop_duplicates(subset=["index", "k"], keep="first")
@@ -93,14 +108,25 @@ class SweepStore:
 
 
 def points_summary(frame: pd.DataFrame) -> pd.DataFrame:
-    """One row per parameter value: status, message, points and counters."""
-    cols = ["index", "value", "status", "message", "n_points", "n_events", "sticks1", "sticks2",
-            "slips1", "slips2", "reverses1", "reverses2", "nfev", "nsteps", "wall_time"]
+    """One row per parameter value: status, message, points and counters (of every block)."""
+    cols = ["index", "value", "status", "message", "n_points", *counter_columns(n_blocks_of(frame)), "wall_time"]
     return frame.groupby("index", sort=True).first().reset_index()[cols]
 
 
+def n_blocks_of(frame: pd.DataFrame) -> int:
+    """Number of blocks of a sweep table (its ``x1, x2, ...`` columns)."""
+    n = 0
+    while f"x{n + 1}" in frame.columns:
+        n += 1
+    return n
+
+
 def _canonical(spec: SweepSpec) -> str:
-    return json.dumps(spec.to_dict(), sort_keys=True, default=str)
+    from nsbench.integrators import canonical_name
+
+    # an alias (exact-jit) names the same integrator: a store that recorded it resumes
+    return json.dumps({**spec.to_dict(), "integrator": canonical_name(spec.integrator)}, sort_keys=True,
+                      default=str)
 
 
 def _describe(spec: SweepSpec) -> str:

@@ -19,8 +19,8 @@ def add_parser(sub) -> None:
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="fixed parameter override (repeatable)")
     p.add_argument("--integrator", action="append", default=[], metavar="NAME",
-                   help="registered integrator; repeat to compare several (default: exact-jit for "
-                        "linear problems, henon-rk4-jit otherwise)")
+                   help="registered integrator; repeat to compare several (default: exact for "
+                        "linear problems, henon-rk4 otherwise)")
     p.add_argument("--h", default=None, help="step size of fixed-step integrators")
     p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                    help="integrator option (repeatable; applies to every integrator that has it)")
@@ -37,6 +37,8 @@ def add_parser(sub) -> None:
     p.add_argument("--refine", action="store_true", help="refine candidate bifurcation points by bisection")
     p.add_argument("--portrait", action="append", default=[], metavar="VALUE",
                    help="also draw the locus of sticking phase and phase portraits at this value (repeatable)")
+    p.add_argument("--pair", default="1,2", metavar="A,B",
+                   help="the two blocks whose positions the locus and portraits show (default 1,2)")
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
@@ -95,12 +97,13 @@ def main(args: argparse.Namespace) -> int:
             from nsbench.bifurcation.sweep import parse_sweep
 
             sw, start, _, _ = parse_sweep(args.sweep)
-            name = "exact-jit" if probe(sw, start, {}).is_linear else "henon-rk4-jit"
+            name = "exact" if probe(sw, start, {}).is_linear else "henon-rk4"
         allowed = integrator_class(name).options
         unknown = [k for k in extra if all(k not in integrator_class(n).options for n in names if n)]
         if unknown:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
         specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
+    pair = _pair(args.pair)
     base = Path(args.out or f"bifurcation/{args.problem}-case{specs[0].case}-{specs[0].name}")
     frames, walls = {}, {}
     for spec in specs:
@@ -124,7 +127,7 @@ def main(args: argparse.Namespace) -> int:
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
         for text in args.portrait:
             value = parse_number(text, "--portrait")
-            _portrait(spec, value, out, formats)
+            _portrait(spec, value, out, formats, pair)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
@@ -148,14 +151,21 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def _portrait(spec, value: float, out: Path, formats) -> None:
+def _pair(text: str) -> tuple[int, int]:
+    parts = [t.strip() for t in text.split(",")]
+    if len(parts) != 2 or not all(p.isdigit() for p in parts):
+        raise ConfigError(f"--pair expects two block numbers A,B (e.g. 1,2), got {text!r}")
+    return int(parts[0]), int(parts[1])
+
+
+def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2)) -> None:
     from nsbench.bifurcation import figures
     from nsbench.bifurcation.locus import locus_run
 
     problem = spec.problem_at(value)
     integ = spec.integrator
     run = locus_run(problem, integ, transient=spec.transient, duration=min(300.0, spec.record_window),
-                    options=spec.options, value=value)
+                    options=spec.options, value=value, pair=pair)
     tag = f"{spec.name}_{value:g}"
     figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
     figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}",

@@ -19,6 +19,10 @@ an untimed first run). Figures in ``extra_info``:
     the whole ``simulate`` call, which adds a fixed cost (pandas frames of the
     events and the provenance) to the run's ``wall_time``.
 
+``test_rk4_step_floor`` reads ``henon-rk4``'s cost per step against a bare RK4
+loop over the same compiled field (``kernel_ns_per_step``, ``bare_ns_per_step``):
+the floor under any event machinery for that method.
+
 Speed is recorded and compared with ``benchmarks/baseline.json``, never asserted.
 """
 
@@ -77,3 +81,71 @@ def test_core_events_per_second(benchmark, request, nsbench_baseline, name):
     nsbench_baseline.record(request, benchmark, figures, "wall_s", {"t_end": SPAN},
                             label=f"core {name} 2-DOF case 1 [0, {SPAN:g}]: {events / wall:,.0f} events/s, "
                                   f"{1e6 * overhead:.2f} us/event in the core")
+
+
+def _bare_rk4():
+    """A bare fixed-step RK4 loop over the problem's compiled field: no guards, sections or output.
+
+    The floor under any RK4 event machinery with the same field evaluations (four
+    per step), to read ``henon-rk4``'s cost per step against.
+    """
+    import numba
+
+    from nsbench.problems.kernels import rhs
+
+    @numba.njit(cache=False, nogil=True, _nrt=False)
+    def bare(p, mode, y0, h, n_steps, work):
+        n = y0.shape[0]
+        y, k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4], work[5]
+        for j in range(n):
+            y[j] = y0[j]
+        t = 0.0
+        for _ in range(n_steps):
+            rhs(p, mode, t, y, k1)
+            for j in range(n):
+                tmp[j] = y[j] + 0.5 * h * k1[j]
+            rhs(p, mode, t + 0.5 * h, tmp, k2)
+            for j in range(n):
+                tmp[j] = y[j] + 0.5 * h * k2[j]
+            rhs(p, mode, t + 0.5 * h, tmp, k3)
+            for j in range(n):
+                tmp[j] = y[j] + h * k3[j]
+            rhs(p, mode, t + h, tmp, k4)
+            for j in range(n):
+                y[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            t += h
+        return y[0]
+
+    return bare
+
+
+def test_rk4_step_floor(benchmark, request, nsbench_baseline):
+    """``henon-rk4``'s cost per step against a bare RK4 loop over the same compiled field.
+
+    Both on the 2-DOF case 1 at ``h = 0.01``; the bare loop runs every block
+    slipping (the dearest field), as many steps as the kernel's run. Figures:
+    ``kernel_ns_per_step`` (``wall_time / nsteps`` of ``henon-rk4`` through
+    ``simulate``), ``bare_ns_per_step`` and their ratio.
+    """
+    import numpy as np
+
+    from nsbench.problems.kernels import mode_array, pack
+
+    problem = nsbench.get_problem("two-dof", case=1)
+    options = {"h": 0.01}
+    nsbench.simulate(problem, "henon-rk4", min(SPAN, 50.0), options=options)
+    runs = [nsbench.simulate(problem, "henon-rk4", SPAN, options=options) for _ in range(ROUNDS)]
+    steps = int(runs[-1].counters.nsteps)
+    kernel = statistics.median(r.wall_time for r in runs) / steps
+    bare = _bare_rk4()
+    p, mode = pack(problem), mode_array((1,) * problem.n_blocks)
+    y0, work = np.zeros(problem.n_states), np.zeros((6, problem.n_states))
+    bare(p, mode, y0, 0.01, 10, work)  # compile
+    benchmark.pedantic(bare, args=(p, mode, y0, 0.01, steps, work), rounds=ROUNDS, iterations=1)
+    floor = benchmark.stats.stats.median / steps if benchmark.stats else float("nan")
+    figures = {"kernel_ns_per_step": 1e9 * kernel, "bare_ns_per_step": 1e9 * floor,
+               "kernel_over_bare": kernel / floor, "steps": steps}
+    benchmark.extra_info.update(problem="two-dof/1", h=0.01, t_end=SPAN)
+    nsbench_baseline.record(request, benchmark, figures, "kernel_ns_per_step", {"t_end": SPAN},
+                            label=f"henon-rk4 step {1e9 * kernel:.0f} ns against a bare RK4 loop "
+                                  f"{1e9 * floor:.0f} ns (2-DOF case 1, h = 0.01)")

@@ -42,3 +42,29 @@ def test_bad_input_exits_2(tmp_path, capsys):
                  "--integrator", "exact", "--out", str(tmp_path / "z"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert err.count("nsbench: error:") == 3
+
+
+def test_a_chain_sweeps_with_its_own_columns(tmp_path, monkeypatch):
+    """``nsbench bifurcation chain --n 4``: columns x1..x4, v1..v4, per-block counters, locus of a chosen pair."""
+    monkeypatch.chdir(tmp_path)
+    code = main(["bifurcation", "chain", "--n", "4", "--case", "1", "--sweep", "v0=0.06:0.2:4",
+                 "--transient", "200", "--record", "10", "--workers", "1", "--portrait", "0.1",
+                 "--pair", "2,4", "--formats", "png", "--no-progress"])
+    assert code == 0
+    out = tmp_path / "bifurcation" / "chain-n4-case1-v0"  # the default folder names n
+    points = pd.concat([pd.read_csv(f) for f in (out / "points").glob("*.csv")])
+    assert {f"{q}{i}" for i in range(1, 5) for q in "xv"} <= set(points.columns)
+    assert {"sticks4", "slips4", "reverses4"} <= set(points.columns) and "x5" not in points.columns
+    assert (points["status"] == "success").all() and points["index"].nunique() == 4
+    assert (out / "locus_v0_0.1.png").stat().st_size > 1000
+
+
+def test_chain_block_count_errors_exit_2(tmp_path, capsys):
+    assert main(["bifurcation", "chain", "--n", "0", "--sweep", "v0=0.1:0.2:3", "--out", str(tmp_path / "a")]) == 2
+    assert main(["bifurcation", "chain", "--n", "4", "--sweep", "n=2:4:3", "--out", str(tmp_path / "b")]) == 2
+    assert main(["bifurcation", "chain", "--n", "3", "--param", "n=4", "--sweep", "v0=0.1:0.2:3",
+                 "--out", str(tmp_path / "c")]) == 2
+    assert main(["simulate", "two-dof", "--n", "3"]) == 2
+    err = capsys.readouterr().err
+    assert "integer from 1 to 64" in err and "cannot be swept" in err and "once" in err
+    assert "unknown parameter 'n'" in err

@@ -25,6 +25,20 @@ def test_builtin_conformance(integrator, check):
     check(integrator)
 
 
+@parametrize_with_checks(BUILTINS, problem={"name": "chain", "n": 5})
+def test_builtin_conformance_on_a_five_block_chain(integrator, check):
+    check(integrator)
+
+
+def test_kit_problem_family_is_checked_before_any_check():
+    with pytest.raises(ConfigError, match="n = 99"):
+        check_integrator("exact", problem={"name": "chain", "n": 99})
+    with pytest.raises(ConfigError, match="unknown problem|not registered|no problem"):
+        check_integrator("exact", problem="no-such-problem")
+    with pytest.raises(ConfigError, match="the checks choose the case"):
+        check_integrator("exact", problem={"name": "chain", "n": 3, "case": 2})
+
+
 # ---------------------------------------------------------------------- the kit catches faults
 # Deliberately broken variants of real integrators: each must fail its check.
 

@@ -45,15 +45,25 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--case", default=None, help="preset 1..4 (default 1)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="parameter override (repeatable); dimensionless names unless --dimensional")
+    p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
     p.add_argument("--dimensional", action="store_true",
                    help="parameters, integration and outputs in dimensional units")
+
+
+def shared_params(args: argparse.Namespace) -> dict[str, float]:
+    """``--param NAME=VALUE`` (repeatable) and ``--n N`` as problem parameters."""
+    params: dict[str, float] = {}
+    for text in args.param:
+        name, value = parse_assignment(text, "--param")
+        params[name] = parse_number(value, f"parameter {name}")
+    if getattr(args, "n", None) is not None:
+        if "n" in params:
+            raise ConfigError("give the number of blocks once: --n or --param n=..., not both")
+        params["n"] = parse_number(args.n, "--n")
+    return params
 
 
 def problem_from_args(args: argparse.Namespace):
     from nsbench.problems import get_problem
 
-    params = {}
-    for text in args.param:
-        name, value = parse_assignment(text, "--param")
-        params[name] = parse_number(value, f"parameter {name}")
-    return get_problem(args.problem, case=args.case, dimensional=args.dimensional, **params)
+    return get_problem(args.problem, case=args.case, dimensional=args.dimensional, **shared_params(args))

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from nsbench.cli._common import parse_assignment, parse_number, parse_value
+from nsbench.cli._common import parse_assignment, parse_number, parse_value, shared_params
 from nsbench.errors import ConfigError
 
 
@@ -18,6 +18,7 @@ def add_parser(sub) -> None:
                    help="swept dimensionless parameter (v0, omega_r, inv_omega_r, r_f, F, Omega, h1, ...)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="fixed parameter override (repeatable)")
+    p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
     p.add_argument("--integrator", action="append", default=[], metavar="NAME",
                    help="registered integrator; repeat to compare several (default: exact for "
                         "linear problems, henon-rk4 otherwise)")
@@ -33,7 +34,7 @@ def add_parser(sub) -> None:
     grp = p.add_mutually_exclusive_group()
     grp.add_argument("--workers", default=None, help="local processes (default: all cores)")
     grp.add_argument("--dask", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
-    p.add_argument("--out", default=None, help="results folder (default bifurcation/<problem>-case<N>-<NAME>)")
+    p.add_argument("--out", default=None, help="results folder (default bifurcation/<problem>[-n<N>]-case<C>-<NAME>)")
     p.add_argument("--refine", action="store_true", help="refine candidate bifurcation points by bisection")
     p.add_argument("--portrait", action="append", default=[], metavar="VALUE",
                    help="also draw the locus of sticking phase and phase portraits at this value (repeatable)")
@@ -48,10 +49,9 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     from nsbench.bifurcation.sweep import SweepSpec, default_section, parse_sweep
 
     name, start, stop, count = parse_sweep(args.sweep)
-    params = {}
-    for text in args.param:
-        key, value = parse_assignment(text, "--param")
-        params[key] = parse_number(value, f"parameter {key}")
+    params = shared_params(args)
+    if name == "n":
+        raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
     window = parse_number(args.window, "--window") if args.window is not None else None
     record = parse_number(args.record, "--record")
     section = args.section or default_section(problem_probe(name, start, params),
@@ -104,7 +104,8 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
         specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
     pair = _pair(args.pair)
-    base = Path(args.out or f"bifurcation/{args.problem}-case{specs[0].case}-{specs[0].name}")
+    blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
+    base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
     frames, walls = {}, {}
     for spec in specs:
         out = base if len(specs) == 1 else base / spec.integrator

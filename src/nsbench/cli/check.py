@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nsbench.cli._common import parse_assignment, parse_value
+from nsbench.cli._common import parse_assignment, parse_value, shared_params
 
 
 def add_parser(sub) -> None:
@@ -14,6 +14,11 @@ def add_parser(sub) -> None:
                    help="run only this check (repeatable); default: all")
     p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                    help="integrator option (repeatable)")
+    p.add_argument("--problem", default="two-dof", metavar="PROBLEM",
+                   help="registered problem whose presets 1-4 the checks use (default two-dof)")
+    p.add_argument("--n", default=None, help="number of blocks of a chain problem")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="parameter shared by every case of the problem (repeatable)")
     p.set_defaults(handler=main)
 
 
@@ -31,8 +36,9 @@ def main(args: argparse.Namespace) -> int:
         key, value = parse_assignment(text, "--option")
         options[key] = parse_value(value)
     integ = get_integrator(args.integrator, **options)
-    print(f"conformance of {integ.name} {integ.settings}")
-    results = check_integrator(integ, args.check)
+    problem = {"name": args.problem, **shared_params(args)}
+    print(f"conformance of {integ.name} {integ.settings} on {problem}")
+    results = check_integrator(integ, args.check, problem=problem)
     width = max(len(r.check) for r in results)
     print(f"  {'check':<{width}}  {'status':<7}  {'seconds':>7}  note")
     for r in results:

@@ -169,8 +169,11 @@ def apply_case(defaults: Mapping[str, float], case: int, cubic: tuple[str, ...])
     return values
 
 
-def check_values(problem: str, params: Mapping[str, object], allowed: tuple[str, ...]) -> dict[str, float]:
+def check_values(problem: str, params: Mapping[str, object], allowed: tuple[str, ...],
+                 bounds: Mapping[str, Bound] | None = None) -> dict[str, float]:
     """Reject unknown names and non-finite or out-of-range values; return floats.
+
+    ``bounds`` gives the allowed range of each name (default :data:`BOUNDS`).
 
     Raises
     ------
@@ -195,7 +198,7 @@ def check_values(problem: str, params: Mapping[str, object], allowed: tuple[str,
             raise ConfigError(
                 f"{problem}: parameter {name} = {value} is not allowed: it must be a finite real number"
             )
-        bound = BOUNDS[name]
+        bound = (BOUNDS if bounds is None else bounds)[name]
         if not bound.admits(value):
             raise ConfigError(
                 f"{problem}: parameter {name} = {value:g} is out of range: {bound.describe()}"

@@ -12,6 +12,11 @@ In a plug-in's test suite, one pytest item per (integrator, check) pair::
     def test_conformance(integrator, check):
         check(integrator)
 
+The checks run on the presets (cases 1-4) of a problem family, by default the
+2-DOF oscillator; ``check_integrator(..., problem={"name": "chain", "n": 5})``,
+``parametrize_with_checks([...], problem=...)`` or ``nsbench check INTEGRATOR
+--problem chain --n 5`` run them on another registered problem.
+
 Capability tags (:class:`~nsbench.integrators.Capabilities`) decide which
 checks apply; an integrator declares the checks it knowingly fails in its
 class attribute ``known_gaps = {"check-name": "reason"}``, and they are
@@ -24,7 +29,7 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
 - ``declared-order``: step halving on a smooth arc shows the declared order
   (fixed-step methods with an order and a step option).
 - ``convergence``: tightening the step or tolerance option never loses accuracy.
-- ``event-times``: the event sequence and times of 2-DOF case 2 against ``exact``.
+- ``event-times``: the event sequence and times of case 2 against ``exact``.
 - ``cubic-event-times``: the same on case 4 (cubic) against ``reference``.
 - ``refuses-unsupported``: linear-only integrators refuse cubic springs.
 - ``stuck-stays-stuck``: stuck blocks stay at belt speed until the force
@@ -36,7 +41,7 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
 
 from __future__ import annotations
 
-from nsbench.testing._checks import CHECKS, Check
+from nsbench.testing._checks import CHECKS, Check, checking_on
 from nsbench.testing._kit import (
     CheckResult,
     as_integrator,
@@ -46,4 +51,4 @@ from nsbench.testing._kit import (
 )
 
 __all__ = ["CHECKS", "Check", "CheckResult", "check_integrator", "parametrize_with_checks",
-           "run_check", "as_integrator"]
+           "run_check", "as_integrator", "checking_on"]

@@ -3,9 +3,11 @@
 Each check takes a configured :class:`~nsbench.integrators.Integrator` (a fresh
 copy built from its config) and raises ``AssertionError`` with a reason when
 the integrator falls short. :data:`CHECKS` lists them with the capability
-test that decides whether each applies. Problems are the 2-DOF presets:
-case 2 (linear, forced: both kinds of guard, the forcing, ``exact`` as the
-reference), case 1 for a stuck phase, case 4 for cubic springs.
+test that decides whether each applies. Problems are the presets of a problem
+family, by default the 2-DOF oscillator (any registered problem with cases 1-4,
+for example ``{"name": "chain", "n": 5}``, through :func:`checking_on`): case 2
+(linear, forced: both kinds of guard, the forcing, ``exact`` as the reference),
+case 1 for a stuck phase, case 4 for cubic springs.
 """
 
 from __future__ import annotations
@@ -13,8 +15,10 @@ from __future__ import annotations
 import json
 import math
 import re
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -27,10 +31,52 @@ _EVENT_BOUND = 1e-5  # event times at the middle accuracy level, tau in [0, 60]
 _ENERGY_BOUND = 1e-6  # energy-balance residual at the middle accuracy level, tau in [0, 40]
 
 
+#: The problem family the checks run on: a registry name and the parameters every case
+#: shares (``case`` is each check's own). Set for a run by :func:`checking_on`.
+FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_family",
+                                                            default=("two-dof", {}))
+
+
+def problem_family(spec: str | dict[str, Any] | None) -> tuple[str, dict[str, Any]]:
+    """A problem family from ``'two-dof'``, ``{'name': 'chain', 'n': 5}`` or ``None`` (2-DOF).
+
+    Built at every case (1..4) at once, so a bad name or parameter raises a
+    ``ConfigError`` before any check runs.
+    """
+    from nsbench.problems import get_problem
+
+    if spec is None:
+        return FAMILY.get()
+    if isinstance(spec, str):
+        name, params = spec, {}
+    elif isinstance(spec, dict) and isinstance(spec.get("name"), str):
+        params = {k: v for k, v in spec.items() if k != "name"}
+        name = spec["name"]
+        if "case" in params:
+            raise ConfigError(f"the checks choose the case; remove 'case' from the problem {spec!r}")
+    else:
+        raise ConfigError(f"a conformance problem is a registry name or a dict with 'name', got {spec!r}")
+    for case in (1, 2, 3, 4):
+        get_problem(name, case=case, **params)
+    return name, params
+
+
+@contextmanager
+def checking_on(spec: str | dict[str, Any] | None) -> Iterator[tuple[str, dict[str, Any]]]:
+    """Run the checks inside this block on the problem family ``spec`` (see :func:`problem_family`)."""
+    family = problem_family(spec)
+    token = FAMILY.set(family)
+    try:
+        yield family
+    finally:
+        FAMILY.reset(token)
+
+
 def _problem(case: int):
     from nsbench.problems import get_problem
 
-    return get_problem("two-dof", case=case)
+    name, params = FAMILY.get()
+    return get_problem(name, case=case, **params)
 
 
 def _simulate(integ: Integrator, problem, t_end: float, **kwargs):
@@ -113,7 +159,7 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
     """``advance`` leaves the request's state and times alone (given writable copies)."""
     problem = _problem(2)
     integ.setup(problem)
-    y0 = np.array([0.2, -0.1, 0.3, 0.05])
+    y0 = np.resize([0.2, -0.1, 0.3, 0.05], problem.n_states)
     t_eval = np.linspace(0.1, 3.0, 7)
     saved = (y0.copy(), t_eval.copy())
     mode = problem.initial_mode(0.0, y0)
@@ -126,16 +172,22 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
 def _smooth_error(integ: Integrator) -> float:
     """End-state error of one smooth slip arc of case 1 over 4 time units, against ``exact``.
 
-    Both blocks slip backwards near the mode's equilibrium (x1 = rf1 + rf2,
+    Every block slips backwards near the mode's equilibrium (spring ``i`` carries
+    the kinetic friction of blocks ``i..n``: for two blocks x1 = rf1 + rf2,
     x2 = x1 + rf2) with speeds well below the belt's, so no guard fires.
     """
     from nsbench.integrators.exact import ExactIntegrator
 
     problem = _problem(1)
     c = problem.coefficients
-    x1 = c.fs[0] + c.fs[1]
-    y0 = np.array([x1 + 0.02, 0.0, x1 + c.fs[1] / c.k[1] - 0.02, 0.01])
-    mode = (-1, -1)
+    nb = problem.n_blocks
+    y0 = np.zeros(problem.n_states)
+    x = 0.0
+    for i in range(nb):
+        x += sum(c.fs[i:]) / c.k[i]  # the equilibrium of the linear springs
+        y0[2 * i] = x + (0.02 if i % 2 == 0 else -0.02)
+    y0[-1] = 0.01
+    mode = (-1,) * nb
     request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=4.0, guards=problem.guards(mode))
     exact = ExactIntegrator()
     exact.setup(problem)
@@ -212,10 +264,12 @@ def check_refuses_unsupported_problems(integ: Integrator) -> None:
 
 
 def check_stuck_block_stays_stuck(integ: Integrator) -> None:
-    """Both blocks stuck inside their sliding regions: no event until block 1 slips, no drift."""
+    """Every block stuck inside its sliding region: no event until block 1 slips, no drift."""
     problem = _problem(1)
     v0 = problem.v0
-    y0 = [0.3, v0, 0.3, v0]  # R1 ~ 0.304 grows at v0 per time unit, reaching 1 at t ~ 8.35
+    # every block at x = 0.3: only the ground spring is stretched, so R1 ~ 0.304 grows at v0
+    # per time unit, reaching 1 at t ~ 8.35, and the other blocks feel only their damping
+    y0 = [0.3, v0] * problem.n_blocks
     grid = np.linspace(0.0, 8.0, 161)
     res = _simulate(middle_level(integ), problem, 10.0, y0=y0, t_eval=grid)
     assert res.ok, res.message

@@ -12,7 +12,7 @@ from typing import Any, Iterable, Sequence
 
 from nsbench.errors import ConfigError
 from nsbench.integrators.base import Integrator
-from nsbench.testing._checks import CHECKS, Check
+from nsbench.testing._checks import CHECKS, Check, checking_on, problem_family
 
 PASSED, FAILED, SKIPPED, XFAIL, XPASS = "passed", "failed", "skipped", "xfail", "xpass"
 
@@ -70,8 +70,17 @@ def checks_for(integ: Integrator, only: Sequence[str] | None = None) -> list[Che
     return [names[n] for n in only]
 
 
-def run_check(integ: Integrator, check: Check) -> CheckResult:
-    """Run one check on a fresh copy of ``integ`` and classify the outcome."""
+def run_check(integ: Integrator, check: Check, problem: str | dict[str, Any] | None = None) -> CheckResult:
+    """Run one check on a fresh copy of ``integ`` and classify the outcome.
+
+    ``problem`` is the problem family of the checks (default the 2-DOF
+    oscillator; see :func:`nsbench.testing.checking_on`).
+    """
+    with checking_on(problem):
+        return _run_check(integ, check)
+
+
+def _run_check(integ: Integrator, check: Check) -> CheckResult:
     cls = type(integ)
     reason = check.applies(cls.capabilities)
     if reason is not None:
@@ -94,7 +103,8 @@ def run_check(integ: Integrator, check: Check) -> CheckResult:
 
 
 def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
-                     raise_on_failure: bool = False) -> list[CheckResult]:
+                     raise_on_failure: bool = False,
+                     problem: str | dict[str, Any] | None = None) -> list[CheckResult]:
     """Run the conformance kit on one integrator.
 
     Parameters
@@ -105,6 +115,10 @@ def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
         Names of the checks to run (default: all; see :data:`nsbench.testing.CHECKS`).
     raise_on_failure
         Raise ``AssertionError`` listing the failed checks instead of returning.
+    problem
+        The problem family the checks run on: a registry name or a dict of the
+        name and the parameters every case shares, e.g. ``{"name": "chain",
+        "n": 5}`` (default: ``'two-dof'``). The checks use its presets 1-4.
 
     Returns
     -------
@@ -112,15 +126,18 @@ def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
         One per check, in the kit's order.
     """
     integ = as_integrator(obj)
-    results = [run_check(integ, check) for check in checks_for(integ, checks)]
+    family = problem_family(problem)  # a bad problem fails here, before any check
+    results = [run_check(integ, check, {"name": family[0], **family[1]}) for check in checks_for(integ, checks)]
     failed = [r for r in results if r.status == FAILED]
     if raise_on_failure and failed:
         raise AssertionError("; ".join(f"{r.check}: {r.message}" for r in failed))
     return results
 
 
-def parametrize_with_checks(integrators: Iterable[Any]):
+def parametrize_with_checks(integrators: Iterable[Any], problem: str | dict[str, Any] | None = None):
     """A ``pytest.mark.parametrize`` over every (integrator, check) pair.
+
+    ``problem`` is the problem family of the checks, as for :func:`check_integrator`.
 
     The test receives the integrator and a callable that runs the check on a
     fresh copy of it. Checks that do not apply are skipped and declared known
@@ -134,6 +151,9 @@ def parametrize_with_checks(integrators: Iterable[Any]):
     """
     import pytest
 
+    name, shared = problem_family(problem)
+    family = {"name": name, **shared}
+    suffix = "" if problem is None else "-" + "-".join([name, *(f"{k}{v}" for k, v in shared.items())])
     params = []
     for obj in integrators:
         integ = as_integrator(obj)
@@ -146,18 +166,21 @@ def parametrize_with_checks(integrators: Iterable[Any]):
                 marks.append(pytest.mark.skip(reason=reason))
             elif check.name in gaps:
                 marks.append(pytest.mark.xfail(reason=gaps[check.name], strict=False))
-            params.append(pytest.param(integ, _Runner(check), id=f"{cls.name}-{check.name}", marks=marks))
+            params.append(pytest.param(integ, _Runner(check, family), id=f"{cls.name}-{check.name}{suffix}",
+                                       marks=marks))
     return pytest.mark.parametrize("integrator, check", params)
 
 
 class _Runner:
     """Callable handed to the test: runs one check on a fresh copy of the integrator."""
 
-    def __init__(self, check: Check) -> None:
+    def __init__(self, check: Check, family: dict[str, Any]) -> None:
         self.check = check
+        self.family = family
 
     def __call__(self, integ: Integrator) -> None:
-        self.check.run(type(integ).from_config(integ.config()))
+        with checking_on(self.family):
+            self.check.run(type(integ).from_config(integ.config()))
 
     def __repr__(self) -> str:
         return f"<check {self.check.name}>"

@@ -118,3 +118,34 @@ def test_fixed_target_picks_the_cheapest_reaching_config_and_ignores_wrong_seque
     # a: ranks 1, 1, 2 (nobody reaches 1e-12: both last = 2); b: 2, 2, 2
     assert list(rank["integrator"]) == ["a", "b"]
     assert rank["mean_rank"].tolist() == pytest.approx([4 / 3, 2.0])
+
+
+def test_tie_groups_are_compared_in_the_reference_order():
+    """Three blocks sticking within rounding of each other: any order inside the group matches."""
+    from nsbench.bench.metrics import order_ties_as_reference, tie_groups
+
+    t0 = 0.100251
+    ref = log([0.05, t0, t0 + 2e-16, t0 + 4e-16, 0.3],
+              [("slip", 1), ("stick", 31), ("stick", 4), ("stick", 17), ("slip", 2)])
+    assert tie_groups(ref["t"]).tolist() == [0, 1, 1, 1, 2]
+    run = log([0.05 + 1e-9, t0 + 3e-9, t0 + 3e-9, t0 + 3e-9 + 1e-16, 0.3 - 2e-9],
+              [("slip", 1), ("stick", 4), ("stick", 17), ("stick", 31), ("slip", 2)])
+    row = case_metrics(ref, run, None, None, None, None)
+    assert row["sequence_ok"] and row["n_prefix"] == 5
+    assert row["switch_err_max"] == pytest.approx(3e-9, rel=1e-6)
+    same = order_ties_as_reference(ref, ref)
+    assert same is ref  # nothing to reorder: the frame itself
+
+
+def test_a_wrong_member_of_a_tie_group_is_a_divergence():
+    ref = log([1.0, 2.0, 2.0, 3.0], [("slip", 1), ("stick", 2), ("stick", 3), ("slip", 1)])
+    run = log([1.0, 2.0, 2.0, 3.0], [("slip", 1), ("stick", 3), ("reverse", 2), ("slip", 1)])
+    row = case_metrics(ref, run, None, None, None, None)
+    assert not row["sequence_ok"] and row["first_divergence_index"] == 1
+
+
+def test_events_a_microsecond_apart_are_not_a_tie():
+    """Distinct events keep their order: a swap of events 1e-6 apart is a wrong sequence."""
+    ref = log([1.0, 1.0 + 1e-6], [("stick", 1), ("stick", 2)])
+    run = log([1.0, 1.0 + 1e-6], [("stick", 2), ("stick", 1)])
+    assert not case_metrics(ref, run, None, None, None, None)["sequence_ok"]

@@ -98,6 +98,8 @@ def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
     ({"problems": [{"name": "three-dof"}]}, "unknown problem 'three-dof'"),
     ({"problems": [{"name": "one-dof", "params": {"c": -1}}]}, "out of range"),
     ({"problems": [{"name": "one-dof"}], "t_span": [5, 1]}, "t_end > t0"),
+    ({"problems": [{"name": "chain", "params": {"n": []}}]}, "params.n is an empty list"),
+    ({"problems": [{"name": "chain", "params": {"n": [2, 100]}}]}, "n = 100 is not allowed"),
     ({"problems": [{"name": "one-dof"}], "repeats": 0}, "repeats = 0"),
     ({"problems": [{"name": "one-dof"}], "time_limit": -1}, "time_limit = -1"),
     ({"problems": [{"name": "one-dof"}], "repeat_budget": "x"}, "repeat_budget = 'x'"),
@@ -121,3 +123,23 @@ def test_missing_and_invalid_files(tmp_path):
     bad.write_text("name = [")
     with pytest.raises(ConfigError, match="not valid TOML"):
         load_suite(bad)
+
+
+def test_list_valued_params_are_a_grid_of_problems():
+    suite = Suite.from_dict({"problems": [{"name": "chain", "cases": [1, 2], "params": {"n": [2, 8], "mu": 0.5}}],
+                             "integrators": {"only": ["exact"]}})
+    configs = suite.problem_configs()
+    assert [(c["case"], c["params"]["n"]) for c in configs] == [(1, 2), (1, 8), (2, 2), (2, 8)]
+    assert all(c["params"]["mu"] == 0.5 for c in configs)
+    assert len({case.case_id for case in suite.cases()}) == 4
+
+
+def test_packaged_suites_by_name():
+    from nsbench.bench.suite import packaged_suites
+
+    assert {"default", "chain-scaling"} <= set(packaged_suites())
+    scaling = load_suite("chain-scaling")
+    ns = sorted({c["params"]["n"] for c in scaling.problem_configs()})
+    assert ns == [2, 4, 8, 16, 32, 64] and scaling.name == "chain-scaling"
+    with pytest.raises(ConfigError, match="neither a file nor a packaged suite; packaged: chain-scaling, default"):
+        load_suite("chain-scalin")

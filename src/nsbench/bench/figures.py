@@ -9,6 +9,7 @@ reference gets a cost-only figure instead.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -178,3 +179,79 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
         else:
             figures.append(cost_only(group, label, styles, out))
     return figures
+
+
+def scaling_report_figures(frame: pd.DataFrame, table: pd.DataFrame, summary: pd.DataFrame,
+                           out: str | Path) -> list[Figure]:
+    """The scaling figures of every family of the report (none when no family varies ``n``)."""
+    styles = _styles(sorted(frame["integrator"].unique()))
+    figures: list[Figure] = []
+    for family in sorted(table["family"].unique()):
+        figures += scaling_figures(table, summary, family, styles, Path(out))
+    return figures
+
+
+def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, styles: dict,
+                    out: Path) -> list[Figure]:
+    """The scaling study of one family: cost to reach the target against ``n``, events and set-up against ``n``.
+
+    ``table`` and ``summary`` are :func:`nsbench.bench.scaling.scaling_table` and
+    :func:`~nsbench.bench.scaling.scaling_summary`.
+    """
+    from nsbench.bench.scaling import COSTS, SCALING_TARGET
+
+    plt = _pyplot()
+    rows = table[table["family"] == family]
+    fits = summary[summary["family"] == family].set_index("integrator")
+    fig, axes = plt.subplots(1, len(COSTS), figsize=(15, 4.8))
+    for ax, (cost, label) in zip(axes, COSTS.items()):
+        for name, group in rows[rows["reached"]].groupby("integrator", sort=True):
+            group = group.sort_values("n")
+            y = group[cost].to_numpy(dtype=float)
+            if not np.isfinite(y).any() or not (y > 0).any():
+                continue
+            b = fits.loc[name, f"exponent_{cost}"] if name in fits.index else math.nan
+            tag = f"{name} (b = {b:.2f})" if np.isfinite(b) else name
+            ax.plot(group["n"].to_numpy(dtype=float), y, label=tag, linewidth=1.2, markersize=4,
+                    **styles.get(name, {}))
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("number of blocks n")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=4, fontsize=8,
+                   frameon=False)
+    fig.suptitle(f"{family}: cost to reach a switching-time error of {SCALING_TARGET:g}")
+    caption = (f"Cost of the cheapest configuration of each integrator that reaches a switching-time error of "
+               f"{SCALING_TARGET:g} on {family}, against the number of blocks n (log-log); b in the legend is "
+               "the fitted growth exponent of cost ~ n^b (per panel in the scaling table). An integrator's line "
+               "ends where it stops reaching the target.")
+    figs = [_save(fig, out, f"scaling_cost_{slug(family)}", f"{family}: cost against n", caption)]
+
+    fig, (ax_e, ax_s) = plt.subplots(1, 2, figsize=(11, 4.5))
+    ref = rows.dropna(subset=["events_per_time"]).groupby("n")["events_per_time"].first()
+    ax_e.plot(ref.index.to_numpy(dtype=float), ref.to_numpy(dtype=float), "ko-")
+    ax_e.set_xscale("log", base=2)
+    ax_e.set_xlabel("number of blocks n")
+    ax_e.set_ylabel("events per unit time (reference)")
+    ax_e.grid(True, which="both", alpha=0.3)
+    for name, group in rows.groupby("integrator", sort=True):
+        group = group.sort_values("n")
+        y = group["setup_time"].to_numpy(dtype=float)
+        if np.isfinite(y).any() and (y > 0).any():
+            ax_s.plot(group["n"].to_numpy(dtype=float), y, label=name, linewidth=1.2, markersize=4,
+                      **styles.get(name, {}))
+    ax_s.set_xscale("log", base=2)
+    ax_s.set_yscale("log")
+    ax_s.set_xlabel("number of blocks n")
+    ax_s.set_ylabel("setup time (s): compilation, tables")
+    ax_s.grid(True, which="both", alpha=0.3)
+    if ax_s.lines:
+        ax_s.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    caption = (f"{family}: events per unit time of the reference against n, and each integrator's set-up time "
+               "(compilation and tables, kept out of the timed runs; median over its configurations) against n.")
+    figs.append(_save(fig, out, f"scaling_events_setup_{slug(family)}", f"{family}: events and set-up against n",
+                      caption))
+    return figs

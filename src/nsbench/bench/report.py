@@ -13,8 +13,9 @@ from pathlib import Path
 import pandas as pd
 
 from nsbench.bench import storage
-from nsbench.bench.figures import Figure, report_figures
+from nsbench.bench.figures import Figure, report_figures, scaling_report_figures
 from nsbench.bench.reference import failed_status
+from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, ranking
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
 
@@ -166,7 +167,10 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     long = fixed_target(frame, targets)
     wide = fixed_target_wide(long)
     rank = ranking(long)
-    figures = report_figures(frame, d / "figures")
+    scaling = scaling_table(frame)
+    scaling_fit = scaling_summary(scaling)
+    scaling_figs = scaling_report_figures(frame, scaling, scaling_fit, d / "figures") if len(scaling) else []
+    figures = scaling_figs + report_figures(frame, d / "figures")
     results_view = frame[_RESULT_COLUMNS].rename(columns={"problem_label": "problem"})
     failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status",
                                                      "message"]]
@@ -190,14 +194,20 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     md = ["# nsbench report", ""]
     if problems:
         md += ["**This run is incomplete:**", "", *[f"- {line}" for line in problems], ""]
-    md += [*_problems_text(frame, prov), "", _timing_text(frame), "", "## Fixed-target table", "",
+    md += [*_problems_text(frame, prov), "", _timing_text(frame), ""]
+    if len(scaling):
+        md += ["## Scaling with the number of blocks", "", SCALING_CAPTION, "", markdown_table(scaling_fit), ""]
+        for fig in scaling_figs:
+            md += [f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
+        md += [SCALING_DETAIL_CAPTION, "", markdown_table(_scaling_view(scaling)), ""]
+    md += ["## Fixed-target table", "",
            ft_caption, "", markdown_table(wide), "", "## Timing spread", ""]
     md += ([spread_caption, "", markdown_table(spread), ""] if len(spread) else
            [f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).", ""])
     engine = engine_share_table(frame)
     md += ["## Ranking", "", rank_caption, "", markdown_table(rank), "", "## Integrator time and engine share",
            "", ENGINE_CAPTION, "", markdown_table(engine), "", "## Figures", ""]
-    for fig in figures:
+    for fig in figures[len(scaling_figs):]:
         md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
     md += ["## Statuses", "", markdown_table(_status_counts(frame)), ""]
     if len(failures):
@@ -211,9 +221,28 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
            latex_table(rank, rank_caption, "tab:nsbench-ranking"), ""]
     (d / "table.tex").write_text("\n".join(tex))
 
+    if len(scaling):
+        (d / "scaling.csv").write_text(scaling.to_csv(index=False))
+        (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
-                                        ft_caption, rank_caption, problems, spread, spread_caption, engine))
+                                        ft_caption, rank_caption, problems, spread, spread_caption, engine,
+                                        (scaling, scaling_fit, scaling_figs)))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
+
+
+SCALING_DETAIL_CAPTION = ("Per integrator and n: the cheapest configuration reaching the target, its costs and "
+                          "set-up time, and why nothing reached it where so.")
+
+
+def _scaling_view(scaling: pd.DataFrame) -> pd.DataFrame:
+    return scaling.drop(columns=["family"]) if scaling["family"].nunique() == 1 else scaling
+
+
+def _figure_html(fig: Figure) -> str:
+    esc = html.escape
+    data = base64.b64encode(fig.png.read_bytes()).decode()
+    return (f"<figure id='{esc(fig.name)}'><img alt='{esc(fig.title)}' "
+            f"src='data:image/png;base64,{data}'><figcaption>{esc(fig.caption)}</figcaption></figure>")
 
 
 def _html_table(frame: pd.DataFrame) -> str:
@@ -221,7 +250,7 @@ def _html_table(frame: pd.DataFrame) -> str:
 
 
 def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
-          spread, spread_caption, engine) -> str:
+          spread, spread_caption, engine, scaling_parts) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
@@ -235,17 +264,21 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
                      + "".join(f"<li>{esc(p)}</li>" for p in problems) + "</ul>")
     text = _problems_text(frame, prov)
     parts.append(f"<p>{esc(text[0])}</p><ul>" + "".join(f"<li>{esc(t[2:])}</li>" for t in text[1:]) + "</ul>")
-    parts += [f"<p>{esc(_timing_text(frame))}</p>", "<h2>Fixed-target table</h2>", f"<p>{esc(ft_caption)}</p>",
+    parts.append(f"<p>{esc(_timing_text(frame))}</p>")
+    scaling, scaling_fit, scaling_figs = scaling_parts
+    if len(scaling):
+        parts += ["<h2>Scaling with the number of blocks</h2>", f"<p>{esc(SCALING_CAPTION)}</p>",
+                  _html_table(scaling_fit), *(_figure_html(fig) for fig in scaling_figs),
+                  f"<p>{esc(SCALING_DETAIL_CAPTION)}</p>", _html_table(_scaling_view(scaling))]
+    parts += ["<h2>Fixed-target table</h2>", f"<p>{esc(ft_caption)}</p>",
               _html_table(wide), "<h2>Timing spread</h2>"]
     parts += ([f"<p>{esc(spread_caption)}</p>", _html_table(spread)] if len(spread) else
               [f"<p>Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).</p>"])
     parts += ["<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank),
               "<h2>Integrator time and engine share</h2>", f"<p>{esc(ENGINE_CAPTION)}</p>", _html_table(engine),
               "<h2>Figures</h2>"]
-    for fig in figures:
-        data = base64.b64encode(fig.png.read_bytes()).decode()
-        parts.append(f"<figure id='{esc(fig.name)}'><img alt='{esc(fig.title)}' "
-                     f"src='data:image/png;base64,{data}'><figcaption>{esc(fig.caption)}</figcaption></figure>")
+    for fig in figures[len(scaling_figs):]:
+        parts.append(_figure_html(fig))
     parts += ["<h2>Statuses</h2>", _html_table(_status_counts(frame))]
     if len(failures):
         parts += ["<p>Cases that did not succeed:</p>", _html_table(failures)]

@@ -204,10 +204,17 @@ class Suite:
             cases = p.get("cases", [p.get("case", 1)])
             if not isinstance(cases, list):
                 cases = [cases]
+            params = dict(p.get("params", {}))
+            # a list of values is a grid: one problem per value (per combination of lists)
+            grid = [k for k, v in params.items() if isinstance(v, list)]
+            for key in grid:
+                if not params[key]:
+                    raise ConfigError(f"problem {p['name']!r}: params.{key} is an empty list")
             for case in cases:
-                config = {"name": p["name"], "case": case, "dimensional": bool(p.get("dimensional", False)),
-                          "params": dict(p.get("params", {}))}
-                out.append(problem_from_config(config).config())  # validates early
+                for combo in itertools.product(*(params[k] for k in grid)):
+                    config = {"name": p["name"], "case": case, "dimensional": bool(p.get("dimensional", False)),
+                              "params": {**params, **dict(zip(grid, combo))}}
+                    out.append(problem_from_config(config).config())  # validates early
         return out
 
     def integrator_names(self) -> list[str]:
@@ -287,18 +294,35 @@ class Suite:
         return out
 
 
-def default_suite() -> Suite:
-    """The packaged suite of ``nsbench run`` (``nsbench/suites/default.toml``)."""
-    text = resources.files("nsbench.suites").joinpath("default.toml").read_text()
+def packaged_suites() -> list[str]:
+    """Names of the suites shipped with nsbench (``nsbench/suites/*.toml``)."""
+    return sorted(f.name.removesuffix(".toml") for f in resources.files("nsbench.suites").iterdir()
+                  if f.name.endswith(".toml"))
+
+
+def packaged_suite(name: str) -> Suite:
+    """A suite shipped with nsbench by name: ``'default'`` (``nsbench run``), ``'chain-scaling'``, ..."""
+    if name not in packaged_suites():
+        raise ConfigError(f"no packaged suite {name!r}; packaged: {', '.join(packaged_suites())} "
+                          "(or give the path of a suite TOML file)")
+    text = resources.files("nsbench.suites").joinpath(f"{name}.toml").read_text()
     return Suite.from_dict(tomllib.loads(text))
 
 
+def default_suite() -> Suite:
+    """The packaged suite of ``nsbench run`` (``nsbench/suites/default.toml``)."""
+    return packaged_suite("default")
+
+
 def load_suite(source: str | Path | dict[str, Any] | Suite) -> Suite:
-    """A suite from a TOML path, a dict, an existing :class:`Suite`, or ``'default'``."""
+    """A suite from a TOML path, a dict, an existing :class:`Suite`, or a packaged suite's name."""
     if isinstance(source, Suite):
         return source
     if isinstance(source, dict):
         return Suite.from_dict(source)
-    if str(source) == "default":
-        return default_suite()
+    if not Path(source).exists() and str(source) in packaged_suites():
+        return packaged_suite(str(source))
+    if not Path(source).exists() and not str(source).endswith(".toml"):
+        raise ConfigError(f"suite {str(source)!r} is neither a file nor a packaged suite; packaged: "
+                          f"{', '.join(packaged_suites())}")
     return Suite.from_toml(source)

@@ -10,9 +10,10 @@ import argparse
 
 def add_parser(sub) -> None:
     p = sub.add_parser("run", help="run the default benchmark suite and write reports/latest (the main job)")
-    p.add_argument("--out", default="reports/latest", help="output directory (default reports/latest)")
-    p.add_argument("--suite", default="default", metavar="SUITE.toml",
-                   help="another suite instead of the packaged default")
+    p.add_argument("--out", default=None,
+                   help="output directory (default reports/latest; reports/<suite> for another packaged suite)")
+    p.add_argument("--suite", default="default", metavar="SUITE",
+                   help="a packaged suite by name (default, chain-scaling) or a suite TOML file")
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--resume", action="store_true",
                    help="keep the cases already in --out (continue an interrupted run); default: start afresh")
@@ -25,7 +26,13 @@ def main(args: argparse.Namespace) -> int:
 
     from nsbench.cli.bench import run_and_report
 
+    from nsbench.bench.suite import packaged_suites
+
+    out = args.out
+    if out is None:
+        packaged = args.suite in packaged_suites() and args.suite != "default"
+        out = f"reports/{args.suite}" if packaged else "reports/latest"
     tic = time.perf_counter()
-    code = run_and_report(args.suite, args.out, args.workers, args.resume, not args.no_progress, True)
+    code = run_and_report(args.suite, out, args.workers, args.resume, not args.no_progress, True)
     print(f"nsbench run took {time.perf_counter() - tic:.0f} s")
     return code

@@ -251,7 +251,9 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
     if ax_s.lines:
         ax_s.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     caption = (f"{family}: events per unit time of the reference against n, and each integrator's set-up time "
-               "(compilation and tables, kept out of the timed runs; median over its configurations) against n.")
+               "(compilation and tables, kept out of the timed runs; the largest over its configurations, the "
+               "first of which compiles) against n. heyoka keeps compiled code in an on-disk cache "
+               "(~/.cache/heyoka), so a second run on one machine shows loading, not compiling.")
     figs.append(_save(fig, out, f"scaling_events_setup_{slug(family)}", f"{family}: events and set-up against n",
                       caption))
     return figs

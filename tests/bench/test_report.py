@@ -115,3 +115,16 @@ def test_integrator_time_and_engine_share_are_reported(report):
     md = rep.markdown.read_text()
     assert "## Integrator time and engine share" in md and "integrator_time" in md and "wall times" in md
     assert "engine_share" in rep.html.read_text()
+
+
+def test_problem_labels_sort_by_their_numbers():
+    """``n=2`` comes before ``n=16`` in every list of a report (natural order, not lexicographic)."""
+    import pandas as pd
+
+    from nsbench.bench.tables import natural_key, problem_groups
+
+    labels = ["chain/2 n=16", "chain/2 n=2", "chain/2 n=64", "chain/2 n=4", "two-dof/10", "two-dof/2"]
+    assert sorted(labels, key=natural_key) == ["chain/2 n=2", "chain/2 n=4", "chain/2 n=16", "chain/2 n=64",
+                                               "two-dof/2", "two-dof/10"]
+    frame = pd.DataFrame({"problem_label": labels, "x": range(6)})
+    assert [label for label, _ in problem_groups(frame)] == sorted(labels, key=natural_key)

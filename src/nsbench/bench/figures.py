@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nsbench.bench.tables import problem_groups
+
 #: Errors below this are drawn at it (log axes cannot show 0; ``exact`` against itself is 0).
 ERROR_FLOOR = 1e-16
 _MARKERS = "osD^v<>pPX*hd"
@@ -171,7 +173,7 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     out = Path(out)
     styles = _styles(sorted(frame["integrator"].unique()))
     figures: list[Figure] = []
-    for label, group in frame.groupby("problem_label", sort=True):
+    for label, group in problem_groups(frame):
         if (group["reference_status"] == "ok").any():
             figures.append(work_precision(group, label, "wall_time", styles, out))
             figures.append(work_precision(group, label, "nfev", styles, out))

@@ -16,7 +16,7 @@ from nsbench.bench import storage
 from nsbench.bench.figures import Figure, report_figures, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
-from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, ranking
+from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
 
 _RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
@@ -85,7 +85,7 @@ def _problems_text(frame: pd.DataFrame, prov: dict) -> list[str]:
     lines = [f"Suite `{suite.get('name', frame['suite'].iloc[0])}`: {len(frame)} cases, "
              f"{frame['problem_label'].nunique()} problems, {frame['integrator'].nunique()} integrators, "
              f"time span [{span[0]:g}, {span[1]:g}]."]
-    for label, group in frame.groupby("problem_label"):
+    for label, group in problem_groups(frame):
         known = group[group["reference_status"].fillna("") != ""]  # rows of an old crash may lack it
         first = (known if len(known) else group).iloc[0]
         ref, status = first["reference"] or "none", first["reference_status"]
@@ -97,7 +97,7 @@ def run_failures(frame: pd.DataFrame) -> list[str]:
     """What went wrong in the run itself (not an integrator's failure): failed references, crashes."""
     lines = []
     bad = frame[frame["reference_status"].map(failed_status)]
-    for label, group in bad.groupby("problem_label", sort=True):
+    for label, group in problem_groups(bad):
         lines.append(f"The reference of `{label}` could not be computed ({group['reference_status'].iloc[0]}): "
                      "its cases have no accuracy metrics.")
     crashed = frame[frame["status"] == "crashed"]

@@ -24,6 +24,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
+from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
 
 PROVENANCE_KEY = b"nsbench.provenance"
@@ -119,7 +120,8 @@ def load_results(path: str | Path) -> pd.DataFrame:
         files = sorted((p / "cases").glob("*.parquet")) if (p / "cases").is_dir() else []
         if files:
             frame = to_frame(row for f in files for row in pd.read_parquet(f).to_dict("records"))
-            return frame.sort_values(["problem_label", "integrator", "level"], kind="stable",
+            frame = frame.sort_values(["integrator", "level"], kind="stable", ignore_index=True)
+            return frame.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable",
                                      ignore_index=True)
         if (p / "results.parquet").exists():
             return load_results(p / "results.parquet")

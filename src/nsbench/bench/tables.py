@@ -9,6 +9,7 @@ reaches a target (:func:`nsbench.bench.metrics.reaches`).
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -17,6 +18,18 @@ from nsbench.bench.metrics import reaches
 from nsbench.bench.timing import spread_label
 
 DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
+
+
+def natural_key(label: str) -> tuple:
+    """Sort key reading the numbers inside a label as numbers (``n=2`` before ``n=16``)."""
+    return tuple((0, int(part), "") if part.isdigit() else (1, 0, part)
+                 for part in re.split(r"(\d+)", str(label)) if part)
+
+
+def problem_groups(frame: pd.DataFrame):
+    """``(problem_label, rows)`` pairs in natural order of the labels."""
+    labels = sorted(frame["problem_label"].unique(), key=natural_key)
+    return [(label, frame[frame["problem_label"] == label]) for label in labels]
 
 
 def reached_mask(frame: pd.DataFrame, target: float) -> pd.Series:
@@ -60,8 +73,10 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 else:
                     row["outcome"] = "not reached"
             rows.append(row)
-    return pd.DataFrame(rows, columns=["problem_label", "integrator", "target", "outcome", "wall_time",
-                                       "wall_spread", "nfev", "options", "level", "case_id"])
+    table = pd.DataFrame(rows, columns=["problem_label", "integrator", "target", "outcome", "wall_time",
+                                        "wall_spread", "nfev", "options", "level", "case_id"])
+    return table.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable",
+                             ignore_index=True)
 
 
 def _cost(best: pd.Series) -> dict:

@@ -146,6 +146,17 @@ def test_event_storm_is_detected(case1):
     assert res.status is Status.EVENT_STORM
     assert "events within" in res.message
     assert len(res.events) == 65
+    # told apart from a genuine accumulation, and the chattering guard named
+    assert "all at one instant: a numerical storm" in res.message
+    assert "chattering: " in res.message and "of block " in res.message
+
+
+def test_an_accumulation_over_time_is_named_as_such():
+    # exact on a real case with a tiny storm budget: events spread over time
+    p = nsbench.get_problem("two-dof", case=2)
+    res = nsbench.simulate(p, "exact", 300.0, zeno_events=3, zeno_span=5.0)
+    assert res.status is Status.EVENT_STORM
+    assert "spread over time" in res.message and "numerical storm" not in res.message
 
 
 @pytest.mark.parametrize("bad, fragment", [(_Diverges, "non-finite"), (_Raises, "RuntimeError: boom")])

@@ -199,7 +199,7 @@ def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float,
         else:  # R_NEED_ARC
             py.arc(rec, y, mode_arr, gk, gb, gs, sf, si, cnt, y_arc)
     status, message = _outcome(int(si[abi.SI_STATUS]), int(si[abi.SI_DETAIL]), sf, ring, si, py, kernel,
-                               mode_arr, max_steps, max_events, zeno_events)
+                               mode_arr, max_steps, max_events, zeno_events, rec)
     counters = Counters(nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]),
                         n_events=int(si[rules.SI_EVENTS]))
     if kernel is not None:
@@ -219,8 +219,36 @@ def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float,
                   t0=float(t0), start_mode=start_mode, prepare_time=prepare_time)
 
 
+def _storm_detail(rec, si, span: float, zeno_events: int) -> str:
+    """Which guards chattered in a storm, and whether time passed between the events.
+
+    Events that all happen at one instant are a cycle of the settle rules at a
+    degenerate point (a guard on its surface with a rate zero to rounding): a
+    numerical storm, never physics. Events spread over a positive span may be a
+    genuine accumulation (Zeno behaviour of the model) and are worth comparing
+    with the reference.
+    """
+    from nsbench.hybrid import rules
+    from nsbench.problems.modes import EVENT_KINDS
+
+    if rec is None:
+        return ""
+    k = int(si[rules.SI_RECORDED])
+    m = min(k, zeno_events + 1)
+    if m == 0:
+        return ""
+    counts: dict[tuple[int, int], int] = {}
+    for b, kind in zip(rec.ev_block[k - m:k], rec.ev_kind[k - m:k]):
+        counts[(int(b), int(kind))] = counts.get((int(b), int(kind)), 0) + 1
+    top = sorted(counts.items(), key=lambda item: -item[1])[:4]
+    chatter = ", ".join(f"{n} {EVENT_KINDS[kind]} of block {b}" for (b, kind), n in top)
+    where = ("all at one instant: a numerical storm (the rules cycle at a degenerate point)" if span == 0.0
+             else "spread over time: an accumulation of events, possibly genuine (compare with the reference)")
+    return f"; chattering: {chatter}; {where}"
+
+
 def _outcome(run_status, detail, sf, ring, si, py, kernel, mode_arr, max_steps, max_events,
-             zeno_events) -> tuple[Status, str]:
+             zeno_events, rec=None) -> tuple[Status, str]:
     from nsbench.hybrid import loop
 
     t = float(sf[loop.SF_T])
@@ -233,7 +261,8 @@ def _outcome(run_status, detail, sf, ring, si, py, kernel, mode_arr, max_steps, 
     if run_status == loop.RUN_STORM:
         span = t - float(np.min(ring))
         return Status.EVENT_STORM, (f"{zeno_events + 1} events within {span:.3g} time units ending at "
-                                    f"t = {t:.17g} (mode {mode_text(mode_arr)})")
+                                    f"t = {t:.17g} (mode {mode_text(mode_arr)})" + _storm_detail(rec, si, span,
+                                                                                               zeno_events))
     if run_status == loop.RUN_NONFINITE:
         return Status.INTEGRATOR_FAILURE, py.message or f"non-finite state after t = {t:.6g}"
     if detail == _PY_FAILURE or kernel is None or kernel.failure is None:

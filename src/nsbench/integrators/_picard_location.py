@@ -23,6 +23,7 @@ from nsbench.problems.kernels import (
     rhs,
 )
 
+_EPS = np.finfo(np.float64).eps
 SECTION = -1  # ``target`` code of a linear section (guards use their kind codes >= 0)
 
 
@@ -141,14 +142,29 @@ def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes
                 return True, tau, nf + nf2
             return False, b, nf
         return False, b, 0
-    if da < 0.0 or (da == 0.0 and fb <= 0.0):  # leaves its valid side at once
-        return True, a, 0
-    if fb <= 0.0:  # rose, then came back within the first interval
+    # A phase start on the guard's own surface. When the start rate is zero in exact
+    # arithmetic (kinetic friction equal to static: a block breaks away with zero
+    # acceleration) its computed sign is rounding, so the sign of the rate alone does
+    # not decide; as in ``exact``, the values on the interval do: the phase ends at
+    # once only if the guard goes below zero by more than rounding before it rises.
+    if fb > 0.0:
+        if da >= 0.0:
+            return False, b, 0
         m, fm, nf = extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                             D, base, comp, a, b, False, y, dy)
-        if fm > 0.0:
-            tau, nf2 = root(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                            D, base, comp, m, b, fm, fb, y, dy)
-            return True, tau, nf + nf2
-        return True, a, nf
-    return False, b, 0
+                             D, base, comp, a, b, True, y, dy)
+        scale = 1.0
+        for i in range(base.shape[0]):
+            scale = max(scale, abs(base[i]))
+        if fm < -64.0 * _EPS * scale:  # a genuine dip: it leaves its valid side at once
+            return True, a, nf
+        return False, b, nf
+    if da == 0.0 and fb == 0.0:
+        return True, a, 0
+    # not positive at the node: did it rise and come back within the first interval?
+    m, fm, nf = extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
+                         D, base, comp, a, b, False, y, dy)
+    if fm > 0.0:
+        tau, nf2 = root(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
+                        D, base, comp, m, b, fm, fb, y, dy)
+        return True, tau, nf + nf2
+    return True, a, nf

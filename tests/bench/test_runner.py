@@ -152,15 +152,19 @@ def test_resume_after_interrupt_computes_only_missing_cases(register, tmp_path, 
     with pytest.raises(KeyboardInterrupt):
         run_suite(suite, tmp_path, workers=1, progress=False)
     stored = sorted((tmp_path / "cases").glob("*.parquet"))
-    k = len(stored)
-    assert 0 < k < n
-    assert (load_results(tmp_path)["status"] == "success").all()
-    before = {p.name: p.read_bytes() for p in stored}
+    assert 0 < len(stored) < n
+    frame = load_results(tmp_path)
+    assert (frame["status"] == "success").all()
+    # rows are stored after every timing round: those with all 3 runs are kept as they are,
+    # those interrupted between rounds are timed again
+    whole = set(frame.loc[frame["n_repeats"] == 3, "case_id"])
+    before = {p.name: p.read_bytes() for p in stored if p.name[: -len(".parquet")] in whole}
     monkeypatch.delenv("NSBENCH_TEST_INTERRUPT")
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
-    assert (summary.n_resumed, summary.n_computed) == (k, n - k)
+    assert (summary.n_resumed, summary.n_computed) == (len(whole), n - len(whole))
     assert all((tmp_path / "cases" / name).read_bytes() == b for name, b in before.items())
     assert len(summary.results) == n and (summary.results["status"] == "success").all()
+    assert (summary.results["n_repeats"] == 3).all()
 
 
 def test_ctrl_c_of_a_parallel_cli_run_keeps_finished_cases(tmp_path):
@@ -190,9 +194,13 @@ grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
     stored = {p.name for p in (out / "cases").glob("*.parquet")}
     assert 2 <= len(stored) < len(steps)
     frame = load_results(out)                          # what was stored is whole and readable
-    assert (frame["status"] == "success").all()
+    assert (frame["status"] == "success").all() and (frame["n_repeats"] >= 1).all()
+    # rows are stored after each timing round: a case with all its runs is kept, one with
+    # fewer (interrupted between its rounds) is timed again
+    whole = int((frame["n_repeats"] == 3).sum())
     summary = run_suite(suite, out, workers=1, progress=False)
-    assert summary.n_resumed == len(stored) and summary.n_computed == len(steps) - len(stored)
+    assert summary.n_resumed == whole and summary.n_computed == len(steps) - whole
+    assert (summary.results["n_repeats"] == 3).all() and len(summary.results) == len(steps)
 
 
 def test_a_crashing_worker_is_a_row_and_the_others_finish(register, tmp_path):
@@ -250,10 +258,23 @@ def test_the_phases_keep_warm_ups_apart_from_timing(pooled):
     timeline = pooled[1].timeline
     kinds = [r.kind for r in timeline]
     assert kinds.count("start") == 2 and kinds.count("reference") == 3
-    assert kinds.count("time") == sum(pooled[1].results["status"] == "success")
+    # one timing task per timed run (3 rounds per successful case)
+    assert kinds.count("time") == 3 * sum(pooled[1].results["status"] == "success")
     first_time = min(r.start for r in timeline if r.kind == "time")
     assert all(r.end <= first_time for r in timeline if r.kind != "time")   # one barrier, no replacement
     assert_nothing_else_while_timing(timeline)
+
+
+def test_timed_runs_are_taken_in_rounds_over_all_cases(pooled):
+    # A case's three runs are spread over the timing phase (a drifting machine speed is
+    # sampled, not met three times in one state): no case starts its run k + 1 before
+    # every case has started its run k. (Every case here is warm on both workers.)
+    by_case: dict[str, list[float]] = {}
+    for r in sorted((r for r in pooled[1].timeline if r.kind == "time"), key=lambda r: r.start):
+        by_case.setdefault(r.label, []).append(r.start)
+    assert by_case and all(len(starts) == 3 for starts in by_case.values())
+    for k in range(2):
+        assert min(s[k + 1] for s in by_case.values()) >= max(s[k] for s in by_case.values())
 
 
 SCRIPT = """

@@ -193,12 +193,17 @@ def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
 
 
 def time_case(case: Case, reference: Reference, suite: str = "suite", stage: StageCallback = _quiet,
-              in_process: bool = False) -> dict[str, Any]:
-    """Time ``case.repeats`` full runs (after :func:`warm_up` in this process) and return the row.
+              in_process: bool = False, count: int | None = None, metrics: bool = True,
+              first_run: int = 0) -> dict[str, Any]:
+    """Time ``count`` full runs (default ``case.repeats``; after :func:`warm_up` in this process); the row.
 
-    Every run is timed; the first one gives the events, counters and metrics
-    (runs are deterministic). A run that does not succeed is not repeated. The
-    row's ``setup_time`` and ``warmup_time`` are the warm-up's: the caller sets them.
+    Every run is timed; the first one gives the events, counters and, with
+    ``metrics``, the metrics against ``reference`` (runs are deterministic). A
+    run that does not succeed is not repeated. The row's ``setup_time`` and
+    ``warmup_time`` are the warm-up's: the caller sets them. The runner's workers
+    time one run per call, in rounds over all cases (``first_run``: the runs of
+    the case timed before, which numbers the stages), and join the rounds with
+    :func:`merge_runs`.
     """
     from nsbench.engine import simulate
 
@@ -209,9 +214,10 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
     runs = []
     try:
         problem, integ = _components(case, case.time_limit if in_process else None)
-        for k in range(case.repeats):
+        n_runs = case.repeats if count is None else int(count)
+        for k in range(n_runs):
             gc.collect()  # the garbage of the previous run is not this run's to collect
-            stage(f"timed run {k + 1} of {case.repeats}", case.time_limit)
+            stage(f"timed run {first_run + k + 1} of {max(case.repeats, first_run + n_runs)}", case.time_limit)
             runs.append(simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps))
             if (isinstance(integ, TimeLimited) and integ.hit) or not runs[0].ok:
                 break  # a failed run is not repeated
@@ -234,7 +240,7 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
                n_events=int(counters["n_events"]), counters_extra=_jsonable(extra),
                wall_times=wall, n_repeats=len(wall), integrator_times=inner,
                setup_time_timed=max(float(r.setup_time) for r in runs), **summarize(wall, inner))
-    if reference.ok:
+    if metrics and reference.ok:
         dense = None
         if first.ok and len(first.trajectory) == case.dense_points:
             dense = first.trajectory[list(problem.state_names)].to_numpy().T
@@ -245,6 +251,26 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
                 "event logs too long: only their starts were aligned"
         row.update(metrics)
     return _finish(row)
+
+
+def merge_runs(row: dict[str, Any], more: dict[str, Any]) -> dict[str, Any]:
+    """``row`` (a case's earlier timed runs, with its metrics) joined with the runs of ``more``.
+
+    ``more`` is a later round of the same case (:func:`time_case` without
+    metrics). Its timings are added and the summary columns recomputed; a round
+    that ended otherwise than the first (a time limit, a crash, another status)
+    adds no timing and leaves a note in the message, never replaces the row.
+    """
+    out = dict(row)
+    if more.get("status") != row.get("status") or not more.get("wall_times"):
+        note = f"a later timed run ended with {more.get('status')}: {more.get('message') or 'no message'}"
+        out["message"] = f"{out['message']} | {note}" if out.get("message") else note
+        return out
+    wall = [float(w) for w in row["wall_times"]] + [float(w) for w in more["wall_times"]]
+    inner = [float(w) for w in row["integrator_times"]] + [float(w) for w in more["integrator_times"]]
+    out.update(wall_times=wall, integrator_times=inner, n_repeats=len(wall), **summarize(wall, inner),
+               setup_time_timed=max(float(row["setup_time_timed"]), float(more["setup_time_timed"])))
+    return out
 
 
 def complete_row(row: dict[str, Any], warm: WarmResult) -> dict[str, Any]:

@@ -28,9 +28,9 @@ class Progress:
         self.start = time.perf_counter()
         self._last_pct = -100.0
 
-    def update(self, note: str = "") -> None:
-        """One more case finished (``note``: what it was)."""
-        self.done += 1
+    def update(self, note: str = "", steps: int = 1) -> None:
+        """``steps`` more steps finished (``note``: what they were)."""
+        self.done += steps
         if not self.enabled:
             return
         elapsed = time.perf_counter() - self.start

@@ -65,8 +65,10 @@ class WarmUp:
 
 @dataclass(frozen=True)
 class TimeCase:
-    """Time ``case`` on its warm repeats, store its row (metrics against ``reference``), return it.
+    """Time ``runs`` warm runs of ``case`` in timing round ``round``; return the row.
 
+    Round 0 gives the full row (metrics against ``reference``), which the worker
+    stores; a later round gives only its timings, which the runner joins to it.
     ``warm`` is the case's first warm-up (its cold setup and warm-up times go in the row).
     """
 
@@ -75,6 +77,8 @@ class TimeCase:
     suite: str
     reference: Reference
     warm: WarmResult
+    round: int = 0
+    runs: int = 1
 
 
 @dataclass(frozen=True)

@@ -124,8 +124,9 @@ def _timing_text(frame: pd.DataFrame) -> str:
     runs = f"{int(reps.min())}" if len(reps) and reps.min() == reps.max() else \
         (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
     return (f"Times are medians of {runs} timed runs per case, all after an untimed warm-up (setup and "
-            "compilation apart, never while another case was timed); '±' is half the min-max range of "
-            "the runs relative to the median.")
+            "compilation apart, never while another case was timed), taken in rounds over all cases so that "
+            "a case's runs are spread over the run and meet the machine's drifting speed instead of one "
+            "moment of it; '±' is half the min-max range of the runs relative to the median.")
 
 
 def with_engine_share(frame: pd.DataFrame) -> pd.DataFrame:

@@ -200,32 +200,34 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         prov.setdefault("unavailable_integrators", {})[name] = reason
         print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)
     done = storage.done_ids(out)
+    # a run interrupted between timing rounds left successful rows with fewer runs: time them again
+    done -= storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})
     pending = [c for c in cases if c.case_id not in done]
     pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: the best start for the balance
     shareable, local = _components(pending, suite)
     workers = max(1, int(workers or os.cpu_count() or 1))
     prov["workers"] = 1 if local else min(workers, max(1, len(pending)))
     refs = _References(suite, pending, out)
-    # One step per reference, two per case (its first warm-up, then its timing).
-    bar = Progress(len(refs.todo) + 2 * len(pending), label="steps",
+    # One step per reference, and per case one for its first warm-up and one per timing round.
+    bar = Progress(len(refs.todo) + sum(1 + c.repeats for c in pending), label="steps",
                    stream=err, enabled=progress)
     waiting: dict[str, list[dict[str, Any]]] = {}
 
-    def store(row: dict[str, Any], stored: bool = False) -> None:
+    def store(row: dict[str, Any], stored: bool = False, steps: int = 1) -> None:
         case = row_case[row["case_id"]]
         key = refs.key(case)
         if key not in refs.known:  # a row from the warm-ups can come before its reference
-            waiting.setdefault(key, []).append(row)
+            waiting.setdefault(key, []).append((row, steps))
             return
         if not stored:
             storage.append_row(out, _with_reference(row, refs.known[key]), prov)
-        bar.update(case.label)
+        bar.update(case.label, steps)
 
     def reference_done(key: str, ref: Reference) -> None:
         refs.add(key, ref)
         bar.update("reference")
-        for row in waiting.pop(key, []):
-            store(row)
+        for row, steps in waiting.pop(key, []):
+            store(row, steps=steps)
 
     row_case = {c.case_id: c for c in pending}
     timeline: list[TaskRecord] = []
@@ -267,4 +269,4 @@ def _run_in_process(pending: list[Case], refs: _References, suite: str, store, r
                                               task.dense_points))
     for case in pending:
         bar.update(case.label)  # its warm-up step
-        store(run_case(case, refs.of(case), suite))
+        store(run_case(case, refs.of(case), suite), steps=case.repeats)

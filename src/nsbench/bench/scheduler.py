@@ -7,10 +7,18 @@
    :data:`STICKY_SETUP` seconds), so that any worker can time them; a case with
    an expensive setup (a long compilation) is *sticky*: only its home times it.
 2. **Barrier.** Timing starts when every worker is idle and warm for every case it may time.
-3. **Time.** Each free worker times the longest remaining case it is warm for
-   (:func:`nsbench.bench.execute.time_case`), one case per worker at a time;
-   cases whose warm-up predicts a run near the time limit come last, so
-   that the worker their limit ends has few cases left to warm up again.
+3. **Time, in rounds.** A case's ``repeats`` timed runs are taken one per
+   round: every case gets its first run before any gets its second, and so on
+   (:func:`nsbench.bench.execute.time_case`, joined by
+   :func:`~nsbench.bench.execute.merge_runs`). On a shared or virtual machine
+   whose speed drifts over seconds to minutes, consecutive runs all see the
+   same state, so their spread says nothing and the median can be off by the
+   drift; runs spread over the timing phase sample it, and the spread shows it.
+   Within a round each free worker times the longest remaining case it is warm
+   for, one case per worker at a time; cases whose warm-up predicts a run near
+   the time limit come last, so that the worker their limit ends has few cases
+   left to warm up again. The row is stored after every round (the first round
+   stores it with the metrics), so an interruption keeps every finished run.
 
 A worker that dies (a crash) or is ended (its run passed the time limit) takes
 its case with it: the case becomes a ``crashed`` or ``time limit`` row with the
@@ -30,7 +38,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from nsbench.bench import protocol as msg
-from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row
+from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row, merge_runs
 from nsbench.bench.pool import WorkerProcess, readable
 from nsbench.bench.reference import FAILED, Reference
 from nsbench.bench.suite import Case
@@ -79,6 +87,8 @@ class _CaseState:
     home: int | None = None
     estimate: float = 0.0  # expected seconds of its timed runs
     done: bool = False
+    rounds: int = 0  # timing rounds finished
+    row: dict[str, Any] | None = None  # its row so far (from the first timing round on)
 
     @property
     def risky(self) -> bool:
@@ -131,8 +141,11 @@ class Scheduler:
     reference_of
         The reference of a case (called once references are computed).
     on_reference, on_row
-        Called in this process with each computed reference and each finished
-        row (``on_row(row, stored=...)``: a worker stores the rows it times itself).
+        Called in this process with each computed reference and each row, as
+        it grows round by round (``on_row(row, stored=..., steps=...)``: a worker
+        stores the first round's row itself; ``steps`` is the progress this row
+        accounts for, one per warm-up or timing round, the rounds a case will
+        not need counted at its last call).
     hello
         The first message of every worker (:func:`nsbench.bench.pool.hello`).
     suite
@@ -203,8 +216,10 @@ class Scheduler:
             free = [s for s in self.cases.values() if not s.done and s.case.case_id in slot.warm
                     and not self._in_flight(s.case.case_id)]
             if free:
-                state = max(free, key=lambda s: s.order)  # longest first: the best balance
-                message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm)
+                # earliest round first (runs interleaved in time), then longest first: the best balance
+                state = max(free, key=lambda s: (-s.rounds, s.order))
+                message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm,
+                                       round=state.rounds)
                 return self._send(slot, "time", state, message, state.case.label)
             return
         need = self._needs(slot)
@@ -321,8 +336,18 @@ class Scheduler:
         elif kind == "warm-up":
             self._warmed(slot, payload, message.result)
         else:
-            payload.done = True
-            self.on_row(message.result, stored=True)
+            self._timed(payload, message.result)
+
+    def _timed(self, state: _CaseState, result: dict[str, Any]) -> None:
+        """A timing round of ``state`` came back: join it to the row, store, finish after the last."""
+        first = state.row is None
+        before = state.row
+        state.row = result if first else merge_runs(state.row, result)
+        state.rounds += 1
+        broken = not first and state.row["n_repeats"] == before["n_repeats"]  # the round added no run
+        state.done = state.row["status"] != "success" or broken or state.rounds >= state.case.repeats
+        steps = 1 + (state.case.repeats - state.rounds if state.done else 0)
+        self.on_row(state.row, stored=first, steps=steps)
 
     def _warmed(self, slot: _Slot, state: _CaseState, warm: WarmResult) -> None:
         if state.done:  # its row is written already (a late copy of a warm-up)
@@ -331,7 +356,7 @@ class Scheduler:
             self.on_warm(state.case.label)
         if warm.row is not None:  # unsupported or error: the row is final
             state.done = True
-            self.on_row(warm.row)
+            self.on_row(warm.row, steps=state.case.repeats)
             return
         slot.warm.add(state.case.case_id)
         if state.warm is None:
@@ -372,6 +397,11 @@ class Scheduler:
     def _final(self, state: _CaseState, status: str, message: str) -> None:
         if state.done:  # never overwrite a finished row
             return
+        if state.row is not None:  # a later timing round was lost: the earlier rounds stand
+            state.done = True
+            self.on_row(merge_runs(state.row, {"status": status, "message": message}), stored=False,
+                        steps=state.case.repeats - state.rounds)
+            return
         if state.warm is None:  # its first warm-up ended here
             self.on_warm(state.case.label)
         row = base_row(state.case, self.suite)
@@ -379,7 +409,7 @@ class Scheduler:
         if state.warm is not None:
             complete_row(row, state.warm)
         state.done = True
-        self.on_row(row)
+        self.on_row(row, steps=state.case.repeats)
 
     # ------------------------------------------------------------------ interruption
     def _drain(self) -> None:
@@ -395,8 +425,7 @@ class Scheduler:
                 if isinstance(message, msg.Done) and slot.task[1] == "time":
                     _, _, state = slot.task
                     slot.task = None
-                    state.done = True
-                    self.on_row(message.result, stored=True)
+                    self._timed(state, message.result)
 
     def _end_all(self) -> None:
         for slot in self.slots:

@@ -94,6 +94,25 @@ def done_ids(out: str | Path) -> set[str]:
     return {p.name[: -len(".parquet")] for p in cases.glob("*.parquet")} if cases.is_dir() else set()
 
 
+def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> set[str]:
+    """Ids among ``repeats`` (case id -> timed runs wanted) stored as successes with fewer runs.
+
+    Rows are stored after every timing round, so an interrupted run leaves such
+    rows; a resumed run times those cases again. An unreadable file is left to
+    the reader of the results to report.
+    """
+    short = set()
+    for case_id, wanted in repeats.items():
+        try:
+            table = pq.read_table(Path(out) / "cases" / f"{case_id}.parquet", columns=["status", "n_repeats"])
+        except (OSError, ValueError, KeyError, pa.ArrowException):
+            continue
+        for status, n in zip(table.column("status").to_pylist(), table.column("n_repeats").to_pylist()):
+            if status == "success" and n is not None and n < wanted:
+                short.add(case_id)
+    return short
+
+
 def read_provenance(path: str | Path) -> dict[str, Any]:
     """The provenance stored in a Parquet file, a CSV export, or an output directory."""
     p = Path(path)

@@ -60,7 +60,10 @@ def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
     if isinstance(task, msg.WarmUp):
         return warm_up(task.case, task.suite, stage)
     if isinstance(task, msg.TimeCase):
-        row = complete_row(time_case(task.case, task.reference, task.suite, stage), task.warm)
+        if task.round > 0:  # timings only: the runner joins them to the stored row
+            return time_case(task.case, task.reference, task.suite, stage, count=task.runs, metrics=False,
+                             first_run=task.round)
+        row = complete_row(time_case(task.case, task.reference, task.suite, stage, count=task.runs), task.warm)
         storage.append_row(hello.out, row, hello.provenance)  # here, not in the busy parent
         return row
     raise TypeError(f"unknown task {task!r}")

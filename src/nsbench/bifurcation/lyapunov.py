@@ -28,18 +28,22 @@ interval. What the ensemble cannot see is a bias common to all members (of
 ``d0``, of the integrator's discretisation, of the finite run length): compare
 integrators or settings for that.
 
-Verdict (``converged``), see :func:`_verdict`: the standard error is small,
-``<= max(0.05 |exponent|, tol / 2)``, and no member is an outlier from the
-others, both statistically (leave-one-out t test, Bonferroni over the members)
-and by a relevant amount (``> max(0.1 |exponent|, tol)``). An outlier means the
-members do not sample one common distribution: some ended on another
-attractor. This happens on the chaotic test case (two-dof case 2, F = 0.1417):
-a coexisting stable motion (exponent about -0.21 per mapping point) captures
-about one member in 100, mostly during its transient from rest, and a chaotic
-run about once per 10^5 mapping points. The ensemble mean keeps such a
-member (dropping it would bias the estimate), its spread widens the standard
-error, and the verdict says which member disagrees; many short members (the
-default 32) keep one capture from dominating the mean.
+Members on another attractor. A member that disagrees with the others, both
+statistically (leave-one-out t test, Bonferroni over the members) and by a
+relevant amount (``> max(0.1 |exponent|, tol)``), did not sample the same
+distribution: it ended on another attractor. This happens on the chaotic test
+case (two-dof case 2, F = 0.1417): a coexisting stable motion (exponent about
+-0.21 per mapping point) captures about one member in 100, mostly during its
+transient from rest. A Lyapunov exponent belongs to an attractor, and the mean
+of a mixture of attractors is the exponent of none, so such members are set
+apart (``outliers``, each with its own estimate): ``exponent`` and its
+uncertainty are those of the attractor the other members share, and
+``exponent_all`` keeps the mean over every member for comparison.
+
+Verdict (``converged``), see :func:`_verdict`: the standard error of the kept
+members is small, ``<= max(0.05 |exponent|, tol / 2)``, and they are a clear
+majority (at least :data:`MAJORITY` of the members finished): otherwise the
+ensemble has no dominant attractor and no single exponent describes it.
 
 The map is advanced by the hybrid core (:func:`nsbench.hybrid.run.run_hybrid`),
 which starts in a given mode and stops at the next slip event; any registered
@@ -58,6 +62,8 @@ from nsbench.errors import ConfigError
 
 #: Family-wise false-alarm rate of the outlier test over all members.
 OUTLIER_ALPHA = 1e-3
+#: Share of the finished members that must share one attractor for a converged verdict.
+MAJORITY = 0.75
 #: Number of block means of the within-member standard error (a diagnostic).
 N_BLOCKS = 10
 #: Each member first advances a random number of mapping points in ``0 .. PHASES - 1``.
@@ -72,10 +78,15 @@ class LyapunovResult:
     Attributes
     ----------
     exponent
-        Ensemble mean of the members' estimates, per mapping point.
+        Mean of the estimates of the members that share one attractor (every
+        finished member but the ``outliers``), per mapping point.
     standard_error
-        Standard deviation of the members' estimates over ``sqrt(members)``: the
-        uncertainty of ``exponent`` against another start or another machine.
+        Standard deviation of those members' estimates over the square root of
+        their number: the uncertainty of ``exponent`` against another start or
+        another machine.
+    exponent_all, standard_error_all
+        The same over every finished member, outliers included (a mixture of
+        attractors when there are outliers).
     ci_low, ci_high, confidence
         Student-t confidence interval of ``exponent`` (``members - 1`` degrees of
         freedom) at level ``confidence``.
@@ -90,12 +101,13 @@ class LyapunovResult:
         Each member's standard error from its own 10 block means: a diagnostic
         only (one correlated series understates what another start gives).
     converged
-        ``precise and consistent`` (and the run succeeded).
+        The run succeeded, ``precise``, and the kept members are at least
+        :data:`MAJORITY` of the finished ones.
     precise
         ``standard_error <= max(0.05 |exponent|, tol / 2)``.
     outliers
-        Indices of members that disagree with the others (see :func:`_verdict`);
-        ``consistent`` is ``not outliers``.
+        Indices of members that disagree with the others (see :func:`_verdict`):
+        on another attractor; left out of ``exponent``. ``consistent`` is ``not outliers``.
     iterations, iterations_per_member
         Map iterations done in all and by each member.
     mean_return_time
@@ -113,6 +125,8 @@ class LyapunovResult:
 
     exponent: float
     standard_error: float
+    exponent_all: float
+    standard_error_all: float
     ci_low: float
     ci_high: float
     confidence: float
@@ -135,8 +149,13 @@ class LyapunovResult:
 
     @property
     def consistent(self) -> bool:
-        """No member is an outlier from the others."""
+        """No member is an outlier from the others (all on one attractor)."""
         return not self.outliers
+
+    @property
+    def n_kept(self) -> int:
+        """Finished members that share the attractor of ``exponent``."""
+        return int(np.isfinite(self.members).sum()) - len(self.outliers)
 
     @property
     def n_members(self) -> int:
@@ -153,10 +172,14 @@ class LyapunovResult:
                 why.append(self.status)
             if not self.precise:
                 why.append("standard error too large")
-            if self.outliers:
-                why.append("inconsistent member(s) "
-                           + ", ".join(f"{i} ({self.members[i]:+.4f})" for i in self.outliers))
+            if self.outliers and self.n_kept < MAJORITY * (self.n_kept + len(self.outliers)):
+                why.append("no attractor holds a clear majority of the members")
             verdict = "NOT converged: " + "; ".join(why)
+        if self.outliers:
+            verdict += (f"; over {self.n_kept} members: {len(self.outliers)} other(s) ended on another "
+                        "attractor, set apart: " + ", ".join(f"member {i} {self.members[i]:+.4f}"
+                                                             for i in self.outliers)
+                        + f"; mean over all members {self.exponent_all:+.5f}")
         spread = (f"members {np.nanmin(self.members):+.4f} .. {np.nanmax(self.members):+.4f}"
                   if np.isfinite(self.members).any() else "no member finished")
         return (f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, standard error "
@@ -330,8 +353,8 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     members
         Independent estimates (at least 4): the spread across them gives the
         standard error. Many short members beat a few long ones when a member
-        can fall onto another attractor (see the module notes): one such member
-        then moves the mean by ``1 / members`` of its difference.
+        can fall onto another attractor (see the module notes): such a member is
+        set apart, and the many others still give the estimate.
     d0
         Separation the copy is renormalised to at each mapping point.
     window
@@ -452,15 +475,17 @@ def _outliers(values: np.ndarray, relevant: float, alpha: float = OUTLIER_ALPHA)
 
 
 def _verdict(values: np.ndarray, tol: float) -> tuple[float, float, bool, tuple[int, ...]]:
-    """Ensemble mean, standard error, precision and outliers of the members' ``values``.
+    """Mean, standard error and precision of the members' ``values`` but the outliers; the outliers.
 
+    Outliers: :func:`_outliers` with relevance ``max(0.1 |mean of all|, tol)``:
+    members on another attractor, left out of the mean and its standard error.
     ``precise``: standard error ``<= max(0.05 |mean|, tol / 2)`` (5 % relative,
     or an absolute floor near zero, where a relative rule cannot be met).
-    Outliers: :func:`_outliers` with relevance ``max(0.1 |mean|, tol)``.
     """
-    mean, se = _mean_and_error(values)
+    mean_all, _ = _mean_and_error(values)
+    outliers = _outliers(values, max(0.1 * abs(mean_all), tol)) if np.isfinite(mean_all) else ()
+    mean, se = _mean_and_error(np.delete(values, list(outliers)))
     precise = bool(np.isfinite(se) and se <= max(0.05 * abs(mean), tol / 2))
-    outliers = _outliers(values, max(0.1 * abs(mean), tol)) if np.isfinite(mean) else ()
     return mean, se, precise, outliers
 
 
@@ -473,10 +498,14 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
     per_time = np.array([r.logs.sum() / (r.times[-1] - r.t_first) if k else np.nan for r, k in zip(runs, ok)])
     index = np.flatnonzero(ok)
     mean, se, precise, outliers = _verdict(lam[ok], tol)
+    mean_all, se_all = _mean_and_error(lam[ok])
     outliers = tuple(int(index[j]) for j in outliers)
-    mean_t, se_t = _mean_and_error(per_time[ok])
-    n_ok = int(ok.sum())
-    half = float(student.ppf(0.5 + confidence / 2, n_ok - 1)) * se if n_ok >= 2 else np.nan
+    kept = ok.copy()
+    kept[list(outliers)] = False
+    mean_t, se_t = _mean_and_error(per_time[kept])
+    n_kept = int(kept.sum())
+    majority = n_kept >= MAJORITY * int(ok.sum())
+    half = float(student.ppf(0.5 + confidence / 2, n_kept - 1)) * se if n_kept >= 2 else np.nan
     logs = np.full((len(runs), per_member), np.nan)
     for row, r in zip(logs, runs):
         row[:len(r.logs)] = r.logs
@@ -484,10 +513,11 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
     total_time = float(sum(r.times[-1] - r.t_first for r in runs if len(r.times)))
     failed = [f"member {i}: {r.message}" for i, r in enumerate(runs) if r.message]
     return LyapunovResult(
-        exponent=mean, standard_error=se, ci_low=mean - half, ci_high=mean + half, confidence=confidence,
+        exponent=mean, standard_error=se, exponent_all=mean_all, standard_error_all=se_all,
+        ci_low=mean - half, ci_high=mean + half, confidence=confidence,
         exponent_per_time=mean_t, standard_error_per_time=se_t, members=lam, members_per_time=per_time,
         member_errors=np.array([_block_error(r.logs) if k else np.nan for r, k in zip(runs, ok)]),
-        converged=bool(not failed and precise and not outliers), precise=precise, outliers=outliers,
+        converged=bool(not failed and precise and majority), precise=precise, outliers=outliers,
         iterations=n_done, iterations_per_member=per_member,
         mean_return_time=total_time / n_done if n_done else np.nan,
         block_mismatches=sum(r.mismatches for r in runs), seed=seed,

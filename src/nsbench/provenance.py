@@ -31,14 +31,28 @@ def cpu_name() -> str:
     return platform.processor() or platform.machine()
 
 
+#: Options that keep git from running programs a repository's own config names
+#: (``core.fsmonitor``, hooks) while nsbench asks it for the commit.
+_SAFE_GIT = ("git", "-c", "core.fsmonitor=false", "-c", "core.hooksPath=/dev/null", "--no-optional-locks")
+
+
 def git_commit(path: str | Path | None = None) -> str | None:
-    """The commit of the git checkout at ``path`` (default: cwd), with ``+dirty`` if modified."""
-    cwd = str(path) if path is not None else None
+    """The commit of the git checkout holding ``path`` (default: nsbench's own source), ``+dirty`` if modified.
+
+    Never the current directory: a run started inside an untrusted checkout must
+    not let that checkout's git config run commands (``core.fsmonitor`` runs on
+    ``git status``). nsbench's own source is what is being run anyway, and git
+    is called with fsmonitor and hooks disabled.
+    """
+    cwd = str(path) if path is not None else str(Path(__file__).resolve().parent)
+    env = {**os.environ, "GIT_OPTIONAL_LOCKS": "0"}
+    env.pop("GIT_DIR", None)
+    env.pop("GIT_WORK_TREE", None)
     try:
-        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True,
+        sha = subprocess.run([*_SAFE_GIT, "rev-parse", "HEAD"], cwd=cwd, capture_output=True, env=env,
                              text=True, timeout=5, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=cwd,
-                               capture_output=True, text=True, timeout=5).stdout.strip()
+        dirty = subprocess.run([*_SAFE_GIT, "status", "--porcelain", "--untracked-files=no"], cwd=cwd,
+                               capture_output=True, text=True, timeout=5, env=env).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return None
     return sha + ("+dirty" if dirty else "") if sha else None

@@ -66,3 +66,43 @@ def test_bad_files(tmp_path):
     (tmp_path / "x.json").write_text('{"a": 1}')
     with pytest.raises(ConfigError, match="not a pytest-benchmark file"):
         read_benchmark_json(tmp_path / "x.json")
+
+
+@pytest.mark.parametrize("bad", ["../../escaped", "/tmp/nsbench-absolute-escape", "a/b", "..", ".hidden"])
+def test_a_case_id_that_names_a_file_elsewhere_is_refused(tmp_path, bad):
+    # extra_info comes from whoever wrote the JSON: its case id must not steer a write
+    # outside --out (an absolute path, or ../ up from OUT/cases)
+    data = {"version": "5.0", "benchmarks": [
+        {"name": "b", "fullname": "b", "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
+         "extra_info": {"case_id": bad}}]}
+    src = tmp_path / "evil.json"
+    src.write_text(json.dumps(data))
+    out = tmp_path / "deep" / "out"
+    with pytest.raises(ConfigError, match="cannot name a file"):
+        ingest(src, out)
+    assert not list(tmp_path.rglob("*.parquet")) and not Path("/tmp/nsbench-absolute-escape.parquet").exists()
+    from nsbench.cli import main
+
+    assert main(["ingest", str(src), "--out", str(out)]) == 2
+    assert not list(tmp_path.rglob("*.parquet"))
+
+
+def test_duplicate_case_ids_are_refused(tmp_path):
+    bench = {"name": "b", "fullname": "b", "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
+             "extra_info": {"case_id": "same"}}
+    src = tmp_path / "dup.json"
+    src.write_text(json.dumps({"benchmarks": [bench, dict(bench, name="c", fullname="c")]}))
+    with pytest.raises(ConfigError, match="more than once"):
+        ingest(src, tmp_path / "out")
+
+
+def test_a_folder_that_is_not_an_nsbench_store_is_not_cleared(bench_json, tmp_path):
+    # ingest and `run` (without --resume) replace OUT/cases; a folder nsbench did not
+    # write must survive a mistyped --out
+    out = tmp_path / "someone-else"
+    (out / "cases").mkdir(parents=True)
+    keep = out / "cases" / "notes.txt"
+    keep.write_text("precious")
+    with pytest.raises(ConfigError, match="does not look like an nsbench results folder"):
+        ingest(bench_json, out)
+    assert keep.read_text() == "precious"

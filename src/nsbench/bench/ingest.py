@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 from typing import Any
 
@@ -72,9 +71,13 @@ def ingest(path: str | Path, out: str | Path) -> pd.DataFrame:
     ``results.csv``, ``provenance.json``), ready for ``nsbench report``.
     """
     frame, provenance = read_benchmark_json(path)
+    for case_id in frame["case_id"]:  # ids from extra_info name files: refuse any before writing
+        storage.case_path(out, case_id)
+    if not frame["case_id"].is_unique:
+        dup = frame.loc[frame["case_id"].duplicated(), "case_id"].iloc[0]
+        raise ConfigError(f"{str(path)!r}: case id {dup!r} appears more than once in extra_info")
     o = Path(out)
-    if (o / "cases").exists():
-        shutil.rmtree(o / "cases")
+    storage.clear_cases(o)
     for row in frame.to_dict("records"):
         storage.append_row(o, row, provenance)
     return storage.export(o, provenance)

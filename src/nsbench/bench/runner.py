@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import os
 import pickle
-import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -191,8 +190,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     err = stream or sys.stderr
     suite = load_suite(suite)
     out = Path(out)
-    if not resume and (out / "cases").exists():
-        shutil.rmtree(out / "cases")
+    if not resume:
+        storage.clear_cases(out)
     out.mkdir(parents=True, exist_ok=True)
     cases = list({c.case_id: c for c in suite.cases()}.values())
     prov = {**provenance(), "suite": suite.to_dict(), **(provenance_extra or {})}

@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -79,11 +80,49 @@ def _write_atomic(table: pa.Table, path: Path) -> None:
     os.replace(tmp, path)  # a reader never sees a half-written file
 
 
+#: What a case id may be: it names a file, so no path separators and no leading dot.
+_CASE_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+=-]{0,127}")
+
+
+def case_path(out: str | Path, case_id: Any) -> Path:
+    """``OUT/cases/<case_id>.parquet``, refusing an id that could name a file elsewhere.
+
+    Case ids come from data (suites, pytest-benchmark ``extra_info``): one such as
+    ``../../x`` or ``/abs/path`` must not write outside the output folder.
+    """
+    text = str(case_id)
+    if not _CASE_ID.fullmatch(text) or ".." in text:
+        raise ConfigError(f"case id {text!r} cannot name a file: it must be 1-128 characters of letters, "
+                          "digits and _ . + = -, start with a letter or digit, and not contain '..'")
+    return Path(out) / "cases" / f"{text}.parquet"
+
+
+def clear_cases(out: str | Path) -> None:
+    """Delete the stored cases of the nsbench store ``out`` (a fresh run into the same folder).
+
+    Refuses, before deleting anything, when ``OUT/cases`` holds anything nsbench
+    does not write there (another tool's folder, a mistyped path): only
+    ``*.parquet`` case files and their ``.tmp`` siblings are deleted.
+    """
+    cases = Path(out) / "cases"
+    if not cases.exists():
+        return
+    if not cases.is_dir():
+        raise ConfigError(f"{str(cases)!r} is not a folder: {str(out)!r} is not an nsbench results folder")
+    foreign = [p.name for p in cases.iterdir()
+               if not (p.is_file() and (p.name.endswith(".parquet") or p.name.endswith(".parquet.tmp")))]
+    if foreign:
+        raise ConfigError(f"{str(out)!r} does not look like an nsbench results folder ({str(cases)!r} holds "
+                          f"{foreign[0]!r}); refusing to clear it: choose another --out")
+    for p in cases.iterdir():
+        p.unlink()
+    cases.rmdir()
+
+
 def append_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) -> Path:
     """Store one finished case as ``cases/<case_id>.parquet``."""
-    cases = Path(out) / "cases"
-    cases.mkdir(parents=True, exist_ok=True)
-    path = cases / f"{row['case_id']}.parquet"
+    path = case_path(out, row["case_id"])
+    path.parent.mkdir(parents=True, exist_ok=True)
     _write_atomic(_table(to_frame([row]), provenance), path)
     return path
 
@@ -104,8 +143,8 @@ def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> set[str]:
     short = set()
     for case_id, wanted in repeats.items():
         try:
-            table = pq.read_table(Path(out) / "cases" / f"{case_id}.parquet", columns=["status", "n_repeats"])
-        except (OSError, ValueError, KeyError, pa.ArrowException):
+            table = pq.read_table(case_path(out, case_id), columns=["status", "n_repeats"])
+        except (OSError, ValueError, KeyError, pa.ArrowException, ConfigError):
             continue
         for status, n in zip(table.column("status").to_pylist(), table.column("n_repeats").to_pylist()):
             if status == "success" and n is not None and n < wanted:

@@ -1,0 +1,46 @@
+"""Provenance: what a result records about where it came from, and what asking git must not do."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from nsbench.provenance import git_commit, provenance
+
+
+def test_provenance_has_versions_machine_and_date():
+    info = provenance()
+    for key in ("version_nsbench", "version_numpy", "version_scipy", "python", "cpu", "cpu_count", "date"):
+        assert info[key], key
+
+
+@pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
+def test_an_untrusted_checkout_in_the_current_directory_runs_nothing(tmp_path, monkeypatch):
+    # A repository can name a program in its own config that `git status` runs
+    # (core.fsmonitor). nsbench started inside such a checkout must not run it:
+    # provenance asks git about nsbench's own source, with fsmonitor and hooks off.
+    repo = tmp_path / "untrusted"
+    repo.mkdir()
+    marker = tmp_path / "fsmonitor-ran"
+    hook = tmp_path / "hook.sh"
+    hook.write_text(f"#!/bin/sh\ntouch {marker}\n")
+    hook.chmod(0o755)
+    env = {**os.environ, "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
+           "GIT_COMMITTER_EMAIL": "t@t"}
+    for cmd in (["init", "-q"], ["config", "core.fsmonitor", str(hook)]):
+        subprocess.run(["git", *cmd], cwd=repo, check=True, env=env)
+    (repo / "f.txt").write_text("x")
+    subprocess.run(["git", "add", "f.txt"], cwd=repo, check=True, env=env)
+    subprocess.run(["git", "-c", "core.fsmonitor=false", "commit", "-qm", "x"], cwd=repo, check=True, env=env)
+    # the hook is real: plain `git status` in that checkout runs it
+    subprocess.run(["git", "status", "--porcelain"], cwd=repo, capture_output=True, env=env)
+    assert marker.exists(), "this git does not run core.fsmonitor on status: the test would prove nothing"
+    marker.unlink()
+    monkeypatch.chdir(repo)
+    provenance()
+    git_commit(repo)       # asked about that checkout explicitly: still nothing runs
+    assert not marker.exists()

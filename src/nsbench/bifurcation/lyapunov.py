@@ -88,8 +88,8 @@ class LyapunovResult:
         The same over every finished member, outliers included (a mixture of
         attractors when there are outliers).
     ci_low, ci_high, confidence
-        Student-t confidence interval of ``exponent`` (``members - 1`` degrees of
-        freedom) at level ``confidence``.
+        Student-t confidence interval of ``exponent`` (the kept members' number
+        less one degrees of freedom) at level ``confidence``.
     exponent_per_time, standard_error_per_time
         The same per unit time (each member: sum of logs over its elapsed time).
     members
@@ -158,6 +158,11 @@ class LyapunovResult:
         return int(np.isfinite(self.members).sum()) - len(self.outliers)
 
     @property
+    def majority(self) -> bool:
+        """The kept members are a clear majority of the finished ones (see :data:`MAJORITY`)."""
+        return _holds_majority(self.n_kept, self.n_kept + len(self.outliers))
+
+    @property
     def n_members(self) -> int:
         """Members run (including any that failed)."""
         return len(self.members)
@@ -172,7 +177,7 @@ class LyapunovResult:
                 why.append(self.status)
             if not self.precise:
                 why.append("standard error too large")
-            if self.outliers and self.n_kept < MAJORITY * (self.n_kept + len(self.outliers)):
+            if not self.majority:
                 why.append("no attractor holds a clear majority of the members")
             verdict = "NOT converged: " + "; ".join(why)
         if self.outliers:
@@ -474,6 +479,11 @@ def _outliers(values: np.ndarray, relevant: float, alpha: float = OUTLIER_ALPHA)
     return tuple(flagged)
 
 
+def _holds_majority(n_kept: int, n_finished: int) -> bool:
+    """Whether ``n_kept`` members on one attractor are at least :data:`MAJORITY` of ``n_finished``."""
+    return n_kept >= MAJORITY * n_finished
+
+
 def _verdict(values: np.ndarray, tol: float) -> tuple[float, float, bool, tuple[int, ...]]:
     """Mean, standard error and precision of the members' ``values`` but the outliers; the outliers.
 
@@ -504,7 +514,6 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
     kept[list(outliers)] = False
     mean_t, se_t = _mean_and_error(per_time[kept])
     n_kept = int(kept.sum())
-    majority = n_kept >= MAJORITY * int(ok.sum())
     half = float(student.ppf(0.5 + confidence / 2, n_kept - 1)) * se if n_kept >= 2 else np.nan
     logs = np.full((len(runs), per_member), np.nan)
     for row, r in zip(logs, runs):
@@ -517,7 +526,8 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
         ci_low=mean - half, ci_high=mean + half, confidence=confidence,
         exponent_per_time=mean_t, standard_error_per_time=se_t, members=lam, members_per_time=per_time,
         member_errors=np.array([_block_error(r.logs) if k else np.nan for r, k in zip(runs, ok)]),
-        converged=bool(not failed and precise and majority), precise=precise, outliers=outliers,
+        converged=bool(not failed and precise and _holds_majority(n_kept, int(ok.sum()))), precise=precise,
+        outliers=outliers,
         iterations=n_done, iterations_per_member=per_member,
         mean_return_time=total_time / n_done if n_done else np.nan,
         block_mismatches=sum(r.mismatches for r in runs), seed=seed,

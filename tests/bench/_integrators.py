@@ -108,3 +108,51 @@ class HangingWhenTimed(ScipyRK45):
         if request.t_end > TIMED_AFTER:
             time.sleep(3600)
         return super().advance(request)
+
+
+#: Sweep values of ``v0`` in this window make the ``*-at-test`` integrators misbehave.
+BAD_V0 = (0.15, 0.17)
+
+
+class _BadAtV0(ScipyRK45):
+    """scipy-rk45 that misbehaves (``_fault``) only at belt speeds inside :data:`BAD_V0`."""
+
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def setup(self, problem):
+        self._bad = BAD_V0[0] < problem.v0 < BAD_V0[1]
+        return super().setup(problem)
+
+    def advance(self, request):
+        if self._bad:
+            self._fault()
+        return super().advance(request)
+
+
+class HangingAt(_BadAtV0):
+    """Never returns at the bad belt speeds (a hung plug-in)."""
+
+    name = "hanging-at-test"
+
+    def _fault(self):
+        time.sleep(3600)
+
+
+class ExitingAt(_BadAtV0):
+    """Ends its process at the bad belt speeds (``os._exit``, like an abort in C)."""
+
+    name = "exiting-at-test"
+
+    def _fault(self):
+        os._exit(7)
+
+
+class SegfaultingAt(_BadAtV0):
+    """Dies of SIGSEGV at the bad belt speeds (a crash in compiled code)."""
+
+    name = "segfaulting-at-test"
+
+    def _fault(self):
+        import signal
+
+        os.kill(os.getpid(), signal.SIGSEGV)

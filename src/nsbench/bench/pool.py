@@ -27,6 +27,17 @@ def hello(components: dict[str, dict[str, Any]], out: str | Path, provenance: di
                      provenance=provenance)
 
 
+def importable(obj: Any) -> bool:
+    """Whether a worker process can unpickle ``obj`` (pickled by reference, so not from ``__main__``)."""
+    if getattr(obj, "__module__", None) == "__main__":
+        return False
+    try:
+        pickle.dumps(obj)
+    except Exception:  # a local class, a lambda...
+        return False
+    return True
+
+
 def _environment() -> dict[str, str]:
     """The parent's environment, with the directory of *this* nsbench first on the path."""
     import nsbench

@@ -6,10 +6,10 @@ reference, so a worker can unpickle only what it can import (hence the runner's
 rule on components defined in ``__main__``).
 
 Parent to worker: :class:`Hello` (once), then :class:`ComputeReference`,
-:class:`WarmUp`, :class:`TimeCase`, :class:`Stop`. Worker to parent:
-:class:`Ready` or :class:`InitFailed` (once), then any number of
-:class:`Stage` per task and exactly one :class:`Done`, :class:`Failed` or
-:class:`Interrupted`.
+:class:`WarmUp`, :class:`TimeCase`, :class:`Call`, :class:`Stop`. Worker to
+parent: :class:`Ready` or :class:`InitFailed` (once), then any number of
+:class:`Stage` and :class:`Partial` per task and exactly one :class:`Done`,
+:class:`Failed` or :class:`Interrupted`.
 """
 
 from __future__ import annotations
@@ -82,6 +82,20 @@ class TimeCase:
 
 
 @dataclass(frozen=True)
+class Call:
+    """Run ``target(*args, stage=..., emit=...)``, ``target`` given as ``'module:function'``.
+
+    The generic task of :mod:`nsbench.jobs` (sweep values, Lyapunov members):
+    ``stage(what, limit)`` announces a step and its hard limit, ``emit(item)``
+    sends a finished part of the result at once (kept if the task is stopped later).
+    """
+
+    task: int
+    target: str
+    args: tuple = ()
+
+
+@dataclass(frozen=True)
 class Stop:
     pass
 
@@ -108,6 +122,14 @@ class Stage:
     task: int
     what: str
     limit: float | None
+
+
+@dataclass(frozen=True)
+class Partial:
+    """A finished part of a :class:`Call`'s result, sent before the task ends."""
+
+    task: int
+    item: Any
 
 
 @dataclass(frozen=True)

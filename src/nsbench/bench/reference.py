@@ -140,13 +140,32 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
 
 
 def load_reference(directory: str | Path, key: str) -> Reference | None:
-    """The cached reference ``key``, or ``None`` if it is not (completely) cached."""
-    meta, events, dense = _paths(Path(directory), key)
+    """The cached reference ``key``, or ``None`` if it is not (completely and soundly) cached.
+
+    A damaged cache entry (truncated, edited, another key's) is deleted, with
+    one warning line, so that the reference is computed again.
+    """
+    import sys
+
+    paths = _paths(Path(directory), key)
+    meta, events, dense = paths
     if not meta.exists():
         return None
-    data = json.loads(meta.read_text())
-    table = np.load(dense)
-    t_dense, y_dense = table[0], table[1:]
-    return Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
-                     t_dense, y_dense, np.array(data["y_final"], dtype=float), data["wall_time"],
-                     bool(data.get("failed", False)))
+    try:
+        data = json.loads(meta.read_text())
+        if data.get("key") != key:
+            raise ValueError(f"it holds reference {data.get('key')!r}")
+        table = np.load(dense, allow_pickle=False)
+        t_dense, y_dense = table[0], table[1:]
+        ref = Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
+                        t_dense, y_dense, np.array(data["y_final"], dtype=float), float(data["wall_time"]),
+                        bool(data.get("failed", False)))
+        if len(ref.events) and not {"t", "kind", "block"} <= set(ref.events.columns):
+            raise ValueError("its event table lacks t, kind or block")
+    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError) as exc:
+        print(f"nsbench: warning: cached reference {meta} is damaged ({type(exc).__name__}: {exc}); "
+              "computing it again", file=sys.stderr)
+        for p in paths:
+            p.unlink(missing_ok=True)
+        return None
+    return ref

@@ -17,7 +17,6 @@ only the rest.
 from __future__ import annotations
 
 import os
-import pickle
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +26,7 @@ import pandas as pd
 
 from nsbench.bench import storage
 from nsbench.bench.execute import run_case
+from nsbench.bench.pool import importable
 from nsbench.bench.progress import Progress
 from nsbench.bench.reference import (Reference, candidates, compute_reference, failed_status, load_reference,
                                      reference_key, save_reference)
@@ -87,17 +87,6 @@ class RunSummary:
 
 
 # ---------------------------------------------------------------------- the __main__ rule
-def _unimportable(obj: Any) -> bool:
-    """Whether a worker process could not unpickle ``obj`` (pickled by reference)."""
-    if getattr(obj, "__module__", None) == "__main__":
-        return True
-    try:
-        pickle.dumps(obj)
-    except Exception:  # a local class, a lambda...
-        return True
-    return False
-
-
 def _components(cases: list[Case], suite: Suite) -> tuple[dict[str, dict[str, Any]], list[str]]:
     """Runtime registrations the workers can import, and those of the suite they cannot."""
     from nsbench import registry
@@ -109,7 +98,7 @@ def _components(cases: list[Case], suite: Suite) -> tuple[dict[str, dict[str, An
     for kind, objs in registry.runtime_components().items():
         shareable[kind] = {}
         for name, obj in objs.items():
-            if not _unimportable(obj):
+            if importable(obj):
                 shareable[kind][name] = obj
             elif name in used.get(kind, ()):
                 local.append(f"{kind[:-1]} {name!r}")
@@ -198,6 +187,7 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     for name, reason in suite.unavailable().items():
         prov.setdefault("unavailable_integrators", {})[name] = reason
         print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)
+    storage.discard_damaged(out, err)  # named in one line each, then computed again
     done = storage.done_ids(out)
     # a run interrupted between timing rounds left successful rows with fewer runs: time them again
     done -= storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})

@@ -127,6 +127,70 @@ def append_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any])
     return path
 
 
+class DamagedFile(Exception):
+    """A stored file that cannot be used (the message says why)."""
+
+
+#: Columns every case file has (schema check on read).
+_REQUIRED = ("case_id", "integrator", "problem_label", "status", "n_repeats")
+
+
+def read_case(path: str | Path) -> pd.DataFrame:
+    """The one row of a case file, checked: readable, nsbench's columns, the id its name says.
+
+    Raises
+    ------
+    DamagedFile
+        A truncated or foreign file, or a case file copied over another case's name.
+    """
+    p = Path(path)
+    try:
+        frame = pq.read_table(p).to_pandas()
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise DamagedFile(f"not a readable Parquet file: {exc}") from None
+    missing = [c for c in _REQUIRED if c not in frame.columns]
+    if missing:
+        raise DamagedFile(f"not an nsbench case file (no column {missing[0]!r})")
+    if len(frame) != 1:
+        raise DamagedFile(f"{len(frame)} rows where a case file has one")
+    stored = str(frame["case_id"].iloc[0])
+    if stored != p.name[: -len(".parquet")]:
+        raise DamagedFile(f"it holds case {stored!r}, not the case its name says")
+    return frame
+
+
+def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = 60.0) -> list[Path]:
+    """Before a resumed run: delete damaged case files (their cases run again) and stale temporary files.
+
+    Each damaged file is named in one warning line on ``stream``; a damaged
+    cached reference is dealt with when it is loaded (it is computed again).
+    Temporary files younger than ``stale_after`` seconds may belong to a run
+    writing into this folder right now and are left alone.
+    """
+    import sys
+    import time
+
+    o = Path(out)
+    bad = []
+    cases = o / "cases"
+    for f in sorted(cases.glob("*.parquet")) if cases.is_dir() else []:
+        try:
+            read_case(f)
+        except DamagedFile as exc:
+            print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
+            f.unlink(missing_ok=True)
+            bad.append(f)
+    now = time.time()
+    for folder in (o, cases, o / "references"):
+        for tmp in folder.glob("*.tmp") if folder.is_dir() else []:
+            try:
+                if now - tmp.stat().st_mtime > stale_after:
+                    tmp.unlink()
+            except FileNotFoundError:
+                pass
+    return bad
+
+
 def done_ids(out: str | Path) -> set[str]:
     """Ids of the cases already stored in ``out`` (what a resumed run skips)."""
     cases = Path(out) / "cases"
@@ -177,7 +241,7 @@ def load_results(path: str | Path) -> pd.DataFrame:
     if p.is_dir():
         files = sorted((p / "cases").glob("*.parquet")) if (p / "cases").is_dir() else []
         if files:
-            frame = to_frame(row for f in files for row in pd.read_parquet(f).to_dict("records"))
+            frame = to_frame(row for f in files for row in _checked(f).to_dict("records"))
             frame = frame.sort_values(["integrator", "level"], kind="stable", ignore_index=True)
             return frame.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable",
                                      ignore_index=True)
@@ -193,8 +257,22 @@ def load_results(path: str | Path) -> pd.DataFrame:
                 frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
         return to_frame(frame.to_dict("records"))
     if p.suffix == ".parquet":
-        return to_frame(pd.read_parquet(p).to_dict("records"))
+        try:
+            frame = pd.read_parquet(p)
+        except (OSError, ValueError, pa.ArrowException) as exc:
+            raise ConfigError(f"{p} is not a readable Parquet file ({exc})") from None
+        if "case_id" not in frame.columns:
+            raise ConfigError(f"{p} holds no nsbench results (no column 'case_id')")
+        return to_frame(frame.to_dict("records"))
     raise ConfigError(f"cannot read results from {str(path)!r}: expected a directory, .parquet or .csv")
+
+
+def _checked(path: Path) -> pd.DataFrame:
+    try:
+        return read_case(path)
+    except DamagedFile as exc:
+        raise ConfigError(f"{path} is damaged ({exc}); rerun into this folder with --resume to compute "
+                          "its case again") from None
 
 
 def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:

@@ -59,6 +59,12 @@ def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
         return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
     if isinstance(task, msg.WarmUp):
         return warm_up(task.case, task.suite, stage)
+    if isinstance(task, msg.Call):
+        import importlib
+
+        module, _, name = task.target.partition(":")
+        target = getattr(importlib.import_module(module), name)
+        return target(*task.args, stage=stage, emit=lambda item: msg.write_message(out, msg.Partial(task.task, item)))
     if isinstance(task, msg.TimeCase):
         if task.round > 0:  # timings only: the runner joins them to the stored row
             return time_case(task.case, task.reference, task.suite, stage, count=task.runs, metrics=False,

@@ -300,34 +300,47 @@ def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, 
     return _Member(np.array(logs), np.array(times), t_first, mismatches)
 
 
-# -- running the members, in this process or in forked workers ------------------------------------
+# -- running the members, in this process or in supervised workers --------------------------------
 
-_FORK_STATE: dict = {}
-
-
-def _member_task(index: int, seed_seq: np.random.SeedSequence) -> tuple[int, _Member]:
-    """Run member ``index`` in a forked worker, with the integrator the parent set up."""
-    s = _FORK_STATE
-    rng = np.random.default_rng(seed_seq)
-    return index, _run_member(s["integ"], s["problem"], rng, **s["params"])
+#: Default hard limit of one member's run in a worker (seconds; compilation from a cold cache included).
+MEMBER_LIMIT = 1800.0
+#: Per worker process: the integrator set up for the last problem (compiled code loaded).
+_WORKER_STATE: dict = {}
 
 
-def _run_members(integ, problem, seeds, params, workers) -> list[_Member]:
-    import multiprocessing
+def member_job(problem, integrator: str, options: dict, index: int, seed_seq: np.random.SeedSequence,
+               params: dict, limit: float | None, *, stage, emit) -> _Member:
+    """Member ``index`` in a supervised worker (:mod:`nsbench.jobs`), the integrator set up once per worker."""
+    from nsbench.integrators import get_integrator
 
-    if workers <= 1 or len(seeds) == 1 or "fork" not in multiprocessing.get_all_start_methods():
+    key = repr((problem, integrator, sorted(options.items())))
+    if _WORKER_STATE.get("key") != key:
+        stage("integrator set-up", limit)
+        integ = get_integrator(integrator, **options)
+        integ.setup(problem)
+        _WORKER_STATE.update(key=key, integ=integ)
+    stage(f"member {index}", limit)
+    return _run_member(_WORKER_STATE["integ"], problem, np.random.default_rng(seed_seq), **params)
+
+
+def _lost_member(reason: str) -> _Member:
+    return _Member(np.empty(0), np.empty(0), math.nan, 0, reason)
+
+
+def _run_members(integ, problem, integrator, options, seeds, params, workers, limit) -> list[_Member]:
+    if workers == 0:
         return [_run_member(integ, problem, np.random.default_rng(s), **params) for s in seeds]
-    from concurrent.futures import ProcessPoolExecutor
+    from nsbench.jobs import Job, JobPool
 
-    # fork hands the workers the integrator already set up (compiled code loaded)
-    # through this module's state; only member indices and seeds are sent
-    _FORK_STATE.update(integ=integ, problem=problem, params=params)
-    ctx = multiprocessing.get_context("fork")
-    try:
-        with ProcessPoolExecutor(max_workers=min(workers, len(seeds)), mp_context=ctx) as pool:
-            done = dict(pool.map(_member_task, range(len(seeds)), seeds))
-    finally:
-        _FORK_STATE.clear()
+    done: dict[int, _Member] = {}
+    with JobPool(min(workers, len(seeds))) as pool:
+        for i, s in enumerate(seeds):
+            pool.submit(Job(i, f"{__name__}:member_job", (problem, integrator, options, i, s, params, limit)))
+        for o in pool.outcomes():
+            if o.kind == "done":
+                done[o.key] = o.value
+            elif o.final:  # time limit, crash, or an exception the member did not turn into a message
+                done[o.key] = _lost_member(f"{o.kind}: {o.reason}")
     return [done[i] for i in range(len(seeds))]
 
 
@@ -337,7 +350,7 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
                      transient: float = 1000.0, iterations: int = 10000, members: int = 32,
                      d0: float = 1e-8, window: float = 2000.0, seed: int = 0, spread: float = 1e-3,
                      align: int = 10, tol: float = 0.01, confidence: float = 0.95,
-                     workers: int = 1) -> LyapunovResult:
+                     workers: int = 1, member_limit: float | None = MEMBER_LIMIT) -> LyapunovResult:
     """Ensemble Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
 
     Parameters
@@ -377,8 +390,12 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     confidence
         Level of the Student-t confidence interval.
     workers
-        Processes running members at once (fork); 1 runs them in this process.
-        The result does not depend on it.
+        Supervised worker processes running members at once; ``0`` runs them
+        in this process, without hard limits. The result does not depend on it.
+    member_limit
+        Hard limit in seconds of one member's run in a worker (``None``: none):
+        past it the worker is ended and the member counts as failed, with the
+        reason; the other members go on. A crashed worker costs only its member.
 
     Returns
     -------
@@ -389,6 +406,8 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     from nsbench.integrators import get_integrator
 
     _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed)
+    if member_limit is not None and not (math.isfinite(member_limit) and member_limit > 0):
+        raise ConfigError(f"member_limit = {member_limit!r} must be a finite number of seconds > 0, or None")
     if integrator is None:
         integrator = "exact" if problem.is_linear else "henon-rk4"
     integ = get_integrator(integrator, **(options or {}))
@@ -397,7 +416,7 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     seeds = np.random.SeedSequence(int(seed)).spawn(members)
     params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread,
                   align=int(align))
-    runs = _run_members(integ, problem, seeds, params, workers)
+    runs = _run_members(integ, problem, integrator, dict(options or {}), seeds, params, workers, member_limit)
     return _result(runs, per_member, int(seed), tol, confidence)
 
 
@@ -426,8 +445,8 @@ def _check(iterations, members, d0, transient, window, spread, align, tol, confi
         raise ConfigError(f"tol = {tol!r} must be > 0")
     if not (0.0 < confidence < 1.0):
         raise ConfigError(f"confidence = {confidence!r} must be in (0, 1)")
-    if not _is_int(workers) or workers < 1:
-        raise ConfigError(f"workers = {workers!r} must be an integer of at least 1")
+    if not _is_int(workers) or workers < 0:
+        raise ConfigError(f"workers = {workers!r} must be an integer >= 0 (0: in this process)")
     if not _is_int(seed) or seed < 0:
         raise ConfigError(f"seed = {seed!r} must be an integer >= 0")
 

@@ -5,14 +5,27 @@ run; ``points/`` holds one CSV per finished chunk of parameter values, written
 to a temporary name and renamed, so a killed run leaves only whole chunks.
 Rerunning with the same specification computes only the missing values; a
 different specification in the same folder is refused.
+
+A chunk's name says what it holds and proves it:
+``chunk-<first index>-<last index>-n<rows>-<sha256 prefix>.csv``. Every chunk
+is checked when the store is read: its checksum (the file's bytes), row count,
+columns, index range, and for every value its ``n_points`` rows numbered
+``k = 0, 1, ...``. A damaged chunk (truncated, edited, another sweep's) is
+named in one line; a rerun (:meth:`SweepStore.discard_damaged`) deletes it and
+computes its values again, a reader (:meth:`SweepStore.load`) refuses it.
+Chunks of stores written before checksums were kept pass the other checks.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
-import uuid
+import re
+import time
 from pathlib import Path
+from typing import TextIO
 
 import pandas as pd
 
@@ -72,39 +85,132 @@ class SweepStore:
         return tuple(cols[cols.index("t") + 1: cols.index("event_block")])
 
     def write(self, frame: pd.DataFrame) -> Path:
-        """Store the rows of some finished parameter values (one chunk file)."""
-        first = int(frame["index"].min())
-        path = self.points_dir / f"chunk-{first:06d}-{uuid.uuid4().hex[:8]}.csv"
+        """Store the rows of some finished parameter values (one chunk file, named by what it holds)."""
+        buf = io.StringIO()
+        frame.loc[:, list(self.columns)].to_csv(buf, index=False, float_format="%.17g")
+        data = buf.getvalue().encode()
+        first, last = int(frame["index"].min()), int(frame["index"].max())
+        path = self.points_dir / f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}.csv"
         tmp = path.with_suffix(".tmp")
-        frame.loc[:, list(self.columns)].to_csv(tmp, index=False, float_format="%.17g")
+        tmp.write_bytes(data)
         os.replace(tmp, path)
         return path
 
+    def _files(self) -> list[Path]:
+        return sorted(self.points_dir.glob("chunk-*.csv"))
+
+    def check(self) -> tuple[list[tuple[Path, pd.DataFrame]], list[tuple[Path, str]]]:
+        """Every chunk, read and checked: ``(path, rows)`` of the sound ones, ``(path, reason)`` of the others."""
+        good, bad = [], []
+        for f in self._files():
+            try:
+                good.append((f, self._read_checked(f)))
+            except _Damaged as exc:
+                bad.append((f, str(exc)))
+        return good, bad
+
+    def discard_damaged(self, stream: TextIO | None = None, stale_after: float = 60.0) -> list[Path]:
+        """Delete damaged chunks (their values are computed again) and temporary files a killed run left.
+
+        Each damaged chunk is named in one warning line on ``stream``.
+        Temporary files younger than ``stale_after`` seconds may belong to a
+        run writing into this folder right now and are left alone.
+        """
+        import sys
+
+        _, bad = self.check()
+        for f, reason in bad:
+            print(f"nsbench: warning: {f} is damaged ({reason}); its values are computed again",
+                  file=stream or sys.stderr)
+            f.unlink(missing_ok=True)
+        now = time.time()
+        for tmp in self.points_dir.glob("*.tmp"):
+            try:
+                if now - tmp.stat().st_mtime > stale_after:
+                    tmp.unlink()
+            except FileNotFoundError:
+                pass
+        return [f for f, _ in bad]
+
     def load(self) -> pd.DataFrame:
-        """All stored rows, sorted by parameter index and point index (one row per value kept once)."""
-        files = sorted(self.points_dir.glob("chunk-*.csv"))
-        if not files:
+        """All stored rows, sorted by parameter index and point index (one row per value kept once).
+
+        Raises ``ConfigError`` naming the first damaged chunk, if any (rerun the
+        sweep to compute its values again).
+        """
+        good, bad = self.check()
+        if bad:
+            f, reason = bad[0]
+            more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+            raise ConfigError(f"{f} is damaged ({reason}){more}; rerun the sweep into {self.directory} "
+                              "to compute its values again")
+        if not good:
             return pd.DataFrame(columns=list(self.columns))
-        text = {c: str for c in ("param", "section", "status", "message")}
-        frame = pd.concat([pd.read_csv(f, dtype=text, keep_default_na=False, na_values={"t": [""]})
-                           for f in files], ignore_index=True)
-        for col in ("t", *self.state_names):
-            frame[col] = pd.to_numeric(frame[col], errors="coerce")
+        frame = pd.concat([rows for _, rows in good], ignore_index=True)
         # a value computed twice (two runs racing on one folder) keeps its first copy
         frame = frame.drop_duplicates(subset=["index", "k"], keep="first")
         return frame.sort_values(["index", "k"], kind="stable").reset_index(drop=True)
 
     def done(self) -> set[int]:
-        """Indices of the parameter values already stored."""
-        files = sorted(self.points_dir.glob("chunk-*.csv"))
-        out: set[int] = set()
-        for f in files:
-            out.update(pd.read_csv(f, usecols=["index"])["index"].astype(int).tolist())
-        return out
+        """Indices of the parameter values stored in sound chunks."""
+        good, _ = self.check()
+        return {int(i) for _, rows in good for i in rows["index"].unique()}
 
     def missing(self) -> list[int]:
         done = self.done()
         return [i for i in range(self.spec.count) if i not in done]
+
+    def _read_checked(self, path: Path) -> pd.DataFrame:
+        data = path.read_bytes()
+        named = _CHUNK.fullmatch(path.name)
+        if named and named["sha"] and _digest(data) != named["sha"]:
+            raise _Damaged("its checksum does not match its content")
+        text = {c: str for c in ("param", "section", "status", "message")}
+        try:
+            frame = pd.read_csv(io.BytesIO(data), dtype=text, keep_default_na=False, na_values={"t": [""]})
+        except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
+            raise _Damaged(f"not a readable CSV table: {exc}") from None
+        if list(frame.columns) != list(self.columns):
+            raise _Damaged("its columns are not this sweep's")
+        if named and named["rows"] and len(frame) != int(named["rows"]):
+            raise _Damaged(f"{len(frame)} rows where its name says {named['rows']}")
+        if frame.empty:
+            raise _Damaged("no rows")
+        try:
+            for col in ("index", "k", "n_points"):
+                frame[col] = pd.to_numeric(frame[col], errors="raise").astype(int)
+        except (ValueError, TypeError):
+            raise _Damaged("a non-integer index, k or n_points") from None
+        idx = frame["index"]
+        if idx.min() < 0 or idx.max() >= self.spec.count:
+            raise _Damaged(f"indices outside 0..{self.spec.count - 1}")
+        if named and named["last"] and (idx.min() != int(named["first"]) or idx.max() != int(named["last"])):
+            raise _Damaged("its indices are not those in its name")
+        for i, rows in frame.groupby("index", sort=False):
+            n = int(rows["n_points"].iloc[0])
+            want = list(range(n)) if n else [-1]
+            if (rows["n_points"] != n).any() or rows["k"].tolist() != want:
+                raise _Damaged(f"value {i} has {len(rows)} rows where n_points says {n}")
+            if rows["value"].nunique() != 1 or not _close(float(rows["value"].iloc[0]), self.spec.values[i]):
+                raise _Damaged(f"value {i} is not {self.spec.name} = {self.spec.values[i]:.17g}")
+        for col in ("t", *self.state_names):
+            frame[col] = pd.to_numeric(frame[col], errors="coerce")
+        return frame
+
+
+class _Damaged(Exception):
+    """A chunk file that cannot be used (the message says why)."""
+
+
+_CHUNK = re.compile(r"chunk-(?P<first>\d+)(?:-(?P<last>\d+)-n(?P<rows>\d+)-(?P<sha>[0-9a-f]{16}))?(?:-[0-9a-f]{8})?\.csv")
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
+def _close(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-12 * max(1.0, abs(b))
 
 
 def points_summary(frame: pd.DataFrame) -> pd.DataFrame:

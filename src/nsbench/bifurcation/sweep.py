@@ -193,6 +193,13 @@ def _rows(spec: SweepSpec, names: tuple[str, ...], index: int, value: float, t, 
     return pd.DataFrame(data)
 
 
+def failure_rows(spec: SweepSpec, index: int, status: str, message: str, wall: float = math.nan) -> pd.DataFrame:
+    """The one row of a value that gave no points: its ``status`` (``failure``, ``time limit``,
+    ``crashed``) and the reason."""
+    return _rows(spec, spec.state_names, index, float(spec.values[index]), [], None, [], status, message, {},
+                 wall)
+
+
 def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
     """Rows of one parameter value. Failures become a row with their status and reason."""
     from nsbench.integrators import get_integrator
@@ -205,8 +212,7 @@ def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
         integ = integrator if integrator is not None else get_integrator(spec.integrator, **spec.options)
         t, y, blocks, status, message, counters = _point(spec, problem, integ)
     except (NsbenchError, ArithmeticError, ValueError, RuntimeError) as exc:
-        return _rows(spec, names, index, value, [], None, [], "failure", f"{type(exc).__name__}: {exc}", {},
-                     time.perf_counter() - tic)
+        return failure_rows(spec, index, "failure", f"{type(exc).__name__}: {exc}", time.perf_counter() - tic)
     return _rows(spec, names, index, value, t, y, blocks, status, message, counters,
                  time.perf_counter() - tic)
 

@@ -1,0 +1,208 @@
+"""Jobs in supervised worker processes: a hard time limit per step, and crash isolation.
+
+Sweeps (:mod:`nsbench.bifurcation.parallel`) and Lyapunov ensembles
+(:mod:`nsbench.bifurcation.lyapunov`) hand their work here. A job is a call
+``target(*args, stage=..., emit=...)`` (``target`` named ``'module:function'``)
+that runs in a worker process of the suite runner (:mod:`nsbench.bench.worker`,
+started with :mod:`subprocess`, so it never imports the user's ``__main__``).
+The job announces each step with ``stage(what, limit)`` and sends each finished
+part of its result with ``emit(item)``.
+
+Why a process per worker and not a ``ProcessPoolExecutor``: an integrator that
+never returns (a hung plug-in, a step size that underflows) cannot be stopped
+inside Python, and a worker that dies (segfault, ``os._exit``, the OOM killer)
+breaks a whole executor. Here the parent stops a worker past its step's limit,
+reports the job as ``time limit`` or ``crashed`` (with the signal or exit code)
+together with the step that was running, starts a new worker, and goes on.
+What the job emitted before is kept. Workers end themselves within a second
+when the parent dies (killed or not), so no worker outlives its CLI.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Hashable, Iterator
+
+from nsbench.bench import pool as wp
+from nsbench.bench import protocol as msg
+from nsbench.errors import NsbenchError
+
+#: Seconds a new worker may take to import nsbench and answer.
+START_LIMIT = 300.0
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of work: ``target(*args, stage=, emit=)`` in a worker, identified by ``key``."""
+
+    key: Hashable
+    target: str
+    args: tuple = ()
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of a job, or a part of its result.
+
+    Attributes
+    ----------
+    key
+        The job's key.
+    kind
+        ``partial`` (``value`` is an emitted item; more follow), ``done``
+        (``value`` is the job's return value), ``failed`` (the job raised:
+        ``reason``), ``time limit`` (its step ``stage`` ran past its limit; the
+        worker was ended) or ``crashed`` (the worker died during ``stage``:
+        ``reason`` names the signal or exit code).
+    """
+
+    key: Hashable
+    kind: str
+    value: Any = None
+    stage: str = ""
+    reason: str = ""
+
+    @property
+    def final(self) -> bool:
+        return self.kind != "partial"
+
+
+class _Slot:
+    """One worker and the job it runs."""
+
+    def __init__(self) -> None:
+        self.worker: wp.WorkerProcess | None = None
+        self.ready = False
+        self.job: Job | None = None
+        self.task = 0
+        self.stage = ""
+        self.limit: float | None = None
+        self.deadline: float | None = None
+
+
+class JobPool:
+    """Run jobs on ``workers`` supervised worker processes.
+
+    Parameters
+    ----------
+    workers
+        Worker processes (at least 1).
+
+    Use as a context manager; :meth:`submit` jobs (also while iterating), and
+    iterate :meth:`outcomes` until every submitted job has ended.
+    """
+
+    def __init__(self, workers: int) -> None:
+        if workers < 1:
+            raise ValueError(f"workers = {workers} must be at least 1")
+        from nsbench import registry
+
+        self._hello = wp.hello(_shareable(registry.runtime_components()), "", {})
+        self._slots = [_Slot() for _ in range(workers)]
+        self._queue: deque[Job] = deque()
+        self._tasks = 0
+
+    def __enter__(self) -> "JobPool":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def submit(self, job: Job) -> None:
+        self._queue.append(job)
+
+    def close(self) -> None:
+        """End every worker (idle ones are asked to stop, busy ones are killed)."""
+        for slot in self._slots:
+            if slot.worker is not None:
+                if slot.job is None and slot.ready:
+                    slot.worker.stop(timeout=2.0)
+                else:
+                    slot.worker.kill()
+                slot.worker = None
+
+    # -------------------------------------------------------------------------------------------
+    def outcomes(self) -> Iterator[Outcome]:
+        """Outcomes in the order they happen, until no job is queued or running."""
+        while self._queue or any(s.job is not None for s in self._slots):
+            self._dispatch()
+            busy = [s for s in self._slots if s.worker is not None and (s.job is not None or not s.ready)]
+            deadlines = [s.deadline for s in busy if s.deadline is not None]
+            wait = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+            ready = wp.readable([s.worker for s in busy], wait)
+            for slot in busy:
+                if slot.worker in ready:
+                    yield from self._read(slot)
+            now = time.monotonic()
+            for slot in self._slots:
+                if slot.worker is not None and slot.deadline is not None and now >= slot.deadline:
+                    yield from self._expire(slot)
+
+    def _dispatch(self) -> None:
+        for slot in self._slots:
+            if not self._queue:
+                return
+            if slot.worker is None:
+                slot.worker, slot.ready = wp.WorkerProcess(self._hello), False
+                slot.stage, slot.limit = "worker start", START_LIMIT
+                slot.deadline = time.monotonic() + START_LIMIT
+            if slot.ready and slot.job is None:
+                self._tasks += 1
+                slot.job, slot.task = self._queue.popleft(), self._tasks
+                slot.stage, slot.limit, slot.deadline = "", None, None
+                try:
+                    slot.worker.send(msg.Call(slot.task, slot.job.target, slot.job.args))
+                except (BrokenPipeError, OSError):
+                    pass  # the worker is gone: its end of file is read next
+
+    def _read(self, slot: _Slot) -> Iterator[Outcome]:
+        try:
+            m = slot.worker.receive()
+        except EOFError:
+            yield from self._lost(slot)
+            return
+        if isinstance(m, msg.Ready):
+            slot.ready, slot.stage, slot.deadline = True, "", None
+        elif isinstance(m, msg.InitFailed):
+            self.close()
+            raise NsbenchError(f"a worker process could not start: {m.error}")
+        elif isinstance(m, msg.Stage):
+            slot.stage, slot.limit = m.what, m.limit
+            slot.deadline = time.monotonic() + m.limit if m.limit is not None else None
+        elif isinstance(m, msg.Partial):
+            yield Outcome(slot.job.key, "partial", m.item, slot.stage)
+        elif isinstance(m, msg.Interrupted):
+            raise KeyboardInterrupt
+        elif isinstance(m, (msg.Done, msg.Failed)):
+            job, stage = slot.job, slot.stage
+            slot.job, slot.stage, slot.deadline = None, "", None
+            if isinstance(m, msg.Done):
+                yield Outcome(job.key, "done", m.result, stage)
+            else:
+                yield Outcome(job.key, "failed", None, stage, m.error)
+
+    def _lost(self, slot: _Slot) -> Iterator[Outcome]:
+        job, stage = slot.job, slot.stage
+        reason = slot.worker.exit_reason()
+        slot.worker.kill()
+        slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
+        if job is None:  # died before its first job: nothing to attribute it to
+            raise NsbenchError(f"a worker process ended while starting ({reason})")
+        yield Outcome(job.key, "crashed", None, stage, f"worker process ended ({reason}) during {stage or 'start'}")
+
+    def _expire(self, slot: _Slot) -> Iterator[Outcome]:
+        job, stage, limit = slot.job, slot.stage, slot.limit
+        slot.worker.kill()
+        slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
+        if job is None:
+            raise NsbenchError(f"a worker process did not start within {START_LIMIT:g} s")
+        yield Outcome(job.key, "time limit", None, stage,
+                      f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)")
+
+
+def _shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The runtime registrations a worker can import."""
+    return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)}
+            for kind, objs in components.items()}

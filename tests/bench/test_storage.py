@@ -1,0 +1,96 @@
+"""The results store: a damaged, foreign or misnamed case file or cached reference is named,
+refused by readers and computed again by a resumed run; no stale temporary files stay."""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import time
+
+import pytest
+
+from nsbench.bench import Suite, load_results, run_suite
+from nsbench.errors import ConfigError
+
+
+def _suite():
+    return Suite.from_dict({"name": "store", "t_span": [0.0, 30.0], "repeats": 1, "reference": ["exact"],
+                            "problems": [{"name": "one-dof", "case": 1}],
+                            "integrators": {"only": ["exact", "henon-rk4"]}})
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    out = tmp_path_factory.mktemp("store")
+    summary = run_suite(_suite(), out, workers=1, progress=False)
+    return out, summary.results
+
+
+def _copy(stored, tmp_path):
+    out = tmp_path / "copy"
+    shutil.copytree(stored[0], out)
+    return out
+
+
+def _cols(frame):
+    return frame.sort_values("case_id").reset_index(drop=True)[["case_id", "status", "n_events",
+                                                                 "switch_err_max"]]
+
+
+def test_a_truncated_case_file_is_refused_then_run_again(stored, tmp_path):
+    out = _copy(stored, tmp_path)
+    files = sorted((out / "cases").glob("*.parquet"))
+    victim = files[len(files) // 2]
+    data = victim.read_bytes()
+    victim.write_bytes(data[: int(0.55 * len(data))])
+    with pytest.raises(ConfigError, match=f"{victim.name} is damaged.*not a readable Parquet"):
+        load_results(out)
+    err = io.StringIO()
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=err)
+    assert f"{victim.name} is damaged" in err.getvalue()
+    assert again.n_computed == 1
+    assert _cols(again.results).equals(_cols(stored[1]))
+
+
+def test_a_case_file_under_another_case_name_is_refused(stored, tmp_path):
+    out = _copy(stored, tmp_path)
+    a, b = sorted((out / "cases").glob("*.parquet"))[:2]
+    shutil.copy(a, b)  # duplicate id, missing case: never read silently
+    with pytest.raises(ConfigError, match=f"{b.name} is damaged .*holds case '{a.stem}'"):
+        load_results(out)
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+    assert again.n_computed == 1 and _cols(again.results).equals(_cols(stored[1]))
+
+
+def test_a_foreign_parquet_file_is_refused(stored, tmp_path):
+    import pandas as pd
+
+    out = _copy(stored, tmp_path)
+    foreign = sorted((out / "cases").glob("*.parquet"))[0]
+    pd.DataFrame({"a": [1, 2]}).to_parquet(foreign)
+    with pytest.raises(ConfigError, match="not an nsbench case file"):
+        load_results(out)
+
+
+def test_a_damaged_reference_cache_is_computed_again(stored, tmp_path, capsys):
+    out = _copy(stored, tmp_path)
+    meta = next((out / "references").glob("*.json"))
+    events = meta.with_name(meta.name[: -len(".json")] + ".events.parquet")
+    events.write_bytes(events.read_bytes()[:100])
+    shutil.rmtree(out / "cases")  # every case runs again, against the recomputed reference
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+    assert "cached reference" in capsys.readouterr().err
+    assert _cols(again.results).equals(_cols(stored[1]))
+
+
+def test_stale_temporary_files_are_removed_on_resume(stored, tmp_path):
+    out = _copy(stored, tmp_path)
+    stale = [out / "cases" / "x.parquet.tmp", out / "references" / "y.json.tmp", out / "results.csv.tmp"]
+    for f in stale:
+        f.write_text("partial")
+        os.utime(f, (time.time() - 3600, time.time() - 3600))
+    young = out / "cases" / "z.parquet.tmp"
+    young.write_text("being written by another run")
+    run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+    assert not any(f.exists() for f in stale) and young.exists()

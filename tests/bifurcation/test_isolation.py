@@ -1,0 +1,172 @@
+"""Sweeps and Lyapunov runs on supervised workers: hard limits, crash isolation, a damaged store."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from nsbench import registry
+from nsbench.bifurcation.lyapunov import largest_exponent
+from nsbench.bifurcation.parallel import run_sweep
+from nsbench.bifurcation.storage import SweepStore
+from nsbench.bifurcation.sweep import SweepSpec
+from nsbench.errors import ConfigError
+from tests.bench import _integrators as faulty
+
+# v0 = 0.06, 0.08, ..., 0.20: value 5 (v0 = 0.16) lies in faulty.BAD_V0
+SPEC = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=8, transient=50.0, record=5)
+BAD = 5
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """The same sweep with the well-behaved integrator the faulty ones wrap."""
+    return run_sweep(SweepSpec(integrator="scipy-rk45", **SPEC), tmp_path_factory.mktemp("clean"), workers=0,
+                     progress=False)
+
+
+@pytest.fixture
+def faulty_registered():
+    classes = (faulty.HangingAt, faulty.ExitingAt, faulty.SegfaultingAt)
+    for cls in classes:
+        registry.register("integrators", cls.name, cls)
+    yield
+    for cls in classes:
+        registry.unregister("integrators", cls.name)
+
+
+@pytest.mark.parametrize("name, status, reason", [
+    ("hanging-at-test", "time limit", "ran past its limit of 4 s"),
+    ("exiting-at-test", "crashed", "exit code 7"),
+    ("segfaulting-at-test", "crashed", "signal 11 (SIGSEGV)"),
+])
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_bad_value_costs_only_itself(tmp_path, clean, faulty_registered, name, status, reason, workers):
+    frame = run_sweep(SweepSpec(integrator=name, **SPEC), tmp_path / "s", workers=workers, progress=False,
+                      point_limit=4.0, chunk_size=3)
+    first = frame.groupby("index").first()
+    assert first.loc[BAD, "status"] == status and reason in first.loc[BAD, "message"]
+    assert f"value {BAD} (v0 = 0.16)" in first.loc[BAD, "message"]
+    good = frame[frame["index"] != BAD].reset_index(drop=True)
+    ref = clean[clean["index"] != BAD].reset_index(drop=True)
+    assert (good["status"] == "success").all()
+    # the other values are those of the undisturbed integrator, chunk-mates of the bad value included
+    np.testing.assert_allclose(good[["t", "x1", "v1", "x2", "v2"]], ref[["t", "x1", "v1", "x2", "v2"]],
+                               rtol=1e-12, atol=1e-12)
+    # a rerun keeps the recorded failure (it is a result, not a missing value)
+    assert SweepStore(tmp_path / "s").missing() == []
+
+
+def test_killing_the_cli_ends_its_workers(tmp_path):
+    # a sweep whose worker hangs (no limit in sight): kill the CLI, the worker must follow it
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
+    code = ("import sys; from nsbench import registry; from tests.bench import _integrators as f; "
+            "registry.register('integrators', f.HangingAt.name, f.HangingAt); "
+            "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))")
+    proc = subprocess.Popen([sys.executable, "-c", code, "bifurcation", "two-dof", "--case", "1",
+                             "--sweep", "v0=0.16:0.161:2", "--integrator", "hanging-at-test", "--transient", "10",
+                             "--record", "2", "--workers", "2", "--out", str(tmp_path / "k"), "--no-progress"],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    children: set[int] = set()
+    deadline = time.monotonic() + 300  # worker start-up, a cold compile at worst
+    while time.monotonic() < deadline and len(children) < 2 and proc.poll() is None:
+        children = _children(proc.pid)
+        time.sleep(0.2)
+    assert proc.poll() is None and len(children) == 2
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 30  # a worker polls for its parent once a second
+    while time.monotonic() < deadline and any(_alive(p) for p in children):
+        time.sleep(0.2)
+    assert not any(_alive(p) for p in children)
+
+
+def _children(pid: int) -> set[int]:
+    out = set()
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                out.add(int(entry))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):
+    from nsbench.problems import get_problem
+
+    problem = get_problem("two-dof", case=1, v0=0.16)  # every member hangs here
+    res = largest_exponent(problem, "hanging-at-test", iterations=80, members=4, transient=10.0, workers=2,
+                           member_limit=2.0)
+    assert res.status == "failure" and not res.converged
+    assert res.message.count("time limit") == 4 and "member 3" in res.message
+    assert np.isnan(res.members).all()
+
+
+# ------------------------------------------------------------------------------- store integrity
+SMALL = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=6, transient=100.0, record=8,
+             integrator="exact")
+
+
+def _sweep(out):
+    return run_sweep(SweepSpec(**SMALL), out, workers=0, progress=False, chunk_size=2)
+
+
+def test_a_truncated_chunk_is_refused_then_recomputed(tmp_path, capsys):
+    out = tmp_path / "s"
+    before = _sweep(out)
+    chunk = sorted((out / "points").glob("chunk-*.csv"))[1]
+    data = chunk.read_bytes()
+    chunk.write_bytes(data[: int(0.55 * len(data))])  # cut mid-value, like a full disk
+    with pytest.raises(ConfigError, match=f"{chunk.name} is damaged"):
+        SweepStore(out).load()
+    assert set(SweepStore(out).missing()) == {2, 3}
+    after = _sweep(out)
+    assert f"{chunk.name} is damaged" in capsys.readouterr().err
+    assert after.drop(columns="wall_time").equals(before.drop(columns="wall_time"))
+
+
+def test_a_chunk_under_another_name_or_edited_is_refused(tmp_path):
+    out = tmp_path / "s"
+    _sweep(out)
+    a, b = sorted((out / "points").glob("chunk-*.csv"))[:2]
+    b.write_bytes(a.read_bytes())  # a chunk copied over another's name
+    with pytest.raises(ConfigError, match="checksum"):
+        SweepStore(out).load()
+    _sweep(out)
+    c = sorted((out / "points").glob("chunk-*.csv"))[0]
+    text = c.read_text().splitlines()
+    legacy = out / "points" / "chunk-000000-0badf00d.csv"  # the naming of stores without checksums
+    c.rename(legacy)
+    SweepStore(out).load()  # an old store still reads
+    legacy.write_text("\n".join(text[:-1]) + "\n")  # one point of a value lost
+    with pytest.raises(ConfigError, match="rows where n_points says 8"):
+        SweepStore(out).load()
+
+
+def test_stale_temporary_files_are_removed_on_rerun(tmp_path):
+    out = tmp_path / "s"
+    _sweep(out)
+    stale, fresh = out / "points" / "chunk-000004-x.tmp", out / "points" / "chunk-000005-y.tmp"
+    for f in (stale, fresh):
+        f.write_text("partial")
+    os.utime(stale, (time.time() - 3600, time.time() - 3600))
+    _sweep(out)
+    assert not stale.exists() and fresh.exists()  # a young one may be another run's, being written

@@ -1,0 +1,85 @@
+"""Supervised jobs (nsbench.jobs): parts kept, hard limits, crashes cost only their job."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from nsbench.jobs import Job, JobPool
+
+TARGET = f"{__name__}:"
+
+
+def squares(n, *, stage, emit):
+    """Emit ``i * i`` for ``i < n``; return ``n``."""
+    for i in range(n):
+        stage(f"item {i}", 60.0)
+        emit(i * i)
+    return n
+
+
+def hangs_at(n, bad, *, stage, emit):
+    for i in range(n):
+        stage(f"item {i}", 2.0)
+        if i == bad:
+            time.sleep(3600)
+        emit(i)
+    return n
+
+
+def dies_at(n, bad, how, *, stage, emit):
+    for i in range(n):
+        stage(f"item {i}", 60.0)
+        if i == bad:
+            if how == "exit":
+                os._exit(9)
+            os.kill(os.getpid(), signal.SIGSEGV)
+        emit(i)
+    return n
+
+
+def raises(*, stage, emit):
+    raise TypeError("a bug in the job")
+
+
+def _run(jobs, workers=2):
+    with JobPool(workers) as pool:
+        for job in jobs:
+            pool.submit(job)
+        return list(pool.outcomes())
+
+
+def test_parts_then_the_result_of_every_job():
+    out = _run([Job(k, TARGET + "squares", (k + 2,)) for k in range(5)])
+    for k in range(5):
+        mine = [o for o in out if o.key == k]
+        assert [o.value for o in mine if o.kind == "partial"] == [i * i for i in range(k + 2)]
+        assert mine[-1].kind == "done" and mine[-1].value == k + 2
+
+
+def test_a_job_that_never_returns_is_stopped_and_the_others_finish():
+    out = _run([Job("hang", TARGET + "hangs_at", (4, 2)), *(Job(k, TARGET + "squares", (3,)) for k in range(3))])
+    hang = [o for o in out if o.key == "hang"]
+    assert [o.value for o in hang if o.kind == "partial"] == [0, 1]  # what came before is kept
+    assert hang[-1].kind == "time limit" and hang[-1].stage == "item 2" and "limit of 2 s" in hang[-1].reason
+    assert sorted(o.key for o in out if o.kind == "done") == [0, 1, 2]
+
+
+@pytest.mark.parametrize("how, reason", [("exit", "exit code 9"), ("segv", "signal 11 (SIGSEGV)")])
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_worker_that_dies_costs_only_its_job(how, reason, workers):
+    out = _run([Job("bad", TARGET + "dies_at", (3, 1, how)), *(Job(k, TARGET + "squares", (2,)) for k in range(4))],
+               workers)
+    bad = [o for o in out if o.key == "bad"]
+    assert [o.value for o in bad if o.kind == "partial"] == [0]
+    assert bad[-1].kind == "crashed" and bad[-1].stage == "item 1" and reason in bad[-1].reason
+    assert sorted(o.key for o in out if o.kind == "done") == [0, 1, 2, 3]
+
+
+def test_an_exception_in_a_job_is_its_failure():
+    out = _run([Job("x", TARGET + "raises"), Job("ok", TARGET + "squares", (1,))], workers=1)
+    assert [(o.key, o.kind) for o in out if o.final] == [("x", "failed"), ("ok", "done")]
+    assert "TypeError: a bug in the job" in out[0].reason

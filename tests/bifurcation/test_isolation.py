@@ -18,6 +18,7 @@ from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec
 from nsbench.errors import ConfigError
 from tests.bench import _integrators as faulty
+from tests.procs import alive, children_of
 
 # v0 = 0.06, 0.08, ..., 0.20: value 5 (v0 = 0.16) lies in faulty.BAD_V0
 SPEC = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=8, transient=50.0, record=5)
@@ -76,37 +77,15 @@ def test_killing_the_cli_ends_its_workers(tmp_path):
     children: set[int] = set()
     deadline = time.monotonic() + 300  # worker start-up, a cold compile at worst
     while time.monotonic() < deadline and len(children) < 2 and proc.poll() is None:
-        children = _children(proc.pid)
+        children = children_of(proc.pid)
         time.sleep(0.2)
     assert proc.poll() is None and len(children) == 2
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     deadline = time.monotonic() + 30  # a worker polls for its parent once a second
-    while time.monotonic() < deadline and any(_alive(p) for p in children):
+    while time.monotonic() < deadline and any(alive(p) for p in children):
         time.sleep(0.2)
-    assert not any(_alive(p) for p in children)
-
-
-def _children(pid: int) -> set[int]:
-    out = set()
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as fh:
-                    fields = fh.read().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == pid:
-                out.add(int(entry))
-    return out
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
+    assert not any(alive(p) for p in children)
 
 
 def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):

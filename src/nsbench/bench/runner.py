@@ -27,7 +27,7 @@ import pandas as pd
 from nsbench.bench import storage
 from nsbench.bench.execute import run_case
 from nsbench.bench.pool import importable
-from nsbench.bench.progress import Progress
+from nsbench.progress import Progress
 from nsbench.bench.reference import (Reference, candidates, compute_reference, failed_status, load_reference,
                                      reference_key, save_reference)
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
@@ -210,11 +210,11 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
             return
         if not stored:
             storage.append_row(out, _with_reference(row, refs.known[key]), prov)
-        bar.update(case.label, steps)
+        bar.update(steps, case.label)
 
     def reference_done(key: str, ref: Reference) -> None:
         refs.add(key, ref)
-        bar.update("reference")
+        bar.update(1, "reference")
         for row, steps in waiting.pop(key, []):
             store(row, steps=steps)
 
@@ -230,7 +230,7 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda label: bar.update(label))
+                                  on_warm=lambda label: bar.update(1, label))
             timeline = scheduler.timeline
             scheduler.run()
     finally:
@@ -257,5 +257,5 @@ def _run_in_process(pending: list[Case], refs: _References, suite: str, store, r
         reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end,
                                               task.dense_points))
     for case in pending:
-        bar.update(case.label)  # its warm-up step
+        bar.update(1, case.label)  # its warm-up step
         store(run_case(case, refs.of(case), suite), steps=case.repeats)

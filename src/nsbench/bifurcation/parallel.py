@@ -22,9 +22,9 @@ from typing import Any, Callable
 
 import pandas as pd
 
-from nsbench.bifurcation.progress import Progress
 from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec, compute_point, failure_rows
+from nsbench.progress import Progress
 
 #: Default hard limit of one parameter value (seconds): generous, a hung integrator is what it stops.
 POINT_LIMIT = 600.0

@@ -128,3 +128,25 @@ def test_problem_labels_sort_by_their_numbers():
                                                "two-dof/2", "two-dof/10"]
     frame = pd.DataFrame({"problem_label": labels, "x": range(6)})
     assert [label for label, _ in problem_groups(frame)] == sorted(labels, key=natural_key)
+
+
+def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
+    """Cost-only rows without a problem config or accuracy level (a timed sweep) next to case rows."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from nsbench.cli import main
+
+    root = Path(__file__).resolve().parents[2]
+    out = tmp_path / "bench.json"
+    cmd = [sys.executable, "-m", "pytest", str(root / "benchmarks" / "test_registry.py"),
+           str(root / "benchmarks" / "test_sweep_speed.py"), "-q", "-p", "no:cacheprovider", "--benchmark-only",
+           f"--benchmark-json={out}", "-k", "(one-dof-1 and scipy-dop853) or (case1_v0 and henon-rk4)"]
+    done = subprocess.run(cmd, cwd=root, env={**os.environ, "NSBENCH_BENCH_T_END": "20"}, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert main(["ingest", str(out), "--out", str(tmp_path / "pb"), "--report"]) == 0
+    html = (tmp_path / "pb" / "index.html").read_text()
+    assert "henon-rk4" in html and "scipy-dop853" in html

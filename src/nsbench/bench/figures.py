@@ -147,7 +147,9 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
         if rows.empty:
             continue
         st = styles[name]
-        levels = rows["level"].astype(int).to_numpy(dtype=float)
+        # rows ingested from pytest-benchmark may have no accuracy level: plot them in order
+        levels = (rows["level"].astype(float).to_numpy() if rows["level"].notna().all()
+                  else np.arange(len(rows), dtype=float))
         times = rows["wall_time"].to_numpy(dtype=float)
         low, high = rows["wall_time_min"].to_numpy(dtype=float), rows["wall_time_max"].to_numpy(dtype=float)
         known = np.isfinite(low) & np.isfinite(high)

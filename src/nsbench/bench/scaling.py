@@ -31,7 +31,13 @@ COSTS = {"wall_time": "wall time (s, warm median)", "integrator_time": "integrat
 
 
 def _family_and_n(config_json: str) -> tuple[str, int | None]:
-    """The family key of a problem config (everything but ``n``) and its ``n``."""
+    """The family key of a problem config (everything but ``n``) and its ``n``; ``('', None)`` for none.
+
+    Rows without a problem config (cost-only rows ingested from pytest-benchmark,
+    such as a timed sweep) belong to no family.
+    """
+    if not config_json or config_json in ("<NA>", "nan", "None"):
+        return "", None
     config = json.loads(config_json)
     params = dict(config.get("params") or {})
     n = params.pop("n", None)
@@ -40,6 +46,8 @@ def _family_and_n(config_json: str) -> tuple[str, int | None]:
 
 
 def _family_label(key: str) -> str:
+    if not key:
+        return ""
     config = json.loads(key)
     label = f"{config['name']}/{config.get('case')}"
     if config.get("dimensional"):

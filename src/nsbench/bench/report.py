@@ -16,6 +16,8 @@ from nsbench.bench import storage
 from nsbench.bench.figures import Figure, report_figures, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
+from nsbench.bench.summary import (display, findings, problem_summary, reference_costs, reference_grade,
+                                   wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
 
@@ -45,8 +47,24 @@ def _fmt(value) -> str:
     return str(value)
 
 
+def options_text(text) -> str:
+    """An options JSON cell for reading: ``rtol=1e-09, atol=1e-11`` (floats to 4 significant digits)."""
+    try:
+        options = json.loads(text) if isinstance(text, str) and text.startswith("{") else None
+    except ValueError:
+        options = None
+    if not isinstance(options, dict):
+        return "" if text is None or text is pd.NA else str(text)
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in options.items())
+
+
+def _readable(frame: pd.DataFrame) -> pd.DataFrame:
+    return frame.assign(options=frame["options"].map(options_text)) if "options" in frame else frame
+
+
 def markdown_table(frame: pd.DataFrame) -> str:
     """A GitHub-flavoured Markdown table (no optional dependency)."""
+    frame = _readable(frame)
     cols = list(frame.columns)
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for row in frame.itertuples(index=False):
@@ -63,6 +81,7 @@ def _tex_escape(text: str) -> str:
 
 def latex_table(frame: pd.DataFrame, caption: str, label: str) -> str:
     """A booktabs ``table`` environment."""
+    frame = _readable(frame)
     cols = list(frame.columns)
     lines = [r"\begin{table}[htbp]", r"\centering", r"\small",
              r"\begin{tabular}{" + "l" * 2 + "r" * (len(cols) - 2) + "}", r"\toprule",
@@ -167,7 +186,9 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     targets = tuple(prov.get("suite", {}).get("targets", DEFAULT_TARGETS))
     long = fixed_target(frame, targets)
     wide = fixed_target_wide(long)
-    rank = ranking(long)
+    # reference-grade integrators are what the others are measured against: never ranked
+    rank = ranking(long[~long["integrator"].map(reference_grade).astype(bool)])
+    answer = _Answer(frame, targets)
     scaling = scaling_table(frame)
     scaling_fit = scaling_summary(scaling)
     scaling_figs = scaling_report_figures(frame, scaling, scaling_fit, d / "figures") if len(scaling) else []
@@ -183,7 +204,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
                   "(its cost; its error is 0 by construction).")
     rank_caption = ("Ranking by time to reach each (problem, target); an integrator that does not reach "
                     "a target is ranked last there. geo_mean_time is over the targets it reached; problems "
-                    "an integrator refuses or is the reference of are left out.")
+                    "an integrator refuses or is the reference of are left out, and reference-grade "
+                    "integrators are not ranked.")
 
     problems = run_failures(frame)
     spread = _spread_table(frame)
@@ -195,6 +217,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     md = ["# nsbench report", ""]
     if problems:
         md += ["**This run is incomplete:**", "", *[f"- {line}" for line in problems], ""]
+    md += answer.markdown()
     md += [*_problems_text(frame, prov), "", _timing_text(frame), ""]
     if len(scaling):
         md += ["## Scaling with the number of blocks", "", SCALING_CAPTION, "", markdown_table(scaling_fit), ""]
@@ -227,8 +250,53 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
                                         ft_caption, rank_caption, problems, spread, spread_caption, engine,
-                                        (scaling, scaling_fit, scaling_figs)))
+                                        (scaling, scaling_fit, scaling_figs), answer))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
+
+
+ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it "
+                  "(median warm wall time ± half the min-max range of its timed runs), the others' cost as a "
+                  "ratio to it (with their own spread), and the methods that never reach it, with why. A run "
+                  "with a wrong event sequence never reaches a target.")
+WRONG_CAPTION = ("Runs that succeeded with a different event sequence from the reference's (events missed / "
+                 "extra, after aligning the sequences): they never reach a target and are never the cheapest.")
+REFERENCE_CAPTION = ("References, shown apart and not ranked: each problem's reference (what the errors above "
+                     "are measured against) and the other reference-grade integrators, with their cost.")
+
+
+class _Answer:
+    """The report's first section: findings in words, the per-target summary, wrong sequences, references."""
+
+    def __init__(self, frame: pd.DataFrame, targets) -> None:
+        self.summary = problem_summary(frame, targets)
+        self.wrong = wrong_sequences(frame)
+        self.refs = reference_costs(frame)
+        self.words = findings(self.summary, self.wrong) if len(self.summary) else []
+
+    def markdown(self) -> list[str]:
+        if self.summary.empty:
+            return []
+        md = ["## The answer", "", *[f"- {w}" for w in self.words], "", ANSWER_CAPTION, "",
+              markdown_table(display(self.summary)), ""]
+        if len(self.wrong):
+            md += ["**Wrong event sequences.** " + WRONG_CAPTION, "", markdown_table(self.wrong), ""]
+        if len(self.refs):
+            md += [REFERENCE_CAPTION, "", markdown_table(self.refs), ""]
+        return md
+
+    def html(self) -> list[str]:
+        if self.summary.empty:
+            return []
+        esc = html.escape
+        parts = ["<h2>The answer</h2>",
+                 "<ul class='answer'>" + "".join(f"<li>{esc(w)}</li>" for w in self.words) + "</ul>",
+                 f"<p>{esc(ANSWER_CAPTION)}</p>", _html_table(display(self.summary), "summary")]
+        if len(self.wrong):
+            parts += [f"<p><strong>Wrong event sequences.</strong> {esc(WRONG_CAPTION)}</p>",
+                      _html_table(self.wrong)]
+        if len(self.refs):
+            parts += [f"<p>{esc(REFERENCE_CAPTION)}</p>", _html_table(self.refs)]
+        return parts
 
 
 SCALING_DETAIL_CAPTION = ("Per integrator and n: the cheapest configuration reaching the target, its costs and "
@@ -246,25 +314,38 @@ def _figure_html(fig: Figure) -> str:
             f"src='data:image/png;base64,{data}'><figcaption>{esc(fig.caption)}</figcaption></figure>")
 
 
-def _html_table(frame: pd.DataFrame) -> str:
-    return frame.map(_fmt).to_html(index=False, border=0, classes="tbl", escape=True)
+def _html_table(frame: pd.DataFrame, kind: str = "") -> str:
+    # a wide table scrolls inside its own box instead of running past the page
+    table = _readable(frame).map(_fmt).to_html(index=False, border=0, classes=f"tbl {kind}".strip(), escape=True)
+    return f"<div class='wide'>{table}</div>"
+
+
+def _inline(text: str) -> str:
+    """Escaped HTML of a line of report text, its `code` spans as <code> (no raw markdown in the page)."""
+    import re
+
+    return re.sub(r"`([^`]*)`", r"<code>\1</code>", html.escape(text))
 
 
 def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
-          spread, spread_caption, engine, scaling_parts) -> str:
+          spread, spread_caption, engine, scaling_parts, answer) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
              "body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}"
              ".tbl{border-collapse:collapse;font-size:13px}.tbl td,.tbl th{padding:2px 8px;"
-             "border-bottom:1px solid #ddd;text-align:right}figure{margin:1.5em 0}"
-             "figcaption{font-size:13px;color:#444}img{max-width:100%}pre{background:#f6f6f6;padding:1em}",
+             "border-bottom:1px solid #ddd;text-align:left;vertical-align:top}"
+             ".summary td:nth-child(-n+4){white-space:nowrap}figure{margin:1.5em 0}"
+             "figcaption{font-size:13px;color:#444}img{max-width:100%}pre{background:#f6f6f6;padding:1em;"
+             "overflow-x:auto}.wide{overflow-x:auto;max-width:100%}.answer{background:#f3f7fb;"
+             "border-left:4px solid #2b6cb0;padding:0.6em 1em 0.6em 2em}",
              "</style></head><body>", "<h1>nsbench report</h1>"]
     if problems:
         parts.append("<p><strong>This run is incomplete:</strong></p><ul>"
-                     + "".join(f"<li>{esc(p)}</li>" for p in problems) + "</ul>")
+                     + "".join(f"<li>{_inline(p)}</li>" for p in problems) + "</ul>")
+    parts += answer.html()
     text = _problems_text(frame, prov)
-    parts.append(f"<p>{esc(text[0])}</p><ul>" + "".join(f"<li>{esc(t[2:])}</li>" for t in text[1:]) + "</ul>")
+    parts.append(f"<p>{_inline(text[0])}</p><ul>" + "".join(f"<li>{_inline(t[2:])}</li>" for t in text[1:]) + "</ul>")
     parts.append(f"<p>{esc(_timing_text(frame))}</p>")
     scaling, scaling_fit, scaling_figs = scaling_parts
     if len(scaling):

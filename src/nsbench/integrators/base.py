@@ -45,6 +45,9 @@ class Capabilities:
     step_option
         Name of the option that sets the step/tolerance for convergence studies
         (``'h'`` for fixed-step methods, ``'rtol'`` for adaptive ones), or ``None``.
+    reference_grade
+        A reference solution (a closed form, or extended precision at its
+        tightest), not a method under test: reports show it apart and never rank it.
     """
 
     event_location: str
@@ -54,6 +57,7 @@ class Capabilities:
     supports_nonlinear: bool = True
     precision: str = "double"
     step_option: str | None = None
+    reference_grade: bool = False
 
 
 @dataclass(frozen=True)

@@ -253,7 +253,7 @@ class ExactIntegrator(CompiledArcs):
     name = "exact"
     capabilities = Capabilities(
         event_location="exact-root", order=None, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=False, precision="double", step_option=None,
+        supports_nonlinear=False, precision="double", step_option=None, reference_grade=True,
     )
     options = {
         "scan": Option(0.25, float, lower=0.0, upper=4.0,

@@ -27,6 +27,7 @@ class Reference(Integrator):
     capabilities = Capabilities(
         event_location="exact-root or taylor-root", order=None, adaptive=True,
         needs_jacobian=False, supports_nonlinear=True, precision="quad", step_option=None,
+        reference_grade=True,
     )
     options: dict = {}
 

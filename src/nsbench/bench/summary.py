@@ -1,0 +1,190 @@
+"""The answer first: per problem and accuracy target, who is cheapest and by how much.
+
+The report opens with this. For each problem that has a reference and each
+switching-time error target: the cheapest method under test that reaches the
+target (median warm wall time and its spread), every other method's cost as a
+ratio to it, and the methods that never reach it with the reason (best error
+reached, wrong event sequence, a failure status). Runs with a wrong event
+sequence (missed or extra events) are listed by name: they never count as
+reaching a target (:func:`nsbench.bench.metrics.reaches`), so they can never be
+the cheapest. Reference-grade integrators (closed form, extended precision; the
+``reference_grade`` capability) and each problem's own reference are shown apart,
+with their cost only: they are what the others are measured against.
+
+:func:`findings` turns the tables into a few sentences a paper can quote.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from nsbench.bench.tables import natural_key, problem_groups, reached_mask
+from nsbench.bench.timing import spread_label
+
+
+def reference_grade(name: str) -> bool:
+    """Whether the registered integrator ``name`` is a reference solution (``False`` if unknown)."""
+    from nsbench.integrators import integrator_class
+
+    try:
+        return bool(integrator_class(name).capabilities.reference_grade)
+    except Exception:  # not registered here (results from elsewhere): a method under test
+        return False
+
+
+def split_references(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``(methods under test, references)``: reference-grade integrators and each problem's own reference apart."""
+    grade = {name: reference_grade(name) for name in frame["integrator"].unique()}
+    is_ref = frame["integrator"].map(grade).astype(bool) | (frame["integrator"] == frame["reference"])
+    return frame[~is_ref], frame[is_ref]
+
+
+def _time(wall: float, spread: float) -> str:
+    label = spread_label(spread)
+    return f"{wall:.3g} s" + (f" {label}" if label else "")
+
+
+def _why_not(rows: pd.DataFrame, target: float) -> str:
+    """Why an integrator's configurations never reach ``target`` on one problem."""
+    if (rows["status"] == "unsupported").all():
+        return "refuses the problem"
+    ok = rows[(rows["status"] == "success") & rows["sequence_ok"].fillna(False).astype(bool)]
+    wrong = rows[(rows["status"] == "success") & ~rows["sequence_ok"].fillna(False).astype(bool)]
+    failed = rows[~rows["status"].isin(["success", "unsupported"])]
+    parts = []
+    if len(ok) and ok["switch_err_max"].notna().any():
+        parts.append(f"best error {ok['switch_err_max'].min():.1e}")
+    if len(wrong):
+        parts.append(f"wrong event sequence in {len(wrong)} of {len(rows)} configurations")
+    if len(failed):
+        counts = failed["status"].value_counts()
+        parts.append(", ".join(f"{n} {status}" for status, n in counts.items()))
+    return "; ".join(parts) or "no usable run"
+
+
+def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
+    """One row per (problem, target): the cheapest method, the others' cost ratios, those never reaching it.
+
+    Columns: ``problem, target, cheapest, time, others, not_reached`` (display
+    strings) and ``wall_time, runner_up, ratio`` (the cheapest's time, the
+    second cheapest and its cost ratio, for :func:`findings`).
+    """
+    methods, _ = split_references(frame)
+    rows = []
+    for label, group in problem_groups(methods):
+        if not (group["reference_status"] == "ok").any():
+            continue
+        for target in targets:
+            best = {}
+            missed = {}
+            for name, runs in group.groupby("integrator", sort=True):
+                hit = runs[reached_mask(runs, target)]
+                if len(hit):
+                    b = hit.loc[hit["wall_time"].idxmin()]
+                    best[name] = (float(b["wall_time"]), float(b["wall_spread"]) if pd.notna(b["wall_spread"])
+                                  else math.nan)
+                elif not (runs["status"] == "unsupported").all():
+                    missed[name] = _why_not(runs, target)
+            order = sorted(best, key=lambda n: best[n][0])
+            row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
+                   "not_reached": "; ".join(f"{n} ({why})" for n, why in missed.items()),
+                   "wall_time": math.nan, "runner_up": "", "ratio": math.nan}
+            if order:
+                first = order[0]
+                t0 = best[first][0]
+                row.update(cheapest=first, time=_time(*best[first]), wall_time=t0)
+                row["others"] = _others([(n, best[n][0] / t0, best[n][1]) for n in order[1:]])
+                if len(order) > 1:
+                    row.update(runner_up=order[1], ratio=best[order[1]][0] / t0)
+            rows.append(row)
+    return pd.DataFrame(rows, columns=["problem", "target", "cheapest", "time", "others", "not_reached",
+                                       "wall_time", "runner_up", "ratio"])
+
+
+#: Cost ratios listed by name in a summary cell; the rest are counted with their largest ratio.
+SHOWN_RATIOS = 5
+
+
+def _others(ratios: list[tuple[str, float, float]]) -> str:
+    def one(name, ratio, spread):
+        label = spread_label(spread)
+        return f"{name} x{ratio:.3g}" + (f" ({label})" if label else "")
+
+    text = ", ".join(one(*r) for r in ratios[:SHOWN_RATIOS])
+    if len(ratios) > SHOWN_RATIOS:
+        text += f", {len(ratios) - SHOWN_RATIOS} more up to x{ratios[-1][1]:.3g}"
+    return text
+
+
+def display(summary: pd.DataFrame) -> pd.DataFrame:
+    """The summary table as shown in a report."""
+    return summary[["problem", "target", "cheapest", "time", "others", "not_reached"]].rename(
+        columns={"time": "its time", "others": "others: cost ratio to the cheapest",
+                 "not_reached": "never reach the target (why)"})
+
+
+def wrong_sequences(frame: pd.DataFrame) -> pd.DataFrame:
+    """Successful runs whose event sequence differs from the reference's: missed and extra events."""
+    methods, _ = split_references(frame)
+    bad = methods[(methods["status"] == "success") & (methods["reference_status"] == "ok")
+                  & ~methods["sequence_ok"].fillna(False).astype(bool)]
+    table = bad.assign(missed_extra=[f"{_int(m)} / {_int(x)}" for m, x in zip(bad["n_missed"], bad["n_extra"])])
+    table = table[["problem_label", "integrator", "options", "missed_extra", "n_ref"]].rename(
+        columns={"problem_label": "problem", "missed_extra": "events missed / extra", "n_ref": "reference events"})
+    return table.sort_values("problem", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
+
+
+def reference_costs(frame: pd.DataFrame) -> pd.DataFrame:
+    """The references and reference-grade integrators per problem: their cheapest run's cost (not ranked)."""
+    _, refs = split_references(frame)
+    refs = refs[refs["status"] == "success"]
+    rows = []
+    for (label, name), runs in refs.groupby(["problem_label", "integrator"], sort=False):
+        b = runs.loc[runs["wall_time"].idxmin()] if runs["wall_time"].notna().any() else runs.iloc[0]
+        role = "the reference" if name == b["reference"] else "reference-grade"
+        rows.append({"problem": label, "integrator": name, "role": role,
+                     "time": _time(float(b["wall_time"]), float(b["wall_spread"])
+                                   if pd.notna(b["wall_spread"]) else math.nan)})
+    table = pd.DataFrame(rows, columns=["problem", "integrator", "role", "time"])
+    return table.sort_values("problem", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
+
+
+def _int(value) -> str:
+    return "?" if value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value)) \
+        else str(int(value))
+
+
+def findings(summary: pd.DataFrame, wrong: pd.DataFrame) -> list[str]:
+    """A few sentences stating the answer: the cheapest method per target, by how much, and what went wrong."""
+    out = []
+    problems = summary["problem"].nunique()
+    for target, rows in summary.groupby("target", sort=False):
+        won = rows[rows["cheapest"] != ""]
+        if won.empty:
+            out.append(f"No method under test reaches a switching-time error of {target} on any problem.")
+            continue
+        wins = won["cheapest"].value_counts()
+        lead, n = wins.index[0], int(wins.iloc[0])
+        mine = won[won["cheapest"] == lead]
+        ratios = mine["ratio"].dropna()
+        margin = (f"; the next method costs {ratios.min():.2g} to {ratios.max():.2g} times as much"
+                  if len(ratios) > 1 else (f"; the next method costs {ratios.iloc[0]:.2g} times as much"
+                                           if len(ratios) else ""))
+        others = [f"{name} on {int(k)}" for name, k in wins.iloc[1:].items()]
+        text = (f"At a switching-time error of {target}, {lead} is the cheapest method on {n} of "
+                f"{len(rows)} problems{margin}")
+        if others:
+            text += f" ({', '.join(others)} elsewhere)"
+        unreached = rows["cheapest"].eq("").sum()
+        if unreached:
+            text += f"; {int(unreached)} problem(s) have no method reaching it"
+        out.append(text + ".")
+    if len(wrong):
+        names = sorted(set(wrong["integrator"]))
+        out.append(f"{len(wrong)} run(s) end with a wrong event sequence (missed or extra events), by "
+                   f"{', '.join(names)}: they count as not reaching any target.")
+    elif problems:
+        out.append("Every successful run of a method under test has the reference's event sequence.")
+    return out

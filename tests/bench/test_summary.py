@@ -1,0 +1,99 @@
+"""The answer first: cheapest method per target, cost ratios, reasons, wrong sequences, references apart."""
+
+from __future__ import annotations
+
+from html.parser import HTMLParser
+
+import pytest
+
+from nsbench.bench.storage import to_frame
+from nsbench.bench.summary import findings, problem_summary, reference_costs, wrong_sequences
+from nsbench.bench.tables import fixed_target, ranking
+
+
+def _row(integrator, wall, err, *, ok=True, status="success", level=0, missed=0, extra=0):
+    return {"case_id": f"p-{integrator}-{level}", "problem_label": "two-dof/1", "integrator": integrator,
+            "options": '{"rtol": 1.0000000000000001e-11}', "level": level, "status": status,
+            "reference": "exact", "reference_status": "ok", "sequence_ok": ok, "switch_err_max": err,
+            "wall_time": wall, "wall_spread": 0.1, "n_missed": missed, "n_extra": extra, "n_ref": 120,
+            "nfev": 1000}
+
+
+@pytest.fixture
+def frame():
+    # timings are given, not measured: the summary is arithmetic on the stored rows
+    return to_frame([
+        _row("exact", 0.001, 0.0),                       # the reference itself: never ranked
+        _row("fast-wrong", 0.01, 1e-12, ok=False, missed=3, extra=1),  # cheapest, but a wrong sequence
+        _row("a", 0.1, 1e-10), _row("a", 0.2, 1e-13, level=1),
+        _row("b", 0.3, 1e-10),
+        _row("c", 0.05, 1e-7),                           # never reaches 1e-9
+        _row("d", float("nan"), float("nan"), status="time limit"),
+    ])
+
+
+def test_cheapest_and_cost_ratios_per_target(frame):
+    s = problem_summary(frame, (1e-6, 1e-9, 1e-12)).set_index("target")
+    assert s.loc["1e-06", "cheapest"] == "c"  # c reaches the loose target and is cheapest there
+    assert s.loc["1e-09", "cheapest"] == "a" and s.loc["1e-09", "others"].startswith("b x3 (±5%)")
+    assert s.loc["1e-12", "cheapest"] == "a" and s.loc["1e-12", "ratio"] != s.loc["1e-12", "ratio"]  # alone
+    why = s.loc["1e-09", "not_reached"]
+    assert "c (best error 1.0e-07)" in why and "d (1 time limit)" in why
+    assert "fast-wrong (wrong event sequence in 1 of 1 configurations)" in why
+    assert "exact" not in " ".join(s["cheapest"]) + " ".join(s["others"]) + " ".join(s["not_reached"])
+
+
+def test_wrong_sequences_and_references_are_apart(frame):
+    wrong = wrong_sequences(frame)
+    assert wrong["integrator"].tolist() == ["fast-wrong"]
+    assert wrong["events missed / extra"].tolist() == ["3 / 1"]
+    refs = reference_costs(frame)
+    assert refs[["integrator", "role"]].values.tolist() == [["exact", "the reference"]]
+    words = " ".join(findings(problem_summary(frame, (1e-9,)), wrong))
+    assert "a is the cheapest method on 1 of 1 problems; the next method costs 3 times as much" in words
+    assert "1 run(s) end with a wrong event sequence" in words and "fast-wrong" in words
+
+
+def test_the_ranking_leaves_out_reference_grade_integrators(frame):
+    from nsbench.bench.summary import reference_grade
+
+    long = fixed_target(frame, (1e-9,))
+    rank = ranking(long[~long["integrator"].map(reference_grade).astype(bool)])
+    assert "exact" not in set(rank["integrator"]) and rank["integrator"].iloc[0] == "a"
+
+
+class _Text(HTMLParser):
+    """The visible text of a page, without <pre> and <code> (where markdown-like text is legitimate)."""
+
+    def __init__(self):
+        super().__init__()
+        self.skip, self.text, self.headings, self._h = 0, [], [], False
+
+    def handle_starttag(self, tag, attrs):
+        self.skip += tag in ("pre", "code", "style")
+        self._h = tag == "h2"
+
+    def handle_endtag(self, tag):
+        self.skip -= tag in ("pre", "code", "style")
+        self._h = False
+
+    def handle_data(self, data):
+        if self._h:
+            self.headings.append(data)
+        if not self.skip:
+            self.text.append(data)
+
+
+def test_the_report_opens_with_the_answer_and_shows_no_raw_markdown(frame, tmp_path):
+    from nsbench.bench.report import write_report
+
+    rep = write_report(tmp_path, frame)
+    page = _Text()
+    page.feed(rep.html.read_text())
+    text = " ".join(page.text)
+    assert page.headings[0] == "The answer"
+    for raw in ("`", "**", "|---", "](figures/"):
+        assert raw not in text, raw
+    assert "1.0000000000000001e-11" not in text and "rtol=1e-11" in text
+    md = rep.markdown.read_text()
+    assert md.index("## The answer") < md.index("## Fixed-target table")

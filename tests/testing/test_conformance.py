@@ -93,7 +93,19 @@ class Chatters(ExactIntegrator):
         return super().advance(request)
 
 
+class TransposedEval(ExactIntegrator):
+    """Returns y_eval as (n_points, n_states): the common slip of a new plug-in."""
+
+    name = "test-transposed-eval"
+
+    def advance(self, request):
+        arc = super().advance(request)
+        arc.y_eval = np.ascontiguousarray(arc.y_eval.T)
+        return arc
+
+
 @pytest.mark.parametrize("broken, check, fragment", [
+    (TransposedEval, "protocol", "transposed? It must be (n_states, n_points) = (4, 2)"),
     (WrongOrder, "declared-order", "observed order 4"),
     (MutatesInput, "inputs-not-mutated", "changed request.y0"),
     (Jitters, "determinism", "differ"),

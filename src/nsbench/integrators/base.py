@@ -185,7 +185,11 @@ class ArcResult:
         Index into ``request.guards`` of the guard that fired, or ``None`` if the
         arc reached ``t_end``. If several fire at the same time, the lowest index.
     y_eval
-        States at every ``request.t_eval`` that is ``<= t``, shape ``(n, k)``.
+        States at every ``request.t_eval`` that is ``<= t``: a float array of
+        shape ``(n_states, n_points)``, one *column* per time (``y_eval[:, j]``
+        is the state at the ``j``-th such time; ``np.empty((n_states, 0))`` when
+        there is none). Not ``(n_points, n_states)``: the conformance kit
+        reports a transposed array as such.
     section_hits
         Crossings of ``request.sections`` in ``(t0, t]``, in time order.
     nfev, njev, nsteps
@@ -216,6 +220,22 @@ class ArcResult:
 
 class Integrator:
     """Base class and written contract of every nsbench integrator.
+
+    Everything a plug-in needs is importable from ``nsbench.integrators.base``:
+    ``Integrator`` (subclass it), ``Capabilities``, ``Option``, ``ArcRequest``
+    (what :meth:`advance` receives), ``ArcResult`` and ``SectionHit`` (what it
+    returns), ``Status`` (the outcome of an arc: ``Status.SUCCESS`` or a
+    failure: ``Status.BUDGET_EXHAUSTED``, ``Status.INTEGRATOR_FAILURE``) and ``UnsupportedProblemError``
+    (raised by :meth:`setup` for a problem it cannot solve); ``ConfigError``
+    lives in ``nsbench.errors``. Options reach the instance validated and with
+    their defaults filled in, as the dict ``self.settings`` (for example
+    ``self.settings["rtol"]``); :meth:`advance` and :meth:`setup` read them there.
+    Arrays: ``request.y0`` and ``ArcResult.y`` have shape ``(n_states,)``
+    (``problem.n_states``: ``x1, v1, x2, v2, ...``); ``ArcResult.y_eval`` has
+    shape ``(n_states, n_points)``. Register the class under its ``name`` with an
+    entry point in the group ``nsbench.integrators`` (or
+    ``nsbench.registry.register`` at run time), and run
+    ``nsbench check NAME`` (the conformance kit, :mod:`nsbench.testing`).
 
     An implementer must:
 

@@ -133,7 +133,13 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), \
         "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
     expected = int(np.searchsorted(t_eval, arc.t, side="right"))
-    assert np.shape(arc.y_eval) == (problem.n_states, expected), "y_eval must hold every t_eval <= t"
+    shape = np.shape(arc.y_eval)
+    assert shape != (expected, problem.n_states) or expected == problem.n_states, (
+        f"y_eval has shape {shape}: transposed? It must be (n_states, n_points) = "
+        f"({problem.n_states}, {expected}), one column per time of t_eval <= t")
+    assert shape == (problem.n_states, expected), (
+        f"y_eval has shape {shape}, expected (n_states, n_points) = ({problem.n_states}, {expected}): "
+        f"one column per time of t_eval <= t = {arc.t:.6g}")
     res = _simulate(integ, problem, 30.0)
     assert res.ok, f"run failed: {res.message}"
     c = res.counters

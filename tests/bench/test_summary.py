@@ -97,3 +97,14 @@ def test_the_report_opens_with_the_answer_and_shows_no_raw_markdown(frame, tmp_p
     assert "1.0000000000000001e-11" not in text and "rtol=1e-11" in text
     md = rep.markdown.read_text()
     assert md.index("## The answer") < md.index("## Fixed-target table")
+
+
+def test_figures_leave_out_references_and_unsuccessful_runs(frame, tmp_path):
+    from nsbench.bench.figures import _styles, family, work_precision
+
+    styles = _styles(sorted(frame["integrator"].unique()) + ["scipy-rk45", "scipy-dop853"])
+    assert family("scipy-rk45") == family("scipy-dop853") == "scipy" and family("exact") == "reference"
+    assert styles["scipy-rk45"]["marker"] != styles["scipy-dop853"]["marker"]
+    fig = work_precision(frame, "two-dof/1", "wall_time", styles, tmp_path)
+    assert "1 run(s) that did not succeed (time limit, failure) are not drawn" in fig.caption
+    assert "References not drawn: exact." in fig.caption and fig.png.exists()

@@ -19,7 +19,7 @@ import pandas as pd
 
 from nsbench.bench.tables import problem_groups
 
-#: Errors below this are drawn at it (log axes cannot show 0; ``exact`` against itself is 0).
+#: Errors below this are drawn at it (log axes cannot show 0).
 ERROR_FLOOR = 1e-16
 _MARKERS = "osD^v<>pPX*hd"
 _TIME_LABEL = "warm median wall time (whiskers: fastest to slowest timed run)"
@@ -49,11 +49,56 @@ def _pyplot():
     return plt
 
 
+#: Method families and their colour maps: members of a family share a hue, told apart by shade and marker.
+FAMILIES = (("reference", "Greys"), ("scipy", "Blues"), ("sundials", "Greens"), ("heyoka", "Reds"),
+            ("picard", "Oranges"), ("rk4", "Purples"))
+
+
+def family(name: str) -> str:
+    """The method family of an integrator name (``'other'`` for one nsbench does not know)."""
+    from nsbench.bench.summary import reference_grade
+
+    if reference_grade(name):
+        return "reference"
+    for prefix, fam in (("scipy-", "scipy"), ("cvode", "sundials"), ("ida", "sundials"), ("heyoka", "heyoka"),
+                        ("ofapi", "picard"), ("mcpi", "picard"), ("henon", "rk4")):
+        if name.startswith(prefix):
+            return fam
+    return "other"
+
+
 def _styles(names: list[str]) -> dict[str, dict]:
+    """Colour by family (a shade per member, dark to light) and a distinct marker per member."""
     plt = _pyplot()
-    cmap = plt.get_cmap("tab20" if len(names) > 10 else "tab10")
-    return {n: {"color": cmap(i % cmap.N), "marker": _MARKERS[i % len(_MARKERS)]}
-            for i, n in enumerate(sorted(names))}
+    maps = dict(FAMILIES)
+    members: dict[str, list[str]] = {}
+    for n in sorted(names):
+        members.setdefault(family(n), []).append(n)
+    styles: dict[str, dict] = {}
+    others = plt.get_cmap("tab10")
+    for fam, group in members.items():
+        for i, n in enumerate(group):
+            if fam in maps:
+                shade = 0.9 - 0.45 * (i / max(len(group) - 1, 1)) if len(group) > 1 else 0.75
+                color = plt.get_cmap(maps[fam])(shade)
+            else:
+                color = others(i % others.N)
+            styles[n] = {"color": color, "marker": _MARKERS[i % len(_MARKERS)]}
+    return styles
+
+
+def _legend_outside(ax) -> None:
+    """The legend right of the axes, never over the data."""
+    if ax.lines:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
+
+
+def _methods(group: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """Rows of the methods under test (references are what they are measured against), and the left-out names."""
+    from nsbench.bench.summary import split_references
+
+    methods, refs = split_references(group)
+    return methods, sorted(refs["integrator"].unique())
 
 
 def _save(fig, out: Path, name: str, title: str, caption: str) -> Figure:
@@ -77,37 +122,47 @@ def _whiskers(ax, rows: pd.DataFrame, x: np.ndarray, y: np.ndarray, color) -> No
 
 
 def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out: Path) -> Figure:
-    """Max switching-time error against ``cost`` (``'wall_time'`` or ``'nfev'``), one line per integrator."""
+    """Max switching-time error against ``cost`` (``'wall_time'`` or ``'nfev'``), one line per integrator.
+
+    The line joins the successful runs with the reference's event sequence;
+    a successful run with a wrong sequence is a hollow marker off the line, and
+    a run that did not succeed (time limit, failure) is not drawn: the error of
+    its partial prefix is no point of the curve. References are left out.
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    for name, rows in group.groupby("integrator", sort=True):
-        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna()].sort_values("level")
+    methods, left_out = _methods(group)
+    dropped = int((methods["status"] != "success").sum())
+    for name, rows in methods.groupby("integrator", sort=True):
+        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna() & (rows["status"] == "success")]
+        rows = rows.sort_values("level")
         if rows.empty:
             continue
         x = rows[cost].astype(float).to_numpy()
         y = np.maximum(rows["switch_err_max"].to_numpy(dtype=float), ERROR_FLOOR)
-        good = (rows["sequence_ok"].fillna(False).to_numpy(dtype=bool)
-                & (rows["status"] == "success").to_numpy())
+        good = rows["sequence_ok"].fillna(False).to_numpy(dtype=bool)
         st = styles[name]
         if cost == "wall_time":
-            _whiskers(ax, rows, x, y, st["color"])
-        ax.plot(x, y, "-", color=st["color"], lw=1.0, alpha=0.7)
-        ax.plot(x[good], y[good], st["marker"], color=st["color"], ms=6, ls="none", label=name)
-        ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
+            _whiskers(ax, rows[good], x[good], y[good], st["color"])
+        ax.plot(x[good], y[good], "-", marker=st["marker"], color=st["color"], lw=1.0, ms=6, label=name)
+        if (~good).any():
+            ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("warm wall time (s)" if cost == "wall_time" else "right-hand-side evaluations (nfev)")
     ax.set_ylabel("max switching-time error")
     ax.set_title(f"{label}: error vs {'time' if cost == 'wall_time' else 'nfev'}")
     ax.grid(True, which="major", alpha=0.3)
-    if ax.lines:
-        ax.legend(fontsize=7, loc="best", ncol=2)
+    _legend_outside(ax)
     kind = "time" if cost == "wall_time" else "nfev"
     caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
                f"{_TIME_LABEL if kind == 'time' else 'nfev'}; "
-               f"one point per configuration. "
-               f"Hollow markers: wrong event sequence or unsuccessful run. Errors below "
-               f"{ERROR_FLOOR:g} are drawn at {ERROR_FLOOR:g}.")
+               f"one point per configuration, lines through the runs with the reference's event sequence. "
+               f"Hollow markers: a wrong event sequence (never counted as reaching a target).")
+    if dropped:
+        caption += f" {dropped} run(s) that did not succeed (time limit, failure) are not drawn."
+    if left_out:
+        caption += f" References not drawn: {', '.join(left_out)}."
     return _save(fig, out, f"wp_{kind}_{slug(label)}", f"{label}: error vs {kind}", caption)
 
 
@@ -115,7 +170,8 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     """|t - t_ref| against t_ref for each integrator's tightest successful configuration."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7.2, 4.4))
-    for name, rows in group.groupby("integrator", sort=True):
+    methods, _ = _methods(group)
+    for name, rows in methods.groupby("integrator", sort=True):
         ok = rows[(rows["status"] == "success") & rows["event_t"].map(len).gt(0)]
         if ok.empty:
             continue
@@ -130,8 +186,7 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     ax.set_ylabel("|switching-time error|")
     ax.set_title(f"{label}: switching-time error along the trajectory")
     ax.grid(True, alpha=0.3)
-    if ax.lines:
-        ax.legend(fontsize=7, loc="best", ncol=2)
+    _legend_outside(ax)
     caption = (f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
                f"successful configuration of each integrator (the line stops where its event sequence "
                f"departs from the reference).")
@@ -162,8 +217,7 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
     ax.set_ylabel("warm wall time (s)")
     ax.set_title(f"{label}: cost only (no reference available)")
     ax.grid(True, alpha=0.3)
-    if ax.lines:
-        ax.legend(fontsize=7, ncol=2)
+    _legend_outside(ax)
     reason = str(group["reference_status"].iloc[0])
     caption = (f"Cost of each configuration on {label} (median warm wall time; whiskers: fastest to "
                f"slowest timed run); accuracy is not measured: {reason}.")

@@ -150,3 +150,15 @@ def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
     assert main(["ingest", str(out), "--out", str(tmp_path / "pb"), "--report"]) == 0
     html = (tmp_path / "pb" / "index.html").read_text()
     assert "henon-rk4" in html and "scipy-dop853" in html
+
+
+def test_table_tex_has_a_page_sized_table_per_target_then_the_supplement(report):
+    out, rep = report
+    tex = rep.latex.read_text()
+    tables = tex.split(r"\begin{table}")[1:]
+    labels = [re.search(r"\\label\{([^}]*)\}", t).group(1) for t in tables]
+    assert labels == ["tab:nsbench-target-1e-06", "tab:nsbench-target-1e-09", "tab:nsbench-target-1e-12",
+                      "tab:nsbench-fixed-target", "tab:nsbench-ranking"]
+    for t in tables[:3]:
+        assert t.count(r"\\") <= 40  # a page
+    assert "±" not in tex and "<1%" not in tex  # math mode, not text-mode glyphs LaTeX misprints

@@ -16,7 +16,7 @@ from nsbench.bench import storage
 from nsbench.bench.figures import Figure, report_figures, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
-from nsbench.bench.summary import (display, findings, problem_summary, reference_costs, reference_grade,
+from nsbench.bench.summary import (compact, display, findings, problem_summary, reference_costs, reference_grade,
                                    wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
@@ -76,7 +76,12 @@ def _tex_escape(text: str) -> str:
     for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
                  ("#", r"\#"), ("{", r"\{"), ("}", r"\}"), ("$", r"\$")):
         text = text.replace(a, b) if a != "\\" else text.replace(a, "\x00")
-    return text.replace("\x00", r"\textbackslash{}")
+    text = text.replace("\x00", r"\textbackslash{}")
+    # text-mode < > ~ ^ print wrongly (or not at all) in LaTeX's default encoding; ± is math
+    for a, b in (("<", r"$<$"), (">", r"$>$"), ("±", r"$\pm$"), ("~", r"\textasciitilde{}"),
+                 ("^", r"\textasciicircum{}")):
+        text = text.replace(a, b)
+    return text
 
 
 def latex_table(frame: pd.DataFrame, caption: str, label: str) -> str:
@@ -240,9 +245,16 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     md += [f"- {k}: `{json.dumps(v, default=str)}`" for k, v in prov.items()]
     (d / "report.md").write_text("\n".join(md) + "\n")
 
-    tex = [f"% nsbench report tables; provenance: {json.dumps({k: v for k, v in prov.items() if k != 'suite'}, default=str)}",
-           latex_table(wide, ft_caption, "tab:nsbench-fixed-target"), "",
-           latex_table(rank, rank_caption, "tab:nsbench-ranking"), ""]
+    tex = [f"% nsbench report tables; provenance: {json.dumps({k: v for k, v in prov.items() if k != 'suite'}, default=str)}"]
+    for target in answer.summary["target"].unique():  # one page-sized table per target first
+        tex += [latex_table(compact(answer.summary, target),
+                            f"Cheapest method under test reaching a switching-time error of {target} on each "
+                            "problem (median warm wall time, ± half the min-max range of its timed runs), the "
+                            "next cheapest and its cost ratio, and how many methods reach the target.",
+                            f"tab:nsbench-target-{target}"), ""]
+    tex += ["% Supplement: every integrator and target.",
+            latex_table(wide, ft_caption, "tab:nsbench-fixed-target"), "",
+            latex_table(rank, rank_caption, "tab:nsbench-ranking"), ""]
     (d / "table.tex").write_text("\n".join(tex))
 
     if len(scaling):

@@ -68,8 +68,9 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     """One row per (problem, target): the cheapest method, the others' cost ratios, those never reaching it.
 
     Columns: ``problem, target, cheapest, time, others, not_reached`` (display
-    strings) and ``wall_time, runner_up, ratio`` (the cheapest's time, the
-    second cheapest and its cost ratio, for :func:`findings`).
+    strings), ``wall_time, runner_up, ratio`` (the cheapest's time, the
+    second cheapest and its cost ratio, for :func:`findings`) and ``reached``
+    (``'k of m'`` methods reach the target).
     """
     methods, _ = split_references(frame)
     rows = []
@@ -90,7 +91,8 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
             order = sorted(best, key=lambda n: best[n][0])
             row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
                    "not_reached": "; ".join(f"{n} ({why})" for n, why in missed.items()),
-                   "wall_time": math.nan, "runner_up": "", "ratio": math.nan}
+                   "wall_time": math.nan, "runner_up": "", "ratio": math.nan,
+                   "reached": f"{len(best)} of {len(best) + len(missed)}"}
             if order:
                 first = order[0]
                 t0 = best[first][0]
@@ -100,7 +102,16 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                     row.update(runner_up=order[1], ratio=best[order[1]][0] / t0)
             rows.append(row)
     return pd.DataFrame(rows, columns=["problem", "target", "cheapest", "time", "others", "not_reached",
-                                       "wall_time", "runner_up", "ratio"])
+                                       "wall_time", "runner_up", "ratio", "reached"])
+
+
+def compact(summary: pd.DataFrame, target: str) -> pd.DataFrame:
+    """One row per problem at one target (a table that fits a page): cheapest, its time, runner-up and ratio."""
+    rows = summary[summary["target"] == target]
+    return pd.DataFrame({"problem": rows["problem"], "cheapest": rows["cheapest"], "time": rows["time"],
+                         "next": rows["runner_up"],
+                         "ratio": rows["ratio"].map(lambda r: f"{r:.3g}" if r == r else ""),
+                         "reach it": rows["reached"]}).reset_index(drop=True)
 
 
 #: Cost ratios listed by name in a summary cell; the rest are counted with their largest ratio.

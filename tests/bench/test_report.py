@@ -162,3 +162,33 @@ def test_table_tex_has_a_page_sized_table_per_target_then_the_supplement(report)
     for t in tables[:3]:
         assert t.count(r"\\") <= 40  # a page
     assert "±" not in tex and "<1%" not in tex  # math mode, not text-mode glyphs LaTeX misprints
+
+
+_OVERFLOW_PROBE = """<script>
+window.addEventListener('load', () => {
+  const limit = document.documentElement.clientWidth + 1;
+  const out = [...document.querySelectorAll('body *')].filter(
+      e => e.getBoundingClientRect().right > limit && !e.closest('.wide') && !e.closest('pre'));
+  document.body.setAttribute('data-overflow',
+      (document.documentElement.scrollWidth > limit ? 'page ' : '') + out.map(e => e.tagName).join(' '));
+});
+</script></body>"""
+
+
+@pytest.mark.parametrize("width", [1280, 800])
+def test_the_page_does_not_overflow_in_a_browser(report, tmp_path, width):
+    """Rendered headless: nothing runs past the right edge (wide tables scroll inside their own box)."""
+    import shutil
+    import subprocess
+
+    browser = next((b for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)
+    if browser is None:
+        pytest.skip("no Chromium on this machine (apt install chromium to run this check)")
+    page = tmp_path / "probe.html"
+    page.write_text(report[1].html.read_text().replace("</body>", _OVERFLOW_PROBE))
+    done = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", f"--window-size={width},900",
+                           "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
+                          capture_output=True, text=True, timeout=120)
+    found = re.search(r'data-overflow="([^"]*)"', done.stdout)
+    assert found, done.stderr[-2000:]
+    assert found.group(1) == "", f"past the right edge at {width} px: {found.group(1)}"

@@ -29,10 +29,12 @@ def report(tmp_path_factory):
 def test_every_figure_is_saved_as_png_and_svg(report):
     out, rep = report
     names = [f.name for f in rep.figures]
-    assert names == ["wp_time_one-dof_1", "wp_nfev_one-dof_1", "event_err_one-dof_1", "cost_two-dof_3"]
+    assert names == ["wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "event_err_one-dof_1",
+                     "cost_two-dof_3"]
     for fig in rep.figures:
         assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert fig.svg.read_text().lstrip().startswith(("<?xml", "<svg"))
+        assert fig.png.with_suffix(".pdf").read_bytes()[:5] == b"%PDF-"
 
 
 def test_html_is_self_contained_and_embeds_each_figure(report):
@@ -56,7 +58,7 @@ def test_markdown_and_latex(report):
     assert "| problem | integrator | 1e-06 | 1e-09 | 1e-12 |" in md
     assert "reference `exact`" in md and "no reference available" in md
     tex = rep.latex.read_text()
-    assert tex.count(r"\begin{tabular}") == 2 and r"\label{tab:nsbench-fixed-target}" in tex
+    assert tex.count(r"\begin{tabular}") == 5 and r"\label{tab:nsbench-fixed-target}" in tex  # 3 targets + 2
     assert "one-dof/1 & exact" in tex
     # exact is the reference of one-dof/1: reported with its cost, not as reaching targets
     ft = rep.fixed_target

@@ -1,7 +1,8 @@
-"""Report figures (matplotlib, imported on first use), saved as PNG and SVG.
+"""Report figures (matplotlib, imported on first use), saved as PNG, SVG and PDF.
 
 Per problem: work-precision diagrams (max switching-time error against warm wall
-time, with min-max whiskers over the timed runs, and against ``nfev``), and the
+time, with min-max whiskers over the timed runs, against the integrator's own
+time, and against ``nfev``), and the
 switching-time error along the trajectory of
 each integrator's tightest successful configuration. A problem without a
 reference gets a cost-only figure instead.
@@ -23,6 +24,14 @@ from nsbench.bench.tables import problem_groups
 ERROR_FLOOR = 1e-16
 _MARKERS = "osD^v<>pPX*hd"
 _TIME_LABEL = "warm median wall time (whiskers: fastest to slowest timed run)"
+#: Cost axes of the work-precision figures: (column, file tag, axis label, caption words).
+COST_AXES = {
+    "wall_time": ("time", "warm wall time (s)", _TIME_LABEL),
+    "integrator_time": ("inttime", "integrator time (s)",
+                        "the time spent inside the integrator's own code (median over the timed runs; "
+                        "nsbench's event handling left out)"),
+    "nfev": ("nfev", "right-hand-side evaluations (nfev)", "nfev"),
+}
 
 
 @dataclass(frozen=True)
@@ -106,6 +115,7 @@ def _save(fig, out: Path, name: str, title: str, caption: str) -> Figure:
     png, svg = out / f"{name}.png", out / f"{name}.svg"
     fig.savefig(png, dpi=110, bbox_inches="tight")
     fig.savefig(svg, bbox_inches="tight")
+    fig.savefig(out / f"{name}.pdf", bbox_inches="tight")  # for LaTeX papers
     _pyplot().close(fig)
     return Figure(name, title, caption, png, svg)
 
@@ -149,21 +159,21 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
             ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("warm wall time (s)" if cost == "wall_time" else "right-hand-side evaluations (nfev)")
+    kind, xlabel, words = COST_AXES[cost]
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("max switching-time error")
-    ax.set_title(f"{label}: error vs {'time' if cost == 'wall_time' else 'nfev'}")
+    ax.set_title(f"{label}: error vs {xlabel.split(' (')[0]}")
     ax.grid(True, which="major", alpha=0.3)
     _legend_outside(ax)
-    kind = "time" if cost == "wall_time" else "nfev"
     caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
-               f"{_TIME_LABEL if kind == 'time' else 'nfev'}; "
+               f"{words}; "
                f"one point per configuration, lines through the runs with the reference's event sequence. "
                f"Hollow markers: a wrong event sequence (never counted as reaching a target).")
     if dropped:
         caption += f" {dropped} run(s) that did not succeed (time limit, failure) are not drawn."
     if left_out:
         caption += f" References not drawn: {', '.join(left_out)}."
-    return _save(fig, out, f"wp_{kind}_{slug(label)}", f"{label}: error vs {kind}", caption)
+    return _save(fig, out, f"wp_{kind}_{slug(label)}", f"{label}: error vs {xlabel.split(' (')[0]}", caption)
 
 
 def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figure:
@@ -231,8 +241,9 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     figures: list[Figure] = []
     for label, group in problem_groups(frame):
         if (group["reference_status"] == "ok").any():
-            figures.append(work_precision(group, label, "wall_time", styles, out))
-            figures.append(work_precision(group, label, "nfev", styles, out))
+            for cost in COST_AXES:
+                if cost != "integrator_time" or pd.to_numeric(group[cost], errors="coerce").notna().any():
+                    figures.append(work_precision(group, label, cost, styles, out))
             figures.append(event_error_along(group, label, styles, out))
         else:
             figures.append(cost_only(group, label, styles, out))

@@ -1,5 +1,5 @@
 """``nsbench report DIR``: report.md, a self-contained index.html (figures embedded as
-base64 PNG), table.tex for papers, and the figures as PNG and SVG under ``figures/``."""
+base64 PNG), table.tex for papers, and the figures as PNG, SVG and PDF under ``figures/``."""
 
 from __future__ import annotations
 

@@ -108,3 +108,19 @@ def test_figures_leave_out_references_and_unsuccessful_runs(frame, tmp_path):
     fig = work_precision(frame, "two-dof/1", "wall_time", styles, tmp_path)
     assert "1 run(s) that did not succeed (time limit, failure) are not drawn" in fig.caption
     assert "References not drawn: exact." in fig.caption and fig.png.exists()
+
+
+def test_an_ill_conditioned_problem_is_stated(frame):
+    from nsbench.bench.summary import conditioning_table
+
+    # the conditioning itself is measured and checked in tests/bench/test_reference.py
+    frame["ref_conditioning"] = 1.61e6
+    cond = conditioning_table(frame)
+    assert cond[["problem", "conditioning", "double floor"]].values.tolist() == [["two-dof/1", "1.61e+06",
+                                                                                   "3.6e-10"]]
+    words = findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), cond)
+    assert words[0].startswith("two-dof/1 amplifies a change of its start 1.61e+06-fold")
+    assert "uncertain by about 4e-10" in words[0]
+    frame["ref_conditioning"] = 12.0
+    assert findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), conditioning_table(frame))[0] \
+        .startswith("At a switching-time error of 1e-09")

@@ -208,8 +208,7 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
     from nsbench.engine import simulate
 
     row = base_row(case, suite)
-    row.update(reference=reference.name or "", reference_config=_jsonable(reference.config),
-               reference_status=reference.status)
+    row.update(reference_config=_jsonable(reference.config), **reference.columns())
     grid = np.linspace(case.t0, case.t_end, case.dense_points)
     runs = []
     try:

@@ -127,8 +127,7 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
     counters = first.counters.as_dict()
     row.update(status=first.status.value, message=first.message, t_final=first.t_final,
                nfev=counters["nfev"], njev=counters["njev"], nsteps=counters["nsteps"],
-               n_events=counters["n_events"], setup_time=first.setup_time,
-               reference=ref.name or "", reference_status=ref.status)
+               n_events=counters["n_events"], setup_time=first.setup_time, **ref.columns())
     if ref.ok:
         dense = (first.trajectory[list(prob.state_names)].to_numpy().T
                  if first.ok and len(first.trajectory) == DENSE_POINTS else None)

@@ -24,6 +24,13 @@ from nsbench.bench.suite import stable_key
 from nsbench.errors import UnsupportedProblemError
 
 
+#: Size of the perturbation of the start positions that measures a case's conditioning.
+PERTURBATION = 1e-9
+#: Unit roundoff scale of a double-precision state of order one.
+EPS = float(np.finfo(float).eps)
+#: A case whose double-precision floor exceeds this cannot be graded in double over its span.
+DOUBLE_GRADABLE = 1e-10
+
 #: How the status of a reference that could not be computed begins (a failure of the run,
 #: unlike "no reference available": no candidate accepts the problem).
 FAILED = "reference failed"
@@ -50,6 +57,20 @@ class Reference:
     #: A candidate accepted the problem but its run raised, failed or crashed: a
     #: failure of the suite run (unlike "no candidate accepts the problem").
     failed: bool = False
+    #: Max switching-time change per unit change of the start (see :func:`conditioning`).
+    conditioning: float = math.nan
+    #: Where a start perturbation of :data:`PERTURBATION` changed the event sequence ('' if nowhere).
+    conditioning_note: str = ""
+
+    @property
+    def double_floor(self) -> float:
+        """Switching-time uncertainty of any double-precision solution from the rounding of its start."""
+        return self.conditioning * EPS if math.isfinite(self.conditioning) else self.conditioning
+
+    def columns(self) -> dict[str, Any]:
+        """The reference columns of a benchmark row."""
+        return {"reference": self.name or "", "reference_status": self.status,
+                "ref_conditioning": self.conditioning, "ref_double_floor": self.double_floor}
 
     @property
     def ok(self) -> bool:
@@ -108,14 +129,51 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
             return Reference(key, config["name"], config, status, res.events, grid,
                              np.empty((problem.n_states, 0)), res.y_final, res.wall_time, failed=True)
         dense = res.trajectory[list(problem.state_names)].to_numpy().T
+        cond, note = conditioning(problem, config, t0, t_end, res.events)
         return Reference(key, config["name"], config, "ok", res.events, grid, dense,
-                         res.y_final, res.wall_time + res.setup_time)
+                         res.y_final, res.wall_time + res.setup_time, conditioning=cond, conditioning_note=note)
     if refused:
         reason = "no reference available: " + ", ".join(f"{n} refused the problem" for n in refused)
     else:
         reason = "no reference available: no candidate is registered"
     return Reference(key, None, None, reason, empty, grid, np.empty((problem.n_states, 0)),
                      np.full(problem.n_states, np.nan))
+
+
+def conditioning(problem, config: dict[str, Any], t0: float, t_end: float,
+                 events: pd.DataFrame) -> tuple[float, str]:
+    """How strongly the case amplifies a change of its start: ``(max |dt_k| / delta, note)``.
+
+    The reference integrator runs again from the start with every position
+    moved by ``delta = PERTURBATION`` (positions are free in every mode;
+    velocities of stuck blocks are not), and the switching times of the two
+    runs are compared event by event over their common ``(kind, block)``
+    prefix. Multiplied by the unit roundoff (:attr:`Reference.double_floor`) it
+    is the switching-time uncertainty that the rounding of the start alone gives
+    any double-precision solution. If the perturbed run's event sequence differs
+    before the end, the amplification there is beyond ``1 / delta`` and the
+    result is ``inf`` with the time of the first difference in the note.
+    """
+    from nsbench.engine import simulate
+    from nsbench.integrators import integrator_from_config
+
+    y0 = np.array(problem.initial_state(), dtype=float)
+    y0[0::2] += PERTURBATION
+    try:
+        other = simulate(problem, integrator_from_config(config), t_end, t0=t0, y0=y0, max_steps=10**9).events
+    except Exception as exc:  # a conditioning that cannot be measured is no reason to lose the reference
+        return math.nan, f"not measured: {type(exc).__name__}: {exc}"
+    a = list(zip(events["kind"], events["block"]))
+    b = list(zip(other["kind"], other["block"]))
+    n = 0
+    while n < min(len(a), len(b)) and a[n] == b[n]:
+        n += 1
+    dt = np.abs(other["t"].to_numpy(dtype=float)[:n] - events["t"].to_numpy(dtype=float)[:n])
+    if n < max(len(a), len(b)):
+        at = float(events["t"].iloc[n]) if n < len(a) else float(other["t"].iloc[n])
+        return math.inf, (f"a start moved by {PERTURBATION:g} changes the event sequence at t = {at:.6g} "
+                          f"(event {n + 1} of {len(a)})")
+    return (float(dt.max()) / PERTURBATION if n else 0.0), ""
 
 
 def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
@@ -133,7 +191,8 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
         np.save(fh, np.vstack([ref.t_dense[None, :], ref.y_dense]) if ref.y_dense.size
                 else ref.t_dense[None, :])
     data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
-            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed}
+            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed,
+            "conditioning": repr(ref.conditioning), "conditioning_note": ref.conditioning_note}
     tmp = meta.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(data, indent=1))
     os.replace(tmp, meta)
@@ -159,7 +218,8 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
         t_dense, y_dense = table[0], table[1:]
         ref = Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
                         t_dense, y_dense, np.array(data["y_final"], dtype=float), float(data["wall_time"]),
-                        bool(data.get("failed", False)))
+                        bool(data.get("failed", False)), float(data.get("conditioning", "nan")),
+                        str(data.get("conditioning_note", "")))
         if len(ref.events) and not {"t", "kind", "block"} <= set(ref.events.columns):
             raise ValueError("its event table lacks t, kind or block")
     except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError) as exc:

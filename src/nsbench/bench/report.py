@@ -16,7 +16,7 @@ from nsbench.bench import storage
 from nsbench.bench.figures import Figure, report_figures, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
-from nsbench.bench.summary import (compact, display, findings, problem_summary, reference_costs, reference_grade,
+from nsbench.bench.summary import (compact, conditioning_table, display, findings, problem_summary, reference_costs, reference_grade,
                                    wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, wide_spread
@@ -273,7 +273,11 @@ ANSWER_CAPTION = ("For each switching-time error target: the cheapest method und
 WRONG_CAPTION = ("Runs that succeeded with a different event sequence from the reference's (events missed / "
                  "extra, after aligning the sequences): they never reach a target and are never the cheapest.")
 REFERENCE_CAPTION = ("References, shown apart and not ranked: each problem's reference (what the errors above "
-                     "are measured against) and the other reference-grade integrators, with their cost.")
+                     "are measured against) and the other reference-grade integrators, with their cost. "
+                     "Conditioning: the largest switching-time change per unit change of the start positions "
+                     "(the reference run again from a start moved by 1e-9); the double floor, that times the "
+                     "unit roundoff, is how far rounding alone moves any double-precision solution's switching "
+                     "times. A problem whose floor exceeds 1e-10 cannot be graded in double over its span.")
 
 
 class _Answer:
@@ -283,7 +287,7 @@ class _Answer:
         self.summary = problem_summary(frame, targets)
         self.wrong = wrong_sequences(frame)
         self.refs = reference_costs(frame)
-        self.words = findings(self.summary, self.wrong) if len(self.summary) else []
+        self.words = findings(self.summary, self.wrong, conditioning_table(frame)) if len(self.summary) else []
 
     def markdown(self) -> list[str]:
         if self.summary.empty:

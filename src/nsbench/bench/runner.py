@@ -143,8 +143,7 @@ def _with_reference(row: dict[str, Any], ref: Reference) -> dict[str, Any]:
     import json
 
     if not row.get("reference_status"):
-        row.update(reference=ref.name or "", reference_status=ref.status,
-                   reference_config=json.dumps(ref.config, sort_keys=True, default=float))
+        row.update(reference_config=json.dumps(ref.config, sort_keys=True, default=float), **ref.columns())
     return row
 
 

@@ -49,6 +49,10 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("reference", "name of the reference integrator, empty if none"),
     ("reference_config", "JSON: its config"),
     ("reference_status", "'ok', or why there is no usable reference"),
+    ("ref_conditioning", "max switching-time change per unit change of the start positions, measured by the "
+                         "reference from a start moved by 1e-9; inf where that changes the event sequence"),
+    ("ref_double_floor", "ref_conditioning x 2.2e-16: the switching-time uncertainty of any double-precision "
+                         "solution from the rounding of its start; above 1e-10 the case cannot be graded in double"),
     ("n_ref", "events in the reference"),
     ("n_prefix", "length of the matched prefix of the (kind, block) sequence"),
     ("n_matched", "events matched by the best alignment (longest common subsequence)"),

@@ -35,7 +35,7 @@ _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", 
           "wall_spread", "integrator_time", "setup_time", "setup_time_timed", "warmup_time",
           "first_divergence_time",
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
-          "final_state_err", "state_err_l2")
+          "final_state_err", "state_err_l2", "ref_conditioning", "ref_double_floor")
 _BOOL = ("sequence_ok",)
 
 

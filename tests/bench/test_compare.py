@@ -53,3 +53,21 @@ def test_planted_slowdown_is_flagged_and_a_rerun_is_not(tmp_path, register):
     assert counts["flagged"] == 3
     assert (table["time_verdict"] == "slower").all() and (table["time_ratio"] > 2).all()
     assert (table["err_verdict"] == "same").all() and (table["err_ratio"] == 1.0).all()  # same computation
+
+
+def test_foreign_files_and_an_infinite_factor_are_refused(tmp_path):
+    from nsbench.bench.compare import read_results
+    from nsbench.errors import ConfigError
+
+    (tmp_path / "other.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ConfigError, match="holds no nsbench results"):
+        read_results(tmp_path / "other.csv")
+    (tmp_path / "bin.csv").write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(ConfigError, match="cannot read results|holds no nsbench results"):
+        read_results(tmp_path / "bin.csv")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ConfigError, match="holds no results"):
+        read_results(tmp_path / "empty")
+    row = to_frame([{"case_id": "x", "status": "success", "wall_times": [0.1, 0.1, 0.1]}])
+    with pytest.raises(ConfigError, match="finite number > 1"):
+        compare_frames(row, row, float("inf"))

@@ -68,6 +68,30 @@ def test_bad_files(tmp_path):
         read_benchmark_json(tmp_path / "x.json")
 
 
+@pytest.mark.parametrize("data, fragment", [
+    ({"benchmarks": 5}, "'benchmarks' must be a list, got int 5"),
+    ({"benchmarks": []}, "holds no benchmarks"),
+    ({"benchmarks": [1]}, "benchmarks[0] must be a table"),
+    ({"benchmarks": [{"name": "a", "stats": "x"}]}, "benchmarks[0].stats must be a table"),
+    ({"benchmarks": [{"name": "a", "extra_info": 5}]}, "benchmarks[0].extra_info must be a table"),
+    ({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}, "benchmarks[0].stats.median must be a number"),
+    ({"benchmarks": [{"name": "a", "stats": {"data": ["x"]}}]}, "stats.data must be a list of times"),
+])
+def test_json_of_the_wrong_shape_is_refused(tmp_path, data, fragment):
+    (tmp_path / "x.json").write_text(json.dumps(data))
+    with pytest.raises(ConfigError) as info:
+        read_benchmark_json(tmp_path / "x.json")
+    assert fragment in str(info.value)
+
+
+def test_binary_and_folder_files_are_refused(tmp_path):
+    (tmp_path / "b.json").write_bytes(bytes(range(256)))
+    with pytest.raises(ConfigError, match="not UTF-8 text"):
+        read_benchmark_json(tmp_path / "b.json")
+    with pytest.raises(ConfigError, match="is a folder"):
+        read_benchmark_json(tmp_path)
+
+
 @pytest.mark.parametrize("bad", ["../../escaped", "/tmp/nsbench-absolute-escape", "a/b", "..", ".hidden"])
 def test_a_case_id_that_names_a_file_elsewhere_is_refused(tmp_path, bad):
     # extra_info comes from whoever wrote the JSON: its case id must not steer a write

@@ -143,3 +143,53 @@ def test_packaged_suites_by_name():
     assert ns == [2, 4, 8, 16, 32, 64] and scaling.name == "chain-scaling"
     with pytest.raises(ConfigError, match="neither a file nor a packaged suite; packaged: chain-scaling, default"):
         load_suite("chain-scalin")
+
+
+@pytest.mark.parametrize("data, fragment", [
+    ({"problems": 5}, "suite field 'problems' must be a list of tables (each with a 'name'), got int 5"),
+    ({"problems": [{"name": 5}]}, "suite field 'problems[0].name' must be a registered problem name"),
+    ({"problems": [{"name": "one-dof", "params": 5}]}, "'problems[0].params' must be a table"),
+    ({"problems": [{"name": "one-dof", "params": {"c": "abc"}}]}, "'problems[0].params.c' must be a number"),
+    ({"problems": [{"name": "one-dof", "dimensional": "yes"}]}, "'problems[0].dimensional' must be true or false"),
+    ({"problems": [{"name": "one-dof"}], "t_span": [0, float("inf")]}, "finite numbers only"),
+    ({"problems": [{"name": "one-dof"}], "reference": ["nope"]}, "unknown integrator(s) nope; registered: "),
+    ({"problems": [{"name": "one-dof"}], "reference": 5}, "suite field 'reference' must be a list"),
+    ({"problems": [{"name": "one-dof"}], "repeats": 10**12}, "MAX_REPEATS"),
+    ({"problems": [{"name": "one-dof"}], "dense_points": 10**12}, "MAX_DENSE_POINTS"),
+    ({"problems": [{"name": "one-dof"}], "time_limit": float("inf")}, "positive, finite number of seconds"),
+    ({"problems": [{"name": "one-dof"}], "name": 5}, "suite field 'name' must be a string, got int 5"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"only": "exact"}}, "'integrators.only' must be a list"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": 5}}, "'integrators.grids' must be a table"),
+    ({"problems": [{"name": "one-dof"}], "integrators": {"skip_levels": {"exact": 5}}},
+     "'integrators.skip_levels.exact' must be a table"),
+])
+def test_suite_fields_are_type_checked_with_their_path(data, fragment):
+    with pytest.raises(ConfigError) as info:
+        Suite.from_dict(data)
+    assert fragment in str(info.value)
+
+
+def test_a_huge_grid_is_refused_before_it_is_expanded():
+    from nsbench.bench.suite import MAX_CASES
+
+    values = [0.1 * (i + 1) for i in range(1000)]
+    suite = Suite.from_dict({"problems": [{"name": "one-dof", "params": {"c": values, "h": values, "F": values}}],
+                             "integrators": {"only": ["exact"]}})
+    assert suite.n_problems() == 10**9
+    with pytest.raises(ConfigError, match=f"more than the {MAX_CASES} cases"):
+        suite.cases()
+    grid = {"rtol": [1e-6] * 1000, "atol": [1e-8] * 1000, "first_step": [0.1] * 1000}
+    suite = Suite.from_dict({"problems": [{"name": "one-dof"}],
+                             "integrators": {"only": ["scipy-rk45"], "grids": {"scipy-rk45": {"grid": grid}}}})
+    assert suite.n_cases() == 10**9
+    with pytest.raises(ConfigError, match="expands to 1000000000 cases"):
+        suite.cases()
+
+
+def test_binary_and_folder_suite_files_are_refused(tmp_path):
+    (tmp_path / "bin.toml").write_bytes(bytes(range(256)))
+    with pytest.raises(ConfigError, match="not UTF-8 text"):
+        load_suite(tmp_path / "bin.toml")
+    (tmp_path / "dir.toml").mkdir()
+    with pytest.raises(ConfigError, match="is a folder"):
+        load_suite(tmp_path / "dir.toml")

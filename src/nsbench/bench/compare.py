@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.bench import storage
+from nsbench.errors import ConfigError
 
 #: Errors below this are treated as equal (round-off of a double-precision reference).
 ERROR_FLOOR = 1e-15
@@ -75,10 +76,8 @@ def error_verdict(err_a: float, err_b: float, factor: float) -> tuple[float, str
 
 def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = 1.5) -> pd.DataFrame:
     """One row per case present in both runs (matched on ``case_id``), with verdicts and ``flagged``."""
-    if not factor > 1.0:
-        from nsbench.errors import ConfigError
-
-        raise ConfigError(f"factor = {factor!r} must be > 1")
+    if not (factor > 1.0 and math.isfinite(factor)):
+        raise ConfigError(f"factor = {factor!r} must be a finite number > 1")
     merged = a.merge(b, on="case_id", suffixes=("_a", "_b"))
     rows = []
     for _, r in merged.iterrows():
@@ -102,12 +101,45 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = 1.5) -> pd.
     return pd.DataFrame(rows, columns=columns)
 
 
+def read_results(path: str | Path) -> pd.DataFrame:
+    """The rows of an nsbench results folder, Parquet or CSV file; anything else is a ``ConfigError``.
+
+    Parameters
+    ----------
+    path
+        Output folder of ``nsbench bench``/``run``/``ingest``, or its ``results.parquet``/``results.csv``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows, in the tidy schema.
+
+    Raises
+    ------
+    ConfigError
+        Missing, unreadable, binary or malformed file, or a folder or file that
+        holds no nsbench results (another tool's, an empty folder).
+    """
+    try:
+        frame = storage.load_results(path)
+    except ConfigError:
+        raise
+    except (OSError, ValueError, KeyError, TypeError) as exc:  # pandas/pyarrow parse errors are ValueErrors
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else f"{type(exc).__name__}: {exc}"
+        reason = " ".join(str(reason).split())
+        raise ConfigError(f"cannot read results from {str(path)!r}: {reason[:200]}") from None
+    if len(frame) == 0 or not frame["case_id"].fillna("").astype(str).str.len().gt(0).all():
+        raise ConfigError(f"{str(path)!r} holds no nsbench results (no rows with a case_id): "
+                          "give the output folder of 'nsbench bench', 'run' or 'ingest'")
+    return frame
+
+
 def compare(a: str | Path, b: str | Path, factor: float = 1.5) -> tuple[pd.DataFrame, dict[str, int]]:
     """Compare two stored runs (directories, Parquet or CSV files).
 
     Returns the per-case table and counts: cases in both, only in A, only in B, flagged.
     """
-    fa, fb = storage.load_results(a), storage.load_results(b)
+    fa, fb = read_results(a), read_results(b)
     table = compare_frames(fa, fb, factor)
     ids_a, ids_b = set(fa["case_id"]), set(fb["case_id"])
     counts = {"common": len(ids_a & ids_b), "only_a": len(ids_a - ids_b), "only_b": len(ids_b - ids_a),

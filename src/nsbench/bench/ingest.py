@@ -23,6 +23,35 @@ from nsbench.bench.suite import stable_key
 from nsbench.errors import ConfigError
 
 
+def _got(value: Any) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _check_benchmark(path: str | Path, i: int, bench: Any) -> None:
+    """Refuse an entry of ``benchmarks`` that is not shaped like pytest-benchmark's, naming where."""
+    where = f"{str(path)!r}: benchmarks[{i}]"
+    if not isinstance(bench, dict):
+        raise ConfigError(f"{where} must be a table (a pytest-benchmark entry), got {_got(bench)}")
+    for key in ("extra_info", "stats"):
+        value = bench.get(key)
+        if value is not None and not isinstance(value, dict):
+            raise ConfigError(f"{where}.{key} must be a table, got {_got(value)}")
+    for key in ("name", "fullname", "group"):
+        value = bench.get(key)
+        if value is not None and not isinstance(value, str):
+            raise ConfigError(f"{where}.{key} must be a string, got {_got(value)}")
+    stats = bench.get("stats") or {}
+    for key in ("median", "min", "max", "rounds"):
+        value = stats.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
+            raise ConfigError(f"{where}.stats.{key} must be a number, got {_got(value)}")
+    data = stats.get("data")
+    if data is not None and not (isinstance(data, list) and all(
+            isinstance(t, (int, float)) and not isinstance(t, bool) for t in data)):
+        raise ConfigError(f"{where}.stats.data must be a list of times, got {_got(data)}")
+
+
 def _row(bench: dict[str, Any]) -> dict[str, Any]:
     info = dict(bench.get("extra_info") or {})
     stats = bench.get("stats") or {}
@@ -50,18 +79,41 @@ def _row(bench: dict[str, Any]) -> dict[str, Any]:
 def read_benchmark_json(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Rows and provenance of a pytest-benchmark JSON file."""
     p = Path(path)
+    if p.is_dir():
+        raise ConfigError(f"benchmark file {str(path)!r} is a folder, not a JSON file")
     if not p.is_file():
         raise ConfigError(f"benchmark file {str(path)!r} does not exist")
     try:
-        data = json.loads(p.read_text())
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"cannot read benchmark file {str(path)!r}: {exc.strerror or exc}") from None
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{str(path)!r} is not UTF-8 text (a binary file?): byte {raw[exc.start]:#04x} "
+                          f"at offset {exc.start}") from None
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{str(path)!r} is not JSON: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{str(path)!r} is nested too deeply to be a pytest-benchmark file") from None
     if not isinstance(data, dict) or "benchmarks" not in data:
         raise ConfigError(f"{str(path)!r} is not a pytest-benchmark file (no 'benchmarks' list)")
+    if not isinstance(data["benchmarks"], list):
+        raise ConfigError(f"{str(path)!r} is not a pytest-benchmark file: 'benchmarks' must be a list, "
+                          f"got {_got(data['benchmarks'])}")
+    if not data["benchmarks"]:
+        raise ConfigError(f"{str(path)!r} holds no benchmarks (an empty 'benchmarks' list)")
+    for i, bench in enumerate(data["benchmarks"]):
+        _check_benchmark(path, i, bench)
     provenance = {"source": f"pytest-benchmark {data.get('version', '?')}: {p.name}",
                   "date": data.get("datetime"), "machine_info": data.get("machine_info"),
                   "commit_info": data.get("commit_info")}
-    return storage.to_frame(_row(b) for b in data["benchmarks"]), provenance
+    try:
+        frame = storage.to_frame(_row(b) for b in data["benchmarks"])
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ConfigError(f"{str(path)!r}: an extra_info value does not fit the results schema: "
+                          f"{type(exc).__name__}: {exc}") from None
+    return frame, provenance
 
 
 def ingest(path: str | Path, out: str | Path) -> pd.DataFrame:

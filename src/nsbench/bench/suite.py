@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import tomllib
 from dataclasses import asdict, dataclass, field
 from importlib import resources
@@ -24,6 +25,17 @@ _SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "max_
                "dense_points", "targets", "reference", "problems", "integrators"}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
+
+#: Most cases a suite may expand to. The count is computed from the TOML before
+#: anything is expanded, so a grid of 10^9 cases is refused at once; split a
+#: bigger study into several suites (or raise this bound).
+MAX_CASES = 100_000
+#: Most timed runs per case (``repeats``).
+MAX_REPEATS = 1000
+#: Most states compared with the reference per case (``dense_points``).
+MAX_DENSE_POINTS = 1_000_000
+#: Largest step budget per run (``max_steps``; compiled kernels count in 64-bit integers).
+MAX_STEPS = 10**12
 
 
 def stable_key(obj: Any) -> str:
@@ -69,15 +81,102 @@ class Case:
         return asdict(self)
 
 
+def _got(value: Any) -> str:
+    """``int 5``, ``str 'abc'``: the type and (shortened) value of a bad field."""
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _field(ok: bool, path: str, expected: str, value: Any) -> None:
+    """Raise ``suite field 'path' must be expected, got <type> <value>`` unless ``ok``."""
+    if not ok:
+        raise ConfigError(f"suite field {path!r} must be {expected}, got {_got(value)}")
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _is_str_list(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v)
+
+
 def _number_list(value: Any, what: str) -> list[float]:
-    if not isinstance(value, list) or not value:
-        raise ConfigError(f"{what} must be a non-empty list of numbers, got {value!r}")
+    if not isinstance(value, (list, tuple)) or not value:
+        raise ConfigError(f"suite field {what!r} must be a non-empty list of numbers, got {_got(value)}")
     out = []
     for v in value:
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
+        if not _is_number(v):
             raise ConfigError(f"{what} must contain numbers only, got {v!r}")
+        if not math.isfinite(v):
+            raise ConfigError(f"{what} = {list(value)} must contain finite numbers only, got {v!r}")
         out.append(float(v))
     return out
+
+
+def _check_problem(p: Any, i: int) -> None:
+    """Types of one ``[[problems]]`` table (values are the problem's own check)."""
+    where = f"problems[{i}]"
+    _field(isinstance(p, dict) and "name" in p, where, "a table with a 'name'", p)
+    _field(isinstance(p["name"], str), f"{where}.name", "a registered problem name (a string)", p["name"])
+    _unknown(set(p), _PROBLEM_KEYS, f"problem {p['name']!r}")
+    case_ok = lambda c: isinstance(c, str) or (isinstance(c, int) and not isinstance(c, bool))  # noqa: E731
+    if "case" in p:
+        _field(case_ok(p["case"]), f"{where}.case", "a case number (1..4) or name", p["case"])
+    if "cases" in p:
+        cases = p["cases"]
+        _field(case_ok(cases) or (isinstance(cases, list) and cases and all(case_ok(c) for c in cases)),
+               f"{where}.cases", "a non-empty list of case numbers", cases)
+    if "params" in p:
+        params = p["params"]
+        _field(isinstance(params, dict), f"{where}.params", "a table of parameter = number (or list of numbers)",
+               params)
+        for key, value in params.items():
+            ok = _is_number(value) or (isinstance(value, list) and all(_is_number(v) for v in value))
+            _field(ok, f"{where}.params.{key}", "a number or a list of numbers", value)
+    if "dimensional" in p:
+        _field(isinstance(p["dimensional"], bool), f"{where}.dimensional", "true or false", p["dimensional"])
+
+
+def _check_integrators(spec: Any) -> None:
+    """Types of the ``[integrators]`` table."""
+    _field(isinstance(spec, dict), "integrators", "a table (registered, only, exclude, grids, skip_levels)",
+           spec)
+    _unknown(set(spec), _INTEGRATOR_KEYS, "integrators")
+    if "registered" in spec:
+        _field(isinstance(spec["registered"], bool), "integrators.registered", "true or false",
+               spec["registered"])
+    for key in ("only", "exclude"):
+        if key in spec:
+            _field(_is_str_list(spec[key]), f"integrators.{key}", "a list of integrator names", spec[key])
+    grids = spec.get("grids", {})
+    _field(isinstance(grids, dict), "integrators.grids", "a table of integrator name = grid", grids)
+    for name, grid in grids.items():
+        where = f"integrators.grids.{name}"
+        _field(isinstance(grid, dict), where, "a table with 'options' or 'grid'", grid)
+        _unknown(set(grid), {"options", "grid", "fixed"}, where)
+        if "options" in grid:
+            _field(isinstance(grid["options"], list) and all(isinstance(o, dict) for o in grid["options"]),
+                   f"{where}.options", "a list of option tables", grid["options"])
+        if "grid" in grid:
+            _field(isinstance(grid["grid"], dict), f"{where}.grid", "a table of option = value or list of values",
+                   grid["grid"])
+            for key, values in grid["grid"].items():
+                _field(not isinstance(values, list) or values, f"{where}.grid.{key}", "a non-empty list", values)
+        if "fixed" in grid:
+            _field(isinstance(grid["fixed"], dict), f"{where}.fixed", "a table of option = value", grid["fixed"])
+    skips = spec.get("skip_levels", {})
+    _field(isinstance(skips, dict), "integrators.skip_levels", "a table of integrator name = {levels, reason}",
+           skips)
+    for name, skip in skips.items():
+        where = f"integrators.skip_levels.{name}"
+        _field(isinstance(skip, dict), where, "a table with 'levels' (and 'reason')", skip)
+        _unknown(set(skip), {"levels", "reason"}, where)
+        levels = skip.get("levels", [])
+        _field(isinstance(levels, list) and all(isinstance(v, int) and not isinstance(v, bool) for v in levels),
+               f"{where}.levels", "a list of level indices", levels)
+        if "reason" in skip:
+            _field(isinstance(skip["reason"], str), f"{where}.reason", "a string", skip["reason"])
 
 
 def _unknown(keys: set[str], allowed: set[str], where: str) -> None:
@@ -139,51 +238,84 @@ class Suite:
 
     def __post_init__(self) -> None:
         self._unavailable: dict[str, str] = {}
-        self.t_span = tuple(_number_list(list(self.t_span), "t_span"))  # type: ignore[assignment]
+        _field(isinstance(self.name, str), "name", "a string", self.name)
+        self.t_span = tuple(_number_list(self.t_span, "t_span"))  # type: ignore[assignment]
         if len(self.t_span) != 2 or not self.t_span[1] > self.t_span[0]:
             raise ConfigError(f"t_span = {list(self.t_span)} must be [t0, t_end] with t_end > t0")
-        self.targets = tuple(sorted(_number_list(list(self.targets), "targets"), reverse=True))
+        self.targets = tuple(sorted(_number_list(self.targets, "targets"), reverse=True))
         if any(t <= 0 for t in self.targets):
             raise ConfigError(f"targets = {list(self.targets)} must be positive")
-        for key, low in (("repeats", 1), ("max_steps", 1), ("dense_points", 2)):
+        for key, low, high, bound in (("repeats", 1, MAX_REPEATS, "MAX_REPEATS"),
+                                      ("max_steps", 1, MAX_STEPS, "MAX_STEPS"),
+                                      ("dense_points", 2, MAX_DENSE_POINTS, "MAX_DENSE_POINTS")):
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ConfigError(f"{key} = {value!r} must be an integer >= {low}")
+            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+                raise ConfigError(f"{key} = {value!r} must be an integer >= {low} and <= {high} "
+                                  f"(the bound is nsbench.bench.suite.{bound})")
         self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
         for key in ("repeat_budget", "time_limit"):
             value = getattr(self, key)
             if key == "repeat_budget" and value is None:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise ConfigError(f"{key} = {value!r} must be a positive number of seconds")
+            if not _is_number(value) or not (value > 0 and math.isfinite(value)):
+                raise ConfigError(f"{key} = {value!r} must be a positive, finite number of seconds")
         if isinstance(self.reference, str):
             self.reference = (self.reference,)
+        _field(_is_str_list(self.reference) and len(self.reference) > 0, "reference",
+               "a list of registered integrator names", self.reference)
         self.reference = tuple(self.reference)
+        _field(isinstance(self.problems, list), "problems", "a list of tables (each with a 'name')",
+               self.problems)
         if not self.problems:
             raise ConfigError("a suite needs at least one entry in problems")
-        for p in self.problems:
-            if not isinstance(p, dict) or "name" not in p:
-                raise ConfigError(f"each problem needs a 'name', got {p!r}")
-            _unknown(set(p), _PROBLEM_KEYS, f"problem {p.get('name')!r}")
-        if not isinstance(self.integrators, dict):
-            raise ConfigError(f"integrators must be a table, got {self.integrators!r}")
-        _unknown(set(self.integrators), _INTEGRATOR_KEYS, "integrators")
+        for i, p in enumerate(self.problems):
+            _check_problem(p, i)
+        _check_integrators(self.integrators)
+        self._check_reference()
+
+    def _check_reference(self) -> None:
+        from nsbench.integrators import canonical_name, list_integrators
+
+        registered = list_integrators()
+        unknown = [n for n in self.reference if canonical_name(n) not in registered]
+        if unknown:
+            raise ConfigError(f"suite field 'reference': unknown integrator(s) {', '.join(unknown)}; "
+                              f"registered: {', '.join(registered)}")
 
     # ------------------------------------------------------------------ loading
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> "Suite":
         """Build a suite from a dict with the TOML layout (see ``docs`` in the README)."""
+        _field(isinstance(data, dict), "suite", "a table", data)
         _unknown(set(data), _SUITE_KEYS, "suite")
         return cls(**data)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Suite":
-        """Read a suite from a TOML file."""
+        """Read a suite from a TOML file.
+
+        Raises
+        ------
+        ConfigError
+            The file is missing, a folder, unreadable, not UTF-8 text (binary),
+            not valid TOML, or a field is of the wrong type or out of range.
+        """
         p = Path(path)
+        if p.is_dir():
+            raise ConfigError(f"suite file {str(path)!r} is a folder, not a TOML file")
         if not p.is_file():
             raise ConfigError(f"suite file {str(path)!r} does not exist")
         try:
-            data = tomllib.loads(p.read_text())
+            raw = p.read_bytes()
+        except OSError as exc:
+            raise ConfigError(f"cannot read suite file {str(path)!r}: {exc.strerror or exc}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"suite file {str(path)!r} is not UTF-8 text (a binary file?): byte "
+                              f"{raw[exc.start]:#04x} at offset {exc.start}") from None
+        try:
+            data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"suite file {str(path)!r} is not valid TOML: {exc}") from None
         return cls.from_dict(data)
@@ -194,11 +326,64 @@ class Suite:
             list(self.t_span), list(self.targets), list(self.reference))
         return out
 
+    # ------------------------------------------------------------------ size
+    def n_problems(self) -> int:
+        """Problems the suite expands to (cases times parameter grids), counted without expanding."""
+        total = 0
+        for p in self.problems:
+            cases = p.get("cases", [p.get("case", 1)])
+            n_cases = len(cases) if isinstance(cases, list) else 1
+            lists = [len(v) for v in dict(p.get("params", {})).values() if isinstance(v, list)]
+            total += n_cases * math.prod(lists)
+        return total
+
+    def _n_option_sets(self, name: str) -> int:
+        from nsbench.integrators import canonical_name, integrator_class
+
+        grids = {canonical_name(k): v for k, v in self.integrators.get("grids", {}).items()}
+        grid = grids.get(name)
+        if grid is None:
+            n = max(1, len(integrator_class(name).accuracy_levels))
+        elif "options" in grid:
+            n = len(grid["options"])
+        elif "grid" in grid:
+            n = math.prod(len(v) if isinstance(v, list) else 1 for v in grid["grid"].values())
+        else:
+            return 0  # option_sets names the problem
+        skip = set(self.integrators.get("skip_levels", {}).get(name, {}).get("levels", []))
+        return n - sum(1 for i in skip if 0 <= i < n)
+
+    def n_cases(self) -> int:
+        """Cases the suite expands to (before duplicates are merged), counted without expanding it."""
+        n_sets = sum(self._n_option_sets(name) for name in self.integrator_names())
+        return self.n_problems() * n_sets
+
+    def check_size(self) -> None:
+        """Refuse a suite of more than :data:`MAX_CASES` cases before it is expanded.
+
+        Raises
+        ------
+        ConfigError
+            Naming the count, its factors and the bound.
+        """
+        n_problems = self.n_problems()
+        if n_problems > MAX_CASES:
+            raise ConfigError(f"the suite has {n_problems} problems (cases x parameter grids), more than the "
+                              f"{MAX_CASES} cases a suite may have (nsbench.bench.suite.MAX_CASES); "
+                              "split it into several suites")
+        n = self.n_cases()
+        if n > MAX_CASES:
+            raise ConfigError(f"the suite expands to {n} cases ({n_problems} problems x {n // max(n_problems, 1)} "
+                              f"integrator settings), more than the {MAX_CASES} allowed "
+                              "(nsbench.bench.suite.MAX_CASES); split it into several suites")
+
     # ------------------------------------------------------------------ expansion
     def problem_configs(self) -> list[dict[str, Any]]:
         """Problem config dicts (those of :meth:`FrictionOscillator.config`), validated."""
         from nsbench.problems import problem_from_config
 
+        if self.n_problems() > MAX_CASES:
+            self.check_size()
         out = []
         for p in self.problems:
             cases = p.get("cases", [p.get("case", 1)])
@@ -280,7 +465,14 @@ class Suite:
         return [(i, o) for i, o in enumerate(sets) if i not in skip]
 
     def cases(self) -> list[Case]:
-        """Every case of the suite, problems outermost, loose levels first."""
+        """Every case of the suite, problems outermost, loose levels first.
+
+        Raises
+        ------
+        ConfigError
+            A bad problem or integrator setting, or more than :data:`MAX_CASES` cases.
+        """
+        self.check_size()
         problems = self.problem_configs()
         plan = [(name, self.option_sets(name)) for name in self.integrator_names()]
         out = []

@@ -44,20 +44,31 @@ def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
 
 
 def parse_sweep(text: str) -> tuple[str, float, float, int]:
-    """``NAME=START:STOP:COUNT`` as ``(name, start, stop, count)``."""
+    """``NAME=START:STOP:COUNT`` as ``(name, start, stop, count)``.
+
+    START and STOP must be finite numbers, COUNT a whole number from 1 to
+    1 000 000 (``1e3`` reads as 1000); anything else is a ``ConfigError``
+    naming the bad part and what is allowed.
+    """
+    max_count = 1_000_000  # a typo such as 1e12 must not allocate terabytes
     name, sep, rng = text.partition("=")
-    parts = rng.split(":")
+    parts = [p.strip() for p in rng.split(":")]
     if not sep or not name.strip() or len(parts) != 3:
         raise ConfigError(f"--sweep expects NAME=START:STOP:COUNT, got {text!r}")
     try:
         start, stop = float(parts[0]), float(parts[1])
-        count = float(parts[2])
     except ValueError:
-        raise ConfigError(f"--sweep {text!r}: START, STOP must be numbers and COUNT an integer") from None
+        raise ConfigError(f"--sweep {text!r}: START and STOP must be numbers") from None
     if not (math.isfinite(start) and math.isfinite(stop)):
         raise ConfigError(f"--sweep {text!r}: START and STOP must be finite")
-    if count != int(count) or count < 1:
-        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]} must be a positive integer")
+    allowed = f"a whole number between 1 and {max_count}"
+    try:
+        count = float(parts[2])
+    except ValueError:
+        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]!r} is not a number; expected {allowed}") from None
+    if not (math.isfinite(count) and count.is_integer() and 1 <= count <= max_count):
+        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]} must be {allowed} "
+                          "(split a longer sweep into several)")
     return name.strip(), start, stop, int(count)
 
 

@@ -7,6 +7,7 @@ status 2 and one line on stderr, never a traceback.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Sequence
 
@@ -35,20 +36,72 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit status when stdout is a pipe whose reader has gone (``nsbench compare ... | head``):
+#: 128 + SIGPIPE, what a shell reports for a process ended by that signal.
+EXIT_BROKEN_PIPE = 141
+
+
 def fail(message: str) -> int:
     """Print one error line and return the bad-input exit status."""
-    print(f"nsbench: error: {message}", file=sys.stderr)
+    line = " ".join(str(message).split("\n")).strip() or "unknown error"
+    print(f"nsbench: error: {line}", file=sys.stderr)
     return 2
 
 
+def os_error_message(exc: OSError) -> str:
+    """One line for an ``OSError``: the path(s) it names and what is wrong."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    if not paths:
+        return reason
+    return f"{' -> '.join(paths)}: {reason}"
+
+
+def _stdout_reader_gone() -> bool:
+    """Whether stdout is a pipe (or socket) whose reading end is closed."""
+    try:
+        import select
+
+        fd = sys.stdout.fileno()
+        poll = select.poll()
+        poll.register(fd, select.POLLOUT)
+        return any(event & select.POLLERR for _, event in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # no real stdout (captured), or no poll
+        return False
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the flush at exit does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (AttributeError, OSError, ValueError):
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``nsbench`` console script."""
+    """Entry point of the ``nsbench`` console script.
+
+    Returns the exit status: 0, 1 (the run finished but something failed, see
+    each sub-command), 2 (bad input: one ``nsbench: error:`` line on stderr),
+    130 (interrupted) or 141 (stdout closed by its reader, e.g. ``| head``).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.handler(args) or 0)
+        code = int(args.handler(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return code
     except NsbenchError as exc:
         return fail(str(exc))
+    except BrokenPipeError as exc:
+        if _stdout_reader_gone():
+            _silence_stdout()
+            return EXIT_BROKEN_PIPE
+        return fail(os_error_message(exc))
+    except OSError as exc:  # the safety net: an unwritable or unreadable path not checked up front
+        return fail(os_error_message(exc))
     except KeyboardInterrupt:
         print("nsbench: interrupted", file=sys.stderr)
         return 130

@@ -1,11 +1,39 @@
-"""Argument helpers shared by sub-commands."""
+"""Argument helpers shared by sub-commands.
+
+Every value given on the command line is checked here before any work starts:
+counts are whole numbers within a bound, reals finite and in range, and output
+paths writable. Each check raises a :class:`~nsbench.errors.ConfigError` whose
+message names the option, the bad value and what is allowed; ``nsbench.cli.main``
+prints it as one line and exits with status 2.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+from pathlib import Path
 from typing import Any
 
 from nsbench.errors import ConfigError
+
+# Upper bounds of counts given on the command line: they keep a typo (1e12) from
+# allocating terabytes or running for years. Raise them here if a run needs more.
+#: Trajectory points of ``simulate --samples``.
+MAX_SAMPLES = 10_000_000
+#: Section points per value (``bifurcation --record``, ``paper --record``).
+MAX_RECORD = 1_000_000
+#: Parameter values of a sweep (``paper --points``; ``--sweep`` COUNT has the same bound in
+#: :func:`nsbench.bifurcation.sweep.parse_sweep`).
+MAX_SWEEP_POINTS = 1_000_000
+#: Worker processes (``--workers``).
+MAX_WORKERS = 1024
+#: Return-map iterations of ``lyapunov --iterations``.
+MAX_ITERATIONS = 100_000_000
+#: Ensemble members of ``lyapunov --members``.
+MAX_MEMBERS = 100_000
+#: Largest seed (numpy's seeds are 32-bit here).
+MAX_SEED = 2**32 - 1
 
 
 def parse_assignment(text: str, flag: str) -> tuple[str, str]:
@@ -22,6 +50,233 @@ def parse_number(text: str, what: str) -> float:
         return float(text)
     except ValueError:
         raise ConfigError(f"{what} = {text!r} is not a number") from None
+
+
+def _shown(text: str) -> str:
+    """``text`` as typed if it reads as a number, else quoted (so that '' and 'abc' show)."""
+    try:
+        float(text)
+    except ValueError:
+        return repr(text)
+    return text.strip()
+
+
+def parse_count(text: str, what: str, *, low: int = 1, high: int | None = None, bound: str | None = None) -> int:
+    """A whole number in ``[low, high]``.
+
+    Parameters
+    ----------
+    text
+        The value as typed; ``1e3`` and ``1000.0`` are read as 1000.
+    what
+        The option, named in the message (e.g. ``--samples``).
+    low, high
+        Smallest and largest value allowed.
+    bound
+        Instead of ``high``: the name of one of this module's bounds (e.g.
+        ``"MAX_SAMPLES"``), which the message names so that a user who needs
+        more knows what to raise.
+
+    Returns
+    -------
+    int
+        The count.
+
+    Raises
+    ------
+    ConfigError
+        Not a number, ``nan``, ``inf``, not whole, or outside ``[low, high]``; the
+        message names the option, the value and the range.
+    """
+    if high is None:
+        if bound is None:
+            raise TypeError("parse_count needs high or bound")
+        high = int(globals()[bound])
+    allowed = f"a whole number between {low} and {high}"
+    shown = _shown(text)
+    try:
+        value = int(text.strip())
+    except ValueError:
+        try:
+            real = float(text)
+        except ValueError:
+            raise ConfigError(f"{what} = {shown} is not a number; expected {allowed}") from None
+        if not (math.isfinite(real) and real.is_integer()):
+            raise ConfigError(f"{what} = {shown} must be {allowed}")
+        value = int(real)
+    if value < low:
+        raise ConfigError(f"{what} = {shown} must be >= {low} ({allowed})")
+    if value > high:
+        where = f"; the bound is nsbench.cli._common.{bound}" if bound else ""
+        raise ConfigError(f"{what} = {shown} must be <= {high} ({allowed}{where})")
+    return value
+
+
+def parse_real(text: str, what: str, *, low: float | None = None, low_open: bool = False,
+               high: float | None = None, high_open: bool = False) -> float:
+    """A finite number, optionally bounded below and above.
+
+    Parameters
+    ----------
+    text
+        The value as typed.
+    what
+        The option, named in the message (e.g. ``--transient``).
+    low, high
+        Bounds (``None``: unbounded on that side).
+    low_open, high_open
+        Whether the bound itself is excluded (``> low`` instead of ``>= low``).
+
+    Returns
+    -------
+    float
+        The value.
+
+    Raises
+    ------
+    ConfigError
+        Not a number, ``nan``, ``inf``, or out of range.
+    """
+    parts = []
+    if low is not None:
+        parts.append(f"{'>' if low_open else '>='} {low:g}")
+    if high is not None:
+        parts.append(f"{'<' if high_open else '<='} {high:g}")
+    allowed = "a finite number" + (" " + " and ".join(parts) if parts else "")
+    shown = _shown(text)
+    try:
+        value = float(text)
+    except ValueError:
+        raise ConfigError(f"{what} = {shown} is not a number; expected {allowed}") from None
+    ok = math.isfinite(value)
+    if ok and low is not None:
+        ok = value > low if low_open else value >= low
+    if ok and high is not None:
+        ok = value < high if high_open else value <= high
+    if not ok:
+        raise ConfigError(f"{what} = {shown} must be {allowed}")
+    return value
+
+
+def _first_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists (``.`` at worst)."""
+    for candidate in (path, *path.parents):
+        if os.path.lexists(candidate):
+            return candidate
+    return Path(".")
+
+
+def _writable(folder: Path) -> bool:
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
+def check_output_file(path: str, flag: str) -> Path:
+    """Fail early unless ``path`` can be written as a file (its folder exists and is writable).
+
+    Parameters
+    ----------
+    path
+        The output file as given.
+    flag
+        The option, named in the message (e.g. ``--events-out``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is a folder, its folder is missing, is a file, or is read-only, or
+        ``path`` exists and is read-only.
+    """
+    target = Path(path)
+    head = f"cannot write {flag} {path}"
+    if not str(path).strip():
+        raise ConfigError(f"{flag} expects a file name, got {path!r}")
+    if target.is_dir():
+        raise ConfigError(f"{head}: it is a folder; give a file name")
+    folder = target.parent
+    if not folder.is_dir():
+        found = _first_existing(folder)
+        if found.exists() and not found.is_dir():
+            raise ConfigError(f"{head}: {found} is a file, not a folder")
+        raise ConfigError(f"{head}: folder {folder} does not exist")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise ConfigError(f"{head}: the file is read-only")
+    if not target.exists() and not _writable(folder):
+        raise ConfigError(f"{head}: folder {folder} is read-only")
+    return target
+
+
+def check_output_dir(path: str | os.PathLike, flag: str) -> Path:
+    """Fail early unless ``path`` is a writable folder or can be created (with its parents).
+
+    Parameters
+    ----------
+    path
+        The output folder as given.
+    flag
+        The option, named in the message (e.g. ``--out``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ConfigError
+        ``path`` or one of its ancestors is a file, or the folder (or the
+        nearest existing ancestor it would be created in) is read-only.
+    """
+    target = Path(path)
+    head = f"cannot write {flag} {path}"
+    if not str(path).strip():
+        raise ConfigError(f"{flag} expects a folder, got {str(path)!r}")
+    if target.exists():
+        if not target.is_dir():
+            raise ConfigError(f"{head}: it is a file, not a folder")
+        if not _writable(target):
+            raise ConfigError(f"{head}: the folder is read-only")
+        return target
+    found = _first_existing(target.parent)
+    if not found.is_dir():
+        raise ConfigError(f"{head}: {found} is a file, not a folder")
+    if not _writable(found):
+        raise ConfigError(f"{head}: cannot create it, folder {found} is read-only")
+    return target
+
+
+#: Figure formats refused although matplotlib lists them: pgf needs a LaTeX
+#: installation, raw and rgba are not image files.
+_UNSAFE_FIGURE_FORMATS = {"pgf", "raw", "rgba"}
+
+
+def figure_formats() -> tuple[str, ...]:
+    """File extensions a figure can be saved as (those matplotlib writes, minus pgf, raw and rgba)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(sorted(set(FigureCanvasBase.get_supported_filetypes()) - _UNSAFE_FIGURE_FORMATS))
+
+
+def check_figure_path(path: str, flag: str) -> Path:
+    """Fail early unless ``path`` ends in a figure format (png, pdf, svg, ...) and can be written.
+
+    Raises
+    ------
+    ConfigError
+        Unknown or missing extension (the message lists the allowed ones), or
+        see :func:`check_output_file`.
+    """
+    check_output_file(path, flag)
+    suffix = Path(path).suffix.lower().lstrip(".")
+    allowed = figure_formats()
+    if suffix not in allowed:
+        what = f"extension .{suffix} is not a figure format" if suffix else "the file name has no extension"
+        raise ConfigError(f"{flag} {path}: {what}; use one of {', '.join(allowed)}")
+    return Path(path)
 
 
 def parse_value(text: str) -> Any:

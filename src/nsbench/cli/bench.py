@@ -13,7 +13,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="run a benchmark suite (TOML) into an output directory")
     p.add_argument("suite", metavar="SUITE.toml", help="suite file, or 'default' for the packaged suite")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", default=None,
                    help="worker processes (default: all cores; 1: one worker, still a child process)")
     p.add_argument("--fresh", action="store_true",
                    help="discard the cases already stored in DIR (default: resume, computing only missing cases)")
@@ -22,18 +22,23 @@ def add_parser(sub) -> None:
     p.set_defaults(handler=main)
 
 
-def run_and_report(suite, out: str, workers: int | None, resume: bool, progress: bool, report: bool) -> int:
+def run_and_report(suite, out: str, workers: str | int | None, resume: bool, progress: bool, report: bool) -> int:
     """Shared by ``bench`` and ``run``: run, print a summary, write the report.
+
+    ``workers`` is the ``--workers`` text (or a count). Bad input (workers, an
+    unwritable ``out``, a bad suite, too many cases) is refused before anything runs.
 
     Returns 0, or 1 when a case crashed or a reference could not be computed
     (the results and the report are written all the same).
     """
     from nsbench.bench import load_suite, run_suite
-    from nsbench.errors import ConfigError
+    from nsbench.cli._common import check_output_dir, parse_count
 
-    if workers is not None and workers < 1:
-        raise ConfigError(f"--workers = {workers} must be >= 1")
+    if workers is not None:
+        workers = parse_count(str(workers), "--workers", low=1, bound="MAX_WORKERS")
+    check_output_dir(out, "--out")
     suite = load_suite(suite)
+    suite.check_size()  # a grid of 10^9 cases is refused here, not expanded
     summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress)
     counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
     print(f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "

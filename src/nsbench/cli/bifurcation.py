@@ -6,7 +6,9 @@ import argparse
 import time
 from pathlib import Path
 
-from nsbench.cli._common import parse_assignment, parse_number, parse_value, shared_params
+from nsbench.cli._common import (check_output_dir, parse_assignment, parse_count, parse_number, parse_real,
+                                 parse_value, shared_params)
+from nsbench.cli._dask import connect as connect_dask
 from nsbench.errors import ConfigError
 
 
@@ -41,6 +43,9 @@ def add_parser(sub) -> None:
     p.add_argument("--pair", default="1,2", metavar="A,B",
                    help="the two blocks whose positions the locus and portraits show (default 1,2)")
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
+    p.add_argument("--point-limit", default="600", metavar="SECONDS",
+                   help="hard limit of one parameter value on local workers: past it the worker is ended "
+                        "and the value stored with status 'time limit' (default 600)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
 
@@ -52,14 +57,14 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     params = shared_params(args)
     if name == "n":
         raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
-    window = parse_number(args.window, "--window") if args.window is not None else None
-    record = parse_number(args.record, "--record")
+    window = parse_real(args.window, "--window", low=0.0, low_open=True) if args.window is not None else None
+    record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
     section = args.section or default_section(problem_probe(name, start, params),
                                               problem_probe(name, stop, params))
     return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
                      start=start, stop=stop, count=count, integrator=integrator, options=options,
-                     section=section, transient=parse_number(args.transient, "--transient"),
-                     record=int(record) if record == int(record) else record, window=window, params=params)
+                     section=section, transient=parse_real(args.transient, "--transient", low=0.0),
+                     record=record, window=window, params=params)
 
 
 def _probe(problem: str, case: str):
@@ -78,16 +83,15 @@ def main(args: argparse.Namespace) -> int:
 
     probe = _probe(args.problem, args.case)
     names = args.integrator or [None]
-    workers = int(parse_number(args.workers, "--workers")) if args.workers is not None else None
-    if workers is not None and workers < 1:
-        raise ConfigError(f"--workers = {workers} must be at least 1")
+    _check_numbers(args)  # every number and count before any problem is built or value computed
+    workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     bad = [f for f in formats if f not in figures.FORMATS]
     if bad:
         raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
     extra = {}
     if args.h is not None:
-        extra["h"] = parse_number(args.h, "--h")
+        extra["h"] = parse_real(args.h, "--h", low=0.0, low_open=True)
     for text in args.option:
         key, value = parse_assignment(text, "--option")
         extra[key] = parse_value(value)
@@ -104,13 +108,22 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
         specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
     pair = _pair(args.pair)
+    portraits = [parse_real(text, "--portrait") for text in args.portrait]
+    for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
+        problem = specs[0].problem_at(value)
+        if any(not 1 <= b <= problem.n_blocks for b in pair):
+            raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {problem.n_blocks}")
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
     base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
+    check_output_dir(base, "--out")
+    # a closed port, a bad address or a cluster without workers: one line now, not a hang later
+    dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}
     for spec in specs:
         out = base if len(specs) == 1 else base / spec.integrator
         tic = time.perf_counter()
-        frame = run_sweep(spec, out, workers=workers, dask=args.dask, progress=not args.no_progress)
+        frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress,
+                          point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True))
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
@@ -126,8 +139,7 @@ def main(args: argparse.Namespace) -> int:
         title = (f"{spec.problem} case {spec.case}: {spec.name} sweep, {spec.integrator}, "
                  f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
-        for text in args.portrait:
-            value = parse_number(text, "--portrait")
+        for value in portraits:
             _portrait(spec, value, out, formats, pair)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
@@ -149,7 +161,34 @@ def main(args: argparse.Namespace) -> int:
         (base / "compare.md").write_text(compare.report(frames, walls))
         compare.agreement(frames).to_csv(base / "agreement.csv", index=False)
         print(f"comparison -> {base / 'compare.md'}")
+    if dask is not None:
+        dask.close()
     return 0
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """The sweep text and every numeric option, so that bad input fails before anything runs."""
+    from nsbench.bifurcation.sweep import parse_sweep
+
+    parse_sweep(args.sweep)
+    try:
+        whole = float(args.case).is_integer()
+    except ValueError:
+        whole = False
+    if not whole:
+        raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4")
+    parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
+    parse_real(args.transient, "--transient", low=0.0)
+    if args.window is not None:
+        parse_real(args.window, "--window", low=0.0, low_open=True)
+    if args.h is not None:
+        parse_real(args.h, "--h", low=0.0, low_open=True)
+    if args.workers is not None:
+        parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
+    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True)
+    for text in args.portrait:
+        parse_real(text, "--portrait")
+    _pair(args.pair)
 
 
 def _pair(text: str) -> tuple[int, int]:

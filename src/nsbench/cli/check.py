@@ -37,6 +37,9 @@ def main(args: argparse.Namespace) -> int:
         options[key] = parse_value(value)
     integ = get_integrator(args.integrator, **options)
     problem = {"name": args.problem, **shared_params(args)}
+    from nsbench.problems import get_problem
+
+    get_problem(**problem)  # an unknown problem or a bad --n/--param: one line before anything runs
     print(f"conformance of {integ.name} {integ.settings} on {problem}")
     results = check_integrator(integ, args.check, problem=problem)
     width = max(len(r.check) for r in results)

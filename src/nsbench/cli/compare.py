@@ -10,7 +10,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser("compare", help="compare two result directories (or Parquet/CSV files)")
     p.add_argument("a", metavar="A", help="baseline results")
     p.add_argument("b", metavar="B", help="new results")
-    p.add_argument("--factor", type=float, default=1.5,
+    p.add_argument("--factor", default="1.5",
                    help="smallest ratio that counts as a change (default 1.5)")
     p.add_argument("--all", action="store_true", help="list every common case, not only the changes")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="write the full comparison table")
@@ -20,10 +20,18 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.compare import compare
     from nsbench.bench.report import markdown_table
+    from nsbench.cli._common import check_output_file, parse_number
+    from nsbench.errors import ConfigError
 
-    table, counts = compare(args.a, args.b, args.factor)
+    factor = parse_number(args.factor, "--factor")  # its range (finite, > 1) is checked by compare
+    if args.out:
+        check_output_file(args.out, "--out")
+    table, counts = compare(args.a, args.b, factor)
+    if counts["common"] == 0:
+        raise ConfigError(f"no common cases: {args.a} and {args.b} share no case id ({counts['only_a']} cases "
+                          f"only in A, {counts['only_b']} only in B); compare runs of the same suite")
     print(f"{counts['common']} common cases ({counts['only_a']} only in A, {counts['only_b']} only in B); "
-          f"factor {args.factor:g}; {counts['flagged']} flagged")
+          f"factor {factor:g}; {counts['flagged']} flagged")
     changed = table["flagged"] | ~table["time_verdict"].isin(["same", "n/a"]) | ~table["err_verdict"].isin(["same", "n/a"])
     view = table if args.all else table[changed]
     if len(view):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from nsbench.errors import ConfigError
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser("ingest", help="load a pytest-benchmark JSON file as results (then 'nsbench report')")
@@ -16,9 +18,14 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from nsbench.bench.ingest import ingest
+    from nsbench.bench.ingest import ingest, read_benchmark_json
+    from nsbench.cli._common import check_output_dir
 
     out = args.out or str(Path(args.file).with_suffix(""))
+    read_benchmark_json(args.file)  # a missing, binary or malformed file is named before --out is checked
+    if Path(out).resolve() == Path(args.file).resolve():
+        raise ConfigError(f"--out {out} is the benchmark file itself; give --out DIR")
+    check_output_dir(out, "--out")
     frame = ingest(args.file, out)
     print(f"{len(frame)} benchmarks -> {Path(out) / 'results.parquet'} (and results.csv)")
     if args.report:

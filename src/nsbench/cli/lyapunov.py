@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from nsbench.cli._common import add_problem_arguments, parse_number, problem_from_args
-from nsbench.errors import ConfigError
+from nsbench.cli._common import (add_problem_arguments, check_output_file, parse_count, parse_real,
+                                 problem_from_args)
 
 
 def add_parser(sub) -> None:
@@ -24,30 +24,37 @@ def add_parser(sub) -> None:
     p.add_argument("--d0", default="1e-8", help="renormalised separation (default 1e-8)")
     p.add_argument("--seed", default="0", help="seed of the start perturbations and directions (default 0)")
     p.add_argument("--workers", default="1", help="processes running members at once (default 1)")
+    p.add_argument("--member-limit", default="1800", metavar="SECONDS",
+                   help="hard limit of one member's run: past it its worker is ended and the member "
+                        "counts as failed (default 1800, compilation included)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="write log(d/d0) per member and iteration")
     p.set_defaults(handler=main)
-
-
-def _integer(text: str, what: str) -> int:
-    value = parse_number(text, what)
-    if not value.is_integer():  # also refuses inf and nan
-        raise ConfigError(f"{what} = {text!r} is not an integer")
-    return int(value)
 
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.lyapunov import largest_exponent
 
+    # every option is checked before the problem is built or anything integrated
+    transient = parse_real(args.transient, "--transient", low=0.0)  # inf would never end
+    members = parse_count(args.members, "--members", low=4, bound="MAX_MEMBERS")
+    iterations = parse_count(args.iterations, "--iterations", low=1, bound="MAX_ITERATIONS")
+    d0 = parse_real(args.d0, "--d0", low=0.0, low_open=True, high=0.01, high_open=True)
+    seed = parse_count(args.seed, "--seed", low=0, bound="MAX_SEED")
+    workers = parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
+    options = {"h": parse_real(args.h, "--h", low=0.0, low_open=True)} if args.h is not None else {}
+    member_limit = parse_real(args.member_limit, "--member-limit", low=0.0, low_open=True)
+    if args.out:
+        check_output_file(args.out, "--out")
     problem = problem_from_args(args)
     name = args.integrator or ("exact" if problem.is_linear else "henon-rk4")
-    options = {"h": parse_number(args.h, "--h")} if args.h is not None else {}
     res = largest_exponent(problem, name, options=options,
-                           transient=parse_number(args.transient, "--transient"),
-                           iterations=_integer(args.iterations, "--iterations"),
-                           members=_integer(args.members, "--members"),
-                           d0=parse_number(args.d0, "--d0"),
-                           seed=_integer(args.seed, "--seed"),
-                           workers=_integer(args.workers, "--workers"))
+                           transient=transient,
+                           iterations=iterations,
+                           members=members,
+                           d0=d0,
+                           seed=seed,
+                           workers=workers,
+                           member_limit=member_limit)
     print(f"{problem!r} with {name}")
     print(res.summary())
     if res.message:

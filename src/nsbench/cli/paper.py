@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nsbench.cli._common import parse_number
+from nsbench.cli._common import check_output_dir, parse_count, parse_real
 
 
 def add_parser(sub) -> None:
@@ -21,16 +21,13 @@ def add_parser(sub) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.paper import run_paper
-    from nsbench.errors import ConfigError
 
-    points = int(parse_number(args.points, "--points"))
-    record = int(parse_number(args.record, "--record"))
-    if points < 2 or record < 4:
-        raise ConfigError(f"--points = {points} must be >= 2 and --record = {record} >= 4")
-    case = int(parse_number(args.case, "--case")) if args.case is not None else None
-    if case is not None and case not in (1, 2, 3, 4):
-        raise ConfigError(f"--case = {case} must be 1, 2, 3 or 4")
-    workers = int(parse_number(args.workers, "--workers")) if args.workers is not None else None
-    run_paper(args.out, points=points, transient=parse_number(args.transient, "--transient"), record=record,
+    points = parse_count(args.points, "--points", low=2, bound="MAX_SWEEP_POINTS")
+    record = parse_count(args.record, "--record", low=4, bound="MAX_RECORD")
+    transient = parse_real(args.transient, "--transient", low=0.0)
+    case = parse_count(args.case, "--case", low=1, high=4) if args.case is not None else None
+    workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
+    check_output_dir(args.out, "--out")
+    run_paper(args.out, points=points, transient=transient, record=record,
               workers=workers, only_case=case, progress=not args.no_progress)
     return 0

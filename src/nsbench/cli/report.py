@@ -15,11 +15,17 @@ def add_parser(sub) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from nsbench.bench.compare import read_results
     from nsbench.bench.report import write_report
+    from nsbench.cli._common import check_output_dir
 
     if not Path(args.directory).is_dir():
         raise ConfigError(f"{args.directory!r} is not a directory")
-    rep = write_report(args.directory)
+    results = read_results(args.directory)  # another tool's folder or an empty one: one line, exit 2
+    check_output_dir(args.directory, "the report into")
+    if (Path(args.directory) / "figures").exists():
+        check_output_dir(Path(args.directory) / "figures", "the report figures into")
+    rep = write_report(args.directory, results)
     print(f"report -> {rep.html}")
     print(f"          {rep.markdown}, {rep.latex}, {len(rep.figures)} figures (PNG and SVG)")
     return 0

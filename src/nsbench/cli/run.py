@@ -14,7 +14,7 @@ def add_parser(sub) -> None:
                    help="output directory (default reports/latest; reports/<suite> for another packaged suite)")
     p.add_argument("--suite", default="default", metavar="SUITE",
                    help="a packaged suite by name (default, chain-scaling) or a suite TOML file")
-    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--workers", default=None, help="processes (default: all cores)")
     p.add_argument("--resume", action="store_true",
                    help="keep the cases already in --out (continue an interrupted run); default: start afresh")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

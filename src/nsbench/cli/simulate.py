@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nsbench.cli._common import add_problem_arguments, parse_assignment, parse_number, parse_value, problem_from_args
-from nsbench.errors import ConfigError
+from nsbench.cli._common import (add_problem_arguments, check_figure_path, check_output_file, parse_assignment,
+                                 parse_count, parse_real, parse_value, problem_from_args)
 
 
 def add_parser(sub) -> None:
@@ -30,20 +30,24 @@ def add_parser(sub) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    problem = problem_from_args(args)
-    name = args.integrator or ("exact" if problem.is_linear else "scipy-dop853")
+    # every option is checked before the problem is built and anything is integrated
     options = {}
     for flag in ("rtol", "atol", "h"):
         text = getattr(args, flag)
         if text is not None:
-            options[flag] = parse_number(text, f"--{flag}")
+            options[flag] = parse_real(text, f"--{flag}", low=0.0, low_open=True)
     for text in args.option:
         key, value = parse_assignment(text, "--option")
         options[key] = parse_value(value)
-    t_end = parse_number(args.t_end, "--t-end")
-    samples = int(parse_number(args.samples, "--samples"))
-    if samples < 2:
-        raise ConfigError(f"--samples = {samples} must be at least 2")
+    t_end = parse_real(args.t_end, "--t-end")  # t_end > t0 is the engine's check
+    samples = parse_count(args.samples, "--samples", low=2, bound="MAX_SAMPLES")
+    for flag in ("events_out", "trajectory_out"):
+        if getattr(args, flag):
+            check_output_file(getattr(args, flag), "--" + flag.replace("_", "-"))
+    if args.plot:
+        check_figure_path(args.plot, "--plot")
+    problem = problem_from_args(args)
+    name = args.integrator or ("exact" if problem.is_linear else "scipy-dop853")
     from nsbench.engine import simulate
 
     want_traj = bool(args.trajectory_out or args.plot)
@@ -65,7 +69,4 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _write(frame, path: str) -> None:
-    target = Path(path)
-    if target.parent and not target.parent.exists():
-        raise ConfigError(f"cannot write {path}: directory {target.parent} does not exist")
-    frame.to_csv(target, index=False, float_format="%.17g")
+    frame.to_csv(Path(path), index=False, float_format="%.17g")

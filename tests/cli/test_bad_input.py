@@ -1,0 +1,464 @@
+"""Every bad input to every sub-command: exit status 2, one ``nsbench: error:`` line, no traceback.
+
+The first test is a list of concrete bad inputs (unwritable outputs, out-of-range
+counts, malformed suites and JSON files, foreign result folders, unreachable Dask
+schedulers...). The second feeds hypothesis-drawn bad values (text that is not a
+number, nan, inf, negative, huge, fractional, empty) into the numeric options of
+each sub-command.
+
+Every numeric option is parsed by nsbench itself (none uses argparse's
+``type=int``/``type=float``), so a bad *value* always reaches our validation and
+ends in the one-line format. Values are passed as ``--option=VALUE`` because
+argparse reads a separate ``-inf`` or ``-1e12`` as an unknown flag (its own
+two-line usage error, exit 2); the ``=`` form hands any text to nsbench. Every
+value drawn is bad, so each call must fail before any work starts (the whole file
+runs in well under a minute).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from nsbench.cli import main
+
+IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
+
+
+def _pb(names: list[str]) -> dict:
+    """A minimal pytest-benchmark JSON document."""
+    return {"version": "4.0.0", "datetime": "2024-01-01", "machine_info": {}, "commit_info": {},
+            "benchmarks": [{"name": n, "fullname": f"t.py::{n}", "group": None, "extra_info": {},
+                            "stats": {"median": 0.1, "min": 0.09, "max": 0.11, "rounds": 3,
+                                      "data": [0.09, 0.1, 0.11]}} for n in names]}
+
+
+SUITES = {
+    "problems_int": "problems = 5\n",
+    "problems_str": 'problems = "one-dof"\n',
+    "problem_name_int": "problems = [{name = 5}]\n",
+    "problem_params_int": 'problems = [{name = "one-dof", params = 5}]\n',
+    "problem_params_str": 'problems = [{name = "one-dof", params = {c = "abc"}}]\n',
+    "problem_cases_float": 'problems = [{name = "one-dof", cases = 5.5}]\n',
+    "problem_dimensional_str": 'problems = [{name = "one-dof", dimensional = "yes"}]\n',
+    "t_span_inf": 't_span = [0, inf]\nproblems = [{name = "one-dof"}]\n',
+    "t_span_nan": 't_span = [0, nan]\nproblems = [{name = "one-dof"}]\n',
+    "t_span_str": 't_span = "abc"\nproblems = [{name = "one-dof"}]\n',
+    "reference_nope": 'reference = ["nope"]\nproblems = [{name = "one-dof"}]\n',
+    "reference_int": 'reference = 5\nproblems = [{name = "one-dof"}]\n',
+    "repeats_str": 'repeats = "3"\nproblems = [{name = "one-dof"}]\n',
+    "repeats_huge": 'repeats = 1000000000000\nproblems = [{name = "one-dof"}]\n',
+    "time_limit_inf": 'time_limit = inf\nproblems = [{name = "one-dof"}]\n',
+    "dense_huge": 'dense_points = 1000000000000\nproblems = [{name = "one-dof"}]\n',
+    "name_int": 'name = 5\nproblems = [{name = "one-dof"}]\n',
+    "targets_nan": 'targets = [nan]\nproblems = [{name = "one-dof"}]\n',
+    "integrators_int": 'integrators = 5\nproblems = [{name = "one-dof"}]\n',
+    "only_str": 'integrators = {only = "exact"}\nproblems = [{name = "one-dof"}]\n',
+    "grids_int": 'integrators = {grids = 5}\nproblems = [{name = "one-dof"}]\n',
+    "grid_options_int": 'integrators = {only = ["scipy-rk45"], grids = {scipy-rk45 = {options = 5}}}\n'
+                        'problems = [{name = "one-dof"}]\n',
+    "exclude_int": 'integrators = {exclude = 5}\nproblems = [{name = "one-dof"}]\n',
+    "skip_int": 'integrators = {skip_levels = 5}\nproblems = [{name = "one-dof"}]\n',
+    "registered_str": 'integrators = {registered = "yes"}\nproblems = [{name = "one-dof"}]\n',
+    "malformed": "problems = [\n",
+    # 1000 x 1000 x 1000 problems: must be refused from the counts, never expanded
+    "huge_grid": 'problems = [{name = "one-dof", params = {c = [' + ",".join(["0.1"] * 1000) + "], h = ["
+                 + ",".join(["1.0"] * 1000) + "], F = [" + ",".join(["0.0"] * 1000) + ']}}]\n'
+                 'integrators = {only = ["exact"]}\n',
+    "huge_option_grid": 'problems = [{name = "one-dof"}]\nintegrators = {only = ["scipy-rk45"], grids = '
+                        '{scipy-rk45 = {grid = {rtol = [' + ",".join(["1e-6"] * 1000) + "], atol = ["
+                        + ",".join(["1e-8"] * 1000) + "], first_step = [" + ",".join(["0.1"] * 1000) + "]}}}}\n",
+}
+
+
+@pytest.fixture(scope="module")
+def d(tmp_path_factory):
+    """A folder of bad (and a few good) inputs; returned as a string for argv templates."""
+    from nsbench.bench.ingest import ingest
+
+    root = tmp_path_factory.mktemp("bad")
+    (root / "afile").write_text("x")
+    (root / "bin.bin").write_bytes(bytes(range(256)) * 4)
+    (root / "latin.toml").write_bytes("name = 'caf\xe9'\n".encode("latin-1"))
+    (root / "bad.json").write_text("{not json")
+    (root / "list.json").write_text(json.dumps([1, 2, 3]))
+    (root / "b5.json").write_text(json.dumps({"benchmarks": 5}))
+    (root / "bints.json").write_text(json.dumps({"benchmarks": [1, 2]}))
+    (root / "bstats.json").write_text(json.dumps({"benchmarks": [{"name": "a", "stats": "x"}]}))
+    (root / "bmedian.json").write_text(json.dumps({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}))
+    (root / "bempty.json").write_text(json.dumps({"benchmarks": []}))
+    (root / "good1.json").write_text(json.dumps(_pb(["a", "b"])))
+    (root / "good2.json").write_text(json.dumps(_pb(["c", "d"])))
+    ingest(root / "good1.json", root / "res1")
+    ingest(root / "good2.json", root / "res2")
+    (root / "emptydir").mkdir()
+    (root / "otherdir").mkdir()
+    (root / "otherdir" / "notes.txt").write_text("another tool's folder")
+    (root / "garbage.csv").write_text("a,b\n1,2\n")
+    (root / "garbage.parquet").write_text("not parquet")
+    (root / "good.toml").write_text('t_span = [0.0, 5.0]\nproblems = [{name = "one-dof", case = 1}]\n'
+                                    'integrators = {only = ["exact"]}\n')
+    for name, text in SUITES.items():
+        if not name.startswith(("malformed", "huge")):
+            if "t_span" not in text:
+                text = "t_span = [0.0, 5.0]\n" + text
+            if "integrators" not in text:
+                text += 'integrators = {only = ["exact"]}\n'
+        (root / f"{name}.toml").write_text(text)
+    ro = root / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    yield str(root)
+    ro.chmod(0o755)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+S = ["simulate", "one-dof", "--t-end", "5"]
+B = ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:2", "--transient", "10", "--record", "4", "--no-progress",
+     "--formats", "png", "--out", "{d}/bif"]
+L = ["lyapunov", "two-dof", "--case", "2", "--iterations", "80", "--members", "4", "--transient", "10"]
+P = ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "10", "--case", "1",
+     "--out", "{d}/paper"]
+R = ["compare", "{d}/res1", "{d}/res1"]
+
+CASES = [
+    # ---- simulate: counts, reals, output files, figure format
+    ("simulate-samples-nan", S + ["--samples", "nan", "--trajectory-out", "{d}/tr.csv"], "--samples = nan"),
+    ("simulate-samples-inf", S + ["--samples", "inf"], "--samples = inf"),
+    ("simulate-samples-neg", S + ["--samples", "-3"], "--samples = -3"),
+    ("simulate-samples-frac", S + ["--samples", "2.5"], "whole number"),
+    ("simulate-samples-huge", S + ["--samples", "1e12"], "10000000"),
+    ("simulate-samples-text", S + ["--samples", "abc"], "not a number"),
+    ("simulate-t-end-nan", ["simulate", "one-dof", "--t-end", "nan"], "--t-end = nan"),
+    ("simulate-t-end-inf", ["simulate", "one-dof", "--t-end", "inf"], "--t-end = inf"),
+    ("simulate-atol-inf", S + ["--integrator", "scipy-rk45", "--atol", "inf"], "--atol = inf"),
+    ("simulate-h-inf", S + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
+    ("simulate-h-zero", S + ["--integrator", "henon-rk4", "--h", "0"], "--h = 0"),
+    ("simulate-events-out-under-file", S + ["--events-out", "{d}/afile/x.csv"], "is a file, not a folder"),
+    ("simulate-events-out-is-dir", S + ["--events-out", "{d}/emptydir"], "it is a folder"),
+    ("simulate-events-out-missing-dir", S + ["--events-out", "{d}/missing/x.csv"], "does not exist"),
+    ("simulate-trajectory-out-under-file", S + ["--trajectory-out", "{d}/afile/x.csv"], "is a file"),
+    ("simulate-plot-xyz", S + ["--plot", "{d}/p.xyz"], "png"),
+    ("simulate-plot-no-extension", S + ["--plot", "{d}/p"], "no extension"),
+    ("simulate-plot-under-file", S + ["--plot", "{d}/afile/p.png"], "is a file"),
+    # ---- check
+    ("check-unknown-integrator", ["check", "rk99"], "unknown integrator"),
+    ("check-n-nan", ["check", "exact", "--problem", "chain", "--n", "nan"], "n = nan"),
+    ("check-unknown-problem", ["check", "exact", "--problem", "nope"], "unknown problem"),
+    # ---- run
+    ("run-workers-zero", ["run", "--workers", "0", "--out", "{d}/runout"], "--workers = 0 must be >= 1"),
+    ("run-workers-text", ["run", "--workers", "abc", "--out", "{d}/runout"], "not a number"),
+    ("run-workers-huge", ["run", "--workers", "1e12", "--out", "{d}/runout"], "1024"),
+    ("run-workers-frac", ["run", "--workers", "2.5", "--out", "{d}/runout"], "whole number"),
+    ("run-out-file", ["run", "--out", "{d}/afile"], "it is a file"),
+    ("run-out-under-file", ["run", "--out", "{d}/afile/sub"], "is a file, not a folder"),
+    ("run-suite-binary", ["run", "--suite", "{d}/bin.bin", "--out", "{d}/runout"], "not UTF-8"),
+    # ---- bench: suite files
+    *[(f"bench-suite-{name}", ["bench", f"{{d}}/{name}.toml", "--out", f"{{d}}/bout-{name}", "--no-progress"],
+       None) for name in SUITES],
+    ("bench-suite-problems-int-message", ["bench", "{d}/problems_int.toml", "--out", "{d}/bo"],
+     "suite field 'problems' must be a list of tables (each with a 'name'), got int 5"),
+    ("bench-suite-reference-message", ["bench", "{d}/reference_nope.toml", "--out", "{d}/bo"],
+     "unknown integrator(s) nope; registered:"),
+    ("bench-suite-huge-grid-message", ["bench", "{d}/huge_grid.toml", "--out", "{d}/bo"], "100000"),
+    ("bench-suite-t-span-inf-message", ["bench", "{d}/t_span_inf.toml", "--out", "{d}/bo"], "finite"),
+    ("bench-suite-latin1", ["bench", "{d}/latin.toml", "--out", "{d}/bo"], "not UTF-8"),
+    ("bench-suite-binary", ["bench", "{d}/bin.bin", "--out", "{d}/bo"], "not UTF-8"),
+    ("bench-suite-is-dir", ["bench", "{d}/emptydir", "--out", "{d}/bo"], "is a folder"),
+    ("bench-out-file", ["bench", "{d}/good.toml", "--out", "{d}/afile"], "it is a file"),
+    ("bench-out-under-file", ["bench", "{d}/good.toml", "--out", "{d}/afile/sub"], "is a file, not a folder"),
+    ("bench-workers-negative", ["bench", "{d}/good.toml", "--out", "{d}/bo", "--workers", "-1"], "--workers = -1"),
+    ("bench-workers-nan", ["bench", "{d}/good.toml", "--out", "{d}/bo", "--workers", "nan"], "--workers = nan"),
+    # ---- report
+    ("report-missing", ["report", "{d}/missing"], "is not a directory"),
+    ("report-file", ["report", "{d}/afile"], "is not a directory"),
+    ("report-empty-dir", ["report", "{d}/emptydir"], "holds no results"),
+    ("report-other-tool-dir", ["report", "{d}/otherdir"], "holds no results"),
+    # ---- compare
+    ("compare-missing", ["compare", "{d}/missing", "{d}/res1"], "do not exist"),
+    ("compare-empty-dir", ["compare", "{d}/emptydir", "{d}/res1"], "holds no results"),
+    ("compare-other-tool-dir", ["compare", "{d}/res1", "{d}/otherdir"], "holds no results"),
+    ("compare-binary", ["compare", "{d}/bin.bin", "{d}/res1"], "cannot read results"),
+    ("compare-foreign-csv", ["compare", "{d}/garbage.csv", "{d}/res1"], "no nsbench results"),
+    ("compare-garbage-parquet", ["compare", "{d}/garbage.parquet", "{d}/res1"], "Parquet"),
+    ("compare-no-common-cases", ["compare", "{d}/res1", "{d}/res2"], "no common cases"),
+    ("compare-factor-nan", R + ["--factor", "nan"], "factor = nan"),
+    ("compare-factor-inf", R + ["--factor", "inf"], "factor = inf"),
+    ("compare-factor-text", R + ["--factor", "abc"], "--factor = 'abc' is not a number"),
+    ("compare-factor-one", R + ["--factor", "1"], "must be a finite number > 1"),
+    ("compare-out-under-file", R + ["--out", "{d}/afile/x.csv"], "is a file"),
+    ("compare-out-is-dir", R + ["--out", "{d}/emptydir"], "it is a folder"),
+    ("compare-out-missing-dir", R + ["--out", "{d}/missing/x.csv"], "does not exist"),
+    # ---- ingest
+    ("ingest-malformed-json", ["ingest", "{d}/bad.json", "--out", "{d}/io"], "is not JSON"),
+    ("ingest-json-list", ["ingest", "{d}/list.json", "--out", "{d}/io"], "not a pytest-benchmark file"),
+    ("ingest-benchmarks-int", ["ingest", "{d}/b5.json", "--out", "{d}/io"], "'benchmarks' must be a list"),
+    ("ingest-benchmark-int", ["ingest", "{d}/bints.json", "--out", "{d}/io"], "benchmarks[0] must be a table"),
+    ("ingest-stats-str", ["ingest", "{d}/bstats.json", "--out", "{d}/io"], "benchmarks[0].stats must be a table"),
+    ("ingest-median-str", ["ingest", "{d}/bmedian.json", "--out", "{d}/io"], "stats.median must be a number"),
+    ("ingest-no-benchmarks", ["ingest", "{d}/bempty.json", "--out", "{d}/io"], "holds no benchmarks"),
+    ("ingest-binary", ["ingest", "{d}/bin.bin", "--out", "{d}/io"], "not UTF-8"),
+    ("ingest-dir", ["ingest", "{d}/emptydir", "--out", "{d}/io"], "is a folder"),
+    ("ingest-out-file", ["ingest", "{d}/good1.json", "--out", "{d}/afile"], "it is a file"),
+    ("ingest-out-under-file", ["ingest", "{d}/good1.json", "--out", "{d}/afile/sub"], "is a file, not a folder"),
+    # ---- bifurcation
+    ("bifurcation-sweep-count-nan", B + ["--sweep", "v0=0.5:1.0:nan"], "COUNT = nan"),
+    ("bifurcation-sweep-count-inf", B + ["--sweep", "v0=0.5:1.0:inf"], "COUNT = inf"),
+    ("bifurcation-sweep-count-neg", B + ["--sweep", "v0=0.5:1.0:-3"], "COUNT = -3"),
+    ("bifurcation-sweep-count-frac", B + ["--sweep", "v0=0.5:1.0:2.5"], "whole number"),
+    ("bifurcation-sweep-count-huge", B + ["--sweep", "v0=0.5:1.0:1e12"], "1000000"),
+    ("bifurcation-sweep-start-nan", B + ["--sweep", "v0=nan:1.0:3"], "finite"),
+    ("bifurcation-record-nan", B + ["--record", "nan"], "--record = nan"),
+    ("bifurcation-record-huge", B + ["--record", "1e12"], "MAX_RECORD"),
+    ("bifurcation-transient-inf", B + ["--transient", "inf"], "--transient = inf"),
+    ("bifurcation-transient-neg", B + ["--transient", "-1"], "--transient = -1"),
+    ("bifurcation-window-zero", B + ["--window", "0"], "--window = 0"),
+    ("bifurcation-workers-inf", B + ["--workers", "inf"], "--workers = inf"),
+    ("bifurcation-case-nan", B + ["--case", "nan"], "--case"),
+    ("bifurcation-case-nan-with-section", B + ["--case", "nan", "--section", "peaks",
+                                               "--integrator", "henon-rk4"], "--case"),
+    ("bifurcation-h-inf", B + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
+    ("bifurcation-portrait-nan", B + ["--portrait", "nan"], "--portrait = nan"),
+    ("bifurcation-pair-out-of-range", ["bifurcation", "two-dof", "--sweep", "v0=0.5:1.0:2", "--pair", "1,9",
+                                       "--portrait", "0.7", "--out", "{d}/bif2"], "--pair 1,9"),
+    ("bifurcation-formats-xyz", B + ["--formats", "xyz"], "--formats"),
+    ("bifurcation-out-file", B + ["--out", "{d}/afile"], "it is a file"),
+    ("bifurcation-out-under-file", B + ["--out", "{d}/afile/sub"], "is a file, not a folder"),
+    ("bifurcation-dask-bad-address", B + ["--dask", "not a url", "--out", "{d}/bif-dask1"], "--dask"),
+    ("bifurcation-dask-closed-port", B + ["--dask", "tcp://127.0.0.1:{port}", "--out", "{d}/bif-dask2"],
+     "is the scheduler running?"),
+    # ---- lyapunov
+    ("lyapunov-transient-neg", L + ["--transient", "-1"], "--transient = -1"),
+    ("lyapunov-transient-inf", L + ["--transient", "inf"], "--transient = inf"),
+    ("lyapunov-iterations-huge", L + ["--iterations", "1e12"], "MAX_ITERATIONS"),
+    ("lyapunov-iterations-nan", L + ["--iterations", "nan"], "--iterations = nan"),
+    ("lyapunov-members-frac", L + ["--members", "2.5"], "whole number"),
+    ("lyapunov-members-huge", L + ["--members", "1e12"], "MAX_MEMBERS"),
+    ("lyapunov-seed-huge", L + ["--seed", "1e12"], "MAX_SEED"),
+    ("lyapunov-seed-neg", L + ["--seed", "-3"], "--seed = -3"),
+    ("lyapunov-workers-huge", L + ["--workers", "1e12"], "MAX_WORKERS"),
+    ("lyapunov-d0-inf", L + ["--d0", "inf"], "--d0 = inf"),
+    ("lyapunov-h-inf", L + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
+    ("lyapunov-out-under-file", L + ["--out", "{d}/afile/x.csv"], "is a file"),
+    ("lyapunov-out-is-dir", L + ["--out", "{d}/emptydir"], "it is a folder"),
+    # ---- paper
+    ("paper-points-nan", P + ["--points", "nan"], "--points = nan"),
+    ("paper-points-frac", P + ["--points", "2.5"], "whole number"),
+    ("paper-points-huge", P + ["--points", "1e12"], "MAX_SWEEP_POINTS"),
+    ("paper-record-inf", P + ["--record", "inf"], "--record = inf"),
+    ("paper-transient-inf", P + ["--transient", "inf"], "--transient = inf"),
+    ("paper-workers-zero", P + ["--workers", "0"], "--workers = 0"),
+    ("paper-case-five", P + ["--case", "5"], "--case = 5"),
+    ("paper-out-file", P + ["--out", "{d}/afile"], "it is a file"),
+    ("paper-out-under-file", P + ["--out", "{d}/afile/sub"], "is a file, not a folder"),
+]
+
+READ_ONLY_CASES = [
+    ("simulate-events-out-read-only", S + ["--events-out", "{d}/ro/x.csv"], "read-only"),
+    ("simulate-plot-read-only", S + ["--plot", "{d}/ro/p.png"], "read-only"),
+    ("run-out-read-only", ["run", "--out", "{d}/ro/sub"], "read-only"),
+    ("bench-out-read-only", ["bench", "{d}/good.toml", "--out", "{d}/ro"], "read-only"),
+    ("compare-out-read-only", R + ["--out", "{d}/ro/x.csv"], "read-only"),
+    ("ingest-out-read-only", ["ingest", "{d}/good1.json", "--out", "{d}/ro/sub"], "read-only"),
+    ("bifurcation-out-read-only", B + ["--out", "{d}/ro/sub"], "read-only"),
+    ("lyapunov-out-read-only", L + ["--out", "{d}/ro/x.csv"], "read-only"),
+    ("paper-out-read-only", P + ["--out", "{d}/ro/sub"], "read-only"),
+]
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("nsbench: error: "), err
+    return lines[0]
+
+
+def _argv(template: list[str], d: str) -> list[str]:
+    port = str(_free_port())
+    return [a.replace("{d}", d).replace("{port}", port) for a in template]
+
+
+def test_the_list_covers_every_sub_command():
+    from nsbench.cli import COMMANDS
+
+    covered = {argv[0] for _, argv, _ in CASES}
+    assert covered >= set(COMMANDS) - {"listing"}
+    assert len(CASES) + len(READ_ONLY_CASES) >= 60
+
+
+@pytest.mark.parametrize("argv, fragment", [pytest.param(a, f, id=i) for i, a, f in CASES])
+def test_bad_input_exits_2_with_one_line(argv, fragment, d, capsys):
+    assert main(_argv(argv, d)) == 2
+    line = _one_error_line(capsys)
+    if fragment is not None:
+        assert fragment in line
+
+
+@pytest.mark.skipif(IS_ROOT, reason="root writes into read-only folders")
+@pytest.mark.parametrize("argv, fragment", [pytest.param(a, f, id=i) for i, a, f in READ_ONLY_CASES])
+def test_read_only_outputs_exit_2_with_one_line(argv, fragment, d, capsys):
+    assert main(_argv(argv, d)) == 2
+    assert fragment in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("argv, fragment", [pytest.param(a, f, id=i) for i, a, f in READ_ONLY_CASES])
+def test_read_only_outputs_as_seen_by_os_access(argv, fragment, d, capsys, monkeypatch):
+    """The same cases where ``os.access`` says the folder is read-only (so that they run as root too)."""
+    ro = os.path.join(d, "ro")
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if str(p).startswith(ro) else real(p, mode, **kw))
+    assert main(_argv(argv, d)) == 2
+    assert fragment in _one_error_line(capsys)
+
+
+def test_dask_scheduler_without_workers(d, capsys, monkeypatch):
+    from distributed import LocalCluster
+
+    from nsbench.cli import _dask
+
+    monkeypatch.setattr(_dask, "WORKER_TIMEOUT", 1.0)
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+        argv = _argv(B + ["--dask", cluster.scheduler_address, "--out", "{d}/bif-dask3"], d)
+        assert main(argv) == 2
+    line = _one_error_line(capsys)
+    assert "no workers" in line and cluster.scheduler_address in line
+
+
+def _subprocess(argv: list[str], **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "nsbench", *argv], capture_output=True, text=True, timeout=120,
+                          **kw)
+
+
+@pytest.mark.parametrize("address", ["not a url", "tcp://127.0.0.1:{port}"])
+def test_dask_errors_leave_no_traceback_at_exit(address, d):
+    """distributed's half-built Client must not print a traceback when the interpreter exits."""
+    done = _subprocess(_argv(B + ["--dask", address, "--out", "{d}/bif-dask4"], d))
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+    assert done.stderr.count("\n") == 1 and done.stderr.startswith("nsbench: error: --dask")
+
+
+@pytest.mark.parametrize("argv", [["list"], ["compare", "{d}/res1", "{d}/res1", "--all"]])
+def test_a_closed_stdout_pipe_ends_quietly(argv, d):
+    """``nsbench compare ... | head``: the reader is gone, so no BrokenPipeError traceback."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "nsbench", *_argv(argv, d)], stdout=write,
+                                stderr=subprocess.PIPE, text=True)
+    finally:
+        os.close(write)
+    _, err = proc.communicate(timeout=120)
+    assert err == "" and proc.returncode == 141
+
+
+# ---------------------------------------------------------------------- hypothesis
+
+def _not_a_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return True
+    return False
+
+
+_TEXT = st.text(max_size=12).filter(_not_a_number).filter(lambda t: "\x00" not in t)
+_SPECIAL = st.sampled_from(["nan", "NaN", "-nan", "inf", "+inf", "-inf", "Infinity", "-Infinity", "1e400"])
+_NEGATIVE = st.one_of(st.integers(max_value=-1).map(str),
+                      st.floats(max_value=-1e-9, allow_infinity=False, allow_nan=False).map(repr))
+_FRACTION = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(
+    lambda x: not float(x).is_integer()).map(repr)
+_HUGE = st.one_of(st.integers(min_value=10**12).map(str),
+                  st.floats(min_value=1e12, allow_infinity=False, allow_nan=False).map(repr))
+
+#: What makes a value bad for each kind of option (every value these draw is refused).
+BAD = {
+    # a count: whole number in a bounded range (every bound is below 10^12)
+    "count": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, _FRACTION, _HUGE, st.just(""), st.just("0")),
+    # a seed: whole number from 0 to 2^32 - 1 (so 0 is allowed)
+    "seed": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, _FRACTION, _HUGE, st.just("")),
+    # a finite number >= 0 (transient)
+    "nonneg": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, st.just("")),
+    # a finite number > 0 (step size, window, tolerances, time limits)
+    "positive": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, st.just(""), st.just("0"), st.just("-0.0")),
+    # any finite number (t-end, portrait value)
+    "finite": st.one_of(_TEXT, _SPECIAL, st.just("")),
+    # d0 in (0, 0.01); compare's factor > 1
+    "d0": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, st.just("0"), st.floats(min_value=0.01, max_value=1e300).map(repr)),
+    "factor": st.one_of(_TEXT, _SPECIAL, _NEGATIVE, st.floats(min_value=-1e6, max_value=1.0).map(repr)),
+}
+
+#: Per sub-command: the base argv (valid, and light) and its numeric options with their kind.
+NUMERIC = {
+    "simulate": (S, {"--samples": "count", "--t-end": "finite", "--rtol": "positive", "--atol": "positive",
+                     "--h": "positive"}),
+    "run": (["run", "--out", "{d}/hyp-run"], {"--workers": "count"}),
+    "bench": (["bench", "{d}/good.toml", "--out", "{d}/hyp-bench"], {"--workers": "count"}),
+    "compare": (R, {"--factor": "factor"}),
+    "bifurcation": (B, {"--record": "count", "--workers": "count", "--transient": "nonneg", "--window": "positive",
+                        "--h": "positive", "--portrait": "finite", "--point-limit": "positive"}),
+    "lyapunov": (L, {"--iterations": "count", "--members": "count", "--seed": "seed", "--workers": "count",
+                     "--transient": "nonneg", "--d0": "d0", "--h": "positive", "--member-limit": "positive"}),
+    "paper": (P, {"--points": "count", "--record": "count", "--workers": "count", "--transient": "nonneg",
+                  "--case": "count"}),
+}
+
+
+def _options(command: str) -> list[str]:
+    """The numeric options of ``command`` that its parser knows (another may be added later)."""
+    from nsbench.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices[command]
+    known = {flag for action in sub._actions for flag in action.option_strings}
+    return [flag for flag in NUMERIC[command][1] if flag in known]
+
+
+@pytest.mark.parametrize("command", sorted(NUMERIC))
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_bad_numbers_exit_2_with_one_line(command, data, d, capsys):
+    base, kinds = NUMERIC[command]
+    flag = data.draw(st.sampled_from(_options(command)), label="option")
+    value = data.draw(BAD[kinds[flag]], label="value")
+    if command == "bifurcation" and flag == "--h":
+        base = base + ["--integrator", "henon-rk4"]
+    if command == "simulate" and flag in ("--rtol", "--atol"):
+        base = base + ["--integrator", "scipy-rk45"]
+    if command == "simulate" and flag == "--h":
+        base = base + ["--integrator", "henon-rk4"]
+    capsys.readouterr()
+    assert main(_argv(base, d) + [f"{flag}={value}"]) == 2
+    line = _one_error_line(capsys)
+    assert flag.lstrip("-") in line or "factor" in line, line
+
+
+@settings(max_examples=200, deadline=None)
+@given(count=BAD["count"], seed=BAD["seed"], nonneg=BAD["nonneg"], positive=BAD["positive"],
+       finite=BAD["finite"])
+def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite):
+    """The strategies against the parsers directly: each draw is refused (no value slips through)."""
+    from nsbench.cli._common import parse_count, parse_real
+    from nsbench.errors import ConfigError
+
+    for call in (lambda: parse_count(count, "--n", low=1, bound="MAX_WORKERS"),
+                 lambda: parse_count(seed, "--seed", low=0, bound="MAX_SEED"),
+                 lambda: parse_real(nonneg, "--t", low=0.0),
+                 lambda: parse_real(positive, "--h", low=0.0, low_open=True),
+                 lambda: parse_real(finite, "--x")):
+        with pytest.raises(ConfigError):
+            call()

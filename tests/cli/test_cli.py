@@ -77,3 +77,21 @@ def test_list(capsys):
         assert name in text
     assert main(["list"]) == 0
     assert "two-dof" in capsys.readouterr().out
+
+
+def test_list_gives_whole_summaries_and_true_capabilities(capsys):
+    from nsbench.cli.listing import summary
+
+    class Plugin:
+        """A method whose summary ``spans``
+        two lines.
+
+        Details that are not part of the summary.
+        """
+
+    assert summary(Plugin) == "A method whose summary spans two lines."
+    assert main(["list", "integrators"]) == 0
+    lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()[1:]}
+    assert "closed form" in lines["exact"] and "fixed-step" not in lines["exact"]
+    assert "reference-grade" in lines["exact"] and "fixed-step" in lines["henon-rk4"]
+    assert "``" not in "".join(lines.values())

@@ -13,9 +13,21 @@ def add_parser(sub) -> None:
     p.set_defaults(handler=main)
 
 
-def _first_line(obj) -> str:
+def summary(obj) -> str:
+    """The first paragraph of ``obj``'s docstring on one line, RST markup (````x````, `x`) as plain text."""
+    import re
+
     doc = (getattr(obj, "__doc__", None) or "").strip()
-    return doc.splitlines()[0] if doc else ""
+    paragraph = doc.split("\n\n")[0] if doc else ""
+    text = " ".join(line.strip() for line in paragraph.splitlines())
+    return re.sub(r"`{1,2}([^`]+)`{1,2}", r"\1", text)
+
+
+def stepping(caps) -> str:
+    """``adaptive``, ``fixed-step`` (a step-size option) or ``no steps`` (a closed form)."""
+    if caps.adaptive:
+        return "adaptive"
+    return "fixed-step" if caps.step_option == "h" else "closed form"
 
 
 def main(args: argparse.Namespace) -> int:
@@ -31,11 +43,12 @@ def main(args: argparse.Namespace) -> int:
             if kind == "integrators":
                 caps = obj.capabilities
                 order = caps.order if caps.order is not None else "-"
-                tags = f"events={caps.event_location}, order={order}, " \
-                       f"{'adaptive' if caps.adaptive else 'fixed-step'}, {caps.precision}"
+                tags = f"events={caps.event_location}, order={order}, {stepping(caps)}, {caps.precision}"
                 if not caps.supports_nonlinear:
                     tags += ", linear problems only"
-                print(f"  {entry.name:<16} {_first_line(obj)} ({tags}){source}")
+                if caps.reference_grade:
+                    tags += ", reference-grade"
+                print(f"  {entry.name:<16} {summary(obj)} ({tags}){source}")
             else:
-                print(f"  {entry.name:<16} {_first_line(obj)}{source}")
+                print(f"  {entry.name:<16} {summary(obj)}{source}")
     return 0

@@ -46,6 +46,24 @@ def test_run_writes_the_report(tiny, capsys):
     assert "nsbench run took" in capsys.readouterr().out
 
 
+
+def test_run_resumes_and_fresh_starts_over_and_another_version_is_named(tiny, capsys):
+    import json
+
+    out = tiny / "resumed"
+    argv = ["run", "--suite", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1", "--no-progress"]
+    assert main(argv) == 0
+    first = capsys.readouterr().out
+    assert main(argv) == 0  # the one resume convention: nothing missing, nothing computed
+    assert " 0 computed" in capsys.readouterr().out and " 0 computed" not in first
+    prov = json.loads((out / "provenance.json").read_text())
+    (out / "provenance.json").write_text(json.dumps({**prov, "version_nsbench": "0.0.1"}))
+    assert main(argv) == 0
+    assert "holds cases of another nsbench (version_nsbench 0.0.1" in capsys.readouterr().err
+    assert main(argv + ["--fresh"]) == 0
+    assert " 0 computed" not in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv, fragment", [
     (["bench", "nope.toml", "--out", "x"], "suite file 'nope.toml' does not exist"),
     (["report", "no-such-dir"], "'no-such-dir' is not a directory"),

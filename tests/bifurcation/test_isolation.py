@@ -149,3 +149,22 @@ def test_stale_temporary_files_are_removed_on_rerun(tmp_path):
     os.utime(stale, (time.time() - 3600, time.time() - 3600))
     _sweep(out)
     assert not stale.exists() and fresh.exists()  # a young one may be another run's, being written
+
+
+def test_fresh_starts_a_sweep_over_and_refuses_a_foreign_folder(tmp_path):
+    out = tmp_path / "s"
+    _sweep(out)
+    before = {f.name for f in (out / "points").glob("chunk-*.csv")}
+    run_sweep(SweepSpec(**SMALL), out, workers=0, progress=False, chunk_size=2)  # resumes: nothing new
+    assert {f.name for f in (out / "points").glob("chunk-*.csv")} == before
+    other = SweepSpec(**{**SMALL, "count": 4})
+    with pytest.raises(ConfigError, match="different sweep"):
+        run_sweep(other, out, workers=0, progress=False)
+    frame = run_sweep(other, out, workers=0, progress=False, fresh=True)  # --fresh replaces it
+    assert sorted(frame["index"].unique()) == [0, 1, 2, 3]
+    foreign = tmp_path / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    with pytest.raises(ConfigError, match="not an nsbench sweep folder"):
+        run_sweep(other, foreign, workers=0, progress=False, fresh=True)
+    assert (foreign / "notes.txt").exists()

@@ -147,6 +147,16 @@ def _with_reference(row: dict[str, Any], ref: Reference) -> dict[str, Any]:
     return row
 
 
+def _warn_other_version(out: Path, prov: dict[str, Any], err: TextIO) -> None:
+    """One line when the stored cases come from another nsbench (version or commit): resuming mixes them."""
+    old = storage.read_provenance(out)
+    keys = ("version_nsbench", "git_commit")
+    if old and any(old.get(k) != prov.get(k) for k in keys if old.get(k) is not None):
+        was = ", ".join(f"{k} {old.get(k)}" for k in keys if old.get(k) is not None)
+        print(f"nsbench: warning: {out} holds cases of another nsbench ({was}); resuming keeps them: "
+              "use --fresh to compute every case with this one", file=err)
+
+
 # ---------------------------------------------------------------------- running
 def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int | None = None,
               resume: bool = True, progress: bool = True, stream: TextIO | None = None,
@@ -188,6 +198,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)
     storage.discard_damaged(out, err)  # named in one line each, then computed again
     done = storage.done_ids(out)
+    if done:
+        _warn_other_version(out, prov, err)
     # a run interrupted between timing rounds left successful rows with fewer runs: time them again
     done -= storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})
     pending = [c for c in cases if c.case_id not in done]

@@ -271,7 +271,7 @@ def _checked(path: Path) -> pd.DataFrame:
     try:
         return read_case(path)
     except DamagedFile as exc:
-        raise ConfigError(f"{path} is damaged ({exc}); rerun into this folder with --resume to compute "
+        raise ConfigError(f"{path} is damaged ({exc}); rerun into this folder (without --fresh) to compute "
                           "its case again") from None
 
 

@@ -56,7 +56,7 @@ def default_workers() -> int:
 def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,
               dask: str | object | None = None, progress: bool = True, chunk_size: int | None = None,
               limit: int | None = None, point_limit: float | None = POINT_LIMIT,
-              setup_limit: float | None = SETUP_LIMIT) -> pd.DataFrame:
+              setup_limit: float | None = SETUP_LIMIT, fresh: bool = False) -> pd.DataFrame:
     """Compute every missing value of ``spec`` into the store at ``out``; return all rows.
 
     Parameters
@@ -72,8 +72,15 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     point_limit, setup_limit
         Hard limits in seconds (local workers) of one value, and of a worker's
         integrator set-up with its first short run; ``None``: no limit.
+    fresh
+        Discard what ``out`` holds first (it must be a sweep folder); by default
+        a rerun resumes, computing only the missing values.
     """
     spec.check()
+    if fresh:
+        from nsbench.bifurcation.storage import clear_sweep
+
+        clear_sweep(out)
     store = SweepStore(out, spec)
     store.discard_damaged()  # named on stderr, computed again below
     todo = store.missing()

@@ -213,6 +213,26 @@ def _close(a: float, b: float) -> bool:
     return abs(a - b) <= 1e-12 * max(1.0, abs(b))
 
 
+def clear_sweep(directory: str | os.PathLike) -> None:
+    """Delete the stored sweep in ``directory`` (``--fresh``); refuse a folder that is not a sweep store."""
+    d = Path(directory)
+    if not d.exists():
+        return
+    meta = d / "meta.json"
+    try:
+        json.loads(meta.read_text())["spec"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(f"{str(d)!r} is not an nsbench sweep folder (no readable meta.json); refusing to "
+                          "clear it: choose another --out") from None
+    points = d / "points"
+    foreign = [p.name for p in points.iterdir() if not p.name.startswith("chunk-")] if points.is_dir() else []
+    if foreign:
+        raise ConfigError(f"{str(points)!r} holds {foreign[0]!r}, which nsbench did not write; refusing to clear it")
+    for p in points.iterdir() if points.is_dir() else []:
+        p.unlink()
+    meta.unlink()
+
+
 def points_summary(frame: pd.DataFrame) -> pd.DataFrame:
     """One row per parameter value: status, message, points and counters (of every block)."""
     cols = ["index", "value", "status", "message", "n_points", *counter_columns(n_blocks_of(frame)), "wall_time"]

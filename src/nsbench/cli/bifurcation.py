@@ -37,6 +37,8 @@ def add_parser(sub) -> None:
     grp.add_argument("--workers", default=None, help="local processes (default: all cores)")
     grp.add_argument("--dask", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--out", default=None, help="results folder (default bifurcation/<problem>[-n<N>]-case<C>-<NAME>)")
+    p.add_argument("--fresh", action="store_true",
+                   help="discard the sweep stored in --out (default: resume, computing only missing values)")
     p.add_argument("--refine", action="store_true", help="refine candidate bifurcation points by bisection")
     p.add_argument("--portrait", action="append", default=[], metavar="VALUE",
                    help="also draw the locus of sticking phase and phase portraits at this value (repeatable)")
@@ -122,7 +124,7 @@ def main(args: argparse.Namespace) -> int:
     for spec in specs:
         out = base if len(specs) == 1 else base / spec.integrator
         tic = time.perf_counter()
-        frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress,
+        frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
                           point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True))
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame

@@ -1,7 +1,9 @@
 """``nsbench run``: the main job. Runs the packaged default suite (every registered
 integrator at three accuracy levels on the 1-DOF standard scenario and the 2-DOF
-cases 1-4, tau in [0, 300]) and writes the report to ``reports/latest``. Exit status 1
-when a case crashed or a reference could not be computed."""
+cases 1-4, tau in [0, 300]) and writes the report to ``reports/latest``. Like ``bench``
+and ``bifurcation`` it resumes: only cases missing from the folder are computed
+(``--fresh`` starts over). Exit status 1 when a case crashed or a reference could not
+be computed."""
 
 from __future__ import annotations
 
@@ -15,8 +17,9 @@ def add_parser(sub) -> None:
     p.add_argument("--suite", default="default", metavar="SUITE",
                    help="a packaged suite by name (default, chain-scaling) or a suite TOML file")
     p.add_argument("--workers", default=None, help="processes (default: all cores)")
-    p.add_argument("--resume", action="store_true",
-                   help="keep the cases already in --out (continue an interrupted run); default: start afresh")
+    p.add_argument("--fresh", action="store_true",
+                   help="discard the cases already stored in --out (default: resume, computing only missing cases)")
+    p.add_argument("--resume", action="store_true", help=argparse.SUPPRESS)  # the default now; kept for scripts
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
 
@@ -33,6 +36,6 @@ def main(args: argparse.Namespace) -> int:
         packaged = args.suite in packaged_suites() and args.suite != "default"
         out = f"reports/{args.suite}" if packaged else "reports/latest"
     tic = time.perf_counter()
-    code = run_and_report(args.suite, out, args.workers, args.resume, not args.no_progress, True)
+    code = run_and_report(args.suite, out, args.workers, not args.fresh, not args.no_progress, True)
     print(f"nsbench run took {time.perf_counter() - tic:.0f} s")
     return code

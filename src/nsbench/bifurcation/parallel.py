@@ -180,8 +180,17 @@ def sweep_job(spec_dict: dict, indices: list[int], point_limit: float | None, se
     return len(indices)
 
 
-def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, dask) -> None:
-    from distributed import Client, as_completed
+#: Seconds a Dask cluster may have no worker while chunks are pending before the sweep stops.
+NO_WORKER_LIMIT = 60.0
+
+
+def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, dask,
+              no_worker_limit: float = NO_WORKER_LIMIT) -> None:
+    import time
+
+    from distributed import Client, wait
+
+    from nsbench.errors import NsbenchError
 
     own = not isinstance(dask, Client)
     client = Client(dask) if own else dask
@@ -189,9 +198,24 @@ def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: P
     try:
         futures = [client.submit(compute_chunk, spec.to_dict(), part, pure=False) for part in parts]
         sizes = {f.key: len(p) for f, p in zip(futures, parts)}
-        for fut in as_completed(futures):
-            store.write(fut.result())
-            bar.update(sizes[fut.key])
+        pending, alone_since = set(futures), None
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished in 2 s (distributed raises instead of returning)
+                done = set()
+            for fut in done:
+                store.write(fut.result())
+                bar.update(sizes[fut.key])
+            # a cluster whose last worker is gone would leave the futures waiting forever
+            if done or client.scheduler_info().get("workers"):
+                alone_since = None
+            elif alone_since is None:
+                alone_since = time.monotonic()
+            elif time.monotonic() - alone_since > no_worker_limit:
+                raise NsbenchError(f"the Dask cluster at {client.scheduler.address} has had no worker for "
+                                   f"{no_worker_limit:g} s with {len(pending)} chunk(s) pending; the finished "
+                                   "values are stored: rerun to compute the rest")
     except BaseException:
         client.cancel(futures)
         raise

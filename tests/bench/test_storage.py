@@ -94,3 +94,12 @@ def test_stale_temporary_files_are_removed_on_resume(stored, tmp_path):
     young.write_text("being written by another run")
     run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
     assert not any(f.exists() for f in stale) and young.exists()
+
+
+@pytest.mark.parametrize("name", ["../x", "/abs", "a/b", "..", ".hidden", ""])
+def test_names_from_data_cannot_leave_the_folder(name):
+    from nsbench.bench.storage import file_name
+
+    with pytest.raises(ConfigError, match="cannot name a file"):
+        file_name(name, "integrator name")
+    assert file_name("heyoka-q", "integrator name") == "heyoka-q"

@@ -90,11 +90,20 @@ def case_path(out: str | Path, case_id: Any) -> Path:
     Case ids come from data (suites, pytest-benchmark ``extra_info``): one such as
     ``../../x`` or ``/abs/path`` must not write outside the output folder.
     """
-    text = str(case_id)
+    return Path(out) / "cases" / f"{file_name(case_id, 'case id')}.parquet"
+
+
+def file_name(text: Any, what: str) -> str:
+    """``text`` if it can name a file inside a folder (no separators, no '..'), else ``ConfigError``.
+
+    Names that come from data (case ids, plug-in names) pass here before they
+    become part of a path, so none can reach outside the output folder.
+    """
+    text = str(text)
     if not _CASE_ID.fullmatch(text) or ".." in text:
-        raise ConfigError(f"case id {text!r} cannot name a file: it must be 1-128 characters of letters, "
+        raise ConfigError(f"{what} {text!r} cannot name a file: it must be 1-128 characters of letters, "
                           "digits and _ . + = -, start with a letter or digit, and not contain '..'")
-    return Path(out) / "cases" / f"{text}.parquet"
+    return text
 
 
 def clear_cases(out: str | Path) -> None:

@@ -122,7 +122,9 @@ def main(args: argparse.Namespace) -> int:
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}
     for spec in specs:
-        out = base if len(specs) == 1 else base / spec.integrator
+        from nsbench.bench.storage import file_name  # plug-in names are data: checked before they name a folder
+
+        out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
         frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
                           point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True))

@@ -30,3 +30,26 @@ def alive(pid: int) -> bool:
         return _stat(pid)[0] != "Z"
     except OSError:
         return False
+
+
+def kill_leaves_no_workers(proc, workers: int, start_within: float = 300.0, end_within: float = 30.0) -> None:
+    """Wait until ``proc`` has ``workers`` children, SIGKILL it, and assert its children end too.
+
+    ``start_within`` allows for worker start-up and a cold compile; a worker polls
+    for its parent once a second, so ``end_within`` is generous.
+    """
+    import signal
+    import time
+
+    children: set[int] = set()
+    deadline = time.monotonic() + start_within
+    while time.monotonic() < deadline and proc.poll() is None and len(children) < workers:
+        children = children_of(proc.pid)
+        time.sleep(0.2)
+    assert proc.poll() is None and len(children) == workers, (proc.poll(), children)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + end_within
+    while time.monotonic() < deadline and any(alive(p) for p in children):
+        time.sleep(0.2)
+    assert not any(alive(p) for p in children)

@@ -337,21 +337,9 @@ run_suite(suite, {out!r}, workers=2, progress=False)
 
 
 def test_killing_a_run_ends_its_workers(tmp_path):
-    from tests.procs import alive, children_of
+    from tests.procs import kill_leaves_no_workers
 
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
     proc = subprocess.Popen([sys.executable, "-c", KILLED.format(out=str(tmp_path / "k"))], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    # both workers hang in their timed runs (no time limit in the suite): kill the parent then
-    workers: set[int] = set()
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline and proc.poll() is None and len(workers) < 2:
-        workers = children_of(proc.pid)
-        time.sleep(0.2)
-    assert proc.poll() is None and len(workers) == 2
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
-    deadline = time.monotonic() + 30  # a worker polls for its parent once a second
-    while time.monotonic() < deadline and any(alive(p) for p in workers):
-        time.sleep(0.2)
-    assert not any(alive(p) for p in workers)
+    kill_leaves_no_workers(proc, 2)

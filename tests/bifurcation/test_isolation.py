@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -18,7 +17,7 @@ from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec
 from nsbench.errors import ConfigError
 from tests.bench import _integrators as faulty
-from tests.procs import alive, children_of
+from tests.procs import kill_leaves_no_workers
 
 # v0 = 0.06, 0.08, ..., 0.20: value 5 (v0 = 0.16) lies in faulty.BAD_V0
 SPEC = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=8, transient=50.0, record=5)
@@ -74,18 +73,7 @@ def test_killing_the_cli_ends_its_workers(tmp_path):
                              "--sweep", "v0=0.16:0.161:2", "--integrator", "hanging-at-test", "--transient", "10",
                              "--record", "2", "--workers", "2", "--out", str(tmp_path / "k"), "--no-progress"],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    children: set[int] = set()
-    deadline = time.monotonic() + 300  # worker start-up, a cold compile at worst
-    while time.monotonic() < deadline and len(children) < 2 and proc.poll() is None:
-        children = children_of(proc.pid)
-        time.sleep(0.2)
-    assert proc.poll() is None and len(children) == 2
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
-    deadline = time.monotonic() + 30  # a worker polls for its parent once a second
-    while time.monotonic() < deadline and any(alive(p) for p in children):
-        time.sleep(0.2)
-    assert not any(alive(p) for p in children)
+    kill_leaves_no_workers(proc, 2)
 
 
 def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):

@@ -177,10 +177,15 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
 
 
 def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figure:
-    """|t - t_ref| against t_ref for each integrator's tightest successful configuration."""
+    """|t - t_ref| against t_ref for each integrator's tightest successful configuration.
+
+    One panel per method family (small multiples sharing both axes), so that at
+    most a family's few members share a panel instead of every integrator
+    overlapping in one.
+    """
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.2, 4.4))
     methods, _ = _methods(group)
+    curves: dict[str, list] = {}
     for name, rows in methods.groupby("integrator", sort=True):
         ok = rows[(rows["status"] == "success") & rows["event_t"].map(len).gt(0)]
         if ok.empty:
@@ -188,18 +193,31 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
         best = ok.sort_values("level").iloc[-1]
         t = np.asarray(best["event_t"], dtype=float)
         err = np.maximum(np.abs(np.asarray(best["event_err"], dtype=float)), ERROR_FLOOR)
-        st = styles[name]
-        ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5,
-                label=f"{name} (level {int(best['level'])})")
-    ax.set_yscale("log")
-    ax.set_xlabel("reference switching time")
-    ax.set_ylabel("|switching-time error|")
-    ax.set_title(f"{label}: switching-time error along the trajectory")
-    ax.grid(True, alpha=0.3)
-    _legend_outside(ax)
+        curves.setdefault(family(name), []).append((name, int(best["level"]), t, err))
+    order = [f for f, _ in FAMILIES if f in curves] + sorted(f for f in curves if f not in dict(FAMILIES))
+    cols = min(3, max(len(order), 1))
+    nrows = max(1, math.ceil(len(order) / cols))
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 2.9 * nrows), sharex=True, sharey=True,
+                             squeeze=False)
+    for ax in axes.flat[len(order):]:
+        ax.set_visible(False)
+    for ax, fam in zip(axes.flat, order):
+        for name, level, t, err in curves[fam]:
+            st = styles[name]
+            ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5,
+                    label=f"{name} (level {level})")
+        ax.set_yscale("log")
+        ax.set_title(fam, fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=6, loc="best", frameon=False)
+    for ax in axes[-1]:
+        ax.set_xlabel("reference switching time")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("|switching-time error|")
+    fig.suptitle(f"{label}: switching-time error along the trajectory")
     caption = (f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
-               f"successful configuration of each integrator (the line stops where its event sequence "
-               f"departs from the reference).")
+               f"successful configuration of each integrator, one panel per method family (the line stops "
+               f"where its event sequence departs from the reference).")
     return _save(fig, out, f"event_err_{slug(label)}", f"{label}: error along the trajectory", caption)
 
 

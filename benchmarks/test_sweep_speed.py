@@ -91,9 +91,11 @@ def _spec(name: str, count: int) -> SweepSpec:
 
 
 def _cpu() -> float:
-    """CPU seconds of this process and its reaped children (the sweep's pool workers)."""
+    """CPU seconds of this process, its reaped children and the live workers of the kept sweep pool."""
+    from nsbench.jobs import worker_cpu_seconds
+
     own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime + worker_cpu_seconds()
 
 
 def _timed_sweep(benchmark, tmp_path_factory, name: str, rounds: int):
@@ -103,8 +105,8 @@ def _timed_sweep(benchmark, tmp_path_factory, name: str, rounds: int):
     -------
     frame, wall, cpu
         The rows of the last round, its wall seconds (median of the rounds) and the
-        CPU seconds per round of the sweep's processes (``run_sweep`` shuts its pool
-        down, so its reaped workers are counted).
+        CPU seconds per round of the sweep's processes (this one and its workers,
+        which stay alive between sweeps: :func:`nsbench.jobs.worker_cpu_seconds`).
     """
     count = COUNT if compiled(name) else SUBSET
     run_sweep(_spec(name, 1), tmp_path_factory.mktemp("warm"), workers=1, progress=False)

@@ -16,10 +16,15 @@ reports the job as ``time limit`` or ``crashed`` (with the signal or exit code)
 together with the step that was running, starts a new worker, and goes on.
 What the job emitted before is kept. Workers end themselves within a second
 when the parent dies (killed or not), so no worker outlives its CLI.
+
+:func:`shared_pool` keeps one pool for the life of the process, so that later
+sweeps (a multi-integrator sweep, the paper's sweeps, a benchmark's rounds)
+reuse warm workers instead of paying the start of new processes each time.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -94,12 +99,12 @@ class JobPool:
     iterate :meth:`outcomes` until every submitted job has ended.
     """
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, hello: msg.Hello | None = None) -> None:
         if workers < 1:
             raise ValueError(f"workers = {workers} must be at least 1")
-        from nsbench import registry
-
-        self._hello = wp.hello(_shareable(registry.runtime_components()), "", {})
+        if hello is None:
+            hello = wp.hello(_shareable(_components()), "", {})
+        self._hello = hello
         self._slots = [_Slot() for _ in range(workers)]
         self._queue: deque[Job] = deque()
         self._tasks = 0
@@ -200,6 +205,69 @@ class JobPool:
             raise NsbenchError(f"a worker process did not start within {START_LIMIT:g} s")
         yield Outcome(job.key, "time limit", None, stage,
                       f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)")
+
+
+_SHARED: dict[tuple[int, bytes], JobPool] = {}
+
+
+def _components() -> dict[str, dict[str, Any]]:
+    from nsbench import registry
+
+    return registry.runtime_components()
+
+
+def shared_pool(workers: int) -> JobPool:
+    """A pool of ``workers`` kept for the life of this process (ended at exit).
+
+    Use it without ``with``; after an exception during :meth:`JobPool.outcomes`
+    (an interrupt, a worker that would not start), call :func:`drop_shared`, so
+    that the next use starts clean. A pool is kept per set of runtime
+    registrations: workers know the components registered when they started.
+    """
+    import atexit
+
+    hello = wp.hello(_shareable(_components()), "", {})
+    key = (workers, hello.components)
+    pool = _SHARED.get(key)
+    if pool is None:
+        for other in list(_SHARED.values()):  # one kept pool at a time: idle workers hold memory
+            drop_shared(other)
+        pool = _SHARED[key] = JobPool(workers, hello)
+        atexit.register(pool.close)
+    return pool
+
+
+def worker_cpu_seconds() -> float:
+    """CPU seconds used so far by the live workers of the kept pool (Linux ``/proc``; 0 elsewhere).
+
+    Ended workers are reaped, so ``resource.getrusage(RUSAGE_CHILDREN)`` counts
+    them; the kept pool's workers are alive, so a caller measuring the CPU cost
+    of its sweeps adds this (before and after).
+    """
+    ticks = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    total = 0.0
+    for pool in _SHARED.values():
+        for slot in pool._slots:
+            if slot.worker is None:
+                continue
+            try:
+                with open(f"/proc/{slot.worker.pid}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            total += (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
+    return total
+
+
+def drop_shared(pool: JobPool) -> None:
+    """End ``pool``'s workers and forget it (after an exception left it mid-job)."""
+    pool.close()
+    pool._queue.clear()
+    for slot in pool._slots:
+        slot.job = None
+    for key, other in list(_SHARED.items()):
+        if other is pool:
+            del _SHARED[key]
 
 
 def _shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:

@@ -116,7 +116,7 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
 
 def _run_local(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, workers: int,
                point_limit: float | None, setup_limit: float | None) -> None:
-    from nsbench.jobs import Job, JobPool
+    from nsbench.jobs import Job, JobPool, drop_shared, shared_pool
 
     spec_dict = spec.to_dict()
     left: dict[int, list[int]] = {}  # job -> its values not yet received, in computing order
@@ -127,33 +127,36 @@ def _run_local(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: 
         left[key], got[key] = list(indices), []
         pool.submit(Job(key, f"{__name__}:sweep_job", (spec_dict, indices, point_limit, setup_limit)))
 
-    with JobPool(min(workers, len(parts))) as pool:
-        for part in parts:
-            submit(pool, part)
-        try:
-            for o in pool.outcomes():
-                if o.kind == "partial":
-                    got[o.key].append(o.value)
-                    left[o.key].remove(int(o.value["index"].iloc[0]))
-                    bar.update(1)
-                    continue
-                rest, rows = left[o.key], got.pop(o.key)
-                left[o.key] = []
-                if o.kind != "done" and rest:
-                    status = {"failed": "failure"}.get(o.kind, o.kind)
-                    # a value running when its job stopped is that value's result; a set-up that
-                    # fails would fail again for every value, so it is the result of them all
-                    blamed = rest[:1] if o.stage.startswith("value") else rest
-                    rows += [failure_rows(spec, i, status, o.reason) for i in blamed]
-                    bar.update(len(blamed))
-                    if len(blamed) < len(rest):
-                        submit(pool, rest[1:])
-                if rows:
-                    store.write(pd.concat(rows, ignore_index=True))
-        finally:  # an interrupted run keeps every value received
-            for rows in got.values():
-                if rows:
-                    store.write(pd.concat(rows, ignore_index=True))
+    pool = shared_pool(workers)  # warm workers of an earlier sweep in this process are reused
+    for part in parts:
+        submit(pool, part)
+    try:
+        for o in pool.outcomes():
+            if o.kind == "partial":
+                got[o.key].append(o.value)
+                left[o.key].remove(int(o.value["index"].iloc[0]))
+                bar.update(1)
+                continue
+            rest, rows = left[o.key], got.pop(o.key)
+            left[o.key] = []
+            if o.kind != "done" and rest:
+                status = {"failed": "failure"}.get(o.kind, o.kind)
+                # a value running when its job stopped is that value's result; a set-up that
+                # fails would fail again for every value, so it is the result of them all
+                blamed = rest[:1] if o.stage.startswith("value") else rest
+                rows += [failure_rows(spec, i, status, o.reason) for i in blamed]
+                bar.update(len(blamed))
+                if len(blamed) < len(rest):
+                    submit(pool, rest[1:])
+            if rows:
+                store.write(pd.concat(rows, ignore_index=True))
+    except BaseException:
+        drop_shared(pool)  # jobs were in flight: the next sweep starts with fresh workers
+        raise
+    finally:  # an interrupted run keeps every value received
+        for rows in got.values():
+            if rows:
+                store.write(pd.concat(rows, ignore_index=True))
 
 
 #: Per worker process: the integrator of the last sweep, set up and run once (compiled code loaded).

@@ -83,3 +83,24 @@ def test_an_exception_in_a_job_is_its_failure():
     out = _run([Job("x", TARGET + "raises"), Job("ok", TARGET + "squares", (1,))], workers=1)
     assert [(o.key, o.kind) for o in out if o.final] == [("x", "failed"), ("ok", "done")]
     assert "TypeError: a bug in the job" in out[0].reason
+
+
+def pid(*, stage, emit):
+    return os.getpid()
+
+
+def test_the_kept_pool_reuses_its_warm_worker_and_starts_clean_after_a_drop():
+    from nsbench.jobs import drop_shared, shared_pool
+
+    def one(pool):
+        pool.submit(Job("p", TARGET + "pid"))
+        (out,) = [o for o in pool.outcomes() if o.final]
+        return out.value
+
+    pool = shared_pool(1)
+    first = one(pool)
+    assert shared_pool(1) is pool and one(pool) == first  # same process: no new start
+    drop_shared(pool)
+    again = shared_pool(1)
+    assert again is not pool and one(again) != first
+    drop_shared(again)

@@ -119,14 +119,18 @@ class JobPool:
         self._queue.append(job)
 
     def close(self) -> None:
-        """End every worker (idle ones are asked to stop, busy ones are killed)."""
+        """End every worker (idle ones are asked to stop, busy ones are killed) and forget queued jobs.
+
+        The pool stays usable: the next :meth:`submit` starts new workers.
+        """
+        self._queue.clear()
         for slot in self._slots:
             if slot.worker is not None:
                 if slot.job is None and slot.ready:
                     slot.worker.stop(timeout=2.0)
                 else:
                     slot.worker.kill()
-                slot.worker = None
+            slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
 
     # -------------------------------------------------------------------------------------------
     def outcomes(self) -> Iterator[Outcome]:
@@ -237,6 +241,16 @@ def shared_pool(workers: int) -> JobPool:
     return pool
 
 
+def check_limit(what: str, seconds: float | None) -> None:
+    """A hard limit must be a finite number of seconds > 0, or ``None`` (no limit); ``ConfigError`` otherwise."""
+    import math
+
+    from nsbench.errors import ConfigError
+
+    if seconds is not None and not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds > 0):
+        raise ConfigError(f"{what} = {seconds!r} must be a finite number of seconds > 0, or None")
+
+
 def worker_cpu_seconds() -> float:
     """CPU seconds used so far by the live workers of the kept pool (Linux ``/proc``; 0 elsewhere).
 
@@ -262,9 +276,6 @@ def worker_cpu_seconds() -> float:
 def drop_shared(pool: JobPool) -> None:
     """End ``pool``'s workers and forget it (after an exception left it mid-job)."""
     pool.close()
-    pool._queue.clear()
-    for slot in pool._slots:
-        slot.job = None
     for key, other in list(_SHARED.items()):
         if other is pool:
             del _SHARED[key]

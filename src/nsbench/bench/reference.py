@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ import pandas as pd
 
 from nsbench.bench.suite import stable_key
 from nsbench.errors import UnsupportedProblemError
+from nsbench.files import write_atomic
 
 
 #: Size of the perturbation of the start positions that measures a case's conditioning.
@@ -193,9 +193,7 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
     data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
             "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed,
             "conditioning": repr(ref.conditioning), "conditioning_note": ref.conditioning_note}
-    tmp = meta.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, meta)
+    write_atomic(meta, json.dumps(data, indent=1))
 
 
 def load_reference(directory: str | Path, key: str) -> Reference | None:

@@ -27,6 +27,7 @@ import pyarrow.parquet as pq
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
+from nsbench.files import STALE_AFTER, remove_stale_temporaries
 
 PROVENANCE_KEY = b"nsbench.provenance"
 _INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
@@ -168,7 +169,7 @@ def read_case(path: str | Path) -> pd.DataFrame:
     return frame
 
 
-def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = 60.0) -> list[Path]:
+def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER) -> list[Path]:
     """Before a resumed run: delete damaged case files (their cases run again) and stale temporary files.
 
     Each damaged file is named in one warning line on ``stream``; a damaged
@@ -177,7 +178,6 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = 60
     writing into this folder right now and are left alone.
     """
     import sys
-    import time
 
     o = Path(out)
     bad = []
@@ -189,14 +189,7 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = 60
             print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
             f.unlink(missing_ok=True)
             bad.append(f)
-    now = time.time()
-    for folder in (o, cases, o / "references"):
-        for tmp in folder.glob("*.tmp") if folder.is_dir() else []:
-            try:
-                if now - tmp.stat().st_mtime > stale_after:
-                    tmp.unlink()
-            except FileNotFoundError:
-                pass
+    remove_stale_temporaries((o, cases, o / "references"), stale_after)
     return bad
 
 

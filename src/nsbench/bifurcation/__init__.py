@@ -9,3 +9,7 @@ through the hybrid core (:mod:`nsbench.hybrid`), shaped by the problem: the
 tables name the problem's state names and per-block counters. Nothing heavy is
 imported here.
 """
+
+#: Most parameter values of one sweep (``--sweep`` COUNT, ``paper --points``): a typo such as
+#: 1e12 must not allocate terabytes. Split a longer sweep into several.
+MAX_SWEEP_POINTS = 1_000_000

@@ -406,8 +406,9 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     from nsbench.integrators import get_integrator
 
     _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed)
-    if member_limit is not None and not (math.isfinite(member_limit) and member_limit > 0):
-        raise ConfigError(f"member_limit = {member_limit!r} must be a finite number of seconds > 0, or None")
+    from nsbench.jobs import check_limit
+
+    check_limit("member_limit", member_limit)
     if integrator is None:
         integrator = "exact" if problem.is_linear else "henon-rk4"
     integ = get_integrator(integrator, **(options or {}))

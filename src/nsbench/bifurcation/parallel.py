@@ -87,11 +87,10 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     if limit is not None:
         todo = todo[:limit]
     n_workers = workers if workers is not None else default_workers()
-    for what, value in (("point_limit", point_limit), ("setup_limit", setup_limit)):
-        if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            from nsbench.errors import ConfigError
+    from nsbench.jobs import check_limit
 
-            raise ConfigError(f"{what} = {value!r} must be a finite number of seconds > 0, or None")
+    check_limit("point_limit", point_limit)
+    check_limit("setup_limit", setup_limit)
     if dask is not None and workers is not None:
         from nsbench.errors import ConfigError
 

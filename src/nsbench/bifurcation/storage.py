@@ -23,7 +23,6 @@ import io
 import json
 import os
 import re
-import time
 from pathlib import Path
 from typing import TextIO
 
@@ -31,6 +30,7 @@ import pandas as pd
 
 from nsbench.bifurcation.sweep import SweepSpec, counter_columns
 from nsbench.errors import ConfigError
+from nsbench.files import STALE_AFTER, remove_stale_temporaries, write_atomic
 
 
 class SweepStore:
@@ -48,6 +48,7 @@ class SweepStore:
     def __init__(self, directory: str | os.PathLike, spec: SweepSpec | None = None) -> None:
         self.directory = Path(directory)
         self.points_dir = self.directory / "points"
+        self._checked: dict[Path, tuple[tuple[int, int], pd.DataFrame | None, str]] = {}
         meta_path = self.directory / "meta.json"
         if meta_path.exists():
             meta = json.loads(meta_path.read_text())
@@ -68,7 +69,7 @@ class SweepStore:
             self._columns = spec.columns
             self.meta = {"spec": spec.to_dict(), "columns": list(self._columns), "provenance": provenance()}
             self.points_dir.mkdir(parents=True, exist_ok=True)
-            _atomic_write(meta_path, json.dumps(self.meta, indent=2, default=str))
+            write_atomic(meta_path, json.dumps(self.meta, indent=2, default=str))
         self.points_dir.mkdir(parents=True, exist_ok=True)
 
     @property
@@ -90,26 +91,39 @@ class SweepStore:
         frame.loc[:, list(self.columns)].to_csv(buf, index=False, float_format="%.17g")
         data = buf.getvalue().encode()
         first, last = int(frame["index"].min()), int(frame["index"].max())
-        path = self.points_dir / f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}.csv"
-        tmp = path.with_suffix(".tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-        return path
+        return write_atomic(self.points_dir / f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}.csv",
+                            data)
 
     def _files(self) -> list[Path]:
         return sorted(self.points_dir.glob("chunk-*.csv"))
 
     def check(self) -> tuple[list[tuple[Path, pd.DataFrame]], list[tuple[Path, str]]]:
-        """Every chunk, read and checked: ``(path, rows)`` of the sound ones, ``(path, reason)`` of the others."""
+        """Every chunk, read and checked: ``(path, rows)`` of the sound ones, ``(path, reason)`` of the others.
+
+        A run asks several times (damaged chunks, missing values, the final
+        table); a chunk is read again only if its size or time stamp changed.
+        """
         good, bad = [], []
         for f in self._files():
             try:
-                good.append((f, self._read_checked(f)))
-            except _Damaged as exc:
-                bad.append((f, str(exc)))
+                stat = f.stat()
+            except FileNotFoundError:  # removed meanwhile (a racing run's rename)
+                continue
+            signature = (stat.st_size, stat.st_mtime_ns)
+            seen = self._checked.get(f)
+            if seen is None or seen[0] != signature:
+                try:
+                    seen = (signature, self._read_checked(f), "")
+                except _Damaged as exc:
+                    seen = (signature, None, str(exc))
+                self._checked[f] = seen
+            if seen[1] is not None:
+                good.append((f, seen[1]))
+            else:
+                bad.append((f, seen[2]))
         return good, bad
 
-    def discard_damaged(self, stream: TextIO | None = None, stale_after: float = 60.0) -> list[Path]:
+    def discard_damaged(self, stream: TextIO | None = None, stale_after: float = STALE_AFTER) -> list[Path]:
         """Delete damaged chunks (their values are computed again) and temporary files a killed run left.
 
         Each damaged chunk is named in one warning line on ``stream``.
@@ -123,13 +137,7 @@ class SweepStore:
             print(f"nsbench: warning: {f} is damaged ({reason}); its values are computed again",
                   file=stream or sys.stderr)
             f.unlink(missing_ok=True)
-        now = time.time()
-        for tmp in self.points_dir.glob("*.tmp"):
-            try:
-                if now - tmp.stat().st_mtime > stale_after:
-                    tmp.unlink()
-            except FileNotFoundError:
-                pass
+        remove_stale_temporaries([self.points_dir], stale_after)
         return [f for f, _ in bad]
 
     def load(self) -> pd.DataFrame:
@@ -260,9 +268,5 @@ def _describe(spec: SweepSpec) -> str:
             f"{spec.integrator}, {spec.section}")
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 

@@ -50,7 +50,7 @@ def parse_sweep(text: str) -> tuple[str, float, float, int]:
     1 000 000 (``1e3`` reads as 1000); anything else is a ``ConfigError``
     naming the bad part and what is allowed.
     """
-    max_count = 1_000_000  # a typo such as 1e12 must not allocate terabytes
+    from nsbench.bifurcation import MAX_SWEEP_POINTS as max_count
     name, sep, rng = text.partition("=")
     parts = [p.strip() for p in rng.split(":")]
     if not sep or not name.strip() or len(parts) != 3:

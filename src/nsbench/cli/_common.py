@@ -15,6 +15,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from nsbench.bifurcation import MAX_SWEEP_POINTS  # noqa: F401 - a bound of parse_count (paper --points)
 from nsbench.errors import ConfigError
 
 # Upper bounds of counts given on the command line: they keep a typo (1e12) from
@@ -23,9 +24,6 @@ from nsbench.errors import ConfigError
 MAX_SAMPLES = 10_000_000
 #: Section points per value (``bifurcation --record``, ``paper --record``).
 MAX_RECORD = 1_000_000
-#: Parameter values of a sweep (``paper --points``; ``--sweep`` COUNT has the same bound in
-#: :func:`nsbench.bifurcation.sweep.parse_sweep`).
-MAX_SWEEP_POINTS = 1_000_000
 #: Worker processes (``--workers``).
 MAX_WORKERS = 1024
 #: Return-map iterations of ``lyapunov --iterations``.
@@ -107,7 +105,8 @@ def parse_count(text: str, what: str, *, low: int = 1, high: int | None = None, 
     if value < low:
         raise ConfigError(f"{what} = {shown} must be >= {low} ({allowed})")
     if value > high:
-        where = f"; the bound is nsbench.cli._common.{bound}" if bound else ""
+        home = "nsbench.bifurcation" if bound == "MAX_SWEEP_POINTS" else __name__
+        where = f"; the bound is {home}.{bound}" if bound else ""
         raise ConfigError(f"{what} = {shown} must be <= {high} ({allowed}{where})")
     return value
 

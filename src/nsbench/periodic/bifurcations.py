@@ -1,0 +1,293 @@
+"""Bifurcations of periodic orbits: located by bisection on the orbit's signature, named by their mechanism.
+
+The *signature* of a converged orbit is its cyclic event pattern and the
+number of its multipliers outside the unit circle. Between two continuation
+steps whose signatures differ, :func:`locate` bisects the parameter (each probe
+a converged periodic orbit, :func:`~nsbench.periodic.shooting.shoot`) until the
+bracket is narrower than ``xtol`` (default ``1e-11``, so the located value is
+good to well below ``1e-8``). A probe where no orbit of the near side's kind
+exists counts as the far side, so the end of a branch is located the same way.
+
+The two orbits at the ends of the final bracket then decide the kind
+(:func:`classify`); the rule, with ``g`` the guard of an event:
+
+=====================  =====================================================  ==================
+kind                   what is degenerate on the orbit at the bifurcation     paper's category
+=====================  =====================================================  ==================
+``grazing-sliding``    a slip phase's ``v - v0`` touches zero with zero       ``sliding`` (a
+                       slope: at a stick or reverse event (the event is        sticking phase
+                       about to vanish) or inside a slip arc (a new one is     appears or
+                       about to appear)                                        vanishes)
+``crossing-sliding``   at a stick event ``|R| -> fr``: the locus of sticking  ``border-collision``
+                       phase starts on the boundary of its sliding region;
+                       beyond, the stick turns into a reverse
+``multi-sliding``      a stick phase's ``|R| - fr`` touches zero with zero    ``border-collision``
+                       slope: the locus of sticking phase reaches the
+                       boundary of its sliding region tangentially
+``period-doubling``    same pattern, a real multiplier crosses ``-1``         ``fixed-point``
+``fold``               same pattern, a real multiplier crosses ``+1``         ``fixed-point``
+``torus``              same pattern, a complex pair crosses the unit circle   ``fixed-point``
+``event-order``        two events of different blocks coincide and swap;     ``none`` (not a
+                       the orbit passes through continuously                   bifurcation)
+=====================  =====================================================  ==================
+
+The degeneracies are measured relative to their own scale (the guard rate
+against the largest rate of the same guard on the orbit; the margin against
+``fr``), and the smallest one names the kind; ``detail`` states it with its
+value, which makes every classification checkable.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from nsbench.periodic.flow import HybridFlow
+from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, anchor, shoot
+
+
+@dataclass(frozen=True)
+class Bifurcation:
+    """A located bifurcation: parameter value, mechanism, the paper's category and a readable detail."""
+
+    param: str
+    value: float
+    kind: str
+    category: str
+    detail: str
+    bracket: float
+    left_pattern: str
+    right_pattern: str
+    left_multipliers: str
+    right_multipliers: str
+
+    def row(self) -> dict:
+        return dict(self.__dict__)
+
+
+#: The paper's category of each kind (see the module docstring).
+CATEGORY = {"grazing-sliding": "sliding", "crossing-sliding": "border-collision",
+            "multi-sliding": "border-collision", "period-doubling": "fixed-point", "fold": "fixed-point",
+            "torus": "fixed-point", "event-order": "none", "unknown": "border-collision"}
+
+
+def signature(orbit: PeriodicOrbit | None) -> tuple:
+    return ("none",) if orbit is None else (orbit.pattern, orbit.unstable_count)
+
+
+def _probe(flow: HybridFlow, problem_at: Callable, value: float, near: PeriodicOrbit) -> PeriodicOrbit | None:
+    flow.rebind(problem_at(value))
+    t, y, mode = near.t0, near.y0, near.mode0
+    period = near.period
+    if near.forced:
+        period = near.forcing_periods * 2.0 * math.pi / flow.problem.coefficients.w
+    try:
+        return shoot(flow, t, y, mode, period, forced=near.forced)
+    except ShootingError:
+        return None
+
+
+def _reanchored(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit:
+    flow.rebind(orbit.problem)
+    t, y, mode = anchor(flow, orbit)
+    period = orbit.period
+    try:
+        return shoot(flow, t, y, mode, period, forced=orbit.forced)
+    except ShootingError:
+        return orbit
+
+
+def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a: PeriodicOrbit, b: float,
+           orbit_b: PeriodicOrbit | None, xtol: float = 1e-11) -> tuple[Bifurcation, PeriodicOrbit, PeriodicOrbit | None]:
+    """Bisect ``[a, b]`` where the orbit's signature changes; classify the change.
+
+    ``orbit_b`` is ``None`` where the branch ends (no orbit of ``orbit_a``'s kind at ``b``).
+    Returns the bifurcation and the orbits at the final bracket's ends.
+    """
+    sig_a = signature(orbit_a)
+    while abs(b - a) > xtol:
+        m = 0.5 * (a + b)
+        if m in (a, b):
+            break
+        orbit_m = _probe(flow, problem_at, m, orbit_a)
+        if orbit_m is not None and signature(orbit_m) == sig_a:
+            a, orbit_a = m, orbit_m  # its start point is the near orbit's anchor, still mid-arc
+        else:
+            b, orbit_b = m, orbit_m
+    value = 0.5 * (a + b)
+    if orbit_b is not None and not continuous(orbit_a, orbit_b):
+        orbit_b = None  # Newton jumped to another orbit: the near side's orbit ends here
+    left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
+    kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
+    bif = Bifurcation(param, value, kind, category, detail, abs(b - a),
+                      left.pattern_text() if left is not None else "",
+                      right.pattern_text() if right is not None else "",
+                      format_multipliers(left.multipliers) if left is not None else "",
+                      format_multipliers(right.multipliers) if right is not None else "")
+    return bif, orbit_a, orbit_b
+
+
+def continuous(a: PeriodicOrbit, b: PeriodicOrbit, rel: float = 1e-6) -> bool:
+    """Whether two orbits at nearly the same parameter value are the same orbit (equal periods)."""
+    return abs(a.period - b.period) <= rel * max(a.period, b.period)
+
+
+def format_multipliers(mu: np.ndarray, digits: int = 6) -> str:
+    """Multipliers as ``re+imj`` text, largest modulus first (space separated)."""
+    out = []
+    for z in mu:
+        if abs(z.imag) <= 1e-12 * max(1.0, abs(z)):
+            out.append(f"{z.real:.{digits}g}")
+        else:
+            out.append(f"{z.real:.{digits}g}{z.imag:+.{digits}g}j")
+    return " ".join(out)
+
+
+def _arcs(orbit: PeriodicOrbit):
+    """``(t_start, y_start, mode, duration)`` of each arc of one period."""
+    t, y, mode = orbit.t0, orbit.y0, orbit.mode0
+    for e in orbit.events:
+        yield t, y, mode, e.t - t
+        t, y, mode = e.t, e.y, e.mode_after
+    yield t, y, mode, orbit.t0 + orbit.period - t
+
+
+def _family(guard) -> tuple[str, int]:
+    return ("velocity" if guard.kind == "velocity" else "static", guard.block)
+
+
+def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tuple[float, str, str]]:
+    """Every near-degenerate quantity of an orbit as ``(relative size, kind, text)``, smallest first.
+
+    - at each event, the rate of its guard (zero: the orbit touches the surface tangentially);
+    - at each stick or reverse, the margin ``fr - |R|`` (zero: the locus of sticking phase
+      starts on the boundary of its sliding region);
+    - along each arc, the closest interior approach of each guard to zero (zero: a new
+      event is about to appear). Minima at an arc's ends are its events and are skipped.
+
+    Rates and values are measured against the largest rate and value of the same guard
+    family (velocity or static limit, per block) sampled along the whole orbit.
+    """
+    import scipy.optimize
+
+    problem = flow.problem
+    rate_scale: dict[tuple, float] = {}
+    value_scale: dict[tuple, float] = {}
+    dips = []
+    for t0, y0, mode, dt in _arcs(orbit):
+        if dt <= 0:
+            continue
+        times = t0 + dt * np.linspace(0.0, 1.0, samples)[1:-1]
+        ys = flow.states(t0, y0, mode, times)
+        f = problem.rhs(mode, times, ys.T)
+        for g in problem.guards(mode):
+            fam = _family(g)
+            vals = g.expected_sign * np.asarray(g.value(times, ys.T), dtype=float)
+            rates = np.asarray(g.rate(times, ys.T, f), dtype=float)
+            value_scale[fam] = max(value_scale.get(fam, 0.0), float(np.max(np.abs(vals))))
+            rate_scale[fam] = max(rate_scale.get(fam, 0.0), float(np.max(np.abs(rates))))
+            k = int(np.argmin(vals))
+            if k == 0 or k == vals.size - 1:  # monotone towards an end: that end is an event
+                continue
+
+            def value(s, g=g, t0=t0, y0=y0, mode=mode):
+                y = flow.states(t0, y0, mode, np.array([t0 + s]))[0]
+                return g.expected_sign * float(g.value(t0 + s, y))
+
+            res = scipy.optimize.minimize_scalar(value, bounds=(times[k - 1] - t0, times[k + 1] - t0),
+                                                 method="bounded", options={"xatol": 1e-10 * max(1.0, dt)})
+            dips.append((float(res.fun), g, fam, t0 + float(res.x)))
+    out = []
+    for v, g, fam, t in dips:
+        rel = abs(v) / (value_scale[fam] or 1.0)
+        if g.kind == "velocity":
+            out.append((rel, "grazing-sliding", f"a slip arc of block {g.block} comes within {abs(v):.3g} of the "
+                        f"belt speed without reaching it ({g.name} has an interior extremum at t = {t:.10g})"))
+        else:
+            out.append((rel, "multi-sliding", f"a sticking arc of block {g.block} comes within {abs(v):.3g} of its "
+                        f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})"))
+    for e in orbit.events:
+        g = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
+        rate = abs(float(g.rate(e.t, e.y, problem.rhs(e.mode_before, e.t, e.y))))
+        rel = rate / (rate_scale.get(_family(g)) or 1.0)
+        if e.guard == "velocity":
+            out.append((rel, "grazing-sliding", f"block {e.block}'s velocity reaches the belt speed with slope "
+                        f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})"))
+        else:
+            out.append((rel, "multi-sliding", f"block {e.block}'s sticking phase reaches its static limit with "
+                        f"slope {rate:.3g} at a slip event (t = {e.t:.10g})"))
+        if e.kind in ("stick", "reverse"):
+            fr = problem.coefficients.fr[e.block - 1]
+            margin = fr - abs(float(problem.restoring_force(e.block, e.t, e.y)))
+            out.append((abs(margin) / fr, "crossing-sliding",
+                        f"block {e.block} reaches the belt speed with fr - |R| = {margin:.3g} at a {e.kind} "
+                        f"event (t = {e.t:.10g}): the locus of sticking phase starts on the boundary of its "
+                        "sliding region"))
+    return sorted(out, key=lambda c: c[0])
+
+
+def _closest_events(orbit: PeriodicOrbit) -> tuple[float, str]:
+    """The two consecutive events (cyclically) closest in time, as ``(gap, text)``."""
+    ev = orbit.events
+    best = (math.inf, "")
+    for k, e in enumerate(ev):
+        nxt = ev[(k + 1) % len(ev)]
+        gap = (nxt.t - e.t) % orbit.period if len(ev) > 1 else orbit.period
+        if gap < best[0]:
+            best = (gap, f"{e.kind}{e.block} and {nxt.kind}{nxt.block} are {gap:.3g} apart (t = {e.t:.10g})")
+    return best
+
+
+def _stick_counts(orbit: PeriodicOrbit | None, n_blocks: int) -> list[int]:
+    if orbit is None:
+        return [0] * n_blocks
+    c = Counter(orbit.pattern)
+    return [c.get(f"stick{b}", 0) for b in range(1, n_blocks + 1)]
+
+
+def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -> tuple[str, str, str]:
+    """``(kind, category, detail)`` of the change from orbit ``near`` to orbit ``far``.
+
+    ``far`` is ``None`` where no orbit of ``near``'s kind exists (the end of a branch).
+    With both given, ``near`` is the orbit at the smaller parameter value, so
+    "gains" and "loses" read in the direction of a growing parameter.
+    """
+    nb = near.problem.n_blocks
+    if far is not None and far.pattern == near.pattern:
+        lost = near.multipliers if near.unstable_count < far.unstable_count else far.multipliers
+        other = far.multipliers if lost is near.multipliers else near.multipliers
+        # the multiplier that crosses: the one closest to the unit circle on the stable side's orbit
+        z = lost[np.argmin(np.abs(np.abs(lost) - 1.0))] if lost.size else complex(np.nan)
+        if abs(z.imag) > 1e-6:
+            kind = "torus"
+        elif z.real < 0:
+            kind = "period-doubling"
+        else:
+            kind = "fold"
+        detail = (f"multiplier {format_multipliers(np.array([z]))} crosses the unit circle "
+                  f"(unstable multipliers {near.unstable_count} -> {far.unstable_count}; "
+                  f"{format_multipliers(lost)} -> {format_multipliers(other)})")
+        return kind, "fixed-point", detail
+    if far is not None and Counter(far.pattern) == Counter(near.pattern):
+        gaps = [_closest_events(o) for o in (near, far)]
+        gap, text = min(gaps, key=lambda g: g[0])
+        return ("event-order", CATEGORY["event-order"],
+                f"{text}; the same events in another order, the orbit passes through continuously")
+    candidates = []
+    for orbit in (near, far):
+        if orbit is not None:
+            flow.rebind(orbit.problem)
+            candidates += survey(flow, orbit)
+    if not candidates:
+        return "unknown", "border-collision", "the event pattern changes; no degenerate event was found"
+    rel, kind, text = min(candidates, key=lambda c: c[0])
+    if far is None:
+        return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]; the branch ends (no orbit of this kind beyond)"
+    a, b = _stick_counts(near, nb), _stick_counts(far, nb)
+    changes = [f"block {blk + 1} sticks {a[blk]} -> {b[blk]} times per period" for blk in range(nb) if a[blk] != b[blk]]
+    what = "; " + ", ".join(changes) if changes else ""
+    return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]{what}"

@@ -1,0 +1,219 @@
+"""The hybrid flow over a fixed time with its Jacobian: state-transition and saltation matrices.
+
+:class:`HybridFlow` runs a problem with one set-up integrator through the
+hybrid core from a start time, state and mode over a given span, and returns
+the :class:`Pass`: the end state and mode, and every event with the mode
+before and after it. :meth:`HybridFlow.jacobian` then gives the derivative of
+the end state with respect to the start state as the ordered product
+
+    Phi_last S_k Phi_k ... S_1 Phi_1
+
+of each arc's state-transition matrix ``Phi`` (the exact matrix exponential of
+the mode's matrix for linear problems; the variational equations integrated
+along the arc otherwise) and each event's saltation matrix ``S``
+(:func:`saltation`). The event times come from the integrator (``exact`` for
+linear problems, heyoka in double at machine tolerance otherwise); the
+Jacobian is only used for Newton steps and multipliers, so it need not be
+more accurate than the flow.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.integrate
+import scipy.linalg
+
+from nsbench.errors import ConfigError
+from nsbench.problems.modes import STICK, Guard, Mode
+
+#: Integrator of the flow by default: exact event times for linear problems.
+LINEAR_FLOW = ("exact", {})
+#: heyoka in double at its own epsilon (event times to a few ulp) for cubic springs.
+NONLINEAR_FLOW = ("heyoka", {})
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """One event of a pass: time, kind, block, state after it, the modes around it and the guard."""
+
+    t: float
+    kind: str
+    block: int
+    y: np.ndarray
+    mode_before: Mode
+    mode_after: Mode
+    guard: str  # "velocity", "upper" or "lower"
+
+
+@dataclass(frozen=True)
+class Pass:
+    """The flow from ``(t0, y0, mode0)`` over ``span``: where it ended and what happened on the way."""
+
+    t0: float
+    y0: np.ndarray
+    mode0: Mode
+    span: float
+    y: np.ndarray
+    mode: Mode
+    events: tuple[Crossing, ...]
+
+    @property
+    def pattern(self) -> tuple[str, ...]:
+        """Event names in order, e.g. ``('stick2', 'slip2')``."""
+        return tuple(f"{e.kind}{e.block}" for e in self.events)
+
+
+def guard_of(kind: str, block: int, problem, t: float, y: np.ndarray, mode_before: Mode) -> Guard:
+    """The guard that fired for an event of ``kind`` (MODEL.md: stick and reverse end a slip phase on
+    ``v - v0``; a slip ends a stick phase on ``R - fr`` (upper) or ``R + fr`` (lower))."""
+    for g in problem.guards(mode_before):
+        if g.block != block:
+            continue
+        if kind in ("stick", "reverse") and g.kind == "velocity":
+            return g
+        if kind == "slip" and g.kind != "velocity":
+            r = float(problem.restoring_force(block, t, y))
+            if (g.kind == "upper") == (r > 0.0):
+                return g
+    raise ConfigError(f"no guard of mode {mode_before} explains a {kind} event of block {block}")
+
+
+def saltation(problem, guard: Guard, mode_before: Mode, mode_after: Mode, t: float, y: np.ndarray) -> np.ndarray:
+    """Saltation matrix of an event: how a perturbation just before the switch maps to one just after.
+
+    ``S = I + (f+ - f-) grad(g)^T / (dg/dt)`` with ``f-``, ``f+`` the vector fields of
+    the modes before and after, ``g`` the guard that fired and ``dg/dt = grad(g) . f- + dg/dt|explicit``
+    its rate of change just before the event. The resets of MODEL.md (``v_i = v0`` at a stick or a
+    reverse) only remove rounding, so the reset map's derivative is the identity on the
+    surface; at a stick the formula sends the ``v_i`` perturbation to zero, which is the
+    stuck block's lost dimension.
+    """
+    n = problem.n_states
+    f_minus = problem.rhs(mode_before, t, y)
+    f_plus = problem.rhs(mode_after, t, y)
+    grad = np.zeros(n)
+    i = guard.block - 1
+    if guard.kind == "velocity":
+        grad[2 * i + 1] = 1.0
+    else:
+        # R_i's gradient: the velocity row of a slip mode's Jacobian is -grad(R_i) / m_i.
+        slip = tuple(-1 if q == i else p for q, p in enumerate(mode_before))
+        grad = -problem.coefficients.m[i] * problem.jacobian(slip, t, y)[2 * i + 1]
+    rate = float(guard.rate(t, y, f_minus))
+    if rate == 0.0:
+        raise ArithmeticError(f"grazing event ({guard.name} touches zero with zero slope at t = {t:.17g})")
+    return np.eye(n) + np.outer(f_plus - f_minus, grad) / rate
+
+
+class HybridFlow:
+    """A problem's hybrid flow with one integrator, set up once and reused for every pass.
+
+    Parameters
+    ----------
+    problem
+        The problem (any registered friction oscillator).
+    integrator, options
+        Integrator of the flow; default ``exact`` for linear problems and ``heyoka``
+        (double, machine tolerance) for cubic springs.
+    """
+
+    def __init__(self, problem, integrator: str | None = None, options: dict[str, Any] | None = None) -> None:
+        from nsbench.hybrid.run import warm_up
+        from nsbench.integrators import get_integrator
+
+        if integrator is None:
+            integrator, default = LINEAR_FLOW if problem.is_linear else NONLINEAR_FLOW
+            options = {**default, **(options or {})}
+        self.problem = problem
+        self.integrator_name = integrator
+        self.integ = get_integrator(integrator, **(options or {}))
+        self.integ.setup(problem)
+        warm_up(problem, self.integ)
+        self._expm: dict[Mode, np.ndarray] = {}
+
+    def rebind(self, problem) -> None:
+        """Use the same integrator on a problem with other coefficient values (continuation)."""
+        self.problem = problem
+        self.integ.setup(problem)
+        self._expm.clear()
+
+    def run(self, t0: float, y0: np.ndarray, mode0: Mode, span: float, max_events: int = 100_000) -> Pass:
+        """The flow over ``[t0, t0 + span]`` with every event on the way.
+
+        Raises
+        ------
+        ArithmeticError
+            The integrator did not reach the end (budget, event storm, failure).
+        """
+        from nsbench.hybrid.run import run_hybrid
+        from nsbench.problems.modes import EVENT_KINDS
+
+        raw = run_hybrid(self.problem, self.integ, t0 + span, t0=t0, y0=np.asarray(y0, dtype=float),
+                         mode=mode0, max_events=max_events, max_steps=50_000_000)
+        if not raw.status.ok:
+            raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
+        rec = raw.records
+        events = []
+        before = tuple(int(m) for m in mode0)
+        for k in range(raw.n_events):
+            after = tuple(int(m) for m in rec.ev_mode[k])
+            kind, block, t, y = EVENT_KINDS[int(rec.ev_kind[k])], int(rec.ev_block[k]), float(rec.ev_t[k]), rec.ev_y[k].copy()
+            guard = guard_of(kind, block, self.problem, t, y, before)
+            events.append(Crossing(t, kind, block, y, before, after, guard.kind))
+            before = after
+        return Pass(float(t0), np.asarray(y0, dtype=float).copy(), tuple(int(m) for m in mode0), float(span),
+                    raw.y.copy(), raw.mode, tuple(events))
+
+    def states(self, t0: float, y0: np.ndarray, mode0: Mode, times: np.ndarray) -> np.ndarray:
+        """States at the sorted ``times`` (all ``> t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
+        from nsbench.hybrid.run import run_hybrid
+
+        times = np.ascontiguousarray(times, dtype=float)
+        raw = run_hybrid(self.problem, self.integ, float(times[-1]), t0=t0, y0=np.asarray(y0, dtype=float),
+                         mode=mode0, t_eval=times, max_steps=50_000_000)
+        if not raw.status.ok or raw.n_dense < times.size:
+            raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
+        return raw.records.y_eval[: times.size].copy()
+
+    # ------------------------------------------------------------------ Jacobian
+    def arc_transition(self, mode: Mode, t0: float, y0: np.ndarray, dt: float) -> np.ndarray:
+        """State-transition matrix of one arc in ``mode`` from ``(t0, y0)`` over ``dt``."""
+        n = self.problem.n_states
+        if dt <= 0.0:
+            return np.eye(n)
+        if self.problem.is_linear:
+            # The forcing enters additively, so the transition matrix is expm(A dt) exactly.
+            a, *_ = self.problem.linear_form(mode)
+            return scipy.linalg.expm(a * dt)
+        problem = self.problem
+
+        def rhs(t, z):
+            y, phi = z[:n], z[n:].reshape(n, n)
+            return np.concatenate([problem.rhs(mode, t, y), (problem.jacobian(mode, t, y) @ phi).ravel()])
+
+        z0 = np.concatenate([np.asarray(y0, dtype=float), np.eye(n).ravel()])
+        sol = scipy.integrate.solve_ivp(rhs, (t0, t0 + dt), z0, method="DOP853", rtol=1e-12, atol=1e-12)
+        if not sol.success:  # pragma: no cover - smooth arcs of a bounded orbit
+            raise ArithmeticError(f"variational equations failed on an arc at t = {t0:.6g}: {sol.message}")
+        return sol.y[n:, -1].reshape(n, n)
+
+    def jacobian(self, p: Pass) -> np.ndarray:
+        """``d y(t0 + span) / d y0`` at fixed times: arc transitions and saltation matrices in order."""
+        problem = self.problem
+        t, y, mode = p.t0, p.y0, p.mode0
+        total = np.eye(problem.n_states)
+        for e in p.events:
+            total = self.arc_transition(mode, t, y, e.t - t) @ total
+            guard = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
+            total = saltation(problem, guard, e.mode_before, e.mode_after, e.t, e.y) @ total
+            t, y, mode = e.t, e.y, e.mode_after
+        return self.arc_transition(mode, t, y, p.t0 + p.span - t) @ total
+
+
+def free_components(problem, mode: Mode) -> np.ndarray:
+    """State indices that may vary in ``mode``: a stuck block's velocity is ``v0``, not an unknown."""
+    keep = [j for j in range(problem.n_states) if not (j % 2 == 1 and mode[j // 2] == STICK)]
+    return np.array(keep, dtype=int)

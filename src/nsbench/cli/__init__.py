@@ -15,7 +15,7 @@ from nsbench.errors import NsbenchError
 
 # Sub-command modules; each defines ``add_parser(subparsers)`` and ``main(args) -> int``.
 COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "ingest",
-            "bifurcation", "lyapunov", "paper")
+            "bifurcation", "continuation", "lyapunov", "paper")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -118,9 +118,16 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
             a, orbit_a = m, orbit_m  # its start point is the near orbit's anchor, still mid-arc
         else:
             b, orbit_b = m, orbit_m
-    value = 0.5 * (a + b)
     if orbit_b is not None and not continuous(orbit_a, orbit_b):
         orbit_b = None  # Newton jumped to another orbit: the near side's orbit ends here
+    value = 0.5 * (a + b)
+    if orbit_b is None:
+        # No orbit beyond: where the first probe failed is not where the branch ends.
+        flow.rebind(orbit_a.problem)
+        found = survey(flow, orbit_a)
+        if found and found[0][0] < 0.1:
+            value, orbit_a = refine_end(flow, problem_at, a, orbit_a, found[0][3], b + (b - a))
+            a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
     bif = Bifurcation(param, value, kind, category, detail, abs(b - a),
@@ -160,8 +167,78 @@ def _family(guard) -> tuple[str, int]:
     return ("velocity" if guard.kind == "velocity" else "static", guard.block)
 
 
-def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tuple[float, str, str]]:
-    """Every near-degenerate quantity of an orbit as ``(relative size, kind, text)``, smallest first.
+def _event_rate(problem, e) -> float:
+    g = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
+    return abs(float(g.rate(e.t, e.y, problem.rhs(e.mode_before, e.t, e.y))))
+
+
+def _margin(problem, e) -> float:
+    return problem.coefficients.fr[e.block - 1] - abs(float(problem.restoring_force(e.block, e.t, e.y)))
+
+
+def measure(flow: HybridFlow, orbit: PeriodicOrbit, key: tuple) -> float:
+    """The degenerate quantity ``key`` of :func:`survey` on ``orbit``, as a function that is smooth
+    and crosses zero at the bifurcation: the squared guard rate at an event (a grazing's rate
+    goes like the square root of the distance), the margin ``fr - |R|``, or an arc's dip."""
+    problem = flow.problem
+    if key[0] == "rate":
+        return _event_rate(problem, orbit.events[key[1]]) ** 2
+    if key[0] == "margin":
+        return _margin(problem, orbit.events[key[1]])
+    import scipy.optimize
+
+    _, arc, kind, block = key
+    t0, y0, mode, dt = list(_arcs(orbit))[arc]
+    g = next(g for g in problem.guards(mode) if g.kind == kind and g.block == block)
+
+    def value(s):
+        y = flow.states(t0, y0, mode, np.array([t0 + s]))[0]
+        return g.expected_sign * float(g.value(t0 + s, y))
+
+    res = scipy.optimize.minimize_scalar(value, bounds=(1e-9 * dt, dt * (1 - 1e-9)), method="bounded",
+                                         options={"xatol": 1e-12 * max(1.0, dt)})
+    return float(res.fun)
+
+
+def refine_end(flow: HybridFlow, problem_at: Callable, value: float, orbit: PeriodicOrbit, key: tuple,
+               toward: float, xtol: float = 1e-12, max_iter: int = 40) -> tuple[float, PeriodicOrbit]:
+    """Where the degenerate quantity ``key`` of the orbit reaches zero, by secant steps on the near side.
+
+    Newton's region of convergence shrinks near a grazing, so the first failing
+    shooting step only brackets the end of a branch loosely; the quantity itself
+    is smooth on the near side and is extrapolated to zero (each secant point a
+    converged orbit of the same signature; a failed point is approached by halving).
+    """
+    sig = signature(orbit)
+    flow.rebind(orbit.problem)
+    pts = [(value, measure(flow, orbit, key))]
+    step = (toward - value) / 4
+    for _ in range(max_iter):
+        if len(pts) >= 2:
+            (x0, f0), (x1, f1) = pts[-2], pts[-1]
+            guess_x = x1 - f1 * (x1 - x0) / (f1 - f0) if f1 != f0 else x1 + step
+        else:
+            guess_x = value + step
+        nxt = None
+        for _half in range(30):
+            if abs(guess_x - pts[-1][0]) <= xtol:
+                return guess_x, orbit
+            cand = _probe(flow, problem_at, guess_x, orbit)
+            if cand is not None and signature(cand) == sig:
+                nxt = cand
+                break
+            guess_x = pts[-1][0] + 0.5 * (guess_x - pts[-1][0])
+        if nxt is None:
+            break
+        orbit = nxt
+        pts.append((guess_x, measure(flow, orbit, key)))
+    return pts[-1][0], orbit
+
+
+def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tuple[float, str, str, tuple]]:
+    """Every near-degenerate quantity of an orbit as ``(relative size, kind, text, key)``, smallest first.
+
+    ``key`` names the quantity for :func:`measure`.
 
     - at each event, the rate of its guard (zero: the orbit touches the surface tangentially);
     - at each stick or reverse, the margin ``fr - |R|`` (zero: the locus of sticking phase
@@ -178,7 +255,7 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
     rate_scale: dict[tuple, float] = {}
     value_scale: dict[tuple, float] = {}
     dips = []
-    for t0, y0, mode, dt in _arcs(orbit):
+    for arc, (t0, y0, mode, dt) in enumerate(_arcs(orbit)):
         if dt <= 0:
             continue
         times = t0 + dt * np.linspace(0.0, 1.0, samples)[1:-1]
@@ -200,33 +277,32 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
 
             res = scipy.optimize.minimize_scalar(value, bounds=(times[k - 1] - t0, times[k + 1] - t0),
                                                  method="bounded", options={"xatol": 1e-10 * max(1.0, dt)})
-            dips.append((float(res.fun), g, fam, t0 + float(res.x)))
+            dips.append((float(res.fun), g, fam, t0 + float(res.x), ("dip", arc, g.kind, g.block)))
     out = []
-    for v, g, fam, t in dips:
+    for v, g, fam, t, key in dips:
         rel = abs(v) / (value_scale[fam] or 1.0)
         if g.kind == "velocity":
             out.append((rel, "grazing-sliding", f"a slip arc of block {g.block} comes within {abs(v):.3g} of the "
-                        f"belt speed without reaching it ({g.name} has an interior extremum at t = {t:.10g})"))
+                        f"belt speed without reaching it ({g.name} has an interior extremum at t = {t:.10g})", key))
         else:
             out.append((rel, "multi-sliding", f"a sticking arc of block {g.block} comes within {abs(v):.3g} of its "
-                        f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})"))
-    for e in orbit.events:
-        g = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
-        rate = abs(float(g.rate(e.t, e.y, problem.rhs(e.mode_before, e.t, e.y))))
+                        f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})", key))
+    for index, e in enumerate(orbit.events):
+        rate = _event_rate(problem, e)
         rel = rate / (rate_scale.get(_family(g)) or 1.0)
         if e.guard == "velocity":
             out.append((rel, "grazing-sliding", f"block {e.block}'s velocity reaches the belt speed with slope "
-                        f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})"))
+                        f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})", ("rate", index)))
         else:
             out.append((rel, "multi-sliding", f"block {e.block}'s sticking phase reaches its static limit with "
-                        f"slope {rate:.3g} at a slip event (t = {e.t:.10g})"))
+                        f"slope {rate:.3g} at a slip event (t = {e.t:.10g})", ("rate", index)))
         if e.kind in ("stick", "reverse"):
             fr = problem.coefficients.fr[e.block - 1]
-            margin = fr - abs(float(problem.restoring_force(e.block, e.t, e.y)))
+            margin = _margin(problem, e)
             out.append((abs(margin) / fr, "crossing-sliding",
                         f"block {e.block} reaches the belt speed with fr - |R| = {margin:.3g} at a {e.kind} "
                         f"event (t = {e.t:.10g}): the locus of sticking phase starts on the boundary of its "
-                        "sliding region"))
+                        "sliding region", ("margin", index)))
     return sorted(out, key=lambda c: c[0])
 
 
@@ -284,7 +360,7 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
             candidates += survey(flow, orbit)
     if not candidates:
         return "unknown", "border-collision", "the event pattern changes; no degenerate event was found"
-    rel, kind, text = min(candidates, key=lambda c: c[0])
+    rel, kind, text, _ = min(candidates, key=lambda c: c[0])
     if far is None:
         return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]; the branch ends (no orbit of this kind beyond)"
     a, b = _stick_counts(near, nb), _stick_counts(far, nb)

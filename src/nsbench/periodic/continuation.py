@@ -42,6 +42,8 @@ class Branch:
     bifurcations: list[Bifurcation] = field(default_factory=list)
     end_reason: str = ""
     label: str = "1"
+    #: the converged orbit nearest each bifurcation, on the side the branch came from
+    near_orbits: list[PeriodicOrbit] = field(default_factory=list)
 
     def frame(self) -> pd.DataFrame:
         """One row per step: value, period, stability, multipliers, pattern, start point."""
@@ -112,15 +114,17 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
                 branch.end_reason = (f"no orbit of pattern [{orbit.pattern_text()}] beyond {param} = {value:.10g} "
                                      f"(step {h:.2g} failed)")
                 if locate_bifurcations:
-                    bif, _, _ = locate(flow, problem_at, param, value, orbit, target, None, xtol)
+                    bif, near, _ = locate(flow, problem_at, param, value, orbit, target, None, xtol)
                     branch.bifurcations.append(bif)
+                    branch.near_orbits.append(near)
                     branch.end_reason += f"; the branch ends at {param} = {bif.value:.12g} ({bif.kind})"
                 break
             h /= 2
             continue
         if locate_bifurcations and signature(new) != signature(orbit):
-            bif, _, far = locate(flow, problem_at, param, value, orbit, target, new, xtol)
+            bif, near, far = locate(flow, problem_at, param, value, orbit, target, new, xtol)
             branch.bifurcations.append(bif)
+            branch.near_orbits.append(near)
             if far is None:  # the orbit ends; Newton found another one beyond: a new branch
                 branch.end_reason = (f"the orbit of pattern [{orbit.pattern_text()}] ends at {param} = "
                                      f"{bif.value:.12g} ({bif.kind})")
@@ -298,10 +302,8 @@ def locate_target(problem_at: Callable[[float], object], param: str, origin: flo
 
     orbit = find_orbit(flow, transient=transient)
     branch = continue_orbit(flow, problem_at, param, orbit, origin, far, steps=steps, xtol=xtol)
-    for bif in sorted(branch.bifurcations, key=lambda b: abs(b.value - origin)):
+    for bif, near in sorted(zip(branch.bifurcations, branch.near_orbits), key=lambda b: abs(b[0].value - origin)):
         if low <= bif.value <= high and (kind is None or bif.kind == kind):
-            k = int(np.argmin([abs(v - bif.value) if (v - bif.value) * (origin - bif.value) > 0 else np.inf
-                               for v in branch.values]))
-            return bif, branch.orbits[k]
+            return bif, near
     raise ConfigError(f"no {kind or 'bifurcation'} of the orbit from {param} = {origin:g} in [{low:g}, {high:g}] "
                       f"({branch.end_reason})")

@@ -217,3 +217,29 @@ def free_components(problem, mode: Mode) -> np.ndarray:
     """State indices that may vary in ``mode``: a stuck block's velocity is ``v0``, not an unknown."""
     keep = [j for j in range(problem.n_states) if not (j % 2 == 1 and mode[j // 2] == STICK)]
     return np.array(keep, dtype=int)
+
+
+def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
+    """States where one period of ``orbit`` crosses a sweep's section, shape ``(p, n)``, in time order.
+
+    ``section`` as in :mod:`nsbench.bifurcation.sweep`: ``peaks`` (local maxima of ``x1``),
+    ``strobe`` (``t = 2 pi k / Omega``), ``stick`` or ``mapping`` (slip events).
+    """
+    from nsbench.hybrid.run import run_hybrid
+    from nsbench.sections import peaks
+
+    problem = flow.problem
+    if section in ("stick", "mapping"):
+        kind = "stick" if section == "stick" else "slip"
+        ys = [e.y for e in orbit.events if e.kind == kind]
+        return np.array(ys).reshape(len(ys), problem.n_states)
+    if section == "strobe":
+        tf = 2.0 * np.pi / problem.coefficients.w
+        k0 = np.ceil(orbit.t0 / tf - 1e-12)
+        times = tf * np.arange(k0, k0 + round(orbit.period / tf))
+        return flow.states(orbit.t0, orbit.y0, orbit.mode0, times) if times.size else np.empty((0, problem.n_states))
+    if section != "peaks":
+        raise ConfigError(f"section {section!r} is not allowed; choose one of peaks, strobe, stick, mapping")
+    raw = run_hybrid(problem, flow.integ, orbit.t0 + orbit.period, t0=orbit.t0, y0=orbit.y0, mode=orbit.mode0,
+                     sections=[peaks(problem)], max_steps=50_000_000)
+    return raw.records.hy[: raw.n_hits].copy()

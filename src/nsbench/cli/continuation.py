@@ -1,0 +1,146 @@
+"""``nsbench continuation PROBLEM --sweep NAME=START:STOP ...``: periodic orbits followed in one parameter."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+from nsbench.cli._common import (check_output_dir, parse_count, parse_number, parse_real, shared_params)
+from nsbench.errors import ConfigError
+
+SECTIONS = ("peaks", "strobe", "stick", "mapping")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("continuation", help="follow periodic orbits in one parameter; locate their bifurcations")
+    p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
+    p.add_argument("--case", default="1", help="preset 1..4 (default 1)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="fixed parameter override (repeatable)")
+    p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
+    p.add_argument("--sweep", required=True, metavar="NAME=START:STOP",
+                   help="continued dimensionless parameter and its range (v0, inv_omega_r, r_f, F, ...)")
+    p.add_argument("--steps", default="200", help="continuation steps over the range at the largest step "
+                                                  "size (default 200; halved where needed)")
+    p.add_argument("--section", default=None, choices=SECTIONS,
+                   help="section points drawn and stored (default: strobe if forced, else peaks)")
+    p.add_argument("--integrator", default=None,
+                   help="integrator of the flow (default: exact for linear problems, heyoka otherwise)")
+    p.add_argument("--transient", default="1500",
+                   help="time integrated from rest before the first orbit is sought (default 1500)")
+    p.add_argument("--no-doubling", action="store_true", help="do not follow period-doubled branches")
+    p.add_argument("--diagram", default=None, metavar="DIR",
+                   help="a brute-force sweep folder (from nsbench bifurcation) to draw beneath the branches")
+    p.add_argument("--out", default=None, help="results folder (default continuation/<problem>-case<C>-<NAME>)")
+    p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(handler=main)
+
+
+def parse_range(text: str) -> tuple[str, float, float]:
+    """``NAME=START:STOP`` as ``(name, start, stop)`` with two different finite numbers."""
+    name, sep, rng = text.partition("=")
+    parts = [p.strip() for p in rng.split(":")]
+    if not sep or not name.strip() or len(parts) != 2:
+        raise ConfigError(f"--sweep expects NAME=START:STOP, got {text!r}")
+    start = parse_number(parts[0], f"--sweep {text!r}: START")
+    stop = parse_number(parts[1], f"--sweep {text!r}: STOP")
+    if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
+        raise ConfigError(f"--sweep {text!r}: START and STOP must be two different finite numbers")
+    return name.strip(), start, stop
+
+
+def main(args: argparse.Namespace) -> int:
+    from nsbench.bifurcation.figures import FORMATS
+    from nsbench.periodic import trace
+    from nsbench.periodic.output import figure, points_frame, write
+    from nsbench.problems import get_problem
+    from nsbench.progress import Progress
+    from nsbench.provenance import provenance
+
+    name, start, stop = parse_range(args.sweep)
+    steps = parse_count(args.steps, "--steps", low=1, high=100_000)
+    transient = parse_real(args.transient, "--transient", low=0.0)
+    try:
+        case = int(parse_number(args.case, "--case"))
+    except (ValueError, OverflowError):
+        raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4") from None
+    params = shared_params(args)
+    if name in params:
+        raise ConfigError(f"parameter {name} is both continued (--sweep) and fixed (--param)")
+    if name == "n":
+        raise ConfigError("the number of blocks n cannot be continued (it changes the state)")
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise ConfigError(f"--formats: {', '.join(bad) or 'none given'}; choose from {', '.join(FORMATS)}")
+
+    def problem_at(value: float):
+        return get_problem(args.problem, case=case, **{**params, name: float(value)})
+
+    ends = [problem_at(start), problem_at(stop)]  # a bad parameter or value fails here
+    forced = any(p.is_forced for p in ends)
+    section = args.section or ("strobe" if forced else "peaks")
+    if section == "strobe" and not all(p.is_forced and p.coefficients.w > 0 for p in ends):
+        raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
+    if args.integrator is not None:
+        from nsbench.integrators import get_integrator
+
+        get_integrator(args.integrator).setup(ends[0])  # unknown or refusing integrator: one line now
+    diagram = _diagram(args.diagram, name) if args.diagram else None
+    out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
+    check_output_dir(out, "--out")
+
+    h_max = abs(stop - start) / steps
+    bar = Progress(steps, label=name, enabled=not args.no_progress)
+    done = [0]
+
+    def on_step(value: float) -> None:
+        now = min(steps, int(round(abs(value - start) / h_max)))
+        if now > done[0]:
+            bar.update(now - done[0], note=f"{name} = {value:.6g}")
+            done[0] = now
+
+    tic = time.perf_counter()
+    with bar:
+        result = trace(problem_at, name, start, stop, steps=steps, integrator=args.integrator,
+                       transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step)
+    seconds = time.perf_counter() - tic
+    from nsbench.periodic import HybridFlow
+
+    flow = HybridFlow(ends[0], args.integrator)
+    points = points_frame(flow, result, problem_at, section)
+    meta = {"problem": args.problem, "case": case, "params": params, "param": name, "start": start,
+            "stop": stop, "steps": steps, "section": section, "transient": transient,
+            "integrator": flow.integrator_name, "newton_tolerance": 1e-11, "bisection_tolerance": 1e-11,
+            "seconds": seconds, "provenance": provenance()}
+    paths = write(out, result, points, meta)
+    title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {flow.integrator_name})"
+    written = figure(result, points, out / "branches", diagram=diagram, title=title, formats=formats)
+    n_steps = sum(len(b.values) for b in result.branches)
+    print(f"{len(result.branches)} branch(es), {n_steps} orbits, {len(result.gaps)} value(s) without a periodic "
+          f"orbit, in {seconds:.1f} s -> {out}")
+    for br in result.branches:
+        print(f"  branch {br.label}: {name} {br.values[0]:.10g} .. {br.values[-1]:.10g}, {len(br.values)} steps; "
+              f"{br.end_reason}")
+    bifs = [b for b in result.bifurcations if b.category != "none"]
+    print(f"  bifurcations ({len(bifs)}; event-order swaps are in {paths['bifurcations'].name} only):")
+    for b in bifs:
+        print(f"    {name} = {b.value:.12g}: {b.kind} ({b.category})")
+    print(f"  figure -> {written[0]}")
+    return 0
+
+
+def _diagram(folder: str, name: str):
+    """Points of a brute-force sweep folder, checked to sweep the same parameter."""
+    from nsbench.bifurcation.storage import SweepStore
+
+    path = Path(folder)
+    if not (path / "meta.json").is_file():
+        raise ConfigError(f"--diagram {folder}: not a sweep folder (no meta.json); run nsbench bifurcation first")
+    store = SweepStore(path)
+    if store.spec.name != name:
+        raise ConfigError(f"--diagram {folder} sweeps {store.spec.name}, not {name}")
+    return store.load()

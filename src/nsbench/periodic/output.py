@@ -1,0 +1,108 @@
+"""Files of a continuation: ``branch.csv``, ``points.csv``, ``bifurcations.csv``, ``meta.json`` and the figure.
+
+- ``branch.csv``: one row per continuation step (see :meth:`Branch.frame`);
+- ``points.csv``: the section points of each step's orbit (``branch, value, k``, the state);
+- ``bifurcations.csv``: ``branch, param, value, kind, category, detail, bracket``, the
+  patterns and multipliers on both sides;
+- ``gaps.csv``: parameter values where no periodic orbit was found, with the reason;
+- ``meta.json``: the problem, the range, the flow's integrator, versions and machine;
+- ``branches.{png,svg,pdf}``: section points against the parameter, stable branches solid,
+  unstable dashed, bifurcations marked, over the brute-force diagram when one is given.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from nsbench.files import write_atomic
+from nsbench.periodic.continuation import Continuation
+from nsbench.periodic.flow import HybridFlow, section_points
+
+
+def points_frame(flow: HybridFlow, result: Continuation, problem_at, section: str) -> pd.DataFrame:
+    """Section points of every step of every branch (long format)."""
+    rows = []
+    for br in result.branches:
+        for value, orbit in zip(br.values, br.orbits):
+            flow.rebind(problem_at(value))
+            pts = section_points(flow, orbit, section)
+            for k, y in enumerate(pts):
+                rows.append({"branch": br.label, "value": value, "k": k, "stable": orbit.stable,
+                             **dict(zip(orbit.problem.state_names, y))})
+    return pd.DataFrame(rows)
+
+
+def write(out: str | Path, result: Continuation, points: pd.DataFrame, meta: dict[str, Any]) -> dict[str, Path]:
+    """Write the tables and ``meta.json`` into ``out``; return their paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"branch": out / "branch.csv", "points": out / "points.csv",
+             "bifurcations": out / "bifurcations.csv", "gaps": out / "gaps.csv", "meta": out / "meta.json"}
+    bif = result.bifurcation_frame()
+    if not len(bif):
+        bif = pd.DataFrame(columns=["branch", "param", "value", "kind", "category", "detail", "bracket",
+                                    "left_pattern", "right_pattern", "left_multipliers", "right_multipliers"])
+    tables = {"branch": result.frame(), "points": points, "bifurcations": bif,
+              "gaps": pd.DataFrame(result.gaps, columns=["value", "reason"])}
+    for key, frame in tables.items():
+        write_atomic(paths[key], frame.to_csv(index=False, float_format="%.17g").encode())
+    write_atomic(paths["meta"], json.dumps(meta, indent=2, default=str).encode())
+    return paths
+
+
+def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, variable: str = "x1",
+           diagram: pd.DataFrame | None = None, title: str = "",
+           formats: Sequence[str] = ("png", "svg", "pdf")) -> list[Path]:
+    """Section points of every branch against the parameter; stable solid, unstable dashed.
+
+    Within a branch the ``k``-th smallest ``variable`` of consecutive orbits with the
+    same number of points and stability is one line. ``diagram``: a brute-force
+    sweep's points (``value`` and ``variable`` columns), drawn beneath as grey dots.
+    """
+    from nsbench.bifurcation.figures import _plt, save
+
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4.8), constrained_layout=True)
+    if diagram is not None and len(diagram) and variable in diagram:
+        ax.plot(diagram["value"], diagram[variable], ",", color="0.6", alpha=0.6, label="brute-force sweep")
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    drawn = {True: False, False: False}
+    for i, (label, grp) in enumerate(points.groupby("branch", sort=False)) if len(points) else ():
+        colour = colours[i % len(colours)]
+        per_value = [(v, g[variable].sort_values().to_numpy(), bool(g["stable"].iloc[0]))
+                     for v, g in grp.groupby("value", sort=True)]
+        run: list = []
+        for item in per_value + [(None, np.empty(0), None)]:
+            if run and (item[0] is None or len(item[1]) != len(run[-1][1]) or item[2] != run[-1][2]):
+                xs = np.array([r[0] for r in run])
+                ys = np.array([r[1] for r in run])
+                stable = run[0][2]
+                style = "-" if stable else "--"
+                for k in range(ys.shape[1]):
+                    lab = None
+                    if k == 0 and not drawn[stable]:
+                        lab, drawn[stable] = ("stable orbits" if stable else "unstable orbits"), True
+                    ax.plot(xs, ys[:, k], style, color=colour if stable else "0.3", lw=1.2, label=lab,
+                            marker="." if len(xs) == 1 else None)
+                run = []
+            if item[0] is not None:
+                run.append(item)
+    kinds = {}
+    for b in result.bifurcations:
+        if b.category == "none":
+            continue
+        line = ax.axvline(b.value, color="tab:red" if b.category == "fixed-point" else "tab:purple",
+                          lw=0.6, alpha=0.5)
+        kinds.setdefault(b.category, line)
+    for cat, line in kinds.items():
+        line.set_label(f"{cat} bifurcation")
+    ax.set_xlabel(result.param)
+    ax.set_ylabel(f"{variable} at the section")
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    return save(fig, base, formats)

@@ -30,6 +30,9 @@ def add_parser(sub) -> None:
                    help="integrator of the flow (default: exact for linear problems, heyoka otherwise)")
     p.add_argument("--transient", default="1500",
                    help="time integrated from rest before the first orbit is sought (default 1500)")
+    p.add_argument("--origin", default=None, metavar="VALUE",
+                   help="find the first orbit from rest at this value and continue it to START (for an orbit "
+                        "that coexists with another attractor at START)")
     p.add_argument("--no-doubling", action="store_true", help="do not follow period-doubled branches")
     p.add_argument("--diagram", default=None, metavar="DIR",
                    help="a brute-force sweep folder (from nsbench bifurcation) to draw beneath the branches")
@@ -67,6 +70,7 @@ def main(args: argparse.Namespace) -> int:
         case = int(parse_number(args.case, "--case"))
     except (ValueError, OverflowError):
         raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4") from None
+    origin = parse_real(args.origin, "--origin") if args.origin is not None else None
     params = shared_params(args)
     if name in params:
         raise ConfigError(f"parameter {name} is both continued (--sweep) and fixed (--param)")
@@ -81,6 +85,8 @@ def main(args: argparse.Namespace) -> int:
         return get_problem(args.problem, case=case, **{**params, name: float(value)})
 
     ends = [problem_at(start), problem_at(stop)]  # a bad parameter or value fails here
+    if origin is not None:
+        problem_at(origin)
     forced = any(p.is_forced for p in ends)
     section = args.section or ("strobe" if forced else "peaks")
     if section == "strobe" and not all(p.is_forced and p.coefficients.w > 0 for p in ends):
@@ -106,13 +112,14 @@ def main(args: argparse.Namespace) -> int:
     tic = time.perf_counter()
     with bar:
         result = trace(problem_at, name, start, stop, steps=steps, integrator=args.integrator,
-                       transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step)
+                       transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step,
+                       origin=origin)
     seconds = time.perf_counter() - tic
     from nsbench.periodic import HybridFlow
 
     flow = HybridFlow(ends[0], args.integrator)
     points = points_frame(flow, result, problem_at, section)
-    meta = {"problem": args.problem, "case": case, "params": params, "param": name, "start": start,
+    meta = {"problem": args.problem, "case": case, "params": params, "param": name, "origin": origin, "start": start,
             "stop": stop, "steps": steps, "section": section, "transient": transient,
             "integrator": flow.integrator_name, "newton_tolerance": 1e-11, "bisection_tolerance": 1e-11,
             "seconds": seconds, "provenance": provenance()}

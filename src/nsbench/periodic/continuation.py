@@ -206,7 +206,8 @@ class Continuation:
 
 def trace(problem_at: Callable[[float], object], param: str, start: float, stop: float, *, steps: int = 200,
           integrator: str | None = None, transient: float = 1500.0, xtol: float = 1e-11,
-          doubling: int = 2, max_branches: int = 50, on_step: Callable[[float], None] | None = None) -> Continuation:
+          doubling: int = 2, max_branches: int = 50, on_step: Callable[[float], None] | None = None,
+          origin: float | None = None) -> Continuation:
     """Periodic orbits over ``[start, stop]``: the attractor reached from rest at ``start``, continued;
     where a branch ends, the attractor the motion settles on just beyond, continued; and so on.
 
@@ -222,6 +223,10 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
         Time integrated before looking for the orbit a motion settles on.
     doubling
         Depth of branch switching at period doublings (0: none).
+    origin
+        Where to find the first orbit from rest when the motion from rest at ``start``
+        is not the wanted one (coexisting attractors): that orbit is continued from
+        ``origin`` to ``start`` first (not recorded).
     """
     from nsbench.periodic.shooting import find_orbit
 
@@ -230,11 +235,20 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
     flow = HybridFlow(problem_at(start), integrator)
     result = Continuation(param, float(start), float(stop))
     value, seed = float(start), None  # seed: (t0, y0) to settle from after a branch end
+    first: PeriodicOrbit | None = None
+    if origin is not None and origin != start:
+        flow.rebind(problem_at(origin))
+        lead = continue_orbit(flow, problem_at, param, find_orbit(flow, transient=transient), origin, start,
+                              steps=max(1, int(round(abs(start - origin) / h_max))), locate_bifurcations=False)
+        if lead.values[-1] != start:
+            raise ShootingError(f"the orbit from rest at {param} = {origin:g} does not reach {start:g}: "
+                                f"{lead.end_reason}")
+        first = lead.orbits[-1]
     while direction * (stop - value) > 1e-12 * max(1.0, abs(stop)) and len(result.branches) < max_branches:
         flow.rebind(problem_at(value))
         try:
             kwargs = {} if seed is None else {"t0": seed[0], "y0": seed[1]}
-            orbit = find_orbit(flow, transient=transient, **kwargs)
+            orbit, first = (first, None) if first is not None else (find_orbit(flow, transient=transient, **kwargs), None)
         except ShootingError as exc:
             result.gaps.append((value, str(exc)))
             value, seed = value + direction * h_max, None

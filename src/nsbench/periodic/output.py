@@ -104,5 +104,8 @@ def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, vari
     ax.set_xlabel(result.param)
     ax.set_ylabel(f"{variable} at the section")
     ax.set_title(title, fontsize=9)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    else:
+        ax.text(0.5, 0.5, "no periodic orbit found in the range", transform=ax.transAxes, ha="center")
     return save(fig, base, formats)

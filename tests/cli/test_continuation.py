@@ -1,0 +1,64 @@
+"""``nsbench continuation``: the files a user gets, and one-line errors on bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from nsbench import get_problem
+from nsbench.cli import main
+from nsbench.periodic import locate_target
+
+
+def test_continuation_writes_branch_bifurcations_and_figure(tmp_path, capsys):
+    out = tmp_path / "cont"
+    code = main(["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.2:0.28", "--steps", "16", "--origin", "0.16",
+                 "--out", str(out), "--formats", "png", "--no-progress"])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "grazing-sliding (sliding)" in text
+    branch = pd.read_csv(out / "branch.csv")
+    assert {"value", "period", "stable", "multipliers", "pattern"} <= set(branch.columns)
+    assert branch["value"].is_monotonic_increasing and branch["stable"].all()
+    assert set(branch["pattern"]) == {"slip2 stick2"}
+    bifs = pd.read_csv(out / "bifurcations.csv")
+    assert {"param", "value", "kind", "category", "detail"} <= set(bifs.columns)
+    row = bifs[bifs["kind"] == "grazing-sliding"].iloc[0]
+    # the same point found through the API from another start and step: agree far below 1e-8
+    ref, _ = locate_target(lambda v: get_problem("two-dof", case=1, v0=v), "v0", 0.16, 0.27, 0.28, steps=40)
+    assert abs(row["value"] - ref.value) < 1e-9
+    points = pd.read_csv(out / "points.csv")
+    assert len(points) >= len(branch)  # at least one peak per orbit
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["integrator"] == "exact" and meta["param"] == "v0" and "provenance" in meta
+    assert (out / "branches.png").stat().st_size > 0
+    # beyond the end of the branch the motion settles to steady sliding: recorded as gaps
+    gaps = pd.read_csv(out / "gaps.csv")
+    assert (gaps["value"] > row["value"]).all() and gaps["reason"].str.contains("steady sliding").all()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--sweep", "v0=0.1"], "NAME=START:STOP"),
+    (["--sweep", "v0=0.1:0.1"], "two different finite numbers"),
+    (["--sweep", "v0=0.1:nan"], "two different finite numbers"),
+    (["--sweep", "v0=abc:0.2"], "START"),
+    (["--sweep", "v0=0.1:0.2", "--param", "v0=0.3"], "both continued"),
+    (["--sweep", "v0=0.1:0.2", "--steps", "0"], "--steps"),
+    (["--sweep", "v0=0.1:0.2", "--steps", "2.5"], "--steps"),
+    (["--sweep", "v0=0.1:0.2", "--transient", "-1"], "--transient"),
+    (["--sweep", "v0=0.1:0.2", "--integrator", "nope"], "nope"),
+    (["--sweep", "v0=0.1:0.2", "--formats", "bmpx"], "--formats"),
+    (["--sweep", "v0=0.1:0.2", "--section", "strobe"], "harmonic force"),
+    (["--sweep", "bogus=0.1:0.2"], "bogus"),
+    (["--sweep", "v0=-0.1:0.2"], "v0"),
+    (["--sweep", "v0=0.1:0.2", "--diagram", "/nonexistent"], "--diagram"),
+    (["--sweep", "v0=0.1:0.2", "--origin", "inf"], "--origin"),
+])
+def test_bad_input_is_one_line(argv, message, capsys, tmp_path):
+    code = main(["continuation", "two-dof", "--case", "1", "--out", str(tmp_path / "x"), "--no-progress", *argv])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()  # nothing written before the input is checked

@@ -92,13 +92,11 @@ def _probe(flow: HybridFlow, problem_at: Callable, value: float, near: PeriodicO
 
 
 def _reanchored(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit:
+    """The same orbit described from the middle of its longest arc (no new Newton solve)."""
+    from nsbench.periodic.shooting import restart
+
     flow.rebind(orbit.problem)
-    t, y, mode = anchor(flow, orbit)
-    period = orbit.period
-    try:
-        return shoot(flow, t, y, mode, period, forced=orbit.forced)
-    except ShootingError:
-        return orbit
+    return restart(flow, orbit, *anchor(flow, orbit))
 
 
 def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a: PeriodicOrbit, b: float,

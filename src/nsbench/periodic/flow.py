@@ -132,7 +132,7 @@ class HybridFlow:
         self.integ = get_integrator(integrator, **(options or {}))
         self.integ.setup(problem)
         warm_up(problem, self.integ)
-        self._expm: dict[Mode, np.ndarray] = {}
+        self._expm: dict[Mode, tuple] = {}
 
     def rebind(self, problem) -> None:
         """Use the same integrator on a problem with other coefficient values (continuation)."""
@@ -185,9 +185,18 @@ class HybridFlow:
         if dt <= 0.0:
             return np.eye(n)
         if self.problem.is_linear:
-            # The forcing enters additively, so the transition matrix is expm(A dt) exactly.
-            a, *_ = self.problem.linear_form(mode)
-            return scipy.linalg.expm(a * dt)
+            # The forcing enters additively, so the transition matrix is expm(A dt) exactly:
+            # from the mode's eigendecomposition (cached), or scipy's expm if that is ill-conditioned.
+            modal = self._expm.get(mode)
+            if modal is None:
+                a, *_ = self.problem.linear_form(mode)
+                lam, vec = np.linalg.eig(a)
+                modal = self._expm[mode] = (a, lam, vec, np.linalg.inv(vec)) if np.linalg.cond(vec) < 1e6 \
+                    else (a, None, None, None)
+            a, lam, vec, inv = modal
+            if lam is None:
+                return scipy.linalg.expm(a * dt)
+            return ((vec * np.exp(lam * dt)) @ inv).real
         problem = self.problem
 
         def rhs(t, z):

@@ -246,6 +246,18 @@ def _orbit(flow, t0, y, mode0, T, forced, p: Pass, free, res, it) -> PeriodicOrb
                          canonical_pattern(p.pattern), jac, mu, res, it, free)
 
 
+def restart(flow: HybridFlow, orbit: PeriodicOrbit, t0: float, y0: np.ndarray, mode0: Mode) -> PeriodicOrbit:
+    """``orbit`` seen from another of its points ``(t0, y0, mode0)``: one period's events and monodromy."""
+    p = flow.run(t0, y0, mode0, orbit.period)
+    free = free_components(flow.problem, mode0)
+    scale = 1.0 + float(np.max(np.abs(y0)))
+    res = float(np.max(np.abs((p.y - np.asarray(y0))[free])))
+    if res > 1e-8 * scale:  # pragma: no cover - a point of a converged orbit returns to itself
+        return shoot(flow, t0, y0, mode0, orbit.period, forced=orbit.forced)
+    return _orbit(flow, t0, np.asarray(y0, dtype=float), mode0, orbit.period, orbit.forced, p, free, res,
+                  orbit.iterations)
+
+
 def anchor(flow: HybridFlow, orbit: PeriodicOrbit) -> tuple[float, np.ndarray, Mode]:
     """A start point in the middle of the orbit's longest arc: ``(t, y, mode)``.
 

@@ -198,6 +198,11 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     scaling_fit = scaling_summary(scaling)
     scaling_figs = scaling_report_figures(frame, scaling, scaling_fit, d / "figures") if len(scaling) else []
     figures = scaling_figs + report_figures(frame, d / "figures")
+    from nsbench.bench import targets as bt
+
+    bif_rows = bt.load_rows(d)
+    bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
+    bif = (bif_rows, bif_figs)
     results_view = frame[_RESULT_COLUMNS].rename(columns={"problem_label": "problem"})
     failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status",
                                                      "message"]]
@@ -238,6 +243,12 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
            "", ENGINE_CAPTION, "", markdown_table(engine), "", "## Figures", ""]
     for fig in figures[len(scaling_figs):]:
         md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
+    if len(bif_rows):
+        md += ["## Bifurcation-point error", "", "Targets and their reference values:", "",
+               markdown_table(bt.reference_table(bif_rows)), "", bt.TABLE_CAPTION, "",
+               markdown_table(bt.report_table(bif_rows)), ""]
+        for fig in bif_figs:
+            md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
     md += ["## Statuses", "", markdown_table(_status_counts(frame)), ""]
     if len(failures):
         md += ["Cases that did not succeed:", "", markdown_table(failures), ""]
@@ -262,8 +273,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
                                         ft_caption, rank_caption, problems, spread, spread_caption, engine,
-                                        (scaling, scaling_fit, scaling_figs), answer))
-    return Report(d / "report.md", d / "index.html", d / "table.tex", figures, long, rank)
+                                        (scaling, scaling_fit, scaling_figs), answer, bif))
+    return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
 
 
 ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it "
@@ -344,7 +355,7 @@ def _inline(text: str) -> str:
 
 
 def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
-          spread, spread_caption, engine, scaling_parts, answer) -> str:
+          spread, spread_caption, engine, scaling_parts, answer, bif=None) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
@@ -377,6 +388,12 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
               "<h2>Figures</h2>"]
     for fig in figures[len(scaling_figs):]:
         parts.append(_figure_html(fig))
+    if bif is not None and len(bif[0]):
+        from nsbench.bench import targets as bt
+
+        parts += ["<h2>Bifurcation-point error</h2>", "<p>Targets and their reference values:</p>",
+                  _html_table(bt.reference_table(bif[0])), f"<p>{esc(bt.TABLE_CAPTION)}</p>",
+                  _html_table(bt.report_table(bif[0])), *(_figure_html(fig) for fig in bif[1])]
     parts += ["<h2>Statuses</h2>", _html_table(_status_counts(frame))]
     if len(failures):
         parts += ["<p>Cases that did not succeed:</p>", _html_table(failures)]

@@ -50,6 +50,8 @@ class RunSummary:
         The cases ran in this process (a component defined in ``__main__``), not in workers.
     timeline
         Every task of the workers (start, reference, warm-up, time) with its slot and times.
+    bifurcations
+        The bifurcation-target rows (:mod:`nsbench.bench.targets`), ``None`` if the suite names no target.
     """
 
     out: Path
@@ -59,6 +61,7 @@ class RunSummary:
     results: pd.DataFrame
     in_process: bool = False
     timeline: list[TaskRecord] = field(default_factory=list)
+    bifurcations: pd.DataFrame | None = None
 
     @property
     def crashed(self) -> pd.DataFrame:
@@ -74,12 +77,21 @@ class RunSummary:
     @property
     def ok(self) -> bool:
         """No case crashed and every reference that a candidate accepted was computed."""
-        return self.crashed.empty and not self.reference_failures
+        return not self.problems()
 
     def problems(self) -> list[str]:
         """One line per failure that makes the run not :attr:`ok`."""
         lines = [f"the reference of {label} could not be computed: {why}"
                  for label, why in self.reference_failures.items()]
+        if self.bifurcations is not None and len(self.bifurcations):
+            b = self.bifurcations
+            bad = b[(b["reference_status"] != "ok") & (b["reference_status"] != "")]
+            for name, why in dict(zip(bad["target"], bad["reference_status"])).items():
+                lines.append(f"the reference of bifurcation target {name} could not be computed: {why}")
+            crashed = b[b["status"] == "crashed"]
+            if len(crashed):
+                lines.append(f"{len(crashed)} bifurcation-target location(s) crashed their worker: "
+                             + ", ".join(sorted(crashed["target"] + " " + crashed["integrator"])))
         if not self.crashed.empty:
             lines.append(f"{len(self.crashed)} case(s) crashed their worker: "
                          + ", ".join(sorted(self.crashed["problem_label"] + " " + self.crashed["integrator"])))
@@ -249,8 +261,15 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         if timeline:  # kept after an interruption too: where did the time go
             storage.write_timeline(out, timeline)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
+    bifurcations = None
+    if suite.target_list():  # the bifurcation targets: after every case, never while a case is timed
+        from nsbench.bench.targets import run_targets
+
+        bifurcations = run_targets(suite, out, prov, workers=workers, in_process=bool(local),
+                                   components=shareable, resume=resume, stream=err, progress=progress)
     summary = RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),
-                         n_computed=len(pending), results=results, in_process=bool(local), timeline=timeline)
+                         n_computed=len(pending), results=results, in_process=bool(local), timeline=timeline,
+                         bifurcations=bifurcations)
     for line in summary.problems():
         print(f"nsbench: warning: {line}", file=err)
     return summary

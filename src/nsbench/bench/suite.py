@@ -22,7 +22,7 @@ from nsbench.bench.timing import MIN_REPEATS
 from nsbench.errors import ConfigError
 
 _SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "max_steps",
-               "dense_points", "targets", "reference", "problems", "integrators"}
+               "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
 
@@ -222,6 +222,11 @@ class Suite:
     reference
         Registered integrators tried in order as the reference of a problem; the
         first that accepts the problem is used.
+    bifurcation_targets
+        ``[[bifurcation_targets]]`` tables (name, problem, case, params, param,
+        origin, bracket = [low, high], kind, periods, max_probes, xtol): each
+        integrator configuration locates each of these bifurcations with its own
+        flow (see :mod:`nsbench.bench.targets`).
     """
 
     name: str = "suite"
@@ -235,6 +240,7 @@ class Suite:
     dense_points: int = 100
     targets: tuple[float, ...] = (1e-6, 1e-9, 1e-12)
     reference: tuple[str, ...] = ("exact", "reference")
+    bifurcation_targets: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._unavailable: dict[str, str] = {}
@@ -272,6 +278,16 @@ class Suite:
             _check_problem(p, i)
         _check_integrators(self.integrators)
         self._check_reference()
+        from nsbench.bench.targets import parse_targets
+
+        if self.bifurcation_targets is None:
+            self.bifurcation_targets = []
+        self._bif_targets = parse_targets(self.bifurcation_targets)  # checked now, not in a worker
+        self.bifurcation_targets = [dict(t) for t in self.bifurcation_targets]
+
+    def target_list(self):
+        """The bifurcation targets, checked (:class:`nsbench.bench.targets.BifurcationTarget`)."""
+        return list(self._bif_targets)
 
     def _check_reference(self) -> None:
         from nsbench.integrators import canonical_name, list_integrators

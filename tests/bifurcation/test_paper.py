@@ -44,3 +44,32 @@ def test_paper_report_is_written(tmp_path):
     assert len([p for p in pngs if p.name.startswith("diagram-case1")]) == 4
     assert any(p.name.startswith("locus-case1") for p in pngs)
     assert (out / ".gitignore").read_text().startswith("data/\n")
+
+
+def test_named_bifurcations_located_by_continuation():
+    """Case 2 along v0: the paper's fixed-point bifurcation 'at about 0.35' is a period doubling at 0.3624.
+
+    The located value is checked independently in tests/periodic (finite-difference multiplier -1);
+    here: the row, its kind and category, and the comparison with the stated value.
+    """
+    from nsbench.bifurcation.paper_continuation import continue_claims
+
+    claims = paper.paper_values()
+    claims = claims[(claims["case"] == 2) & (claims["sweep"] == "v0") & (claims["kind"] == "fixed-point")]
+    table = continue_claims(claims, {(2, "v0"): (0.04, 0.6)}, steps=30, log=lambda *_: None)
+    row = table.iloc[0]
+    assert row["continued_kind"] == "period-doubling" and row["continued_category"] == "fixed-point"
+    assert bool(row["same_category"]) and abs(row["continued_value"] - 0.362372) < 1e-6
+    assert abs(row["difference"] - (row["continued_value"] - 0.35)) < 1e-15
+
+
+def test_continuation_section_of_the_report():
+    from nsbench.bifurcation.paper_report import _continued_lines
+
+    frame = pd.DataFrame([dict(case=2, sweep="F", paper_kind="sliding", paper_value="0.135-0.1355",
+                               continued_value=0.13541, difference=0.0, continued_kind="fold",
+                               continued_category="fixed-point", same_category=False, window="0.1..0.2",
+                               branches=2, located=1, seconds=1.0, detail="multiplier 1 approaches +1")])
+    text = "\n".join(_continued_lines(frame))
+    assert "located by continuation" in text
+    assert "the paper names a sliding bifurcation; continuation locates a fold (fixed-point)" in text

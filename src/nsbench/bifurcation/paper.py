@@ -128,7 +128,7 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
 
 def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient: float = 1000.0,
               record: int = 64, workers: int | None = None, only_case: int | None = None,
-              progress: bool = True, log=print) -> Path:
+              progress: bool = True, log=print, continuation: bool = True) -> Path:
     """Regenerate every paper sweep, the locus figures and the report; return the Markdown path."""
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
@@ -176,12 +176,23 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient
         claims = claims[claims["case"] == only_case]
     table = match_claims(claims, found_frames, specs)
     table.to_csv(out / "comparison.csv", index=False)
+    continued = None
+    if continuation:  # every named bifurcation located by continuation too (nsbench.periodic)
+        from nsbench.bifurcation.paper_continuation import continue_claims
+
+        ranges: dict[tuple[int, str], tuple[float, float]] = {}
+        for s in SWEEPS:
+            lo, hi = ranges.get((s.case, s.name), (s.start, s.stop))
+            ranges[(s.case, s.name)] = (min(lo, s.start), max(hi, s.stop))
+        continued = continue_claims(claims, ranges, transient=transient, log=log)
+        continued.to_csv(out / "continuation.csv", index=False)
     sweeps = pd.DataFrame(summary)
     sweeps.to_csv(out / "sweeps.csv", index=False)
     total = time.perf_counter() - tic_all
-    md = markdown_report(sweeps, table, found_frames, points, transient, record, total)
+    md = markdown_report(sweeps, table, found_frames, points, transient, record, total, continued)
     (out / "README.md").write_text(md)
-    (out / "index.html").write_text(html_report(sweeps, table, found_frames, points, transient, record, total))
+    (out / "index.html").write_text(html_report(sweeps, table, found_frames, points, transient, record, total,
+                                                continued))
     log(f"report -> {out / 'README.md'} and {out / 'index.html'} ({total:.0f} s)")
     return out / "README.md"
 

@@ -50,7 +50,32 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def markdown_report(sweeps, table, found, points, transient, record, total) -> str:
+CONTINUATION_TEXT = (
+    "Each bifurcation the paper names, located by continuation of periodic orbits (`nsbench.periodic`, "
+    "[docs/continuation.md](../../docs/continuation.md)): every branch in a window around the stated value "
+    "(5 % of the sweep range on each side) is traced, its bifurcations located to about 1e-11 and named by "
+    "mechanism; the row gives the one nearest the stated value. `same_category` says whether its category "
+    "(`sliding`, `border-collision`, `fixed-point`) is the one the paper names; where it is not, the paper's "
+    "name and the located mechanism differ (the paper names kinds from diagrams, continuation from the "
+    "degenerate event on the orbit).")
+
+
+def _continued_lines(continued) -> list[str]:
+    if continued is None:
+        return []
+    differ = continued[continued["same_category"] == False]  # noqa: E712 - NaN rows are neither
+    lines = ["## Bifurcations named in the paper, located by continuation", "", CONTINUATION_TEXT, "",
+             _table(continued.drop(columns=["detail"])), ""]
+    if len(differ):
+        lines += ["Where the located kind differs from the paper's:", ""]
+        lines += [f"- case {r.case}, {r.sweep} ({r.paper_value}): the paper names a {r.paper_kind} bifurcation; "
+                  f"continuation locates a {r.continued_kind} ({r.continued_category}) at {r.continued_value:.10g}: "
+                  f"{r.detail}" for r in differ.itertuples()]
+        lines.append("")
+    return lines
+
+
+def markdown_report(sweeps, table, found, points, transient, record, total, continued=None) -> str:
     lines = ["# The paper's bifurcation diagrams, reproduced by nsbench", ""]
     lines += _intro(points, transient, record, total)
     lines += ["## Bifurcations named in the paper: stated value and what nsbench finds", "",
@@ -68,6 +93,7 @@ def markdown_report(sweeps, table, found, points, transient, record, total) -> s
         lines.append(f"**{name}**: " + (", ".join(f"{r.value:.4g} ({r.kind}: {r.description})"
                                                    for r in cands.itertuples()) or "none") + "")
         lines.append("")
+    lines += _continued_lines(continued)
     lines += ["## Sweeps", "", _table(sweeps.drop(columns=["slug"])), ""]
     for r in sweeps.itertuples():
         lines += [f"### Case {r.case}, {r.sweep} in {r.range} ({r.section})", "",
@@ -94,7 +120,7 @@ def _html_table(frame: pd.DataFrame) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def html_report(sweeps, table, found, points, transient, record, total) -> str:
+def html_report(sweeps, table, found, points, transient, record, total, continued=None) -> str:
     parts = ["<!doctype html><html><head><meta charset='utf-8'><title>nsbench: the paper reproduced</title>",
              "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
              "font-size:12px}td,th{border:1px solid #ccc;padding:2px 5px}img{max-width:100%}</style></head><body>",
@@ -102,6 +128,9 @@ def html_report(sweeps, table, found, points, transient, record, total) -> str:
     parts += [f"<p>{html.escape(p)}</p>" for p in _intro(points, transient, record, total) if p]
     parts += ["<h2>Bifurcations named in the paper: stated value and what nsbench finds</h2>",
               _html_table(table[TABLE_COLUMNS])]
+    if continued is not None:
+        parts += ["<h2>Bifurcations named in the paper, located by continuation</h2>",
+                  f"<p>{html.escape(CONTINUATION_TEXT)}</p>", _html_table(continued)]
     parts.append("<h2>Case 1: candidate bifurcation points found</h2>")
     for (case, name), cands in found.items():
         if case == 1:

@@ -16,6 +16,8 @@ def add_parser(sub) -> None:
     p.add_argument("--workers", default=None, help="local processes (default: all cores)")
     p.add_argument("--case", default=None, help="only this case (1..4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--no-continuation", action="store_true",
+                   help="skip locating the named bifurcations by continuation of periodic orbits")
     p.set_defaults(handler=main)
 
 
@@ -29,5 +31,6 @@ def main(args: argparse.Namespace) -> int:
     workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     check_output_dir(args.out, "--out")
     run_paper(args.out, points=points, transient=transient, record=record,
-              workers=workers, only_case=case, progress=not args.no_progress)
+              workers=workers, only_case=case, progress=not args.no_progress,
+              continuation=not args.no_continuation)
     return 0

@@ -27,6 +27,8 @@ kind                   what is degenerate on the orbit at the bifurcation     pa
 ``period-doubling``    same pattern, a real multiplier crosses ``-1``         ``fixed-point``
 ``fold``               same pattern, a real multiplier crosses ``+1``         ``fixed-point``
 ``torus``              same pattern, a complex pair crosses the unit circle   ``fixed-point``
+``unclassified``       nothing on the orbits is degenerate (relative size     ``unknown``
+                       above 1e-3): reported as such, never guessed
 ``event-order``        two events of different blocks coincide and swap;     ``none`` (not a
                        the orbit passes through continuously                   bifurcation)
 =====================  =====================================================  ==================
@@ -72,7 +74,10 @@ class Bifurcation:
 #: The paper's category of each kind (see the module docstring).
 CATEGORY = {"grazing-sliding": "sliding", "crossing-sliding": "border-collision",
             "multi-sliding": "border-collision", "period-doubling": "fixed-point", "fold": "fixed-point",
-            "torus": "fixed-point", "event-order": "none", "unknown": "border-collision"}
+            "torus": "fixed-point", "event-order": "none", "unknown": "border-collision",
+            "unclassified": "unknown"}
+#: A degenerate quantity larger than this (relative to its scale) does not name a bifurcation.
+UNCLEAR = 1e-3
 
 
 def signature(orbit: PeriodicOrbit | None) -> tuple:
@@ -123,7 +128,7 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
         # No orbit beyond: where the first probe failed is not where the branch ends.
         flow.rebind(orbit_a.problem)
         found = survey(flow, orbit_a)
-        if found and found[0][0] < 0.1:
+        if found and found[0][0] <= UNCLEAR:
             value, orbit_a = refine_end(flow, problem_at, a, orbit_a, found[0][3], b + (b - a))
             a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
@@ -359,6 +364,15 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
     if not candidates:
         return "unknown", "border-collision", "the event pattern changes; no degenerate event was found"
     rel, kind, text, _ = min(candidates, key=lambda c: c[0])
+    if far is None and near.multipliers.size:
+        z = near.multipliers[np.argmin(np.abs(near.multipliers - 1.0))]
+        if abs(z - 1.0) < 1e-2 and rel > UNCLEAR:
+            return "fold", CATEGORY["fold"], (f"multiplier {format_multipliers(np.array([z]))} approaches +1 "
+                                              "where the branch ends (a turning point of the branch)")
+    if rel > UNCLEAR:
+        return "unclassified", CATEGORY["unclassified"], (
+            f"no event or arc of the orbits at the bracket is degenerate (the closest: {text}, relative size "
+            f"{rel:.2g}); the value is where Newton stops converging, not a located tangency")
     if far is None:
         return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]; the branch ends (no orbit of this kind beyond)"
     a, b = _stick_counts(near, nb), _stick_counts(far, nb)

@@ -111,7 +111,7 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
         new = _step(flow, orbit)
         if new is None:
             if h / 2 < h_min:
-                branch.end_reason = (f"no orbit of pattern [{orbit.pattern_text()}] beyond {param} = {value:.10g} "
+                branch.end_reason = (f"no orbit of pattern [{orbit.pattern_brief()}] beyond {param} = {value:.10g} "
                                      f"(step {h:.2g} failed)")
                 if locate_bifurcations:
                     bif, near, _ = locate(flow, problem_at, param, value, orbit, target, None, xtol)
@@ -126,7 +126,7 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
             branch.bifurcations.append(bif)
             branch.near_orbits.append(near)
             if far is None:  # the orbit ends; Newton found another one beyond: a new branch
-                branch.end_reason = (f"the orbit of pattern [{orbit.pattern_text()}] ends at {param} = "
+                branch.end_reason = (f"the orbit of pattern [{orbit.pattern_brief()}] ends at {param} = "
                                      f"{bif.value:.12g} ({bif.kind})")
                 break
             flow.rebind(problem_at(target))

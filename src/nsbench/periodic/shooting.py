@@ -109,6 +109,12 @@ class PeriodicOrbit:
     def pattern_text(self) -> str:
         return " ".join(self.pattern)
 
+    def pattern_brief(self, shown: int = 8) -> str:
+        """The pattern for messages: in full up to ``shown`` events, else its start and its length."""
+        if len(self.pattern) <= shown:
+            return self.pattern_text()
+        return f"{' '.join(self.pattern[:shown])} ... ({len(self.pattern)} events)"
+
 
 def _phase_normal(flow: HybridFlow, t0: float, y0: np.ndarray, mode0: Mode, free: np.ndarray) -> np.ndarray:
     return np.asarray(flow.problem.rhs(mode0, t0, y0), dtype=float)[free]

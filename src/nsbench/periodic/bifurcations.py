@@ -128,7 +128,7 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
         # No orbit beyond: where the first probe failed is not where the branch ends.
         flow.rebind(orbit_a.problem)
         found = survey(flow, orbit_a)
-        if found and found[0][0] <= UNCLEAR:
+        if found and found[0][0] < 0.1:  # worth following to zero; classify() judges the result
             value, orbit_a = refine_end(flow, problem_at, a, orbit_a, found[0][3], b + (b - a))
             a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)

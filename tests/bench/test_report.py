@@ -29,7 +29,8 @@ def report(tmp_path_factory):
 def test_every_figure_is_saved_as_png_and_svg(report):
     out, rep = report
     names = [f.name for f in rep.figures]
-    assert names == ["wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "event_err_one-dof_1",
+    assert names == ["wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "wp_nsteps_one-dof_1",
+                     "event_err_one-dof_1",
                      "cost_two-dof_3"]
     for fig in rep.figures:
         assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -31,6 +31,8 @@ COST_AXES = {
                         "the time spent inside the integrator's own code (median over the timed runs; "
                         "nsbench's event handling left out)"),
     "nfev": ("nfev", "right-hand-side evaluations (nfev)", "nfev"),
+    "nsteps": ("nsteps", "steps or segments (nsteps)",
+               "the integrator's steps (segments for the collocation methods, Taylor steps for heyoka)"),
 }
 
 
@@ -260,7 +262,8 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     for label, group in problem_groups(frame):
         if (group["reference_status"] == "ok").any():
             for cost in COST_AXES:
-                if cost != "integrator_time" or pd.to_numeric(group[cost], errors="coerce").notna().any():
+                if cost not in ("integrator_time", "nsteps") or \
+                        pd.to_numeric(group.get(cost), errors="coerce").notna().any():
                     figures.append(work_precision(group, label, cost, styles, out))
             figures.append(event_error_along(group, label, styles, out))
         else:

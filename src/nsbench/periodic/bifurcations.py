@@ -49,7 +49,7 @@ from typing import Callable
 import numpy as np
 
 from nsbench.periodic.flow import HybridFlow
-from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, anchor, shoot
+from nsbench.periodic.shooting import PeriodicOrbit, anchor, resolve
 
 
 @dataclass(frozen=True)
@@ -86,14 +86,7 @@ def signature(orbit: PeriodicOrbit | None) -> tuple:
 
 def _probe(flow: HybridFlow, problem_at: Callable, value: float, near: PeriodicOrbit) -> PeriodicOrbit | None:
     flow.rebind(problem_at(value))
-    t, y, mode = near.t0, near.y0, near.mode0
-    period = near.period
-    if near.forced:
-        period = near.forcing_periods * 2.0 * math.pi / flow.problem.coefficients.w
-    try:
-        return shoot(flow, t, y, mode, period, forced=near.forced)
-    except ShootingError:
-        return None
+    return resolve(flow, near)
 
 
 def _reanchored(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit:

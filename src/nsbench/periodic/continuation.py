@@ -26,7 +26,7 @@ import pandas as pd
 from nsbench.errors import ConfigError
 from nsbench.periodic.bifurcations import Bifurcation, _reanchored, format_multipliers, locate, signature
 from nsbench.periodic.flow import HybridFlow
-from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, shoot
+from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, resolve, shoot
 
 #: Halvings of the step before a branch is declared ended.
 MAX_HALVINGS = 10
@@ -143,14 +143,8 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
 
 
 def _step(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
-    period = orbit.period
-    if orbit.forced:
-        period = orbit.forcing_periods * 2.0 * math.pi / flow.problem.coefficients.w
-    try:
-        new = shoot(flow, orbit.t0, orbit.y0, orbit.mode0, period, forced=orbit.forced)
-    except ShootingError:
-        return None
-    return _reanchored(flow, new)
+    new = resolve(flow, orbit)
+    return None if new is None else _reanchored(flow, new)
 
 
 def double(flow: HybridFlow, problem_at: Callable[[float], object], bif: Bifurcation, orbit: PeriodicOrbit,

@@ -294,26 +294,18 @@ def _anchor(flow, t0, y0, mode0, period, events) -> tuple[float, np.ndarray, Mod
     return e.t + half, p.y, p.mode
 
 
-def reshoot(flow: HybridFlow, orbit: PeriodicOrbit, **kwargs) -> PeriodicOrbit:
-    """The orbit re-solved from its own mid-arc anchor (after a parameter change of ``flow``)."""
-    t, y, mode = anchor(flow, orbit)
+def resolve(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
+    """``orbit`` re-solved from its own start point on the flow's current problem, or ``None``.
+
+    The period of a forced orbit follows the forcing period of the new problem.
+    """
     period = orbit.period
     if orbit.forced:
         period = orbit.forcing_periods * 2.0 * math.pi / flow.problem.coefficients.w
-    return shoot(flow, t, y, mode, period, forced=orbit.forced, **kwargs)
-
-
-def _recurrence(events: list[Crossing], tol: float) -> int:
-    """Smallest ``q`` such that the last events repeat every ``q`` (kind, block and state within ``tol``)."""
-    n = len(events)
-    for q in range(1, n // 3 + 1):
-        tail = range(n - 2 * q, n - q)
-        if all(events[k].kind == events[k + q].kind and events[k].block == events[k + q].block
-               and float(np.max(np.abs(events[k].y - events[k + q].y))) <= tol for k in tail):
-            return q
-    return 0
-
-
+    try:
+        return shoot(flow, orbit.t0, orbit.y0, orbit.mode0, period, forced=orbit.forced)
+    except ShootingError:
+        return None
 
 
 def _recurrence(events: tuple[Crossing, ...], tol: float) -> int:

@@ -75,3 +75,20 @@ def test_period_doubling_multiplier_is_minus_one_by_finite_differences():
     fd = np.linalg.eigvals(_strobe_map_fd(flow, at, eps=1e-6))
     assert np.min(np.abs(fd + 1.0)) < 1e-6
     assert at.forcing_periods == 1 and math.isclose(at.period, 2 * math.pi, rel_tol=1e-14)
+
+
+def test_fold_at_a_branch_end_is_located_from_the_multiplier():
+    """Case 1 along r_f: the branch from rest at 0.8 turns back (a multiplier reaches +1) near 0.8616.
+
+    Near a fold Newton's region shrinks like the square root of the distance, so the
+    first failing step says little; the end is found where (1 - mu)^2, linear in the
+    parameter, reaches zero. Two step sizes must give the same value.
+    """
+    def problem_at(r_f):
+        return get_problem("two-dof", case=1, r_f=r_f)
+
+    a, near = locate_target(problem_at, "r_f", 0.8, 0.86, 0.8625, steps=17, kind="fold")
+    b, _ = locate_target(problem_at, "r_f", 0.8, 0.86, 0.8625, steps=40, kind="fold")
+    assert a.kind == b.kind == "fold" and a.category == "fixed-point"
+    assert abs(a.value - b.value) < 1e-9
+    assert np.min(np.abs(near.multipliers - 1.0)) < 1e-2

@@ -121,8 +121,10 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
         # No orbit beyond: where the first probe failed is not where the branch ends.
         flow.rebind(orbit_a.problem)
         found = survey(flow, orbit_a)
-        if found and found[0][0] < 0.1:  # worth following to zero; classify() judges the result
-            value, orbit_a = refine_end(flow, problem_at, a, orbit_a, found[0][3], b + (b - a))
+        near_one = orbit_a.multipliers.size and np.min(np.abs(orbit_a.multipliers - 1.0)) < 1e-2
+        key = found[0][3] if found and found[0][0] < 0.1 else ("multiplier",) if near_one else None
+        if key is not None:  # worth following to zero; classify() judges the result
+            value, orbit_a = refine_end(flow, problem_at, a, orbit_a, key, b + (b - a))
             a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
@@ -177,6 +179,9 @@ def measure(flow: HybridFlow, orbit: PeriodicOrbit, key: tuple) -> float:
     and crosses zero at the bifurcation: the squared guard rate at an event (a grazing's rate
     goes like the square root of the distance), the margin ``fr - |R|``, or an arc's dip."""
     problem = flow.problem
+    if key[0] == "multiplier":  # at a fold, 1 - mu goes like the square root of the distance
+        z = orbit.multipliers[np.argmin(np.abs(orbit.multipliers - 1.0))]
+        return float(1.0 - z.real) ** 2
     if key[0] == "rate":
         return _event_rate(problem, orbit.events[key[1]]) ** 2
     if key[0] == "margin":
@@ -359,7 +364,7 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
     rel, kind, text, _ = min(candidates, key=lambda c: c[0])
     if far is None and near.multipliers.size:
         z = near.multipliers[np.argmin(np.abs(near.multipliers - 1.0))]
-        if abs(z - 1.0) < 1e-2 and rel > UNCLEAR:
+        if abs(z - 1.0) < 1e-2 and (rel > UNCLEAR or abs(z - 1.0) < rel):
             return "fold", CATEGORY["fold"], (f"multiplier {format_multipliers(np.array([z]))} approaches +1 "
                                               "where the branch ends (a turning point of the branch)")
     if rel > UNCLEAR:

@@ -24,11 +24,15 @@ COLUMNS = ["case", "sweep", "paper_kind", "paper_value", "continued_value", "dif
 
 
 def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[float, float]], *,
-                    steps: int = 60, transient: float = 1000.0, log: Callable[[str], None] = print) -> pd.DataFrame:
+                    steps: int = 60, transient: float = 1000.0, cubic: bool = False,
+                    log: Callable[[str], None] = print) -> pd.DataFrame:
     """One row per stated bifurcation: the nearest located bifurcation of any kind in its window.
 
     ``ranges`` maps ``(case, sweep)`` to the paper sweep's range (for the window width).
     A claim whose window holds no periodic orbit, or no bifurcation, gets a row saying so.
+    Cubic cases (3, 4) are continued only with ``cubic=True``: their transition matrices
+    come from variational equations integrated in Python, minutes per window where the
+    orbits are long; their rows say so otherwise.
     """
     from nsbench.periodic import trace
     from nsbench.problems import get_problem
@@ -46,6 +50,12 @@ def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[fl
         row = dict(case=c.case, sweep=c.sweep, paper_kind=c.kind,
                    paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}",
                    window=f"{start:.4g}..{stop:.4g}")
+        if not cubic and not problem_at(start).is_linear:
+            row.update(located=0, branches=0,
+                       detail=f"not continued here (cubic springs, slow); run: nsbench continuation two-dof "
+                              f"--case {c.case} --sweep {c.sweep}={start:.4g}:{stop:.4g}")
+            rows.append(row)
+            continue
         tic = time.perf_counter()
         try:
             result = trace(problem_at, c.sweep, start, stop, steps=steps, transient=transient)

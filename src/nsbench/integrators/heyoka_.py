@@ -9,6 +9,16 @@ terminal events located by heyoka on the Taylor polynomial of each step
 stop at once); sections are non-terminal events; trajectory points come from
 heyoka's continuous output. Times and states cross the protocol as doubles.
 
+Precision across events (``heyoka-ld``, ``heyoka-q``): the state and time where
+an arc stopped at an event are kept in the integrator's own precision (the full
+heyoka state, with the forcing's cos/sin, and heyoka's double-length time). When
+the next request starts where that arc ended (the same ``t0 + t0_lo`` and the
+same double state, except velocities the transition set to exactly ``v0``), the
+arc continues from the kept state, with those velocities set to ``v0`` in the
+integrator's precision; so the state never passes through a double between
+arcs. Any other request (a new run, another start) starts from its doubles. The
+double ``heyoka`` always starts from the request.
+
 Counters: ``nsteps`` Taylor steps; ``nfev`` counts one Taylor jet (all
 coefficients up to the order, about ``order`` field evaluations' worth of
 work) per step, and ``extra['taylor_coefficients']`` the jets times the order.
@@ -59,6 +69,7 @@ class HeyokaIntegrator(Integrator):
             raise ConfigError(f"{self.name}: this heyoka build has no {self.precision} type")
         self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self.compile_time = 0.0
+        self._carry = None  # the last event's state in our precision (see _continued)
         self._model(_SECTION_SLOTS)
         self._compiled_in_advance = 0.0
 
@@ -78,8 +89,46 @@ class HeyokaIntegrator(Integrator):
         self._models[st.n_sections] = (st, ta)
         return self._models[st.n_sections]
 
-    def _load(self, st: model.Structure, ta, request: ArcRequest):
-        """Write coefficients, mode, sections, time and state into ``ta``; return the start time."""
+    def _continued(self, request: ArcRequest):
+        """The kept event state, in our precision, if ``request`` continues from it; else ``None``.
+
+        The request continues the last arc if it starts at that arc's returned
+        time (both parts) with its returned double state, up to velocities that
+        the transition set to exactly ``v0``; those are set to ``v0`` here in
+        our precision (``v0`` is a double, so the conversion is exact).
+        Returns ``(dtime, state)``.
+        """
+        carry = self._carry
+        if carry is None:
+            return None
+        problem, t, t_lo, y_out, dtime, state = carry
+        if (request.problem is not problem or float(request.t0) != t or float(request.t0_lo) != t_lo):
+            return None
+        y0 = np.asarray(request.y0, dtype=float)
+        if y0.shape != y_out.shape:
+            return None
+        v0 = float(problem.coefficients.v0)
+        state = np.array(state, copy=True)
+        for j in np.flatnonzero(y0 != y_out):
+            if j % 2 != 1 or y0[j] != v0:  # only a velocity reset to the belt speed is a transition
+                return None
+            state[j] = self._fp(v0)
+        return dtime, state
+
+    def _keep(self, request: ArcRequest, fired, t_stop: float, t_lo: float, y_out, dtime, y_fp) -> None:
+        """Keep the state where an arc stopped at an event, for :meth:`_continued` (extended precisions)."""
+        self._carry = None
+        if self.precision == "double" or fired is None:
+            return
+        self._carry = (request.problem, t_stop, t_lo, np.array(y_out, dtype=float, copy=True), dtime,
+                       np.array(y_fp, copy=True))
+
+    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
+        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+
+        ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
+        of the request's double time and state.
+        """
         fp = self._fp
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
@@ -95,6 +144,13 @@ class HeyokaIntegrator(Integrator):
             pars[off], pars[off + 1] = 1.0, sec.level
             pars[off + 2: off + 2 + st.n_mech] = sec.coeffs
         ta.pars[:] = pars.astype(fp)
+        if carried is not None:
+            ta.dtime = carried[0]
+            ta.state[:] = carried[1]
+            ta.reset_cooldowns()
+            for ev in ta.nt_events:
+                ev.callback.hits.clear()
+            return ta.time
         state = np.asarray(request.y0, dtype=float).astype(fp)
         # heyoka keeps time as a double-length number: the start t0 + t0_lo is exact.
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
@@ -114,7 +170,9 @@ class HeyokaIntegrator(Integrator):
         if getattr(self, "_problem", None) is not problem:
             self.setup(problem)
         st, ta = self._model(len(request.sections))
-        t0 = self._load(st, ta, request)
+        carried = None if self.precision == "double" else self._continued(request)
+        self._carry = None
+        t0 = self._load(st, ta, request, carried)
         fp, n = self._fp, problem.n_states
         if request.max_steps <= 0:
             return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
@@ -140,7 +198,10 @@ class HeyokaIntegrator(Integrator):
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
         y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
-        return ArcResult(t=t_stop, y=np.asarray(y_fp[:n]).astype(float), fired=fired, y_eval=y_eval,
+        y_out = np.asarray(y_fp[:n]).astype(float)
+        if self.precision != "double" and status.ok:
+            self._keep(request, fired, t_stop, t_lo, y_out, (hi, lo), y_fp)
+        return ArcResult(t=t_stop, y=y_out, fired=fired, y_eval=y_eval,
                          section_hits=model.section_hits(ta, request, t0, hi), nfev=nsteps, njev=0,
                          nsteps=nsteps, extra=extra, status=status, message=message, t_lo=t_lo)
 

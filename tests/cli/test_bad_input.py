@@ -132,8 +132,15 @@ L = ["lyapunov", "two-dof", "--case", "2", "--iterations", "80", "--members", "4
 P = ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "10", "--case", "1",
      "--out", "{d}/paper"]
 R = ["compare", "{d}/res1", "{d}/res1"]
+C = ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.16:0.17", "--steps", "2", "--no-progress",
+     "--formats", "png", "--out", "{d}/cont"]
 
 CASES = [
+    # ---- continuation (more in tests/cli/test_continuation.py)
+    ("continuation-steps-nan", C + ["--steps", "nan"], "--steps = nan"),
+    ("continuation-sweep-count", ["continuation", "two-dof", "--sweep", "v0=0.1:0.2:30"], "NAME=START:STOP"),
+    ("continuation-origin-inf", C + ["--origin", "inf"], "--origin = inf"),
+    ("continuation-out-under-file", C + ["--out", "{d}/afile/cont"], "is a file"),
     # ---- simulate: counts, reals, output files, figure format
     ("simulate-samples-nan", S + ["--samples", "nan", "--trajectory-out", "{d}/tr.csv"], "--samples = nan"),
     ("simulate-samples-inf", S + ["--samples", "inf"], "--samples = inf"),
@@ -266,6 +273,11 @@ CASES = [
 ]
 
 READ_ONLY_CASES = [
+    # ---- continuation (more in tests/cli/test_continuation.py)
+    ("continuation-steps-nan", C + ["--steps", "nan"], "--steps = nan"),
+    ("continuation-sweep-count", ["continuation", "two-dof", "--sweep", "v0=0.1:0.2:30"], "NAME=START:STOP"),
+    ("continuation-origin-inf", C + ["--origin", "inf"], "--origin = inf"),
+    ("continuation-out-under-file", C + ["--out", "{d}/afile/cont"], "is a file"),
     ("simulate-events-out-read-only", S + ["--events-out", "{d}/ro/x.csv"], "read-only"),
     ("simulate-plot-read-only", S + ["--plot", "{d}/ro/p.png"], "read-only"),
     ("run-out-read-only", ["run", "--out", "{d}/ro/sub"], "read-only"),
@@ -413,6 +425,7 @@ NUMERIC = {
                         "--h": "positive", "--portrait": "finite", "--point-limit": "positive"}),
     "lyapunov": (L, {"--iterations": "count", "--members": "count", "--seed": "seed", "--workers": "count",
                      "--transient": "nonneg", "--d0": "d0", "--h": "positive", "--member-limit": "positive"}),
+    "continuation": (C, {"--steps": "count", "--transient": "nonneg", "--origin": "finite"}),
     "paper": (P, {"--points": "count", "--record": "count", "--workers": "count", "--transient": "nonneg",
                   "--case": "count"}),
 }

@@ -6,6 +6,7 @@
   patterns and multipliers on both sides;
 - ``gaps.csv``: parameter values where no periodic orbit was found, with the reason;
 - ``meta.json``: the problem, the range, the flow's integrator, versions and machine;
+- ``README.md``: the branches and the located bifurcations in words and tables, the figure;
 - ``branches.{png,svg,pdf}``: section points against the parameter, stable branches solid,
   unstable dashed, bifurcations marked, over the brute-force diagram when one is given.
 """
@@ -52,7 +53,45 @@ def write(out: str | Path, result: Continuation, points: pd.DataFrame, meta: dic
     for key, frame in tables.items():
         write_atomic(paths[key], frame.to_csv(index=False, float_format="%.17g").encode())
     write_atomic(paths["meta"], json.dumps(meta, indent=2, default=str).encode())
+    paths["readme"] = out / "README.md"
+    write_atomic(paths["readme"], summary(result, meta).encode())
     return paths
+
+
+def summary(result: Continuation, meta: dict[str, Any]) -> str:
+    """A page a reader can open first: what was continued, the branches, the bifurcations."""
+    from nsbench.bifurcation.compare import _table
+
+    p = meta.get("provenance", {})
+    lines = [f"# Periodic orbits of {meta['problem']} case {meta['case']} along {result.param}", "",
+             f"Range {result.start:g}..{result.stop:g} ({meta['steps']} steps at the largest step size), flow "
+             f"`{meta['integrator']}`, section `{meta['section']}`, fixed parameters {meta['params'] or 'none'}"
+             + (f", first orbit from rest at {meta['origin']:g}" if meta.get("origin") is not None else "")
+             + f". Computed in {meta['seconds']:.0f} s with nsbench {p.get('version_nsbench', '?')} (commit {p.get('git_commit', '?')}) on "
+               f"{p.get('cpu', '?')} ({p.get('cpu_count', '?')} cores).", "",
+             "![branches](branches.png)", "", "## Bifurcations", ""]
+    bifs = [b for b in result.bifurcations if b.category != "none"]
+    swaps = len(result.bifurcations) - len(bifs)
+    if bifs:
+        frame = pd.DataFrame([{"value": f"{b.value:.12g}", "kind": b.kind, "category": b.category,
+                               "detail": b.detail} for b in bifs])
+        lines += [_table(frame), ""]
+    else:
+        lines += ["None located in the range.", ""]
+    if swaps:
+        lines += [f"{swaps} event-order swap(s) (two events coincide; not bifurcations) are in "
+                  "`bifurcations.csv`.", ""]
+    lines += ["## Branches", ""]
+    rows = [{"branch": br.label, "from": f"{br.values[0]:.10g}", "to": f"{br.values[-1]:.10g}",
+             "steps": len(br.values), "events per period": len(br.orbits[0].events),
+             "stable": "all" if all(o.stable for o in br.orbits) else
+             ("none" if not any(o.stable for o in br.orbits) else "partly"),
+             "end": br.end_reason} for br in result.branches]
+    lines += [_table(pd.DataFrame(rows)) if rows else "No periodic orbit found.", ""]
+    if result.gaps:
+        lines += [f"{len(result.gaps)} value(s) without a periodic orbit (steady sliding or aperiodic motion): "
+                  "`gaps.csv`.", ""]
+    return "\n".join(lines)
 
 
 def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, variable: str = "x1",

@@ -61,6 +61,7 @@ def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[fl
             result = trace(problem_at, c.sweep, start, stop, steps=steps, transient=transient)
         except Exception as exc:  # a failing continuation is a recorded row, never a lost report
             row.update(located=0, branches=0, detail=f"continuation failed: {type(exc).__name__}: {exc}")
+            log(f"case {c.case} {c.sweep} ({row['paper_value']}): {row['detail']}")
             rows.append(row)
             continue
         row["seconds"] = round(time.perf_counter() - tic, 1)

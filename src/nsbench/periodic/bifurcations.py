@@ -220,6 +220,9 @@ def refine_end(flow: HybridFlow, problem_at: Callable, value: float, orbit: Peri
             guess_x = x1 - f1 * (x1 - x0) / (f1 - f0) if f1 != f0 else x1 + step
         else:
             guess_x = value + step
+        lo, hi = sorted((pts[-1][0], toward))
+        if not lo <= guess_x <= hi:  # a flat or noisy quantity extrapolates far: stay in the bracket
+            guess_x = 0.5 * (pts[-1][0] + toward)
         nxt = None
         for _half in range(30):
             if abs(guess_x - pts[-1][0]) <= xtol:

@@ -92,3 +92,25 @@ def test_fold_at_a_branch_end_is_located_from_the_multiplier():
     assert a.kind == b.kind == "fold" and a.category == "fixed-point"
     assert abs(a.value - b.value) < 1e-9
     assert np.min(np.abs(near.multipliers - 1.0)) < 1e-2
+
+
+def test_branch_switching_at_a_period_doubling_follows_the_doubled_orbit():
+    """Case 2 along v0: past the period doubling near 0.3624 the doubled orbit exists and is followed."""
+    from nsbench.periodic import double
+
+    def problem_at(v0):
+        return get_problem("two-dof", case=2, v0=v0)
+
+    bif, near = locate_target(problem_at, "v0", 0.3, 0.35, 0.37, steps=20, kind="period-doubling")
+    flow = HybridFlow(problem_at(bif.value))
+    past = bif.value + 1e-3
+    doubled = double(flow, problem_at, bif, near, past)
+    assert doubled is not None and doubled.forcing_periods == 2
+    # two distinct stroboscopic points, a period apart, that swap: not the single orbit run twice
+    half = flow.run(doubled.t0, doubled.y0, doubled.mode0, 0.5 * doubled.period)
+    gap = float(np.max(np.abs(half.y - doubled.y0)))
+    assert gap > 1e-4
+    back = flow.run(doubled.t0, doubled.y0, doubled.mode0, doubled.period)
+    assert float(np.max(np.abs(back.y - doubled.y0))) < 1e-10
+    # just past a supercritical doubling the doubled orbit is the stable one
+    assert doubled.stable

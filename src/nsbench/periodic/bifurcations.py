@@ -105,6 +105,7 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
     Returns the bifurcation and the orbits at the final bracket's ends.
     """
     sig_a = signature(orbit_a)
+    far_end = b + (b - a)  # refine_end may look this far (the quantity's zero lies beyond Newton's reach)
     while abs(b - a) > xtol:
         m = 0.5 * (a + b)
         if m in (a, b):
@@ -124,7 +125,7 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
         near_one = orbit_a.multipliers.size and np.min(np.abs(orbit_a.multipliers - 1.0)) < 1e-2
         key = found[0][3] if found and found[0][0] < 0.1 else ("multiplier",) if near_one else None
         if key is not None:  # worth following to zero; classify() judges the result
-            value, orbit_a = refine_end(flow, problem_at, a, orbit_a, key, b + (b - a))
+            value, orbit_a = refine_end(flow, problem_at, a, orbit_a, key, far_end)
             a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)

@@ -148,29 +148,30 @@ def _step(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
 
 
 def double(flow: HybridFlow, problem_at: Callable[[float], object], bif: Bifurcation, orbit: PeriodicOrbit,
-           past: float, eps: float = 1e-4) -> PeriodicOrbit | None:
+           past: float, eps: float | None = None) -> PeriodicOrbit | None:
     """The period-doubled orbit just past a period doubling at ``past``, or ``None`` if none is found.
 
-    The start guess is the single orbit's start point moved by ``+-eps`` along the
-    eigenvector of its multiplier nearest ``-1``; the period is doubled.
+    The start guess is the single orbit's start point moved along the eigenvector of
+    its multiplier nearest ``-1`` (both ways; by ``eps``, default a few times the
+    square root of the distance past the doubling, the doubled orbit's size), with
+    twice the period. A solution that is the single orbit run twice is rejected.
     """
     flow.rebind(problem_at(past))
-    mono = orbit.monodromy
-    mu, vec = np.linalg.eig(mono)
+    mu, vec = np.linalg.eig(orbit.monodromy)
     k = int(np.argmin(np.abs(mu + 1.0)))
     direction = np.real(vec[:, k])
     direction /= np.max(np.abs(direction)) or 1.0
-    for sign in (1.0, -1.0):
-        y = orbit.y0.copy()
-        y[orbit.free] += sign * eps * direction
-        try:
-            new = shoot(flow, orbit.t0, y, orbit.mode0, 2.0 * orbit.period, forced=orbit.forced)
-        except ShootingError:
-            continue
-        # not the single orbit run twice: half a period away from the start it is elsewhere
-        half = flow.run(new.t0, new.y0, new.mode0, 0.5 * new.period)
-        if float(np.max(np.abs(half.y - new.y0))) > 1e3 * eps * 1e-3 + 1e-7:
-            return new
+    sizes = [eps] if eps is not None else [c * math.sqrt(abs(past - bif.value)) for c in (1.0, 3.0, 0.3)]
+    for size in sizes:
+        for sign in (1.0, -1.0):
+            y = orbit.y0.copy()
+            y[orbit.free] += sign * size * direction
+            try:
+                new = shoot(flow, orbit.t0, y, orbit.mode0, 2.0 * orbit.period, forced=orbit.forced)
+            except ShootingError:
+                continue
+            if new.period > 1.5 * orbit.period:  # not reduced to the single orbit
+                return new
     return None
 
 

@@ -15,7 +15,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("simulate", help="integrate one problem with one integrator through every event")
     add_problem_arguments(p)
     p.add_argument("--integrator", default=None,
-                   help="registered integrator (default: exact for linear problems, scipy-dop853 otherwise)")
+                   help="registered integrator (default: exact for linear problems, scipy-dop853 otherwise); "
+                        "with 'reference' the log's certified error is printed and written as a column")
     p.add_argument("--rtol", default=None, help="relative tolerance (adaptive integrators)")
     p.add_argument("--atol", default=None, help="absolute tolerance (adaptive integrators)")
     p.add_argument("--h", default=None, help="step size (fixed-step integrators)")
@@ -54,6 +55,16 @@ def main(args: argparse.Namespace) -> int:
     grid = np.linspace(0.0, t_end, samples) if want_traj and t_end > 0 else None
     result = simulate(problem, name, t_end, options=options, t_eval=grid)
     print(result.summary())
+    if name == "reference" and result.ok and len(result.events):
+        # the reference's log says how far it can be trusted: an independent quad-precision check
+        from nsbench.bench.reference import certified_errors
+
+        errors, note = certified_errors(problem, result.events, 0.0, t_end)
+        result.events["certified_error"] = errors
+        finite = errors[np.isfinite(errors)]
+        worst = "no event certified" if not finite.size else (
+            f"max |dt| = {finite.max():.2g}" if finite.max() > 0 else "0 (the same doubles)")
+        print(f"certified error of this log: {worst} over {finite.size} of {errors.size} events ({note})")
     if args.events_out:
         _write(result.events, args.events_out)
         print(f"events      -> {args.events_out}")

@@ -277,6 +277,16 @@ def _checked(path: Path) -> pd.DataFrame:
                           "its case again") from None
 
 
+def write_csv(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
+    """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as fh:
+        for key, value in provenance.items():
+            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
+        frame.to_csv(fh, index=False, float_format="%.17g")
+    os.replace(tmp, path)
+
+
 def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:
     """Write ``results.parquet``, ``results.csv`` and ``provenance.json`` from the stored cases."""
     o = Path(out)
@@ -286,12 +296,7 @@ def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.Data
     csv = frame.copy()
     for name in LIST_COLUMNS:
         csv[name] = csv[name].map(json.dumps)
-    tmp = o / "results.csv.tmp"
-    with open(tmp, "w") as fh:
-        for key, value in prov.items():
-            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
-        csv.to_csv(fh, index=False, float_format="%.17g")
-    os.replace(tmp, o / "results.csv")
+    write_csv(csv, o / "results.csv", prov)
     (o / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
     return frame
 

@@ -44,7 +44,6 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
 import time
 import traceback
 from dataclasses import asdict, dataclass, field
@@ -317,11 +316,11 @@ def load_target_reference(out: Path, key: str) -> TargetReference | None:
 
 
 def save_target_reference(out: Path, ref: TargetReference) -> None:
+    from nsbench.files import write_atomic
+
     p = _reference_path(out, ref.key)
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(ref.as_dict(), indent=1))
-    os.replace(tmp, p)
+    write_atomic(p, json.dumps(ref.as_dict(), indent=1))
 
 
 # ---------------------------------------------------------------------- the integrator's location
@@ -665,17 +664,12 @@ def load_rows(out: str | Path) -> pd.DataFrame:
 
 def export_rows(out: str | Path, provenance: dict[str, Any]) -> pd.DataFrame:
     """Write ``bifurcation_targets.parquet`` and ``.csv`` ('#' provenance lines first) from the stored rows."""
-    from nsbench.bench.storage import _table, _write_atomic
+    from nsbench.bench.storage import _table, _write_atomic, write_csv
 
     o = Path(out)
     frame = load_rows(o)
     _write_atomic(_table(frame, provenance), o / f"{EXPORT}.parquet")
-    tmp = o / f"{EXPORT}.csv.tmp"
-    with open(tmp, "w") as fh:
-        for key, value in provenance.items():
-            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
-        frame.to_csv(fh, index=False, float_format="%.17g")
-    os.replace(tmp, o / f"{EXPORT}.csv")
+    write_csv(frame, o / f"{EXPORT}.csv", provenance)
     return frame
 
 

@@ -163,17 +163,25 @@ def conditioning(problem, config: dict[str, Any], t0: float, t_end: float,
         other = simulate(problem, integrator_from_config(config), t_end, t0=t0, y0=y0, max_steps=10**9).events
     except Exception as exc:  # a conditioning that cannot be measured is no reason to lose the reference
         return math.nan, f"not measured: {type(exc).__name__}: {exc}"
+    dt, at = compare_logs(events, other)
+    if at is not None:
+        return math.inf, (f"a start moved by {PERTURBATION:g} changes the event sequence at t = {at:.6g} "
+                          f"(event {dt.size + 1} of {len(events)})")
+    return (float(dt.max()) / PERTURBATION if dt.size else 0.0), ""
+
+
+def compare_logs(events: pd.DataFrame, other: pd.DataFrame) -> tuple[np.ndarray, float | None]:
+    """``|t - t_other|`` over the two event logs' common ``(kind, block)`` prefix, and the time of
+    the first event where they differ (``None`` if they agree to the end)."""
     a = list(zip(events["kind"], events["block"]))
     b = list(zip(other["kind"], other["block"]))
     n = 0
     while n < min(len(a), len(b)) and a[n] == b[n]:
         n += 1
     dt = np.abs(other["t"].to_numpy(dtype=float)[:n] - events["t"].to_numpy(dtype=float)[:n])
-    if n < max(len(a), len(b)):
-        at = float(events["t"].iloc[n]) if n < len(a) else float(other["t"].iloc[n])
-        return math.inf, (f"a start moved by {PERTURBATION:g} changes the event sequence at t = {at:.6g} "
-                          f"(event {n + 1} of {len(a)})")
-    return (float(dt.max()) / PERTURBATION if n else 0.0), ""
+    if n == max(len(a), len(b)):
+        return dt, None
+    return dt, float(events["t"].iloc[n]) if n < len(a) else float(other["t"].iloc[n])
 
 
 def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
@@ -253,14 +261,9 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
                          max_steps=10**9).events
     except Exception as exc:  # no check is no reason to lose the log
         return out, f"not certified: the check ({what}) failed: {type(exc).__name__}: {exc}"
-    a = list(zip(events["kind"], events["block"]))
-    b = list(zip(other["kind"], other["block"]))
-    n = 0
-    while n < min(len(a), len(b)) and a[n] == b[n]:
-        n += 1
-    out[:n] = np.abs(other["t"].to_numpy(dtype=float)[:n] - events["t"].to_numpy(dtype=float)[:n])
+    dt, at = compare_logs(events, other)
+    out[:dt.size] = dt
     note = f"against {what}"
-    if n < max(len(a), len(b)):
-        at = float(events["t"].iloc[n]) if n < len(a) else float(other["t"].iloc[n])
-        note += f"; the event sequences differ from event {n + 1} (t = {at:.6g}): not certified from there"
+    if at is not None:
+        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): not certified from there"
     return out, note

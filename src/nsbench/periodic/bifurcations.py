@@ -167,8 +167,7 @@ def _family(guard) -> tuple[str, int]:
 
 
 def _event_rate(problem, e) -> float:
-    g = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
-    return abs(float(g.rate(e.t, e.y, problem.rhs(e.mode_before, e.t, e.y))))
+    return abs(float(e.guard.rate(e.t, e.y, problem.rhs(e.mode_before, e.t, e.y))))
 
 
 def _margin(problem, e) -> float:
@@ -295,7 +294,7 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
     for index, e in enumerate(orbit.events):
         rate = _event_rate(problem, e)
         rel = rate / (rate_scale.get(_family(g)) or 1.0)
-        if e.guard == "velocity":
+        if e.guard.kind == "velocity":
             out.append((rel, "grazing-sliding", f"block {e.block}'s velocity reaches the belt speed with slope "
                         f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})", ("rate", index)))
         else:

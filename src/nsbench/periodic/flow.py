@@ -45,7 +45,7 @@ class Crossing:
     y: np.ndarray
     mode_before: Mode
     mode_after: Mode
-    guard: str  # "velocity", "upper" or "lower"
+    guard: Guard  # the guard that fired (its kind: "velocity", "upper" or "lower")
 
 
 @dataclass(frozen=True)
@@ -162,7 +162,7 @@ class HybridFlow:
             after = tuple(int(m) for m in rec.ev_mode[k])
             kind, block, t, y = EVENT_KINDS[int(rec.ev_kind[k])], int(rec.ev_block[k]), float(rec.ev_t[k]), rec.ev_y[k].copy()
             guard = guard_of(kind, block, self.problem, t, y, before)
-            events.append(Crossing(t, kind, block, y, before, after, guard.kind))
+            events.append(Crossing(t, kind, block, y, before, after, guard))
             before = after
         return Pass(float(t0), np.asarray(y0, dtype=float).copy(), tuple(int(m) for m in mode0), float(span),
                     raw.y.copy(), raw.mode, tuple(events))
@@ -216,8 +216,7 @@ class HybridFlow:
         total = np.eye(problem.n_states)
         for e in p.events:
             total = self.arc_transition(mode, t, y, e.t - t) @ total
-            guard = next(g for g in problem.guards(e.mode_before) if g.block == e.block and g.kind == e.guard)
-            total = saltation(problem, guard, e.mode_before, e.mode_after, e.t, e.y) @ total
+            total = saltation(problem, e.guard, e.mode_before, e.mode_after, e.t, e.y) @ total
             t, y, mode = e.t, e.y, e.mode_after
         return self.arc_transition(mode, t, y, p.t0 + p.span - t) @ total
 

@@ -293,7 +293,7 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
                         f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})", key))
     for index, e in enumerate(orbit.events):
         rate = _event_rate(problem, e)
-        rel = rate / (rate_scale.get(_family(g)) or 1.0)
+        rel = rate / (rate_scale.get(_family(e.guard)) or 1.0)
         if e.guard.kind == "velocity":
             out.append((rel, "grazing-sliding", f"block {e.block}'s velocity reaches the belt speed with slope "
                         f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})", ("rate", index)))

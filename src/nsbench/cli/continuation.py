@@ -91,10 +91,9 @@ def main(args: argparse.Namespace) -> int:
     section = args.section or ("strobe" if forced else "peaks")
     if section == "strobe" and not all(p.is_forced and p.coefficients.w > 0 for p in ends):
         raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
-    if args.integrator is not None:
-        from nsbench.integrators import get_integrator
+    from nsbench.periodic import HybridFlow
 
-        get_integrator(args.integrator).setup(ends[0])  # unknown or refusing integrator: one line now
+    flow = HybridFlow(ends[0], args.integrator)  # an unknown or refusing integrator: one line now
     diagram = _diagram(args.diagram, name) if args.diagram else None
     out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
     check_output_dir(out, "--out")
@@ -111,13 +110,10 @@ def main(args: argparse.Namespace) -> int:
 
     tic = time.perf_counter()
     with bar:
-        result = trace(problem_at, name, start, stop, steps=steps, integrator=args.integrator,
+        result = trace(problem_at, name, start, stop, steps=steps,
                        transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step,
-                       origin=origin)
+                       origin=origin, flow=flow)
     seconds = time.perf_counter() - tic
-    from nsbench.periodic import HybridFlow
-
-    flow = HybridFlow(ends[0], args.integrator)
     points = points_frame(flow, result, problem_at, section)
     meta = {"problem": args.problem, "case": case, "params": params, "param": name, "origin": origin, "start": start,
             "stop": stop, "steps": steps, "section": section, "transient": transient,

@@ -186,19 +186,24 @@ def measure(flow: HybridFlow, orbit: PeriodicOrbit, key: tuple) -> float:
         return _event_rate(problem, orbit.events[key[1]]) ** 2
     if key[0] == "margin":
         return _margin(problem, orbit.events[key[1]])
-    import scipy.optimize
-
     _, arc, kind, block = key
     t0, y0, mode, dt = list(_arcs(orbit))[arc]
     g = next(g for g in problem.guards(mode) if g.kind == kind and g.block == block)
+
+    return _dip(flow, g, t0, y0, mode, 1e-9 * dt, dt * (1 - 1e-9), 1e-12 * max(1.0, dt))[0]
+
+
+def _dip(flow: HybridFlow, g, t0: float, y0, mode, lo: float, hi: float, xatol: float) -> tuple[float, float]:
+    """Smallest ``expected_sign * g`` along the arc from ``(t0, y0, mode)`` at ``s`` in ``[lo, hi]``:
+    ``(value, s)``."""
+    import scipy.optimize
 
     def value(s):
         y = flow.states(t0, y0, mode, np.array([t0 + s]))[0]
         return g.expected_sign * float(g.value(t0 + s, y))
 
-    res = scipy.optimize.minimize_scalar(value, bounds=(1e-9 * dt, dt * (1 - 1e-9)), method="bounded",
-                                         options={"xatol": 1e-12 * max(1.0, dt)})
-    return float(res.fun)
+    res = scipy.optimize.minimize_scalar(value, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+    return float(res.fun), float(res.x)
 
 
 def refine_end(flow: HybridFlow, problem_at: Callable, value: float, orbit: PeriodicOrbit, key: tuple,
@@ -253,8 +258,6 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
     Rates and values are measured against the largest rate and value of the same guard
     family (velocity or static limit, per block) sampled along the whole orbit.
     """
-    import scipy.optimize
-
     problem = flow.problem
     rate_scale: dict[tuple, float] = {}
     value_scale: dict[tuple, float] = {}
@@ -274,14 +277,8 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
             k = int(np.argmin(vals))
             if k == 0 or k == vals.size - 1:  # monotone towards an end: that end is an event
                 continue
-
-            def value(s, g=g, t0=t0, y0=y0, mode=mode):
-                y = flow.states(t0, y0, mode, np.array([t0 + s]))[0]
-                return g.expected_sign * float(g.value(t0 + s, y))
-
-            res = scipy.optimize.minimize_scalar(value, bounds=(times[k - 1] - t0, times[k + 1] - t0),
-                                                 method="bounded", options={"xatol": 1e-10 * max(1.0, dt)})
-            dips.append((float(res.fun), g, fam, t0 + float(res.x), ("dip", arc, g.kind, g.block)))
+            low, s_low = _dip(flow, g, t0, y0, mode, times[k - 1] - t0, times[k + 1] - t0, 1e-10 * max(1.0, dt))
+            dips.append((low, g, fam, t0 + s_low, ("dip", arc, g.kind, g.block)))
     out = []
     for v, g, fam, t, key in dips:
         rel = abs(v) / (value_scale[fam] or 1.0)

@@ -17,7 +17,7 @@ switching along the multiplier's eigenvector).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Callable
 
 import numpy as np
@@ -62,8 +62,7 @@ class Branch:
         return pd.DataFrame(rows)
 
     def bifurcation_frame(self) -> pd.DataFrame:
-        cols = ["param", "value", "kind", "category", "detail", "bracket", "left_pattern", "right_pattern",
-                "left_multipliers", "right_multipliers"]
+        cols = [f.name for f in fields(Bifurcation)]
         frame = pd.DataFrame([b.row() for b in self.bifurcations], columns=cols)
         frame.insert(0, "branch", self.label)
         return frame
@@ -194,15 +193,14 @@ class Continuation:
         return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
     def bifurcation_frame(self) -> pd.DataFrame:
-        frames = [br.bifurcation_frame() for br in self.branches]
-        frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-        return frame.sort_values("value", kind="stable", ignore_index=True) if len(frame) else frame
+        frames = [br.bifurcation_frame() for br in self.branches] or [Branch(self.param).bifurcation_frame()]
+        return pd.concat(frames, ignore_index=True).sort_values("value", kind="stable", ignore_index=True)
 
 
 def trace(problem_at: Callable[[float], object], param: str, start: float, stop: float, *, steps: int = 200,
           integrator: str | None = None, transient: float = 1500.0, xtol: float = 1e-11,
           doubling: int = 2, max_branches: int = 50, on_step: Callable[[float], None] | None = None,
-          origin: float | None = None) -> Continuation:
+          origin: float | None = None, flow: HybridFlow | None = None) -> Continuation:
     """Periodic orbits over ``[start, stop]``: the attractor reached from rest at ``start``, continued;
     where a branch ends, the attractor the motion settles on just beyond, continued; and so on.
 
@@ -222,12 +220,14 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
         Where to find the first orbit from rest when the motion from rest at ``start``
         is not the wanted one (coexisting attractors): that orbit is continued from
         ``origin`` to ``start`` first (not recorded).
+    flow
+        A set-up flow to use (it is rebound to each value); ``integrator`` is then ignored.
     """
     from nsbench.periodic.shooting import find_orbit
 
     direction = 1.0 if stop > start else -1.0
     h_max = abs(stop - start) / steps
-    flow = HybridFlow(problem_at(start), integrator)
+    flow = flow if flow is not None else HybridFlow(problem_at(start), integrator)
     result = Continuation(param, float(start), float(stop))
     value, seed = float(start), None  # seed: (t0, y0) to settle from after a branch end
     first: PeriodicOrbit | None = None

@@ -44,11 +44,7 @@ def write(out: str | Path, result: Continuation, points: pd.DataFrame, meta: dic
     out.mkdir(parents=True, exist_ok=True)
     paths = {"branch": out / "branch.csv", "points": out / "points.csv",
              "bifurcations": out / "bifurcations.csv", "gaps": out / "gaps.csv", "meta": out / "meta.json"}
-    bif = result.bifurcation_frame()
-    if not len(bif):
-        bif = pd.DataFrame(columns=["branch", "param", "value", "kind", "category", "detail", "bracket",
-                                    "left_pattern", "right_pattern", "left_multipliers", "right_multipliers"])
-    tables = {"branch": result.frame(), "points": points, "bifurcations": bif,
+    tables = {"branch": result.frame(), "points": points, "bifurcations": result.bifurcation_frame(),
               "gaps": pd.DataFrame(result.gaps, columns=["value", "reason"])}
     for key, frame in tables.items():
         write_atomic(paths[key], frame.to_csv(index=False, float_format="%.17g").encode())

@@ -118,7 +118,7 @@ class HeyokaIntegrator(Integrator):
     def _keep(self, request: ArcRequest, fired, t_stop: float, t_lo: float, y_out, dtime, y_fp) -> None:
         """Keep the state where an arc stopped at an event, for :meth:`_continued` (extended precisions)."""
         self._carry = None
-        if self.precision == "double" or fired is None:
+        if fired is None:  # the arc ended at t_end: the next request starts afresh
             return
         self._carry = (request.problem, t_stop, t_lo, np.array(y_out, dtype=float, copy=True), dtime,
                        np.array(y_fp, copy=True))

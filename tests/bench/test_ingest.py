@@ -25,7 +25,7 @@ def bench_json(tmp_path_factory):
     env = {**os.environ, "NSBENCH_BENCH_T_END": "30"}
     cmd = [sys.executable, "-m", "pytest", str(ROOT / "benchmarks" / "test_registry.py"), "-q",
            "-p", "no:cacheprovider", "--benchmark-only", f"--benchmark-json={out}",
-           "--benchmark-save-data", "-k", "one-dof-1 and (scipy-dop853 or exact) and not jit"]
+           "--benchmark-save-data", "-k", "one-dof-1 and (scipy-dop853 or exact) and not jit and not mp"]
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     return out

@@ -149,3 +149,27 @@ def test_events_a_microsecond_apart_are_not_a_tie():
     ref = log([1.0, 1.0 + 1e-6], [("stick", 1), ("stick", 2)])
     run = log([1.0, 1.0 + 1e-6], [("stick", 2), ("stick", 1)])
     assert not case_metrics(ref, run, None, None, None, None)["sequence_ok"]
+
+
+def test_no_error_is_reported_below_the_references_certified_error():
+    # each event's error is max(|dt|, certified error of the reference there); NaN: not certified, no floor
+    ref = REF.assign(certified_error=[1e-9, 1e-9, 1e-9, 5e-8, float("nan")])
+    shift = np.array([5e-10, -2e-9, 0.0, 1e-8, 3e-9])
+    run = log(np.array(T_REF) + shift, KINDS)
+    sw, _, dt = switching_errors(ref, run, 5)
+    assert np.allclose(dt, shift, rtol=0, atol=1e-15)            # the signed errors are as measured
+    assert sw.err_max == pytest.approx(5e-8)                      # floored: 1e-9, 2e-9, 1e-9, 5e-8, 3e-9
+    assert sw.err_median == pytest.approx(2e-9, rel=1e-6)
+    assert sw.err_rms == pytest.approx(math.sqrt((1 + 4 + 1 + 2500 + 9) / 5) * 1e-9, rel=1e-6)
+    assert not sw.at_reference                                    # event 2 (2e-9) is outside 1e-9
+    assert not reaches(1e-8, status="success", sequence_ok=True, err_max=sw.err_max)  # below the reference
+    # without the column nothing is floored
+    plain, _, _ = switching_errors(REF, run, 5)
+    assert plain.err_max == pytest.approx(1e-8, rel=1e-6) and not plain.at_reference
+
+    within = log(np.array(T_REF) + np.array([5e-10, 0.0, -9e-10, 4e-8, 0.0]), KINDS)
+    row = case_metrics(ref, within, None, None, None, None)
+    assert row["at_ref_accuracy"] and row["switch_err_max"] == pytest.approx(5e-8)
+    assert row["event_cert"] == pytest.approx([1e-9, 1e-9, 1e-9, 5e-8, 0.0])
+    assert row["switch_digits"] == pytest.approx(-math.log10(5e-8 / 4.0), abs=1e-9)
+    assert case_metrics(REF, within, None, None, None, None)["event_cert"] == []

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from nsbench.bench.reference import DOUBLE_GRADABLE, conditioning
@@ -67,3 +68,70 @@ def test_simulate_reference_prints_and_writes_its_certified_error(tmp_path, caps
     events = pd.read_csv(out)
     err = events["certified_error"].to_numpy()
     assert len(err) > 20 and (err >= 0).all() and err.max() < 1e-12
+
+
+def _true_errors(events, case):
+    """|t - t_true| per event against the 30-digit closed form of tests/mp_reference (same sequence)."""
+    import mpmath as mp
+
+    from tests.mp_reference import stored_events
+
+    truth = stored_events(case)
+    assert list(events["kind"]) == list(truth["kind"]) and list(events["block"]) == list(truth["block"])
+    with mp.workdps(32):
+        return np.array([float(abs(mp.mpf(float(t)) - mp.mpf(r))) for t, r in zip(events["t"], truth["t"])])
+
+
+@pytest.mark.parametrize("case", [1, 2])
+def test_every_reference_log_carries_a_certified_error_that_bounds_its_true_error(case):
+    # the bench's reference of a linear case is exact (double); its certified error comes from an
+    # independent quad-precision run, and must bound the true error (30-digit closed form, an
+    # independent solver written in the tests) at every event, while staying tight: exact is within
+    # 7e-14 of it, and the bound adds one ulp of t (5.7e-14 near t = 300), so at most about 1.3e-13
+    from nsbench.bench.reference import candidates, compute_reference
+
+    ref = compute_reference(get_problem("two-dof", case=case).config(), candidates(["exact", "reference"]),
+                            0.0, 300.0, 20)
+    assert ref.ok and ref.name == "exact" and "heyoka-q" in ref.certify_note
+    cert = ref.events["certified_error"].to_numpy()
+    t = ref.events["t"].to_numpy()
+    assert np.isfinite(cert).all() and (cert >= np.spacing(t)).all() and cert.max() < 1.5e-13
+    assert (_true_errors(ref.events, case) <= cert).all()
+    assert ref.certainty == cert.max() == ref.columns()["ref_certainty"]
+
+
+def test_the_ill_conditioned_point_is_flagged_and_not_graded_below_its_certainty(tmp_path):
+    # at STIFF, exact's own rounding is amplified: the quad check finds it off by far more than 1e-10
+    # (measured 4.6e-8 at t near 300), the double floor exceeds 1e-10; the report says so and grades
+    # no target below them
+    from nsbench.bench import run_suite
+    from nsbench.bench.report import write_report
+    from nsbench.bench.suite import Suite
+
+    suite = Suite.from_dict({
+        "name": "stiff", "t_span": [0.0, 300.0], "repeats": 3, "reference": ["exact"], "targets": [1e-6, 1e-9],
+        "problems": [{"name": "two-dof", "case": 2, "params": STIFF}],
+        "integrators": {"only": ["scipy-dop853"]},
+    })
+    summary = run_suite(suite, tmp_path, workers=1, progress=False)
+    frame = summary.results
+    cert, floor = float(frame["ref_certainty"].iloc[0]), float(frame["ref_double_floor"].iloc[0])
+    assert cert > DOUBLE_GRADABLE and floor > DOUBLE_GRADABLE
+    report = write_report(tmp_path)
+    text = report.markdown.read_text()
+    assert "is not graded below that: its reference's event times are certified to" in text
+    assert "not graded at this target" in text
+    long = report.fixed_target
+    assert (long[long["target"] == 1e-9]["outcome"] == "not graded").all()
+    assert (long[long["target"] == 1e-6]["outcome"] != "not graded").all()
+
+
+def test_the_cache_keeps_the_certified_errors_and_their_note(tmp_path):
+    from nsbench.bench.reference import candidates, compute_reference, load_reference, save_reference
+
+    ref = compute_reference(get_problem("one-dof", case=1).config(), candidates(["exact"]), 0.0, 30.0, 10)
+    save_reference(tmp_path, ref)
+    back = load_reference(tmp_path, ref.key)
+    assert back is not None and back.certify_note == ref.certify_note != ""
+    assert np.array_equal(back.events["certified_error"].to_numpy(), ref.events["certified_error"].to_numpy())
+    assert back.certainty == ref.certainty > 0

@@ -56,7 +56,10 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert len(ok) == 2 * 4
     assert (ok["n_missed"] == 0).all() and (ok["n_extra"] == 0).all() and ok["sequence_ok"].all()
     exact = ok[ok["integrator"] == "exact"]
-    assert (exact["switch_err_max"] == 0.0).all() and (exact["state_err_l2"] == 0.0).all()
+    # the reference against itself differs by 0, reported as its own certified error (never below it)
+    assert (exact["event_err"].map(lambda e: max(map(abs, e))) == 0.0).all() and (exact["state_err_l2"] == 0.0).all()
+    assert exact["at_ref_accuracy"].all() and (exact["switch_err_max"] == exact["ref_certainty"]).all()
+    assert ((exact["ref_certainty"] > 0) & (exact["ref_certainty"] < 1e-13)).all()
     dop = ok[ok["integrator"] == "scipy-dop853"].sort_values(["problem_label", "level"])
     for _, g in dop.groupby("problem_label"):  # tighter tolerance, smaller error
         assert g["switch_err_max"].iloc[-1] < g["switch_err_max"].iloc[0] < 1e-4

@@ -124,3 +124,39 @@ def test_an_ill_conditioned_problem_is_stated(frame):
     frame["ref_conditioning"] = 12.0
     assert findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), conditioning_table(frame))[0] \
         .startswith("At a switching-time error of 1e-09")
+
+
+def test_targets_below_the_references_certainty_are_not_graded(frame):
+    from nsbench.bench.summary import conditioning_table
+    from nsbench.bench.tables import grading_floor
+
+    frame["ref_certainty"] = 3e-11
+    assert grading_floor(frame) == (3e-11, "the reference is certified to 3.0e-11 only")
+    summary = problem_summary(frame, (1e-9, 1e-12))
+    at9, at12 = summary.iloc[0], summary.iloc[1]
+    assert at9["cheapest"] == "a" and at9["reached"] == "2 of 5"       # graded as before
+    assert at12["cheapest"] == "" and at12["reached"] == "not graded"  # 'a' at 1e-13 does not count
+    assert "not graded at this target: the reference is certified to 3.0e-11 only" in at12["not_reached"]
+    long = fixed_target(frame, (1e-9, 1e-12))
+    at = long[long["target"] == 1e-12].set_index("integrator")["outcome"]
+    assert at["exact"] == "reference" and (at.drop("exact") == "not graded").all()
+    assert set(ranking(long)["attempted"]) == {1}                      # only 1e-9 is ranked
+    words = findings(summary, wrong_sequences(frame), conditioning_table(frame))
+    assert "No problem can be graded at a switching-time error of 1e-12" in " ".join(words)
+    # a reference the check does not certify to the end: nothing is graded, and it is said
+    frame["ref_certainty"] = float("inf")
+    cond = conditioning_table(frame)
+    assert cond["certified"].tolist() == ["not over the span"] and not cond["gradable"].any()
+    words = findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), cond)
+    assert words[0].startswith("two-dof/1 is not graded below that: its reference is not certified")
+    assert problem_summary(frame, (1e-6,))["reached"].tolist() == ["not graded"]
+
+
+def test_the_double_floor_also_limits_grading(frame):
+    from nsbench.bench.tables import grading_floor
+
+    frame["ref_certainty"] = 1e-14
+    frame["ref_double_floor"] = 3.6e-10
+    limit, why = grading_floor(frame)
+    assert limit == 3.6e-10 and "rounding alone" in why
+    assert problem_summary(frame, (1e-9, 1e-10))["reached"].tolist() == ["2 of 5", "not graded"]

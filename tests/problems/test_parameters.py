@@ -123,3 +123,9 @@ def test_config_round_trip():
     q = nsbench.problem_from_config(p.config())
     assert q.config() == p.config()
     assert q.coefficients == p.coefficients
+
+
+def test_a_config_with_a_parameter_outside_params_is_refused():
+    # a parameter at the top level used to be dropped silently (the standard case ran instead)
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) 'F'.*go under 'params'"):
+        nsbench.problem_from_config({"name": "two-dof", "case": 2, "F": 0.517})

@@ -108,7 +108,7 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
         t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], n_repeats=0,
-        counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[],
+        counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[], event_cert=[],
     )
     return row
 

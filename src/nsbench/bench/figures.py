@@ -137,9 +137,11 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     """Max switching-time error against ``cost`` (``'wall_time'`` or ``'nfev'``), one line per integrator.
 
     The line joins the successful runs with the reference's event sequence;
-    a successful run with a wrong sequence is a hollow marker off the line, and
-    a run that did not succeed (time limit, failure) is not drawn: the error of
-    its partial prefix is no point of the curve. References are left out.
+    a successful run with a wrong sequence is a hollow marker off the line, a
+    run within the reference's certified error is drawn at that error with a
+    downward triangle (an upper bound: its error is not measurable), and a run
+    that did not succeed (time limit, failure) is not drawn: the error of its
+    partial prefix is no point of the curve. References are left out.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
@@ -157,6 +159,10 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
         if cost == "wall_time":
             _whiskers(ax, rows[good], x[good], y[good], st["color"])
         ax.plot(x[good], y[good], "-", marker=st["marker"], color=st["color"], lw=1.0, ms=6, label=name)
+        bound = good & (rows["at_ref_accuracy"].fillna(False).to_numpy(dtype=bool)
+                        if "at_ref_accuracy" in rows else np.zeros(len(rows), bool))
+        if bound.any():
+            ax.plot(x[bound], y[bound], "v", color=st["color"], ms=9, ls="none", mfc="white")
         if (~good).any():
             ax.plot(x[~good], y[~good], st["marker"], mfc="none", color=st["color"], ms=6, ls="none")
     ax.set_xscale("log")
@@ -170,7 +176,8 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
                f"{words}; "
                f"one point per configuration, lines through the runs with the reference's event sequence. "
-               f"Hollow markers: a wrong event sequence (never counted as reaching a target).")
+               f"Hollow markers: a wrong event sequence (never counted as reaching a target). White "
+               f"triangles: within the reference's certified error, drawn at that error (an upper bound).")
     if dropped:
         caption += f" {dropped} run(s) that did not succeed (time limit, failure) are not drawn."
     if left_out:
@@ -188,11 +195,15 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     plt = _pyplot()
     methods, _ = _methods(group)
     curves: dict[str, list] = {}
+    band = (np.empty(0), np.empty(0))  # the reference's certified error along the longest matched prefix
     for name, rows in methods.groupby("integrator", sort=True):
         ok = rows[(rows["status"] == "success") & rows["event_t"].map(len).gt(0)]
         if ok.empty:
             continue
         best = ok.sort_values("level").iloc[-1]
+        cert = np.asarray(best["event_cert"] if "event_cert" in best else [], dtype=float)
+        if cert.size > band[0].size:
+            band = (np.asarray(best["event_t"], dtype=float)[:cert.size], np.maximum(cert, ERROR_FLOOR))
         t = np.asarray(best["event_t"], dtype=float)
         err = np.maximum(np.abs(np.asarray(best["event_err"], dtype=float)), ERROR_FLOOR)
         curves.setdefault(family(name), []).append((name, int(best["level"]), t, err))
@@ -204,6 +215,9 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     for ax in axes.flat[len(order):]:
         ax.set_visible(False)
     for ax, fam in zip(axes.flat, order):
+        if band[0].size:
+            ax.fill_between(band[0], ERROR_FLOOR, band[1], color="0.85", step="mid", lw=0,
+                            label="reference's certified error")
         for name, level, t, err in curves[fam]:
             st = styles[name]
             ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5,
@@ -220,6 +234,9 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     caption = (f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
                f"successful configuration of each integrator, one panel per method family (the line stops "
                f"where its event sequence departs from the reference).")
+    if band[0].size:
+        caption += (" Grey: the reference's certified error at each event; a difference inside it is not "
+                    "a measured error.")
     return _save(fig, out, f"event_err_{slug(label)}", f"{label}: error along the trajectory", caption)
 
 

@@ -148,33 +148,64 @@ def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
                      sequence_ok=same, truncated=truncated)
 
 
+#: Column of a reference's event log holding each event's certified error bound
+#: (:func:`nsbench.bench.reference.certified_errors`).
+CERTIFIED = "certified_error"
+
+
 @dataclass(frozen=True)
 class SwitchingErrors:
     """Switching-time errors over the matched prefix (NaN when the prefix is empty).
 
-    ``digits`` is the number of significant correct digits of the *worst* switching
-    time, ``-log10(max_i |dt_i| / |t_ref_i|)``, capped at ``-log10(2**-53)``.
+    Each event's error is ``max(|dt_i|, c_i)`` where the reference carries a
+    certified error bound ``c_i`` there: a difference from the reference smaller
+    than the reference's own uncertainty is no measurement of the run's error,
+    so it is reported as that uncertainty ("at reference accuracy"). ``digits``
+    is the number of significant correct digits of the *worst* switching time,
+    ``-log10(max_i err_i / |t_ref_i|)``, capped at ``-log10(2**-53)``.
+    ``at_reference`` is true when every event's ``|dt_i|`` is within ``c_i``:
+    the run cannot be told apart from the reference.
     """
 
     err_max: float
     err_rms: float
     err_median: float
     digits: float
+    at_reference: bool = False
+
+
+def certainty(reference: pd.DataFrame, n: int | None = None) -> np.ndarray:
+    """The certified error bound of the first ``n`` reference events (zeros if the log has none).
+
+    An event the check could not certify (NaN in the log) has no floor here (0):
+    its uncertainty shows in the reference's ``ref_certainty`` (``inf``) instead.
+    """
+    if CERTIFIED not in reference:
+        return np.zeros(len(reference) if n is None else n)
+    c = reference[CERTIFIED].to_numpy(dtype=float)[:n]
+    return np.where(np.isfinite(c), c, 0.0)
 
 
 def switching_errors(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int) -> tuple[SwitchingErrors, np.ndarray, np.ndarray]:
-    """Errors of the first ``n_prefix`` event times; also the reference times and signed errors."""
+    """Errors of the first ``n_prefix`` event times; also the reference times and signed errors.
+
+    The signed errors are the measured ``t - t_ref``; the statistics floor each
+    at the reference's certified error there (see :class:`SwitchingErrors`).
+    """
     t_ref = reference["t"].to_numpy(dtype=float)[:n_prefix]
     dt = events["t"].to_numpy(dtype=float)[:n_prefix] - t_ref
     if n_prefix == 0:
         nan = math.nan
         return SwitchingErrors(nan, nan, nan, nan), t_ref, dt
-    err = np.abs(dt)
+    floor = certainty(reference, n_prefix)
+    at_reference = bool(CERTIFIED in reference and np.all(np.abs(dt) <= floor))
+    err = np.maximum(np.abs(dt), floor)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(err == 0.0, 0.0, err / np.abs(t_ref))
     worst = max(float(np.max(rel)), REL_FLOOR)
     stats = SwitchingErrors(err_max=float(err.max()), err_rms=float(np.sqrt(np.mean(err ** 2))),
-                            err_median=float(np.median(err)), digits=float(-math.log10(worst)))
+                            err_median=float(np.median(err)), digits=float(-math.log10(worst)),
+                            at_reference=at_reference)
     return stats, t_ref, dt
 
 
@@ -210,7 +241,8 @@ def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.nd
     """Every metric column of a tidy row (see :mod:`nsbench.bench.schema`).
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
-    reference's order (:func:`order_ties_as_reference`).
+    reference's order (:func:`order_ties_as_reference`). If ``reference`` has a
+    :data:`CERTIFIED` column, no switching-time error is reported below it.
     """
     events = order_ties_as_reference(reference, events)
     al = align(reference, events)
@@ -222,7 +254,8 @@ def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.nd
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     out.update(switch_err_max=sw.err_max, switch_err_rms=sw.err_rms,
-               switch_err_median=sw.err_median, switch_digits=sw.digits,
+               switch_err_median=sw.err_median, switch_digits=sw.digits, at_ref_accuracy=sw.at_reference,
                final_state_err=final_err, state_err_l2=l2,
-               event_t=t_ref.tolist(), event_err=dt.tolist())
+               event_t=t_ref.tolist(), event_err=dt.tolist(),
+               event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [])
     return out

@@ -47,6 +47,13 @@ def _fmt(value) -> str:
     return str(value)
 
 
+def _error_cells(frame: pd.DataFrame) -> list:
+    """``switch_err_max`` for reading: a run within the reference's certified error is not given a number."""
+    at_ref = frame["at_ref_accuracy"] if "at_ref_accuracy" in frame else pd.Series(False, index=frame.index)
+    return [f"<= {e:.2g} (at reference accuracy)" if flag is True and e == e else e
+            for e, flag in zip(frame["switch_err_max"], at_ref.astype(object))]
+
+
 def options_text(text) -> str:
     """An options JSON cell for reading: ``rtol=1e-09, atol=1e-11`` (floats to 4 significant digits)."""
     try:
@@ -203,15 +210,17 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     bif_rows = bt.load_rows(d)
     bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
     bif = (bif_rows, bif_figs)
-    results_view = frame[_RESULT_COLUMNS].rename(columns={"problem_label": "problem"})
+    results_view = frame[_RESULT_COLUMNS].assign(switch_err_max=_error_cells(frame)).rename(
+        columns={"problem_label": "problem"})
     failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status",
                                                      "message"]]
     ft_caption = ("Fixed-target cost: for each switching-time error target, the cheapest configuration "
                   "of each integrator that reaches it (median warm wall time ± half its min-max range "
                   "/ nfev); '-' not reached "
                   "(a wrong event sequence never counts), 'no ref' no reference for that problem, "
-                  "'unsupported' the integrator refuses the problem, 'ref' the problem's reference itself "
-                  "(its cost; its error is 0 by construction).")
+                  "'unsupported' the integrator refuses the problem, 'not graded' a target below the "
+                  "reference's certified error or the problem's double-precision floor, 'ref' the problem's "
+                  "reference itself (its cost; its error is 0 by construction).")
     rank_caption = ("Ranking by time to reach each (problem, target); an integrator that does not reach "
                     "a target is ranked last there. geo_mean_time is over the targets it reached; problems "
                     "an integrator refuses or is the reference of are left out, and reference-grade "
@@ -280,12 +289,15 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
 ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it "
                   "(median warm wall time ± half the min-max range of its timed runs), the others' cost as a "
                   "ratio to it (with their own spread), and the methods that never reach it, with why. A run "
-                  "with a wrong event sequence never reaches a target.")
+                  "with a wrong event sequence never reaches a target. A target below what the reference can "
+                  "certify (or double precision can resolve on that problem) is not graded.")
 WRONG_CAPTION = ("Runs that succeeded with a different event sequence from the reference's (events missed / "
                  "extra, after aligning the sequences): they never reach a target and are never the cheapest.")
 REFERENCE_CAPTION = ("References, shown apart and not ranked: each problem's reference (what the errors above "
                      "are measured against) and the other reference-grade integrators, with their cost. "
-                     "Conditioning: the largest switching-time change per unit change of the start positions "
+                     "Certified: the largest bound on the reference's event-time errors, from an independent "
+                     "run at higher precision; no error is reported below it (a run within it is 'at "
+                     "reference accuracy') and no target below it is graded. Conditioning: the largest switching-time change per unit change of the start positions "
                      "(the reference run again from a start moved by 1e-9); the double floor, that times the "
                      "unit roundoff, is how far rounding alone moves any double-precision solution's switching "
                      "times. A problem whose floor exceeds 1e-10 cannot be graded in double over its span.")

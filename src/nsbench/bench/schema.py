@@ -53,6 +53,9 @@ COLUMNS: tuple[tuple[str, str], ...] = (
                          "reference from a start moved by 1e-9; inf where that changes the event sequence"),
     ("ref_double_floor", "ref_conditioning x 2.2e-16: the switching-time uncertainty of any double-precision "
                          "solution from the rounding of its start; above 1e-10 the case cannot be graded in double"),
+    ("ref_certainty", "largest certified error bound of the reference's event times (an independent check at "
+                      "higher precision, nsbench.bench.reference.certified_errors); inf where the check's event "
+                      "sequence differs, NaN if not certified"),
     ("n_ref", "events in the reference"),
     ("n_prefix", "length of the matched prefix of the (kind, block) sequence"),
     ("n_matched", "events matched by the best alignment (longest common subsequence)"),
@@ -61,19 +64,24 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("first_divergence_index", "first index where the sequences differ, -1 if identical"),
     ("first_divergence_time", "reference time of that event, NaN if identical"),
     ("sequence_ok", "the (kind, block) sequences are identical"),
-    ("switch_err_max", "max |t - t_ref| over the matched prefix"),
-    ("switch_err_rms", "RMS |t - t_ref| over the matched prefix"),
-    ("switch_err_median", "median |t - t_ref| over the matched prefix"),
+    ("switch_err_max", "max |t - t_ref| over the matched prefix, each event's error floored at the reference's "
+                       "certified error there (never reported below what the reference can certify)"),
+    ("switch_err_rms", "RMS of the same floored errors"),
+    ("switch_err_median", "median of the same floored errors"),
     ("switch_digits", "significant correct digits of the worst switching time, -log10 max |dt|/|t_ref|"),
+    ("at_ref_accuracy", "every |t - t_ref| of the matched prefix is within the reference's certified error "
+                        "there: the run's error is not measurable against this reference"),
     ("final_state_err", "max-norm of the state error at t_end (NaN unless success)"),
     ("state_err_l2", "RMS over the dense points of the Euclidean state error (NaN unless success)"),
     ("event_t", "list: reference times of the matched prefix"),
-    ("event_err", "list: signed switching-time errors t - t_ref of the matched prefix"),
+    ("event_err", "list: signed switching-time errors t - t_ref of the matched prefix (as measured, not floored)"),
+    ("event_cert", "list: the reference's certified error bound at each event of the matched prefix "
+                   "(empty if the reference is not certified)"),
     ("timestamp", "UTC time the case finished"),
 )
 
 COLUMN_NAMES: tuple[str, ...] = tuple(name for name, _ in COLUMNS)
-LIST_COLUMNS = ("wall_times", "integrator_times", "event_t", "event_err")
+LIST_COLUMNS = ("wall_times", "integrator_times", "event_t", "event_err", "event_cert")
 JSON_COLUMNS = ("problem_config", "integrator_config", "options", "counters_extra", "reference_config")
 RUNNER_STATUSES = ("unsupported", "time limit", "error", "crashed")
 

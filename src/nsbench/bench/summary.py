@@ -21,7 +21,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from nsbench.bench.tables import natural_key, problem_groups, reached_mask
+from nsbench.bench.tables import grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
 
 
@@ -78,7 +78,13 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     for label, group in problem_groups(methods):
         if not (group["reference_status"] == "ok").any():
             continue
+        limit, why = grading_floor(group[group["reference_status"] == "ok"])
         for target in targets:
+            if target < limit:  # no method can be told right from wrong at this target
+                rows.append({"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "",
+                             "others": "", "not_reached": f"not graded at this target: {why}",
+                             "wall_time": math.nan, "runner_up": "", "ratio": math.nan, "reached": "not graded"})
+                continue
             best = {}
             missed = {}
             for name, runs in group.groupby("integrator", sort=True):
@@ -162,32 +168,43 @@ def reference_costs(frame: pd.DataFrame) -> pd.DataFrame:
     table = pd.DataFrame(rows, columns=["problem", "integrator", "role", "time"])
     cond = conditioning_table(frame)
     if len(cond):
-        table = table.merge(cond[["problem", "conditioning", "double floor"]], on="problem", how="left")
+        table = table.merge(cond[["problem", "certified", "conditioning", "double floor"]], on="problem",
+                            how="left")
     return table.sort_values("problem", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
 
 
 def conditioning_table(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per problem with a reference: how strongly it amplifies a change of its start, and what that costs in double.
+    """Per problem with a reference: how far its reference is certified, how strongly it amplifies a
+    change of its start, and what that costs in double.
 
-    Columns ``problem, conditioning, double floor`` (display strings), ``floor``
-    (a number) and ``gradable`` (the floor is at most
-    :data:`~nsbench.bench.reference.DOUBLE_GRADABLE`).
+    Columns ``problem, certified, conditioning, double floor`` (display strings),
+    ``certainty`` and ``floor`` (numbers) and ``gradable``: the reference is
+    certified and the double floor is at most
+    :data:`~nsbench.bench.reference.DOUBLE_GRADABLE` over the whole span.
     """
     from nsbench.bench.reference import DOUBLE_GRADABLE
 
+    columns = ["problem", "certified", "conditioning", "double floor", "certainty", "floor", "gradable"]
     rows = []
     if "ref_conditioning" not in frame:
-        return pd.DataFrame(columns=["problem", "conditioning", "double floor", "floor", "gradable"])
+        return pd.DataFrame(columns=columns)
     for label, group in problem_groups(frame[frame["reference_status"] == "ok"]):
         known = group["ref_conditioning"].dropna()
-        if known.empty:
+        cert = group["ref_certainty"].dropna() if "ref_certainty" in group else pd.Series(dtype=float)
+        if known.empty and cert.empty:
             continue
-        cond = float(known.iloc[0])
+        cond = float(known.iloc[0]) if len(known) else math.nan
+        certainty = float(cert.iloc[0]) if len(cert) else math.nan
         floor = cond * float(np.finfo(float).eps)
-        rows.append({"problem": label, "conditioning": "sequence changes" if math.isinf(cond) else f"{cond:.3g}",
-                     "double floor": "-" if math.isinf(cond) else f"{floor:.2g}", "floor": floor,
-                     "gradable": bool(floor <= DOUBLE_GRADABLE)})
-    return pd.DataFrame(rows, columns=["problem", "conditioning", "double floor", "floor", "gradable"])
+        rows.append({"problem": label,
+                     "certified": "-" if certainty != certainty else (
+                         "not over the span" if math.isinf(certainty) else f"{certainty:.2g}"),
+                     "conditioning": "-" if cond != cond else ("sequence changes" if math.isinf(cond)
+                                                               else f"{cond:.3g}"),
+                     "double floor": "-" if not math.isfinite(floor) else f"{floor:.2g}",
+                     "certainty": certainty, "floor": floor,
+                     "gradable": bool(not floor > DOUBLE_GRADABLE and not certainty > DOUBLE_GRADABLE)})
+    return pd.DataFrame(rows, columns=columns)
 
 
 def _int(value) -> str:
@@ -197,8 +214,17 @@ def _int(value) -> str:
 
 def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | None = None) -> list[str]:
     """A few sentences stating the answer: the cheapest method per target, by how much, and what went wrong."""
+    from nsbench.bench.reference import DOUBLE_GRADABLE
+
     out = []
     for r in (cond[~cond["gradable"]].itertuples() if cond is not None and len(cond) else ()):
+        if r.certainty > DOUBLE_GRADABLE:
+            where = ("its reference is not certified over the whole span (an independent check's event "
+                     "sequence differs)" if math.isinf(r.certainty)
+                     else f"its reference's event times are certified to {r.certainty:.1g} only")
+            out.append(f"{r.problem} is not graded below that: {where}.")
+        if not r.floor > DOUBLE_GRADABLE:
+            continue
         if math.isinf(r.floor):
             out.append(f"{r.problem} cannot be graded in double precision: moving its start by 1e-9 changes "
                        "its event sequence, so rounding alone makes any double-precision solution differ from "
@@ -209,9 +235,17 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
                        f"{r.floor:.1g}, so smaller errors there are not measurable.")
     problems = summary["problem"].nunique()
     for target, rows in summary.groupby("target", sort=False):
+        ungraded = int(rows["reached"].eq("not graded").sum())
+        not_graded = f"{ungraded} problem(s) cannot be graded at it (the reference's certainty or double " \
+                     "rounding is coarser)" if ungraded else ""
         won = rows[rows["cheapest"] != ""]
         if won.empty:
-            out.append(f"No method under test reaches a switching-time error of {target} on any problem.")
+            if ungraded == len(rows):
+                out.append(f"No problem can be graded at a switching-time error of {target}: "
+                           "the references' certainty or double rounding is coarser.")
+            else:
+                out.append(f"No method under test reaches a switching-time error of {target} on any problem"
+                           + (f"; {not_graded}" if ungraded else "") + ".")
             continue
         wins = won["cheapest"].value_counts()
         lead, n = wins.index[0], int(wins.iloc[0])
@@ -225,9 +259,11 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
                 f"{len(rows)} problems{margin}")
         if others:
             text += f" ({', '.join(others)} elsewhere)"
-        unreached = rows["cheapest"].eq("").sum()
+        unreached = rows["cheapest"].eq("").sum() - ungraded
         if unreached:
             text += f"; {int(unreached)} problem(s) have no method reaching it"
+        if ungraded:
+            text += f"; {not_graded}"
         out.append(text + ".")
     if len(wrong):
         names = sorted(set(wrong["integrator"]))

@@ -41,12 +41,45 @@ def reached_mask(frame: pd.DataFrame, target: float) -> pd.Series:
     ], index=frame.index, dtype=bool)
 
 
+def _first(rows: pd.DataFrame, column: str) -> float:
+    known = rows[column].dropna() if column in rows else pd.Series(dtype=float)
+    return float(known.iloc[0]) if len(known) else math.nan
+
+
+def grading_floor(rows: pd.DataFrame) -> tuple[float, str]:
+    """The smallest switching-time error target a problem's rows can be graded at, and why.
+
+    Below the reference's certified error (``ref_certainty``) a difference from
+    the reference is no measurement; below the double-precision floor
+    (``ref_double_floor``: the case's amplification of a rounding of its start)
+    no double-precision solution can be told right from wrong. ``(0, '')`` when
+    neither is known (results without them grade every target).
+    """
+    cert, floor = _first(rows, "ref_certainty"), _first(rows, "ref_double_floor")
+    limit, why = 0.0, ""
+    if cert == cert and cert > limit:
+        limit = cert
+        why = ("the reference is not certified over the whole span" if math.isinf(cert)
+               else f"the reference is certified to {cert:.1e} only")
+    if floor == floor and floor > limit:
+        limit = floor
+        why = ("a change of the start by 1e-9 changes the event sequence" if math.isinf(floor)
+               else f"rounding alone moves any double-precision solution's switching times by {floor:.1e}")
+    return limit, why
+
+
+def graded(rows: pd.DataFrame, target: float) -> bool:
+    """Whether ``target`` can be graded on a problem's rows (see :func:`grading_floor`)."""
+    return bool(target >= grading_floor(rows)[0])
+
+
 def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     """Long table: one row per (problem, integrator, target).
 
     Columns: ``problem_label, integrator, target, outcome`` (``reached``, ``not
-    reached``, ``no reference``, ``unsupported``, or ``reference`` for the
-    problem's reference itself), and for reached targets the cheapest case's
+    reached``, ``not graded`` below what the reference can certify or double
+    precision can resolve (:func:`grading_floor`), ``no reference``,
+    ``unsupported``, or ``reference`` for the problem's reference itself), and for reached targets the cheapest case's
     ``wall_time`` (median of its timed runs), ``wall_spread`` (``(max - min) /
     median``), ``nfev, options, level, case_id``.
     """
@@ -65,6 +98,8 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 row["outcome"] = "reference"
                 if best is not None:
                     row.update(_cost(best))
+            elif has_ref and not graded(group, target):
+                row["outcome"] = "not graded"
             elif has_ref:
                 ok = group[reached_mask(group, target)]
                 if len(ok):
@@ -96,7 +131,8 @@ def _cell(row: pd.Series) -> str:
         return f"{_time(row)} / {int(row['nfev'])}"
     if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
         return f"ref ({_time(row)} / {int(row['nfev'])})"
-    return {"no reference": "no ref", "unsupported": "unsupported"}.get(row["outcome"], "-")
+    return {"no reference": "no ref", "unsupported": "unsupported",
+            "not graded": "not graded"}.get(row["outcome"], "-")
 
 
 def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
@@ -120,7 +156,7 @@ def ranking(long: pd.DataFrame) -> pd.DataFrame:
     last (the number of integrators in that group). The table gives the mean rank, the targets
     reached out of those attempted, and the geometric mean time over reached ones.
     """
-    scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference"])]
+    scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference", "not graded"])]
     if scored.empty:
         return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted",
                                      "geo_mean_time"])

@@ -57,7 +57,16 @@ def get_problem(name: str, case: int | str | None = None, dimensional: bool = Fa
 
 
 def problem_from_config(config: dict[str, Any]) -> FrictionOscillator:
-    """Rebuild a problem from :meth:`FrictionOscillator.config`."""
+    """Rebuild a problem from :meth:`FrictionOscillator.config`.
+
+    Parameters go under ``params``; any other key is refused (a parameter put at
+    the top level would otherwise be dropped without a word).
+    """
+    unknown = sorted(set(config) - {"name", "case", "dimensional", "params"})
+    if unknown:
+        raise ConfigError(f"problem config has unknown key(s) {', '.join(map(repr, unknown))}; allowed: "
+                          f"'name', 'case', 'dimensional', 'params' (parameters such as {unknown[0]!r} go "
+                          f"under 'params'): got {config!r}")
     try:
         return get_problem(config["name"], case=config.get("case"),
                            dimensional=bool(config.get("dimensional", False)),

@@ -271,3 +271,43 @@ def test_a_request_that_does_not_continue_starts_from_its_doubles(sensitive):
     carried = integ._continued(ArcRequest(problem, mode, first.t, y2, SPAN, problem.guards(mode),
                                           t0_lo=first.t_lo))
     assert carried is not None and carried[1][1] == R128(problem.coefficients.v0)
+
+
+#: More forced cubic points (case 4, random within the sweep ranges, tau in [0, 300]) where the state
+#: passing through a double at every event moved the event times by (relative to max(1, t)) 1.4e-4,
+#: 2.2e-9 and 9.4e-11 (measured with the independent solver's round_events=True).
+AMPLIFYING = [
+    ({"v0": 0.39, "F": 0.679, "Omega": 0.777, "r_f": 0.488, "omega_r": 7.88}, 1e-5),
+    ({"v0": 0.304, "F": 0.658, "Omega": 1.253, "r_f": 0.481, "omega_r": 7.28}, 1e-10),
+    ({"v0": 0.281, "F": 0.394, "Omega": 0.903, "r_f": 0.512, "omega_r": 5.05}, 1e-11),
+]
+
+
+@pytest.mark.parametrize("params, rounded_off", AMPLIFYING)
+def test_reference_gives_the_real128_event_times_where_rounding_at_events_is_far_off(params, rounded_off):
+    # measured: bit-identical to the independent real128 times rounded to double at every event
+    problem = nsbench.get_problem("two-dof", case=4, **params)
+    ref = independent_events(problem, SPAN)
+    assert _compare(independent_events(problem, SPAN, round_events=True), ref) > rounded_off
+    res = nsbench.simulate(problem, "reference", SPAN)
+    assert res.ok, res.message
+    assert _compare(_nsbench_log(res), ref) <= 4e-16
+
+
+def test_the_certified_error_bounds_the_reference_on_a_chaotic_point():
+    # A point where a 1e-9 change of the start changes the event sequence (tau ~ 138): two quad solvers
+    # (the independent one here, and heyoka-q at its epsilon) part by 2e-10 by tau = 300. The bench's
+    # certified error (a third quad run, heyoka-q at tol 1e-30) must cover that at every event, and
+    # the conditioning must say the case is beyond grading in double.
+    from nsbench.bench.reference import candidates, compute_reference
+
+    problem = nsbench.get_problem("two-dof", case=4, v0=0.357, F=0.897, Omega=1.093, r_f=0.543, omega_r=7.36)
+    truth = independent_events(problem, SPAN)
+    ref = compute_reference(problem.config(), candidates(["exact", "reference"]), 0.0, SPAN, 20)
+    assert ref.ok and ref.name == "reference"
+    log = _nsbench_log(type("R", (), {"events": ref.events})())
+    assert [(k, b) for _, k, b in log] == [(k, b) for _, k, b in truth]
+    dt = np.abs(np.array([a[0] for a in log]) - np.array([b[0] for b in truth]))
+    cert = ref.events["certified_error"].to_numpy()
+    assert dt.max() > 1e-12 and (dt <= cert).all()
+    assert np.isinf(ref.conditioning) and "changes the event sequence" in ref.conditioning_note

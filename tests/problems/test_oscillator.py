@@ -75,6 +75,19 @@ def test_linear_form_reproduces_the_field():
         nsbench.get_problem("two-dof", case=3).linear_form((-1, -1))
 
 
+def test_linear_form_keeps_the_friction_constant_unrounded():
+    # the constant of a slipping forced block is -fs s / m, formed once: taking F / m off
+    # (F - fs s) / m rounded it (0.81 came out as 0.8099999999999999 at this point)
+    p = nsbench.get_problem("two-dof", case=2, F=0.517, Omega=0.767, omega_r=7.2, v0=0.314, r_f=0.81)
+    c = p.coefficients
+    for mode in p.modes:
+        _, b0, bc, _ = p.linear_form(mode)
+        for i, phase in enumerate(mode):
+            if phase != STICK:
+                assert b0[2 * i + 1] == -c.fs[i] * phase / c.m[i]
+        assert bc[3] == (c.F / c.m[1] if mode[1] != STICK else 0.0)
+
+
 def test_guards_have_the_expected_signs(case2):
     guards = case2.guards((-1, STICK))
     assert [(g.block, g.kind, g.expected_sign) for g in guards] == [

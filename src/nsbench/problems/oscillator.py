@@ -268,8 +268,10 @@ class FrictionOscillator:
         bs = np.zeros(n)
         last = self.n_blocks - 1
         if c.F != 0.0 and mode[last] != STICK:
-            # rhs(0, y=0) already holds F cos(0)/m in the last velocity row.
-            b0[2 * last + 1] -= c.F / c.m[last]
+            # rhs(0, y=0) holds (F cos(0) - fs s) / m in the last velocity row; subtracting F / m
+            # from it would round the friction term (fs = 0.81 came out as 0.8099999999999999), so
+            # the constant is the friction term alone, as rhs forms it without the force.
+            b0[2 * last + 1] = (-c.fs[last] * mode[last]) / c.m[last]
             bc[2 * last + 1] = c.F / c.m[last]
         return a, b0, bc, bs
 

@@ -41,7 +41,8 @@ class Capabilities:
     supports_nonlinear
         Whether it may run on cubic-spring problems.
     precision
-        Floating-point arithmetic of the core: ``'double'``, ``'long double'``, ``'quad'``.
+        Floating-point arithmetic of the core: ``'double'``, ``'long double'``, ``'quad'``,
+        ``'mp'`` (arbitrary precision, mpmath).
     step_option
         Name of the option that sets the step/tolerance for convergence studies
         (``'h'`` for fixed-step methods, ``'rtol'`` for adaptive ones), or ``None``.

@@ -26,7 +26,8 @@ from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.results import Status
 
-PRECISIONS = ("double", "long double", "quad")
+#: Arithmetic of an integrator's core (``Capabilities.precision``); ``mp``: arbitrary precision (mpmath).
+PRECISIONS = ("double", "long double", "quad", "mp")
 _EVENT_BOUND = 1e-5  # event times at the middle accuracy level, tau in [0, 60]
 _ENERGY_BOUND = 1e-6  # energy-balance residual at the middle accuracy level, tau in [0, 40]
 

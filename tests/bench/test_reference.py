@@ -54,7 +54,7 @@ def test_simulate_reference_prints_and_writes_its_certified_error(tmp_path, caps
 
     Case 2 (linear, forced): the reference is ``exact``; its event times are known to be
     within 7e-14 of a 32-digit closed form over [0, 300] (tests/integrators), so the
-    check (heyoka-q, tol 1e-30) must certify every event and find differences of that size.
+    check (exact-mp, 40 digits) must certify every event and find differences of that size.
     """
     import pandas as pd
 
@@ -64,7 +64,7 @@ def test_simulate_reference_prints_and_writes_its_certified_error(tmp_path, caps
     assert main(["simulate", "two-dof", "--case", "2", "--integrator", "reference", "--t-end", "100",
                  "--events-out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "certified error of this log" in text and "heyoka-q" in text
+    assert "certified error of this log" in text and "exact-mp" in text
     events = pd.read_csv(out)
     err = events["certified_error"].to_numpy()
     assert len(err) > 20 and (err >= 0).all() and err.max() < 1e-12
@@ -85,14 +85,14 @@ def _true_errors(events, case):
 @pytest.mark.parametrize("case", [1, 2])
 def test_every_reference_log_carries_a_certified_error_that_bounds_its_true_error(case):
     # the bench's reference of a linear case is exact (double); its certified error comes from an
-    # independent quad-precision run, and must bound the true error (30-digit closed form, an
+    # independent 40-digit run (exact-mp), and must bound the true error (30-digit closed form, an
     # independent solver written in the tests) at every event, while staying tight: exact is within
     # 7e-14 of it, and the bound adds one ulp of t (5.7e-14 near t = 300), so at most about 1.3e-13
     from nsbench.bench.reference import candidates, compute_reference
 
     ref = compute_reference(get_problem("two-dof", case=case).config(), candidates(["exact", "reference"]),
                             0.0, 300.0, 20)
-    assert ref.ok and ref.name == "exact" and "heyoka-q" in ref.certify_note
+    assert ref.ok and ref.name == "exact" and "exact-mp" in ref.certify_note
     cert = ref.events["certified_error"].to_numpy()
     t = ref.events["t"].to_numpy()
     assert np.isfinite(cert).all() and (cert >= np.spacing(t)).all() and cert.max() < 1.5e-13
@@ -101,8 +101,8 @@ def test_every_reference_log_carries_a_certified_error_that_bounds_its_true_erro
 
 
 def test_the_ill_conditioned_point_is_flagged_and_not_graded_below_its_certainty(tmp_path):
-    # at STIFF, exact's own rounding is amplified: the quad check finds it off by far more than 1e-10
-    # (measured 4.6e-8 at t near 300), the double floor exceeds 1e-10; the report says so and grades
+    # at STIFF, exact's own rounding is amplified: the 40-digit check finds it off by far more than 1e-10
+    # (exact-mp finds it 3.4e-9 off near t = 300), the double floor exceeds 1e-10; the report says so and grades
     # no target below them
     from nsbench.bench import run_suite
     from nsbench.bench.report import write_report

@@ -258,10 +258,20 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
 
 
 #: The independent checks of a reference-grade log, the first that accepts the problem.
-#: heyoka's Taylor method in quad precision, at a tolerance looser than ``reference``'s own
-#: (so a different step sequence) but far below double rounding; for linear problems it is
-#: also another method than ``exact``.
-CERTIFY_CHECKS: tuple[dict[str, Any], ...] = ({"name": "heyoka-q", "options": {"tol": 1e-30}},)
+#: ``exact-mp`` (the closed form in 40 digits, time and state never rounded between arcs)
+#: for linear problems of at most :data:`MP_CHECK_STATES` states: an extended-precision
+#: ``exact``. Otherwise heyoka's Taylor method in quad precision, at a tolerance looser than
+#: ``reference``'s own (so a different step sequence) but far below double rounding.
+CERTIFY_CHECKS: tuple[dict[str, Any], ...] = ({"name": "exact-mp", "options": {"digits": 40}},
+                                             {"name": "heyoka-q", "options": {"tol": 1e-30}})
+#: ``exact-mp`` runs in Python (mpmath matrices): past this many states (8 blocks) it would cost
+#: minutes per run, and the quad Taylor check takes over.
+MP_CHECK_STATES = 16
+
+
+def _checks_for(problem) -> list[dict[str, Any]]:
+    small_linear = problem.is_linear and problem.n_states <= MP_CHECK_STATES
+    return [c for c in CERTIFY_CHECKS if c["name"] != "exact-mp" or small_linear]
 
 
 def _check_name(config: dict[str, Any]) -> str:
@@ -273,14 +283,14 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
                      y0=None) -> tuple[np.ndarray, str]:
     """A bound on the error of each event time of ``events``, from an independent check.
 
-    The first of :data:`CERTIFY_CHECKS` that accepts the problem runs over the
-    same span from the same start. Its event times are rounded once from a far
-    more accurate value, and the problem itself is only defined to the rounding
-    of its coefficients (``exact`` takes the double ``k / m`` of a mode as the
-    problem, heyoka forms it in quad: on 2-DOF case 2 the two readings move
-    event times by 0.04 ulp beyond half an ulp, measured against a 30-digit
-    closed form). So ``|t - t_true| <= |t - t_check| + ulp(t_check)``: that
-    bound is the event's certified error.
+    The first of :data:`CERTIFY_CHECKS` that accepts the problem (``exact-mp``
+    for small linear ones) runs over the same span from the same start. Its
+    event times are rounded once from values correct to far below an ulp, which
+    leaves half an ulp; the other half covers readings of the problem that differ
+    by a rounding of its coefficients (``exact`` forms ``k / m`` in double, the
+    checks in their own precision; equal when the masses are 1). So ``|t -
+    t_true| <= |t - t_check| + ulp(t_check)``: that bound is the event's
+    certified error.
     Returns the array (one value per event of ``events``; NaN from the first
     event where the two logs differ in kind or block, with the reason in the
     note) and a one-line note naming the check.
@@ -290,7 +300,7 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
 
     out = np.full(len(events), np.nan)
     other, what = None, "no check accepts the problem"
-    for config in CERTIFY_CHECKS:
+    for config in _checks_for(problem):
         what = _check_name(config)
         try:
             other = simulate(problem, integrator_from_config(config), t_end, t0=t0, y0=y0,

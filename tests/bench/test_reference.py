@@ -111,7 +111,7 @@ def test_the_ill_conditioned_point_is_flagged_and_not_graded_below_its_certainty
     suite = Suite.from_dict({
         "name": "stiff", "t_span": [0.0, 300.0], "repeats": 3, "reference": ["exact"], "targets": [1e-6, 1e-9],
         "problems": [{"name": "two-dof", "case": 2, "params": STIFF}],
-        "integrators": {"only": ["scipy-dop853"]},
+        "integrators": {"only": ["henon-rk4"]},
     })
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
     frame = summary.results

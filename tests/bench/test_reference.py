@@ -135,3 +135,13 @@ def test_the_cache_keeps_the_certified_errors_and_their_note(tmp_path):
     assert back is not None and back.certify_note == ref.certify_note != ""
     assert np.array_equal(back.events["certified_error"].to_numpy(), ref.events["certified_error"].to_numpy())
     assert back.certainty == ref.certainty > 0
+
+
+def test_a_reference_is_never_certified_by_itself():
+    # exact-mp as a suite's reference (to grade an ill-conditioned linear case finer than exact can)
+    # is checked by the quad Taylor method, not by a second exact-mp run
+    from nsbench.bench.reference import candidates, compute_reference
+
+    ref = compute_reference(get_problem("two-dof", case=1).config(), candidates(["exact-mp"]), 0.0, 30.0, 10)
+    assert ref.ok and ref.name == "exact-mp" and "heyoka-q" in ref.certify_note
+    assert np.isfinite(ref.events["certified_error"]).all() and ref.certainty < 1e-13

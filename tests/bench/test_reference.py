@@ -145,3 +145,23 @@ def test_a_reference_is_never_certified_by_itself():
     ref = compute_reference(get_problem("two-dof", case=1).config(), candidates(["exact-mp"]), 0.0, 30.0, 10)
     assert ref.ok and ref.name == "exact-mp" and "heyoka-q" in ref.certify_note
     assert np.isfinite(ref.events["certified_error"]).all() and ref.certainty < 1e-13
+
+
+def test_a_check_that_cannot_be_imported_hands_over_to_the_next(monkeypatch):
+    # a plain install without exact-mp's dependency must still certify (the main job ran into this)
+    import nsbench.integrators as integrators
+    from nsbench.bench.reference import certified_errors
+    from nsbench.errors import PluginLoadError
+
+    real = integrators.integrator_from_config
+
+    def without_mp(config):
+        if config["name"] == "exact-mp":
+            raise PluginLoadError("integrator 'exact-mp' failed to import: No module named 'mpmath'")
+        return real(config)
+
+    monkeypatch.setattr(integrators, "integrator_from_config", without_mp)
+    problem = get_problem("two-dof", case=1)
+    events = simulate(problem, "exact", 30.0).events
+    cert, note = certified_errors(problem, events, 0.0, 30.0, reference="exact")
+    assert "heyoka-q" in note and np.isfinite(cert).all() and cert.max() < 1e-13

@@ -95,6 +95,7 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems.modes import Mode
 from nsbench.problems.oscillator import FrictionOscillator
@@ -697,17 +698,12 @@ class ExactMP(Integrator):
         if carry is None:
             return None
         t, t_lo, y_out, time_mp, z = carry
-        if float(request.t0) != t or float(request.t0_lo) != t_lo:
+        reset = reset_velocities(request, t, t_lo, y_out)
+        if reset is None:
             return None
-        y0 = np.asarray(request.y0, dtype=float)
-        if y0.shape != y_out.shape:
-            return None
-        v0 = float(request.problem.coefficients.v0)
         z = list(z)
-        for j in np.flatnonzero(y0 != y_out):
-            if j % 2 != 1 or y0[j] != v0:  # only a velocity reset to the belt speed is a transition
-                return None
-            z[j] = self._ctx.mpf(v0)
+        for j in reset:
+            z[j] = self._ctx.mpf(float(request.problem.coefficients.v0))
         return time_mp, z
 
     def _fresh(self, request: ArcRequest):

@@ -34,6 +34,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import _heyoka_model as model
+from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.problems.modes import STICK
 from nsbench.results import Status
@@ -102,17 +103,11 @@ class HeyokaIntegrator(Integrator):
         if carry is None:
             return None
         problem, t, t_lo, y_out, dtime, state = carry
-        if (request.problem is not problem or float(request.t0) != t or float(request.t0_lo) != t_lo):
+        reset = reset_velocities(request, t, t_lo, y_out) if request.problem is problem else None
+        if reset is None:
             return None
-        y0 = np.asarray(request.y0, dtype=float)
-        if y0.shape != y_out.shape:
-            return None
-        v0 = float(problem.coefficients.v0)
         state = np.array(state, copy=True)
-        for j in np.flatnonzero(y0 != y_out):
-            if j % 2 != 1 or y0[j] != v0:  # only a velocity reset to the belt speed is a transition
-                return None
-            state[j] = self._fp(v0)
+        state[reset] = self._fp(float(problem.coefficients.v0))
         return dtime, state
 
     def _keep(self, request: ArcRequest, fired, t_stop: float, t_lo: float, y_out, dtime, y_fp) -> None:

@@ -21,7 +21,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from nsbench.bench.tables import grading_floor, natural_key, problem_groups, reached_mask
+from nsbench.bench.tables import first_known, grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
 
 
@@ -80,10 +80,11 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
             continue
         limit, why = grading_floor(group[group["reference_status"] == "ok"])
         for target in targets:
+            row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
+                   "not_reached": "", "wall_time": math.nan, "runner_up": "", "ratio": math.nan, "reached": ""}
+            rows.append(row)
             if target < limit:  # no method can be told right from wrong at this target
-                rows.append({"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "",
-                             "others": "", "not_reached": f"not graded at this target: {why}",
-                             "wall_time": math.nan, "runner_up": "", "ratio": math.nan, "reached": "not graded"})
+                row.update(not_reached=f"not graded at this target: {why}", reached="not graded")
                 continue
             best = {}
             missed = {}
@@ -96,10 +97,8 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                 elif not (runs["status"] == "unsupported").all():
                     missed[name] = _why_not(runs, target)
             order = sorted(best, key=lambda n: best[n][0])
-            row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
-                   "not_reached": "; ".join(f"{n} ({why})" for n, why in missed.items()),
-                   "wall_time": math.nan, "runner_up": "", "ratio": math.nan,
-                   "reached": f"{len(best)} of {len(best) + len(missed)}"}
+            row.update(not_reached="; ".join(f"{n} ({why})" for n, why in missed.items()),
+                       reached=f"{len(best)} of {len(best) + len(missed)}")
             if order:
                 first = order[0]
                 t0 = best[first][0]
@@ -107,7 +106,6 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                 row["others"] = _others([(n, best[n][0] / t0, best[n][1]) for n in order[1:]])
                 if len(order) > 1:
                     row.update(runner_up=order[1], ratio=best[order[1]][0] / t0)
-            rows.append(row)
     return pd.DataFrame(rows, columns=["problem", "target", "cheapest", "time", "others", "not_reached",
                                        "wall_time", "runner_up", "ratio", "reached"])
 
@@ -189,12 +187,9 @@ def conditioning_table(frame: pd.DataFrame) -> pd.DataFrame:
     if "ref_conditioning" not in frame:
         return pd.DataFrame(columns=columns)
     for label, group in problem_groups(frame[frame["reference_status"] == "ok"]):
-        known = group["ref_conditioning"].dropna()
-        cert = group["ref_certainty"].dropna() if "ref_certainty" in group else pd.Series(dtype=float)
-        if known.empty and cert.empty:
+        cond, certainty = first_known(group, "ref_conditioning"), first_known(group, "ref_certainty")
+        if cond != cond and certainty != certainty:
             continue
-        cond = float(known.iloc[0]) if len(known) else math.nan
-        certainty = float(cert.iloc[0]) if len(cert) else math.nan
         floor = cond * float(np.finfo(float).eps)
         rows.append({"problem": label,
                      "certified": "-" if certainty != certainty else (

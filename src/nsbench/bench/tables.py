@@ -41,7 +41,8 @@ def reached_mask(frame: pd.DataFrame, target: float) -> pd.Series:
     ], index=frame.index, dtype=bool)
 
 
-def _first(rows: pd.DataFrame, column: str) -> float:
+def first_known(rows: pd.DataFrame, column: str) -> float:
+    """The first non-NaN value of a per-problem column (the same on every row of a problem), NaN if none."""
     known = rows[column].dropna() if column in rows else pd.Series(dtype=float)
     return float(known.iloc[0]) if len(known) else math.nan
 
@@ -55,7 +56,7 @@ def grading_floor(rows: pd.DataFrame) -> tuple[float, str]:
     no double-precision solution can be told right from wrong. ``(0, '')`` when
     neither is known (results without them grade every target).
     """
-    cert, floor = _first(rows, "ref_certainty"), _first(rows, "ref_double_floor")
+    cert, floor = first_known(rows, "ref_certainty"), first_known(rows, "ref_double_floor")
     limit, why = 0.0, ""
     if cert == cert and cert > limit:
         limit = cert

@@ -17,6 +17,32 @@ def exact_events(problem: str, case: int, t_end: float = 300.0):
     return nsbench.simulate(p, "exact", t_end).events
 
 
+@functools.lru_cache(maxsize=None)
+def conditioning_of(problem: str, case: int, t_end: float = 300.0) -> float:
+    """The bench's conditioning of a preset: the largest switching-time change per unit change of the
+    start positions, on the reference flow (:func:`nsbench.bench.reference.conditioning`)."""
+    from nsbench.bench.reference import conditioning
+
+    p = nsbench.get_problem(problem, case=case)
+    kappa, note = conditioning(p, nsbench.get_integrator("reference").config(), 0.0, t_end,
+                               nsbench.simulate(p, "reference", t_end).events)
+    assert np.isfinite(kappa), note
+    return kappa
+
+
+def precision_bound(times, kappa: float, eps: float, steps: int = 1) -> float:
+    """What the arithmetic allows between the event times of two solutions of a case, both rounded to double.
+
+    One of them is (at least) ``eps``-accurate per step over ``steps`` steps, the other far more
+    accurate. Each step's relative error of at most ``eps`` reaches the switching times amplified
+    by at most the case's conditioning ``kappa`` (:func:`conditioning_of`; a perturbation at the
+    start has the whole span to grow), and at worst the errors of all steps add up: ``kappa * eps
+    * steps``. Rounding each of the two times to double adds half an ulp of the latest time each,
+    and a rounding boundary between them one more ulp: ``2 ulp(max |t|)``.
+    """
+    return 2.0 * float(np.spacing(np.abs(np.asarray(times, dtype=float)).max())) + kappa * eps * steps
+
+
 def same_sequence(a, b) -> bool:
     """Whether two event logs have the same ``(kind, block)`` sequence."""
     return (len(a) == len(b)

@@ -1,8 +1,7 @@
 """Test-only integrators for the runner tests, importable by spawned worker processes.
 
-They wrap real integrators (no fake results): a slowed-down RK45 (a planted
-slowdown), one that sleeps per arc (to hit the time limit), one that fails in
-``setup``, one that can interrupt a run, ones that crash or hang only in the
+They wrap real integrators (no fake results): one that sleeps per arc (to hit
+the time limit), one that fails in ``setup``, one that can interrupt a run, ones that crash or hang only in the
 timed runs (not in the short warm-up), and a tight DOP853 that stands in for the
 high-precision cubic reference. The stand-in is *not* a certified reference: it
 only lets the tests exercise the reference path on cubic problems.
@@ -16,26 +15,15 @@ import time
 from nsbench.integrators.scipy_ import ScipyDOP853, ScipyRK45
 
 
-class SlowRK45(ScipyRK45):
-    """scipy-rk45 that computes every arc ``repeat`` times: a planted slowdown by that factor."""
-
-    name = "scipy-rk45"
-    repeat = 4
-
-    def advance(self, request):
-        for _ in range(self.repeat - 1):
-            super().advance(request)
-        return super().advance(request)
-
-
 class SleepyRK45(ScipyRK45):
-    """Sleeps 30 ms per arc, so a short wall-clock limit ends its runs."""
+    """Sleeps 0.5 s per arc, so a wall-clock limit of 1 s ends its runs (a plain run takes milliseconds:
+    the limit leaves the other cases a wide margin on a busy machine)."""
 
     name = "sleepy-rk45-test"
     accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
 
     def advance(self, request):
-        time.sleep(0.03)
+        time.sleep(0.5)
         return super().advance(request)
 
 

@@ -121,10 +121,10 @@ def test_references_are_cached_on_disk(pooled, tmp_path):
 def test_failures_become_rows_with_a_reason(register, tmp_path):
     register(ti.SleepyRK45.name, ti.SleepyRK45)
     register(ti.BrokenSetup.name, ti.BrokenSetup)
-    suite = small_suite([ti.SleepyRK45.name, ti.BrokenSetup.name, "exact"], time_limit=0.15)
+    suite = small_suite([ti.SleepyRK45.name, ti.BrokenSetup.name, "exact"], time_limit=1.0)
     frame = run_suite(suite, tmp_path, workers=1, progress=False).results.set_index("integrator")
     assert frame.loc["sleepy-rk45-test", "status"] == "time limit"
-    assert "wall-clock limit of 0.15 s per run reached" in frame.loc["sleepy-rk45-test", "message"]
+    assert "wall-clock limit of 1 s per run reached" in frame.loc["sleepy-rk45-test", "message"]
     assert "the worker process was stopped" in frame.loc["sleepy-rk45-test", "message"]
     assert frame.loc["broken-setup-test", "status"] == "error"
     assert "RuntimeError: plug-in bug in setup" in frame.loc["broken-setup-test", "message"]

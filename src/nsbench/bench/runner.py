@@ -220,9 +220,11 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     workers = max(1, int(workers or os.cpu_count() or 1))
     prov["workers"] = 1 if local else min(workers, max(1, len(pending)))
     refs = _References(suite, pending, out)
-    # One step per reference, and per case one for its first warm-up and one per timing round.
-    bar = Progress(len(refs.todo) + sum(1 + c.repeats for c in pending), label="steps",
-                   stream=err, enabled=progress)
+    # One step per reference, and per case one for its first warm-up and one per timing round,
+    # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
+    warm_weight, weight, ref_weight = _weights(suite, pending, len(refs.todo), prov["workers"], out, err, progress)
+    bar = Progress(len(refs.todo) * ref_weight + sum(warm_weight(c) + c.repeats * weight(c) for c in pending),
+                   label="cases", stream=err, enabled=progress, weighted=True)
     waiting: dict[str, list[dict[str, Any]]] = {}
 
     def store(row: dict[str, Any], stored: bool = False, steps: int = 1) -> None:
@@ -233,11 +235,11 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
             return
         if not stored:
             storage.append_row(out, _with_reference(row, refs.known[key]), prov)
-        bar.update(steps, case.label)
+        bar.update(steps * weight(case), case.label)
 
     def reference_done(key: str, ref: Reference) -> None:
         refs.add(key, ref)
-        bar.update(1, "reference")
+        bar.update(ref_weight, "reference")
         for row, steps in waiting.pop(key, []):
             store(row, steps=steps)
 
@@ -249,11 +251,11 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
                   "cannot import: running every case in this process (no parallelism, time limit checked "
                   "between arcs only, a crash ends the run); define it in an importable module to use workers",
                   file=err)
-            _run_in_process(pending, refs, suite.name, store, reference_done, bar)
+            _run_in_process(pending, refs, suite.name, store, reference_done, bar, warm_weight)
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda label: bar.update(1, label))
+                                  on_warm=lambda case: bar.update(warm_weight(case), case.label))
             timeline = scheduler.timeline
             scheduler.run()
     finally:
@@ -281,11 +283,32 @@ def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any
     return hello(components, out, prov)
 
 
-def _run_in_process(pending: list[Case], refs: _References, suite: str, store, reference_done, bar) -> None:
+def _weights(suite: Suite, pending: list[Case], n_references: int, workers: int, out: Path, err: TextIO,
+             announce: bool):
+    """The weights of the progress bar's steps: ``(warm-up of a case, timed run of a case, reference)``,
+    each the expected worker seconds; with ``announce``, say first what the run will do and how long
+    it should take (:mod:`nsbench.bench.estimate`)."""
+    if not (announce and pending):
+        return (lambda case: 1.0), (lambda case: 1.0), 1.0
+    from nsbench.bench import estimate
+    from nsbench.bench.targets import done_rows, locations
+
+    table = estimate.CostTable.packaged()
+    done = done_rows(out) if suite.target_list() else set()
+    todo = [loc for loc in locations(suite) if loc.row_id not in done] if suite.target_list() else []
+    plan = estimate.plan(pending, todo, n_references, workers, table=table)
+    print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
+    typical = table.typical() if table else (1.0, 1.0)
+    return ((lambda case: plan.weights.get(case.label, typical)[0]),
+            (lambda case: plan.weights.get(case.label, typical)[1]), (table.reference if table else 1.0))
+
+
+def _run_in_process(pending: list[Case], refs: _References, suite: str, store, reference_done, bar,
+                    warm_weight) -> None:
     """The fallback without workers: references, then each case warmed up and timed in turn."""
     for key, task in list(refs.todo.items()):
         reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end,
                                               task.dense_points))
     for case in pending:
-        bar.update(1, case.label)  # its warm-up step
+        bar.update(warm_weight(case), case.label)  # its warm-up step
         store(run_case(case, refs.of(case), suite), steps=case.repeats)

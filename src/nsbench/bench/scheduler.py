@@ -155,12 +155,12 @@ class Scheduler:
     def __init__(self, cases: list[Case], references: list[ReferenceTask],
                  reference_of: Callable[[Case], Reference], on_reference: Callable[[str, Reference], None],
                  on_row: Callable[..., None], hello: msg.Hello, workers: int,
-                 suite: str = "suite", on_warm: Callable[[str], None] | None = None) -> None:
+                 suite: str = "suite", on_warm: Callable[[Case], None] | None = None) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
         self.ref_queue = deque(references)
         self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
         self.reference_of, self.on_reference, self.on_row = reference_of, on_reference, on_row
-        self.on_warm = on_warm or (lambda label: None)
+        self.on_warm = on_warm or (lambda case: None)
         self.hello, self.suite = hello, suite
         self.slots = [_Slot(i) for i in range(max(1, workers))]
         self.timing = False  # the phase: False while preparing
@@ -353,7 +353,7 @@ class Scheduler:
         if state.done:  # its row is written already (a late copy of a warm-up)
             return
         if state.warm is None:
-            self.on_warm(state.case.label)
+            self.on_warm(state.case)
         if warm.row is not None:  # unsupported or error: the row is final
             state.done = True
             self.on_row(warm.row, steps=state.case.repeats)
@@ -403,7 +403,7 @@ class Scheduler:
                         steps=state.case.repeats - state.rounds)
             return
         if state.warm is None:  # its first warm-up ended here
-            self.on_warm(state.case.label)
+            self.on_warm(state.case)
         row = base_row(state.case, self.suite)
         row.update(status=status, message=message)
         if state.warm is not None:

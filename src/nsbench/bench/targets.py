@@ -44,6 +44,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
+import statistics
 import time
 import traceback
 from dataclasses import asdict, dataclass, field
@@ -718,8 +719,10 @@ def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: 
             refs[key] = cached
         else:
             todo[key] = loc.target
-    bar = Progress(len(todo) + len(pending), label="bifurcation targets", stream=err,
-                   enabled=progress and bool(pending))
+    weight = _location_weights(pending)
+    ref_weight = statistics.median(weight.values()) if weight else 1.0
+    bar = Progress(len(todo) * ref_weight + sum(weight.values()), label="bifurcation targets", stream=err,
+                   enabled=progress and bool(pending), weighted=True)
     suite_name = suite.name
 
     def got_reference(key: str, ref: TargetReference) -> None:
@@ -729,11 +732,11 @@ def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: 
         else:
             print(f"nsbench: warning: the reference of bifurcation target {todo[key].name!r} could not be "
                   f"computed: {ref.status}", file=err)
-        bar.update(1, f"reference {todo[key].name}")
+        bar.update(ref_weight, f"reference {todo[key].name}")
 
     def got_row(row: dict[str, Any]) -> None:
         store_row(o, row, provenance)
-        bar.update(1, f"{row['target']} {row['integrator']}")
+        bar.update(weight.get(row["row_id"], ref_weight), f"{row['target']} {row['integrator']}")
 
     try:
         if in_process:
@@ -746,6 +749,18 @@ def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: 
     finally:
         bar.close()
     return export_rows(o, provenance) if (o / ROWS_DIR).is_dir() else load_rows(o)
+
+
+def _location_weights(pending: list[Location]) -> dict[str, float]:
+    """Row id -> the expected seconds of its location (the packaged cost table; the median where it
+    is unknown): the weights of the progress bar's steps."""
+    from nsbench.bench.estimate import CostTable, location_label
+
+    table = CostTable.packaged()
+    known = table.target if table is not None else {}
+    typical = statistics.median(known.values()) if known else 1.0
+    return {loc.row_id: known.get(location_label(loc.target.name, loc.integrator, loc.options), typical)
+            for loc in pending}
 
 
 def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending, refs, got_reference,

@@ -1,6 +1,8 @@
 """``nsbench run``: the main job. Runs the packaged default suite (every registered
-integrator at three accuracy levels on the 1-DOF standard scenario and the 2-DOF
-cases 1-4, tau in [0, 300]) and writes the report to ``reports/latest``. Like ``bench``
+integrator at its accuracy levels on the 1-DOF standard scenario and the 2-DOF
+cases 1-4, tau in [0, 300], but the tightest levels of the slowest methods, which
+``--suite full`` adds) and writes the report to ``reports/latest``. It says first
+how many runs it will time and how long that should take. Like ``bench``
 and ``bifurcation`` it resumes: only cases missing from the folder are computed
 (``--fresh`` starts over). Exit status 1 when a case crashed or a reference could not
 be computed."""
@@ -15,7 +17,8 @@ def add_parser(sub) -> None:
     p.add_argument("--out", default=None,
                    help="output directory (default reports/latest; reports/<suite> for another packaged suite)")
     p.add_argument("--suite", default="default", metavar="SUITE",
-                   help="a packaged suite by name (default, chain-scaling) or a suite TOML file")
+                   help="a packaged suite by name (default; full: every level of every integrator; "
+                        "chain-scaling) or a suite TOML file")
     p.add_argument("--workers", default=None, help="processes (default: all cores)")
     p.add_argument("--fresh", action="store_true",
                    help="discard the cases already stored in --out (default: resume, computing only missing cases)")

@@ -1,0 +1,269 @@
+"""How long a suite run will take, said before it starts, and the weight of each task in its progress bar.
+
+The packaged suites come with the cost of every task measured on one machine
+(``nsbench/suites/costs.json``: seconds of a worker for each case's warm-up
+and each timed run, each reference, each bifurcation-target location, and the
+report). Before a run, a short fixed workload (:func:`calibrate`) says how much
+slower or faster this machine is, and the load average says how many of its
+cores other programs hold; the measured costs scaled by both, spread over the
+workers, are the estimate. A task the table does not know (a plug-in, a suite
+of one's own) counts as the median known task and is named in the statement.
+
+The same costs weigh the steps of the progress bar, so that its estimate of the
+time left (the work left over the rate at which work got done so far) holds
+when long and short tasks mix and when the machine gets busier or quieter.
+
+``python -m nsbench.bench.estimate OUT SECONDS`` writes the table from a
+finished run of ``nsbench run --suite full --fresh --out OUT`` on an idle
+machine with two workers, ``SECONDS`` its wall time without the report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Iterable
+
+#: The table of measured costs shipped with the packaged suites.
+COSTS_FILE = "costs.json"
+
+
+def calibrate(seconds: float = 0.5) -> float:
+    """Seconds of a fixed workload like the bench's (scipy's DOP853 on a forced oscillator): the best of
+    its repeats over ``seconds``.
+
+    It exercises what most cases of the default suite spend their time in (the
+    Python interpreter driving numpy) and takes about 0.03 s on a current core.
+    The first repeats of a process run up to twice slower (first use, the
+    processor's clock rising), so it repeats for a stated time, not a count.
+    """
+    import numpy as np
+    from scipy.integrate import solve_ivp
+
+    def field(t, y):
+        return np.array([y[1], -y[0] - 0.05 * y[1] + 0.3 * np.cos(0.9 * t)])
+
+    best, start = math.inf, time.perf_counter()
+    while True:
+        tic = time.perf_counter()
+        solve_ivp(field, (0.0, 150.0), [0.0, 0.0], method="DOP853", rtol=1e-10, atol=1e-12)
+        toc = time.perf_counter()
+        best = min(best, toc - tic)
+        if toc - start >= seconds:
+            return best
+
+
+def other_load(cores: int) -> float:
+    """Runnable processes of other programs, from the 1-minute load average (0 where it is unknown)."""
+    try:
+        return max(0.0, float(os.getloadavg()[0]))
+    except (AttributeError, OSError):  # pragma: no cover - platforms without a load average
+        return 0.0
+
+
+@dataclass
+class CostTable:
+    """Measured seconds per task on the machine named in ``machine`` (see the module docstring)."""
+
+    calibration: float
+    machine: str = ""
+    measured: str = ""
+    warm_up: dict[str, float] = field(default_factory=dict)    # case label -> its first warm-up
+    run: dict[str, float] = field(default_factory=dict)        # case label -> one timed run
+    target: dict[str, float] = field(default_factory=dict)     # location label -> the whole location
+    reference: float = 1.5                                      # one reference run
+    report: float = 15.0                                        # writing the report
+    #: the rest of a run, not in any task: starting workers, the barriers between phases, the
+    #: bifurcation targets' references (the measured run's time less its tasks over its workers)
+    overhead: float = 0.0
+
+    @classmethod
+    def packaged(cls) -> "CostTable | None":
+        """The table shipped with nsbench, or ``None`` if it is missing or unreadable."""
+        try:
+            data = json.loads(resources.files("nsbench.suites").joinpath(COSTS_FILE).read_text())
+            return cls(**data)
+        except (OSError, ValueError, TypeError):
+            return None
+
+    def to_json(self) -> str:
+        return json.dumps(self.__dict__, indent=1, sort_keys=True)
+
+    def costs(self, label: str) -> tuple[float, float] | None:
+        """Worker seconds of a case's warm-up and of one of its timed runs, ``None`` if unknown.
+
+        A case measured with a warm-up and no timed run (refused at ``setup``) costs only the warm-up.
+        """
+        if label not in self.warm_up and label not in self.run:
+            return None
+        run = self.run.get(label, 0.0)
+        return self.warm_up.get(label, run), run
+
+    def typical(self) -> tuple[float, float]:
+        """The median warm-up and timed run over the table's cases."""
+        if not self.run:
+            return 1.0, 1.0
+        return (statistics.median(self.warm_up.get(k, v) for k, v in self.run.items()),
+                statistics.median(self.run.values()))
+
+
+def location_label(target: str, integrator: str, options: dict[str, Any]) -> str:
+    """The key of a bifurcation-target location in the cost table (options in name order)."""
+    opts = ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in sorted(options.items()))
+    return f"{target} {integrator}[{opts}]"
+
+
+@dataclass
+class Plan:
+    """What a run will do and how long it should take (see :func:`plan`)."""
+
+    n_cases: int
+    n_runs: int            # timed runs (the warm-ups and references come on top)
+    n_locations: int
+    n_unknown: int         # tasks the cost table does not know (counted as its median)
+    workers: int
+    seconds: float         # the estimate on this machine now
+    speed: float           # this machine's time for the calibration workload / the table's
+    load: float            # other programs' runnable processes
+    cores: int
+    #: case label -> worker seconds of its warm-up and of one timed run (the table's, or typical ones)
+    weights: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def statement(self) -> str:
+        """One sentence for the user before the run starts."""
+        parts = [f"{self.n_cases} case(s): {self.n_runs} timed runs after a warm-up each"]
+        if self.n_locations:
+            parts.append(f"then {self.n_locations} bifurcation-target location(s)")
+        head = ", ".join(parts) + f", on {self.workers} worker(s)"
+        if not math.isfinite(self.seconds):
+            return head + "; no estimate of the time (no measured costs)"
+        why = f"this machine takes {self.speed:.2g}x the time of the one the costs were measured on"
+        if self.load >= 0.5:
+            why += f", load {self.load:.1f} on {self.cores} cores"
+        unknown = f"; {self.n_unknown} task(s) of unmeasured cost counted as typical" if self.n_unknown else ""
+        return f"{head}; estimated {_duration(self.seconds)} ({why}{unknown})"
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"about {max(5, round(seconds / 5) * 5):.0f} s"
+    return f"about {seconds / 60:.0f} min" if seconds < 600 else f"about {seconds / 60:.0f} min (long)"
+
+
+def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, workers: int = 1,
+         table: CostTable | None = None, calibration: float | None = None, load: float | None = None,
+         cores: int | None = None, report: bool = True) -> Plan:
+    """The :class:`Plan` of a run of ``cases`` (suite cases) and ``locations`` (bifurcation-target locations).
+
+    ``calibration`` (:func:`calibrate` here), ``load`` and ``cores`` default to
+    this machine's; ``table`` to the packaged one.
+    """
+    cases, locations = list(cases), list(locations)
+    table = table if table is not None else CostTable.packaged()
+    cores = int(cores or os.cpu_count() or 1)
+    n_workers = max(1, min(int(workers), cores))
+    n_runs = sum(c.repeats for c in cases)
+    if table is None:
+        return Plan(len(cases), n_runs, len(locations), len(cases) + len(locations), n_workers, math.inf,
+                    math.nan, math.nan, cores)
+    load = other_load(cores) if load is None else max(0.0, load)
+    calibration = calibrate() if calibration is None else calibration
+    # The calibration ran beside the other load, on a share of a core; the workers will share the
+    # cores with it too. Scale the table by the machine's own speed, then by the workers' share.
+    share_calibration = min(1.0, cores / (load + 1.0))
+    share_workers = min(1.0, cores / (load + n_workers))
+    speed = calibration * share_calibration / table.calibration
+    unknown, weights, work = 0, {}, 0.0
+    for c in cases:
+        costs = table.costs(c.label)
+        if costs is None:
+            unknown += 1
+            costs = table.typical()
+        weights[c.label] = costs
+        work += costs[0] + c.repeats * costs[1]
+    known_targets = list(table.target.values())
+    typical_target = statistics.median(known_targets) if known_targets else sum(table.typical()) * 4
+    target_work = 0.0
+    for loc in locations:
+        cost = table.target.get(location_label(loc.target.name, loc.integrator, loc.options))
+        if cost is None:
+            unknown += 1
+            cost = typical_target
+        target_work += cost
+    work += n_references * table.reference
+    seconds = (work + target_work) * speed / (n_workers * share_workers)
+    seconds += table.overhead * speed / share_calibration
+    if report:
+        seconds += table.report * speed / share_calibration  # one process
+    return Plan(len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights)
+
+
+# ---------------------------------------------------------------------- the table, from a finished run
+def measure(out: str | Path, total: float, workers: int = 2, calibration: float | None = None) -> CostTable:
+    """A :class:`CostTable` from a finished run's ``timeline.csv`` and ``bifurcation_targets.parquet``.
+
+    Each case's warm-up and timed runs are the worker-slot durations of its
+    tasks in the timeline (the median of its timed runs); ``total`` is the
+    run's wall time on ``workers`` workers, report excluded.
+    """
+    import pandas as pd
+
+    from nsbench.provenance import provenance
+
+    out = Path(out)
+    tl = pd.read_csv(out / "timeline.csv")
+    tl["seconds"] = tl["end"] - tl["start"]
+    warm = tl[tl["kind"] == "warm-up"].groupby("label")["seconds"].max().to_dict()
+    runs = tl[tl["kind"] == "time"].groupby("label")["seconds"].median().to_dict()
+    refs = tl[tl["kind"] == "reference"]["seconds"]
+    targets: dict[str, float] = {}
+    bif = out / "bifurcation_targets.parquet"
+    if bif.exists():
+        rows = pd.read_parquet(bif)
+        for r in rows.itertuples(index=False):
+            options = json.loads(r.options) if isinstance(r.options, str) else dict(r.options or {})
+            setup = float(r.setup_time) if r.setup_time == r.setup_time else 0.0
+            targets[location_label(r.target, r.integrator, options)] = float(r.wall_time) + setup
+    tasks = tl.loc[tl["kind"] != "start", "seconds"].sum() + sum(targets.values())
+    prov = provenance()
+    return CostTable(calibration=calibrate(2.0) if calibration is None else calibration,
+                     machine=f"{prov.get('cpu', '?')}, {prov.get('cpu_count', '?')} cores",
+                     measured=f"{time.strftime('%Y-%m-%d')} at {str(prov.get('git_commit', '?'))[:12]}",
+                     warm_up={k: round(float(v), 4) for k, v in warm.items()},
+                     run={k: round(float(v), 4) for k, v in runs.items()},
+                     target={k: round(v, 3) for k, v in targets.items()},
+                     reference=round(float(refs.median()), 3) if len(refs) else 1.5,
+                     overhead=round(max(0.0, total - tasks / workers), 1))
+
+
+def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintainer's tool
+    import sys
+
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2:
+        print("usage: python -m nsbench.bench.estimate OUT SECONDS\n  OUT: the folder of a finished "
+              "'nsbench run --suite full --fresh --workers 2' on an idle machine; SECONDS: its wall time "
+              "without the report", file=sys.stderr)
+        return 2
+    from nsbench.bench.report import write_report
+    from nsbench.bench.storage import load_results
+
+    table = measure(args[0], float(args[1]))
+    tic = time.perf_counter()
+    write_report(args[0], load_results(args[0]))
+    table.report = round(time.perf_counter() - tic, 1)
+    path = Path(__file__).resolve().parents[1] / "suites" / COSTS_FILE
+    path.write_text(table.to_json() + "\n")
+    print(f"{path}: {len(table.run)} cases, {len(table.target)} locations, calibration {table.calibration:.4f} s, "
+          f"overhead {table.overhead} s, report {table.report} s")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,86 @@
+"""The estimate of a run's time: the measured cost table, scaled to the machine and its load."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import pandas as pd
+import pytest
+
+from nsbench.bench import Suite, load_suite, run_suite
+from nsbench.bench.estimate import CostTable, calibrate, location_label, measure, plan
+from nsbench.bench.targets import locations
+
+SMALL = {"name": "small", "t_span": [0.0, 20.0], "problems": [{"name": "one-dof", "case": 1}],
+         "integrators": {"only": ["exact", "scipy-rk45"]}}
+
+
+def _table(**kw) -> CostTable:
+    cases = Suite.from_dict(SMALL).cases()
+    return CostTable(calibration=0.02, warm_up={c.label: 0.5 for c in cases[:2]},
+                     run={c.label: 1.0 for c in cases[:2]}, reference=2.0, report=10.0, overhead=4.0, **kw)
+
+
+def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers():
+    cases = Suite.from_dict(SMALL).cases()        # exact (1 level) and scipy-rk45 (3 levels)
+    assert len(cases) == 4
+    p = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02, load=0.0, cores=2)
+    # two known cases: 0.5 + 3 * 1.0 each; two unknown ones counted as the median known case
+    work = 4 * (0.5 + 3 * 1.0) + 2.0
+    assert p.n_unknown == 2 and p.n_runs == 12 and p.speed == pytest.approx(1.0)
+    assert p.seconds == pytest.approx(work / 2 + 4.0 + 10.0)
+    assert "4 case(s): 12 timed runs" in p.statement() and "2 task(s) of unmeasured cost" in p.statement()
+    # a machine twice as slow, then the cores shared with two busy programs
+    slow = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.04, load=0.0, cores=2)
+    assert slow.seconds == pytest.approx(2 * p.seconds)
+    busy = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02 * 1.5, load=2.0, cores=2)
+    # calibrated beside them (3 processes on 2 cores: 1.5x); the workers then get half a core each,
+    # and the one process that writes the report (and starts the workers) two thirds of one
+    assert busy.speed == pytest.approx(1.0) and "load 2.0 on 2 cores" in busy.statement()
+    assert busy.seconds == pytest.approx(work + 1.5 * (4.0 + 10.0))
+
+
+def test_no_table_no_estimate(monkeypatch):
+    monkeypatch.setattr(CostTable, "packaged", classmethod(lambda cls: None))
+    cases = Suite.from_dict(SMALL).cases()
+    p = plan(cases, workers=1)
+    assert math.isinf(p.seconds) and "no estimate of the time" in p.statement()
+
+
+def test_the_packaged_table_knows_every_task_of_the_packaged_suites():
+    # Regenerate it when a built-in integrator or a level changes: see nsbench.bench.estimate.
+    table = CostTable.packaged()
+    assert table is not None and table.calibration > 0
+    for name in ("default", "full"):
+        suite = load_suite(name)
+        missing = [c.label for c in suite.cases() if table.costs(c.label) is None]
+        missing += [loc for loc in locations(suite)
+                    if location_label(loc.target.name, loc.integrator, loc.options) not in table.target]
+        assert not missing, f"suite {name!r}: no measured cost for {missing[:5]}"
+
+
+def test_the_table_is_measured_from_a_timeline(tmp_path):
+    pd.DataFrame({"slot": [0, 0, 0, 1, 1, 1], "pid": [1] * 6,
+                  "kind": ["start", "reference", "warm-up", "time", "time", "time"],
+                  "label": ["worker start", "k", "a", "a", "a", "a"],
+                  "start": [0.0, 0.5, 1.5, 2.0, 3.0, 5.0], "end": [0.5, 1.5, 2.0, 3.0, 5.0, 6.5],
+                  "outcome": ["ready"] + ["done"] * 5}).to_csv(tmp_path / "timeline.csv", index=False)
+    t = measure(tmp_path, total=7.0, workers=1, calibration=0.03)
+    assert t.warm_up == {"a": 0.5} and t.run == {"a": 1.5} and t.reference == 1.0
+    assert t.overhead == pytest.approx(7.0 - (1.0 + 0.5 + 1.0 + 2.0 + 1.5)) and t.calibration == 0.03
+    assert CostTable(**__import__("json").loads(t.to_json())) == t
+
+
+def test_calibration_is_a_short_positive_time():
+    seconds = calibrate(0.05)
+    assert 0 < seconds < 0.05 * 100
+
+
+def test_a_run_says_what_it_will_do_before_it_starts(tmp_path):
+    err = io.StringIO()
+    run_suite(Suite.from_dict({**SMALL, "integrators": {"only": ["exact"]}}), tmp_path, workers=1,
+              progress=True, stream=err)
+    first = err.getvalue().splitlines()[0]
+    assert first.startswith("nsbench: suite 'small': 1 case(s): 3 timed runs after a warm-up each, on 1 worker(s)")
+    assert "estimated about" in first

@@ -23,7 +23,7 @@ from nsbench.errors import ConfigError
 from nsbench.integrators import Integrator, get_integrator
 from nsbench.hybrid.records import event_frame
 from nsbench.hybrid.run import run_hybrid, warm_up
-from nsbench.problems.oscillator import FrictionOscillator
+from nsbench.problems.base import HybridProblem
 from nsbench.results import SimulationResult
 from nsbench.sections import Section, StateSection, TimeSection
 
@@ -37,7 +37,7 @@ def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | 
     return integrator
 
 
-def _check_inputs(problem: FrictionOscillator, t0: float, t_end: float, y0: np.ndarray,
+def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarray,
                   t_eval: np.ndarray) -> None:
     if not (math.isfinite(t0) and math.isfinite(t_end)):
         raise ConfigError(f"time span [{t0}, {t_end}] must be finite")
@@ -55,12 +55,12 @@ def _check_inputs(problem: FrictionOscillator, t0: float, t_end: float, y0: np.n
             raise ConfigError(f"t_eval must lie in [t0, t_end] = [{t0:g}, {t_end:g}]")
 
 
-def _frames(problem: FrictionOscillator, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
+def _frames(problem: HybridProblem, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
             strobe_names: list[str | None], state_sections: Sequence[StateSection]):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
     names = list(problem.state_names)
     rec = raw.records
-    events = event_frame(rec, raw.n_events, problem.state_names)
+    events = event_frame(problem, rec, raw.n_events)
     rows = [(state_sections[int(rec.hk[j])].name, float(rec.ht[j]), *rec.hy[j]) for j in range(raw.n_hits)]
     k = raw.n_dense
     states = rec.y_eval[:k]
@@ -75,16 +75,15 @@ def _frames(problem: FrictionOscillator, raw, dense_times: np.ndarray, traj_mask
     traj = pd.DataFrame(states[mask], columns=names)
     traj.insert(0, "t", times[mask])
     phases = _phases_at(events, raw, times[mask], problem)
-    for i in range(problem.n_blocks):
-        traj[f"phase{i + 1}"] = phases[:, i]
+    for i, column in enumerate(problem.mode_columns):
+        traj[column] = phases[:, i]
     return events, sections, traj
 
 
-def _phases_at(events: pd.DataFrame, raw, times: np.ndarray, problem: FrictionOscillator) -> np.ndarray:
+def _phases_at(events: pd.DataFrame, raw, times: np.ndarray, problem: HybridProblem) -> np.ndarray:
     """The mode at each trajectory time: the mode after the last event at or before it (before the first
     event: the start mode), from the event log's ``mode`` column."""
-    nb = problem.n_blocks
-    out = np.empty((times.size, nb), np.int8)
+    out = np.empty((times.size, problem.mode_size), np.int8)
     if not times.size:
         return out
     ev_modes = raw.records.ev_mode[: raw.n_events]
@@ -102,7 +101,7 @@ def _phases_at(events: pd.DataFrame, raw, times: np.ndarray, problem: FrictionOs
 
 
 def simulate(
-    problem: FrictionOscillator,
+    problem: HybridProblem,
     integrator: Integrator | str,
     t_end: float,
     *,
@@ -115,6 +114,7 @@ def simulate(
     max_events: int = 1_000_000,
     zeno_events: int = 64,
     zeno_span: float | None = None,
+    accumulation: int = 8,
 ) -> SimulationResult:
     """Integrate ``problem`` with ``integrator`` over ``[t0, t_end]`` through every event.
 
@@ -129,8 +129,8 @@ def simulate(
     options
         Integrator options when ``integrator`` is a name.
     t0, y0
-        Start time and state; default 0 and the standard initial condition
-        (every block at rest at the origin).
+        Start time and state; default 0 and the problem's start state (its
+        parameters; every block at rest at the origin for the friction problems).
     t_eval
         Times in ``[t0, t_end]`` for the trajectory (sorted).
     sections
@@ -142,6 +142,11 @@ def simulate(
     zeno_events, zeno_span
         More than ``zeno_events`` consecutive events within ``zeno_span`` (default
         ``1e-9`` times the time scale) end the run with ``EVENT_STORM``.
+    accumulation
+        When this many consecutive intervals between events of one guard shrink
+        geometrically, the events accumulate (Zeno): the accumulation time is
+        extrapolated and the problem's declared limit behaviour applied there,
+        with an event of its own (the bouncing ball comes to rest). 0: never.
 
     Returns
     -------
@@ -183,10 +188,11 @@ def simulate(
     warm_up(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
     setup_time = time.perf_counter() - tic
 
-    span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.scales.time if problem.dimensional else 1.0)
+    span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     tic = time.perf_counter()
     raw = run_hybrid(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
-                     max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span)
+                     max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span,
+                     accumulation=accumulation)
     # tables built for modes visited for the first time are first use (setup), not the run
     wall = time.perf_counter() - tic - raw.prepare_time
     setup_time += raw.prepare_time

@@ -6,35 +6,28 @@ Column conventions (documented, relied on by reports):
   reverse``; the state and the mode (e.g. ``'stick|slip-'``) are those *after* the transition.
 - sections: ``section, t, x1, v1[, x2, v2]``.
 - trajectory: ``t, x1, v1[, x2, v2], phase1[, phase2]`` with phases -1 (slip-),
-  0 (stick), +1 (slip+).
+  0 (stick), +1 (slip+): the problem's ``mode_columns``, the entries of the mode.
+
+Other problems name their own event kinds, states and mode entries (``problem.event_kinds``,
+``problem.state_names``, ``problem.mode_columns``); ``block`` is the 1-based index of the
+element the event's guard belongs to.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from enum import Enum
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from nsbench.problems.modes import Mode, mode_name
+from nsbench.problems.base import Mode
+from nsbench.status import Status
+
+__all__ = ["Status", "Counters", "SimulationResult", "event_columns"]
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.problems.oscillator import FrictionOscillator
-
-
-class Status(str, Enum):
-    """How a run ended. The value is the human-readable message."""
-
-    SUCCESS = "success"
-    BUDGET_EXHAUSTED = "step budget exhausted"
-    EVENT_STORM = "event storm (Zeno)"
-    INTEGRATOR_FAILURE = "integrator failure"
-
-    @property
-    def ok(self) -> bool:
-        return self is Status.SUCCESS
 
 
 @dataclass
@@ -125,7 +118,7 @@ class SimulationResult:
             f"problem     {self.problem!r}",
             f"integrator  {self.integrator['name']} {self.integrator.get('options', {})}",
             f"status      {self.status.value}" + (f": {self.message}" if self.message else ""),
-            f"t_final     {self.t_final:.6g}   final mode {mode_name(self.mode_final)}",
+            f"t_final     {self.t_final:.6g}   final mode {self.problem.mode_name(self.mode_final)}",
         ]
         if len(self.events):
             table = self.events.groupby(["kind", "block"]).size()

@@ -1,16 +1,10 @@
-"""The hybrid core: the stick/slip/reverse rules of MODEL.md and the one loop that applies them.
+"""The hybrid core's Python side: one call runs a problem with an integrator through the compiled loop.
 
-- :mod:`.rules`: the rules themselves, compiled once (modes, guards of a mode and
-  their expected signs, the transition map, the initial mode, the wrong-side test,
-  the settle step with event storms and budgets). Nothing else in nsbench
-  re-implements them.
-- :mod:`.loop`: the compiled hybrid loop. It runs an integrator's compiled arc
-  kernel (``exact``, ``henon-rk4``, ``ofapi``, ``mcpi``) with no Python per event,
-  or hands each arc back to Python for integrators without a kernel.
-- :mod:`.records`: the growable buffers the loop writes (events, section hits,
-  dense states) and their tidy frames.
-- :mod:`.run`: the Python side: one call runs a problem with an integrator
-  through the loop and returns a :class:`~nsbench.hybrid.run.RawRun`.
+The compiled ground floor lives in :mod:`nsbench.model` (the law ABI, the generic
+rules, the loop, the records); :mod:`.run` prepares a run's bundles, drives the
+loop (growing buffers, building a kernel's data for a new mode, or running an
+integrator's ``advance`` for each arc when it has no compiled kernel) and returns
+a :class:`~nsbench.hybrid.run.RawRun`; :mod:`.records` makes the event log of it.
 
 :func:`nsbench.simulate` (in :mod:`nsbench.engine`) is the public entry point.
 """

@@ -1,11 +1,13 @@
 """The Python side of the hybrid core: run a problem with an integrator through the compiled loop.
 
-:func:`run_hybrid` is what :func:`nsbench.simulate`, the bench runner, sweeps,
-the Lyapunov estimate and the conformance kit call. It prepares the state
-arrays, calls :func:`nsbench.hybrid.loop.hybrid_loop` and does what the loop
-hands back: grows buffers, builds the tables of a newly visited mode, or, for an
-integrator without a compiled kernel, runs its ``advance`` for one arc
-(:func:`_python_arc`), checking the result against the protocol.
+:func:`run_hybrid` is what :func:`nsbench.simulate` (and through it the bench,
+sweeps, Lyapunov exponents, periodic orbits and the conformance kit) calls. It
+prepares the run's bundles (:mod:`nsbench.model.abi`), calls
+:func:`nsbench.model.loop.hybrid_loop` and does what the loop hands back: grows
+buffers, builds a kernel's data for a newly visited mode, or, for an integrator
+without a compiled kernel, runs its ``advance`` for one arc (:class:`_PythonArcs`),
+checking the result against the protocol. It imports no problem and no
+integrator: both come in as objects.
 """
 
 from __future__ import annotations
@@ -13,56 +15,27 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from nsbench.hybrid import abi
-from nsbench.hybrid.records import Records, mode_text
-from nsbench.results import Counters, Status
+from nsbench.model import abi
+from nsbench.model.records import Records
+from nsbench.results import Counters
+from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.integrators.base import Integrator
-    from nsbench.problems.oscillator import FrictionOscillator
+    from nsbench.problems.base import HybridProblem
     from nsbench.sections import StateSection
 
-#: ``integrator_time`` of a kernel when the platform has no readable monotonic clock.
 _PY_FAILURE = abi.K_FAIL + 100  # an arc computed in Python failed (its message is kept in Python)
-_BUDGET_PY = abi.K_FAIL + 101   # an arc computed in Python ran out of budget (its message is kept)
 
-
-@dataclass
-class ArcKernel:
-    """A compiled arc kernel an integrator provides (see :meth:`Integrator.kernel`).
-
-    Attributes
-    ----------
-    method
-        Kernel code of :mod:`nsbench.hybrid.loop` (``M_EXACT``, ``M_HENON``, ``M_PICARD``).
-    data
-        The kernel's data (tables, operators), in the loop's ``kd`` slot of its method.
-    options
-        Float options the kernel reads (``fo``).
-    counters
-        Names of the method-specific counter slots, in order.
-    prepare_mode
-        Called with a mode (int array) the kernel has no tables for; returns the new ``data``.
-    prepare_run
-        Called with the number of sections before a run or an arc; returns the ``data`` to use.
-    failure
-        ``failure(code, t)``: the message of a method-specific failure code.
-    """
-
-    method: int
-    data: tuple
-    options: np.ndarray
-    counters: tuple[str, ...] = ()
-    prepare_mode: Callable[[np.ndarray], tuple] | None = None
-    prepare_run: Callable[[int], tuple] | None = None
-    failure: Callable[[int, float], str] | None = None
-
-    def data_for(self, n_sections: int) -> tuple:
-        return self.prepare_run(n_sections) if self.prepare_run is not None else self.data
+#: The status of each outcome code of the compiled loop.
+RUN_STATUS = {abi.RUN_SUCCESS: Status.SUCCESS, abi.RUN_STEP_BUDGET: Status.BUDGET_EXHAUSTED,
+              abi.RUN_EVENT_BUDGET: Status.BUDGET_EXHAUSTED, abi.RUN_STORM: Status.EVENT_STORM,
+              abi.RUN_NONFINITE: Status.INTEGRATOR_FAILURE, abi.RUN_FAILURE: Status.INTEGRATOR_FAILURE,
+              abi.RUN_MISSED: Status.EVENT_MISSED}
 
 
 @dataclass
@@ -85,141 +58,122 @@ class RawRun:
     stopped: bool
     t0: float
     start_mode: tuple[int, ...]
-    prepare_time: float = 0.0  # seconds building tables of newly visited modes (first use, not the run)
+    prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
 
 
-_DUMMY: dict[str, Any] = {}
+_NO_KERNEL: dict[str, Any] = {}
 
 
-def _dummy_data() -> tuple[tuple, tuple, tuple]:
-    """Data of the right types for the kernel slots a run does not use (one compiled loop for all)."""
-    if not _DUMMY:
-        from nsbench.integrators._exact_layout import empty_tables
-
-        z = np.zeros
-        _DUMMY["kd"] = (empty_tables(1, 1), (z((2, 2)),), (z(2), z(2), z((2, 2)), z((2, 2)), z((6, 2, 2)),
-                                                             z((2, 2, 2)), z((8, 2))))
-    return _DUMMY["kd"]
+def _no_kernel() -> tuple[np.ndarray, abi.KernelData, np.ndarray]:
+    """The kernel arguments of a run whose arcs run in Python."""
+    if not _NO_KERNEL:
+        _NO_KERNEL["k"] = (np.zeros(0, np.int64), abi.kernel_data(), np.zeros(1))
+    return _NO_KERNEL["k"]
 
 
-def _kd(method: int, data: tuple) -> tuple:
-    from nsbench.hybrid import loop
-
-    kd = list(_dummy_data())
-    slot = {loop.M_EXACT: 0, loop.M_HENON: 1, loop.M_PICARD: 2}.get(method)
-    if slot is not None:
-        kd[slot] = data
-    return tuple(kd)
-
-
-def section_arrays(sections: Sequence["StateSection"], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Coefficient rows, levels and directions of linear state sections."""
-    sc = np.array([s.coeffs for s in sections], dtype=float).reshape(len(sections), n)
-    sl = np.array([s.level for s in sections], dtype=float)
-    sd = np.array([s.direction for s in sections], dtype=np.int64)
-    return sc, sl, sd
-
-
-def kernel_of(integ: "Integrator", problem: "FrictionOscillator") -> ArcKernel | None:
-    return integ.kernel(problem)
-
-
-def run_hybrid(problem: "FrictionOscillator", integ: "Integrator", t_end: float, *, t0: float = 0.0,
+def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t0: float = 0.0,
                t0_lo: float = 0.0, y0: np.ndarray | None = None, mode: Sequence[int] | None = None,
                sections: Sequence["StateSection"] = (), t_eval: np.ndarray | None = None,
                hit_from: float = -math.inf, hit_stop: int = -1, record_from: float = -math.inf,
                stop_kind: str | None = None, stop_count: int = 0, max_steps: int = 5_000_000,
-               max_events: int = 1_000_000, zeno_events: int = 64, zeno_span: float = 1e-9) -> RawRun:
+               max_events: int = 1_000_000, zeno_events: int = 64, zeno_span: float = 1e-9,
+               accumulation: int = 8) -> RawRun:
     """Run ``problem`` with the (set-up) integrator ``integ`` from ``t0`` to ``t_end`` through every event.
 
     Parameters
     ----------
     t0, t0_lo, y0, mode
-        Start time (compensated: ``t0 + t0_lo``), state (default: rest at the
-        origin) and mode (default: the mode of the state, then the start rule).
+        Start time (compensated: ``t0 + t0_lo``), state (default: the problem's start
+        state) and mode (default: the mode of the state, then the start rule).
     sections, t_eval
         Linear state sections to record, and sorted times for states.
     hit_from, hit_stop
         Section hits at ``t >= hit_from`` are kept; the run stops at the ``hit_stop``-th.
     record_from, stop_kind, stop_count
         Events at ``t >= record_from`` are kept; the run stops after ``stop_count`` of
-        kind ``stop_kind`` (``'stick'``, ``'slip'``, ``'reverse'``) among them.
+        kind ``stop_kind`` (one of ``problem.event_kinds``) among them.
     max_steps, max_events, zeno_events, zeno_span
         Budgets; more than ``zeno_events`` consecutive events within ``zeno_span`` are a storm.
+    accumulation
+        Geometrically shrinking intervals between consecutive events of one guard after
+        which the accumulation (Zeno) time is extrapolated and the problem's limit
+        behaviour applied (0: never).
     """
-    from nsbench.hybrid import loop, rules
-    from nsbench.problems.modes import EVENT_KINDS
+    from nsbench.model import loop
 
-    n, nb = problem.n_states, problem.n_blocks
-    p = problem.packed
+    n = problem.n_states
+    prob = problem.data
     kernel = integ.kernel(problem)
-    method = kernel.method if kernel is not None else loop.M_PYTHON
-    kd = _kd(method, kernel.data_for(len(sections)) if kernel is not None else ())
-    fo = kernel.options if kernel is not None else np.zeros(1)
+    if kernel is not None:
+        table, kd, fo = kernel.table, kernel.data_for(len(sections)), kernel.options
+    else:
+        table, kd, fo = _no_kernel()
     y = problem.initial_state() if y0 is None else np.array(y0, dtype=float)
-    mode_arr = np.zeros(nb, np.int64)
+    y = np.ascontiguousarray(y, dtype=float)
+    mode_arr = np.zeros(problem.mode_size, np.int64)
     if mode is None:
-        rules.initial_mode(p, float(t0), y, mode_arr)
+        problem.law.initial_mode(prob.p, float(t0), y, mode_arr)
     else:
         mode_arr[:] = np.asarray(mode, dtype=np.int64)
     grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
-    sc, sl, sd = section_arrays(sections, n)
-    rec = Records(n, nb, grid.size)
-    fresh = np.zeros(nb, np.bool_)
-    gk, gb, gs = (np.empty(2 * nb, np.int64) for _ in range(3))
-    ring = np.full(max(int(zeno_events), 1), -np.inf)
-    sf = np.zeros(loop.N_SF)
-    sf[loop.SF_T], sf[loop.SF_TLO] = float(t0), float(t0_lo)
-    si = np.zeros(abi.N_SI, np.int64)
-    cnt = np.zeros(abi.N_COUNTERS, np.int64)
-    y_arc = np.empty(n)
-    dy = np.empty(n)
-    iw = np.zeros(abi.N_COUNTERS + 2, np.int64)
-    kind_code = -1 if stop_kind is None else EVENT_KINDS.index(stop_kind)
+    sec = section_bundle(sections, n, hit_from, hit_stop)
+    rec = Records(n, problem.mode_size, grid)
+    g = max(problem.max_guards, 1)
+    st = abi.RunState(y=y, mode=mode_arr, fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
+                      gk=np.zeros(g, np.int64), gi=np.zeros(g, np.int64), gs=np.zeros(g, np.int64),
+                      ring=np.full(max(int(zeno_events), 1), -np.inf), acc=np.zeros(max(int(accumulation), 0) + 1),
+                      sf=np.zeros(abi.N_SF), si=np.zeros(abi.N_SI, np.int64), cnt=np.zeros(abi.N_COUNTERS, np.int64),
+                      y_arc=np.empty(n), dy=np.empty(n), iw=np.zeros(abi.N_COUNTERS + 2, np.int64))
+    st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
+    kind_code = -1 if stop_kind is None else problem.event_kinds.index(stop_kind)
+    lim = abi.RunLimits(float(t_end), int(max_steps), int(max_events), float(zeno_span), float(record_from),
+                        int(kind_code), int(stop_count), int(accumulation))
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
-    py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from),
-                     int(hit_stop))
+    py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop))
     while True:
-        code = loop.hybrid_loop(method, kd, fo, p, float(t_end), int(max_steps), int(max_events),
-                                float(zeno_span), sc, sl, sd, float(hit_from), int(hit_stop), rec.hk, rec.ht,
-                                rec.hy, grid, rec.y_eval, float(record_from), kind_code, int(stop_count),
-                                rec.ev_t, rec.ev_kind, rec.ev_block, rec.ev_y, rec.ev_mode, y, mode_arr, fresh,
-                                gk, gb, gs, ring, sf, si, cnt, y_arc, dy, iw)
+        code = loop.hybrid_loop(table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
         if code == loop.R_DONE:
             break
         if code == loop.R_GROW_EVENTS:
-            rec.grow_events(int(si[rules.SI_RECORDED]))
+            rec.grow_events(int(st.si[abi.SI_RECORDED]))
         elif code == loop.R_GROW_HITS:
-            rec.grow_hits(int(si[abi.SI_NHITS]))
+            rec.grow_hits(int(st.si[abi.SI_NHITS]))
         elif code == loop.R_NEED_MODE:
             tic = time.perf_counter()
-            kd = _kd(method, kernel.prepare_mode(mode_arr.copy()))
+            kd = kernel.prepare_mode(mode_arr.copy())
             prepare_time += time.perf_counter() - tic
         else:  # R_NEED_ARC
-            py.arc(rec, y, mode_arr, gk, gb, gs, sf, si, cnt, y_arc)
-    status, message = _outcome(int(si[abi.SI_STATUS]), int(si[abi.SI_DETAIL]), sf, ring, si, py, kernel,
-                               mode_arr, max_steps, max_events, zeno_events, rec)
+            py.arc(rec, st)
+    status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
+    cnt, si = st.cnt, st.si
     counters = Counters(nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]),
-                        n_events=int(si[rules.SI_EVENTS]))
+                        n_events=int(si[abi.SI_EVENTS]))
     if kernel is not None:
         for k, name in enumerate(kernel.counters):
             counters.extra[name] = int(cnt[abi.X0 + k])
-        from nsbench.hybrid.clock import AVAILABLE
+        from nsbench.model.clock import AVAILABLE
 
         integ_time = si[abi.SI_CLOCK] * 1e-9 if AVAILABLE else math.nan
     else:
         counters.extra.update(py.extra)
         integ_time = py.seconds
-    return RawRun(status=status, message=message, t=float(sf[loop.SF_T]), t_lo=float(sf[loop.SF_TLO]),
+    return RawRun(status=status, message=message, t=float(st.sf[abi.SF_T]), t_lo=float(st.sf[abi.SF_TLO]),
                   y=y.copy(), mode=tuple(int(v) for v in mode_arr), records=rec,
-                  n_events=int(si[rules.SI_RECORDED]), n_hits=int(si[abi.SI_NHITS]),
-                  n_dense=int(si[abi.SI_IEVAL]), n_events_total=int(si[rules.SI_EVENTS]),
+                  n_events=int(si[abi.SI_RECORDED]), n_hits=int(si[abi.SI_NHITS]),
+                  n_dense=int(si[abi.SI_IEVAL]), n_events_total=int(si[abi.SI_EVENTS]),
                   counters=counters, integrator_time=float(integ_time), stopped=bool(si[abi.SI_STOPPED]),
                   t0=float(t0), start_mode=start_mode, prepare_time=prepare_time)
 
 
-def _storm_detail(rec, si, span: float, zeno_events: int) -> str:
+def section_bundle(sections, n: int, hit_from: float = -math.inf, hit_stop: int = -1) -> abi.Sections:
+    """The sections of a run as the compiled code reads them."""
+    from nsbench.model.kernel import section_bundle as bundle
+
+    return bundle(sections, n, hit_from, hit_stop)
+
+
+def _storm_detail(problem, rec: Records, si, span: float, zeno_events: int) -> str:
     """Which guards chattered in a storm, and whether time passed between the events.
 
     Events that all happen at one instant are a cycle of the settle rules at a
@@ -228,46 +182,45 @@ def _storm_detail(rec, si, span: float, zeno_events: int) -> str:
     genuine accumulation (Zeno behaviour of the model) and are worth comparing
     with the reference.
     """
-    from nsbench.hybrid import rules
-    from nsbench.problems.modes import EVENT_KINDS
-
-    if rec is None:
-        return ""
-    k = int(si[rules.SI_RECORDED])
+    k = int(si[abi.SI_RECORDED])
     m = min(k, zeno_events + 1)
     if m == 0:
         return ""
     counts: dict[tuple[int, int], int] = {}
-    for b, kind in zip(rec.ev_block[k - m:k], rec.ev_kind[k - m:k]):
-        counts[(int(b), int(kind))] = counts.get((int(b), int(kind)), 0) + 1
+    for b, kind in zip(rec.events.index[k - m:k], rec.events.kind[k - m:k]):
+        counts[(int(b) + 1, int(kind))] = counts.get((int(b) + 1, int(kind)), 0) + 1
     top = sorted(counts.items(), key=lambda item: -item[1])[:4]
-    chatter = ", ".join(f"{n} {EVENT_KINDS[kind]} of block {b}" for (b, kind), n in top)
+    chatter = ", ".join(f"{n} {problem.event_kinds[kind]} of block {b}" for (b, kind), n in top)
     where = ("all at one instant: a numerical storm (the rules cycle at a degenerate point)" if span == 0.0
              else "spread over time: an accumulation of events, possibly genuine (compare with the reference)")
     return f"; chattering: {chatter}; {where}"
 
 
-def _outcome(run_status, detail, sf, ring, si, py, kernel, mode_arr, max_steps, max_events,
-             zeno_events, rec=None) -> tuple[Status, str]:
-    from nsbench.hybrid import loop
-
-    t = float(sf[loop.SF_T])
-    if run_status == loop.RUN_SUCCESS:
-        return Status.SUCCESS, ""
-    if run_status == loop.RUN_STEP_BUDGET:
-        return Status.BUDGET_EXHAUSTED, py.message or f"{max_steps} steps used by t = {t:.6g}"
-    if run_status == loop.RUN_EVENT_BUDGET:
-        return Status.BUDGET_EXHAUSTED, f"event budget of {max_events} events reached at t = {t:.17g}"
-    if run_status == loop.RUN_STORM:
-        span = t - float(np.min(ring))
-        return Status.EVENT_STORM, (f"{zeno_events + 1} events within {span:.3g} time units ending at "
-                                    f"t = {t:.17g} (mode {mode_text(mode_arr)})" + _storm_detail(rec, si, span,
-                                                                                               zeno_events))
-    if run_status == loop.RUN_NONFINITE:
-        return Status.INTEGRATOR_FAILURE, py.message or f"non-finite state after t = {t:.6g}"
+def _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec: Records) -> tuple[Status, str]:
+    si, sf = st.si, st.sf
+    run_status, detail = int(si[abi.SI_STATUS]), int(si[abi.SI_DETAIL])
+    t = float(sf[abi.SF_T])
+    status = RUN_STATUS[run_status]
+    mode = problem.mode_name(tuple(int(v) for v in st.mode))
+    if run_status == abi.RUN_SUCCESS:
+        return status, ""
+    if run_status == abi.RUN_STEP_BUDGET:
+        return status, py.message or f"{max_steps} steps used by t = {t:.6g}"
+    if run_status == abi.RUN_EVENT_BUDGET:
+        return status, f"event budget of {max_events} events reached at t = {t:.17g}"
+    if run_status == abi.RUN_STORM:
+        span = t - float(np.min(st.ring))
+        return status, (f"{zeno_events + 1} events within {span:.3g} time units ending at t = {t:.17g} "
+                        f"(mode {mode})" + _storm_detail(problem, rec, si, span, zeno_events))
+    if run_status == abi.RUN_MISSED:
+        return status, (f"a guard of mode {mode} was on its wrong side at t = {t:.17g} and back on its own side "
+                        "later in the same arc: the integrator stepped over a crossing (tighten its tolerance "
+                        "or step)")
+    if run_status == abi.RUN_NONFINITE:
+        return status, py.message or f"non-finite state after t = {t:.6g}"
     if detail == _PY_FAILURE or kernel is None or kernel.failure is None:
-        return Status.INTEGRATOR_FAILURE, py.message or f"integrator failure (code {detail}) at t = {t:.6g}"
-    return Status.INTEGRATOR_FAILURE, kernel.failure(detail, t)
+        return status, py.message or f"integrator failure (code {detail}) at t = {t:.6g}"
+    return status, kernel.failure(detail, t)
 
 
 def low_part(t: float, t_lo: float) -> float:
@@ -289,21 +242,27 @@ class _PythonArcs:
         self.message = ""
 
     def _fail(self, si, code: int, message: str) -> None:
-        from nsbench.hybrid import loop
+        from nsbench.model import loop
 
         self.message = message
         si[abi.SI_ARC_STATUS] = code
         si[abi.SI_PHASE] = loop.P_ARC_DONE
 
-    def arc(self, rec: Records, y, mode_arr, gk, gb, gs, sf, si, cnt, y_arc) -> None:
-        from nsbench.hybrid import loop
+    def _done(self, si, code: int) -> None:
+        from nsbench.model import loop
+
+        si[abi.SI_ARC_STATUS] = code
+        si[abi.SI_PHASE] = loop.P_ARC_DONE
+
+    def arc(self, rec: Records, st) -> None:
         from nsbench.integrators.base import ArcRequest
 
         problem, integ = self.problem, self.integ
+        y, sf, si, cnt, y_arc = st.y, st.sf, st.si, st.cnt, st.y_arc
         n = problem.n_states
-        mode = tuple(int(v) for v in mode_arr)
+        mode = tuple(int(v) for v in st.mode)
         guards = problem.guards(mode)
-        t, t_lo = float(sf[loop.SF_T]), float(sf[loop.SF_TLO])
+        t, t_lo = float(sf[abi.SF_T]), float(sf[abi.SF_TLO])
         y_in = y.copy()
         y_in.flags.writeable = False
         i_eval = int(si[abi.SI_IEVAL])
@@ -315,7 +274,7 @@ class _PythonArcs:
             res = integ.advance(request)
         except Exception as exc:  # a protocol violation by the integrator: keep what we have
             self.seconds += time.perf_counter() - tic
-            sf[loop.SF_ARC_T] = t
+            sf[abi.SF_ARC_T] = t
             y_arc[:] = y
             return self._fail(si, _PY_FAILURE, f"{type(exc).__name__}: {exc}")
         self.seconds += time.perf_counter() - tic
@@ -326,7 +285,7 @@ class _PythonArcs:
             self.extra[key] = self.extra.get(key, 0) + value
         t1 = float(res.t)
         y1 = np.asarray(res.y, dtype=float).reshape(-1)
-        sf[loop.SF_ARC_T], sf[loop.SF_ARC_TLO] = t1, 0.0
+        sf[abi.SF_ARC_T], sf[abi.SF_ARC_TLO] = t1, 0.0
         y_arc[:] = y1 if y1.shape == (n,) else y
         expected = int(np.searchsorted(request.t_eval, t1, side="right"))
         y_eval = np.asarray(res.y_eval, dtype=float)
@@ -340,16 +299,16 @@ class _PythonArcs:
             return self._fail(si, _PY_FAILURE, (
                 f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"))
         k = min(y_eval.shape[1], expected)
-        rec.y_eval[i_eval:i_eval + k] = y_eval[:, :k].T
+        rec.dense.y[i_eval:i_eval + k] = y_eval[:, :k].T
         si[abi.SI_IEVAL] = i_eval + k
         stop_hit = None
         for hit in res.section_hits:
             if hit.t < self.hit_from:
                 continue
             j = int(si[abi.SI_NHITS])
-            if j >= rec.ht.shape[0]:
+            if j >= rec.hits.t.shape[0]:
                 rec.grow_hits(j)
-            rec.hk[j], rec.ht[j], rec.hy[j] = hit.index, float(hit.t), np.asarray(hit.y, dtype=float)
+            rec.hits.index[j], rec.hits.t[j], rec.hits.y[j] = hit.index, float(hit.t), np.asarray(hit.y, dtype=float)
             si[abi.SI_NHITS] = j + 1
             if 0 <= self.hit_stop <= j + 1:
                 stop_hit = hit
@@ -357,22 +316,16 @@ class _PythonArcs:
         if not res.status.ok:
             if res.status is Status.BUDGET_EXHAUSTED:
                 self.message = res.message
-                si[abi.SI_ARC_STATUS] = abi.K_BUDGET
-                si[abi.SI_PHASE] = loop.P_ARC_DONE
-                return None
+                return self._done(si, abi.K_BUDGET)
             return self._fail(si, _PY_FAILURE, res.message or res.status.value)
         if stop_hit is not None:
-            sf[loop.SF_ARC_T] = float(stop_hit.t)
+            sf[abi.SF_ARC_T] = float(stop_hit.t)
             y_arc[:] = np.asarray(stop_hit.y, dtype=float)
             si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(request.t_eval, float(stop_hit.t), side="right"))
-            si[abi.SI_ARC_STATUS] = abi.K_HIT_STOP
-            si[abi.SI_PHASE] = loop.P_ARC_DONE
-            return None
+            return self._done(si, abi.K_HIT_STOP)
         if not (math.isfinite(t1) and y1.shape == (n,) and np.all(np.isfinite(y1))):
             self.message = f"non-finite state at t = {t1}"
-            si[abi.SI_ARC_STATUS] = abi.K_NONFINITE
-            si[abi.SI_PHASE] = loop.P_ARC_DONE
-            return None
+            return self._done(si, abi.K_NONFINITE)
         if t1 < t or t1 > self.t_end:
             return self._fail(si, _PY_FAILURE, (
                 f"{integ.name} stopped at t = {t1!r} outside the arc [{t!r}, {self.t_end!r}]"))
@@ -380,86 +333,20 @@ class _PythonArcs:
             return self._fail(si, _PY_FAILURE, f"{integ.name} stopped at t = {t1!r} < t_end without an event")
         if res.fired is not None and not 0 <= int(res.fired) < len(guards):
             return self._fail(si, _PY_FAILURE, f"{integ.name} reported guard {res.fired!r} of {len(guards)}")
-        sf[loop.SF_ARC_TLO] = low_part(t1, res.t_lo)
-        si[abi.SI_ARC_STATUS] = abi.K_OK
+        sf[abi.SF_ARC_TLO] = low_part(t1, res.t_lo)
         si[abi.SI_DETAIL] = -1 if res.fired is None else int(res.fired)
-        si[abi.SI_PHASE] = loop.P_ARC_DONE
-        return None
+        return self._done(si, abi.K_OK)
 
 
-def kernel_advance(integ: "Integrator", request) -> Any:
-    """``Integrator.advance`` of an integrator with a compiled kernel: one arc through :func:`loop.arc`."""
-    from nsbench.hybrid import loop, rules
-    from nsbench.integrators.base import ArcResult, SectionHit
-
-    problem = request.problem
-    kernel = integ.compiled_kernel(problem)
-    n, nb = problem.n_states, problem.n_blocks
-    mode = np.asarray(request.mode, dtype=np.int64)
-    gk, gb, gs = (np.empty(2 * nb, np.int64) for _ in range(3))
-    ng = rules.guards_of(mode, gk, gb, gs)
-    codes = {"velocity": rules.VELOCITY, "upper": rules.UPPER, "lower": rules.LOWER}
-    given = [(codes[g.kind], g.block - 1, g.expected_sign) for g in request.guards]
-    if not given:
-        ng = 0  # a free arc of the mode: no guard stops it
-    elif given != [(int(gk[q]), int(gb[q]), int(gs[q])) for q in range(ng)]:
-        from nsbench.errors import ConfigError
-
-        raise ConfigError(f"{integ.name}: a compiled kernel takes all the guards of the mode in the order of "
-                          f"problem.guards(mode) (or none), not {list(request.guards)}")
-    sc, sl, sd = section_arrays(request.sections, n)
-    t_eval = np.ascontiguousarray(request.t_eval, dtype=float)
-    rec = Records(n, nb, t_eval.size, events=1, hits=16)
-    y0 = np.array(request.y0, dtype=float)
-    y_out = np.empty(n)
-    kd = _kd(kernel.method, kernel.data_for(len(request.sections)))
-    while True:
-        si = np.zeros(abi.N_SI, np.int64)
-        cnt = np.zeros(abi.N_COUNTERS, np.int64)
-        status, t, t_lo, fired = loop.arc(
-            kernel.method, kd, kernel.options, problem.packed, mode, gk, gb, gs, ng, float(request.t0),
-            float(request.t0_lo), y0, float(request.t_end), int(min(request.max_steps, 2**62)), sc, sl, sd,
-            -math.inf, -1, rec.hk, rec.ht, rec.hy, si, t_eval, rec.y_eval, y_out, cnt)
-        if status == abi.K_HIT_FULL:
-            rec.grow_hits(0)
-        elif status == abi.K_NEED_MODE:
-            kd = _kd(kernel.method, kernel.prepare_mode(mode.copy()))
-        else:
-            break
-    message, code = "", Status.SUCCESS
-    if status == abi.K_BUDGET:
-        code, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
-    elif status == abi.K_NONFINITE:
-        code, message = Status.INTEGRATOR_FAILURE, f"non-finite state after t = {t:.6g}"
-    elif status >= abi.K_FAIL:
-        code = Status.INTEGRATOR_FAILURE
-        message = kernel.failure(int(status), t) if kernel.failure else f"failure code {status}"
-    hits = [SectionHit(int(rec.hk[j]), float(rec.ht[j]), rec.hy[j].copy()) for j in range(int(si[abi.SI_NHITS]))]
-    extra = {name: int(cnt[abi.X0 + k]) for k, name in enumerate(kernel.counters)}
-    return ArcResult(t=float(t), y=y_out.copy(), fired=None if fired < 0 else int(fired),
-                     y_eval=rec.y_eval[: int(si[abi.SI_IEVAL])].T.copy(), section_hits=hits,
-                     nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]), extra=extra,
-                     status=code, message=message, t_lo=float(t_lo))
+_WARM: set[str] = set()
 
 
-_WARM: set[int] = set()
-
-
-def warm_up(problem: "FrictionOscillator", integ: "Integrator") -> None:
-    """Load (or compile, on a machine's first use) the compiled loop and the kernel's arc, untimed.
-
-    A run that ends where it starts goes through the loop without an arc; one
-    arc through :meth:`Integrator.advance` loads the kernel dispatcher as well.
-    """
-    kernel = integ.compiled_kernel(problem) if getattr(integ, "_kernel_problem", None) is problem else None
-    key = -1 if kernel is None else kernel.method
+def warm_up(problem: "HybridProblem", integ: "Integrator") -> None:
+    """Load (or compile, on a machine's first use) the compiled loop with this kernel, untimed: a run that
+    ends where it starts goes through the loop without an arc."""
+    kernel = integ.kernel(problem)
+    key = f"{problem.law.source}:{'python' if kernel is None else kernel.name}"
     if key in _WARM:
         return
     run_hybrid(problem, integ, 0.0)
-    if kernel is not None and integ.kernel(problem) is not None:
-        from nsbench.integrators.base import ArcRequest
-
-        mode = problem.initial_mode(0.0, problem.initial_state())
-        kernel_advance(integ, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3,
-                                         problem.guards(mode)))
     _WARM.add(key)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nsbench.problems.kernels import hot
+from nsbench.model.compile import hot
 
 
 def cgl_nodes(N: int) -> np.ndarray:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from nsbench.problems.kernels import hot, inline
+from nsbench.model.compile import hot, inline
 
 _SPLIT = 134217729.0  # 2^27 + 1
 # ln 2 and pi/2 to double-double

@@ -43,28 +43,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.hybrid.abi import (
-    K_BUDGET,
-    K_FAIL,
-    K_HIT_FULL,
-    K_HIT_STOP,
-    K_NEED_MODE,
-    K_NONFINITE,
-    K_OK,
-    NFEV,
-    NSTEPS,
-    SI_IEVAL,
-    SI_NHITS,
-    X0,
-    X1,
-    X2,
-    copy_into,
-    hot,
-    inline,
-    record_hit,
-    section_crossed,
-    sort_hits,
-)
 from nsbench.integrators import _double_double as dd
 from nsbench.integrators._exact_layout import (
     C_AW,
@@ -73,11 +51,15 @@ from nsbench.integrators._exact_layout import (
     C_EA,
     C_EB,
     I_DEFECTIVE,
+    I_MODE,
     I_NS,
     I_NST,
     I_POLISH,
     I_READY,
     N_V,
+    S_FORCED,
+    S_G,
+    S_W,
     V_A0,
     V_A1,
     V_FA,
@@ -99,11 +81,32 @@ from nsbench.integrators._exact_layout import (
     i_stuck,
 )
 from nsbench.integrators._exact_polish import polish_event
-from nsbench.problems.kernels import rhs
+from nsbench.model.abi import (
+    K_BUDGET,
+    K_FAIL,
+    K_HIT_FULL,
+    K_HIT_STOP,
+    K_NEED_MODE,
+    K_NONFINITE,
+    K_OK,
+    NFEV,
+    NSTEPS,
+    SI_IEVAL,
+    SI_NHITS,
+    X0,
+    X1,
+    X2,
+)
+from nsbench.model.compile import hot, inline
+from nsbench.model.law import rhs
+from nsbench.model.records import copy_into, record_hit, section_crossed, sort_hits
 
 _EPS = np.finfo(np.float64).eps
 ROOTS, EXPM_ARCS, POLISHED = X0, X1, X2  # counter slots of this kernel
 K_SCRATCH = K_FAIL  # the scratch arrays are too small for the run's sections (a bug: they are sized first)
+#: The options vector ``fo``: the scan step as a fraction of the mode's fastest time scale, its largest value.
+OPTIONS = ("scan", "max_scan")
+O_SCAN, O_MAX_SCAN = range(len(OPTIONS))
 V_MS = 23  # scratch magnitudes of the objective evaluations (the scan keeps V_MA, V_MB)
 
 
@@ -131,7 +134,7 @@ def find_mode(keys, slots, ti, mode):
         if keys[j] == h:
             same = True
             for i in range(nb):
-                if ti[s, 5 + i] != mode[i]:
+                if ti[s, I_MODE + i] != mode[i]:
                     same = False
                     break
             if same:
@@ -151,7 +154,7 @@ def insert_mode(keys, slots, ti, mode, slot):
     keys[j] = h
     slots[j] = slot
     for i in range(mode.shape[0]):
-        ti[slot, 5 + i] = mode[i]
+        ti[slot, I_MODE + i] = mode[i]
 
 
 # --------------------------------------------------------------------- modal form
@@ -519,18 +522,25 @@ def _dense(cx, y0, t_eval, y_eval, si, t0, t0_lo, t_stop, ybuf):
 
 # --------------------------------------------------------------------- the arc
 @hot
-def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
-              sc, sl, sd, hit_from, hit_stop, hk, ht, hy, si, t_eval, y_eval, y_out, cnt):
+def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
     """Integrate one linear mode from ``(t0 + t0_lo, y0)`` to its first guard zero or ``t_end``.
 
-    Arguments and result: :mod:`nsbench.hybrid.abi`. ``fo = [scan, max_scan]``: the
-    scan step is ``scan / (fastest rate of the mode)``, at most ``max_scan``.
+    Arguments and result: :mod:`nsbench.model.abi`; ``kd`` holds the mode tables
+    (:func:`nsbench.integrators._exact_layout.kernel_data`). ``fo``: :data:`O_SCAN`, the
+    scan step as a fraction of the mode's fastest time scale, and :data:`O_MAX_SCAN`, its
+    largest value.
     """
-    keys, slots, ti, tf, tc, scal, wr, wc, wv, wm = tables
+    keys, slots, ti, tf, tc, scal, wr, wc, wv, wm = (kd.u1, kd.i1, kd.i2, kd.f2a, kd.c2a, kd.f1a, kd.f2b, kd.c2b,
+                                                     kd.f2c, kd.f3a)
+    mode, gs, ng = arc.mode, arc.guard_sign, arc.n_guards
+    t0, t0_lo, y0, t_end, max_steps = arc.t0, arc.t0_lo, arc.y0, arc.t_end, arc.max_steps
+    sc, sl, sd, hit_from, hit_stop = sec.coeffs, sec.levels, sec.directions, sec.hit_from, sec.hit_stop
+    t_eval, y_eval = dense.t, dense.y
     mi = find_mode(keys, slots, ti, mode)
     if mi < 0 or ti[mi, I_READY] == 0:
         return K_NEED_MODE, t0, 0.0, -1
     n = y0.shape[0]
+    m_size = mode.shape[0]
     n3 = n + 3
     nsec = sl.shape[0]
     nq = ng + nsec
@@ -539,11 +549,12 @@ def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_ste
     nqr = wr.shape[0]  # first complex vector row of wc
     ns, nst = ti[mi, I_NS], ti[mi, I_NST]
     defective = ti[mi, I_DEFECTIVE] != 0
-    forced, w, v0 = scal[0] != 0.0, scal[1], scal[2]
+    forced, w = scal[S_FORCED] != 0.0, scal[S_W]
     if not forced:
         w = 0.0
-    o_slip, o_stuck = i_slip(n), i_stuck(n)
-    f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_rate, f_q, f_aug, f_end = f_offsets(n)
+    g_max = int(scal[S_G])
+    o_slip, o_stuck = i_slip(m_size), i_stuck(m_size, n)
+    f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_b0k, f_rate, f_q, f_aug, f_end = f_offsets(n, g_max)
     c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, c_end = c_offsets(n)
     # the forcing phase at the exact start t0 + t0_lo, with the rounding of w t0 put back
     ph, ph_lo = dd.two_prod(w, t0)
@@ -559,11 +570,10 @@ def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_ste
         a0[i] = 0.0
         a1[i] = 0.0
         aw[i] = 0j
-    for r in range(0, nst, 2):
+    for r in range(nst):  # a stuck state moves at a constant rate (a block with the belt: v0, and v0 itself)
         ix = ti[mi, o_stuck + r]
         a0[ix] = y0[ix]
-        a1[ix] = v0
-        a0[ix + 1] = y0[ix + 1]
+        a1[ix] = tf[mi, f_b0k + r]
     if ns > 0 and not defective:
         rhs0 = wv[V_RHS]
         for r in range(ns):  # P0 = A_ss^-1 (P1 - A_sk y_k0 - b0_s)
@@ -642,8 +652,8 @@ def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_ste
     span = (t_end - t0) - t0_lo
     # Sections are found by sign changes between scan points, so the scan follows the fastest
     # time scale; guards alone are cleared by the curvature bound, which holds on any interval.
-    scan = fo[0] if nsec > 0 else 4.0 * fo[0]
-    ds = min(fo[1], scan / max(tf[mi, f_rate], 1e-300))
+    scan = fo[O_SCAN] if nsec > 0 else 4.0 * fo[O_SCAN]
+    ds = min(fo[O_MAX_SCAN], scan / max(tf[mi, f_rate], 1e-300))
     fa, pa, fb, pb, ma, mb, ybuf = wv[V_FA], wv[V_PA], wv[V_FB], wv[V_PB], wv[V_MA], wv[V_MB], wv[V_Y, :n]
     Ea, Eb = wc[nqr + C_EA], wc[nqr + C_EB]
     _exps(tf, tc, mi, ns, w, 0.0, Ea, ma)
@@ -715,16 +725,16 @@ def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_ste
                     sg[j] = 1.0
                 t_hit = t0 + (t0_lo + root)
                 if t_hit >= hit_from:
-                    if si[SI_NHITS] >= hk.shape[0]:
+                    if si[SI_NHITS] >= hits.t.shape[0]:
                         return K_HIT_FULL, t0, 0.0, -1
                     _state(cx, y0, root, ybuf)
-                    record_hit(hk, ht, hy, si, k, t_hit, ybuf)
+                    record_hit(hits, si, k, t_hit, ybuf)
         if si[SI_NHITS] > first_new:
-            sort_hits(hk, ht, hy, first_new, si[SI_NHITS])
+            sort_hits(hits, first_new, si[SI_NHITS])
             if 0 <= hit_stop <= si[SI_NHITS]:
                 si[SI_NHITS] = hit_stop
-                t_stop = ht[hit_stop - 1]
-                copy_into(y_out, hy[hit_stop - 1])
+                t_stop = hits.t[hit_stop - 1]
+                copy_into(y_out, hits.y[hit_stop - 1])
                 _dense(cx, y0, t_eval, y_eval, si, t0, t0_lo, t_stop, ybuf)
                 cnt[NSTEPS] += steps
                 return K_HIT_STOP, t_stop, 0.0, -1
@@ -746,11 +756,11 @@ def exact_arc(tables, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_ste
         # Newton on the guard in double-double, then the state there (see _exact_polish)
         _exps(tf, tc, mi, ns, w, s_stop, E, wv[V_MS])
         rate = _value_rate(wr, wc, tf, tc, mi, fired, ns, w, s_stop, E)[1]
-        delta = polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, forced, w, v0, t0, t0_lo, y0, s_stop,
-                             fired, rate, ybuf)
+        delta = polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w, t0, t0_lo, y0,
+                             s_stop, fired, rate, ybuf)
         if abs(delta) <= 1e-9 * max(1.0, s_stop):
             zs = wv[V_ZS, :n]
-            rhs(p, mode, t0 + s_stop, ybuf, zs)  # dy/dt at the event, for the first-order shift
+            rhs(prob, mode, t0 + s_stop, ybuf, zs)  # dy/dt at the event, for the first-order shift
             for i in range(n):
                 y_out[i] = wv[V_YH, i] + (wv[V_YL, i] + zs[i] * delta)
             cnt[POLISHED] += 1

@@ -4,8 +4,10 @@ Compiled functions pay a reference-count update per array at every call, so
 the per-mode data live in three arrays (integers, floats, complex numbers; one
 row per visited mode) and the scratch of an arc in three more, instead of
 thirty separate arrays. The offsets below depend only on the number of states
-``n`` (``n + 3`` is the augmented state ``[y, 1, cos w t, sin w t]``) and of
-guards ``G = n`` (two per stuck block at most).
+``n`` (``n + 3`` is the augmented state ``[y, 1, cos w t, sin w t]``), the size
+``m`` of a mode vector and the most guards ``G`` a mode has (the problem's).
+The whole set travels to the kernel as a :class:`~nsbench.model.abi.KernelData`
+(:func:`kernel_data`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nsbench.problems.kernels import jit
+from nsbench.model.abi import KernelData
+from nsbench.model.compile import jit
 
 # ---- integer table, per mode: counts and flags, then the mode, slip and stuck state indices
 I_NS, I_NST, I_DEFECTIVE, I_READY, I_POLISH = 0, 1, 2, 3, 4
@@ -32,18 +35,21 @@ STACK = 64  # depth of the subdivision stack (rows of ``wv`` after the vectors)
 
 
 @jit
-def i_slip(n):
-    return I_MODE + n // 2
+def i_slip(m):
+    """First column of the slip state indices in an integer row (after the ``m`` mode entries)."""
+    return I_MODE + m
 
 
 @jit
-def i_stuck(n):
-    return I_MODE + n // 2 + n
+def i_stuck(m, n):
+    """First column of the stuck state indices in an integer row."""
+    return I_MODE + m + n
 
 
 @jit
-def f_offsets(n):
-    """Offsets in a float row: cw, ainv, ask, ass (n x n), b0s, p1, p1_lo, rate, q (G x (n+3)), aug."""
+def f_offsets(n, g):
+    """Offsets in a float row: cw, ainv, ask, ass (n x n), b0s, p1, p1_lo, b0k (the stuck states' constant
+    rates), rate, q (g x (n+3)), aug."""
     n3 = n + 3
     cw = 0
     ainv = cw + n
@@ -52,11 +58,12 @@ def f_offsets(n):
     b0s = ass + n * n
     p1 = b0s + n
     p1_lo = p1 + n
-    rate = p1_lo + n
+    b0k = p1_lo + n
+    rate = b0k + n
     q = rate + 1
-    aug = q + n * n3
+    aug = q + g * n3
     end = aug + n3 * n3
-    return cw, ainv, ask, ass, b0s, p1, p1_lo, rate, q, aug, end
+    return cw, ainv, ask, ass, b0s, p1, p1_lo, b0k, rate, q, aug, end
 
 
 @jit
@@ -73,12 +80,16 @@ def c_offsets(n):
     return lam, lam_lo, z, z_lo, vec, vec_lo, vinv, end
 
 
+#: entries of ``scal``: forced (1/0), w, and the dimensions n, m, G
+S_FORCED, S_W, S_N, S_M, S_G = range(5)
+
+
 class Tables(NamedTuple):
     """The closed forms of the modes visited so far, and the scratch of one arc.
 
     ``keys, slots``: open-addressing index from a mode's hash to its row.
     ``ti, tf, tc``: one row per mode (layout: the ``I_*`` columns, :func:`f_offsets`,
-    :func:`c_offsets`). ``scal = [forced, w, v0]``. Scratch: ``wr`` (per objective
+    :func:`c_offsets`). ``scal``: the ``S_*`` entries. Scratch: ``wr`` (per objective
     row: ``g0, g1, scale, w^2 |GA|``, then the row ``q`` on ``[y, 1, cos, sin]``,
     then the curvature weights), ``wc`` (the objectives' modal coefficients, then
     complex vectors, then ``B``), ``wv`` (float vectors, the subdivision stack, the
@@ -97,24 +108,32 @@ class Tables(NamedTuple):
     wm: np.ndarray
 
 
-def empty_tables(capacity: int, n_blocks: int, sections: int = SECTION_ROWS) -> Tables:
-    """Tables for ``capacity`` modes of a problem with ``n_blocks`` blocks, none filled, scratch for ``sections``."""
-    n = 2 * n_blocks
-    nq = n + sections
+def empty_tables(capacity: int, n: int, m: int, g: int, sections: int = SECTION_ROWS) -> Tables:
+    """Tables for ``capacity`` modes of a problem with ``n`` states, modes of size ``m`` and at most ``g``
+    guards per mode, none filled, with scratch for ``sections`` sections."""
+    nq = g + sections
     width = max(n + 3, nq, 12)
+    scal = np.zeros(5)
+    scal[S_N], scal[S_M], scal[S_G] = n, m, g
     return Tables(
         keys=np.zeros(2 * capacity, np.uint64), slots=np.full(2 * capacity, -1, np.int64),
-        ti=np.zeros((capacity, I_MODE + n_blocks + 2 * n), np.int64),
-        tf=np.zeros((capacity, f_offsets(n)[-1])), tc=np.zeros((capacity, c_offsets(n)[-1]), np.complex128),
-        scal=np.zeros(3), wr=np.zeros((nq, 4 + (n + 3) + n)),
+        ti=np.zeros((capacity, I_MODE + m + 2 * n), np.int64),
+        tf=np.zeros((capacity, f_offsets(n, g)[-1])), tc=np.zeros((capacity, c_offsets(n)[-1]), np.complex128),
+        scal=scal, wr=np.zeros((nq, 4 + (n + 3) + n)),
         wc=np.zeros((nq + N_C + n, n + 1), np.complex128), wv=np.zeros((N_V + STACK + n, width)),
         wm=np.zeros((3, n + 3, n + 3)))
 
 
 def with_sections(t: Tables, sections: int) -> Tables:
     """``t`` with scratch for at least ``sections`` sections (the mode rows are shared, not copied)."""
-    n = (t.wr.shape[1] - 7) // 2  # wr has 4 + (n + 3) + n columns
-    if t.wr.shape[0] >= n + sections:
+    n, m, g = (int(t.scal[k]) for k in (S_N, S_M, S_G))
+    if t.wr.shape[0] >= g + sections:
         return t
-    bigger = empty_tables(1, n // 2, sections)
+    bigger = empty_tables(1, n, m, g, sections)
     return t._replace(wr=bigger.wr, wc=bigger.wc, wv=bigger.wv)
+
+
+def kernel_data(t: Tables) -> KernelData:
+    """The tables as the core hands them to the kernel (``exact_arc`` names the fields back)."""
+    return KernelData(u1=t.keys, i1=t.slots, i2=t.ti, f1a=t.scal, f1b=np.zeros(0), f2a=t.tf, f2b=t.wr, f2c=t.wv,
+                      f3a=t.wm, f3b=np.zeros((0, 0, 0)), c2a=t.tc, c2b=t.wc)

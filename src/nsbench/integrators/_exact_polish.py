@@ -35,7 +35,7 @@ from nsbench.integrators._exact_layout import (
     i_slip,
     i_stuck,
 )
-from nsbench.problems.kernels import hot, jit
+from nsbench.model.compile import hot, jit
 
 #: Modes whose slipping sub-system is larger are not polished (their tables stay double).
 MAX_POLISH = 24
@@ -146,30 +146,30 @@ def refine_harmonic(a, w, z, b, z_lo):
 
 
 @hot
-def polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, forced, w, v0, t0, t0_lo, y0, s0, fired, rate, y_out):
+def polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m, g_max, forced, w, t0, t0_lo, y0, s0, fired, rate,
+                 y_out):
     """Polish the event of guard ``fired`` at offset ``s0`` of the arc from ``(t0 + t0_lo, y0)``.
 
     ``ti, tf, tc`` are the mode tables (layout: :mod:`._exact_layout`), ``mi`` the
-    mode's row, ``wv, wc`` the arc's scratch and ``rate`` the guard's (double) time
-    derivative at ``s0``. Returns the Newton correction of ``s0``; the state at
+    mode's row (``n`` states, modes of size ``m``, at most ``g_max`` guards), ``wv, wc``
+    the arc's scratch and ``rate`` the guard's (double) time derivative at ``s0``. Returns the Newton correction of ``s0``; the state at
     ``s0`` in double-double is left in rows ``V_YH`` (high) and ``V_YL`` (low) of
     ``wv``, and its rounding in ``y_out``.
     """
     n3 = n + 3
-    f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_rate, f_q, f_aug, f_end = f_offsets(n)
+    f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_b0k, f_rate, f_q, f_aug, f_end = f_offsets(n, g_max)
     c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, c_end = c_offsets(n)
-    o_slip, o_stuck = i_slip(n), i_stuck(n)
+    o_slip, o_stuck = i_slip(m), i_stuck(m, n)
     q = f_q + fired * n3
     yh, yl, rh, rl, p0, p0_lo, dh, dl, scr = (wv[V_YH], wv[V_YL], wv[V_RH], wv[V_RL], wv[V_P0], wv[V_P0L],
                                               wv[V_DH], wv[V_DL], wv[V_SCR])
     wp = wv[N_V + STACK:]
     c0, res = wc[nqr + C_C0], wc[nqr + C_RES]
-    # the stuck blocks move with the belt: x0 + v0 s, exactly in double-double
-    sh_v0, sl_v0 = dd.two_prod(v0, s0)
-    for r in range(0, nst, 2):
+    # the stuck states move at their constant rate (a block with the belt): y0 + b s, exactly in double-double
+    for r in range(nst):
         ix = ti[mi, o_stuck + r]
-        yh[ix], yl[ix] = dd.add_d(sh_v0, sl_v0, y0[ix])
-        yh[ix + 1], yl[ix + 1] = y0[ix + 1], 0.0
+        sh, sl = dd.two_prod(tf[mi, f_b0k + r], s0)
+        yh[ix], yl[ix] = dd.add_d(sh, sl, y0[ix])
     # the forcing phase of the arc start, and the harmonic factor at s0
     r0, r1, r2, r3 = 1.0, 0.0, 0.0, 0.0
     e0, e1, e2, e3 = 1.0, 0.0, 0.0, 0.0

@@ -8,14 +8,14 @@ one step is caught from the cubic Hermite interpolant of the guard (values and
 rates at the step ends), and located by bisection on RK4 sub-steps, as is any
 Henon point outside its step (near-grazing). Sections use the same Henon step;
 dense output is the cubic Hermite interpolant, consistent with order 4. The
-step grid starts at the arc's start. Calling convention: :mod:`nsbench.hybrid.abi`.
+step grid starts at the arc's start. Calling convention: :mod:`nsbench.model.abi`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from nsbench.hybrid.abi import (
+from nsbench.model.abi import (
     K_BUDGET,
     K_HIT_FULL,
     K_HIT_STOP,
@@ -27,29 +27,35 @@ from nsbench.hybrid.abi import (
     SI_NHITS,
     X0,
     X1,
-    copy_into,
-    hot,
-    inline,
-    record_hit,
-    sort_hits,
-    section_crossed,
 )
-from nsbench.problems.kernels import guard_rate, guard_value, linear_section_rate, linear_section_value, rhs
+from nsbench.model.compile import hot, inline
+from nsbench.model.law import guard_rate, guard_value, rhs
+from nsbench.model.records import (
+    copy_into,
+    linear_section_rate,
+    linear_section_value,
+    record_hit,
+    section_crossed,
+    sort_hits,
+)
 
 HENON_STEPS, BISECTIONS = X0, X1  # counter slots of this kernel
+#: The options vector ``fo``: the step.
+OPTIONS = ("h",)
+O_H = 0
 
 
 @inline
-def _value(p, fn, idx, kinds, blocks, sec_c, sec_l, t, y):
+def _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, t, y):
     if fn == 0:
-        return guard_value(p, kinds[idx], blocks[idx], t, y)
+        return guard_value(p, mode, kinds[idx], blocks[idx], t, y)
     return linear_section_value(sec_c[idx], sec_l[idx], y)
 
 
 @inline
-def _rate(p, fn, idx, kinds, blocks, sec_c, t, y, dy):
+def _rate(p, mode, fn, idx, kinds, blocks, sec_c, t, y, dy):
     if fn == 0:
-        return guard_rate(p, kinds[idx], blocks[idx], t, y, dy)
+        return guard_rate(p, mode, kinds[idx], blocks[idx], t, y, dy)
     return linear_section_rate(sec_c[idx], dy)
 
 
@@ -76,7 +82,7 @@ def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, w
     """RK4 step in sigma = fn from (t1, y1) to fn = 0. Returns (ok, t_star); state into out."""
     n = y1.shape[0]
     f, tmp, acc = work[4], work[5], work[6]
-    ds = -_value(p, fn, idx, kinds, blocks, sec_c, sec_l, t1, y1)
+    ds = -_value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, t1, y1)
     t_acc = 0.0
     t_s = t1
     for j in range(n):
@@ -86,7 +92,7 @@ def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, w
     fractions = (0.5, 0.5, 1.0, 0.0)
     for stage in range(4):
         rhs(p, mode, t_s, tmp, f)
-        r = _rate(p, fn, idx, kinds, blocks, sec_c, t_s, tmp, f)
+        r = _rate(p, mode, fn, idx, kinds, blocks, sec_c, t_s, tmp, f)
         if r == 0.0 or not np.isfinite(r):
             return False, 0.0
         kt = 1.0 / r
@@ -121,7 +127,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
         tau = t + (t1 - t) * k / 8.0
         _rk4(p, mode, t, y, tau - t, fy, ys, work)
         n_sub += 1
-        v = sign * _value(p, fn, idx, kinds, blocks, sec_c, sec_l, tau, ys)
+        v = sign * _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, tau, ys)
         if v > 0.0:
             positive_seen = True
             lo = tau
@@ -137,7 +143,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
             break
         _rk4(p, mode, t, y, mid - t, fy, ys, work)
         n_sub += 1
-        v = sign * _value(p, fn, idx, kinds, blocks, sec_c, sec_l, mid, ys)
+        v = sign * _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, mid, ys)
         if v > 0.0:
             lo = mid
         else:
@@ -192,28 +198,32 @@ def _hermite_into(ta, ya, fa, tb, yb, fb, t, out, col):
         out[col, j] = h00 * ya[j] + h * h10 * fa[j] + h01 * yb[j] + h * h11 * fb[j]
 
 
-def scratch(n_states: int, n_sections: int) -> np.ndarray:
-    """The kernel's scratch (``kd[0]``) for a problem with ``n_states`` states and ``n_sections`` sections."""
-    return np.zeros((N_ROWS, max(n_states, n_sections, 1)))
+def scratch(n_states: int, n_sections: int, n_guards: int = 0) -> np.ndarray:
+    """The kernel's scratch (``kd.f2a``) for ``n_states`` states, ``n_guards`` guards and ``n_sections`` sections."""
+    return np.zeros((N_ROWS, max(n_states, n_guards, n_sections, 1)))
 
 
 N_ROWS = 20  # rows of the scratch: 8 RK4 stages and temporaries, 6 states, 4 guard rows, sections, a spare
 
 
 @hot
-def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
-              sc, sl, sd, hit_from, hit_stop, hk, ht, hy, si, t_eval, y_eval, y_out, cnt):
+def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
     """Advance one frozen mode from ``(t0, y0)`` on the grid ``t0 + k h``, the last point ``t_end``.
 
-    ``kd = (scratch,)`` (:func:`scratch`), ``fo = [h]``. Arguments and result:
-    :mod:`nsbench.hybrid.abi` (``t0_lo`` is not used: the method's own error is far above it).
+    ``kd.f2a``: the scratch (:func:`scratch`); ``fo[O_H]``: the step. Arguments and
+    result: :mod:`nsbench.model.abi` (``t0_lo`` is not used: the method's own error is
+    far above it). ``p`` is the problem (:class:`~nsbench.model.abi.ProblemData`).
     """
-    h = fo[0]
+    mode, ng = arc.mode, arc.n_guards
+    t0, y0, t_end, max_steps = arc.t0, arc.y0, arc.t_end, arc.max_steps
+    sc, sl, sd, hit_from, hit_stop = sec.coeffs, sec.levels, sec.directions, sec.hit_from, sec.hit_stop
+    t_eval, y_eval = dense.t, dense.y
+    h = fo[O_H]
     n = y0.shape[0]
     ns = sl.shape[0]
-    kinds, blocks, signs = gk[:ng], gb[:ng], gs[:ng]
+    kinds, blocks, signs = arc.guard_kind[:ng], arc.guard_index[:ng], arc.guard_sign[:ng]
     n_steps_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
-    wk = kd[0]
+    wk = kd.f2a
     work = wk[0:8, :n]
     y, fy, y1, f1, ystar, ybest = wk[8, :n], wk[9, :n], wk[10, :n], wk[11, :n], wk[12, :n], wk[13, :n]
     phi, psi, phi1, psi1 = wk[14, :ng], wk[15, :ng], wk[16, :ng], wk[17, :ng]
@@ -224,8 +234,8 @@ def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
     rhs(p, mode, t, y, fy)
     cnt[NFEV] += 1
     for q in range(ng):
-        phi[q] = signs[q] * guard_value(p, kinds[q], blocks[q], t, y)
-        psi[q] = signs[q] * guard_rate(p, kinds[q], blocks[q], t, y, fy)
+        phi[q] = signs[q] * guard_value(p, mode, kinds[q], blocks[q], t, y)
+        psi[q] = signs[q] * guard_rate(p, mode, kinds[q], blocks[q], t, y, fy)
     for k in range(ns):
         sec_v[k] = linear_section_value(sc[k], sl[k], y)
     status = K_OK
@@ -252,8 +262,8 @@ def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
         start = step == 1  # the arc's first step starts on the surface of its phase
         best_t = np.inf
         for q in range(ng):
-            p1 = signs[q] * guard_value(p, kinds[q], blocks[q], t1, y1)
-            d1 = signs[q] * guard_rate(p, kinds[q], blocks[q], t1, y1, f1)
+            p1 = signs[q] * guard_value(p, mode, kinds[q], blocks[q], t1, y1)
+            d1 = signs[q] * guard_rate(p, mode, kinds[q], blocks[q], t1, y1, f1)
             phi1[q] = p1
             psi1[q] = d1
             end_crossed = p1 <= 0.0
@@ -302,21 +312,21 @@ def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
                                                    t, y, fy, tb, False, ystar, work)
                         cnt[NFEV] += 3 * n_sub
                 if ok and t_hit >= hit_from:
-                    if si[SI_NHITS] >= hk.shape[0]:
+                    if si[SI_NHITS] >= hits.t.shape[0]:
                         return K_HIT_FULL, t, 0.0, -1
-                    record_hit(hk, ht, hy, si, k, t_hit, ystar)
+                    record_hit(hits, si, k, t_hit, ystar)
             sec_v[k] = vb
         if si[SI_NHITS] > first_new:
-            sort_hits(hk, ht, hy, first_new, si[SI_NHITS])
+            sort_hits(hits, first_new, si[SI_NHITS])
             if 0 <= hit_stop <= si[SI_NHITS]:
                 si[SI_NHITS] = hit_stop
-                t_stop = ht[hit_stop - 1]
+                t_stop = hits.t[hit_stop - 1]
                 i = si[SI_IEVAL]
                 while i < t_eval.shape[0] and t_eval[i] <= t_stop:
                     _hermite_into(t, y, fy, tb, y1, f1, t_eval[i], y_eval, i)
                     i += 1
                 si[SI_IEVAL] = i
-                copy_into(y_out, hy[hit_stop - 1])
+                copy_into(y_out, hits.y[hit_stop - 1])
                 return K_HIT_STOP, t_stop, 0.0, -1
         # dense output on (t, tb]
         i = si[SI_IEVAL]

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.hybrid.abi import (
+from nsbench.integrators._chebyshev import barycentric
+from nsbench.integrators._picard_iteration import CONVERGED, picard_iterations
+from nsbench.integrators._picard_location import SECTION, first_zero, root, state_at
+from nsbench.model.abi import (
     K_BUDGET,
     K_FAIL,
     K_HIT_FULL,
@@ -27,17 +30,14 @@ from nsbench.hybrid.abi import (
     X1,
     X2,
     X3,
-    copy_into,
-    hot,
-    record_hit,
-    section_crossed,
-    sort_hits,
 )
-from nsbench.integrators._chebyshev import barycentric
-from nsbench.integrators._picard_iteration import CONVERGED, picard_iterations
-from nsbench.integrators._picard_location import SECTION, first_zero, root, state_at
-from nsbench.problems.kernels import guard_rate, guard_value, linear_section_value, rhs
+from nsbench.model.compile import hot
+from nsbench.model.law import guard_rate, guard_value, rhs
+from nsbench.model.records import copy_into, linear_section_value, record_hit, section_crossed, sort_hits
 
+#: The options vector ``fo``, by name (the integrator packs it in this order).
+OPTIONS = ("h", "h_max", "h_min", "tol", "coef_tol", "max_iter", "order", "jac_node", "adaptive")
+O_H, O_H_MAX, O_H_MIN, O_TOL, O_COEF_TOL, O_MAX_ITER, O_ORDER, O_JAC_NODE, O_ADAPTIVE = range(len(OPTIONS))
 #: Failure codes of :func:`picard_arc` (beyond the common ones of the ABI).
 NOT_CONVERGED, INACCURATE = K_FAIL, K_FAIL + 1
 #: Counter slots of this kernel.
@@ -61,22 +61,22 @@ def _trailing(A, D, scale):
     return out / scale
 
 
-def scratch(n_nodes: int, n_states: int, n_sections: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The kernel's scratch (the last three items of ``kd``): node arrays, node Jacobians, vectors."""
+def scratch(n_nodes: int, n_states: int, n_sections: int, n_guards: int = 0) -> tuple[np.ndarray, np.ndarray,
+                                                                                       np.ndarray]:
+    """The kernel's scratch: node arrays, node Jacobians, vectors (``kd.f3a, f3b, f2c``)."""
     rows = max(n_states, n_sections, n_nodes, 1)
     return (np.zeros((6, n_nodes, n_states)), np.zeros((n_nodes, n_states, n_states)),
-            np.zeros((8 + 2 * n_states, max(rows, n_nodes))))
+            np.zeros((8 + 2 * max(n_states, n_guards), max(rows, n_nodes))))
 
 
 @hot
-def picard_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
-               sc, sl, sd, hit_from, hit_stop, hk, ht, hy, si, t_eval, y_eval, y_out, cnt):
+def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
     """Integrate one frozen-mode arc from ``(t0, y0)`` to the first guard zero or ``t_end``.
 
-    ``kd = (nodes, weights, E, A, nodal, jacobians, vectors)``: the CGL operators of degree
-    ``N`` and the scratch of :func:`scratch`;
-    ``fo = [h, h_max, h_min, tol, coef_tol, max_iter, order, jac_node, adaptive]``.
-    Arguments and result: :mod:`nsbench.hybrid.abi` (``t0_lo`` is not used).
+    ``kd``: the CGL operators of degree ``N`` (``f1a`` nodes, ``f1b`` weights, ``f2a`` E,
+    ``f2b`` A) and the scratch of :func:`scratch` (``f3a`` nodal, ``f3b`` Jacobians, ``f2c``
+    vectors); ``fo``: the options named in :data:`OPTIONS`. Arguments and result:
+    :mod:`nsbench.model.abi` (``t0_lo`` is not used); ``p`` is the problem.
 
     Segment control: a segment whose iteration does not converge within
     ``max_iter`` is halved and redone. With ``adaptive``, a converged segment
@@ -86,10 +86,15 @@ def picard_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
     arc with :data:`NOT_CONVERGED` or :data:`INACCURATE`. Every attempted
     segment counts as a step.
     """
-    nodes, weights, E, A, nodal, J, vec = kd
-    h, h_max, h_min, tol, coef_tol = fo[0], fo[1], fo[2], fo[3], fo[4]
-    max_iter, order, jac_node, adaptive = int(fo[5]), int(fo[6]), fo[7] != 0.0, fo[8] != 0.0
-    kinds, blocks, signs = gk[:ng], gb[:ng], gs[:ng]
+    nodes, weights, E, A, nodal, J, vec = kd.f1a, kd.f1b, kd.f2a, kd.f2b, kd.f3a, kd.f3b, kd.f2c
+    h, h_max, h_min, tol, coef_tol = fo[O_H], fo[O_H_MAX], fo[O_H_MIN], fo[O_TOL], fo[O_COEF_TOL]
+    max_iter, order = int(fo[O_MAX_ITER]), int(fo[O_ORDER])
+    jac_node, adaptive = fo[O_JAC_NODE] != 0.0, fo[O_ADAPTIVE] != 0.0
+    mode, ng = arc.mode, arc.n_guards
+    t0, y0, t_end, max_steps = arc.t0, arc.y0, arc.t_end, arc.max_steps
+    sc, sl, sd, hit_from, hit_stop = sec.coeffs, sec.levels, sec.directions, sec.hit_from, sec.hit_stop
+    t_eval, y_eval = dense.t, dense.y
+    kinds, blocks, signs = arc.guard_kind[:ng], arc.guard_index[:ng], arc.guard_sign[:ng]
     m = nodes.shape[0]
     N = m - 1
     n = y0.shape[0]
@@ -177,8 +182,8 @@ def picard_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
         for q in range(nq):
             for j in range(m):
                 t_j = t_a + w * (nodes[j] + 1.0)
-                phi[q, j] = signs[q] * guard_value(p, kinds[q], blocks[q], t_j, X[j])
-                dphi[q, j] = w * signs[q] * guard_rate(p, kinds[q], blocks[q], t_j, X[j], G[j])
+                phi[q, j] = signs[q] * guard_value(p, mode, kinds[q], blocks[q], t_j, X[j])
+                dphi[q, j] = w * signs[q] * guard_rate(p, mode, kinds[q], blocks[q], t_j, X[j], G[j])
         best_tau = np.inf
         best_q = -1
         j_stop = N
@@ -225,19 +230,19 @@ def picard_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
                         cnt[NFEV] += nf
                     t_hit = t0 + (s_a + w * (tau + 1.0))
                     if t_hit >= hit_from:
-                        if si[SI_NHITS] >= hk.shape[0]:
+                        if si[SI_NHITS] >= hits.t.shape[0]:
                             return K_HIT_FULL, t0, 0.0, -1
                         state_at(nodes, weights, D, base, comp, tau, ybuf)
-                        record_hit(hk, ht, hy, si, s, t_hit, ybuf)
+                        record_hit(hits, si, s, t_hit, ybuf)
                 before = after
             sec_prev[s] = before
         if si[SI_NHITS] > first_new:
-            sort_hits(hk, ht, hy, first_new, si[SI_NHITS])
+            sort_hits(hits, first_new, si[SI_NHITS])
             if 0 <= hit_stop <= si[SI_NHITS]:
                 si[SI_NHITS] = hit_stop
-                t_stop = ht[hit_stop - 1]
+                t_stop = hits.t[hit_stop - 1]
                 _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, 1.0, nodes, weights, D, base, comp, ybuf)
-                copy_into(y_out, hy[hit_stop - 1])
+                copy_into(y_out, hits.y[hit_stop - 1])
                 return K_HIT_STOP, t_stop, 0.0, -1
         _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, tau_stop, nodes, weights, D, base, comp, ybuf)
         # next start state, compensated: base + comp += increment at tau_stop

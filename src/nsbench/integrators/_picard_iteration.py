@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.problems.kernels import hot, jacobian, rhs
+from nsbench.model.compile import hot
+from nsbench.model.law import jacobian, rhs
 
 #: Return codes of :func:`picard_iterations`.
 CONVERGED, MAX_ITER = 0, 1

@@ -14,14 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.integrators._chebyshev import barycentric
-from nsbench.problems.kernels import (
-    guard_rate,
-    guard_value,
-    hot,
-    linear_section_rate,
-    linear_section_value,
-    rhs,
-)
+from nsbench.model.compile import hot
+from nsbench.model.law import guard_rate, guard_value, rhs
+from nsbench.model.records import linear_section_rate, linear_section_value
 
 _EPS = np.finfo(np.float64).eps
 SECTION = -1  # ``target`` code of a linear section (guards use their kind codes >= 0)
@@ -45,14 +40,14 @@ def evaluate(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes
     state_at(nodes, weights, D, base, comp, tau, y)
     t = t_a + w * (tau + 1.0)
     if target >= 0:
-        f = sign * guard_value(p, target, index, t, y)
+        f = sign * guard_value(p, mode, target, index, t, y)
     else:
         f = sign * linear_section_value(sec_coeffs[index], sec_levels[index], y)
     if not want_rate:
         return f, 0.0
     rhs(p, mode, t, y, dy)
     if target >= 0:
-        d = sign * guard_rate(p, target, index, t, y, dy)
+        d = sign * guard_rate(p, mode, target, index, t, y, dy)
     else:
         d = sign * linear_section_rate(sec_coeffs[index], dy)
     return f, w * d

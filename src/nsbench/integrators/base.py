@@ -14,11 +14,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
-from nsbench.results import Status
+from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
-    from nsbench.problems.modes import Guard, Mode
-    from nsbench.problems.oscillator import FrictionOscillator
+    from nsbench.problems.base import Guard, HybridProblem, Mode
     from nsbench.sections import StateSection
 
 
@@ -144,7 +143,7 @@ class ArcRequest:
         others ignore it.
     """
 
-    problem: "FrictionOscillator"
+    problem: "HybridProblem"
     mode: "Mode"
     t0: float
     y0: np.ndarray
@@ -304,7 +303,7 @@ class Integrator:
             raise ConfigError(f"config is for {config.get('name')!r}, not {cls.name!r}")
         return cls(**dict(config.get("options", {})))
 
-    def setup(self, problem: "FrictionOscillator") -> None:
+    def setup(self, problem: "HybridProblem") -> None:
         """Prepare for ``problem``; the default refuses nonlinear problems if not supported."""
         if not self.capabilities.supports_nonlinear and not problem.is_linear:
             raise UnsupportedProblemError(
@@ -316,8 +315,8 @@ class Integrator:
         """Integrate one arc of a frozen mode; see the class docstring."""
         raise NotImplementedError
 
-    def kernel(self, problem: "FrictionOscillator"):
-        """The compiled arc kernel for ``problem`` (an :class:`~nsbench.hybrid.run.ArcKernel`), or ``None``.
+    def kernel(self, problem: "HybridProblem"):
+        """The compiled arc kernel for ``problem`` (an :class:`~nsbench.model.kernel.ArcKernel`), or ``None``.
 
         ``None`` (the default) means the hybrid core calls :meth:`advance` once per
         arc. Built-in integrators with a compiled kernel derive from
@@ -333,34 +332,34 @@ class Integrator:
 class CompiledArcs(Integrator):
     """Base of the integrators whose arcs run in a compiled kernel of the hybrid core.
 
-    A subclass implements :meth:`build_kernel` (and lists the names of its
-    method-specific counters in ``counter_names``); :meth:`advance` then runs one
-    arc of that kernel, so the Python protocol holds too, and
-    :func:`nsbench.simulate` runs whole simulations in compiled code.
+    A subclass implements :meth:`build_kernel` (an :class:`~nsbench.model.kernel.ArcKernel`
+    over its compiled ``arc`` function, :mod:`nsbench.model.abi`) and lists the names of
+    its method-specific counters in ``counter_names``; :meth:`advance` then runs one arc
+    of that kernel, so the Python protocol holds too, and :func:`nsbench.simulate` runs
+    whole simulations in compiled code.
     """
 
     counter_names: ClassVar[tuple[str, ...]] = ()
 
-    def build_kernel(self, problem: "FrictionOscillator"):  # pragma: no cover - abstract
-        """The :class:`~nsbench.hybrid.run.ArcKernel` of this configuration for ``problem``."""
+    def build_kernel(self, problem: "HybridProblem"):  # pragma: no cover - abstract
+        """The :class:`~nsbench.model.kernel.ArcKernel` of this configuration for ``problem``."""
         raise NotImplementedError
 
-    def setup(self, problem: "FrictionOscillator") -> None:
-        """Build the kernel's data and load the compiled loop (compiling it on first use), untimed."""
+    def setup(self, problem: "HybridProblem") -> None:
+        """Build the kernel's data and compile (or load) its arc, then run one short arc, untimed."""
         super().setup(problem)
-        from nsbench.hybrid.run import warm_up
-
         self._kernel = self.build_kernel(problem)
         self._kernel_problem = problem
-        warm_up(problem, self)
+        mode = problem.initial_mode(0.0, problem.initial_state())
+        kernel_advance(self, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
 
-    def compiled_kernel(self, problem: "FrictionOscillator"):
+    def compiled_kernel(self, problem: "HybridProblem"):
         """The kernel itself, also for a subclass that overrides :meth:`advance` (which then calls it)."""
         if getattr(self, "_kernel_problem", None) is not problem:
             self.setup(problem)
         return self._kernel
 
-    def kernel(self, problem: "FrictionOscillator"):
+    def kernel(self, problem: "HybridProblem"):
         if type(self).advance is not CompiledArcs.advance:
             return None  # a subclass that overrides advance is run through it, once per arc
         if getattr(self, "_kernel_problem", None) is not problem:
@@ -368,6 +367,44 @@ class CompiledArcs(Integrator):
         return self._kernel
 
     def advance(self, request: ArcRequest) -> ArcResult:
-        from nsbench.hybrid.run import kernel_advance
-
         return kernel_advance(self, request)
+
+
+def kernel_advance(integ: CompiledArcs, request: ArcRequest) -> ArcResult:
+    """``advance`` of an integrator with a compiled kernel: one arc of the kernel, as an :class:`ArcResult`.
+
+    The kernel takes all the guards of the mode in the order of ``problem.guards(mode)``,
+    or none (a free arc of the mode).
+    """
+    from nsbench.model import abi
+    from nsbench.model.kernel import one_arc
+
+    problem = request.problem
+    kernel = integ.compiled_kernel(problem)
+    guards = problem.guards(tuple(int(v) for v in request.mode))
+    given = tuple(request.guards)
+    if given and [(g.kind, g.block, g.expected_sign) for g in given] != \
+            [(g.kind, g.block, g.expected_sign) for g in guards]:
+        raise ConfigError(f"{integ.name}: a compiled kernel takes all the guards of the mode in the order of "
+                          f"problem.guards(mode) (or none), not {list(given)}")
+    size = max(problem.max_guards, 1)
+    gk, gi, gs = (np.zeros(size, np.int64) for _ in range(3))
+    for q, g in enumerate(guards):
+        gk[q], gi[q], gs[q] = g.code, g.block - 1, g.expected_sign
+    out = one_arc(kernel, problem.data, request.mode, (gk, gi, gs), len(guards) if given else 0,
+                  request.t0, request.t0_lo, request.y0, request.t_end, request.max_steps, request.sections,
+                  request.t_eval)
+    message, code = "", Status.SUCCESS
+    if out.status == abi.K_BUDGET:
+        code, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {out.t:.6g}"
+    elif out.status == abi.K_NONFINITE:
+        code, message = Status.INTEGRATOR_FAILURE, f"non-finite state after t = {out.t:.6g}"
+    elif out.status >= abi.K_FAIL:
+        code = Status.INTEGRATOR_FAILURE
+        message = kernel.failure(out.status, out.t) if kernel.failure else f"failure code {out.status}"
+    hits = [SectionHit(k, t, y) for k, t, y in out.hits]
+    extra = {name: int(out.counters[abi.X0 + k]) for k, name in enumerate(kernel.counters)}
+    return ArcResult(t=out.t, y=out.y, fired=None if out.fired < 0 else out.fired, y_eval=out.y_eval,
+                     section_hits=hits, nfev=int(out.counters[abi.NFEV]), njev=int(out.counters[abi.NJEV]),
+                     nsteps=int(out.counters[abi.NSTEPS]), extra=extra, status=code, message=message,
+                     t_lo=out.t_lo)

@@ -27,38 +27,9 @@ import math
 import numpy as np
 
 from nsbench.integrators.base import Capabilities, CompiledArcs, Option
-from nsbench.problems.modes import STICK
-from nsbench.problems.oscillator import FrictionOscillator
 
 #: Eigenvector condition numbers beyond this make a mode "defective": the matrix exponential is used.
 MAX_CONDITION = 1e4
-
-
-def guard_row(problem: FrictionOscillator, kind: int, block: int) -> np.ndarray:
-    """``q`` with guard ``(kind, block)`` (0-based block) ``= q . [y, 1, cos w t, sin w t]`` (linear problems).
-
-    ``R_i = c_i v_i + k_i d_i - k_{i+1} d_{i+1} - F cos(w t) [last block]`` with ``d_1 = x_1`` and
-    ``d_i = x_i - x_{i-1}`` (MODEL.md section 7), so its row is read off the coefficients.
-    """
-    from nsbench.hybrid.rules import UPPER, VELOCITY
-
-    n, nb = problem.n_states, problem.n_blocks
-    c = problem.coefficients
-    q = np.zeros(n + 3)
-    i = block
-    if kind == VELOCITY:
-        q[2 * i + 1], q[n] = 1.0, -problem.v0
-        return q
-    q[2 * i + 1] = c.c[i]
-    q[2 * i] = c.k[i] + (c.k[i + 1] if i + 1 < nb else 0.0)
-    if i > 0:
-        q[2 * (i - 1)] = -c.k[i]
-    if i + 1 < nb:
-        q[2 * (i + 1)] = -c.k[i + 1]
-    q[n] = -c.fr[i] if kind == UPPER else c.fr[i]
-    if i == nb - 1:
-        q[n + 1] = -c.F
-    return q
 
 
 def pair_weights(lam: np.ndarray, vec: np.ndarray, vinv: np.ndarray) -> np.ndarray:
@@ -95,17 +66,18 @@ class ModeTables:
     three packed arrays, found through a hash of the mode.
     """
 
-    def __init__(self, problem: FrictionOscillator, capacity: int = 16) -> None:
-        from nsbench.integrators._exact_layout import empty_tables
+    def __init__(self, problem, capacity: int = 16) -> None:
+        from nsbench.integrators._exact_layout import S_FORCED, S_W, empty_tables
 
         if not problem.is_linear:
             raise ValueError("closed forms need a linear problem")
         self.problem = problem
         self.n_modes = 0
-        self.data = empty_tables(capacity, problem.n_blocks)
-        c = problem.coefficients
-        forced = c.F != 0.0 and c.w != 0.0
-        self.data.scal[:] = (1.0 if forced else 0.0, c.w, c.v0)
+        self.dims = (problem.n_states, problem.mode_size, problem.max_guards)
+        self.data = empty_tables(capacity, *self.dims)
+        w = problem.forcing_frequency
+        self.data.scal[S_FORCED] = 1.0 if (problem.is_forced and w != 0.0) else 0.0
+        self.data.scal[S_W] = w
 
     def add(self, mode: np.ndarray):
         """Build the tables of ``mode`` (int array of phases); return the (possibly grown) tables."""
@@ -138,46 +110,49 @@ class ModeTables:
         from nsbench.integrators._exact_layout import I_MODE, empty_tables
 
         old = self.data
-        nb = self.problem.n_blocks
-        new = empty_tables(2 * old.ti.shape[0], nb, old.wr.shape[0] - self.problem.n_states)
+        n, m, g = self.dims
+        new = empty_tables(2 * old.ti.shape[0], n, m, g, old.wr.shape[0] - g)
         for name in ("ti", "tf", "tc"):
             getattr(new, name)[: self.n_modes] = getattr(old, name)[: self.n_modes]
         new.scal[:] = old.scal
         for s in range(self.n_modes):
-            insert_mode(new.keys, new.slots, new.ti, old.ti[s, I_MODE:I_MODE + nb].copy(), s)
+            insert_mode(new.keys, new.slots, new.ti, old.ti[s, I_MODE:I_MODE + m].copy(), s)
         self.data = new
 
     def _fill(self, s: int, mode: tuple[int, ...]) -> None:
-        from nsbench.hybrid.rules import guards_of
         from nsbench.integrators import _exact_layout as lay
         from nsbench.integrators import _exact_polish as polish
 
         t = self.data
         p = self.problem
-        n = p.n_states
+        n, m, g = self.dims
         n3 = n + 3
-        f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_rate, f_q, f_aug, _ = lay.f_offsets(n)
+        f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_b0k, f_rate, f_q, f_aug, _ = lay.f_offsets(n, g)
         c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, _ = lay.c_offsets(n)
         tf, tc, ti = t.tf[s], t.tc[s], t.ti[s]
         a, b0, bc, bs = p.linear_form(mode)
-        w = p.coefficients.w
-        forced = t.scal[0] != 0.0
+        w = p.forcing_frequency
+        forced = t.scal[lay.S_FORCED] != 0.0
         if p.is_forced and w == 0.0:
             b0 = b0 + bc  # cos(0 t) = 1: a constant force
             bc = np.zeros(n)
-        slip = [j for i, ph in enumerate(mode) if ph != STICK for j in (2 * i, 2 * i + 1)]
-        stuck = [j for i, ph in enumerate(mode) if ph == STICK for j in (2 * i, 2 * i + 1)]
+        # A state whose row of A is zero and that no harmonic term drives moves at a constant rate
+        # (a block stuck to the belt: x at v0, v at 0): it is "stuck"; the others form the modal system.
+        still = [j for j in range(n) if not a[j].any() and bc[j] == 0.0 and bs[j] == 0.0]
+        slip = [j for j in range(n) if j not in still]
+        stuck = still
         ns, nst = len(slip), len(stuck)
-        o_slip, o_stuck = lay.i_slip(n), lay.i_stuck(n)
+        o_slip, o_stuck = lay.i_slip(m), lay.i_stuck(m, n)
         ti[o_slip:o_slip + ns], ti[o_stuck:o_stuck + nst] = slip, stuck
+        tf[f_b0k:f_b0k + nst] = b0[stuck]
         rates = [w if forced else 0.0]
         defective = False
-        polished = ns == 0  # every block stuck: nothing to refine, the polish is exact
+        polished = ns == 0  # every state stuck: nothing to refine, the polish is exact
 
-        def put(off: int, m: np.ndarray, target=tf) -> None:  # an ns x nc block at row stride n
-            rows, cols = m.shape
+        def put(off: int, block: np.ndarray, target=tf) -> None:  # an ns x nc block at row stride n
+            rows, cols = block.shape
             for r in range(rows):
-                target[off + r * n: off + r * n + cols] = m[r]
+                target[off + r * n: off + r * n + cols] = block[r]
 
         if ns:
             a_ss = np.ascontiguousarray(a[np.ix_(slip, slip)])
@@ -185,7 +160,9 @@ class ModeTables:
             lam, vec = np.linalg.eig(a_ss)
             rates.extend(np.abs(lam))
             cond = np.linalg.cond(vec)
-            defective = not (math.isfinite(cond) and cond < MAX_CONDITION)
+            # a singular system (a free body: x'' = const) has polynomial terms the modal form lacks
+            singular = not np.abs(lam).min() > 1e-12 * max(1.0, np.abs(lam).max())
+            defective = singular or not (math.isfinite(cond) and cond < MAX_CONDITION)
             if forced and not defective:
                 shifted = 1j * w * np.eye(ns) - a_ss
                 defective = not np.linalg.cond(shifted) < 1e8  # undamped resonance
@@ -230,12 +207,11 @@ class ModeTables:
         aug[:n, :n], aug[:n, n], aug[:n, n + 1], aug[:n, n + 2] = a, b0, bc, bs
         aug[n + 1, n + 2], aug[n + 2, n + 1] = -w, w
         tf[f_aug:f_aug + n3 * n3] = aug.ravel()
-        gk, gb, gs = (np.empty(2 * p.n_blocks, np.int64) for _ in range(3))
-        for q in range(guards_of(np.asarray(mode, np.int64), gk, gb, gs)):
-            tf[f_q + q * n3: f_q + (q + 1) * n3] = guard_row(p, int(gk[q]), int(gb[q]))
+        for q, guard in enumerate(p.guards(tuple(int(v) for v in mode))):
+            tf[f_q + q * n3: f_q + (q + 1) * n3] = p.guard_row(mode, guard.code, guard.block - 1)
 
 
-def closed_form_states(problem: FrictionOscillator, mode, t0: float, y0, times) -> np.ndarray:
+def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:
     """States of ``mode``'s closed-form flow from ``(t0, y0)`` at ``times`` (no guard stops it): ``(n, k)``."""
     from nsbench.integrators.base import ArcRequest
 
@@ -262,10 +238,13 @@ class ExactIntegrator(CompiledArcs):
     }
     counter_names = ("roots", "expm_fallback_arcs", "polished_events")
 
-    def build_kernel(self, problem: FrictionOscillator):
-        from nsbench.hybrid.loop import M_EXACT
-        from nsbench.hybrid.run import ArcKernel
+    def build_kernel(self, problem):
+        from nsbench.integrators._exact_kernel import OPTIONS, exact_arc
+        from nsbench.integrators._exact_layout import kernel_data
+        from nsbench.model.kernel import ArcKernel, arc_table
 
         tables = ModeTables(problem)
-        return ArcKernel(M_EXACT, tables.data, np.array([self.settings["scan"], self.settings["max_scan"]]),
-                         self.counter_names, prepare_mode=tables.add, prepare_run=tables.ensure_sections)
+        return ArcKernel(arc_table(exact_arc), kernel_data(tables.data),
+                         np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
+                         prepare_mode=lambda mode: kernel_data(tables.add(mode)),
+                         prepare_run=lambda k: kernel_data(tables.ensure_sections(k)), name=self.name)

@@ -32,16 +32,18 @@ class HenonRK4(CompiledArcs):
     counter_names = ("henon_steps", "bisections")
 
     def build_kernel(self, problem):
-        from nsbench.hybrid.loop import M_HENON
-        from nsbench.hybrid.run import ArcKernel
-        from nsbench.integrators._henon_kernel import scratch
+        from nsbench.integrators._henon_kernel import OPTIONS, henon_arc, scratch
+        from nsbench.model.abi import kernel_data
+        from nsbench.model.kernel import ArcKernel, arc_table
 
-        kernel = ArcKernel(M_HENON, (scratch(problem.n_states, 2),), np.array([float(self.settings["h"])]),
-                           self.counter_names)
+        n, g = problem.n_states, problem.max_guards
+        kernel = ArcKernel(arc_table(henon_arc), kernel_data(f2a=scratch(n, 2, g)),
+                           np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
+                           name=self.name)
 
-        def prepare_run(n_sections: int) -> tuple:
-            if kernel.data[0].shape[1] < n_sections:
-                kernel.data = (scratch(problem.n_states, n_sections),)
+        def prepare_run(n_sections: int):
+            if kernel.data.f2a.shape[1] < n_sections:
+                kernel.data = kernel_data(f2a=scratch(n, n_sections, g))
             return kernel.data
 
         kernel.prepare_run = prepare_run

@@ -64,28 +64,35 @@ class ChebyshevPicard(CompiledArcs):
 
     def build_kernel(self, problem):
         """The CGL operators of degree ``N`` and the options as the compiled arc reads them."""
-        from nsbench.hybrid.loop import M_PICARD
-        from nsbench.hybrid.run import ArcKernel
         from nsbench.integrators import _chebyshev
+        from nsbench.integrators._picard_arc import OPTIONS, picard_arc, scratch
+        from nsbench.model.abi import kernel_data
+        from nsbench.model.kernel import ArcKernel, arc_table
 
         ops = _chebyshev.operators(self.settings["N"])
         # writable copies: the same numba specialisation for every call
-        data = (ops.nodes.copy(), ops.weights.copy(), ops.integration.copy(), ops.to_coefficients.copy())
+        operators = dict(f1a=ops.nodes.copy(), f1b=ops.weights.copy(), f2a=ops.integration.copy(),
+                         f2b=ops.to_coefficients.copy())
         s = self.settings
         h = float(s["h"])
-        h_max = float(s["h_max"]) if s["h_max"] is not None else H_MAX_FACTOR * h
-        options = np.array([h, h_max, h * MIN_FRACTION, float(s["tol"]), float(s["coef_tol"]),
-                            float(s["max_iter"]), float(s["order"]),
-                            1.0 if s.get("jacobian", "node") == "node" else 0.0, 1.0 if s["adaptive"] else 0.0])
-        from nsbench.integrators._picard_arc import scratch
+        values = {"h": h, "h_max": float(s["h_max"]) if s["h_max"] is not None else H_MAX_FACTOR * h,
+                  "h_min": h * MIN_FRACTION, "tol": float(s["tol"]), "coef_tol": float(s["coef_tol"]),
+                  "max_iter": float(s["max_iter"]), "order": float(s["order"]),
+                  "jac_node": 1.0 if s.get("jacobian", "node") == "node" else 0.0,
+                  "adaptive": 1.0 if s["adaptive"] else 0.0}
+        options = np.array([values[name] for name in OPTIONS])
+        m, n, g = operators["f1a"].size, problem.n_states, problem.max_guards
 
-        m, n = data[0].size, problem.n_states
-        kernel = ArcKernel(M_PICARD, (*data, *scratch(m, n, 2)), options, self.counter_names,
-                           failure=self._failure)
+        def data_for(n_sections: int):
+            nodal, jacobians, vectors = scratch(m, n, n_sections, g)
+            return kernel_data(**operators, f3a=nodal, f3b=jacobians, f2c=vectors)
 
-        def prepare_run(n_sections: int) -> tuple:
-            if kernel.data[-1].shape[1] < n_sections:
-                kernel.data = (*data, *scratch(m, n, n_sections))
+        kernel = ArcKernel(arc_table(picard_arc), data_for(2), options, self.counter_names,
+                           failure=self._failure, name=self.name)
+
+        def prepare_run(n_sections: int):
+            if kernel.data.f2c.shape[1] < n_sections:
+                kernel.data = data_for(n_sections)
             return kernel.data
 
         kernel.prepare_run = prepare_run
@@ -157,16 +164,14 @@ def iterate_segment(problem, mode, t_a: float, y_a, h: float, *, N: int = 12, or
         Node values of the last iterate at the nodes ``t_a + (h/2)(tau_j + 1)``.
     """
     from nsbench.integrators import _chebyshev, _picard_iteration
-    from nsbench.problems import kernels
 
     ops = _chebyshev.operators(N)
-    p = kernels.pack(problem)
-    m_arr = kernels.mode_array(mode)
+    p = problem.data
+    m_arr = problem.mode_array(mode)
     y_a = np.array(y_a, dtype=float)
     n = y_a.size
     w = 0.5 * h
-    g0 = np.empty(n)
-    kernels.rhs(p, m_arr, float(t_a), y_a, g0)
+    g0 = problem.rhs(mode, float(t_a), y_a)
     if guess is None:
         D = (w * (ops.nodes + 1.0))[:, None] * g0[None, :]
     else:

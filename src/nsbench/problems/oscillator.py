@@ -1,31 +1,63 @@
-"""The dry-friction oscillator of MODEL.md as an explicit hybrid system.
+"""The friction family (MODEL.md): a chain of blocks on a belt, as a hybrid problem.
 
-One class serves the 1-DOF and 2-DOF problems: a chain of blocks on a belt,
+One class serves ``one-dof``, ``two-dof``, ``chain`` and ``block-on-ground``:
 block 1 tied to the ground, each further block tied to the previous one, the
-harmonic force on the last block. It exposes the modes, the frozen-mode vector
-field and Jacobian (vectorised over many states), the guards with their
-expected signs, the transition map, the sliding-region functions and the
-energy balance. It never hides a ``sign()`` inside a right-hand side.
+harmonic force on the last block, Coulomb friction with stiction against a
+belt at speed ``v0`` (0: fixed ground). Its law is
+:mod:`nsbench.problems.friction_law` (vocabulary: :mod:`nsbench.problems.friction_spec`); the vector field, Jacobian, guards,
+transitions and initial mode come from it (:class:`~nsbench.problems.base.HybridProblem`).
+This module adds what only this family has: the coefficients by name, the
+sliding regions, the energy balance, the closed-form data ``exact`` uses, and the
+start state as parameters (``x1_0``, ``v1_0``, ... in the problem's units).
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from nsbench.problems.modes import (
-    STICK,
-    Guard,
-    Mode,
-    Transition,
-    all_modes,
-)
+from nsbench.errors import ConfigError
+from nsbench.problems import friction_spec as spec
+from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.modes import PHASE_NAMES, STICK, all_modes
 from nsbench.problems.parameters import Coefficients, Scales
 
 
-class FrictionOscillator:
-    """A chain of 1 or 2 blocks on a moving belt with Coulomb friction and stiction.
+def start_names(n_blocks: int) -> tuple[str, ...]:
+    """Names of the start-state parameters: ``x1_0, v1_0, x2_0, v2_0, ...``."""
+    return tuple(f"{q}{i}_0" for i in range(1, n_blocks + 1) for q in ("x", "v"))
+
+
+def split_start(problem: str, params: Mapping[str, Any], n_blocks: int) -> tuple[dict[str, Any], np.ndarray,
+                                                                                dict[str, float]]:
+    """``(the other parameters, the start state, the start parameters given)``; the start state is rest
+    at the origin where not given. Refuses a non-finite or non-numeric start value by name."""
+    names = start_names(n_blocks)
+    rest = {k: v for k, v in params.items() if k not in names}
+    y0 = np.zeros(2 * n_blocks)
+    given: dict[str, float] = {}
+    for j, name in enumerate(names):
+        if name not in params:
+            continue
+        raw = params[name]
+        try:
+            value = float(raw) if not isinstance(raw, bool) else float("nan")
+        except (TypeError, ValueError):
+            raise ConfigError(f"{problem}: parameter {name} = {raw!r} is not a number") from None
+        if not np.isfinite(value):
+            raise ConfigError(f"{problem}: parameter {name} = {raw!r} is not allowed: the start state must "
+                              "be finite")
+        y0[j] = given[name] = value
+    bad = [k for k in rest if k.endswith("_0") and k[:1] in "xv"]
+    if bad:
+        raise ConfigError(f"{problem}: unknown parameter {bad[0]!r}; the start state of {n_blocks} block(s) "
+                          f"is {', '.join(names)}")
+    return rest, y0, given
+
+
+class FrictionOscillator(HybridProblem):
+    """A chain of blocks on a moving belt with Coulomb friction and stiction.
 
     Parameters
     ----------
@@ -33,7 +65,7 @@ class FrictionOscillator:
         Masses, damping, springs, friction levels, forcing and belt speed, in
         the problem's own units (dimensionless unless ``dimensional``).
     name
-        Registry name (``'one-dof'``, ``'two-dof'``).
+        Registry name (``'one-dof'``, ``'two-dof'``, ``'chain'``, ``'block-on-ground'``).
     case
         Preset 1..4 the problem was built from, or ``None``.
     dimensional
@@ -44,6 +76,8 @@ class FrictionOscillator:
         Every parameter value after presets and shorthands, in the user's vocabulary.
     scales
         Scales that convert this problem's units to the dimensionless form.
+    y0
+        The start state (default: every block at rest at the origin).
 
     Notes
     -----
@@ -51,6 +85,11 @@ class FrictionOscillator:
     ``y`` of shape ``(n,)`` or ``(n, k)`` with ``t`` a scalar or shape ``(k,)``,
     the convention of ``scipy.integrate.solve_ivp(vectorized=True)``.
     """
+
+    family = "friction"
+    law_module = "nsbench.problems.friction_law"
+    guard_kinds = spec.GUARD_KINDS
+    event_kinds = spec.EVENT_KINDS
 
     def __init__(
         self,
@@ -62,6 +101,7 @@ class FrictionOscillator:
         params: dict[str, float],
         parameters: dict[str, float],
         scales: Scales,
+        y0: np.ndarray | None = None,
     ) -> None:
         self.coefficients = coefficients
         self.name = name
@@ -72,17 +112,12 @@ class FrictionOscillator:
         self.scales = scales
         nb = coefficients.n_blocks
         self.n_blocks = nb
-        self.n_states = 2 * nb
         self.state_names = tuple(f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v"))
-        self._guards: dict[Mode, tuple[Guard, ...]] = {}
-        self._packed: np.ndarray | None = None
+        self.mode_columns = tuple(f"phase{i}" for i in range(1, nb + 1))
+        self._y0 = np.zeros(2 * nb) if y0 is None else np.array(y0, dtype=float)
         c = coefficients
-        self._m = np.array(c.m)
-        self._c = np.array(c.c)
-        self._k = np.array(c.k)
-        self._h = np.array(c.h)
-        self._fs = np.array(c.fs)
-        self._fr = np.array(c.fr)
+        self.packed = spec.LAYOUT.pack({"n_blocks": nb, "m": c.m, "c": c.c, "k": c.k, "h": c.h, "fs": c.fs,
+                                       "fr": c.fr, "F": c.F, "w": c.w, "v0": c.v0}, nb)
 
     # ------------------------------------------------------------------ identity
     @property
@@ -91,15 +126,6 @@ class FrictionOscillator:
         if self.n_blocks > 10:
             raise ValueError(f"{self.name} has 3**{self.n_blocks} modes: too many to list")
         return all_modes(self.n_blocks)
-
-    @property
-    def packed(self) -> np.ndarray:
-        """The coefficients as the compiled kernels read them (:func:`nsbench.problems.kernels.pack`)."""
-        if self._packed is None:
-            from nsbench.problems.kernels import pack
-
-            self._packed = pack(self)
-        return self._packed
 
     @property
     def is_linear(self) -> bool:
@@ -114,14 +140,13 @@ class FrictionOscillator:
     def v0(self) -> float:
         return self.coefficients.v0
 
-    def config(self) -> dict[str, Any]:
-        """The small dict that rebuilds this problem with :func:`nsbench.get_problem`."""
-        return {
-            "name": self.name,
-            "case": self.case,
-            "dimensional": self.dimensional,
-            "params": dict(self.params),
-        }
+    @property
+    def forcing_frequency(self) -> float:
+        return self.coefficients.w
+
+    @property
+    def time_scale(self) -> float:
+        return self.scales.time if self.dimensional else 1.0
 
     def __repr__(self) -> str:
         units = "dimensional" if self.dimensional else "dimensionless"
@@ -130,10 +155,22 @@ class FrictionOscillator:
         return f"<{self.name}{case}, {units}{extra}>"
 
     def initial_state(self) -> np.ndarray:
-        """The standard initial condition: every block at rest at the origin."""
-        return np.zeros(self.n_states)
+        """The start state: the ``x1_0, v1_0, ...`` parameters, every block at rest at the origin by default."""
+        return self._y0.copy()
 
-    # ------------------------------------------------------------------ forces
+    def mode_name(self, mode: Mode) -> str:
+        """Readable name of a mode, e.g. ``'slip-|stick'``."""
+        return "|".join(PHASE_NAMES[int(p)] for p in mode)
+
+    def parse_mode(self, text: str) -> Mode:
+        codes = {name: phase for phase, name in PHASE_NAMES.items()}
+        return tuple(codes[part] for part in text.split("|"))
+
+    def guard_name(self, guard: Guard) -> str:
+        i = guard.block
+        return {"velocity": f"v{i}-v0", "upper": f"R{i}-fr{i}", "lower": f"R{i}+fr{i}"}[guard.kind]
+
+    # ------------------------------------------------------------------ forces (any arithmetic)
     def link_forces(self, x: Sequence[Any]) -> list[Any]:
         """Tension of each spring link: link 0 ties block 1 to the ground.
 
@@ -154,7 +191,8 @@ class FrictionOscillator:
                          cos: Callable[[Any], Any] = np.cos) -> list[Any]:
         """``R_i`` of MODEL.md: every force on block i except friction, moved left.
 
-        Generic over the arithmetic of ``x``, ``v`` and ``t`` (see :meth:`link_forces`).
+        Generic over the arithmetic of ``x``, ``v`` and ``t`` (see :meth:`link_forces`);
+        the compiled law's ``restoring`` is the one the core uses (tested equal).
         """
         c = self.coefficients
         links = self.link_forces(x)
@@ -178,6 +216,10 @@ class FrictionOscillator:
         _, x, v = self._split(y)
         return self.restoring_forces(t, x, v)[block - 1]
 
+    def restoring_rate(self, block: int, t, y, dydt):
+        """``dR_block/dt`` along ``dydt``, including the explicit time dependence (the upper guard's rate)."""
+        return self.guard_rate(Guard(self, block, "upper", -1), t, y, dydt)
+
     def belt_speed_restoring(self, t, x: Sequence[Any]) -> list[Any]:
         """The sliding-region functions: ``R_i`` with every ``v_i = v0``.
 
@@ -192,67 +234,7 @@ class FrictionOscillator:
         r = self.belt_speed_restoring(t, x)[block - 1]
         return np.abs(r) <= self.coefficients.fr[block - 1]
 
-    def _link_stiffness(self, x):
-        """Derivative of each link tension with respect to its extension."""
-        c = self.coefficients
-        out = []
-        for j in range(self.n_blocks):
-            if c.h[j] != 0.0:
-                d = x[j] - x[j - 1] if j > 0 else x[0]
-                out.append(c.k[j] + 3.0 * c.h[j] * d * d)
-            else:
-                out.append(c.k[j])
-        return out
-
-    def _restoring_gradient_x(self, x) -> list[dict[int, Any]]:
-        """``dR_i/dx_j`` as ``{j: value}`` per block i (0-based indices)."""
-        stiff = self._link_stiffness(x)
-        nb = self.n_blocks
-        grads = []
-        for i in range(nb):
-            g = {i: stiff[i] + (stiff[i + 1] if i + 1 < nb else 0.0)}
-            if i > 0:
-                g[i - 1] = -stiff[i]
-            if i + 1 < nb:
-                g[i + 1] = -stiff[i + 1]
-            grads.append(g)
-        return grads
-
-    # ------------------------------------------------------------------ vector field
-    def rhs(self, mode: Mode, t, y) -> np.ndarray:
-        """Frozen-mode vector field. ``y`` of shape ``(n,)`` or ``(n, k)``."""
-        y, x, v = self._split(y)
-        out = np.empty_like(y)
-        c = self.coefficients
-        needs_r = any(p != STICK for p in mode)
-        r = self.restoring_forces(t, x, v) if needs_r else None
-        for i, phase in enumerate(mode):
-            if phase == STICK:
-                out[2 * i] = c.v0
-                out[2 * i + 1] = 0.0
-            else:
-                out[2 * i] = v[i]
-                out[2 * i + 1] = (-r[i] - c.fs[i] * phase) / c.m[i]
-        return out
-
-    def jacobian(self, mode: Mode, t, y) -> np.ndarray:
-        """Jacobian of :meth:`rhs`: shape ``(n, n)`` or ``(n, n, k)`` for ``y`` of shape ``(n, k)``."""
-        y, x, _ = self._split(y)
-        n = self.n_states
-        jac = np.zeros((n, n) + y.shape[1:])
-        c = self.coefficients
-        grads = None
-        for i, phase in enumerate(mode):
-            if phase == STICK:
-                continue
-            if grads is None:
-                grads = self._restoring_gradient_x(x)
-            jac[2 * i, 2 * i + 1] = 1.0
-            for j, g in grads[i].items():
-                jac[2 * i + 1, 2 * j] = -g / c.m[i]
-            jac[2 * i + 1, 2 * i + 1] = -c.c[i] / c.m[i]
-        return jac
-
+    # ------------------------------------------------------------------ closed-form data (exact)
     def linear_form(self, mode: Mode) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(A, b0, bc, bs)`` with ``y' = A y + b0 + bc cos(w t) + bs sin(w t)``.
 
@@ -275,81 +257,29 @@ class FrictionOscillator:
             bc[2 * last + 1] = c.F / c.m[last]
         return a, b0, bc, bs
 
-    # ------------------------------------------------------------------ guards
-    def guards(self, mode: Mode) -> tuple[Guard, ...]:
-        """Guards of ``mode`` in the core's order: block by block, stick upper then lower (ties: lowest block).
+    def guard_row(self, mode: Mode, kind: int, index: int) -> np.ndarray:
+        """``q`` with guard ``(kind, index)`` ``= q . [y, 1, cos w t, sin w t]`` (linear problems).
 
-        The list comes from :func:`nsbench.hybrid.rules.guards_of`, the one definition.
+        ``R_i = c_i v_i + k_i d_i - k_{i+1} d_{i+1} - F cos(w t) [last block]`` with ``d_1 = x_1`` and
+        ``d_i = x_i - x_{i-1}`` (MODEL.md section 7), so its row is read off the coefficients.
         """
-        cached = self._guards.get(mode)
-        if cached is None:
-            from nsbench.hybrid.rules import guards_of
-
-            gk, gb, gs = (np.empty(2 * self.n_blocks, np.int64) for _ in range(3))
-            ng = guards_of(np.asarray(mode, np.int64), gk, gb, gs)
-            kinds = ("velocity", "upper", "lower")
-            cached = self._guards[mode] = tuple(
-                Guard(self, int(gb[q]) + 1, kinds[int(gk[q])], int(gs[q])) for q in range(ng))
-        return cached
-
-    def guard_value(self, guard: Guard, t, y):
-        """Value of ``guard`` at ``(t, y)`` (vectorised)."""
-        i = guard.block - 1
-        if guard.kind == "velocity":
-            return np.asarray(y, dtype=float)[2 * i + 1] - self.v0
-        r = self.restoring_force(guard.block, t, y)
-        fr = self.coefficients.fr[i]
-        return r - fr if guard.kind == "upper" else r + fr
-
-    def guard_rate(self, guard: Guard, t, y, dydt):
-        """d(guard)/dt along the direction ``dydt`` (vectorised)."""
-        i = guard.block - 1
-        dydt = np.asarray(dydt, dtype=float)
-        if guard.kind == "velocity":
-            return dydt[2 * i + 1]
-        return self.restoring_rate(guard.block, t, y, dydt)
-
-    def restoring_rate(self, block: int, t, y, dydt):
-        """``dR_block/dt`` along ``dydt``, including the explicit time dependence."""
-        i = block - 1
-        y, x, _ = self._split(y)
-        dydt = np.asarray(dydt, dtype=float)
+        n, nb = self.n_states, self.n_blocks
         c = self.coefficients
-        grad = self._restoring_gradient_x(x)[i]
-        out = c.c[i] * dydt[2 * i + 1]
-        for j, g in grad.items():
-            out = out + g * dydt[2 * j]
-        if i == self.n_blocks - 1 and c.F != 0.0:
-            out = out + c.F * c.w * np.sin(c.w * np.asarray(t, dtype=float))
-        return out
-
-    # ------------------------------------------------------------------ transitions
-    def initial_mode(self, t: float, y) -> Mode:
-        """The mode of a state: slip with ``sign(v_i - v0)``, or stick if the friction holds.
-
-        :func:`nsbench.hybrid.rules.initial_mode`, the one definition.
-        """
-        from nsbench.hybrid.rules import initial_mode
-
-        mode = np.zeros(self.n_blocks, np.int64)
-        initial_mode(self.packed, float(t), np.asarray(y, dtype=float), mode)
-        return tuple(int(v) for v in mode)
-
-    def transition(self, mode: Mode, guard: Guard, t: float, y) -> Transition:
-        """Apply the transition map of MODEL.md when ``guard`` fires at ``(t, y)``.
-
-        :func:`nsbench.hybrid.rules.transition`, the one definition: slip guard, ``v_i = v0``
-        then stick if ``|R_i| <= fr_i`` else reverse with ``s_i = -sign(R_i)``; stick
-        guard, slip with ``s_i = -sign(R_i)``.
-        """
-        from nsbench.hybrid.rules import transition
-        from nsbench.problems.modes import EVENT_KINDS
-
-        codes = {"velocity": 0, "upper": 1, "lower": 2}
-        new = np.asarray(mode, np.int64).copy()
-        y_new = np.array(y, dtype=float, copy=True)
-        ev = transition(self.packed, new, codes[guard.kind], guard.block - 1, float(t), y_new)
-        return Transition(tuple(int(v) for v in new), y_new, EVENT_KINDS[ev], guard.block)
+        q = np.zeros(n + 3)
+        i = index
+        if kind == spec.VELOCITY:
+            q[2 * i + 1], q[n] = 1.0, -self.v0
+            return q
+        q[2 * i + 1] = c.c[i]
+        q[2 * i] = c.k[i] + (c.k[i + 1] if i + 1 < nb else 0.0)
+        if i > 0:
+            q[2 * (i - 1)] = -c.k[i]
+        if i + 1 < nb:
+            q[2 * (i + 1)] = -c.k[i + 1]
+        q[n] = -c.fr[i] if kind == spec.UPPER else c.fr[i]
+        if i == nb - 1:
+            q[n + 1] = -c.F
+        return q
 
     # ------------------------------------------------------------------ energy
     def energy(self, y):

@@ -19,7 +19,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from nsbench.problems.kernels import hot
+from nsbench.model.compile import hot
 
 AVAILABLE = sys.platform != "win32"
 _CLOCK = int(getattr(time, "CLOCK_MONOTONIC", 1))

@@ -1,0 +1,278 @@
+"""What a problem is: a hybrid automaton given as data and compiled functions.
+
+A problem declares its state (names), its modes (int64 vectors of a fixed size
+encoding any finite set), its law (per mode the vector field and its Jacobian,
+the guards with the sign each keeps inside the mode, per guard the transition:
+the next mode and a reset of the state; the initial-mode rule; optionally the
+limit behaviour of an accumulation of events), its event kinds, and its
+parameters by name. :class:`HybridProblem` is the base class: a family sets
+the class attributes and implements the few methods marked below; everything
+the core, the integrators and the reports need is derived here from the law
+(:mod:`nsbench.model.law`).
+
+A third party adds a problem by writing one module: the compiled law, a
+subclass of :class:`HybridProblem` and a factory ``f(case=None,
+dimensional=False, **params)``, registered through the ``nsbench.problems``
+entry point (``examples/problem_plugin`` is a complete example).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Any, ClassVar
+
+import numpy as np
+
+Mode = tuple[int, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Guard:
+    """A switching surface of the current mode.
+
+    Attributes
+    ----------
+    problem
+        The problem that evaluates it.
+    block
+        1-based index of the element the guard belongs to (the block of a
+        friction chain, the contact of an impact problem).
+    kind
+        The guard's kind, one of the problem's ``guard_kinds``.
+    expected_sign
+        Sign of the guard while the mode is valid. The mode ends when
+        ``expected_sign * value`` reaches zero. At the start of a phase the guard
+        of that phase may be exactly zero, so integrators must test against
+        this sign, never against the sign at the start of the arc.
+    mode
+        The mode the guard belongs to.
+    """
+
+    problem: "HybridProblem"
+    block: int
+    kind: str
+    expected_sign: int
+    mode: Mode = ()
+
+    @property
+    def code(self) -> int:
+        """The guard kind's code in the problem's law."""
+        return self.problem.guard_kinds.index(self.kind)
+
+    @property
+    def name(self) -> str:
+        return self.problem.guard_name(self)
+
+    def value(self, t, y):
+        """Guard value at ``(t, y)``; ``y`` of shape ``(n,)`` or ``(n, k)``."""
+        return self.problem.guard_value(self, t, y)
+
+    def rate(self, t, y, dydt):
+        """Time derivative of the guard along ``dydt`` (same shapes as ``y``)."""
+        return self.problem.guard_rate(self, t, y, dydt)
+
+    def __repr__(self) -> str:
+        return f"Guard({self.name}, expected_sign={self.expected_sign:+d})"
+
+
+@dataclass(frozen=True)
+class Transition:
+    """What happens when a guard fires: the new mode, the state after the reset, the event kind."""
+
+    mode: Mode
+    y: np.ndarray
+    kind: str
+    block: int
+
+
+class HybridProblem:
+    """Base of every problem (see the module docstring).
+
+    Class attributes a family sets
+    ------------------------------
+    family
+        Short name of the family (``'friction'``, ``'impact'``), for reports.
+    law_module
+        The module holding the compiled law (:mod:`nsbench.model.law`), or its import path (so that
+        building a problem loads no compiler).
+    guard_kinds, event_kinds
+        Names of the guard kind and event kind codes of the law, in code order.
+    mode_columns
+        Names of the entries of the mode vector (trajectory columns).
+
+    Instance attributes a family sets (in ``__init__``)
+    ---------------------------------------------------
+    name, case, dimensional, params, parameters
+        Registry name, preset, units, the user's overrides, every value by name.
+    state_names
+        Names of the state's entries.
+    packed
+        The parameter vector of the law (a named layout of the family).
+    """
+
+    family: ClassVar[str] = ""
+    law_module: ClassVar[ModuleType | str]
+    guard_kinds: ClassVar[tuple[str, ...]] = ()
+    event_kinds: ClassVar[tuple[str, ...]] = ()
+    mode_columns: ClassVar[tuple[str, ...]] = ()
+
+    name: str
+    case: int | None = None
+    dimensional: bool = False
+    params: dict[str, float]
+    parameters: dict[str, float]
+    state_names: tuple[str, ...]
+    packed: np.ndarray
+
+    # ------------------------------------------------------------------ what a family implements
+    def initial_state(self) -> np.ndarray:
+        """The start state of the problem's standard run (from its parameters)."""
+        raise NotImplementedError
+
+    def mode_name(self, mode: Mode) -> str:
+        """A mode as the event log writes it."""
+        return "|".join(str(int(v)) for v in mode)
+
+    def parse_mode(self, text: str) -> Mode:
+        """The inverse of :meth:`mode_name`."""
+        return tuple(int(part) for part in text.split("|"))
+
+    def guard_name(self, guard: Guard) -> str:
+        """A guard as messages write it."""
+        return f"{guard.kind}{guard.block}"
+
+    @property
+    def is_linear(self) -> bool:
+        """Whether every mode is affine with constant and harmonic forcing and every guard linear
+        (then :meth:`linear_form` and :meth:`guard_row` exist and ``exact`` solves the problem)."""
+        return False
+
+    def linear_form(self, mode: Mode) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, b0, bc, bs)`` with ``y' = A y + b0 + bc cos(w t) + bs sin(w t)`` in ``mode`` (linear problems)."""
+        raise ValueError(f"{self.name}: no linear form (the problem is not piecewise linear)")
+
+    def guard_row(self, mode: Mode, kind: int, index: int) -> np.ndarray:
+        """``q`` with guard ``(kind, index)`` ``= q . [y, 1, cos w t, sin w t]`` (linear problems)."""
+        raise ValueError(f"{self.name}: no linear guards (the problem is not piecewise linear)")
+
+    @property
+    def forcing_frequency(self) -> float:
+        """``w`` of the harmonic terms of :meth:`linear_form`."""
+        return 0.0
+
+    @property
+    def is_forced(self) -> bool:
+        """Whether :meth:`linear_form` has harmonic terms."""
+        return self.forcing_frequency != 0.0
+
+    @property
+    def time_scale(self) -> float:
+        """The problem's unit of time in the dimensionless form (event storms are judged in it)."""
+        return 1.0
+
+    def config(self) -> dict[str, Any]:
+        """The small dict that rebuilds this problem with :func:`nsbench.get_problem`."""
+        return {"name": self.name, "case": self.case, "dimensional": self.dimensional, "params": dict(self.params)}
+
+    # ------------------------------------------------------------------ derived from the law
+    @property
+    def law(self):
+        """The compiled law (:class:`nsbench.model.law.Law`), compiled once per process."""
+        from importlib import import_module
+
+        from nsbench.model.law import law_of
+
+        source = self.law_module
+        return law_of(import_module(source) if isinstance(source, str) else source)
+
+    @property
+    def data(self):
+        """The problem as compiled code sees it (:class:`nsbench.model.abi.ProblemData`)."""
+        cached = self.__dict__.get("_data")
+        if cached is None:
+            from nsbench.model.abi import ProblemData
+
+            cached = self.__dict__["_data"] = ProblemData(np.ascontiguousarray(self.packed, dtype=float),
+                                                          self.law.table)
+        return cached
+
+    @property
+    def n_states(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def mode_size(self) -> int:
+        return len(self.mode_columns)
+
+    @property
+    def n_elements(self) -> int:
+        """Number of element indices guards may carry (the size of the ``fresh`` marks)."""
+        return self.mode_size
+
+    @property
+    def max_guards(self) -> int:
+        """An upper bound on the number of guards of a mode (the size of the guard arrays)."""
+        return 2 * self.mode_size
+
+    @staticmethod
+    def mode_array(mode: Mode) -> np.ndarray:
+        return np.ascontiguousarray(mode, dtype=np.int64)
+
+    def rhs(self, mode: Mode, t, y) -> np.ndarray:
+        """Frozen-mode vector field at ``y`` of shape ``(n,)`` or columns ``(n, k)`` (same shape out)."""
+        from nsbench.model.law import evaluate_rhs
+
+        return evaluate_rhs(self.data, self.mode_array(mode), t, y)
+
+    def jacobian(self, mode: Mode, t, y) -> np.ndarray:
+        """Jacobian of :meth:`rhs`: ``(n, n)``, or ``(n, n, k)`` for columns."""
+        from nsbench.model.law import evaluate_jacobian
+
+        return evaluate_jacobian(self.data, self.mode_array(mode), t, y)
+
+    def guards(self, mode: Mode) -> tuple[Guard, ...]:
+        """Guards of ``mode`` in the law's order (also the tie order)."""
+        cache = self.__dict__.setdefault("_guards", {})
+        cached = cache.get(mode)
+        if cached is None:
+            g = [np.zeros(self.max_guards, np.int64) for _ in range(3)]
+            ng = self.law.guards_of(self.data.p, self.mode_array(mode), *g)
+            cached = cache[mode] = tuple(Guard(self, int(g[1][q]) + 1, self.guard_kinds[int(g[0][q])],
+                                               int(g[2][q]), tuple(int(v) for v in mode)) for q in range(ng))
+        return cached
+
+    def _guard_mode(self, guard: Guard) -> np.ndarray:
+        return self.mode_array(guard.mode if guard.mode else (0,) * self.mode_size)
+
+    def guard_value(self, guard: Guard, t, y):
+        """Value of ``guard`` at ``(t, y)`` (vectorised over columns)."""
+        from nsbench.model.law import evaluate_guard
+
+        return evaluate_guard(self.data, self._guard_mode(guard), guard.code, guard.block - 1, t, y)
+
+    def guard_rate(self, guard: Guard, t, y, dydt):
+        """d(guard)/dt along ``dydt`` (vectorised over columns)."""
+        from nsbench.model.law import evaluate_guard
+
+        return evaluate_guard(self.data, self._guard_mode(guard), guard.code, guard.block - 1, t, y, dydt)
+
+    def initial_mode(self, t: float, y) -> Mode:
+        """The mode a state starts in (the law's rule)."""
+        mode = np.zeros(self.mode_size, np.int64)
+        self.law.initial_mode(self.data.p, float(t), np.ascontiguousarray(y, dtype=float), mode)
+        return tuple(int(v) for v in mode)
+
+    def transition(self, mode: Mode, guard: Guard, t: float, y) -> Transition:
+        """The law's transition when ``guard`` fires at ``(t, y)``: new mode, reset state, event kind."""
+        new = self.mode_array(mode).copy()
+        y_new = np.array(y, dtype=float, copy=True)
+        fresh = np.zeros(self.n_elements, np.bool_)
+        code = self.law.transition(self.data.p, new, guard.code, guard.block - 1, float(t), y_new, fresh)
+        return Transition(tuple(int(v) for v in new), y_new, self.event_kinds[code], guard.block)
+
+    def __repr__(self) -> str:
+        case = f", case={self.case}" if self.case is not None else ""
+        extra = f", params={self.params}" if self.params else ""
+        return f"<{self.name}{case}{extra}>"
+

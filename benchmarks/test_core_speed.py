@@ -87,11 +87,12 @@ def _bare_rk4():
     """A bare fixed-step RK4 loop over the problem's compiled field: no guards, sections or output.
 
     The floor under any RK4 event machinery with the same field evaluations (four
-    per step), to read ``henon-rk4``'s cost per step against.
+    per step, through the law's function table as the kernels call it), to read
+    ``henon-rk4``'s cost per step against.
     """
     import numba
 
-    from nsbench.problems.kernels import rhs
+    from nsbench.model.law import rhs
 
     @numba.njit(cache=False, nogil=True, _nrt=False)
     def bare(p, mode, y0, h, n_steps, work):
@@ -129,8 +130,6 @@ def test_rk4_step_floor(benchmark, request, nsbench_baseline):
     """
     import numpy as np
 
-    from nsbench.problems.kernels import mode_array, pack
-
     problem = nsbench.get_problem("two-dof", case=1)
     options = {"h": 0.01}
     nsbench.simulate(problem, "henon-rk4", min(SPAN, 50.0), options=options)
@@ -138,7 +137,7 @@ def test_rk4_step_floor(benchmark, request, nsbench_baseline):
     steps = int(runs[-1].counters.nsteps)
     kernel = statistics.median(r.wall_time for r in runs) / steps
     bare = _bare_rk4()
-    p, mode = pack(problem), mode_array((1,) * problem.n_blocks)
+    p, mode = problem.data, problem.mode_array((1,) * problem.n_blocks)
     y0, work = np.zeros(problem.n_states), np.zeros((6, problem.n_states))
     bare(p, mode, y0, 0.01, 10, work)  # compile
     benchmark.pedantic(bare, args=(p, mode, y0, 0.01, steps, work), rounds=ROUNDS, iterations=1)

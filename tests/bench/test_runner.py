@@ -88,8 +88,11 @@ def test_unsupported_and_missing_reference_are_rows(pooled):
     frame = pooled[1].results
     cubic = frame[frame["problem_label"] == "two-dof/3"]
     assert cubic.loc[cubic["integrator"] == "exact", "status"].tolist() == ["unsupported"]
-    dop = cubic[cubic["integrator"] == "scipy-dop853"]
-    assert (dop["status"] == "success").all()
+    dop = cubic[cubic["integrator"] == "scipy-dop853"].sort_values("level")
+    # at rtol 1e-6 DOP853 steps over the stick of block 1 at t ~ 25.68 and the slip after it (the velocity
+    # guard dips across and back inside one step): the core sees it in the dense states and says so
+    assert dop["status"].tolist() == ["event missed", "success", "success"]
+    assert "on its wrong side at t = 25.8" in dop["message"].iloc[0]
     assert dop["reference_status"].str.startswith("no reference available").all()
     assert dop["switch_err_max"].isna().all()
 
@@ -261,8 +264,11 @@ def test_the_phases_keep_warm_ups_apart_from_timing(pooled):
     timeline = pooled[1].timeline
     kinds = [r.kind for r in timeline]
     assert kinds.count("start") == 2 and kinds.count("reference") == 3
-    # one timing task per timed run (3 rounds per successful case)
-    assert kinds.count("time") == 3 * sum(pooled[1].results["status"] == "success")
+    # one timing task per timed run: 3 rounds per successful case, and a case whose first timed run
+    # does not succeed (here DOP853 missing an event) is not timed again
+    status = pooled[1].results["status"]
+    ran = status.isin(["success", "event missed"])
+    assert kinds.count("time") == 3 * sum(status == "success") + sum(ran & (status != "success"))
     first_time = min(r.start for r in timeline if r.kind == "time")
     assert all(r.end <= first_time for r in timeline if r.kind != "time")   # one barrier, no replacement
     assert_nothing_else_while_timing(timeline)
@@ -275,6 +281,7 @@ def test_timed_runs_are_taken_in_rounds_over_all_cases(pooled):
     by_case: dict[str, list[float]] = {}
     for r in sorted((r for r in pooled[1].timeline if r.kind == "time"), key=lambda r: r.start):
         by_case.setdefault(r.label, []).append(r.start)
+    by_case = {label: starts for label, starts in by_case.items() if len(starts) > 1}  # not the failed ones
     assert by_case and all(len(starts) == 3 for starts in by_case.values())
     for k in range(2):
         assert min(s[k + 1] for s in by_case.values()) >= max(s[k] for s in by_case.values())

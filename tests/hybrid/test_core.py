@@ -106,7 +106,7 @@ def test_many_section_hits_and_events_grow_their_buffers():
     from nsbench.hybrid.records import Records
     from nsbench.sections import level_crossing
 
-    first = Records(4, 2, 0)
+    first = Records(4, 2, np.empty(0))
     p = nsbench.get_problem("two-dof", case=1)
     res = nsbench.simulate(p, "exact", 3000.0, sections=[level_crossing(p, "v1", 0.0)])
     assert len(res.events) > first.ev_t.shape[0] and len(res.sections) > first.ht.shape[0]

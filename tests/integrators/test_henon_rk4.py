@@ -54,7 +54,7 @@ def test_section_hits_beyond_the_buffer_are_all_kept():
     from nsbench.hybrid.records import Records
     from nsbench.sections import level_crossing
 
-    _HIT_BUFFER = Records(2, 1, 0).ht.shape[0]
+    _HIT_BUFFER = Records(2, 1, np.empty(0)).ht.shape[0]
 
     p = nsbench.get_problem("one-dof", case=2, v0=3.0, F=0.4, Omega=1.3)
     sec = [level_crossing(p, "v1", 0.0, 0)]

@@ -7,7 +7,7 @@ import pytest
 
 import nsbench
 from nsbench.integrators import _sundials_kernels as sk
-from nsbench.problems import kernels
+from nsbench.problems.friction_spec import LAYOUT
 from tests.conftest import exact_events, max_time_error, same_sequence
 from tests.integrators.runs import two_dof_run
 
@@ -80,10 +80,16 @@ def test_plain_cvode_misses_a_force_driven_slip():
     assert same_sequence(res.events, exact_events("two-dof", 2, 60.0))
 
 
+def _codes(guards):
+    """Kind codes, 0-based blocks and expected signs of guards, as the compiled callbacks take them."""
+    return tuple(np.array(values, dtype=np.int64) for values in
+                 zip(*[(g.code, g.block - 1, g.expected_sign) for g in guards]))
+
+
 def test_cvode_kernels_match_the_problem():
     p = nsbench.get_problem("two-dof", case=4)
-    pk = kernels.pack(p)
-    pk[1 + 6 * 2] = 0.0  # CVODE's coefficients: the force enters through cos(w t)
+    pk = p.packed.copy()
+    pk[LAYOUT.offset("F", 2)] = 0.0  # CVODE's coefficients: the force enters through cos(w t)
     F, w = p.coefficients.F, p.coefficients.w
     rng = np.random.default_rng(3)
     for mode in p.modes:
@@ -94,15 +100,16 @@ def test_cvode_kernels_match_the_problem():
                 y[2 * i + 1] = p.v0
         z = np.concatenate([y, [np.cos(w * t), np.sin(w * t)]])
         out = np.empty(6)
-        sk.cvode_rhs(pk, kernels.mode_array(mode), F, w, z, out)
+        sk.cvode_rhs(pk, np.array(mode, dtype=np.int64), F, w, z, out)
         np.testing.assert_allclose(out[:4], p.rhs(mode, t, y), atol=1e-14)
         jac = np.empty((6, 6))
-        sk.cvode_jacobian(pk, kernels.mode_array(mode), F, w, z, jac)
+        sk.cvode_jacobian(pk, np.array(mode, dtype=np.int64), F, w, z, jac)
         np.testing.assert_allclose(jac[:4, :4], p.jacobian(mode, t, y), atol=1e-14)
         guards = p.guards(mode)
-        kinds, blocks, signs = kernels.guard_codes(guards)
+        kinds, blocks, signs = _codes(guards)
         roots = np.empty(len(guards))
-        sk.cvode_roots(pk, F, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0), z, roots)
+        sk.cvode_roots(pk, np.array(mode, dtype=np.int64), F, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0),
+                       z, roots)
         expected = [g.expected_sign * float(g.value(t, y)) for g in guards]
         np.testing.assert_allclose(roots, expected, atol=1e-14)
 
@@ -113,7 +120,7 @@ def test_ida_dae_structure(mode):
     # pinned algebraically and its friction force equals R, whose bound is the
     # guard; the Jacobian is dF/dy + cj dF/dyp.
     p = nsbench.get_problem("two-dof", case=4)
-    pk, m = kernels.pack(p), kernels.mode_array(mode)
+    pk, m = p.packed.copy(), np.array(mode, dtype=np.int64)
     rng = np.random.default_rng(7)
     t = 12.3
     y = rng.uniform(-1, 1, 4)
@@ -128,7 +135,7 @@ def test_ida_dae_structure(mode):
         force = p.friction_forces(mode, t, y)[i]
         assert yy[4 + i] == pytest.approx(float(force), abs=1e-15)
     guards = p.guards(mode)
-    kinds, blocks, signs = kernels.guard_codes(guards)
+    kinds, blocks, signs = _codes(guards)
     roots = np.empty(len(guards))
     sk.ida_roots(pk, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0), yy, roots)
     np.testing.assert_allclose(roots, [g.expected_sign * float(g.value(t, y)) for g in guards], atol=1e-14)

@@ -80,7 +80,7 @@ from nsbench.integrators._exact_layout import (
     i_slip,
     i_stuck,
 )
-from nsbench.integrators._exact_polish import polish_event
+from nsbench.integrators._exact_polish import ArcMode, polish_event
 from nsbench.model.abi import (
     K_BUDGET,
     K_FAIL,
@@ -414,6 +414,18 @@ def _fresh_start(cx, j, b, fb, pb, pa, m, tol):
         if fu > 0.0:
             return _first_zero(cx, j, u, b, fu, _objective(cx, j, u, True), fb, pb, m, tol)
     n = 16
+    if pa > 0.0 and not np.isfinite(m):
+        # A defective mode leaving its surface (g' > 0) but back across it before the first sample (a
+        # short flight): look closer to the start for the guard's positive side, then bracket from there.
+        first = b / n
+        v1 = _objective(cx, j, first, False)
+        if v1 <= 0.0:
+            u = 0.5 * first
+            for _ in range(60):
+                fu = _objective(cx, j, u, False)
+                if fu > 0.0:
+                    return _root(cx, j, u, first, fu, v1)
+                u *= 0.5
     prev_s, prev_v, prev_r = 0.0, 0.0, pa
     positive = False
     for k in range(1, n + 1):
@@ -756,8 +768,8 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
         # Newton on the guard in double-double, then the state there (see _exact_polish)
         _exps(tf, tc, mi, ns, w, s_stop, E, wv[V_MS])
         rate = _value_rate(wr, wc, tf, tc, mi, fired, ns, w, s_stop, E)[1]
-        delta = polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w, t0, t0_lo, y0,
-                             s_stop, fired, rate, ybuf)
+        delta = polish_event(ArcMode(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w),
+                             t0, t0_lo, y0, s_stop, fired, rate, ybuf)
         if abs(delta) <= 1e-9 * max(1.0, s_stop):
             zs = wv[V_ZS, :n]
             rhs(prob, mode, t0 + s_stop, ybuf, zs)  # dy/dt at the event, for the first-order shift

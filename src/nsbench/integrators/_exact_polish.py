@@ -13,6 +13,8 @@ holds doubles, taken as exact: they are the problem.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from nsbench.integrators import _double_double as dd
@@ -145,10 +147,32 @@ def refine_harmonic(a, w, z, b, z_lo):
         z_lo[i] = dz[i]
 
 
+class ArcMode(NamedTuple):
+    """What the polish reads of an arc: the mode tables ``ti, tf, tc`` (row ``mi``), the arc's scratch ``wv,
+    wc`` (complex vectors from row ``nqr``), the sizes (``ns`` slipping and ``nst`` stuck states, ``n``
+    states, modes of size ``m``, at most ``g_max`` guards) and the forcing."""
+
+    ti: np.ndarray
+    tf: np.ndarray
+    tc: np.ndarray
+    wv: np.ndarray
+    wc: np.ndarray
+    nqr: int
+    mi: int
+    ns: int
+    nst: int
+    n: int
+    m: int
+    g_max: int
+    forced: bool
+    w: float
+
+
 @hot
-def polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m, g_max, forced, w, t0, t0_lo, y0, s0, fired, rate,
-                 y_out):
+def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
     """Polish the event of guard ``fired`` at offset ``s0`` of the arc from ``(t0 + t0_lo, y0)``.
+
+    ``arc_mode`` (:class:`ArcMode`) holds the mode tables and the arc's scratch and sizes.
 
     ``ti, tf, tc`` are the mode tables (layout: :mod:`._exact_layout`), ``mi`` the
     mode's row (``n`` states, modes of size ``m``, at most ``g_max`` guards), ``wv, wc``
@@ -156,6 +180,7 @@ def polish_event(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m, g_max, forced, w, t
     ``s0`` in double-double is left in rows ``V_YH`` (high) and ``V_YL`` (low) of
     ``wv``, and its rounding in ``y_out``.
     """
+    ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m, g_max, forced, w = arc_mode
     n3 = n + 3
     f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_b0k, f_rate, f_q, f_aug, f_end = f_offsets(n, g_max)
     c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, c_end = c_offsets(n)

@@ -13,6 +13,8 @@ step grid starts at the arc's start. Calling convention: :mod:`nsbench.model.abi
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from nsbench.model.abi import (
@@ -45,18 +47,29 @@ OPTIONS = ("h",)
 O_H = 0
 
 
-@inline
-def _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, t, y):
-    if fn == 0:
-        return guard_value(p, mode, kinds[idx], blocks[idx], t, y)
-    return linear_section_value(sec_c[idx], sec_l[idx], y)
+class Surface(NamedTuple):
+    """A surface to land on: guard ``idx`` of the arc (``fn = 0``) or section ``idx`` (``fn = 1``)."""
+
+    fn: int
+    idx: int
+    kinds: np.ndarray
+    blocks: np.ndarray
+    sec_c: np.ndarray
+    sec_l: np.ndarray
 
 
 @inline
-def _rate(p, mode, fn, idx, kinds, blocks, sec_c, t, y, dy):
-    if fn == 0:
-        return guard_rate(p, mode, kinds[idx], blocks[idx], t, y, dy)
-    return linear_section_rate(sec_c[idx], dy)
+def _value(p, mode, sf, t, y):
+    if sf.fn == 0:
+        return guard_value(p, mode, sf.kinds[sf.idx], sf.blocks[sf.idx], t, y)
+    return linear_section_value(sf.sec_c[sf.idx], sf.sec_l[sf.idx], y)
+
+
+@inline
+def _rate(p, mode, sf, t, y, dy):
+    if sf.fn == 0:
+        return guard_rate(p, mode, sf.kinds[sf.idx], sf.blocks[sf.idx], t, y, dy)
+    return linear_section_rate(sf.sec_c[sf.idx], dy)
 
 
 @hot
@@ -78,11 +91,11 @@ def _rk4(p, mode, t, y, h, fy, out, work):
 
 
 @hot
-def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, work):
-    """RK4 step in sigma = fn from (t1, y1) to fn = 0. Returns (ok, t_star); state into out."""
+def _henon(p, mode, sf, ta, tb, t1, y1, out, work):
+    """RK4 step in sigma = the surface's function from (t1, y1) to zero. Returns (ok, t_star); state into out."""
     n = y1.shape[0]
     f, tmp, acc = work[4], work[5], work[6]
-    ds = -_value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, t1, y1)
+    ds = -_value(p, mode, sf, t1, y1)
     t_acc = 0.0
     t_s = t1
     for j in range(n):
@@ -92,7 +105,7 @@ def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, w
     fractions = (0.5, 0.5, 1.0, 0.0)
     for stage in range(4):
         rhs(p, mode, t_s, tmp, f)
-        r = _rate(p, mode, fn, idx, kinds, blocks, sec_c, t_s, tmp, f)
+        r = _rate(p, mode, sf, t_s, tmp, f)
         if r == 0.0 or not np.isfinite(r):
             return False, 0.0
         kt = 1.0 / r
@@ -113,8 +126,8 @@ def _henon(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, ta, tb, t1, y1, out, w
 
 
 @hot
-def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, start, out, work):
-    """First zero of sign*fn in (t, t1] from RK4 sub-steps of (t, y).
+def _bisect(p, mode, sf, sign, t, y, fy, t1, start, out, work):
+    """First zero of sign * the surface's function in (t, t1] from RK4 sub-steps of (t, y).
 
     Returns ``(found, t_hit, n_substeps)``; the state at ``t_hit`` goes into ``out``.
     """
@@ -127,7 +140,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
         tau = t + (t1 - t) * k / 8.0
         _rk4(p, mode, t, y, tau - t, fy, ys, work)
         n_sub += 1
-        v = sign * _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, tau, ys)
+        v = sign * _value(p, mode, sf, tau, ys)
         if v > 0.0:
             positive_seen = True
             lo = tau
@@ -143,7 +156,7 @@ def _bisect(p, mode, fn, idx, sign, kinds, blocks, sec_c, sec_l, t, y, fy, t1, s
             break
         _rk4(p, mode, t, y, mid - t, fy, ys, work)
         n_sub += 1
-        v = sign * _value(p, mode, fn, idx, kinds, blocks, sec_c, sec_l, mid, ys)
+        v = sign * _value(p, mode, sf, mid, ys)
         if v > 0.0:
             lo = mid
         else:
@@ -276,10 +289,10 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
             if end_crossed:
                 cnt[HENON_STEPS] += 1
                 cnt[NFEV] += 4
-                ok, t_hit = _henon(p, mode, 0, q, kinds, blocks, sc, dummy_l, t, t1, t1, y1, ystar, work)
+                ok, t_hit = _henon(p, mode, Surface(0, q, kinds, blocks, sc, dummy_l), t, t1, t1, y1, ystar, work)
             if not ok:
                 cnt[BISECTIONS] += 1
-                ok, t_hit, n_sub = _bisect(p, mode, 0, q, signs[q], kinds, blocks, sc, dummy_l,
+                ok, t_hit, n_sub = _bisect(p, mode, Surface(0, q, kinds, blocks, sc, dummy_l), signs[q],
                                            t, y, fy, t1, start, ystar, work)
                 cnt[NFEV] += 3 * n_sub
             if ok and t_hit < best_t:  # earliest; the lowest index on a tie
@@ -304,11 +317,11 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                 else:
                     cnt[HENON_STEPS] += 1
                     cnt[NFEV] += 4
-                    ok, t_hit = _henon(p, mode, 1, k, kinds, blocks, sc, sl, t, tb, tb, y1, ystar, work)
+                    ok, t_hit = _henon(p, mode, Surface(1, k, kinds, blocks, sc, sl), t, tb, tb, y1, ystar, work)
                     if not ok:
                         cnt[BISECTIONS] += 1
                         sgn = 1.0 if sec_v[k] > 0.0 else -1.0
-                        ok, t_hit, n_sub = _bisect(p, mode, 1, k, sgn, kinds, blocks, sc, sl,
+                        ok, t_hit, n_sub = _bisect(p, mode, Surface(1, k, kinds, blocks, sc, sl), sgn,
                                                    t, y, fy, tb, False, ystar, work)
                         cnt[NFEV] += 3 * n_sub
                 if ok and t_hit >= hit_from:

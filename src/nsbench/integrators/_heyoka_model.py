@@ -35,12 +35,15 @@ import heyoka as hy
 import numpy as np
 
 from nsbench.integrators.base import SectionHit
+from nsbench.problems.friction_spec import LAYOUT
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.integrators.base import ArcRequest
     from nsbench.problems.oscillator import FrictionOscillator
 
 GUARD_SLOT = {"velocity": 0, "upper": 1, "lower": 2}
+#: The coefficients' layout (the friction law's, whose head, the block count, is left out here).
+COEFFICIENTS = LAYOUT
 
 #: Floating-point types by the precision names of :class:`Capabilities`.
 FP_TYPES: dict[str, Any] = {"double": float, "long double": np.longdouble,
@@ -71,7 +74,8 @@ class Structure:
 
     @property
     def mode_offset(self) -> int:
-        return 6 * self.n_blocks + 3
+        """After the coefficients (:func:`coefficient_values`)."""
+        return len(COEFFICIENTS.fields) * self.n_blocks + len(COEFFICIENTS.tail)
 
     @property
     def guard_offset(self) -> int:
@@ -82,7 +86,12 @@ class Structure:
         return self.guard_offset + 2 * (3 * (guard.block - 1) + GUARD_SLOT[guard.kind])
 
     def section_offset(self, slot: int) -> int:
-        return self.guard_offset + 6 * self.n_blocks + slot * (2 + self.n_mech)
+        """After the guards' flags and signs (two entries per guard kind and block)."""
+        return self.guard_offset + 2 * len(GUARD_SLOT) * self.n_blocks + slot * (2 + self.n_mech)
+
+    def coefficient(self, name: str, block: int = 0) -> int:
+        """Index of a coefficient (of ``block``, 0-based, for the per-block ones) in the runtime parameters."""
+        return LAYOUT.offset(name, self.n_blocks, block) - LAYOUT.head_size
 
     @property
     def n_pars(self) -> int:
@@ -90,9 +99,9 @@ class Structure:
 
 
 def coefficient_values(problem: "FrictionOscillator") -> list[float]:
-    """The first ``6 n_blocks + 3`` parameters: the problem's coefficients."""
-    c = problem.coefficients
-    return [*c.m, *c.c, *c.k, *c.h, *c.fs, *c.fr, c.F, c.w, c.v0]
+    """The first parameters: the problem's coefficients, in the order of the friction law's layout
+    (:data:`COEFFICIENTS`, without the block count)."""
+    return [float(v) for v in problem.packed[LAYOUT.head_size:]]
 
 
 class SectionLog:
@@ -112,8 +121,8 @@ def _system(st: Structure):
     mech = hy.make_vars(*[f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v")])
     x, v = mech[0::2], mech[1::2]
     par = hy.par
-    m, c, k, h, fs, fr = ([par[j * nb + i] for i in range(nb)] for j in range(6))
-    F, w, v0 = par[6 * nb], par[6 * nb + 1], par[6 * nb + 2]
+    m, c, k, h, fs, fr = ([par[st.coefficient(name, i)] for i in range(nb)] for name in LAYOUT.fields)
+    F, w, v0 = (par[st.coefficient(name)] for name in LAYOUT.tail)
     sigma = [par[st.mode_offset + i] for i in range(nb)]
     sign = [par[st.mode_offset + nb + i] for i in range(nb)]
     cos_wt, sin_wt = hy.make_vars("cos_wt", "sin_wt") if st.forced else (None, None)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.integrators._chebyshev import barycentric
-from nsbench.integrators._picard_iteration import CONVERGED, picard_iterations
-from nsbench.integrators._picard_location import SECTION, first_zero, root, state_at
+from nsbench.integrators._picard_iteration import CONVERGED, Iteration, Nodal, picard_iterations
+from nsbench.integrators._picard_location import SECTION, Segment, Target, first_zero, root, state_at
 from nsbench.model.abi import (
     K_BUDGET,
     K_FAIL,
@@ -142,8 +142,8 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                 G[j, i] = g0[i]
         for i in range(n):
             D[0, i] = 0.0
-        code, its, nf, nj = picard_iterations(p, mode, t_a, base, w, nodes, E, D, X, G, J, P, Y, Z,
-                                              order, jac_node, tol, max_iter)
+        code, its, nf, nj = picard_iterations(p, mode, t_a, base, w, nodes, E, Nodal(D, X, G, J, P, Y, Z),
+                                              Iteration(order, jac_node, tol, max_iter))
         steps += 1
         cnt[NSTEPS] += 1
         cnt[ITERATIONS] += its
@@ -187,11 +187,11 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
         best_tau = np.inf
         best_q = -1
         j_stop = N
+        seg = Segment(t_a, w, nodes, weights, D, base, comp)
         for j in range(1, m):
             for q in range(nq):
-                found, tau, nf = first_zero(p, mode, kinds[q], blocks[q], float(signs[q]), sc,
-                                            sl, t_a, w, nodes, weights, D, base, comp,
-                                            nodes[j - 1], nodes[j], phi[q, j - 1], phi[q, j],
+                tg = Target(kinds[q], blocks[q], float(signs[q]), sc, sl)
+                found, tau, nf = first_zero(p, mode, tg, seg, nodes[j - 1], nodes[j], phi[q, j - 1], phi[q, j],
                                             dphi[q, j - 1], dphi[q, j], ybuf, dybuf)
                 cnt[NFEV] += nf
                 if found and tau < best_tau:  # earliest; the lowest index on a tie
@@ -224,9 +224,8 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                     tau = b
                     if after != 0.0:
                         sgn = 1.0 if before > 0.0 else -1.0
-                        tau, nf = root(p, mode, SECTION, s, sgn, sc, sl, t_a, w, nodes,
-                                       weights, D, base, comp, nodes[j - 1], b, sgn * before,
-                                       sgn * after, ybuf, dybuf)
+                        tau, nf = root(p, mode, Target(SECTION, s, sgn, sc, sl), seg, nodes[j - 1], b,
+                                       sgn * before, sgn * after, ybuf, dybuf)
                         cnt[NFEV] += nf
                     t_hit = t0 + (s_a + w * (tau + 1.0))
                     if t_hit >= hit_from:
@@ -241,10 +240,10 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
             if 0 <= hit_stop <= si[SI_NHITS]:
                 si[SI_NHITS] = hit_stop
                 t_stop = hits.t[hit_stop - 1]
-                _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, 1.0, nodes, weights, D, base, comp, ybuf)
+                _dense(dense, si, t0, s_a, t_stop, 1.0, seg, ybuf)
                 copy_into(y_out, hits.y[hit_stop - 1])
                 return K_HIT_STOP, t_stop, 0.0, -1
-        _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, tau_stop, nodes, weights, D, base, comp, ybuf)
+        _dense(dense, si, t0, s_a, t_stop, tau_stop, seg, ybuf)
         # next start state, compensated: base + comp += increment at tau_stop
         if tau_stop == 1.0:
             copy_into(dstop, D[N])
@@ -270,12 +269,13 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
 
 
 @hot
-def _dense(t_eval, y_eval, si, t0, s_a, w, t_stop, tau_max, nodes, weights, D, base, comp, ybuf):
+def _dense(dense, si, t0, s_a, t_stop, tau_max, seg, ybuf):
     """States at the requested times up to ``t_stop`` from the segment's interpolant."""
+    t_eval, y_eval = dense.t, dense.y
     i = si[SI_IEVAL]
     while i < t_eval.shape[0] and t_eval[i] <= t_stop:
-        tau = min(max(((t_eval[i] - t0) - s_a) / w - 1.0, -1.0), tau_max)
-        state_at(nodes, weights, D, base, comp, tau, ybuf)
+        tau = min(max(((t_eval[i] - t0) - s_a) / seg.w - 1.0, -1.0), tau_max)
+        state_at(seg.nodes, seg.weights, seg.D, seg.base, seg.comp, tau, ybuf)
         copy_into(y_eval[i], ybuf)
         i += 1
     si[SI_IEVAL] = i

@@ -8,6 +8,8 @@ state can be carried to the next segment with compensated summation.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from nsbench.model.compile import hot
@@ -17,6 +19,28 @@ from nsbench.model.law import jacobian, rhs
 CONVERGED, MAX_ITER = 0, 1
 #: Increments that stop shrinking below this (relative to the state scale) have reached round-off.
 ROUNDOFF = 64.0 * np.finfo(np.float64).eps
+
+
+class Nodal(NamedTuple):
+    """The node arrays of a segment's iteration: increments ``D``, states ``X``, fields ``G``, Jacobians
+    ``J`` and the work arrays ``P, Y, Z``."""
+
+    D: np.ndarray
+    X: np.ndarray
+    G: np.ndarray
+    J: np.ndarray
+    P: np.ndarray
+    Y: np.ndarray
+    Z: np.ndarray
+
+
+class Iteration(NamedTuple):
+    """How to iterate: the feedback ``order``, Jacobians at the nodes (``jac_node``), ``tol``, ``max_iter``."""
+
+    order: int
+    jac_node: bool
+    tol: float
+    max_iter: int
 
 
 @hot
@@ -46,13 +70,13 @@ def _jacobian_times(J, Z, out, accumulate):
 
 
 @hot
-def picard_iterations(p, mode, t_a, y_a, w, nodes, E, D, X, G, J, P, Y, Z, order, jac_node, tol,
-                      max_iter):
+def picard_iterations(p, mode, t_a, y_a, w, nodes, E, nodal, it_settings):
     """Iterate the segment ``[t_a, t_a + 2w]`` of the frozen-mode field in place.
 
-    On entry ``D`` holds the initial guess of the increments (row 0 zero) and
-    ``G[0]`` the field at ``(t_a, y_a)``; ``X, J, P, Y, Z`` are work arrays. One
-    iteration, with ``X = y_a + D``:
+    ``nodal`` (:class:`Nodal`): on entry ``D`` holds the initial guess of the
+    increments (row 0 zero) and ``G[0]`` the field at ``(t_a, y_a)``; ``X, J, P, Y,
+    Z`` are work arrays. ``it_settings``: :class:`Iteration`. One iteration, with
+    ``X = y_a + D``:
 
     - ``G_j = g(X_j, t_j)`` at the nodes ``j >= 1``;
     - the Picard update ``P = w E G`` and its correction ``dP = P - D``;
@@ -68,6 +92,8 @@ def picard_iterations(p, mode, t_a, y_a, w, nodes, E, D, X, G, J, P, Y, Z, order
     (code, iterations, nfev, njev)
         ``code`` is :data:`CONVERGED` or :data:`MAX_ITER` (also for non-finite iterates).
     """
+    D, X, G, J, P, Y, Z = nodal
+    order, jac_node, tol, max_iter = it_settings
     m, n = D.shape
     nfev = 0
     njev = 0

@@ -1,7 +1,8 @@
 """Compiled (numba) location of guard and section zeros on a converged Chebyshev segment.
 
-Every function takes the segment as ``(t_a, w, nodes, weights, D, base, comp)``,
-the interpolant being
+Every function takes the segment as a :class:`Segment` ``(t_a, w, nodes,
+weights, D, base, comp)`` and what it looks for as a :class:`Target`, the
+interpolant being
 ``y(tau) = base + (p_D(tau) + comp)`` with ``p_D`` the barycentric interpolant of
 the increments ``D`` and ``comp`` the compensated-summation remainder of the
 start state. Values are signed so that the valid side is positive; derivatives
@@ -10,6 +11,8 @@ differentiating the polynomial.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,6 +25,29 @@ _EPS = np.finfo(np.float64).eps
 SECTION = -1  # ``target`` code of a linear section (guards use their kind codes >= 0)
 
 
+class Segment(NamedTuple):
+    """A converged segment: ``y(tau) = base + (p_D(tau) + comp)`` at ``t = t_a + w (tau + 1)``."""
+
+    t_a: float
+    w: float
+    nodes: np.ndarray
+    weights: np.ndarray
+    D: np.ndarray
+    base: np.ndarray
+    comp: np.ndarray
+
+
+class Target(NamedTuple):
+    """What is located: guard ``(kind, index)`` (``kind >= 0``) or section ``index`` (``kind = SECTION``),
+    signed by ``sign`` so that its valid side is positive."""
+
+    kind: int
+    index: int
+    sign: float
+    sec_coeffs: np.ndarray
+    sec_levels: np.ndarray
+
+
 @hot
 def state_at(nodes, weights, D, base, comp, tau, out):
     """The interpolated state at ``tau`` into ``out``."""
@@ -31,31 +57,27 @@ def state_at(nodes, weights, D, base, comp, tau, out):
 
 
 @hot
-def evaluate(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base,
-             comp, tau, y, dy, want_rate):
-    """``sign *`` guard (kind ``target``, block ``index``) or section ``index`` at ``tau``.
-
-    Returns ``(value, d value / d tau)``; the rate (one field evaluation) only if ``want_rate``.
-    """
-    state_at(nodes, weights, D, base, comp, tau, y)
-    t = t_a + w * (tau + 1.0)
-    if target >= 0:
-        f = sign * guard_value(p, mode, target, index, t, y)
+def evaluate(p, mode, tg, seg, tau, y, dy, want_rate):
+    """``sign *`` the target at ``tau`` of the segment; ``(value, d value / d tau)``, the rate (one field
+    evaluation) only if ``want_rate``."""
+    state_at(seg.nodes, seg.weights, seg.D, seg.base, seg.comp, tau, y)
+    t = seg.t_a + seg.w * (tau + 1.0)
+    if tg.kind >= 0:
+        f = tg.sign * guard_value(p, mode, tg.kind, tg.index, t, y)
     else:
-        f = sign * linear_section_value(sec_coeffs[index], sec_levels[index], y)
+        f = tg.sign * linear_section_value(tg.sec_coeffs[tg.index], tg.sec_levels[tg.index], y)
     if not want_rate:
         return f, 0.0
     rhs(p, mode, t, y, dy)
-    if target >= 0:
-        d = sign * guard_rate(p, mode, target, index, t, y, dy)
+    if tg.kind >= 0:
+        d = tg.sign * guard_rate(p, mode, tg.kind, tg.index, t, y, dy)
     else:
-        d = sign * linear_section_rate(sec_coeffs[index], dy)
-    return f, w * d
+        d = tg.sign * linear_section_rate(tg.sec_coeffs[tg.index], dy)
+    return f, seg.w * d
 
 
 @hot
-def root(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
-         lo, hi, f_lo, f_hi, y, dy):
+def root(p, mode, tg, seg, lo, hi, f_lo, f_hi, y, dy):
     """Zero in ``[lo, hi]`` where ``f_lo > 0 >= f_hi``: Newton from the secant point, bracket kept.
 
     A Newton step that leaves the bracket is replaced by bisection. Stops when
@@ -69,8 +91,7 @@ def root(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, we
         tau = 0.5 * (lo + hi)
     nfev = 0
     for _ in range(100):
-        f, d = evaluate(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                        D, base, comp, tau, y, dy, True)
+        f, d = evaluate(p, mode, tg, seg, tau, y, dy, True)
         nfev += 1
         if f == 0.0:
             return tau, nfev
@@ -88,8 +109,7 @@ def root(p, mode, target, index, sign, sec_coeffs, sec_levels, t_a, w, nodes, we
 
 
 @hot
-def extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
-             lo, hi, minimum, y, dy):
+def extremum(p, mode, tg, seg, lo, hi, minimum, y, dy):
     """Bisection on the sign of the rate for the minimum (or maximum) of a guard in ``[lo, hi]``.
 
     Stops early at a point that settles the question (value <= 0 when looking
@@ -101,8 +121,7 @@ def extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, 
     f = 0.0
     while True:
         mid = 0.5 * (lo + hi)
-        f, d = evaluate(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                        D, base, comp, mid, y, dy, True)
+        f, d = evaluate(p, mode, tg, seg, mid, y, dy, True)
         nfev += 1
         if (minimum and f <= 0.0) or (not minimum and f > 0.0) or hi - lo <= 1e-10:
             break
@@ -114,8 +133,7 @@ def extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, 
 
 
 @hot
-def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D, base, comp,
-               a, b, fa, fb, da, db, y, dy):
+def first_zero(p, mode, tg, seg, a, b, fa, fb, da, db, y, dy):
     """First zero of a signed guard in the node interval ``[a, b]`` from its end values and rates.
 
     ``fa > 0`` is the usual case: a sign change is a crossing; equal signs with
@@ -125,15 +143,12 @@ def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes
     """
     if fa > 0.0:
         if fb <= 0.0:
-            tau, nf = root(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights, D,
-                           base, comp, a, b, fa, fb, y, dy)
+            tau, nf = root(p, mode, tg, seg, a, b, fa, fb, y, dy)
             return True, tau, nf
         if da < 0.0 and db > 0.0:
-            m, fm, nf = extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                                 D, base, comp, a, b, True, y, dy)
+            m, fm, nf = extremum(p, mode, tg, seg, a, b, True, y, dy)
             if fm <= 0.0:
-                tau, nf2 = root(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                                D, base, comp, a, m, fa, fm, y, dy)
+                tau, nf2 = root(p, mode, tg, seg, a, m, fa, fm, y, dy)
                 return True, tau, nf + nf2
             return False, b, nf
         return False, b, 0
@@ -145,21 +160,18 @@ def first_zero(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes
     if fb > 0.0:
         if da >= 0.0:
             return False, b, 0
-        m, fm, nf = extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                             D, base, comp, a, b, True, y, dy)
+        m, fm, nf = extremum(p, mode, tg, seg, a, b, True, y, dy)
         scale = 1.0
-        for i in range(base.shape[0]):
-            scale = max(scale, abs(base[i]))
+        for i in range(seg.base.shape[0]):
+            scale = max(scale, abs(seg.base[i]))
         if fm < -64.0 * _EPS * scale:  # a genuine dip: it leaves its valid side at once
             return True, a, nf
         return False, b, nf
     if da == 0.0 and fb == 0.0:
         return True, a, 0
     # not positive at the node: did it rise and come back within the first interval?
-    m, fm, nf = extremum(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                         D, base, comp, a, b, False, y, dy)
+    m, fm, nf = extremum(p, mode, tg, seg, a, b, False, y, dy)
     if fm > 0.0:
-        tau, nf2 = root(p, mode, kind, block, sign, sec_coeffs, sec_levels, t_a, w, nodes, weights,
-                        D, base, comp, m, b, fm, fb, y, dy)
+        tau, nf2 = root(p, mode, tg, seg, m, b, fm, fb, y, dy)
         return True, tau, nf + nf2
     return True, a, nf

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.integrators.base import ArcRequest
-from nsbench.problems import kernels
 
 ROOT_RETURN, TSTOP_RETURN = 2, 1  # SUNDIALS return flags (CV_/IDA_ROOT_RETURN, *_TSTOP_RETURN)
 
@@ -22,8 +21,9 @@ class CallbackData:
         self.sec_levels = np.zeros(n_sections)
 
     def load(self, request: ArcRequest) -> None:
-        self.mode = kernels.mode_array(request.mode)
-        self.kinds[:], self.blocks[:], self.signs[:] = kernels.guard_codes(request.guards)
+        self.mode = np.ascontiguousarray(request.mode, dtype=np.int64)
+        for q, g in enumerate(request.guards):
+            self.kinds[q], self.blocks[q], self.signs[q] = g.code, g.block - 1, g.expected_sign
         for j, sec in enumerate(request.sections):
             self.sec_coeffs[j] = sec.coeffs
             self.sec_levels[j] = sec.level

@@ -353,6 +353,13 @@ class CompiledArcs(Integrator):
         mode = problem.initial_mode(0.0, problem.initial_state())
         kernel_advance(self, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Without the kernel: its function addresses belong to this process (set up again after unpickling)."""
+        state = dict(self.__dict__)
+        state.pop("_kernel", None)
+        state.pop("_kernel_problem", None)
+        return state
+
     def compiled_kernel(self, problem: "HybridProblem"):
         """The kernel itself, also for a subclass that overrides :meth:`advance` (which then calls it)."""
         if getattr(self, "_kernel_problem", None) is not problem:

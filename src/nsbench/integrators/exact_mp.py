@@ -95,11 +95,12 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems.modes import Mode
 from nsbench.problems.oscillator import FrictionOscillator
-from nsbench.results import Status
+from nsbench.status import Status
 
 #: Inflation of every bound computed in double (norms, exponentials) so that rounding cannot shrink it.
 _SAFETY = 1.0 + 1e-9
@@ -451,9 +452,7 @@ class _LinearFormModel(_Model):
         return rows
 
     def guard(self, kind: int, block: int) -> list:
-        from nsbench.integrators.exact import guard_row
-
-        return [self.ctx.mpf(float(v)) for v in guard_row(self.problem, kind, block)[: self.d]]
+        return [self.ctx.mpf(float(v)) for v in self.problem.guard_row((), kind, block)[: self.d]]
 
 
 class _CoefficientModel(_Model):
@@ -503,7 +502,7 @@ class _CoefficientModel(_Model):
         return rows
 
     def guard(self, kind: int, block: int) -> list:
-        from nsbench.hybrid.rules import UPPER, VELOCITY
+        from nsbench.problems.friction_spec import UPPER, VELOCITY
 
         ctx, n = self.ctx, self.n
         c = self.problem.coefficients
@@ -677,6 +676,10 @@ class ExactMP(Integrator):
     def setup(self, problem: FrictionOscillator) -> None:
         """Refuse cubic problems; a fresh mp context, mode cache and carry for ``problem``."""
         super().setup(problem)
+        if getattr(problem, "family", "") != "friction":
+            raise UnsupportedProblemError(
+                f"{self.name} writes the friction family's modes in extended precision; {problem!r} is of the "
+                f"{problem.family or 'other'!r} family")
         self._problem = problem
         self._ctx = mpmath.MPContext()  # private: global mpmath precision is never touched
         self._ctx.dps = int(self.settings["digits"])
@@ -725,13 +728,10 @@ class ExactMP(Integrator):
 
     def _rows(self, request: ArcRequest, flow: _ModeFlow):
         """``[(row, sign)]`` of the guards and ``[row]`` of the sections of the request."""
-        from nsbench.hybrid.rules import LOWER, UPPER, VELOCITY
-
         ctx, model = self._ctx, self._model
-        kinds = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}
         guards = []
         for g in request.guards:
-            key = (kinds[g.kind], g.block - 1)
+            key = (g.code, g.block - 1)
             guards.append((flow.row(key, lambda key=key: model.guard(*key)), int(g.expected_sign)))
         sections = []
         for sec in request.sections:

@@ -32,12 +32,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from nsbench.errors import ConfigError
+from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import _heyoka_model as model
 from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.problems.modes import STICK
-from nsbench.results import Status
+from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 
@@ -63,6 +63,10 @@ class HeyokaIntegrator(Integrator):
 
     def setup(self, problem) -> None:
         super().setup(problem)
+        if getattr(problem, "family", "") != "friction":
+            raise UnsupportedProblemError(
+                f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
+                f"{problem.family or 'other'!r} family, which has no heyoka form")
         self._problem = problem
         self._models: dict[int, Any] = {}
         self._fp = model.FP_TYPES.get(self.precision)
@@ -151,7 +155,7 @@ class HeyokaIntegrator(Integrator):
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
         t0 = ta.time
         if st.forced:
-            w = np.array([pars[6 * nb + 1]], dtype=float).astype(fp)
+            w = np.array([pars[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
             state = np.concatenate([state, np.cos(phase), np.sin(phase)])
         ta.state[:] = state

@@ -182,6 +182,7 @@ def iterate_segment(problem, mode, t_a: float, y_a, h: float, *, N: int = 12, or
     X, P, Y, Z = (np.empty_like(D) for _ in range(4))
     J = np.empty((N + 1, n, n))
     code, its, _, _ = _picard_iteration.picard_iterations(
-        p, m_arr, float(t_a), y_a, w, ops.nodes.copy(), ops.integration.copy(), D, X, G, J, P, Y, Z,
-        order, jacobian == "node", tol, max_iter)
+        p, m_arr, float(t_a), y_a, w, ops.nodes.copy(), ops.integration.copy(),
+        _picard_iteration.Nodal(D, X, G, J, P, Y, Z),
+        _picard_iteration.Iteration(int(order), jacobian == "node", float(tol), int(max_iter)))
     return X, code == _picard_iteration.CONVERGED, int(its)

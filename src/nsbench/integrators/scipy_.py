@@ -24,7 +24,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
-from nsbench.results import Status
+from nsbench.status import Status
 
 
 class _BudgetExhausted(Exception):
@@ -50,16 +50,14 @@ class _StepCounter:
         return 1.0
 
 
-def _guard_event(p: np.ndarray, guard, terminal: bool, direction: float):
-    """A guard as a scipy event function, evaluated by the compiled kernel of the problem."""
-    from nsbench.hybrid.rules import LOWER, UPPER, VELOCITY
-    from nsbench.problems.kernels import guard_value
-
-    kind = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}[guard.kind]
-    block = guard.block - 1
+def _guard_event(guard, mode: np.ndarray, terminal: bool, direction: float):
+    """A guard as a scipy event function, evaluated by the problem's compiled law."""
+    problem = guard.problem
+    guard_value, p = problem.law.guard_value, problem.data.p
+    kind, index = guard.code, guard.block - 1
 
     def event(t: float, y: np.ndarray) -> float:
-        return guard_value(p, kind, block, t, y)
+        return guard_value(p, mode, kind, index, t, y)
 
     event.terminal = terminal
     event.direction = direction
@@ -96,32 +94,31 @@ class ScipyIntegrator(Integrator):
     def advance(self, request: ArcRequest) -> ArcResult:
         problem, mode = request.problem, request.mode
         opts = self.settings
-        from nsbench.problems import kernels
-
         counter = _StepCounter(request.max_steps)
-        p = problem.packed
-        guard_events = [_guard_event(p, g, True, -float(g.expected_sign)) for g in request.guards]
+        law, p = problem.law, problem.data.p
+        m = problem.mode_array(mode)
+        guard_events = [_guard_event(g, m, True, -float(g.expected_sign)) for g in request.guards]
         section_events = [_section_event(s, float(s.direction)) for s in request.sections]
         dense = request.t_eval.size > 0
         max_step = opts["max_step"]
         if max_step is None:
-            c = problem.coefficients
-            max_step = (2.0 * np.pi / c.w) / 16.0 if (c.F != 0.0 and c.w > 0.0) else np.inf
-        # the field, Jacobian and guards of the mode are the problem's compiled kernels: scipy's own
+            w = problem.forcing_frequency
+            max_step = (2.0 * np.pi / w) / 16.0 if (problem.is_forced and w > 0.0) else np.inf
+        # the field, Jacobian and guards of the mode are the problem's compiled law: scipy's own
         # work is what is measured, not a Python re-evaluation of the model
-        m = kernels.mode_array(mode)
         n = problem.n_states
+        rhs, jacobian = law.rhs, law.jacobian
 
         def fun(t, y):
             out = np.empty(n)
-            kernels.rhs(p, m, t, y, out)
+            rhs(p, m, t, y, out)
             return out
 
         kwargs = {}
         if self.implicit:
             def jac(t, y):
                 out = np.empty((n, n))
-                kernels.jacobian(p, m, t, y, out)
+                jacobian(p, m, t, y, out)
                 return out
 
             kwargs["jac"] = jac

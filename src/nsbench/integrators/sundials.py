@@ -37,9 +37,9 @@ from nsbench.integrators._sundials_loop import (
     InterpolatedOutput,
     forget_roots,
 )
+from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
-from nsbench.problems import kernels
-from nsbench.results import Status
+from nsbench.status import Status
 
 _OPTIONS = {
     "rtol": Option(1e-8, float, lower=0.0, upper=1e-3, doc="relative tolerance"),
@@ -56,8 +56,13 @@ class SundialsIntegrator(Integrator):
 
     def setup(self, problem) -> None:
         super().setup(problem)
+        if getattr(problem, "family", "") != "friction":
+            raise UnsupportedProblemError(
+                f"{self.name} integrates the friction family's formulation (the forcing as states; for ida the "
+                f"friction forces as algebraic variables); {problem!r} is of the {problem.family or 'other'!r} "
+                "family")
         self._problem = problem
-        self._p = kernels.pack(problem)
+        self._p = np.array(problem.packed, dtype=float)
         self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}
 
     def _first_arc(self, problem) -> None:
@@ -154,18 +159,21 @@ class CvodeIntegrator(SundialsIntegrator):
 
     def setup(self, problem) -> None:
         super().setup(problem)
+        from nsbench.problems.friction_spec import LAYOUT
+
         c = problem.coefficients
         self._F, self._w = float(c.F), float(c.w)
         self._p0 = self._p.copy()
-        self._p0[1 + 6 * problem.n_blocks] = 0.0  # the force enters through the cos state
+        self._p0[LAYOUT.offset("F", problem.n_blocks)] = 0.0  # the force enters through the cos state
         self._n_extra = 2 if self._F != 0.0 else 0
         # Compile the kernels here, so that setup_time holds the compilation.
         n = problem.n_states + 2
         y, out = np.zeros(n), np.zeros(n)
-        mode, codes = kernels.mode_array((1,) * problem.n_blocks), np.zeros(1, dtype=np.int64)
+        mode, codes = np.ones(problem.n_blocks, dtype=np.int64), np.zeros(1, dtype=np.int64)
         sk.cvode_rhs(self._p0, mode, 1.0, 1.0, y, out)
         sk.cvode_jacobian(self._p0, mode, 1.0, 1.0, y, np.zeros((n, n)))
-        sk.cvode_roots(self._p0, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
+        sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y,
+                       np.zeros(2))
         self._first_arc(problem)
 
     def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
@@ -180,7 +188,8 @@ class CvodeIntegrator(SundialsIntegrator):
             sk.cvode_jacobian(p0, arc.mode, F, w, y, jj)
 
         def eventsfn(t, y, events):
-            sk.cvode_roots(p0, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
+            sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y,
+                           events)
 
         opts = self._common_options(n_events, directions, eventsfn)
         return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
@@ -222,7 +231,7 @@ class Ida(SundialsIntegrator):
         super().setup(problem)
         # Compile the kernels here, so that setup_time holds the compilation.
         nb, n = problem.n_blocks, problem.n_states
-        mode, codes = kernels.mode_array((0,) * nb), np.zeros(1, dtype=np.int64)
+        mode, codes = np.zeros(nb, dtype=np.int64), np.zeros(1, dtype=np.int64)
         y, out = np.zeros(n + nb), np.zeros(n + nb)
         sk.ida_residual(self._p, mode, 0.0, y, y, out)
         sk.ida_jacobian(self._p, mode, mode, 0.0, y, 1.0, np.zeros((n, n)), np.zeros((n + nb, n + nb)))
@@ -234,7 +243,7 @@ class Ida(SundialsIntegrator):
         from sksundae.ida import IDA
 
         p = self._p
-        nb = int(p[0])
+        nb = self._problem.n_blocks
         n = 2 * nb
         slip_all = np.full(nb, -1, dtype=np.int64)
         scratch = np.zeros((n, n))
@@ -248,7 +257,7 @@ class Ida(SundialsIntegrator):
         def eventsfn(t, y, yp, events):
             sk.ida_roots(p, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
 
-        mode = kernels.mode_array(self._pending_mode)
+        mode = np.asarray(self._pending_mode, dtype=np.int64)
         algebraic = [n + i for i in range(nb)] + [2 * i + 1 for i in range(nb) if mode[i] == 0]
         opts = self._common_options(n_events, directions, eventsfn)
         return IDA(resfn, jacfn=jacfn, algebraic_idx=sorted(algebraic), **opts), eventsfn
@@ -258,6 +267,6 @@ class Ida(SundialsIntegrator):
         return super()._solver(request)
 
     def _start(self, solver, request: ArcRequest):
-        y0, yp0 = sk.consistent_start(self._p, kernels.mode_array(request.mode),
+        y0, yp0 = sk.consistent_start(self._p, np.asarray(request.mode, dtype=np.int64),
                                       float(request.t0), np.asarray(request.y0, dtype=float))
         return solver.init_step(float(request.t0), y0, yp0)

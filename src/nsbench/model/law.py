@@ -209,10 +209,10 @@ def _rows(y: np.ndarray, n: int) -> tuple[np.ndarray, bool]:
     if y.ndim == 1:
         if y.shape[0] != n:
             raise ValueError(f"a state has {n} entries, not {y.shape[0]}")
-        return np.ascontiguousarray(y.reshape(1, n)), True
+        return np.array(y.reshape(1, n)), True  # a writable copy: the law's types are writable arrays
     if y.ndim != 2 or y.shape[0] != n:
         raise ValueError(f"states must have shape ({n},) or ({n}, k), not {y.shape}")
-    return np.ascontiguousarray(y.T), False
+    return np.array(y.T, order="C"), False
 
 
 def _times(t: Any, k: int) -> np.ndarray:

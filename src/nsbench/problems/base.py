@@ -271,6 +271,14 @@ class HybridProblem:
         code = self.law.transition(self.data.p, new, guard.code, guard.block - 1, float(t), y_new, fresh)
         return Transition(tuple(int(v) for v in new), y_new, self.event_kinds[code], guard.block)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Without the compiled views: their function addresses belong to this process (a pickled problem
+        is rebuilt in another one)."""
+        state = dict(self.__dict__)
+        state.pop("_data", None)
+        state.pop("_guards", None)
+        return state
+
     def __repr__(self) -> str:
         case = f", case={self.case}" if self.case is not None else ""
         extra = f", params={self.params}" if self.params else ""

@@ -17,7 +17,7 @@ import re
 from typing import Any
 
 from nsbench.errors import ConfigError
-from nsbench.problems.oscillator import FrictionOscillator
+from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
     Bound,
     Coefficients,
@@ -141,6 +141,8 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
     """
     nb = check_n(n)
     case_n = check_case(NAME, 1 if case is None else case)
+    user = {"n": nb, **params}
+    params, y0, start = split_start(NAME, params, nb)
     uniform_names = UNIFORM_DIMENSIONAL if dimensional else UNIFORM_DIMENSIONLESS
     stems = PER_BLOCK_DIMENSIONAL if dimensional else PER_BLOCK_DIMENSIONLESS
     given_u, given_b = _split_names(dict(params), nb, uniform_names, stems, dimensional)
@@ -195,6 +197,5 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
                 parameters[f"{stem}{i}"] = 1.0
             else:
                 parameters[f"{stem}{i}"] = per_block(stem, i)
-    user = {"n": nb, **params}
     return FrictionOscillator(coeffs, name=NAME, case=case_n, dimensional=dimensional,
-                              params=user, parameters=parameters, scales=scales)
+                              params=user, parameters={**parameters, **start}, scales=scales, y0=y0)

@@ -25,9 +25,7 @@ COLUMNS = ["t", "energy_change", "work_friction", "work_damping", "work_force", 
 
 def _modes_after(result: "SimulationResult") -> list[tuple]:
     """The mode after each event, from the event log's ``mode`` column."""
-    from nsbench.hybrid.records import parse_mode
-
-    return [parse_mode(text) for text in result.events["mode"]]
+    return [result.problem.parse_mode(text) for text in result.events["mode"]]
 
 
 def _cumulative(t: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -53,7 +51,7 @@ def energy_balance(result: "SimulationResult") -> pd.DataFrame:
         raise ConfigError("energy_balance needs a trajectory: simulate with t_eval=...")
     times = traj["t"].to_numpy()
     states = traj[names].to_numpy().T
-    phases = traj[[f"phase{i + 1}" for i in range(problem.n_blocks)]].to_numpy()
+    phases = traj[list(problem.mode_columns)].to_numpy()
     t_start, y_start = float(times[0]), states[:, 0]
     modes_after = _modes_after(result)
     ev_t = result.events["t"].to_numpy()

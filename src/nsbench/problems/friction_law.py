@@ -35,6 +35,7 @@ from nsbench.problems.friction_spec import (  # noqa: F401 - the family's vocabu
     LAYOUT,
     LOWER,
     M,
+    N_BLOCKS,
     SLIP_NEG,
     SLIP_POS,
     STICK,
@@ -50,19 +51,19 @@ _NF = len(LAYOUT.fields)
 # ---------------------------------------------------------------------- the layout, by name
 @inline
 def n_blocks(p):
-    return int(p[0])
+    return int(p[N_BLOCKS])
 
 
 @inline
 def block(p, field, i):
     """Field ``field`` (``M``, ``C``, ...) of block ``i`` (0-based)."""
-    return p[_HEAD + field * int(p[0]) + i]
+    return p[_HEAD + field * int(p[N_BLOCKS]) + i]
 
 
 @inline
 def scalar(p, which):
     """Tail scalar ``which`` (``F_AMP``, ``F_FREQ``, ``V0``)."""
-    return p[_HEAD + _NF * int(p[0]) + which]
+    return p[_HEAD + _NF * int(p[N_BLOCKS]) + which]
 
 
 @inline

@@ -12,6 +12,7 @@ from nsbench.model.layout import Layout
 #: The parameter vector: the number of blocks, then per block its mass, damping, spring to the previous
 #: block (to the ground for block 1), cubic coefficient, kinetic and static friction, then the force.
 LAYOUT = Layout(head=("n_blocks",), fields=("m", "c", "k", "h", "fs", "fr"), tail=("F", "w", "v0"))
+N_BLOCKS = LAYOUT.offset("n_blocks")
 M, C, K, H, FS, FR = (LAYOUT.field(name) for name in ("m", "c", "k", "h", "fs", "fr"))
 F_AMP, F_FREQ, V0 = (LAYOUT.scalar(name) for name in ("F", "w", "v0"))
 

@@ -8,7 +8,7 @@ cubic spring ``h = 0.576``, 4 both.
 from __future__ import annotations
 
 from nsbench.errors import ConfigError
-from nsbench.problems.oscillator import FrictionOscillator
+from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
     ONE_DOF_DIMENSIONAL,
     ONE_DOF_DIMENSIONLESS,
@@ -46,6 +46,8 @@ def one_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         kinetic friction above the static limit.
     """
     case_n = check_case(NAME, 1 if case is None else case)
+    user = dict(params)
+    params, y0, start = split_start(NAME, params, 1)
     if dimensional:
         given = check_values(NAME, params, ONE_DOF_DIMENSIONAL)
         v = apply_case(TABLE3_DIMENSIONAL_ONE_DOF, case_n, ("h",))
@@ -72,5 +74,5 @@ def one_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         scales = Scales()
     return FrictionOscillator(
         coeffs, name=NAME, case=case_n, dimensional=dimensional,
-        params=dict(params), parameters=dict(v), scales=scales,
+        params=user, parameters={**dict(v), **start}, scales=scales, y0=y0,
     )

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from nsbench.errors import ConfigError
-from nsbench.problems.oscillator import FrictionOscillator
+from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
     TABLE3_DIMENSIONAL_TWO_DOF,
     TABLE3_DIMENSIONLESS_TWO_DOF,
@@ -70,6 +70,8 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         kinetic friction above the static limit, clashing shorthands.
     """
     case_n = check_case(NAME, 1 if case is None else case)
+    user = dict(params)
+    params, y0, start = split_start(NAME, params, 2)
     if dimensional:
         given = check_values(NAME, params, TWO_DOF_DIMENSIONAL)
         v = apply_case(TABLE3_DIMENSIONAL_TWO_DOF, case_n, ("h1", "h2"))
@@ -112,5 +114,5 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
             parameters["r_f"] = v["rf1"]
     return FrictionOscillator(
         coeffs, name=NAME, case=case_n, dimensional=dimensional,
-        params=dict(params), parameters=parameters, scales=scales,
+        params=user, parameters={**parameters, **start}, scales=scales, y0=y0,
     )

@@ -1,0 +1,150 @@
+"""The package's layers import one way, compiled functions take named bundles, and offsets have names.
+
+Layers, from the ground up: ``model`` (the compiled ground floor: the law ABI,
+the generic rules, the loop) below ``problems`` and ``integrators``, below the
+core's driver ``hybrid``, below ``engine`` (``simulate``), below the apps
+(``bench``, ``bifurcation``, ``periodic``, ``testing``), below ``cli``. The
+test reads every module's imports (deferred ones inside functions included)
+with ``ast``.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1] / "src" / "nsbench"
+COMPILERS = {"jit", "hot", "inline", "njit", "cfunc"}
+
+
+def _modules() -> dict[str, ast.Module]:
+    out = {}
+    for path in ROOT.rglob("*.py"):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        name = ".".join(("nsbench", *parts)).removesuffix(".__init__")
+        out[name] = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return out
+
+
+MODULES = _modules()
+
+
+def _runtime_nodes(tree: ast.AST):
+    """Every node except those under ``if TYPE_CHECKING:`` (annotations, never imported at run time)."""
+    for node in ast.iter_child_nodes(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", getattr(node.test, "attr", "")) == "TYPE_CHECKING":
+            continue
+        yield node
+        yield from _runtime_nodes(node)
+
+
+def _imports(tree: ast.Module) -> set[str]:
+    found = set()
+    for node in _runtime_nodes(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nsbench"):
+            found.add(node.module)
+            for alias in node.names:
+                found.add(f"{node.module}.{alias.name}")
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.startswith("nsbench"))
+    return {name for name in found if name in MODULES}
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "nsbench"
+
+
+def _package_edges() -> dict[tuple[str, str], list[str]]:
+    edges: dict[tuple[str, str], list[str]] = {}
+    for name, tree in MODULES.items():
+        for target in _imports(tree):
+            a, b = _layer(name), _layer(target)
+            if a != b:
+                edges.setdefault((a, b), []).append(f"{name} -> {target}")
+    return edges
+
+
+@pytest.mark.parametrize("lower, upper", [
+    ("model", "problems"), ("model", "integrators"), ("model", "hybrid"), ("model", "engine"),
+    ("model", "results"), ("model", "bench"),
+    ("problems", "integrators"), ("problems", "hybrid"), ("problems", "engine"),
+    ("integrators", "hybrid"), ("integrators", "engine"),
+    ("hybrid", "engine"), ("hybrid", "bench"), ("engine", "bench"), ("engine", "cli"),
+])
+def test_a_lower_layer_never_imports_a_higher_one(lower, upper):
+    offending = _package_edges().get((lower, upper), [])
+    assert not offending, f"{lower} imports {upper}: {offending}"
+
+
+def test_no_import_circle_among_problems_integrators_and_the_core():
+    core = {"model", "problems", "integrators", "hybrid"}
+    graph: dict[str, set[str]] = {name: set() for name in core}
+    for (a, b) in _package_edges():
+        if a in core and b in core:
+            graph[a].add(b)
+
+    def reaches(start: str, goal: str, seen: frozenset = frozenset()) -> bool:
+        return any(nxt == goal or (nxt not in seen and reaches(nxt, goal, seen | {nxt})) for nxt in graph[start])
+
+    circles = [name for name in core if reaches(name, name)]
+    assert not circles, f"import circle through {circles}: {graph}"
+
+
+def test_the_core_imports_no_integrator_and_no_problem_module():
+    # the loop and the rules call a problem's law and an integrator's kernel through function tables
+    for name in ("nsbench.model.loop", "nsbench.model.rules", "nsbench.model.law", "nsbench.hybrid.run"):
+        bad = [t for t in _imports(MODULES[name]) if t.startswith(("nsbench.integrators.", "nsbench.problems."))
+               and not t.startswith(("nsbench.integrators.base", "nsbench.problems.base"))]
+        assert not bad, f"{name} imports {bad}"
+
+
+def _compiled_functions():
+    for name, tree in MODULES.items():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef):
+                for deco in node.decorator_list:
+                    target = deco.func if isinstance(deco, ast.Call) else deco
+                    ident = target.attr if isinstance(target, ast.Attribute) else getattr(target, "id", "")
+                    if ident in COMPILERS:
+                        yield name, node
+                        break
+
+
+def test_no_compiled_function_takes_more_than_12_arguments():
+    wide = [f"{name}.{fn.name}: {len(fn.args.args)}" for name, fn in _compiled_functions()
+            if len(fn.args.args) + len(fn.args.kwonlyargs) > 12]
+    assert not wide, f"group these arguments in named bundles: {wide}"
+    assert sum(1 for _ in _compiled_functions()) > 50  # the scan sees the kernels
+
+
+# A subscript of a parameter or option vector whose index is a number (``p[3 + 6*nb]``, ``fo[2]``).
+_BARE = re.compile(r"\b(p|fo|prob\.p)\[\s*[0-9][^\]]*\]")
+
+
+def test_no_bare_offset_into_a_parameter_or_option_vector():
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            code = line.split("#", 1)[0]
+            if _BARE.search(code):
+                offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not offenders, offenders
+
+
+def test_one_status_vocabulary():
+    # Status is defined once; the run outcomes of the compiled loop map onto it one to one
+    from nsbench.hybrid.run import RUN_STATUS
+    from nsbench.model import abi
+    from nsbench.results import Status as from_results
+    from nsbench.status import Status
+
+    assert from_results is Status
+    codes = [v for k, v in vars(abi).items() if k.startswith("RUN_")]
+    assert sorted(RUN_STATUS) == sorted(codes) and set(RUN_STATUS.values()) <= set(Status)
+    defined = [name for name, tree in MODULES.items() for node in ast.walk(tree)
+               if isinstance(node, ast.ClassDef) and node.name == "Status"]
+    assert defined == ["nsbench.status"]

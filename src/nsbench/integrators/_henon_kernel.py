@@ -76,7 +76,7 @@ def _rate(p, mode, sf, t, y, dy):
 def _rk4(p, mode, t, y, h, fy, out, work):
     """One RK4 step into ``out``; ``fy = f(t, y)`` known. Three new evaluations."""
     n = y.shape[0]
-    k2, k3, k4, tmp = work[0], work[1], work[2], work[3]
+    k2, k3, k4, tmp = work[0, :n], work[1, :n], work[2, :n], work[3, :n]
     for j in range(n):
         tmp[j] = y[j] + 0.5 * h * fy[j]
     rhs(p, mode, t + 0.5 * h, tmp, k2)
@@ -94,7 +94,7 @@ def _rk4(p, mode, t, y, h, fy, out, work):
 def _henon(p, mode, sf, ta, tb, t1, y1, out, work):
     """RK4 step in sigma = the surface's function from (t1, y1) to zero. Returns (ok, t_star); state into out."""
     n = y1.shape[0]
-    f, tmp, acc = work[4], work[5], work[6]
+    f, tmp, acc = work[4, :n], work[5, :n], work[6, :n]
     ds = -_value(p, mode, sf, t1, y1)
     t_acc = 0.0
     t_s = t1
@@ -131,7 +131,7 @@ def _bisect(p, mode, sf, sign, t, y, fy, t1, start, out, work):
 
     Returns ``(found, t_hit, n_substeps)``; the state at ``t_hit`` goes into ``out``.
     """
-    ys = work[7]
+    ys = work[7, :y.shape[0]]
     lo = t
     hi = -1.0
     positive_seen = not start
@@ -237,7 +237,7 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
     kinds, blocks, signs = arc.guard_kind[:ng], arc.guard_index[:ng], arc.guard_sign[:ng]
     n_steps_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
     wk = kd.f2a
-    work = wk[0:8, :n]
+    work = wk[0:8]  # rows cut to the state's length where used (contiguous views)
     y, fy, y1, f1, ystar, ybest = wk[8, :n], wk[9, :n], wk[10, :n], wk[11, :n], wk[12, :n], wk[13, :n]
     phi, psi, phi1, psi1 = wk[14, :ng], wk[15, :ng], wk[16, :ng], wk[17, :ng]
     sec_v = wk[18, :ns]

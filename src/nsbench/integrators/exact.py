@@ -244,7 +244,7 @@ class ExactIntegrator(CompiledArcs):
         from nsbench.model.kernel import ArcKernel, arc_table
 
         tables = ModeTables(problem)
-        return ArcKernel(arc_table(exact_arc), kernel_data(tables.data),
+        return ArcKernel(arc_table(exact_arc, problem), kernel_data(tables.data),
                          np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
                          prepare_mode=lambda mode: kernel_data(tables.add(mode)),
                          prepare_run=lambda k: kernel_data(tables.ensure_sections(k)), name=self.name)

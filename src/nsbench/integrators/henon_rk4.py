@@ -37,7 +37,7 @@ class HenonRK4(CompiledArcs):
         from nsbench.model.kernel import ArcKernel, arc_table
 
         n, g = problem.n_states, problem.max_guards
-        kernel = ArcKernel(arc_table(henon_arc), kernel_data(f2a=scratch(n, 2, g)),
+        kernel = ArcKernel(arc_table(henon_arc, problem), kernel_data(f2a=scratch(n, 2, g)),
                            np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
                            name=self.name)
 

@@ -87,7 +87,7 @@ class ChebyshevPicard(CompiledArcs):
             nodal, jacobians, vectors = scratch(m, n, n_sections, g)
             return kernel_data(**operators, f3a=nodal, f3b=jacobians, f2c=vectors)
 
-        kernel = ArcKernel(arc_table(picard_arc), data_for(2), options, self.counter_names,
+        kernel = ArcKernel(arc_table(picard_arc, problem), data_for(2), options, self.counter_names,
                            failure=self._failure, name=self.name)
 
         def prepare_run(n_sections: int):

@@ -15,7 +15,8 @@ named tuples), never as long positional lists: an arc kernel is::
 - ``kd``: the kernel's data (:class:`KernelData`, the same fields for every
   kernel; each kernel names its own views of them); ``fo``: its float options
   (a vector with a named layout of the integrator's).
-- ``prob``: :class:`ProblemData`, the problem's parameter vector and law table.
+- ``prob``: the problem's data, a named tuple ``(p,)`` of its law's own class
+  (:func:`nsbench.model.law.data_class`), through which compiled code calls its law.
 - ``arc``: :class:`Arc`, the mode, its guards, the start ``(t0 + t0_lo, y0)``,
   ``t_end`` and the step budget left.
 - ``sec``: :class:`Sections` (linear state sections); ``hits``: :class:`Hits`,
@@ -52,13 +53,6 @@ B1 = types.Array(types.boolean, 1, "C")
 
 
 # ---------------------------------------------------------------------- bundles
-class ProblemData(NamedTuple):
-    """A problem as compiled code sees it: its parameter vector (named layout of its family) and law table."""
-
-    p: np.ndarray    # float64, the family's parameter layout
-    law: np.ndarray  # int64, addresses of the law's functions (nsbench.model.law)
-
-
 class Arc(NamedTuple):
     """One arc: integrate ``mode`` from ``(t0 + t0_lo, y0)`` to the first zero of a guard, or ``t_end``."""
 
@@ -185,7 +179,6 @@ def _z(dtype, ndim: int) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype)
 
 
-PROBLEM = _type_of(ProblemData(_z(np.float64, 1), _z(np.int64, 1)))
 ARC = _type_of(Arc(_z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), 0, 0.0, 0.0,
                    _z(np.float64, 1), 0.0, 0))
 SECTIONS = _type_of(Sections(_z(np.float64, 2), _z(np.float64, 1), _z(np.int64, 1), 0.0, 0))
@@ -193,9 +186,10 @@ HITS = _type_of(Hits(_z(np.int64, 1), _z(np.float64, 1), _z(np.float64, 2)))
 DENSE = _type_of(Dense(_z(np.float64, 1), _z(np.float64, 2)))
 KERNEL_DATA = _type_of(kernel_data())
 
-#: The signature every arc kernel is compiled for.
-ARC_SIGNATURE = types.Tuple([types.int64, types.float64, types.float64, types.int64])(
-    KERNEL_DATA, F1, PROBLEM, ARC, SECTIONS, HITS, DENSE, I1, F1, I1)
+def arc_signature(problem_data: types.Type):
+    """The signature an arc kernel is compiled for, for problems whose data have this (numba) type."""
+    return types.Tuple([types.int64, types.float64, types.float64, types.int64])(
+        KERNEL_DATA, F1, problem_data, ARC, SECTIONS, HITS, DENSE, I1, F1, I1)
 
 # ---------------------------------------------------------------------- codes and slots
 # kernel statuses

@@ -1,20 +1,19 @@
 """Compiled functions as values: a jitted function's addresses in an int64 table, called from compiled code.
 
-The core calls a problem's law and an integrator's arc kernel without importing
-either: each is compiled for a fixed signature (:mod:`nsbench.model.abi`) and
-handed over as a pair of addresses in an int64 array; an intrinsic turns the
-pair back into a callable first-class function. So one compiled loop serves
-every problem and every kernel and caches on disk. (A jitted function passed
-as an argument would make numba key the compiled caller on that function
-object, and compile it again in every process; a function table built from
-numba's wrapper-address protocol costs tens of microseconds per call to unbox.
-An array of addresses unboxes like any array; a call through it costs a few
-nanoseconds.)
+The loop calls an integrator's arc kernel without importing it: the kernel is
+compiled for a fixed signature (:func:`nsbench.model.abi.arc_signature`) and
+handed over as a pair of addresses in an int64 array, which :func:`caller`
+calls. So the loop never names a kernel and caches on disk. (A jitted function
+passed as an argument would make numba key the compiled caller on that
+function object, and compile it again in every process; numba's first-class
+function values cost tens of microseconds per call to unbox from Python and
+add a Python fallback to every call site. An array of addresses unboxes like
+any array; a call through it costs a few nanoseconds.)
 
 The pair is numba's own: the address of the function's C wrapper and of the
 function itself, which calls through numba's calling convention (errors
-propagate). ``addresses`` compiles the function for the signature first, from
-its disk cache when it has one.
+propagate). :func:`addresses` compiles the function for the signature first,
+from its disk cache when it has one.
 """
 
 from __future__ import annotations
@@ -69,43 +68,39 @@ def addresses(dispatcher: Any, signature: Any) -> tuple[int, int]:
                           f"{signature}: {first}") from None
 
 
-def caster(fntype: types.FunctionType) -> Callable:
-    """A compiled ``f(c_addr, jit_addr)`` that returns the function of type ``fntype`` at those addresses."""
+def caller(signature) -> Callable:
+    """A compiled ``call(jit_addr, args)`` that calls the function at ``jit_addr`` (numba's calling
+    convention) with the tuple ``args``, cast to ``signature``'s argument types; errors propagate.
+
+    Leaner than calling a first-class function value, whose lowering adds a fallback through the
+    Python interpreter at every call site (code that bloats the callers and keeps small ones from
+    being inlined; the address here is never null).
+    """
+    n_args = len(signature.args)
 
     @intrinsic
-    def as_function(typingctx, c_addr, jit_addr):
-        def codegen(context, builder, signature, args):
-            c, j = args
-            fn = cgutils.create_struct_proxy(fntype)(context, builder)
-            voidptr = context.get_value_type(types.voidptr)
-            fn.c_addr = builder.inttoptr(c, voidptr)
-            fn.py_addr = cgutils.get_null_value(voidptr)
-            fn.jit_addr = builder.inttoptr(j, voidptr)
-            return fn._getvalue()
+    def call(typingctx, jit_addr, args):
+        if not isinstance(args, types.BaseTuple) or len(args) != n_args:
+            return None
+        for given, wanted in zip(args.types, signature.args):
+            if given != wanted and typingctx.can_convert(given, wanted) is None:
+                return None
 
-        return fntype(types.int64, types.int64), codegen
+        def codegen(context, builder, sig, llargs):
+            address, packed = llargs
+            values = [context.cast(builder, builder.extract_value(packed, i), given, wanted)
+                      for i, (given, wanted) in enumerate(zip(args.types, signature.args))]
+            fnty = context.call_conv.get_function_type(signature.return_type, signature.args)
+            fptr = builder.inttoptr(address, fnty.as_pointer())
+            status, result = context.call_conv.call_function(builder, fptr, signature.return_type,
+                                                             signature.args, values)
+            with cgutils.if_unlikely(builder, status.is_error):
+                context.call_conv.return_status_propagate(builder, status)
+            return result
 
-    return as_function
+        return signature.return_type(types.int64, args), codegen
 
-
-@intrinsic
-def any_layout(typingctx, array):
-    """The same array typed with layout ``'A'`` (free: the data model does not depend on the layout).
-
-    The law's functions take arrays of any layout (a kernel passes rows of its
-    scratch, views whose type numba cannot prove contiguous); a first-class
-    function call wants its argument types exactly, so callers cast.
-    """
-    if not isinstance(array, types.Array):
-        return None
-    result = array.copy(layout="A")
-
-    def codegen(context, builder, signature, args):
-        from numba.core.imputils import impl_ret_borrowed
-
-        return impl_ret_borrowed(context, builder, result, args[0])
-
-    return result(array), codegen
+    return call
 
 
 def table(functions: Mapping[int, tuple[Any, Any]], size: int) -> np.ndarray:

@@ -20,11 +20,14 @@ from nsbench.model import abi
 from nsbench.model.abi import KernelData
 
 
-def arc_table(arc_function: Any) -> np.ndarray:
-    """The address table of a kernel's arc function, compiled for :data:`~nsbench.model.abi.ARC_SIGNATURE`."""
+def arc_table(arc_function: Any, problem) -> np.ndarray:
+    """The address table of a kernel's arc function compiled for ``problem``'s family
+    (:func:`~nsbench.model.abi.arc_signature` of the type of its data)."""
+    import numba
+
     from nsbench.model.functions import table
 
-    return table({0: (arc_function, abi.ARC_SIGNATURE)}, 1)
+    return table({0: (arc_function, abi.arc_signature(numba.typeof(problem.data)))}, 1)
 
 
 @dataclass
@@ -85,7 +88,7 @@ class ArcOutcome:
     counters: np.ndarray                    # the kernel's counter slots
 
 
-def one_arc(kernel: ArcKernel, prob: abi.ProblemData, mode, guards: tuple[np.ndarray, np.ndarray, np.ndarray],
+def one_arc(kernel: ArcKernel, prob, mode, guards: tuple[np.ndarray, np.ndarray, np.ndarray],
             n_guards: int, t0: float, t0_lo: float, y0, t_end: float, max_steps: int, sections,
             t_eval: np.ndarray) -> ArcOutcome:
     """One arc of ``kernel`` (growing the hit buffer and building mode data as it asks), from Python."""

@@ -1,12 +1,9 @@
 """A problem's law: the compiled functions that make a hybrid automaton, and the core's calls of them.
 
 A problem family writes these functions once, as plain ``@numba.njit`` functions
-of its own module, on its parameter vector ``p`` (a named layout of the family)
-and the mode vector ``mode`` (int64; any finite set of modes, encoded as the
-family likes). :class:`Law` compiles them for the signatures below and keeps
-their addresses in a table; compiled code calls them through the helpers of
-this module (``rhs(prob, mode, t, y, out)``, ...), which read the table in
-``prob.law``.
+of its own module (its *law module*), on its parameter vector ``p`` (a named
+layout of the family) and the mode vector ``mode`` (int64; any finite set of
+modes, encoded as the family likes):
 
 ========================= ====================================================================
 function                  what it does
@@ -24,97 +21,58 @@ function                  what it does
                           again at once); return the event kind code
 ``initial_mode``          the mode a state starts in
 ``start_fresh``           the ``fresh`` marks of a run's first state
-``accumulation_limit``    events of guard ``(kind, index)`` accumulate (Zeno): apply the limit
-                          behaviour at ``(t, y)`` (mode and state in place); return its event
-                          kind code, or -1 if the problem declares none for that guard
+``accumulation_limit``    (optional) events of guard ``(kind, index)`` accumulate (Zeno): apply
+                          the limit behaviour at ``(t, y)`` (mode and state in place); return its
+                          event kind code, or -1 if the problem declares none for that guard
 ========================= ====================================================================
+
+How the core reaches them without importing the problem: a problem hands compiled
+code a :class:`ProblemData`-like named tuple ``(p,)`` whose *class* belongs to its
+law module (:func:`data_class`: one class per law module, its name carrying a hash
+of the law's source). The calls below (``rhs(prob, mode, t, y, out)``, ...) are
+typed by numba from that class: they call the law module's own function, which
+numba compiles into the caller and can inline. So the loop and every arc kernel
+are written once and compiled once per problem family, each instance cached on
+disk under its own signature; a law that changes gets a new class name, hence a
+fresh instance, never a stale one.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib
+import inspect
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
 from nsbench.errors import ConfigError
-from nsbench.model import functions
-from nsbench.model.compile import hot, inline
-from nsbench.model.functions import any_layout as _a
+from nsbench.model.compile import hot
 
 f8, i8 = types.float64, types.int64
-# the law takes arrays of any layout (see nsbench.model.functions.any_layout)
-F1 = types.Array(types.float64, 1, "A")
-F2 = types.Array(types.float64, 2, "A")
-I1 = types.Array(types.int64, 1, "A")
-B1 = types.Array(types.boolean, 1, "A")
+_F1, _F2 = types.Array(types.float64, 1, "C"), types.Array(types.float64, 2, "C")
+_I1, _B1 = types.Array(types.int64, 1, "C"), types.Array(types.boolean, 1, "C")
 
-#: Slots of the law table, in order: (name, signature).
+#: The law's functions and the signature each is checked against when a law is loaded (contiguous
+#: arrays; compiled code may call them with any layout, numba specialises).
 SIGNATURES: tuple[tuple[str, Any], ...] = (
-    ("rhs", types.void(F1, I1, f8, F1, F1)),
-    ("jacobian", types.void(F1, I1, f8, F1, F2)),
-    ("guard_value", f8(F1, I1, i8, i8, f8, F1)),
-    ("guard_rate", f8(F1, I1, i8, i8, f8, F1, F1)),
-    ("guards_of", i8(F1, I1, I1, I1, I1)),
-    ("transition", i8(F1, I1, i8, i8, f8, F1, B1)),
-    ("initial_mode", types.void(F1, f8, F1, I1)),
-    ("start_fresh", types.void(F1, I1, f8, F1, B1)),
-    ("accumulation_limit", i8(F1, I1, i8, i8, f8, F1)),
+    ("rhs", types.void(_F1, _I1, f8, _F1, _F1)),
+    ("jacobian", types.void(_F1, _I1, f8, _F1, _F2)),
+    ("guard_value", f8(_F1, _I1, i8, i8, f8, _F1)),
+    ("guard_rate", f8(_F1, _I1, i8, i8, f8, _F1, _F1)),
+    ("guards_of", i8(_F1, _I1, _I1, _I1, _I1)),
+    ("transition", i8(_F1, _I1, i8, i8, f8, _F1, _B1)),
+    ("initial_mode", types.void(_F1, f8, _F1, _I1)),
+    ("start_fresh", types.void(_F1, _I1, f8, _F1, _B1)),
+    ("accumulation_limit", i8(_F1, _I1, i8, i8, f8, _F1)),
 )
 NAMES = tuple(name for name, _ in SIGNATURES)
-RHS, JACOBIAN, GUARD_VALUE, GUARD_RATE, GUARDS_OF, TRANSITION, INITIAL_MODE, START_FRESH, ACCUMULATION = range(
-    len(SIGNATURES))
 #: Functions every law must have; the others have defaults (no accumulation limit).
-REQUIRED = ("rhs", "jacobian", "guard_value", "guard_rate", "guards_of", "transition", "initial_mode",
-            "start_fresh")
-
-
-class Law:
-    """A problem family's compiled functions and their address table.
-
-    Parameters
-    ----------
-    source
-        The module (or any object) with the functions of the table in the module
-        docstring as ``numba.njit`` functions.
-
-    Attributes
-    ----------
-    table
-        The int64 address table compiled code reads (``ProblemData.law``).
-    functions
-        Name -> the numba dispatcher (callable from Python with the same arguments).
-    """
-
-    def __init__(self, source: ModuleType | Any) -> None:
-        missing = [name for name in REQUIRED if not hasattr(source, name)]
-        where = getattr(source, "__name__", repr(source))
-        if missing:
-            raise ConfigError(f"the law {where} lacks the compiled function(s) {', '.join(missing)}")
-        self.functions = {name: getattr(source, name) for name in NAMES if hasattr(source, name)}
-        if "accumulation_limit" not in self.functions:
-            self.functions["accumulation_limit"] = no_accumulation_limit
-        self.source = where
-        self.table = functions.table({k: (self.functions[name], sig) for k, (name, sig) in enumerate(SIGNATURES)},
-                                     len(SIGNATURES))
-
-    def __getattr__(self, name: str):
-        try:
-            return self.__dict__["functions"][name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-
-_LAWS: dict[int, Law] = {}
-
-
-def law_of(source: ModuleType | Any) -> Law:
-    """The :class:`Law` of ``source``, compiled once per process."""
-    key = id(source)
-    if key not in _LAWS:
-        _LAWS[key] = Law(source)
-    return _LAWS[key]
+REQUIRED = NAMES[:-1]
 
 
 @hot
@@ -123,59 +81,238 @@ def no_accumulation_limit(p, mode, kind, index, t, y):
     return -1
 
 
+def _imported(module: ModuleType) -> set[str]:
+    """Names of the modules of the same top-level package that ``module``'s source imports."""
+    import ast
+
+    package = module.__name__.split(".")[0]
+    try:
+        tree = ast.parse(inspect.getsource(module))
+    except (OSError, TypeError, SyntaxError):
+        return set()
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+    return {name for name in found if name.split(".")[0] == package}
+
+
+def _source_stamp(module: ModuleType) -> str:
+    """A hash of the law module's source and of the sources of the modules of its package it imports,
+    recursively (their constants are compiled into the law's functions)."""
+    import sys
+
+    digest = hashlib.sha256()
+    seen: set[str] = set()
+    todo = [module.__name__]
+    while todo:
+        name = todo.pop()
+        mod = sys.modules.get(name)
+        if name in seen or mod is None:
+            continue
+        seen.add(name)
+        try:
+            digest.update(name.encode() + inspect.getsource(mod).encode())
+        except (OSError, TypeError):  # no source (a frozen or C module): its name stands in
+            digest.update(name.encode())
+        todo.extend(sorted(_imported(mod) - seen))
+    return digest.hexdigest()[:12]
+
+
+def data_class(module: ModuleType) -> type:
+    """The problem-data class of a law module: a named tuple ``(p,)``, one class per law (and law source).
+
+    The class is set on the module under its own name, so that numba's disk cache
+    finds it again (by module and name) in another process.
+    """
+    name = f"ProblemData_{_source_stamp(module)}"
+    cls = vars(module).get(name)
+    if cls is None:
+        cls = NamedTuple(name, [("p", np.ndarray)])
+        cls.__module__ = module.__name__
+        cls.__qualname__ = name
+        cls.__doc__ = f"The parameter vector of a problem whose law is {module.__name__}."
+        cls.__law_module__ = module.__name__
+        setattr(module, name, cls)
+    return cls
+
+
+class Law:
+    """A problem family's compiled functions, checked, and the class its problems' data take.
+
+    Parameters
+    ----------
+    source
+        The law module: the functions of the table in the module docstring as ``numba.njit``
+        functions.
+
+    Attributes
+    ----------
+    functions
+        Name -> the numba dispatcher (callable from Python with the same arguments).
+    data_class
+        The class of the problems' :attr:`~nsbench.problems.base.HybridProblem.data`.
+
+    Raises
+    ------
+    ConfigError
+        A function missing, not compiled by numba, or that does not compile for its signature.
+    """
+
+    def __init__(self, source: ModuleType) -> None:
+        from numba.core.dispatcher import Dispatcher
+
+        where = getattr(source, "__name__", repr(source))
+        missing = [name for name in REQUIRED if not hasattr(source, name)]
+        if missing:
+            raise ConfigError(f"the law {where} lacks the compiled function(s) {', '.join(missing)}")
+        self.functions = {name: getattr(source, name) for name in NAMES if hasattr(source, name)}
+        if "accumulation_limit" not in self.functions:
+            self.functions["accumulation_limit"] = no_accumulation_limit
+            if not hasattr(source, "accumulation_limit"):
+                setattr(source, "accumulation_limit", no_accumulation_limit)
+        for name, sig in SIGNATURES:
+            fn = self.functions[name]
+            if not isinstance(fn, Dispatcher):
+                raise ConfigError(f"{where}.{name} is not a numba-compiled function (decorate it with numba.njit)")
+            try:
+                fn.compile(sig.args)
+            except Exception as exc:  # numba's typing errors: say which function and which signature
+                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                raise ConfigError(f"{where}.{name} does not compile for the signature {sig}: {first}") from None
+        self.source = where
+        self.data_class = data_class(source)
+
+    def __getattr__(self, name: str):
+        try:
+            return self.__dict__["functions"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+_LAWS: dict[str, Law] = {}
+
+
+def law_of(source: ModuleType | str) -> Law:
+    """The :class:`Law` of a law module (or its import path), loaded once per process."""
+    module = importlib.import_module(source) if isinstance(source, str) else source
+    if module.__name__ not in _LAWS:
+        _LAWS[module.__name__] = Law(module)
+    return _LAWS[module.__name__]
+
+
 # ---------------------------------------------------------------------- calls from compiled code
-_as = [functions.caster(types.FunctionType(sig)) for _, sig in SIGNATURES]
-_as_rhs, _as_jac, _as_gv, _as_gr, _as_gof, _as_tr, _as_im, _as_sf, _as_acc = _as
+def _law_function(prob, name: str):
+    """The law module's function ``name`` for compiled code given a problem-data type (at typing time)."""
+    cls = getattr(prob, "instance_class", None)
+    module = getattr(cls, "__law_module__", None)
+    if module is None:
+        raise TypingError(f"{prob} is not a problem's data (nsbench.model.law.data_class)")
+    return law_of(module).functions[name]
 
 
-@inline
+# Each call below is a stub for compiled code: numba resolves it, when it types the call, to the
+# function of the law module the problem-data class names (``overload``, inlined).
 def rhs(prob, mode, t, y, out):
-    _as_rhs(prob.law[2 * RHS], prob.law[2 * RHS + 1])(_a(prob.p), _a(mode), t, _a(y), _a(out))
+    """``out = f(t, y)`` in ``mode`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(rhs, inline="always")
+def _rhs(prob, mode, t, y, out):
+    fn = _law_function(prob, "rhs")
+    return lambda prob, mode, t, y, out: fn(prob.p, mode, t, y, out)
+
+
 def jacobian(prob, mode, t, y, out):
-    _as_jac(prob.law[2 * JACOBIAN], prob.law[2 * JACOBIAN + 1])(_a(prob.p), _a(mode), t, _a(y), _a(out))
+    """``out = df/dy`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(jacobian, inline="always")
+def _jacobian(prob, mode, t, y, out):
+    fn = _law_function(prob, "jacobian")
+    return lambda prob, mode, t, y, out: fn(prob.p, mode, t, y, out)
+
+
 def guard_value(prob, mode, kind, index, t, y):
-    return _as_gv(prob.law[2 * GUARD_VALUE], prob.law[2 * GUARD_VALUE + 1])(_a(prob.p), _a(mode), kind, index,
-                                                                            t, _a(y))
+    """The value of guard ``(kind, index)`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(guard_value, inline="always")
+def _guard_value(prob, mode, kind, index, t, y):
+    fn = _law_function(prob, "guard_value")
+    return lambda prob, mode, kind, index, t, y: fn(prob.p, mode, kind, index, t, y)
+
+
 def guard_rate(prob, mode, kind, index, t, y, dy):
-    return _as_gr(prob.law[2 * GUARD_RATE], prob.law[2 * GUARD_RATE + 1])(_a(prob.p), _a(mode), kind, index, t,
-                                                                          _a(y), _a(dy))
+    """The rate of guard ``(kind, index)`` along ``dy`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(guard_rate, inline="always")
+def _guard_rate(prob, mode, kind, index, t, y, dy):
+    fn = _law_function(prob, "guard_rate")
+    return lambda prob, mode, kind, index, t, y, dy: fn(prob.p, mode, kind, index, t, y, dy)
+
+
 def guards_of(prob, mode, gk, gi, gs):
-    return _as_gof(prob.law[2 * GUARDS_OF], prob.law[2 * GUARDS_OF + 1])(_a(prob.p), _a(mode), _a(gk), _a(gi),
-                                                                         _a(gs))
+    """The guards of ``mode`` into the arrays; their number (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(guards_of, inline="always")
+def _guards_of(prob, mode, gk, gi, gs):
+    fn = _law_function(prob, "guards_of")
+    return lambda prob, mode, gk, gi, gs: fn(prob.p, mode, gk, gi, gs)
+
+
 def transition(prob, mode, kind, index, t, y, fresh):
-    return _as_tr(prob.law[2 * TRANSITION], prob.law[2 * TRANSITION + 1])(_a(prob.p), _a(mode), kind, index, t,
-                                                                          _a(y), _a(fresh))
+    """Apply the transition of guard ``(kind, index)``; the event kind (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(transition, inline="always")
+def _transition(prob, mode, kind, index, t, y, fresh):
+    fn = _law_function(prob, "transition")
+    return lambda prob, mode, kind, index, t, y, fresh: fn(prob.p, mode, kind, index, t, y, fresh)
+
+
 def initial_mode(prob, t, y, mode):
-    _as_im(prob.law[2 * INITIAL_MODE], prob.law[2 * INITIAL_MODE + 1])(_a(prob.p), t, _a(y), _a(mode))
+    """The mode a state starts in, into ``mode`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(initial_mode, inline="always")
+def _initial_mode(prob, t, y, mode):
+    fn = _law_function(prob, "initial_mode")
+    return lambda prob, t, y, mode: fn(prob.p, t, y, mode)
+
+
 def start_fresh(prob, mode, t, y, fresh):
-    _as_sf(prob.law[2 * START_FRESH], prob.law[2 * START_FRESH + 1])(_a(prob.p), _a(mode), t, _a(y), _a(fresh))
+    """The ``fresh`` marks of a run's first state (compiled code only)."""
+    raise NotImplementedError("compiled code only")
 
 
-@inline
+@overload(start_fresh, inline="always")
+def _start_fresh(prob, mode, t, y, fresh):
+    fn = _law_function(prob, "start_fresh")
+    return lambda prob, mode, t, y, fresh: fn(prob.p, mode, t, y, fresh)
+
+
 def accumulation_limit(prob, mode, kind, index, t, y):
-    return _as_acc(prob.law[2 * ACCUMULATION], prob.law[2 * ACCUMULATION + 1])(_a(prob.p), _a(mode), kind,
-                                                                               index, t, _a(y))
+    """The limit behaviour of an accumulation of guard ``(kind, index)``'s events (compiled code only)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(accumulation_limit, inline="always")
+def _accumulation_limit(prob, mode, kind, index, t, y):
+    fn = _law_function(prob, "accumulation_limit")
+    return lambda prob, mode, kind, index, t, y: fn(prob.p, mode, kind, index, t, y)
 
 
 # ---------------------------------------------------------------------- many states at once (numpy forms)
@@ -209,7 +346,7 @@ def _rows(y: np.ndarray, n: int) -> tuple[np.ndarray, bool]:
     if y.ndim == 1:
         if y.shape[0] != n:
             raise ValueError(f"a state has {n} entries, not {y.shape[0]}")
-        return np.array(y.reshape(1, n)), True  # a writable copy: the law's types are writable arrays
+        return np.array(y.reshape(1, n)), True  # a writable copy: one type for the compiled rows
     if y.ndim != 2 or y.shape[0] != n:
         raise ValueError(f"states must have shape ({n},) or ({n}, k), not {y.shape}")
     return np.array(y.T, order="C"), False

@@ -26,11 +26,11 @@ the first such state.
 from __future__ import annotations
 
 import numpy as np
-from numba import types
+from numba.extending import overload
 
 from nsbench.model import functions, law
 from nsbench.model.abi import (
-    ARC_SIGNATURE,
+    arc_signature,
     K_BUDGET,
     K_FAIL,
     K_HIT_FULL,
@@ -74,13 +74,32 @@ R_DONE, R_GROW_EVENTS, R_GROW_HITS, R_NEED_MODE, R_NEED_ARC = 0, 1, 2, 3, 4
 EXTRA_EVENTS = 2
 _EPS = np.finfo(np.float64).eps
 
-_as_arc = functions.caster(types.FunctionType(ARC_SIGNATURE))
+_CALLERS: dict = {}
+
+
+def _arc_caller(problem_data):
+    """The call of an arc kernel at an address, for problems whose data have this type (built once)."""
+    if problem_data not in _CALLERS:
+        _CALLERS[problem_data] = functions.caller(arc_signature(problem_data))
+    return _CALLERS[problem_data]
+
+
+def arc_at(address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
+    """One arc of the kernel whose direct entry is at ``address`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(arc_at, inline="always")
+def _arc_at(address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
+    call = _arc_caller(prob)
+    return lambda address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt: call(
+        address, (kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt))
 
 
 @hot
 def call_arc(kernel, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
-    """One arc of the kernel whose addresses are ``kernel[0:2]``."""
-    return _as_arc(kernel[0], kernel[1])(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt)
+    """One arc of the kernel whose addresses are ``kernel[0:2]`` (its direct entry is the second)."""
+    return arc_at(kernel[1], kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt)
 
 
 @hot
@@ -122,7 +141,8 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
     kernel, kd, fo
         The arc kernel's address table (empty: arcs run in Python), its data and float options.
     prob
-        :class:`~nsbench.model.abi.ProblemData`.
+        The problem's data (:func:`nsbench.model.law.data_class`): the loop is compiled once per
+        problem family.
     lim
         :class:`~nsbench.model.abi.RunLimits`.
     sec, hits, dense, ev

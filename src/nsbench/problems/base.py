@@ -178,23 +178,18 @@ class HybridProblem:
     # ------------------------------------------------------------------ derived from the law
     @property
     def law(self):
-        """The compiled law (:class:`nsbench.model.law.Law`), compiled once per process."""
-        from importlib import import_module
-
+        """The compiled law (:class:`nsbench.model.law.Law`), loaded once per process."""
         from nsbench.model.law import law_of
 
-        source = self.law_module
-        return law_of(import_module(source) if isinstance(source, str) else source)
+        return law_of(self.law_module)
 
     @property
     def data(self):
-        """The problem as compiled code sees it (:class:`nsbench.model.abi.ProblemData`)."""
+        """The problem as compiled code sees it: the parameter vector in its law's data class
+        (:func:`nsbench.model.law.data_class`), through which compiled code reaches the law."""
         cached = self.__dict__.get("_data")
         if cached is None:
-            from nsbench.model.abi import ProblemData
-
-            cached = self.__dict__["_data"] = ProblemData(np.ascontiguousarray(self.packed, dtype=float),
-                                                          self.law.table)
+            cached = self.__dict__["_data"] = self.law.data_class(np.ascontiguousarray(self.packed, dtype=float))
         return cached
 
     @property

@@ -119,7 +119,7 @@ def restoring_rate(p, t, y, dy, i):
 
 
 # ---------------------------------------------------------------------- the law
-@hot
+@inline
 def rhs(p, mode, t, y, out):
     """Frozen-mode vector field into ``out``."""
     nb = n_blocks(p)
@@ -160,7 +160,7 @@ def jacobian(p, mode, t, y, out):
         out[2 * i + 1, 2 * i + 1] = -block(p, C, i) / m
 
 
-@hot
+@inline
 def guard_value(p, mode, kind, i, t, y):
     """Guard value: v_i - v0 (VELOCITY), R_i - fr_i (UPPER) or R_i + fr_i (LOWER)."""
     if kind == VELOCITY:
@@ -170,7 +170,7 @@ def guard_value(p, mode, kind, i, t, y):
     return r - fr if kind == UPPER else r + fr
 
 
-@hot
+@inline
 def guard_rate(p, mode, kind, i, t, y, dy):
     """Time derivative of a guard along ``dy``."""
     if kind == VELOCITY:

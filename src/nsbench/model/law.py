@@ -122,21 +122,50 @@ def _source_stamp(module: ModuleType) -> str:
     return digest.hexdigest()[:12]
 
 
+_DATA_CLASSES: dict[str, type] = {}
+
+
+def _new_data_class(name: str, law_module: str | None) -> type:
+    cls = NamedTuple(name, [("p", np.ndarray)])
+    cls.__module__ = __name__
+    cls.__qualname__ = name
+    cls.__doc__ = f"The parameter vector of a problem whose law is {law_module}."
+    cls.__law_module__ = law_module
+    return cls
+
+
 def data_class(module: ModuleType) -> type:
     """The problem-data class of a law module: a named tuple ``(p,)``, one class per law (and law source).
 
-    The class is set on the module under its own name, so that numba's disk cache
-    finds it again (by module and name) in another process.
+    Its name encodes the law module and a hash of its source; numba's disk cache
+    stores it by that name, and this module finds it again in another process
+    (:func:`__getattr__`).
     """
-    name = f"ProblemData_{_source_stamp(module)}"
-    cls = vars(module).get(name)
-    if cls is None:
-        cls = NamedTuple(name, [("p", np.ndarray)])
-        cls.__module__ = module.__name__
-        cls.__qualname__ = name
-        cls.__doc__ = f"The parameter vector of a problem whose law is {module.__name__}."
-        cls.__law_module__ = module.__name__
-        setattr(module, name, cls)
+    name = f"ProblemData_{module.__name__.encode().hex()}_{_source_stamp(module)}"
+    if name not in _DATA_CLASSES:
+        _DATA_CLASSES[name] = _new_data_class(name, module.__name__)
+    return _DATA_CLASSES[name]
+
+
+def __getattr__(name: str):
+    """A problem-data class by name, for unpickling numba's cache indexes in a new process.
+
+    An index lists the signatures of every family a kernel was compiled for; a
+    class whose law is not importable here, or whose source has changed since
+    (another hash), comes back as a stand-in that matches no current class, so
+    that entry is simply not used.
+    """
+    if not name.startswith("ProblemData_"):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if name in _DATA_CLASSES:
+        return _DATA_CLASSES[name]
+    try:
+        module_name = bytes.fromhex(name.split("_")[1]).decode()
+        cls = data_class(importlib.import_module(module_name))
+    except Exception:  # noqa: BLE001 - not importable here: a stand-in
+        cls = None
+    if cls is None or cls.__qualname__ != name:
+        cls = _DATA_CLASSES[name] = _new_data_class(name, None)
     return cls
 
 

@@ -15,9 +15,11 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+import warnings
 from pathlib import Path
 
 import numba
+from numba.core.errors import NumbaIRAssumptionWarning
 
 _IMPORTS = re.compile(r"^\s*(?:from\s+(nsbench[\w.]*)\s+import\s+\(?([\w\s,]*)|import\s+(nsbench[\w.]*))",
                       re.MULTILINE)
@@ -81,6 +83,13 @@ def drop_stale_numba_caches() -> None:
 
 
 drop_stale_numba_caches()
+# numba's SSA pass has a pedantic self-check that warns when a variable of a
+# function inlined with ``inline="always"`` (the law's ``rhs`` and guards inside
+# the arc kernels) is not in scope in its IR. It is a note to numba's developers,
+# not a defect of the compiled code (the kernels' event logs are bit-identical to
+# the ones compiled without inlining: tests/hybrid/test_event_logs.py), and it
+# would print about 90 lines at every first compilation.
+warnings.filterwarnings("ignore", category=NumbaIRAssumptionWarning)
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 #: Functions that allocate nothing: compiled without numba's reference counting.
 hot = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False)

@@ -293,6 +293,29 @@ def parse_value(text: str) -> Any:
     return text
 
 
+def parse_options(texts: list[str], flag: str = "--option") -> dict[str, Any]:
+    """``NAME=VALUE`` integrator options (:func:`parse_value`), each name once and every number finite.
+
+    A non-finite number is refused here, as ``--h inf`` is: no option of a built-in
+    integrator means anything by ``inf`` or ``nan`` (an unbounded ``max_step`` is
+    its default, ``None``). Ranges are the integrator's to check.
+    """
+    options: dict[str, Any] = {}
+    for text in texts:
+        key, value = parse_assignment(text, flag)
+        if key in options:
+            raise ConfigError(f"{flag} {key} is given twice ({key}={options[key]!r} and {text!r}); give it once")
+        parsed = parse_value(value)
+        try:
+            finite = not isinstance(parsed, (int, float)) or math.isfinite(float(parsed))
+        except OverflowError:  # an integer beyond any float
+            finite = False
+        if not finite:
+            raise ConfigError(f"{flag} {key}={value}: an option value must be a finite number")
+        options[key] = parsed
+    return options
+
+
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     """PROBLEM, --case, --param, --dimensional."""
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. one-dof or two-dof")
@@ -309,6 +332,8 @@ def shared_params(args: argparse.Namespace) -> dict[str, float]:
     params: dict[str, float] = {}
     for text in args.param:
         name, value = parse_assignment(text, "--param")
+        if name in params:
+            raise ConfigError(f"--param {name} is given twice ({name}={params[name]:g} and {text!r}); give it once")
         params[name] = parse_number(value, f"parameter {name}")
     if getattr(args, "n", None) is not None:
         if "n" in params:

@@ -334,6 +334,8 @@ class Suite:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"suite file {str(path)!r} is not valid TOML: {exc}") from None
+        except RecursionError:  # tomllib parses nested arrays and tables recursively
+            raise ConfigError(f"suite file {str(path)!r} is nested too deeply to be a suite") from None
         return cls.from_dict(data)
 
     def to_dict(self) -> dict[str, Any]:

@@ -6,10 +6,14 @@ import argparse
 import time
 from pathlib import Path
 
-from nsbench.cli._common import (check_output_dir, parse_assignment, parse_count, parse_number, parse_real,
-                                 parse_value, shared_params)
+from nsbench.cli._common import (check_fixed_step, check_output_dir, parse_count, parse_number, parse_options,
+                                 parse_real, shared_params)
 from nsbench.cli._dask import connect as connect_dask
 from nsbench.errors import ConfigError
+
+
+#: Step budget of one value's run (nsbench.bifurcation.sweep gives run_hybrid max_steps=50_000_000).
+SWEEP_MAX_STEPS = 50_000_000
 
 
 def add_parser(sub) -> None:
@@ -59,13 +63,13 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     params = shared_params(args)
     if name == "n":
         raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
-    window = parse_real(args.window, "--window", low=0.0, low_open=True) if args.window is not None else None
+    window = parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN") if args.window is not None else None
     record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
     section = args.section or default_section(problem_probe(name, start, params),
                                               problem_probe(name, stop, params))
     return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
                      start=start, stop=stop, count=count, integrator=integrator, options=options,
-                     section=section, transient=parse_real(args.transient, "--transient", low=0.0),
+                     section=section, transient=parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN"),
                      record=record, window=window, params=params)
 
 
@@ -91,12 +95,11 @@ def main(args: argparse.Namespace) -> int:
     bad = [f for f in formats if f not in figures.FORMATS]
     if bad:
         raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
-    extra = {}
+    extra = parse_options(args.option)
     if args.h is not None:
+        if "h" in extra:
+            raise ConfigError("--h and --option h=... are both given; give it once")
         extra["h"] = parse_real(args.h, "--h", low=0.0, low_open=True)
-    for text in args.option:
-        key, value = parse_assignment(text, "--option")
-        extra[key] = parse_value(value)
     specs = []
     for name in names:
         if name is None:
@@ -109,6 +112,14 @@ def main(args: argparse.Namespace) -> int:
         if unknown:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
         specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
+    for spec in specs:  # a fixed step the span or the force cannot take: one line now, not a sweep of failures
+        from nsbench.integrators import get_integrator
+
+        integ = get_integrator(spec.integrator, **spec.options)
+        span = spec.transient + spec.record_window
+        for value in (spec.start, spec.stop):
+            check_fixed_step(integ, spec.problem_at(value), span, f"a value's run over {span:g} (transient and window)",
+                             SWEEP_MAX_STEPS, given=type(integ).capabilities.step_option in spec.options)
     pair = _pair(args.pair)
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
@@ -127,7 +138,7 @@ def main(args: argparse.Namespace) -> int:
         out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
         frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
-                          point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True))
+                          point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT"))
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
@@ -182,14 +193,14 @@ def _check_numbers(args: argparse.Namespace) -> None:
     if not whole:
         raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4")
     parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
-    parse_real(args.transient, "--transient", low=0.0)
+    parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     if args.window is not None:
-        parse_real(args.window, "--window", low=0.0, low_open=True)
+        parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
     if args.h is not None:
         parse_real(args.h, "--h", low=0.0, low_open=True)
     if args.workers is not None:
         parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
-    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True)
+    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     for text in args.portrait:
         parse_real(text, "--portrait")
     _pair(args.pair)

@@ -15,6 +15,23 @@ def test_provenance_has_versions_machine_and_date():
     info = provenance()
     for key in ("version_nsbench", "version_numpy", "version_scipy", "python", "cpu", "cpu_count", "date"):
         assert info[key], key
+    assert all(p["distribution"] != "nsbench" for p in info["plugins"])  # built-ins are not plug-ins
+
+
+def test_provenance_lists_a_component_registered_at_run_time():
+    from nsbench import registry
+    from nsbench.integrators.henon_rk4 import HenonRK4
+
+    class Mine(HenonRK4):
+        name = "test-provenance-mine"
+
+    registry.register("integrators", Mine.name, Mine)
+    try:
+        rows = [p for p in provenance()["plugins"] if p["name"] == Mine.name]
+    finally:
+        registry.unregister("integrators", Mine.name)
+    assert rows == [{"kind": "integrator", "name": Mine.name, "target": f"{__name__}:{Mine.__qualname__}",
+                     "distribution": None, "version": None}]
 
 
 @pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")

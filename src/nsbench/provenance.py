@@ -58,9 +58,35 @@ def git_commit(path: str | Path | None = None) -> str | None:
     return sha + ("+dirty" if dirty else "") if sha else None
 
 
+def plugins() -> list[dict[str, Any]]:
+    """Every registered component that is not nsbench's own: kind, name, target, distribution and version.
+
+    Plug-ins installed through an entry point name their distribution and its
+    version; a component registered at run time (``nsbench.registry.register``)
+    has neither (``None``). Listing imports none of them.
+    """
+    from nsbench import registry
+    from nsbench.errors import ConfigError
+
+    rows = []
+    for kind in registry.GROUPS:
+        try:
+            entries = registry.entries(kind)  # type: ignore[arg-type]
+        except ConfigError:  # nothing registered at all: no plug-in either
+            continue
+        for entry in entries:
+            if entry.distribution == "nsbench":
+                continue
+            rows.append({"kind": kind[:-1], "name": entry.name, "target": entry.target,
+                         "distribution": entry.distribution,
+                         "version": _version(entry.distribution) if entry.distribution else None})
+    return rows
+
+
 def provenance() -> dict[str, Any]:
-    """Versions of nsbench and its numerical stack, Python, machine, date and git commit."""
+    """Versions of nsbench and its numerical stack, every plug-in, Python, machine, date and git commit."""
     info: dict[str, Any] = {f"version_{p}": _version(p) for p in PACKAGES}
+    info["plugins"] = plugins()
     info.update(
         python=platform.python_version(),
         platform=platform.platform(),

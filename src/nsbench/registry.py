@@ -2,9 +2,9 @@
 
 Built-ins and plug-ins register the same way, in the ``nsbench.problems`` and
 ``nsbench.integrators`` entry-point groups. Entries are listed from package
-metadata without importing them; an entry is imported only when it is used, and
-one that fails to import is reported as unavailable (with its reason) without
-breaking the others.
+metadata without importing them, read once per process (:func:`refresh` reads
+them again); an entry is imported only when it is used, and one that fails to
+import is reported as unavailable (with its reason) without breaking the others.
 """
 
 from __future__ import annotations
@@ -26,6 +26,9 @@ GROUPS: dict[str, str] = {
 # shadow entry points of the same name.
 _RUNTIME: dict[str, dict[str, Any]] = {"problems": {}, "integrators": {}}
 _LOADED: dict[tuple[str, str], Any] = {}
+# The entry points of each group, read once per process: a plug-in installed while a run goes on
+# would otherwise appear in the parts of it that read the metadata later, and only there.
+_SNAPSHOT: dict[str, dict[str, metadata.EntryPoint]] = {}
 
 
 @dataclass(frozen=True)
@@ -45,10 +48,24 @@ def _group(kind: str) -> str:
 
 
 def _entry_points(kind: str) -> dict[str, metadata.EntryPoint]:
-    found: dict[str, metadata.EntryPoint] = {}
-    for ep in metadata.entry_points(group=_group(kind)):
-        found.setdefault(ep.name, ep)
-    return found
+    group = _group(kind)
+    if group not in _SNAPSHOT:
+        found: dict[str, metadata.EntryPoint] = {}
+        for ep in metadata.entry_points(group=group):
+            found.setdefault(ep.name, ep)
+        _SNAPSHOT[group] = found
+    return dict(_SNAPSHOT[group])
+
+
+def refresh() -> None:
+    """Read the installed entry points again.
+
+    The registry reads them once per process, so that every part of a run sees
+    the same plug-ins; a long-lived session (a notebook) that installs one calls
+    this to see it.
+    """
+    _SNAPSHOT.clear()
+    _LOADED.clear()
 
 
 def entries(kind: Kind) -> list[Entry]:

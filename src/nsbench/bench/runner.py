@@ -255,7 +255,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda case: bar.update(warm_weight(case), case.label))
+                                  on_warm=lambda case: bar.update(warm_weight(case), case.label),
+                                  on_phase=bar.phase)
             timeline = scheduler.timeline
             scheduler.run()
     finally:
@@ -267,6 +268,9 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     if suite.target_list():  # the bifurcation targets: after every case, never while a case is timed
         from nsbench.bench.targets import run_targets
 
+        if progress:
+            print(f"nsbench: bifurcation targets: {len(suite.target_list())} target(s), each located by every "
+                  "configuration with its own simulations", file=err, flush=True)
         bifurcations = run_targets(suite, out, prov, workers=workers, in_process=bool(local),
                                    components=shareable, resume=resume, stream=err, progress=progress)
     summary = RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),

@@ -14,6 +14,7 @@ Importing this module imports numba: only compiled integrators do so.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import json
 import re
 from pathlib import Path
@@ -21,6 +22,11 @@ from typing import TYPE_CHECKING, Sequence
 
 import numba
 import numpy as np
+
+# The first compilation of the compiled core takes minutes: say so, with a progress line. Imported by
+# name so that the cache stamps below do not count nsbench.compiling (and what it imports) as
+# compiled code: editing a message there must not recompile the core.
+importlib.import_module("nsbench.compiling").announce()
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.problems.modes import Guard, Mode

@@ -10,13 +10,18 @@ prints it as one line and exits with status 2.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsbench.bifurcation import MAX_SWEEP_POINTS  # noqa: F401 - a bound of parse_count (paper --points)
 from nsbench.errors import ConfigError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.integrators.base import Integrator
+    from nsbench.problems.oscillator import FrictionOscillator
 
 # Upper bounds of counts given on the command line: they keep a typo (1e12) from
 # allocating terabytes or running for years. Raise them here if a run needs more.
@@ -199,13 +204,12 @@ def _is_loop(link: Path) -> bool:
     try:
         os.stat(link)
     except OSError as exc:
-        import errno
-
         return exc.errno == errno.ELOOP
     return False
 
 
-def check_fixed_step(integrator, problem, span: float, what: str, max_steps: int, given: bool = False) -> None:
+def check_fixed_step(integrator: "Integrator", problem: "FrictionOscillator", span: float, what: str,
+                     max_steps: int, given: bool = False) -> None:
     """Refuse a fixed step that cannot run ``problem`` over ``span``.
 
     A fixed-step integrator takes ``span / h`` steps: beyond ``max_steps`` the run

@@ -37,6 +37,16 @@ class BrokenSetup(ScipyRK45):
         raise RuntimeError("plug-in bug in setup")
 
 
+class HangingSetup(ScipyRK45):
+    """Never returns from ``setup`` (a plug-in whose set-up loops)."""
+
+    name = "hanging-setup-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def setup(self, problem):
+        time.sleep(3600)
+
+
 #: Runs whose span ends past this are the timed ones in the tests (their warm-up covers a tenth).
 TIMED_AFTER = 10.0
 

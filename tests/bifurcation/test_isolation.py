@@ -33,7 +33,7 @@ def clean(tmp_path_factory):
 
 @pytest.fixture
 def faulty_registered():
-    classes = (faulty.HangingAt, faulty.ExitingAt, faulty.SegfaultingAt)
+    classes = (faulty.HangingAt, faulty.ExitingAt, faulty.SegfaultingAt, faulty.HangingSetup)
     for cls in classes:
         registry.register("integrators", cls.name, cls)
     yield
@@ -61,6 +61,27 @@ def test_a_bad_value_costs_only_itself(tmp_path, clean, faulty_registered, name,
                                rtol=1e-12, atol=1e-12)
     # a rerun keeps the recorded failure (it is a result, not a missing value)
     assert SweepStore(tmp_path / "s").missing() == []
+
+
+def test_the_point_limit_bounds_a_workers_first_run_too(tmp_path, faulty_registered):
+    # every value hangs: the first short run of each worker is a value's run, under --point-limit
+    # (it was under the 1800 s set-up limit), and the set-up itself is not blamed
+    spec = SweepSpec(integrator="hanging-at-test", **{**SPEC, "start": 0.155, "stop": 0.165, "count": 3})
+    frame = run_sweep(spec, tmp_path / "s", workers=2, progress=False, point_limit=2.0, chunk_size=3)
+    assert (frame["status"] == "time limit").all() and len(frame) == 3
+    assert frame["message"].str.contains("ran past its limit of 2 s").all()
+    assert not frame["message"].str.contains("could not be set up").any()
+
+
+def test_a_setup_that_never_ends_fails_the_sweep_within_its_limit(tmp_path, faulty_registered, capsys):
+    from nsbench.cli import main
+
+    # in the command's own process too: the sweep's early check never runs a plug-in's setup
+    frame = run_sweep(SweepSpec(integrator="hanging-setup-test", **SPEC), tmp_path / "s", workers=2,
+                      progress=False, setup_limit=2.0, chunk_size=1)
+    assert (frame["status"] == "time limit").all() and len(frame) == 8
+    assert frame["message"].str.contains("integrator set-up ran past its limit of 2 s").all()
+    assert frame["message"].str.contains("could not be set up; no value was run").all()
 
 
 def test_killing_the_cli_ends_its_workers(tmp_path):
@@ -156,3 +177,4 @@ def test_fresh_starts_a_sweep_over_and_refuses_a_foreign_folder(tmp_path):
     with pytest.raises(ConfigError, match="not an nsbench sweep folder"):
         run_sweep(other, foreign, workers=0, progress=False, fresh=True)
     assert (foreign / "notes.txt").exists()
+

@@ -36,6 +36,20 @@ def counter_columns(n_blocks: int) -> tuple[str, ...]:
     return ("n_events", *per_block, "nfev", "nsteps")
 
 
+#: The text columns of a sweep table; ``index``, ``k``, ``n_points``, ``event_block`` and the
+#: counters are integers, every other column a float (:func:`column_kinds`).
+TEXT_COLUMNS = ("param", "section", "status", "message")
+
+
+def column_kinds(columns: tuple[str, ...]) -> dict[str, str]:
+    """``'text'``, ``'int'`` or ``'float'`` for each column of a sweep table (what a store keeps)."""
+    ints = {"index", "k", "n_points", "event_block", "n_events", "nfev", "nsteps"}
+    counts = tuple(name for _, name in EVENT_COUNTS)
+    return {c: "text" if c in TEXT_COLUMNS else
+            "int" if c in ints or (c.startswith(counts) and c.rstrip("0123456789") in counts) else "float"
+            for c in columns}
+
+
 def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
     """The tidy columns of a sweep of a problem with these state names."""
     n_blocks = len(state_names) // 2

@@ -346,3 +346,12 @@ def test_killing_a_run_ends_its_workers(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", KILLED.format(out=str(tmp_path / "k"))], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     kill_leaves_no_workers(proc, 2)
+
+
+def test_a_step_henon_rk4_cannot_take_is_an_unsupported_row_not_a_success(tmp_path):
+    # h = 1e300 used to take one step over the span and report success
+    suite = small_suite([], t_span=[0.0, 20.0], reference=["exact"],
+                        integrators={"only": [], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}})
+    frame = run_suite(suite, tmp_path, workers=1, progress=False).results.sort_values("step_value")
+    assert frame["status"].tolist() == ["success", "unsupported"]
+    assert "beyond RK4's stability limit" in frame["message"].iloc[1]

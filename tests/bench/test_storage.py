@@ -103,3 +103,33 @@ def test_names_from_data_cannot_leave_the_folder(name):
     with pytest.raises(ConfigError, match="cannot name a file"):
         file_name(name, "integrator name")
     assert file_name("heyoka-q", "integrator name") == "heyoka-q"
+
+
+def test_a_truncated_or_edited_csv_export_is_refused(stored, tmp_path, capsys):
+    from nsbench.bench.storage import read_provenance
+    from nsbench.cli import main
+
+    out = _copy(stored, tmp_path)
+    csv = out / "results.csv"
+    text = csv.read_text()
+    assert _cols(load_results(csv)).equals(_cols(stored[1]))  # whole: read as written
+    assert "nsbench_csv_sha256" not in read_provenance(csv) and read_provenance(csv) == read_provenance(out)
+    cut = tmp_path / "cut.csv"
+    cut.write_text(text[: int(0.8 * len(text))])  # a copy cut short, mid-row: pandas filled it with NaN
+    with pytest.raises(ConfigError, match="cut.csv is damaged .*does not match the checksum"):
+        load_results(cut)
+    assert main(["compare", str(out), str(cut)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cut.csv is damaged" in err
+    edited = tmp_path / "edited.csv"
+    edited.write_text(text.replace(",success,", ",integrator failure,", 1))
+    with pytest.raises(ConfigError, match="edited.csv is damaged"):
+        load_results(edited)
+    # an export written before checksums: a row cut short is refused, a whole file read
+    old = tmp_path / "old.csv"
+    lines = [line for line in text.splitlines(keepends=True) if not line.startswith("# nsbench_csv")]
+    old.write_text("".join(lines))
+    assert len(load_results(old)) == len(stored[1])
+    old.write_text("".join(lines)[:-40])
+    with pytest.raises(ConfigError, match="a row does not have every column"):
+        load_results(old)

@@ -156,6 +156,8 @@ CASES = [
     ("simulate-option-h-inf", S + ["--integrator", "henon-rk4", "--option", "h=inf"], "h = inf must be a finite"),
     ("simulate-option-h-huge", S + ["--integrator", "henon-rk4", "--option", "h=1e300"], "stability limit"),
     ("simulate-h-tiny", S + ["--integrator", "henon-rk4", "--h", "1e-18"], "too small to move the state"),
+    ("bifurcation-start-is-stop", ["bifurcation", "one-dof", "--sweep", "v0=0.5:0.5:20", "--out", "{d}/bif-ss"],
+     "START and STOP are equal"),
     ("bifurcation-option-h-huge", B + ["--integrator", "henon-rk4", "--option", "h=1e300", "--out",
                                        "{d}/bif-h"], "stability limit"),
     ("simulate-events-out-under-file", S + ["--events-out", "{d}/afile/x.csv"], "is a file, not a folder"),

@@ -13,6 +13,7 @@ Layout of an output directory::
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -27,7 +28,7 @@ import pyarrow.parquet as pq
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
-from nsbench.files import STALE_AFTER, remove_stale_temporaries
+from nsbench.files import STALE_AFTER, remove_stale_temporaries, write_atomic
 
 PROVENANCE_KEY = b"nsbench.provenance"
 _INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
@@ -38,6 +39,8 @@ _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", 
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
           "final_state_err", "state_err_l2", "ref_conditioning", "ref_double_floor", "ref_certainty")
 _BOOL = ("sequence_ok", "at_ref_accuracy")
+#: The integer, float and boolean columns of the schema (the others are text or lists).
+INT_COLUMNS, FLOAT_COLUMNS, BOOL_COLUMNS = _INT, _FLOAT, _BOOL
 
 
 def _float_list(value: Any) -> list[float]:
@@ -225,14 +228,8 @@ def read_provenance(path: str | Path) -> dict[str, Any]:
         prov = p / "provenance.json"
         return json.loads(prov.read_text()) if prov.exists() else {}
     if p.suffix == ".csv":
-        out = {}
-        with open(p) as fh:
-            for line in fh:
-                if not line.startswith("# "):
-                    break
-                key, _, value = line[2:].rstrip("\n").partition(": ")
-                out[key] = json.loads(value)
-        return out
+        meta, _ = _split_csv(p.read_text())
+        return {k: v for k, v in meta.items() if k not in (CSV_ROWS, CSV_SHA256)}
     meta = pq.read_schema(p).metadata or {}
     return json.loads(meta[PROVENANCE_KEY]) if PROVENANCE_KEY in meta else {}
 
@@ -253,7 +250,7 @@ def load_results(path: str | Path) -> pd.DataFrame:
     if not p.exists():
         raise ConfigError(f"results {str(path)!r} do not exist")
     if p.suffix == ".csv":
-        frame = pd.read_csv(p, comment="#")
+        frame = read_csv_checked(p)
         for name in LIST_COLUMNS:
             if name in frame:  # an older export may lack a newer list column
                 frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
@@ -277,14 +274,74 @@ def _checked(path: Path) -> pd.DataFrame:
                           "its case again") from None
 
 
+#: Header entries of a CSV export that prove its table (they are not provenance).
+CSV_ROWS, CSV_SHA256 = "nsbench_csv_rows", "nsbench_csv_sha256"
+
+
 def write_csv(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
-    """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically."""
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        for key, value in provenance.items():
-            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
-        frame.to_csv(fh, index=False, float_format="%.17g")
-    os.replace(tmp, path)
+    """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically.
+
+    The last two header lines hold the table's row count and SHA-256, so that a
+    reader refuses a truncated or edited copy (:func:`read_csv_checked`).
+    """
+    import hashlib
+
+    body = frame.to_csv(index=False, float_format="%.17g")
+    head = "".join(f"# {key}: {json.dumps(value, default=str)}\n" for key, value in provenance.items()
+                   if key not in (CSV_ROWS, CSV_SHA256))
+    head += f"# {CSV_ROWS}: {len(frame)}\n# {CSV_SHA256}: {json.dumps(hashlib.sha256(body.encode()).hexdigest())}\n"
+    write_atomic(path, head + body)
+
+
+def _split_csv(text: str) -> tuple[dict[str, Any], str]:
+    """The ``# key: value`` header of a CSV export (decoded where it is JSON) and the table after it."""
+    meta: dict[str, Any] = {}
+    at = 0
+    for line in text.splitlines(keepends=True):
+        if not line.startswith("# "):
+            break
+        key, _, value = line[2:].rstrip("\n").partition(": ")
+        try:
+            meta[key] = json.loads(value)
+        except ValueError:
+            meta[key] = value
+        at += len(line)
+    return meta, text[at:]
+
+
+def read_csv_checked(path: Path) -> pd.DataFrame:
+    """A CSV export as written: its checksum and row count hold (``ConfigError`` naming the file if not).
+
+    An export written before checksums were kept is checked for whole rows
+    (each with every column), which a truncated copy lacks.
+    """
+    import csv
+    import hashlib
+
+    try:
+        text = Path(path).read_text()
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path} holds no nsbench results (not UTF-8 text)") from None
+    meta, body = _split_csv(text)
+    damaged = f"{path} is damaged (truncated or edited since nsbench wrote it)"
+    if CSV_SHA256 in meta:
+        if hashlib.sha256(body.encode()).hexdigest() != meta[CSV_SHA256]:
+            raise ConfigError(f"{damaged}: its table does not match the checksum in its header")
+    else:  # an older export: at least every row whole
+        rows = list(csv.reader(io.StringIO(body)))
+        short = [i for i, r in enumerate(rows[1:], start=2) if r and len(r) != len(rows[0])]
+        if not rows or short or not body.endswith("\n"):
+            where = f" (line {short[0]} of its table)" if short else ""
+            raise ConfigError(f"{damaged}: a row does not have every column{where}")
+    try:
+        frame = pd.read_csv(io.StringIO(body))
+    except (ValueError, pd.errors.ParserError) as exc:
+        raise ConfigError(f"{damaged}: {exc}") from None
+    if CSV_ROWS in meta and len(frame) != meta[CSV_ROWS]:
+        raise ConfigError(f"{damaged}: {len(frame)} rows where its header says {meta[CSV_ROWS]}")
+    if "case_id" not in frame.columns:
+        raise ConfigError(f"{path} holds no nsbench results (no column 'case_id')")
+    return frame
 
 
 def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:

@@ -133,3 +133,48 @@ def test_a_truncated_or_edited_csv_export_is_refused(stored, tmp_path, capsys):
     old.write_text("".join(lines)[:-40])
     with pytest.raises(ConfigError, match="a row does not have every column"):
         load_results(old)
+
+
+def test_a_changed_value_in_a_case_file_is_refused_then_run_again(stored, tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = _copy(stored, tmp_path)
+    victim = sorted((out / "cases").glob("*.parquet"))[0]
+    table = pq.read_table(victim)
+    i = table.column_names.index("switch_err_max")
+    damaged = table.set_column(i, "switch_err_max", pa.array([0.125]))  # what a flipped bit can do
+    pq.write_table(damaged.replace_schema_metadata(table.schema.metadata), victim)  # its checksum kept
+    with pytest.raises(ConfigError, match=f"{victim.name} is damaged .*do not match the checksum"):
+        load_results(out)
+    err = io.StringIO()
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=err)
+    assert f"{victim.name} is damaged" in err.getvalue() and again.n_computed == 1
+    assert _cols(again.results).equals(_cols(stored[1]))
+
+
+def test_a_case_file_of_another_computation_under_its_id_is_run_again(stored, tmp_path):
+    from nsbench.bench import storage
+
+    out = _copy(stored, tmp_path)
+    victim = sorted((out / "cases").glob("*.parquet"))[0]
+    row = storage.read_case(victim).to_dict("records")[0]
+    storage.append_row(out, {**row, "t_end": 25.0}, {})  # a sound file (checksum and all), other span
+    err = io.StringIO()
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=err)
+    assert "another computation than its case id says (t_end differs)" in err.getvalue()
+    assert again.n_computed == 1 and _cols(again.results).equals(_cols(stored[1]))
+
+
+def test_a_flipped_bit_in_a_cached_reference_is_seen_and_computed_again(stored, tmp_path, capsys):
+    out = _copy(stored, tmp_path)
+    dense = next((out / "references").glob("*.dense.npy"))
+    data = bytearray(dense.read_bytes())
+    data[len(data) // 2] ^= 0x10  # one bit of one stored state: the file still loads
+    dense.write_bytes(bytes(data))
+    shutil.rmtree(out / "cases")  # every case runs again: against the reference computed again
+    again = run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+    assert "dense.npy does not match its checksum" in capsys.readouterr().err
+    assert _cols(again.results).equals(_cols(stored[1]))
+    state = again.results.sort_values("case_id")["state_err_l2"].tolist()
+    assert state == stored[1].sort_values("case_id")["state_err_l2"].tolist()  # not the 0.125 of a bad state

@@ -209,8 +209,15 @@ def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
             directory / f"{key}.dense.npy")
 
 
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def save_reference(directory: str | Path, ref: Reference) -> None:
-    """Write ``ref`` to the cache; the JSON file is written last, so it marks completion."""
+    """Write ``ref`` to the cache; the JSON file, with the checksums of the other two, is written last,
+    so it marks completion."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     meta, events, dense = _paths(d, ref.key)
@@ -221,15 +228,20 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
     data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
             "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed,
             "conditioning": repr(ref.conditioning), "conditioning_note": ref.conditioning_note,
-            "certify_note": ref.certify_note}
+            "certify_note": ref.certify_note,
+            "sha256": {events.name.removeprefix(ref.key): _digest(events),
+                       dense.name.removeprefix(ref.key): _digest(dense)}}
     write_atomic(meta, json.dumps(data, indent=1))
 
 
 def load_reference(directory: str | Path, key: str) -> Reference | None:
     """The cached reference ``key``, or ``None`` if it is not (completely and soundly) cached.
 
-    A damaged cache entry (truncated, edited, another key's) is deleted, with
-    one warning line, so that the reference is computed again.
+    A damaged cache entry (truncated, edited, a bit flipped, another key's) is
+    deleted, with one warning line, so that the reference is computed again:
+    the JSON file names its key and holds the SHA-256 of the event table and of
+    the dense states (an entry written before checksums were kept passes the
+    other checks).
     """
     import sys
 
@@ -239,8 +251,12 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
         return None
     try:
         data = json.loads(meta.read_text())
-        if data.get("key") != key:
-            raise ValueError(f"it holds reference {data.get('key')!r}")
+        if not isinstance(data, dict) or data.get("key") != key:
+            raise ValueError(f"it holds reference {data.get('key') if isinstance(data, dict) else data!r}")
+        for path, digest in ((events, (data.get("sha256") or {}).get(".events.parquet")),
+                             (dense, (data.get("sha256") or {}).get(".dense.npy"))):
+            if digest is not None and _digest(path) != digest:
+                raise ValueError(f"{path.name} does not match its checksum")
         table = np.load(dense, allow_pickle=False)
         t_dense, y_dense = table[0], table[1:]
         ref = Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
@@ -249,7 +265,7 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
                         str(data.get("conditioning_note", "")), str(data.get("certify_note", "")))
         if len(ref.events) and not {"t", "kind", "block"} <= set(ref.events.columns):
             raise ValueError("its event table lacks t, kind or block")
-    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError, AttributeError) as exc:
         print(f"nsbench: warning: cached reference {meta} is damaged ({type(exc).__name__}: {exc}); "
               "computing it again", file=sys.stderr)
         for p in paths:

@@ -71,11 +71,41 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     return frame
 
 
+#: Schema metadata key of the SHA-256 of a stored table's values (a bit flipped in a value shows).
+CONTENT_KEY = b"nsbench.sha256"
+
+
+def content_digest(table: pa.Table) -> str:
+    """SHA-256 of every value of ``table``, column by column (floats exactly, by their repr)."""
+    import hashlib
+
+    values = {name: table.column(name).to_pylist() for name in table.column_names}
+    return hashlib.sha256(json.dumps(values, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def _table(frame: pd.DataFrame, provenance: dict[str, Any]) -> pa.Table:
     table = pa.Table.from_pandas(frame, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[PROVENANCE_KEY] = json.dumps(provenance, default=str).encode()
+    meta[CONTENT_KEY] = content_digest(table).encode()
     return table.replace_schema_metadata(meta)
+
+
+def read_table_checked(path: str | Path) -> pa.Table:
+    """A Parquet table nsbench wrote, read and checked against the checksum of its values.
+
+    Raises ``DamagedFile`` if its values changed; pyarrow's own errors if it is unreadable.
+    """
+    table = pq.read_table(path)
+    _check_content(table)
+    return table
+
+
+def _check_content(table: pa.Table) -> None:
+    """``DamagedFile`` if ``table`` records a checksum of its values that they no longer match."""
+    stored = (table.schema.metadata or {}).get(CONTENT_KEY)
+    if stored is not None and stored.decode(errors="replace") != content_digest(table):
+        raise DamagedFile("its values do not match the checksum stored with them (changed since nsbench wrote it)")
 
 
 def _write_atomic(table: pa.Table, path: Path) -> None:
@@ -154,13 +184,16 @@ def read_case(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DamagedFile
-        A truncated or foreign file, or a case file copied over another case's name.
+        A truncated or foreign file, a case file copied over another case's name, or
+        values that no longer match the checksum stored with them.
     """
     p = Path(path)
     try:
-        frame = pq.read_table(p).to_pandas()
+        table = pq.read_table(p)
+        frame = table.to_pandas()
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise DamagedFile(f"not a readable Parquet file: {exc}") from None
+    _check_content(table)
     missing = [c for c in _REQUIRED if c not in frame.columns]
     if missing:
         raise DamagedFile(f"not an nsbench case file (no column {missing[0]!r})")
@@ -172,13 +205,17 @@ def read_case(path: str | Path) -> pd.DataFrame:
     return frame
 
 
-def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER) -> list[Path]:
+def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER,
+                    expect: dict[str, dict[str, Any]] | None = None) -> list[Path]:
     """Before a resumed run: delete damaged case files (their cases run again) and stale temporary files.
 
     Each damaged file is named in one warning line on ``stream``; a damaged
     cached reference is dealt with when it is loaded (it is computed again).
-    Temporary files younger than ``stale_after`` seconds may belong to a run
-    writing into this folder right now and are left alone.
+    ``expect`` maps case ids to the columns their row must hold (the
+    parameters of the case the run would compute under that id): a stored row
+    that holds other parameters is damaged too. Temporary files younger than
+    ``stale_after`` seconds may belong to a run writing into this folder right
+    now and are left alone.
     """
     import sys
 
@@ -187,13 +224,26 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = ST
     cases = o / "cases"
     for f in sorted(cases.glob("*.parquet")) if cases.is_dir() else []:
         try:
-            read_case(f)
+            row = read_case(f).iloc[0]
+            wanted = (expect or {}).get(f.name[: -len(".parquet")], {})
+            differ = [k for k, v in wanted.items() if k not in row.index or _differs(row[k], v)]
+            if differ:
+                raise DamagedFile(f"it holds another computation than its case id says ({differ[0]} differs)")
         except DamagedFile as exc:
             print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
             f.unlink(missing_ok=True)
             bad.append(f)
     remove_stale_temporaries((o, cases, o / "references"), stale_after)
     return bad
+
+
+def _differs(stored: Any, wanted: Any) -> bool:
+    if isinstance(wanted, float):
+        try:
+            return not (float(stored) == wanted or (math.isnan(float(stored)) and math.isnan(wanted)))
+        except (TypeError, ValueError):
+            return True
+    return str(stored) != str(wanted)
 
 
 def done_ids(out: str | Path) -> set[str]:
@@ -257,9 +307,13 @@ def load_results(path: str | Path) -> pd.DataFrame:
         return to_frame(frame.to_dict("records"))
     if p.suffix == ".parquet":
         try:
-            frame = pd.read_parquet(p)
+            table = pq.read_table(p)
+            _check_content(table)
+            frame = table.to_pandas()
         except (OSError, ValueError, pa.ArrowException) as exc:
             raise ConfigError(f"{p} is not a readable Parquet file ({exc})") from None
+        except DamagedFile as exc:
+            raise ConfigError(f"{p} is damaged ({exc})") from None
         if "case_id" not in frame.columns:
             raise ConfigError(f"{p} holds no nsbench results (no column 'case_id')")
         return to_frame(frame.to_dict("records"))

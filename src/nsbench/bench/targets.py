@@ -624,17 +624,22 @@ def store_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) 
 
 def done_rows(out: str | Path) -> set[str]:
     """Ids of the rows stored (readable) in ``out``; a damaged file is deleted (its row runs again)."""
+    import sys
+
+    from nsbench.bench.storage import read_table_checked
+
     d = Path(out) / ROWS_DIR
     done = set()
     for f in sorted(d.glob("*.parquet")) if d.is_dir() else []:
         try:
-            frame = pd.read_parquet(f)
+            frame = read_table_checked(f).to_pandas()  # its values checked against their checksum
             ok = len(frame) == 1 and str(frame["row_id"].iloc[0]) == f.name[: -len(".parquet")]
-        except Exception:  # noqa: BLE001 - truncated, foreign
+        except Exception:  # noqa: BLE001 - truncated, foreign, changed
             ok = False
         if ok:
             done.add(f.name[: -len(".parquet")])
         else:
+            print(f"nsbench: warning: {f} is damaged; its row runs again", file=sys.stderr)
             f.unlink(missing_ok=True)
     return done
 

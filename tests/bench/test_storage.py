@@ -178,3 +178,63 @@ def test_a_flipped_bit_in_a_cached_reference_is_seen_and_computed_again(stored, 
     assert _cols(again.results).equals(_cols(stored[1]))
     state = again.results.sort_values("case_id")["state_err_l2"].tolist()
     assert state == stored[1].sort_values("case_id")["state_err_l2"].tolist()  # not the 0.125 of a bad state
+
+
+def test_nothing_is_written_or_deleted_through_a_link_in_the_output_folder(stored, tmp_path, capsys):
+    from nsbench.cli import main
+
+    elsewhere = tmp_path / "elsewhere"
+    shutil.copytree(stored[0] / "cases", elsewhere)  # someone's folder of Parquet files
+    before = sorted(p.name for p in elsewhere.iterdir())
+    out = _copy(stored, tmp_path)
+    shutil.rmtree(out / "cases")
+    (out / "cases").symlink_to(elsewhere)
+    suite = tmp_path / "s.toml"
+    suite.write_text('name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nreference = ["exact"]\n'
+                     'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["exact", "henon-rk4"]\n')
+    for fresh in (["--fresh"], []):  # bench --fresh deleted every *.parquet of the linked folder
+        assert main(["bench", str(suite), "--out", str(out), "--no-progress", *fresh]) == 2
+        assert "cases is a symbolic link" in capsys.readouterr().err
+    assert sorted(p.name for p in elsewhere.iterdir()) == before
+    (out / "cases").unlink()
+    shutil.copytree(stored[0] / "cases", out / "cases")
+    for name in ("provenance.json", "timeline.csv", "results.csv.tmp"):  # were overwritten through the link
+        target = tmp_path / f"mine-{name}"
+        target.write_text("precious")
+        (out / name).unlink(missing_ok=True)
+        (out / name).symlink_to(target)
+        with pytest.raises(ConfigError, match=f"{name} is a symbolic link"):
+            run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+        assert target.read_text() == "precious"
+        (out / name).unlink()
+
+
+@pytest.mark.parametrize("how", ["fresh", "resume", "ingest"])
+def test_a_foreign_parquet_file_in_cases_is_never_deleted(stored, tmp_path, how):
+    import json
+
+    import pandas as pd
+
+    out = _copy(stored, tmp_path)
+    foreign = out / "cases" / "my-data.parquet"
+    pd.DataFrame({"a": [1, 2]}).to_parquet(foreign)
+    data = foreign.read_bytes()
+    with pytest.raises(ConfigError, match="my-data.parquet.*nsbench did not write"):
+        if how == "ingest":
+            src = tmp_path / "b.json"
+            src.write_text(json.dumps({"benchmarks": [{"name": "b", "fullname": "b", "stats": {"median": 0.1}}]}))
+            from nsbench.bench.ingest import ingest
+
+            ingest(src, out)
+        else:
+            run_suite(_suite(), out, workers=1, progress=False, resume=how == "resume", stream=io.StringIO())
+    assert foreign.read_bytes() == data
+
+
+def test_a_stale_temporary_file_of_someone_else_is_left_alone(stored, tmp_path):
+    out = _copy(stored, tmp_path)
+    theirs = out / "notes.tmp"
+    theirs.write_text("mine")
+    os.utime(theirs, (time.time() - 3600, time.time() - 3600))
+    run_suite(_suite(), out, workers=1, progress=False, stream=io.StringIO())
+    assert theirs.read_text() == "mine"

@@ -233,3 +233,26 @@ def test_a_damaged_meta_json_is_refused_by_readers_and_rebuilt_by_a_run(tmp_path
     assert "meta.json is damaged" in capsys.readouterr().err
     assert after.drop(columns="wall_time").equals(before.drop(columns="wall_time"))
     SweepStore(out).load()
+
+
+def test_a_sweep_never_writes_or_deletes_through_a_link(tmp_path, capsys):
+    from nsbench.cli import main
+
+    out = tmp_path / "s"
+    _sweep(out)
+    elsewhere = tmp_path / "elsewhere"
+    (out / "points").rename(elsewhere)
+    (out / "points").symlink_to(elsewhere)
+    before = sorted(p.name for p in elsewhere.iterdir())
+    with pytest.raises(ConfigError, match="points is a symbolic link"):
+        run_sweep(SweepSpec(**SMALL), out, workers=0, progress=False, fresh=True)
+    assert sorted(p.name for p in elsewhere.iterdir()) == before
+    (out / "points").unlink()
+    elsewhere.rename(out / "points")
+    mine = tmp_path / "my-features.csv"
+    mine.write_text("precious")
+    (out / "features.csv").symlink_to(mine)
+    argv = ["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:6", "--transient", "100",
+            "--record", "8", "--workers", "1", "--out", str(out), "--no-progress", "--formats", "png"]
+    assert main(argv) == 2 and "features.csv is a symbolic link" in capsys.readouterr().err
+    assert mine.read_text() == "precious"

@@ -28,9 +28,21 @@ import pyarrow.parquet as pq
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
-from nsbench.files import STALE_AFTER, remove_stale_temporaries, write_atomic
+from nsbench.files import STALE_AFTER, fresh_temporary, refuse_links, remove_stale_temporaries, write_atomic
 
 PROVENANCE_KEY = b"nsbench.provenance"
+#: What nsbench writes in an output directory (the runner, ingest, the report), and the folders
+#: whose every entry it writes: none of them may be a symbolic link (:func:`check_no_links`).
+WRITTEN = ("cases", "references", "results.parquet", "results.csv", "provenance.json", "timeline.csv",
+           "report.md", "index.html", "table.tex", "figures", "scaling.csv", "scaling_summary.csv",
+           "bifurcation_targets", "bifurcation_references", "bifurcation_targets.parquet",
+           "bifurcation_targets.csv", "*.tmp")
+WRITTEN_FOLDERS = ("cases", "references", "figures", "bifurcation_targets", "bifurcation_references")
+
+
+def check_no_links(out: str | Path) -> None:
+    """``ConfigError`` if something nsbench writes or deletes in the output directory ``out`` is a link."""
+    refuse_links(out, WRITTEN, WRITTEN_FOLDERS)
 _INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
         "n_matched", "n_missed", "n_extra", "first_divergence_index")
 _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
@@ -109,9 +121,9 @@ def _check_content(table: pa.Table) -> None:
 
 
 def _write_atomic(table: pa.Table, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = fresh_temporary(path)  # a leftover (or a link) is removed: never written through
     pq.write_table(table, tmp)
-    os.replace(tmp, path)  # a reader never sees a half-written file
+    os.replace(tmp, path)  # a reader never sees a half-written file; a link at path is replaced, not followed
 
 
 #: What a case id may be: it names a file, so no path separators and no leading dot.
@@ -144,27 +156,45 @@ def clear_cases(out: str | Path) -> None:
     """Delete the stored cases of the nsbench store ``out`` (a fresh run into the same folder).
 
     Refuses, before deleting anything, when ``OUT/cases`` holds anything nsbench
-    does not write there (another tool's folder, a mistyped path): only
-    ``*.parquet`` case files and their ``.tmp`` siblings are deleted.
+    did not write there (another tool's folder, a mistyped path, someone's own
+    Parquet file): only nsbench's case files (:func:`nsbench_wrote`) and their
+    ``.tmp`` siblings are deleted.
     """
     cases = Path(out) / "cases"
+    check_no_links(out)
     if not cases.exists():
         return
     if not cases.is_dir():
         raise ConfigError(f"{str(cases)!r} is not a folder: {str(out)!r} is not an nsbench results folder")
-    foreign = [p.name for p in cases.iterdir()
-               if not (p.is_file() and (p.name.endswith(".parquet") or p.name.endswith(".parquet.tmp")))]
+    foreign = [p.name for p in sorted(cases.iterdir())
+               if not (p.name.endswith(".parquet.tmp") or (p.name.endswith(".parquet") and nsbench_wrote(p)))]
     if foreign:
         raise ConfigError(f"{str(out)!r} does not look like an nsbench results folder ({str(cases)!r} holds "
-                          f"{foreign[0]!r}); refusing to clear it: choose another --out")
+                          f"{foreign[0]!r}, which nsbench did not write); refusing to clear it: choose another "
+                          "--out")
     for p in cases.iterdir():
         p.unlink()
     cases.rmdir()
 
 
+#: A case id nsbench makes (:func:`nsbench.bench.suite.stable_key`): 16 hexadecimal digits.
+_STABLE_KEY = re.compile(r"[0-9a-f]{16}")
+
+
+def nsbench_wrote(path: str | Path) -> bool:
+    """Whether the Parquet file ``path`` is nsbench's: its metadata holds nsbench's provenance, or it
+    is unreadable under a name nsbench gives (a case file damaged on disk; nsbench's writes are atomic)."""
+    p = Path(path)
+    try:
+        return PROVENANCE_KEY in (pq.read_schema(p).metadata or {})
+    except (OSError, ValueError, pa.ArrowException):
+        return bool(_STABLE_KEY.fullmatch(p.name[: -len(".parquet")]))
+
+
 def append_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) -> Path:
     """Store one finished case as ``cases/<case_id>.parquet``."""
     path = case_path(out, row["case_id"])
+    refuse_links(out, ["cases"])  # the worker writes here: never into a folder a link points to
     path.parent.mkdir(parents=True, exist_ok=True)
     _write_atomic(_table(to_frame([row]), provenance), path)
     return path
@@ -220,6 +250,7 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = ST
     import sys
 
     o = Path(out)
+    check_no_links(o)
     bad = []
     cases = o / "cases"
     for f in sorted(cases.glob("*.parquet")) if cases.is_dir() else []:
@@ -230,10 +261,14 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = ST
             if differ:
                 raise DamagedFile(f"it holds another computation than its case id says ({differ[0]} differs)")
         except DamagedFile as exc:
+            if not nsbench_wrote(f):  # someone else's file: never deleted, and not read as a result
+                raise ConfigError(f"{f} is not an nsbench case file ({exc}) and nsbench did not write it; move "
+                                  f"it out of {cases} or choose another --out") from None
             print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
             f.unlink(missing_ok=True)
             bad.append(f)
-    remove_stale_temporaries((o, cases, o / "references"), stale_after)
+    remove_stale_temporaries(((o, "results.*.tmp"), (o, "provenance.json.tmp"), (o, "timeline.csv.tmp"),
+                              (cases, "*.parquet.tmp"), (o / "references", "*.json.tmp")), stale_after)
     return bad
 
 
@@ -401,6 +436,7 @@ def read_csv_checked(path: Path) -> pd.DataFrame:
 def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:
     """Write ``results.parquet``, ``results.csv`` and ``provenance.json`` from the stored cases."""
     o = Path(out)
+    check_no_links(o)
     frame = load_results(o)
     prov = provenance if provenance is not None else read_provenance(o)
     _write_atomic(_table(frame, prov), o / "results.parquet")
@@ -408,7 +444,7 @@ def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.Data
     for name in LIST_COLUMNS:
         csv[name] = csv[name].map(json.dumps)
     write_csv(csv, o / "results.csv", prov)
-    (o / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
+    write_atomic(o / "provenance.json", json.dumps(prov, indent=1, default=str))
     return frame
 
 
@@ -424,7 +460,7 @@ def write_timeline(out: str | Path, records: Iterable[Any]) -> Path:
         t0 = frame["start"].min()
         frame["start"], frame["end"] = frame["start"] - t0, frame["end"] - t0
     path = Path(out) / "timeline.csv"
-    frame.to_csv(path, index=False, float_format="%.3f")
+    write_atomic(path, frame.to_csv(index=False, float_format="%.3f"))
     return path
 
 

@@ -30,7 +30,7 @@ import pandas as pd
 
 from nsbench.bifurcation.sweep import SweepSpec, column_kinds, counter_columns
 from nsbench.errors import ConfigError
-from nsbench.files import STALE_AFTER, remove_stale_temporaries, write_atomic
+from nsbench.files import STALE_AFTER, refuse_links, remove_stale_temporaries, write_atomic
 
 
 class SweepStore:
@@ -49,6 +49,7 @@ class SweepStore:
         self.directory = Path(directory)
         self.points_dir = self.directory / "points"
         self._checked: dict[Path, tuple[tuple[int, int], pd.DataFrame | None, str]] = {}
+        refuse_links(self.directory, ("meta.json", "points", "*.tmp"), ("points",))
         meta_path = self.directory / "meta.json"
         meta = None
         if meta_path.exists() or meta_path.is_symlink():
@@ -153,7 +154,7 @@ class SweepStore:
             print(f"nsbench: warning: {f} is damaged ({reason}); its values are computed again",
                   file=stream or sys.stderr)
             f.unlink(missing_ok=True)
-        remove_stale_temporaries([self.points_dir], stale_after)
+        remove_stale_temporaries([(self.points_dir, "chunk-*.tmp")], stale_after)
         return [f for f, _ in bad]
 
     def load(self) -> pd.DataFrame:
@@ -277,6 +278,7 @@ def clear_sweep(directory: str | os.PathLike) -> None:
     d = Path(directory)
     if not d.exists():
         return
+    refuse_links(d, ("meta.json", "points"), ("points",))
     meta = d / "meta.json"
     try:
         json.loads(meta.read_text())["spec"]

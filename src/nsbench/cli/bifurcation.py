@@ -12,6 +12,10 @@ from nsbench.cli._dask import connect as connect_dask
 from nsbench.errors import ConfigError
 
 
+#: What the command writes in a sweep folder besides the store (``meta.json``, ``points/``).
+WRITTEN = ("features.csv", "candidates.csv", "compare.md", "agreement.csv", "diagram.*", "locus_*", "portrait_*")
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("bifurcation", help="sweep one parameter and draw the bifurcation diagram")
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
@@ -118,6 +122,14 @@ def main(args: argparse.Namespace) -> int:
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
     base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
     check_output_dir(base, "--out")
+    from nsbench.bench.storage import file_name
+    from nsbench.files import refuse_links
+
+    # the tables and figures written below replace what is there: never through a link
+    members = tuple(file_name(s.integrator, "integrator name") for s in specs) if len(specs) > 1 else ()
+    refuse_links(base, WRITTEN + members)
+    for name in members:
+        refuse_links(base / name, WRITTEN)
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}

@@ -44,6 +44,10 @@ DOUBLE_GRADABLE = 1e-10
 FAILED = "reference failed"
 
 
+#: Ends the certification note of a log whose check gives another event sequence.
+NOT_CERTIFIED_FROM = "not certified from there"
+
+
 def failed_status(status: str) -> bool:
     """Whether a ``reference_status`` says the reference run failed (raised, failed, crashed)."""
     return str(status).startswith(FAILED)
@@ -149,9 +153,15 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
         events = res.events.copy()
         events[CERTIFIED], certify_note = certified_errors(problem, events, t0, t_end,
                                                            reference=config["name"])
-        return Reference(key, config["name"], config, "ok", events, grid, dense,
-                         res.y_final, res.wall_time + res.setup_time, conditioning=cond, conditioning_note=note,
-                         certify_note=certify_note)
+        status = "ok"
+        if NOT_CERTIFIED_FROM in certify_note:
+            # its independent check logs other events: which one is right is not known here, so
+            # grading against it could blame the integrators that agree with the check
+            status = (f"{FAILED}: {config['name']} is not certified ({certify_note}); nothing is graded "
+                      "against it")
+        return Reference(key, config["name"], config, status, events, grid, dense,
+                         res.y_final, res.wall_time + res.setup_time, failed=status != "ok", conditioning=cond,
+                         conditioning_note=note, certify_note=certify_note)
     if refused:
         reason = "no reference available: " + ", ".join(f"{n} refused the problem" for n in refused)
     else:
@@ -341,7 +351,7 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
     out[:dt.size] = dt + np.spacing(np.abs(t_check))
     note = f"against {what}"
     if at is not None:
-        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): not certified from there"
+        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): {NOT_CERTIFIED_FROM}"
     return out, note
 
 

@@ -220,6 +220,65 @@ def sweep_job(spec_dict: dict, indices: list[int], point_limit: float | None, se
     return len(indices)
 
 
+def _set_up(spec: SweepSpec, value: float, setup_limit: float | None, stage: Callable) -> Any:
+    """The sweep's integrator, set up at ``value`` with the compiled core loaded, under ``setup_limit``."""
+    from nsbench.hybrid.run import warm_up
+    from nsbench.integrators import get_integrator
+
+    stage(SETUP_STAGE, setup_limit)
+    integ = get_integrator(spec.integrator, **spec.options)
+    problem = spec.problem_at(value)
+    integ.setup(problem)
+    warm_up(problem, integ)
+    return integ
+
+
+def refine_job(spec_dict: dict, left: float, right: float, kind: str, point_limit: float | None,
+               setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
+               emit: Callable[[Any], None]) -> dict:
+    """:func:`nsbench.bifurcation.detect.refine` in a supervised worker, each value under ``point_limit``."""
+    from nsbench.bifurcation.detect import refine
+
+    spec = SweepSpec.from_dict(spec_dict)
+    _set_up(spec, left, setup_limit, stage)  # compiled code loaded in this process: not a value's time
+    found = refine(spec, left, right, kind,
+                   before=lambda v: stage(f"refining a {kind} change at {spec.name} = {v:.10g}", point_limit))
+    return {"left": found.left, "right": found.right, "value": found.value}
+
+
+def locus_job(spec_dict: dict, value: float, pair: tuple[int, int], point_limit: float | None,
+              setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
+              emit: Callable[[Any], None]) -> Any:
+    """The locus-of-sticking run of a portrait (:func:`nsbench.bifurcation.locus.locus_run`), supervised."""
+    from nsbench.bifurcation.locus import locus_run
+
+    spec = SweepSpec.from_dict(spec_dict)
+    integ = _set_up(spec, value, setup_limit, stage)
+    stage(f"the locus run at {spec.name} = {value:.10g}", point_limit)
+    return locus_run(spec.problem_at(value), integ, transient=spec.transient,
+                     duration=min(300.0, spec.record_window), value=value, pair=pair)
+
+
+def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
+    """``(result, '')`` of the job ``target(*args)`` on the kept pool, or ``(None, reason)`` if it raised,
+    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only."""
+    from nsbench.jobs import Job, drop_shared, shared_pool
+
+    pool = shared_pool(max(1, workers))
+    pool.submit(Job("call", f"{__name__}:{target}", args))
+    result, reason = None, ""
+    try:
+        for o in pool.outcomes():
+            if o.kind == "done":
+                result = o.value
+            elif o.final:
+                reason = f"{o.kind}: {o.reason}"
+    except BaseException:
+        drop_shared(pool)
+        raise
+    return result, reason
+
+
 #: Seconds a Dask cluster may have no worker while chunks are pending before the sweep stops.
 NO_WORKER_LIMIT = 60.0
 

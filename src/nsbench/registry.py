@@ -5,6 +5,9 @@ Built-ins and plug-ins register the same way, in the ``nsbench.problems`` and
 metadata without importing them, read once per process (:func:`refresh` reads
 them again); an entry is imported only when it is used, and one that fails to
 import is reported as unavailable (with its reason) without breaking the others.
+A plug-in's first import is tried in a child process (:mod:`nsbench.import_probe`),
+so one that ends or hangs its process is unavailable too, instead of ending the
+command.
 """
 
 from __future__ import annotations
@@ -119,8 +122,13 @@ def load(kind: Kind, name: str) -> Any:
         raise ConfigError(
             f"unknown {kind[:-1]} {name!r}{hint}; registered: {', '.join(known)}"
         )
+    ep = eps[name]
+    if ep.dist is None or ep.dist.name != "nsbench":  # a plug-in: its first import is tried apart
+        from nsbench.import_probe import check_import
+
+        check_import(f"{kind[:-1]} {name!r}", ep.value)  # PluginLoadError if it would end this process
     try:
-        obj = eps[name].load()
+        obj = ep.load()
     except Exception as exc:  # any import-time failure of a plug-in
         raise PluginLoadError(
             f"{kind[:-1]} {name!r} ({eps[name].value}) failed to import: "

@@ -77,9 +77,28 @@ def test_bad_files(tmp_path):
     ({"benchmarks": [{"name": "a", "extra_info": 5}]}, "benchmarks[0].extra_info must be a table"),
     ({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}, "benchmarks[0].stats.median must be a number"),
     ({"benchmarks": [{"name": "a", "stats": {"data": ["x"]}}]}, "stats.data must be a list of times"),
+    # values that used to be stored as something else, or lost
+    ({"benchmarks": [{"name": "a", "stats": {"median": float("inf")}}]}, "stats.median must be a number of "
+                                                                          "seconds (finite, >= 0), got float inf"),
+    ({"benchmarks": [{"name": "a", "stats": {"median": -0.1}}]}, "stats.median must be a number of seconds"),
+    ({"benchmarks": [{"name": "a", "stats": {"rounds": -3}}]}, "stats.rounds must be a whole number >= 0"),
+    ({"benchmarks": [{"name": "a", "stats": {"rounds": 2.5}}]}, "stats.rounds must be a whole number >= 0"),
+    ({"benchmarks": [{"name": "a", "stats": {"data": [0.1, -1]}}]}, "stats.data must be a list of times"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"n_events": "abc"}}]},
+     "benchmarks[0].extra_info.n_events must be a whole number, got str 'abc'"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"nfev": -4}}]}, "extra_info.nfev counts something"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"status": {"a": 1}}}]},
+     "extra_info.status must be a string, got dict"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"status": "fine"}}]}, "'fine' is not a status"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"switch_err_max": "small"}}]},
+     "extra_info.switch_err_max must be a number"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"setup_time": float("inf")}}]},
+     "extra_info.setup_time must be a number of seconds"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"sequence_ok": "yes"}}]}, "sequence_ok must be true or false"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"event_err": [1, "x"]}}]}, "event_err must be a list of numbers"),
 ])
 def test_json_of_the_wrong_shape_is_refused(tmp_path, data, fragment):
-    (tmp_path / "x.json").write_text(json.dumps(data))
+    (tmp_path / "x.json").write_text(json.dumps(data))  # inf is written as Infinity, which json reads back
     with pytest.raises(ConfigError) as info:
         read_benchmark_json(tmp_path / "x.json")
     assert fragment in str(info.value)

@@ -33,3 +33,18 @@ def test_kernels_match_the_model(name, case):
                 assert kernels.guard_rate(p, kind, block, t, y, dy) == pytest.approx(
                     g.rate(t, y, dy), rel=1e-13, abs=1e-14)
     assert kernels.v0_of(p) == problem.v0
+
+
+def test_the_cache_guard_sees_every_import_of_a_compiled_file():
+    """Consecutive one-line imports each count: the hybrid loop holds the arc kernels' machine code,
+    so a change to any of them must drop the loop's numba cache (the guard missed every other one)."""
+    text = ("from nsbench.hybrid.clock import monotonic_ns\n"
+            "from nsbench.hybrid.rules import (\n    settle,\n    transition,\n)\n"
+            "from nsbench.integrators._exact_kernel import exact_arc\n"
+            "from nsbench.integrators._henon_kernel import henon_arc\n"
+            "import nsbench.integrators._picard_arc\n")
+    found = kernels._IMPORTS.findall(text)
+    modules = [frm or plain for frm, _, _, plain in found]
+    assert modules == ["nsbench.hybrid.clock", "nsbench.hybrid.rules", "nsbench.integrators._exact_kernel",
+                       "nsbench.integrators._henon_kernel", "nsbench.integrators._picard_arc"]
+    assert [g or n for _, g, n, _ in found][:2] == ["monotonic_ns", "\n    settle,\n    transition,\n"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -14,6 +15,8 @@ from nsbench.errors import ConfigError
 
 #: Step budget of one value's run (nsbench.bifurcation.sweep gives run_hybrid max_steps=50_000_000).
 SWEEP_MAX_STEPS = 50_000_000
+#: What the command writes in a sweep folder besides the store (``meta.json``, ``points/``).
+WRITTEN = ("features.csv", "candidates.csv", "compare.md", "agreement.csv", "diagram.*", "locus_*", "portrait_*")
 
 
 def add_parser(sub) -> None:
@@ -83,7 +86,7 @@ def _probe(problem: str, case: str):
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation import detect, figures
-    from nsbench.bifurcation.parallel import run_sweep
+    from nsbench.bifurcation.parallel import run_sweep, supervised
     from nsbench.bifurcation.storage import SweepStore, points_summary
     from nsbench.integrators import integrator_class
 
@@ -129,25 +132,45 @@ def main(args: argparse.Namespace) -> int:
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
     base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
     check_output_dir(base, "--out")
+    from nsbench.bench.storage import file_name
+    from nsbench.files import refuse_links
+
+    # the tables and figures written below replace what is there: never through a link
+    members = tuple(file_name(s.integrator, "integrator name") for s in specs) if len(specs) > 1 else ()
+    refuse_links(base, WRITTEN + members)
+    for name in members:
+        refuse_links(base / name, WRITTEN)
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}
+    from nsbench.bifurcation.parallel import default_workers
+
+    local_workers = workers or default_workers()  # refinements and portraits reuse the sweep's kept workers
     for spec in specs:
         from nsbench.bench.storage import file_name  # plug-in names are data: checked before they name a folder
 
         out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
+        point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
         frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
-                          point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT"))
+                          point_limit=point_limit)
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
         cands = detect.candidates(feats)
         if args.refine and len(cands):
-            refined = [detect.refine(spec, r.left, r.right, r.kind) for r in cands.itertuples()]
-            cands["refined_left"] = [r.left for r in refined]
-            cands["refined_right"] = [r.right for r in refined]
-            cands["refined_value"] = [r.value for r in refined]
+            # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
+            refined = []
+            for r in cands.itertuples():
+                found, why = supervised("refine_job", (spec.to_dict(), r.left, r.right, r.kind, point_limit),
+                                        local_workers)
+                if found is None:
+                    print(f"  refinement of the {r.kind} change in [{r.left:.6g}, {r.right:.6g}] failed: {why}")
+                    found = {"left": math.nan, "right": math.nan, "value": math.nan}
+                refined.append(found)
+            cands["refined_left"] = [r["left"] for r in refined]
+            cands["refined_right"] = [r["right"] for r in refined]
+            cands["refined_value"] = [r["value"] for r in refined]
         feats.to_csv(out / "features.csv", index=False)
         cands.to_csv(out / "candidates.csv", index=False)
         summary = points_summary(frame)
@@ -155,7 +178,7 @@ def main(args: argparse.Namespace) -> int:
                  f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
         for value in portraits:
-            _portrait(spec, value, out, formats, pair)
+            _portrait(spec, value, out, formats, pair, point_limit, local_workers)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
@@ -213,15 +236,17 @@ def _pair(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
-def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2)) -> None:
+def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2),
+              point_limit: float | None = None, workers: int = 1) -> None:
     from nsbench.bifurcation import figures
-    from nsbench.bifurcation.locus import locus_run
+    from nsbench.bifurcation.parallel import supervised
 
-    problem = spec.problem_at(value)
-    integ = spec.integrator
-    run = locus_run(problem, integ, transient=spec.transient, duration=min(300.0, spec.record_window),
-                    options=spec.options, value=value, pair=pair)
     tag = f"{spec.name}_{value:g}"
+    # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
+    run, why = supervised("locus_job", (spec.to_dict(), value, pair, point_limit), workers)
+    if run is None:
+        print(f"  locus and portrait at {tag} failed: {why}")
+        return
     figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
     figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}",
                      formats=formats)

@@ -212,7 +212,10 @@ def henon_arc(kd, fo, p, mode, gk, gb, gs, ng, t0, t0_lo, y0, t_end, max_steps,
     n = y0.shape[0]
     ns = sl.shape[0]
     kinds, blocks, signs = gk[:ng], gb[:ng], gs[:ng]
-    n_steps_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
+    n_float = np.ceil((t_end - t0) / h - 1e-9)
+    # a step count past int64 (a step far below the span's resolution) would wrap around and end
+    # the arc in one step: clamp it, so that the step budget ends such a run instead
+    n_steps_total = max(1, int(n_float)) if n_float < 4e18 else 4_000_000_000_000_000_000
     wk = kd[0]
     work = wk[0:8, :n]
     y, fy, y1, f1, ystar, ybest = wk[8, :n], wk[9, :n], wk[10, :n], wk[11, :n], wk[12, :n], wk[13, :n]

@@ -36,8 +36,10 @@ VELOCITY, UPPER, LOWER = 0, 1, 2
 _KIND_CODES = {"velocity": VELOCITY, "upper": UPPER, "lower": LOWER}
 
 
-_IMPORTS = re.compile(r"^\s*(?:from\s+(nsbench[\w.]*)\s+import\s+\(?([\w\s,]*)|import\s+(nsbench[\w.]*))",
-                      re.MULTILINE)
+#: ``from nsbench.x import a, b``, ``from nsbench.x import (a,\n b)`` or ``import nsbench.x``; the names of
+#: the unparenthesised form stay on their line (``\s`` there would swallow the next import statement).
+_IMPORTS = re.compile(r"^[ \t]*(?:from[ \t]+(nsbench[\w.]*)[ \t]+import[ \t]+(?:\(([\w\s,]*)\)?|([\w \t,]*))"
+                      r"|import[ \t]+(nsbench[\w.]*))", re.MULTILINE)
 
 
 def _drop_stale_numba_caches() -> None:
@@ -57,11 +59,11 @@ def _drop_stale_numba_caches() -> None:
 
     def imports(name: str) -> set[str]:
         out = set()
-        for frm, names, plain in _IMPORTS.findall(texts[name]):
+        for frm, grouped, names, plain in _IMPORTS.findall(texts[name]):
             module = frm or plain
             if module in paths:
                 out.add(module)
-            for item in names.replace("\n", " ").split(","):
+            for item in (grouped or names).replace("\n", " ").split(","):
                 sub = f"{frm}.{item.strip()}"
                 if frm and sub in paths:
                     out.add(sub)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -228,3 +230,27 @@ def test_invalid_low_time_parts_are_dropped():
     assert _low_part(100.0, 1e-15) == 1e-15
     assert _low_part(100.0, 1e-3) == 0.0  # not a correction below one ulp
     assert _low_part(100.0, float("nan")) == 0.0
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    ({"max_steps": 0}, "max_steps = 0 must be a whole number from 1"),
+    ({"max_steps": -5}, "max_steps = -5"),
+    ({"max_steps": 2.5}, "max_steps = 2.5"),
+    ({"max_steps": True}, "max_steps = True"),
+    ({"max_steps": 10**30}, "max_steps = 10000"),
+    ({"max_events": 0}, "max_events = 0"),
+    ({"zeno_events": -1}, "zeno_events = -1"),
+    ({"zeno_span": -1.0}, "zeno_span = -1.0 must be a finite time > 0"),
+    ({"zeno_span": float("nan")}, "zeno_span = nan"),
+    ({"zeno_span": float("inf")}, "zeno_span = inf"),
+    ({"zeno_span": "1e-9"}, "zeno_span = '1e-9'"),
+])
+def test_budgets_and_the_storm_span_are_checked(case1, kw, fragment):
+    # each of these used to run: a budget of 0 or -5 steps ended at once with a message about
+    # "-5 steps used", and a storm span of -1 or nan silently switched the storm check off
+    with pytest.raises(nsbench.ConfigError, match=re.escape(fragment)):
+        nsbench.simulate(case1, "exact", 10.0, **kw)
+
+
+def test_budgets_of_numpy_integers_are_accepted(case1):
+    assert nsbench.simulate(case1, "exact", 10.0, max_steps=np.int64(1000), zeno_events=np.int32(8)).ok

@@ -52,5 +52,24 @@ def test_a_line_per_tenth_in_a_log_and_silent_when_disabled():
     assert off.getvalue() == "" and bar.done == 3
 
 
+def test_a_phase_is_one_line_in_a_log_above_the_bar_on_a_terminal_and_silent_when_disabled():
+    log = io.StringIO()
+    with Progress(4, label="cases", stream=log) as bar:
+        bar.phase("timing: every worker is warm")
+        bar.update(4)
+    lines = log.getvalue().splitlines()
+    assert lines[0] == "nsbench: timing: every worker is warm" and lines[-1].startswith("nsbench: cases 100%")
+    term = Terminal()
+    with Progress(4, label="cases", stream=term) as bar:
+        bar.update(1)
+        bar.phase("timing: every worker is warm")
+        bar.update(3)
+    assert "nsbench: timing: every worker is warm\n" in term.getvalue() and "4/4" in term.getvalue()
+    off = Terminal()
+    with Progress(4, stream=off, enabled=False) as bar:
+        bar.phase("timing")
+    assert off.getvalue() == ""
+
+
 def test_clock():
     assert clock(0) == "0:00" and clock(61.4) == "1:01" and clock(3725) == "1:02:05"

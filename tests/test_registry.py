@@ -54,3 +54,30 @@ def test_integrator_config_round_trip():
         again = nsbench.integrator_from_config(integ.config())
         assert again.config() == integ.config()
         assert type(again) is type(integ)
+
+
+def test_the_entry_points_are_read_once_per_process(monkeypatch):
+    """A plug-in installed while a run goes on is seen by none of its parts, not some: only after refresh()."""
+    registry.refresh()
+    before = registry.names("integrators")
+    late = metadata.EntryPoint(name="late-plugin", value="nsbench.integrators.henon_rk4:HenonRK4",
+                               group="nsbench.integrators")
+    real = metadata.entry_points
+
+    def installed_now(**kw):
+        eps = list(real(**kw))
+        return eps + [late] if kw.get("group") == "nsbench.integrators" else eps
+
+    monkeypatch.setattr(registry.metadata, "entry_points", installed_now)
+    try:
+        assert registry.names("integrators") == before  # the snapshot of this process
+        assert "late-plugin" not in nsbench.list_integrators()
+        with pytest.raises(ConfigError, match="unknown integrator 'late-plugin'"):
+            registry.load("integrators", "late-plugin")
+        registry.refresh()
+        assert "late-plugin" in registry.names("integrators")
+        assert registry.load("integrators", "late-plugin").name == "henon-rk4"
+    finally:
+        monkeypatch.undo()
+        registry.refresh()
+    assert "late-plugin" not in registry.names("integrators")

@@ -55,6 +55,26 @@ def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarra
             raise ConfigError(f"t_eval must lie in [t0, t_end] = [{t0:g}, {t_end:g}]")
 
 
+#: Largest step or event budget of a run (the compiled core counts in 64-bit integers).
+MAX_BUDGET = 2**62
+
+
+def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span: Any) -> None:
+    """Budgets are whole numbers from 1 to :data:`MAX_BUDGET`, the storm span a finite time > 0."""
+    import numbers
+
+    for name, value in (("max_steps", max_steps), ("max_events", max_events), ("zeno_events", zeno_events)):
+        whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+        if not (whole and 1 <= value <= MAX_BUDGET):
+            raise ConfigError(f"{name} = {value!r} must be a whole number from 1 to {MAX_BUDGET} "
+                              "(nsbench.engine.MAX_BUDGET)")
+    if zeno_span is not None:
+        real = isinstance(zeno_span, numbers.Real) and not isinstance(zeno_span, bool)
+        if not (real and math.isfinite(zeno_span) and zeno_span > 0):
+            raise ConfigError(f"zeno_span = {zeno_span!r} must be a finite time > 0 (or None: 1e-9 times the "
+                              "problem's time scale)")
+
+
 def _frames(problem: HybridProblem, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
             strobe_names: list[str | None], state_sections: Sequence[StateSection]):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
@@ -136,12 +156,14 @@ def simulate(
     sections
         Observation sections (:mod:`nsbench.sections`) recorded into ``result.sections``.
     max_steps
-        Step budget for the whole run (status ``BUDGET_EXHAUSTED`` past it).
+        Step budget for the whole run (status ``BUDGET_EXHAUSTED`` past it): a
+        whole number from 1 to :data:`MAX_BUDGET`.
     max_events
-        Event budget for the whole run.
+        Event budget for the whole run (the same range).
     zeno_events, zeno_span
-        More than ``zeno_events`` consecutive events within ``zeno_span`` (default
-        ``1e-9`` times the time scale) end the run with ``EVENT_STORM``.
+        More than ``zeno_events`` (a whole number >= 1) consecutive events within
+        ``zeno_span`` (a finite time > 0; default ``1e-9`` times the time scale)
+        end the run with ``EVENT_STORM``.
     accumulation
         When this many consecutive intervals between events of one guard shrink
         geometrically, the events accumulate (Zeno): the accumulation time is
@@ -159,6 +181,7 @@ def simulate(
         Bad input (span, state, grid, unknown integrator or option) or an
         integrator that refuses the problem.
     """
+    _check_budgets(max_steps, max_events, zeno_events, zeno_span)
     integ = _resolve_integrator(integrator, options)
     y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
     grid = np.empty(0) if t_eval is None else np.asarray(list(t_eval), dtype=float).ravel()

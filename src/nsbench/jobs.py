@@ -36,6 +36,9 @@ from nsbench.errors import NsbenchError
 
 #: Seconds a new worker may take to import nsbench and answer.
 START_LIMIT = 300.0
+#: Default limit of an integrator's set-up in a worker (construction, ``setup``: compilation from a
+#: cold cache included, minutes on a busy machine): generous, a set-up that never ends is what it stops.
+SETUP_LIMIT = 1800.0
 
 
 @dataclass(frozen=True)
@@ -103,7 +106,7 @@ class JobPool:
         if workers < 1:
             raise ValueError(f"workers = {workers} must be at least 1")
         if hello is None:
-            hello = wp.hello(_shareable(_components()), "", {})
+            hello = wp.hello(shareable(_components()), "", {})
         self._hello = hello
         self._slots = [_Slot() for _ in range(workers)]
         self._queue: deque[Job] = deque()
@@ -117,6 +120,12 @@ class JobPool:
 
     def submit(self, job: Job) -> None:
         self._queue.append(job)
+
+    def drop_queued(self) -> list[Job]:
+        """Remove the jobs not started yet from the queue and return them (they will not run)."""
+        jobs = list(self._queue)
+        self._queue.clear()
+        return jobs
 
     def close(self) -> None:
         """End every worker (idle ones are asked to stop, busy ones are killed) and forget queued jobs.
@@ -230,7 +239,7 @@ def shared_pool(workers: int) -> JobPool:
     """
     import atexit
 
-    hello = wp.hello(_shareable(_components()), "", {})
+    hello = wp.hello(shareable(_components()), "", {})
     key = (workers, hello.components)
     pool = _SHARED.get(key)
     if pool is None:
@@ -281,7 +290,7 @@ def drop_shared(pool: JobPool) -> None:
             del _SHARED[key]
 
 
-def _shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+def shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """The runtime registrations a worker can import."""
     return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)}
             for kind, objs in components.items()}

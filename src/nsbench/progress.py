@@ -2,8 +2,9 @@
 
 One bar per run, on stderr, drawn on a terminal. Where no bar can be drawn (CI
 logs, pipes, files) it prints one line per tenth of the work instead, with the
-time elapsed and the time left; ``enabled=False`` silences it everywhere (the
-CLI's ``--no-progress``). The estimate of the time left is the work left over
+time elapsed and the time left; :meth:`Progress.phase` says in one line what the
+run does next (above the bar, or as a line of the log); ``enabled=False``
+silences it everywhere (the CLI's ``--no-progress``). The estimate of the time left is the work left over
 the rate at which work got done so far. Steps may carry weights (the
 expected seconds of each task, :mod:`nsbench.bench.estimate`): then a long
 task counts for more than a short one, and the estimate holds when they mix.
@@ -52,6 +53,7 @@ class Progress:
         self.total = max(float(total), 0.0) if weighted else max(int(total), 0)
         self.done = 0.0 if weighted else 0
         self.label = label
+        self.enabled = enabled
         self._out = out
         self._start = time.monotonic()
         self._lines = enabled and not tty and self.total > 0
@@ -74,6 +76,16 @@ class Progress:
             print(what + (f", about {clock(left)} left" if fraction < 1 else ""), file=self._out, flush=True)
             while self._next_line <= fraction + 1e-12:
                 self._next_line += 0.1
+
+    def phase(self, text: str) -> None:
+        """Say in one line what the run does now: above the bar on a terminal, a plain line in a log."""
+        if not self.enabled:
+            return
+        line = f"nsbench: {text}"
+        if self._bar.disable:
+            print(line, file=self._out, flush=True)
+        else:
+            self._bar.write(line, file=self._out)
 
     def close(self) -> None:
         self._bar.close()

@@ -2,9 +2,12 @@
 
 Built-ins and plug-ins register the same way, in the ``nsbench.problems`` and
 ``nsbench.integrators`` entry-point groups. Entries are listed from package
-metadata without importing them; an entry is imported only when it is used, and
-one that fails to import is reported as unavailable (with its reason) without
-breaking the others.
+metadata without importing them, read once per process (:func:`refresh` reads
+them again); an entry is imported only when it is used, and one that fails to
+import is reported as unavailable (with its reason) without breaking the others.
+A plug-in's first import is tried in a child process (:mod:`nsbench.import_probe`),
+so one that ends or hangs its process is unavailable too, instead of ending the
+command.
 """
 
 from __future__ import annotations
@@ -26,6 +29,9 @@ GROUPS: dict[str, str] = {
 # shadow entry points of the same name.
 _RUNTIME: dict[str, dict[str, Any]] = {"problems": {}, "integrators": {}}
 _LOADED: dict[tuple[str, str], Any] = {}
+# The entry points of each group, read once per process: a plug-in installed while a run goes on
+# would otherwise appear in the parts of it that read the metadata later, and only there.
+_SNAPSHOT: dict[str, dict[str, metadata.EntryPoint]] = {}
 
 
 @dataclass(frozen=True)
@@ -45,10 +51,24 @@ def _group(kind: str) -> str:
 
 
 def _entry_points(kind: str) -> dict[str, metadata.EntryPoint]:
-    found: dict[str, metadata.EntryPoint] = {}
-    for ep in metadata.entry_points(group=_group(kind)):
-        found.setdefault(ep.name, ep)
-    return found
+    group = _group(kind)
+    if group not in _SNAPSHOT:
+        found: dict[str, metadata.EntryPoint] = {}
+        for ep in metadata.entry_points(group=group):
+            found.setdefault(ep.name, ep)
+        _SNAPSHOT[group] = found
+    return dict(_SNAPSHOT[group])
+
+
+def refresh() -> None:
+    """Read the installed entry points again.
+
+    The registry reads them once per process, so that every part of a run sees
+    the same plug-ins; a long-lived session (a notebook) that installs one calls
+    this to see it.
+    """
+    _SNAPSHOT.clear()
+    _LOADED.clear()
 
 
 def entries(kind: Kind) -> list[Entry]:
@@ -102,8 +122,13 @@ def load(kind: Kind, name: str) -> Any:
         raise ConfigError(
             f"unknown {kind[:-1]} {name!r}{hint}; registered: {', '.join(known)}"
         )
+    ep = eps[name]
+    if ep.dist is None or ep.dist.name != "nsbench":  # a plug-in: its first import is tried apart
+        from nsbench.import_probe import check_import
+
+        check_import(f"{kind[:-1]} {name!r}", ep.value)  # PluginLoadError if it would end this process
     try:
-        obj = eps[name].load()
+        obj = ep.load()
     except Exception as exc:  # any import-time failure of a plug-in
         raise PluginLoadError(
             f"{kind[:-1]} {name!r} ({eps[name].value}) failed to import: "

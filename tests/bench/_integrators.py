@@ -12,6 +12,8 @@ from __future__ import annotations
 import os
 import time
 
+from nsbench.integrators.base import Option
+from nsbench.integrators.henon_rk4 import HenonRK4
 from nsbench.integrators.scipy_ import ScipyDOP853, ScipyRK45
 
 
@@ -35,6 +37,16 @@ class BrokenSetup(ScipyRK45):
 
     def setup(self, problem):
         raise RuntimeError("plug-in bug in setup")
+
+
+class HangingSetup(ScipyRK45):
+    """Never returns from ``setup`` (a plug-in whose set-up loops)."""
+
+    name = "hanging-setup-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+
+    def setup(self, problem):
+        time.sleep(3600)
 
 
 #: Runs whose span ends past this are the timed ones in the tests (their warm-up covers a tenth).
@@ -62,6 +74,15 @@ class StandInReference(ScipyDOP853):
 
     def __init__(self, **options):
         super().__init__(**{"rtol": 1e-13, "atol": 1e-15, **options})
+
+
+class CoarseReference(HenonRK4):
+    """RK4 at a coarse step (h = 1, stable but inaccurate) named as a suite's reference: a reference
+    whose independent check logs another event sequence (on 2-DOF case 1 from t = 0.1 on)."""
+
+    name = "coarse-reference-test"
+    options = {"h": Option(1.0, float, lower=0.0)}
+    accuracy_levels = ({"h": 1.0},)
 
 
 class Crashing(ScipyRK45):

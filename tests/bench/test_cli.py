@@ -38,12 +38,24 @@ def test_bench_report_compare(tiny, capsys):
     assert "4 common cases (0 only in A, 0 only in B); factor 1.5; 0 flagged" in capsys.readouterr().out
 
 
-def test_run_writes_the_report(tiny, capsys):
+def test_run_writes_the_report_and_says_each_phase_and_the_answer(tiny, capsys):
+    """Without a terminal (captured streams, as in CI): a line per phase on stderr, the answer on stdout."""
     out = tiny / "latest"
-    assert main(["run", "--suite", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1",
-                 "--no-progress"]) == 0
+    assert main(["run", "--suite", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1"]) == 0
     assert (out / "index.html").stat().st_size > 10_000
-    assert "nsbench run took" in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert "nsbench run took" in printed.out
+    phases = [line for line in printed.err.splitlines() if line.startswith("nsbench: ") and "% done" not in line
+              and not line.startswith(("nsbench: compiling", "nsbench: compiled"))]  # a cold numba cache
+    assert [p.split(":")[1].split()[0] for p in phases] == ["suite", "preparing", "timing", "writing"], phases
+    import re
+
+    planned = int(re.search(r"4 case\(s\): (\d+) timed runs", printed.err).group(1))
+    assert f"timing: every worker is warm; {planned} timed run(s) in {planned // 4} round(s)" in printed.err
+    answer = printed.out[printed.out.index("the answer:"):].splitlines()
+    report = (out / "report.md").read_text()
+    first = report[report.index("## The answer"):].splitlines()[2]  # the report's first sentence
+    assert answer[1] == "  " + first
 
 
 

@@ -77,9 +77,28 @@ def test_bad_files(tmp_path):
     ({"benchmarks": [{"name": "a", "extra_info": 5}]}, "benchmarks[0].extra_info must be a table"),
     ({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}, "benchmarks[0].stats.median must be a number"),
     ({"benchmarks": [{"name": "a", "stats": {"data": ["x"]}}]}, "stats.data must be a list of times"),
+    # values that used to be stored as something else, or lost
+    ({"benchmarks": [{"name": "a", "stats": {"median": float("inf")}}]}, "stats.median must be a number of "
+                                                                          "seconds (finite, >= 0), got float inf"),
+    ({"benchmarks": [{"name": "a", "stats": {"median": -0.1}}]}, "stats.median must be a number of seconds"),
+    ({"benchmarks": [{"name": "a", "stats": {"rounds": -3}}]}, "stats.rounds must be a whole number >= 0"),
+    ({"benchmarks": [{"name": "a", "stats": {"rounds": 2.5}}]}, "stats.rounds must be a whole number >= 0"),
+    ({"benchmarks": [{"name": "a", "stats": {"data": [0.1, -1]}}]}, "stats.data must be a list of times"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"n_events": "abc"}}]},
+     "benchmarks[0].extra_info.n_events must be a whole number, got str 'abc'"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"nfev": -4}}]}, "extra_info.nfev counts something"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"status": {"a": 1}}}]},
+     "extra_info.status must be a string, got dict"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"status": "fine"}}]}, "'fine' is not a status"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"switch_err_max": "small"}}]},
+     "extra_info.switch_err_max must be a number"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"setup_time": float("inf")}}]},
+     "extra_info.setup_time must be a number of seconds"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"sequence_ok": "yes"}}]}, "sequence_ok must be true or false"),
+    ({"benchmarks": [{"name": "a", "extra_info": {"event_err": [1, "x"]}}]}, "event_err must be a list of numbers"),
 ])
 def test_json_of_the_wrong_shape_is_refused(tmp_path, data, fragment):
-    (tmp_path / "x.json").write_text(json.dumps(data))
+    (tmp_path / "x.json").write_text(json.dumps(data))  # inf is written as Infinity, which json reads back
     with pytest.raises(ConfigError) as info:
         read_benchmark_json(tmp_path / "x.json")
     assert fragment in str(info.value)
@@ -131,3 +150,33 @@ def test_a_folder_that_is_not_an_nsbench_store_is_not_cleared(bench_json, tmp_pa
     with pytest.raises(ConfigError, match="does not look like an nsbench results folder"):
         ingest(bench_json, out)
     assert keep.read_text() == "precious"
+
+
+@pytest.fixture(scope="module")
+def matched_json(tmp_path_factory):
+    """The matched-accuracy module (several integrators, each timing its own call), case 1, over [0, 20]."""
+    out = tmp_path_factory.mktemp("matched") / "matched.json"
+    env = {**os.environ, "NSBENCH_BENCH_T_END": "20"}
+    module = "benchmarks/test_ofapi_matched_accuracy.py"
+    ids = [f"{module}::test_matched_accuracy[1-{name}]" for name in ("henon-rk4", "ofapi", "mcpi")]
+    cmd = [sys.executable, "-m", "pytest", *ids, "-q", "-p", "no:cacheprovider", "--benchmark-only",
+           f"--benchmark-json={out}"]
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out
+
+
+def test_ingest_keeps_problem_integrator_span_and_accuracy_of_a_module_with_several_integrators(
+        matched_json, tmp_path):
+    frame = ingest(matched_json, tmp_path / "ing").set_index("integrator")
+    assert sorted(frame.index) == ["henon-rk4", "mcpi", "ofapi"]
+    assert set(frame["problem"]) == {"two-dof"} and set(frame["case"]) == {1}
+    assert set(frame["problem_label"]) == {"two-dof/1"}
+    assert set(frame["t0"]) == {0.0} and set(frame["t_end"]) == {20.0}
+    assert frame.loc["henon-rk4", "step_value"] == 0.0019 and frame.loc["ofapi", "options"] != "{}"
+    # the module's own target (1e-10): every event matched and within it
+    assert frame["sequence_ok"].all() and (frame["switch_err_max"] <= 1e-10).all()
+    assert (frame["n_prefix"] == frame["n_ref"]).all() and (frame["n_ref"] > 0).all()
+    assert (frame["reference"] == "exact").all() and (frame["status"] == "success").all()
+    rep = write_report(tmp_path / "ing")
+    assert any(f.name.startswith("wp_time") for f in rep.figures), [f.name for f in rep.figures]

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nsbench.bench.metrics import align, case_metrics, lcs_length, reaches, state_errors, switching_errors
+from nsbench.bench.metrics import align, case_metrics, reaches, state_errors, switching_errors
 from nsbench.bench.storage import to_frame
 from nsbench.bench.tables import fixed_target, ranking
 
@@ -56,7 +56,9 @@ def test_extra_event():
     run = log([1.0, 2.0, 2.5, 3.0, 4.0, 5.0], kinds)
     al = align(REF, run)
     assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (2, 5, 0, 1)
-    assert al.first_divergence_index == 2 and al.first_divergence_time == 3.0
+    # the divergence is the extra reverse, at its own time (the run's: the reference has no event there)
+    assert al.first_divergence_index == 2 and al.first_divergence_time == 2.5
+    assert al.first_divergence == "extra"
 
 
 def test_extra_event_after_the_reference_ends():
@@ -74,10 +76,64 @@ def test_empty_run_and_digits_cap():
     assert exact.err_max == 0.0 and exact.digits == pytest.approx(-math.log10(2.0 ** -53))
 
 
-def test_lcs_length_small_cases():
-    assert lcs_length(list("ABCBDAB"), list("BDCABA")) == 4   # textbook example
-    assert lcs_length(list("AAAA"), list("AA")) == 2
-    assert lcs_length([], list("AB")) == 0
+# A stick-slip cycle of block 2 every 3.58 time units, with block 1 slipping once: the run misses
+# block 2's first stick (and so the slip that ends it). Aligned by label only, the run's stick at
+# 8.16 pairs with the reference's at 1.0 (an "error" of 7.16) and the divergence shows up a cycle
+# late; aligned by label and time, the first stick is missed and every pair is within 1e-9.
+CYCLE = [("slip", 1), ("stick", 2), ("slip", 2), ("stick", 2), ("slip", 2), ("stick", 2), ("slip", 2)]
+T_CYCLE = [0.5, 1.0, 4.58, 8.16, 11.74, 15.32, 18.9]
+
+
+def test_a_missed_stick_is_missed_where_it_happened():
+    ref = log(T_CYCLE, CYCLE)
+    keep = [0, 3, 4, 5, 6]                                   # stick@2 at 1.0 and slip@2 at 4.58 missed
+    run = log([T_CYCLE[i] + 1e-9 for i in keep], [CYCLE[i] for i in keep])
+    al = align(ref, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (1, 5, 2, 0)
+    assert al.first_divergence_index == 1 and al.first_divergence_time == 1.0 and al.first_divergence == "missed"
+    row = case_metrics(ref, run, None, None, None, None)
+    assert not row["sequence_ok"] and row["n_prefix"] == 1
+    assert row["switch_err_max"] == pytest.approx(1e-9, rel=1e-6)  # the slip of block 1 only: never 7.16
+
+
+def test_the_nearer_event_in_time_is_paired_when_labels_allow_both():
+    """A run whose one stick@2 sits at the reference's second: paired with that one, the first missed."""
+    ref = log([1.0, 2.0, 5.0, 6.0], [("stick", 2), ("slip", 2), ("stick", 2), ("slip", 2)])
+    run = log([5.0 + 2e-9, 6.0 - 1e-9], [("stick", 2), ("slip", 2)])
+    al = align(ref, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (0, 2, 2, 0)
+    assert al.first_divergence_time == 1.0
+    # and the other way round: a run that stops after the first cycle misses the second one
+    early = log([1.0 + 1e-9, 2.0], [("stick", 2), ("slip", 2)])
+    al = align(ref, early)
+    assert (al.n_prefix, al.n_missed, al.first_divergence_index, al.first_divergence_time) == (2, 2, 2, 5.0)
+
+
+def test_fewest_unmatched_events_come_before_time():
+    """Time only chooses among alignments with the fewest unmatched events: a late but complete
+    sequence is matched in full (a large error, not a wrong sequence)."""
+    ref = log([1.0, 2.0, 3.0], [("stick", 1), ("slip", 1), ("stick", 1)])
+    late = log([1.7, 2.7, 3.7], [("stick", 1), ("slip", 1), ("stick", 1)])
+    al = align(ref, late)
+    assert al.sequence_ok and al.n_prefix == 3
+    assert switching_errors(ref, late, 3)[0].err_max == pytest.approx(0.7)
+    swapped = log([1.0, 2.0, 3.0, 4.0], [("stick", 1), ("stick", 2), ("slip", 1), ("stick", 1)])
+    al = align(ref, swapped)
+    assert (al.n_matched, al.n_missed, al.n_extra, al.first_divergence) == (3, 0, 1, "extra")
+    assert al.first_divergence_time == 2.0
+
+
+def test_long_logs_align_in_full():
+    """Two 3000-event logs that differ by one missed event deep inside: found at its place."""
+    rng = np.random.default_rng(7)
+    n = 3000
+    t = np.cumsum(rng.uniform(0.05, 0.2, n))
+    kinds = [("stick", 1 + i % 3) if i % 2 == 0 else ("slip", 1 + i % 3) for i in range(n)]
+    ref = log(t, kinds)
+    run = ref.drop(index=2001).reset_index(drop=True)
+    al = align(ref, run)
+    assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (2001, n - 1, 1, 0)
+    assert al.first_divergence_time == t[2001]
 
 
 def test_state_errors_by_hand():

@@ -165,3 +165,29 @@ def test_a_check_that_cannot_be_imported_hands_over_to_the_next(monkeypatch):
     events = simulate(problem, "exact", 30.0).events
     cert, note = certified_errors(problem, events, 0.0, 30.0, reference="exact")
     assert "heyoka-q" in note and np.isfinite(cert).all() and cert.max() < 1e-13
+
+
+def test_a_reference_its_check_contradicts_grades_nothing_and_says_so(register, tmp_path):
+    # exact-mp (the certification of a linear problem) logs another event sequence than this
+    # reference: the bench used to grade exact against it and report exact's sequence as wrong
+    import pandas as pd
+
+    from nsbench.bench import Suite, run_suite
+    from tests.bench import _integrators as ti
+
+    register(ti.CoarseReference.name, ti.CoarseReference)
+    suite = Suite.from_dict({"t_span": [0.0, 50.0], "repeats": 1, "reference": [ti.CoarseReference.name],
+                             "problems": [{"name": "two-dof", "case": 1}],
+                             "integrators": {"only": ["exact"], "grids": {"exact": {"options": [{}]}}}})
+    summary = run_suite(suite, tmp_path, workers=1, progress=False)
+    row = summary.results.iloc[0]
+    assert row["status"] == "success"
+    assert row["reference_status"].startswith(f"reference failed: {ti.CoarseReference.name} is not certified")
+    assert "the event sequences differ from event" in row["reference_status"]
+    assert pd.isna(row["n_matched"]) and pd.isna(row["switch_err_max"]) and pd.isna(row["sequence_ok"])
+    assert not summary.ok and "nothing is graded against it" in summary.problems()[0]
+    from nsbench.bench.report import write_report
+
+    report = write_report(tmp_path).markdown.read_text()
+    assert "| two-dof/1 | exact | no ref | no ref | no ref |" in report  # exact is not blamed, nor ranked
+    assert "nothing is graded against it" in report

@@ -353,3 +353,22 @@ def test_killing_a_run_ends_its_workers(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", KILLED.format(out=str(tmp_path / "k"))], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     kill_leaves_no_workers(proc, 2)
+
+
+def test_a_step_henon_rk4_cannot_take_is_an_unsupported_row_not_a_success(tmp_path):
+    # h = 1e300 used to take one step over the span and report success
+    suite = small_suite([], t_span=[0.0, 20.0], reference=["exact"],
+                        integrators={"only": [], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}})
+    frame = run_suite(suite, tmp_path, workers=1, progress=False).results.sort_values("step_value")
+    assert frame["status"].tolist() == ["success", "unsupported"]
+    assert "beyond RK4's stability limit" in frame["message"].iloc[1]
+
+
+def test_a_setup_that_never_returns_costs_its_case_not_the_suite(register, tmp_path):
+    # the setup (compilation) had no limit: a plug-in looping there hung the suite, nothing stored
+    register(ti.HangingSetup.name, ti.HangingSetup)
+    suite = small_suite(["scipy-rk45", ti.HangingSetup.name], t_span=[0.0, 20.0], setup_limit=3.0)
+    frame = run_suite(suite, tmp_path, workers=2, progress=False).results
+    hung = frame[frame["integrator"] == ti.HangingSetup.name]
+    assert hung["status"].tolist() == ["time limit"] and "in the setup" in hung["message"].iloc[0]
+    assert (frame.loc[frame["integrator"] == "scipy-rk45", "status"] == "success").all() and len(frame) == 1 + 3

@@ -193,3 +193,11 @@ def test_binary_and_folder_suite_files_are_refused(tmp_path):
     (tmp_path / "dir.toml").mkdir()
     with pytest.raises(ConfigError, match="is a folder"):
         load_suite(tmp_path / "dir.toml")
+
+
+def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
+    suite = Suite.from_dict({"problems": [{"name": "one-dof"}],
+                             "integrators": {"grids": {"henon-rk4": {"grid": {"h": [0.01, float("inf")]}}},
+                                             "only": []}})
+    with pytest.raises(ConfigError, match="h = inf must be a finite"):
+        suite.cases()

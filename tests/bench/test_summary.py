@@ -103,7 +103,7 @@ def test_figures_leave_out_references_and_unsuccessful_runs(frame, tmp_path):
     from nsbench.bench.figures import _styles, family, work_precision
 
     styles = _styles(sorted(frame["integrator"].unique()) + ["scipy-rk45", "scipy-dop853"])
-    assert family("scipy-rk45") == family("scipy-dop853") == "scipy" and family("exact") == "reference"
+    assert family("scipy-rk45") == family("scipy-dop853") == "dense output" and family("exact") == "reference"
     assert styles["scipy-rk45"]["marker"] != styles["scipy-dop853"]["marker"]
     fig = work_precision(frame, "two-dof/1", "wall_time", styles, tmp_path)
     assert "1 run(s) that did not succeed (time limit, failure) are not drawn" in fig.caption

@@ -68,3 +68,49 @@ def test_chain_block_count_errors_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "integer from 1 to 64" in err and "cannot be swept" in err and "once" in err
     assert "unknown parameter 'n'" in err
+
+
+def test_a_failing_member_of_several_integrators_is_compared(tmp_path, capsys):
+    """A member with failed values: its stored wall times stay numbers, and compare.md is written."""
+    from nsbench import registry
+    from nsbench.bifurcation.storage import SweepStore
+    from tests.bench import _integrators as faulty
+
+    registry.register("integrators", faulty.ExitingAt.name, faulty.ExitingAt)
+    try:
+        out = tmp_path / "m"
+        code = main(["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:8", "--transient", "50",
+                     "--record", "5", "--workers", "1", "--out", str(out), "--integrator", "exact",
+                     "--integrator", "ofapi", "--integrator", faulty.ExitingAt.name, "--formats", "png",
+                     "--no-progress"])
+    finally:
+        registry.unregister("integrators", faulty.ExitingAt.name)
+    assert code == 0, capsys.readouterr().err
+    stored = SweepStore(out / faulty.ExitingAt.name).load()
+    assert stored["wall_time"].dtype == float and (stored["status"] == "crashed").sum() == 1  # v0 = 0.16
+    text = (out / "compare.md").read_text()
+    row = next(line for line in text.splitlines() if line.startswith(f"| {faulty.ExitingAt.name} | 8 | 1 |"))
+    assert row.count("|") > 5
+    agree = pd.read_csv(out / "agreement.csv")
+    assert agree[faulty.ExitingAt.name].isna().sum() == 1 and (agree["ofapi"] < 1e-9).all()
+
+
+def test_a_portrait_whose_plugin_hangs_costs_only_the_portrait(tmp_path, capsys):
+    """The locus run of --portrait runs in a supervised worker under --point-limit, not in the command."""
+    from nsbench import registry
+    from tests.bench import _integrators as faulty
+
+    registry.register("integrators", faulty.HangingAt.name, faulty.HangingAt)
+    try:
+        out = tmp_path / "p"
+        code = main(["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:8", "--transient", "50",
+                     "--record", "5", "--workers", "1", "--out", str(out), "--integrator", faulty.HangingAt.name,
+                     "--portrait", "0.16", "--portrait", "0.1", "--point-limit", "3", "--formats", "png",
+                     "--no-progress"])
+    finally:
+        registry.unregister("integrators", faulty.HangingAt.name)
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert "locus and portrait at v0_0.16 failed: time limit" in printed and "ran past its limit of 3 s" in printed
+    assert (out / "diagram.png").exists() and (out / "locus_v0_0.1.png").exists()
+    assert not (out / "locus_v0_0.16.png").exists()

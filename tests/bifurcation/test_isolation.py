@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 import time
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from nsbench import registry
@@ -33,7 +35,7 @@ def clean(tmp_path_factory):
 
 @pytest.fixture
 def faulty_registered():
-    classes = (faulty.HangingAt, faulty.ExitingAt, faulty.SegfaultingAt)
+    classes = (faulty.HangingAt, faulty.ExitingAt, faulty.SegfaultingAt, faulty.HangingSetup)
     for cls in classes:
         registry.register("integrators", cls.name, cls)
     yield
@@ -61,6 +63,27 @@ def test_a_bad_value_costs_only_itself(tmp_path, clean, faulty_registered, name,
                                rtol=1e-12, atol=1e-12)
     # a rerun keeps the recorded failure (it is a result, not a missing value)
     assert SweepStore(tmp_path / "s").missing() == []
+
+
+def test_the_point_limit_bounds_a_workers_first_run_too(tmp_path, faulty_registered):
+    # every value hangs: the first short run of each worker is a value's run, under --point-limit
+    # (it was under the 1800 s set-up limit), and the set-up itself is not blamed
+    spec = SweepSpec(integrator="hanging-at-test", **{**SPEC, "start": 0.155, "stop": 0.165, "count": 3})
+    frame = run_sweep(spec, tmp_path / "s", workers=2, progress=False, point_limit=2.0, chunk_size=3)
+    assert (frame["status"] == "time limit").all() and len(frame) == 3
+    assert frame["message"].str.contains("ran past its limit of 2 s").all()
+    assert not frame["message"].str.contains("could not be set up").any()
+
+
+def test_a_setup_that_never_ends_fails_the_sweep_within_its_limit(tmp_path, faulty_registered, capsys):
+    from nsbench.cli import main
+
+    # in the command's own process too: the sweep's early check never runs a plug-in's setup
+    frame = run_sweep(SweepSpec(integrator="hanging-setup-test", **SPEC), tmp_path / "s", workers=2,
+                      progress=False, setup_limit=2.0, chunk_size=1)
+    assert (frame["status"] == "time limit").all() and len(frame) == 8
+    assert frame["message"].str.contains("integrator set-up ran past its limit of 2 s").all()
+    assert frame["message"].str.contains("could not be set up; no value was run").all()
 
 
 def test_killing_the_cli_ends_its_workers(tmp_path):
@@ -122,6 +145,13 @@ def test_a_chunk_under_another_name_or_edited_is_refused(tmp_path):
     text = c.read_text().splitlines()
     legacy = out / "points" / "chunk-000000-0badf00d.csv"  # the naming of stores without checksums
     c.rename(legacy)
+    with pytest.raises(ConfigError, match="does not say which sweep"):
+        SweepStore(out).load()  # in a store whose chunks name their sweep, such a chunk is anyone's
+    meta = json.loads((out / "meta.json").read_text())
+    del meta["spec_key"]  # an old store: written before chunks named their sweep
+    (out / "meta.json").write_text(json.dumps(meta))
+    for f in (out / "points").glob("chunk-*-s*.csv"):  # and before checksums
+        f.rename(f.with_name(f.name.rsplit("-s", 1)[0] + ".csv"))
     SweepStore(out).load()  # an old store still reads
     legacy.write_text("\n".join(text[:-1]) + "\n")  # one point of a value lost
     with pytest.raises(ConfigError, match="rows where n_points says 8"):
@@ -156,3 +186,73 @@ def test_fresh_starts_a_sweep_over_and_refuses_a_foreign_folder(tmp_path):
     with pytest.raises(ConfigError, match="not an nsbench sweep folder"):
         run_sweep(other, foreign, workers=0, progress=False, fresh=True)
     assert (foreign / "notes.txt").exists()
+
+
+def test_stored_columns_keep_their_types(tmp_path):
+    """A CSV keeps only text: the reader gives back the types the rows were computed with."""
+    from nsbench.bifurcation.sweep import compute_point, failure_rows
+
+    spec = SweepSpec(**SMALL)
+    store = SweepStore(tmp_path / "s", spec)
+    computed = pd.concat([compute_point(spec, 0), failure_rows(spec, 1, "crashed", "worker ended")],
+                         ignore_index=True)
+    store.write(computed)
+    loaded = SweepStore(tmp_path / "s").load()
+    assert loaded.dtypes.to_dict() == computed.dtypes.to_dict()
+    assert loaded["wall_time"].dtype == float and np.isnan(loaded["wall_time"].iloc[-1])
+    assert float(loaded["wall_time"].sum()) >= 0  # summed as numbers (compare.md's cost table)
+    pd.testing.assert_frame_equal(loaded, computed)
+    empty = SweepStore(tmp_path / "e", spec).load()
+    assert empty.empty and empty.dtypes.to_dict() == computed.dtypes.to_dict()
+
+
+def test_a_deleted_meta_json_never_lets_stale_values_in(tmp_path, capsys):
+    out = tmp_path / "s"
+    _sweep(out)
+    (out / "meta.json").unlink()
+    other = SweepSpec(**{**SMALL, "transient": 60.0})  # another transient: none of the stored points hold
+    frame = run_sweep(other, out, workers=0, progress=False, chunk_size=2)
+    err = capsys.readouterr().err
+    assert err.count("holds values of another sweep") == 3  # each chunk named in one line
+    fresh = run_sweep(other, tmp_path / "fresh", workers=0, progress=False, chunk_size=2)
+    assert frame.drop(columns="wall_time").equals(fresh.drop(columns="wall_time"))
+
+
+@pytest.mark.parametrize("damage", ["truncated", "edited", "not json"])
+def test_a_damaged_meta_json_is_refused_by_readers_and_rebuilt_by_a_run(tmp_path, capsys, damage):
+    out = tmp_path / "s"
+    before = _sweep(out)
+    meta = out / "meta.json"
+    text = meta.read_text()
+    meta.write_text({"truncated": text[: len(text) // 2],
+                     "edited": text.replace('"transient": 100.0', '"transient": 60.0'),
+                     "not json": "\x00\x01"}[damage])
+    with pytest.raises(ConfigError, match="meta.json is damaged"):
+        SweepStore(out).load()
+    after = _sweep(out)  # the same sweep again: the stored chunks prove to be its own and are kept
+    assert "meta.json is damaged" in capsys.readouterr().err
+    assert after.drop(columns="wall_time").equals(before.drop(columns="wall_time"))
+    SweepStore(out).load()
+
+
+def test_a_sweep_never_writes_or_deletes_through_a_link(tmp_path, capsys):
+    from nsbench.cli import main
+
+    out = tmp_path / "s"
+    _sweep(out)
+    elsewhere = tmp_path / "elsewhere"
+    (out / "points").rename(elsewhere)
+    (out / "points").symlink_to(elsewhere)
+    before = sorted(p.name for p in elsewhere.iterdir())
+    with pytest.raises(ConfigError, match="points is a symbolic link"):
+        run_sweep(SweepSpec(**SMALL), out, workers=0, progress=False, fresh=True)
+    assert sorted(p.name for p in elsewhere.iterdir()) == before
+    (out / "points").unlink()
+    elsewhere.rename(out / "points")
+    mine = tmp_path / "my-features.csv"
+    mine.write_text("precious")
+    (out / "features.csv").symlink_to(mine)
+    argv = ["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:6", "--transient", "100",
+            "--record", "8", "--workers", "1", "--out", str(out), "--no-progress", "--formats", "png"]
+    assert main(argv) == 2 and "features.csv is a symbolic link" in capsys.readouterr().err
+    assert mine.read_text() == "precious"

@@ -116,6 +116,19 @@ def test_bad_sweep_text(text):
         parse_sweep(text)
 
 
+def test_a_sweep_without_a_range_is_refused():
+    # START = STOP used to run COUNT copies of one value
+    with pytest.raises(ConfigError, match="START and STOP are equal"):
+        parse_sweep("v0=0.1:0.1:50")
+    with pytest.raises(ConfigError, match="values of a sweep would all be the same"):
+        SweepSpec(**{**SMALL, "start": 0.1, "stop": 0.1})
+    assert SweepSpec(**{**SMALL, "start": 0.1, "stop": 0.1, "count": 1}).values.tolist() == [0.1]  # one value
+    for bad, fragment in (({"count": 0}, "count = 0"), ({"count": 2.0}, "count = 2.0"),
+                          ({"start": float("nan")}, "start = nan"), ({"stop": "1"}, "stop = '1'")):
+        with pytest.raises(ConfigError, match=fragment):
+            SweepSpec(**{**SMALL, **bad})
+
+
 def test_bad_section_for_unforced_problem(tmp_path):
     with pytest.raises(ConfigError, match="strobe"):
         run_sweep(SweepSpec(section="strobe", **SMALL), tmp_path / "x", workers=1, progress=False)

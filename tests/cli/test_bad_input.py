@@ -4,7 +4,11 @@ The first test is a list of concrete bad inputs (unwritable outputs, out-of-rang
 counts, malformed suites and JSON files, foreign result folders, unreachable Dask
 schedulers...). The second feeds hypothesis-drawn bad values (text that is not a
 number, nan, inf, negative, huge, fractional, empty) into the numeric options of
-each sub-command.
+each sub-command. The last, generated from the parser itself, gives every option
+and positional argument of every sub-command one set of values (empty, nan, +-inf,
+0, -1, 1e300, 1e-300, text, unicode, and paths that are folders, files, missing,
+unwritable, symbolic-link loops): each case is refused in one line, or is a success
+(or a failed run, exit 1 with one line) that the test documents with its reason.
 
 Every numeric option is parsed by nsbench itself (none uses argparse's
 ``type=int``/``type=float``), so a bad *value* always reaches our validation and
@@ -17,6 +21,7 @@ runs in well under a minute).
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import socket
@@ -68,6 +73,7 @@ SUITES = {
     "skip_int": 'integrators = {skip_levels = 5}\nproblems = [{name = "one-dof"}]\n',
     "registered_str": 'integrators = {registered = "yes"}\nproblems = [{name = "one-dof"}]\n',
     "malformed": "problems = [\n",
+    "deeply_nested": "problems = " + "[" * 5000 + "]" * 5000 + "\n",  # tomllib recurses: once a RecursionError
     # 1000 x 1000 x 1000 problems: must be refused from the counts, never expanded
     "huge_grid": 'problems = [{name = "one-dof", params = {c = [' + ",".join(["0.1"] * 1000) + "], h = ["
                  + ",".join(["1.0"] * 1000) + "], F = [" + ",".join(["0.0"] * 1000) + ']}}]\n'
@@ -103,15 +109,18 @@ def d(tmp_path_factory):
     (root / "otherdir" / "notes.txt").write_text("another tool's folder")
     (root / "garbage.csv").write_text("a,b\n1,2\n")
     (root / "garbage.parquet").write_text("not parquet")
+    (root / "light.toml").write_text('t_span = [0.0, 1.0]\nrepeats = 1\nproblems = [{name = "one-dof", case = 1}]\n'
+                                     'integrators = {only = ["exact"]}\n')  # the generated sweep's runs
     (root / "good.toml").write_text('t_span = [0.0, 5.0]\nproblems = [{name = "one-dof", case = 1}]\n'
                                     'integrators = {only = ["exact"]}\n')
     for name, text in SUITES.items():
-        if not name.startswith(("malformed", "huge")):
+        if not name.startswith(("malformed", "huge", "deeply")):
             if "t_span" not in text:
                 text = "t_span = [0.0, 5.0]\n" + text
             if "integrators" not in text:
                 text += 'integrators = {only = ["exact"]}\n'
         (root / f"{name}.toml").write_text(text)
+    (root / "loop").symlink_to(root / "loop")  # a symbolic link to itself
     ro = root / "ro"
     ro.mkdir()
     ro.chmod(0o555)
@@ -153,6 +162,13 @@ CASES = [
     ("simulate-atol-inf", S + ["--integrator", "scipy-rk45", "--atol", "inf"], "--atol = inf"),
     ("simulate-h-inf", S + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
     ("simulate-h-zero", S + ["--integrator", "henon-rk4", "--h", "0"], "--h = 0"),
+    ("simulate-option-h-inf", S + ["--integrator", "henon-rk4", "--option", "h=inf"], "h = inf must be a finite"),
+    ("simulate-option-h-huge", S + ["--integrator", "henon-rk4", "--option", "h=1e300"], "stability limit"),
+    ("simulate-h-tiny", S + ["--integrator", "henon-rk4", "--h", "1e-18"], "too small to move the state"),
+    ("bifurcation-start-is-stop", ["bifurcation", "one-dof", "--sweep", "v0=0.5:0.5:20", "--out", "{d}/bif-ss"],
+     "START and STOP are equal"),
+    ("bifurcation-option-h-huge", B + ["--integrator", "henon-rk4", "--option", "h=1e300", "--out",
+                                       "{d}/bif-h"], "stability limit"),
     ("simulate-events-out-under-file", S + ["--events-out", "{d}/afile/x.csv"], "is a file, not a folder"),
     ("simulate-events-out-is-dir", S + ["--events-out", "{d}/emptydir"], "it is a folder"),
     ("simulate-events-out-missing-dir", S + ["--events-out", "{d}/missing/x.csv"], "does not exist"),
@@ -184,10 +200,10 @@ CASES = [
     ("bench-suite-latin1", ["bench", "{d}/latin.toml", "--out", "{d}/bo"], "not UTF-8"),
     ("bench-suite-binary", ["bench", "{d}/bin.bin", "--out", "{d}/bo"], "not UTF-8"),
     ("bench-suite-is-dir", ["bench", "{d}/emptydir", "--out", "{d}/bo"], "is a folder"),
-    ("bench-out-file", ["bench", "{d}/good.toml", "--out", "{d}/afile"], "it is a file"),
-    ("bench-out-under-file", ["bench", "{d}/good.toml", "--out", "{d}/afile/sub"], "is a file, not a folder"),
-    ("bench-workers-negative", ["bench", "{d}/good.toml", "--out", "{d}/bo", "--workers", "-1"], "--workers = -1"),
-    ("bench-workers-nan", ["bench", "{d}/good.toml", "--out", "{d}/bo", "--workers", "nan"], "--workers = nan"),
+    ("bench-out-file", ["bench", "{d}/light.toml", "--out", "{d}/afile"], "it is a file"),
+    ("bench-out-under-file", ["bench", "{d}/light.toml", "--out", "{d}/afile/sub"], "is a file, not a folder"),
+    ("bench-workers-negative", ["bench", "{d}/light.toml", "--out", "{d}/bo", "--workers", "-1"], "--workers = -1"),
+    ("bench-workers-nan", ["bench", "{d}/light.toml", "--out", "{d}/bo", "--workers", "nan"], "--workers = nan"),
     # ---- report
     ("report-missing", ["report", "{d}/missing"], "is not a directory"),
     ("report-file", ["report", "{d}/afile"], "is not a directory"),
@@ -281,7 +297,7 @@ READ_ONLY_CASES = [
     ("simulate-events-out-read-only", S + ["--events-out", "{d}/ro/x.csv"], "read-only"),
     ("simulate-plot-read-only", S + ["--plot", "{d}/ro/p.png"], "read-only"),
     ("run-out-read-only", ["run", "--out", "{d}/ro/sub"], "read-only"),
-    ("bench-out-read-only", ["bench", "{d}/good.toml", "--out", "{d}/ro"], "read-only"),
+    ("bench-out-read-only", ["bench", "{d}/light.toml", "--out", "{d}/ro"], "read-only"),
     ("compare-out-read-only", R + ["--out", "{d}/ro/x.csv"], "read-only"),
     ("ingest-out-read-only", ["ingest", "{d}/good1.json", "--out", "{d}/ro/sub"], "read-only"),
     ("bifurcation-out-read-only", B + ["--out", "{d}/ro/sub"], "read-only"),
@@ -299,9 +315,66 @@ def _one_error_line(capsys) -> str:
     return lines[0]
 
 
+def _last_wins(argv: list[str]) -> list[str]:
+    """``argv`` with an option the base sets and a case sets again given once, the case's value
+    (an option given twice is itself refused: the generated sweep checks that)."""
+    from nsbench.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices.get(argv[0] if argv else "")
+    if sub is None:
+        return argv
+    single = {flag for a in sub._actions if a.nargs is None and type(a).__name__ == "_Once"
+              for flag in a.option_strings}
+    out: list[str] = []
+    for i, token in enumerate(argv):
+        if token in single and i + 1 < len(argv):
+            for j in range(len(out) - 1):
+                if out[j] == token:
+                    del out[j:j + 2]
+                    break
+        out.append(token)
+    return out
+
+
 def _argv(template: list[str], d: str) -> list[str]:
     port = str(_free_port())
-    return [a.replace("{d}", d).replace("{port}", port) for a in template]
+    return _last_wins([a.replace("{d}", d).replace("{port}", port) for a in template])
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["bench", "{d}/deeply_nested.toml", "--out", "{d}/deep"], "nested too deeply to be a suite"),
+    (["simulate", "one-dof", "--events-out", ""], "argument --events-out: empty value ''"),
+    (["simulate", "one-dof", "--integrator", "henon-rk4", "--option", "h=inf"],
+     "--option h=inf: an option value must be a finite number"),
+    (["simulate", "one-dof", "--integrator", "ofapi", "--option", "h=inf"], "must be a finite number"),
+    (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e300"], "MAX_SPAN"),
+    (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e7"], "more than the step budget"),
+    (["simulate", "one-dof", "--case", "2", "--integrator", "henon-rk4", "--param", "Omega=1e300"],
+     "fewer than two steps per forcing period"),
+    (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--out", "{d}/A", "--out", "{d}/B"],
+     "argument --out: given twice"),
+    (["simulate", "one-dof", "--h", "0.1", "--option", "h=0.2", "--integrator", "henon-rk4"], "give it once"),
+    (["lyapunov", "two-dof", "--d0", "1e-300"], "--d0 = 1e-300 must be a finite number >= 1e-12"),
+    (["lyapunov", "two-dof", "--member-limit", "1e300"], "MAX_TIME_LIMIT"),
+    (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--transient", "1e300"], "MAX_SPAN"),
+    (["ingest", "{d}/good1.json", "--out", "{d}/loop"], "symbolic link that leads nowhere (a loop)"),
+    (["simulate", "one-dof", "--fresh"], "unrecognized arguments: --fresh"),
+])
+def test_the_issues_examples_exit_2_with_one_line(argv, fragment, d, capsys):
+    """The invocations of issue 30 that ended in a traceback or succeeded silently."""
+    assert main([a.replace("{d}", d) for a in argv]) == 2
+    assert fragment in _one_error_line(capsys)
+
+
+def test_a_run_that_fails_says_so_on_stderr(capsys):
+    """A valid command whose run ends early exits with 1 and one line naming the failure (issue 30: a
+    forcing frequency of 1e300 exhausts exact's step budget, which said nothing on stderr)."""
+    argv = ["simulate", "two-dof", "--case", "2", "--param", "Omega=1e300", "--t-end", "20"]
+    assert main(argv) == 1
+    out, err = capsys.readouterr()
+    assert "status      step budget exhausted" in out
+    (line,) = _messages(err)
+    assert line.startswith("nsbench: simulate: the run ended at t = ") and "of 20: step budget exhausted" in line
 
 
 def test_the_list_covers_every_sub_command():
@@ -419,7 +492,7 @@ NUMERIC = {
     "simulate": (S, {"--samples": "count", "--t-end": "finite", "--rtol": "positive", "--atol": "positive",
                      "--h": "positive"}),
     "run": (["run", "--out", "{d}/hyp-run"], {"--workers": "count"}),
-    "bench": (["bench", "{d}/good.toml", "--out", "{d}/hyp-bench"], {"--workers": "count"}),
+    "bench": (["bench", "{d}/light.toml", "--out", "{d}/hyp-bench"], {"--workers": "count"}),
     "compare": (R, {"--factor": "factor"}),
     "bifurcation": (B, {"--record": "count", "--workers": "count", "--transient": "nonneg", "--window": "positive",
                         "--h": "positive", "--portrait": "finite", "--point-limit": "positive"}),
@@ -475,3 +548,211 @@ def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite
                  lambda: parse_real(finite, "--x")):
         with pytest.raises(ConfigError):
             call()
+
+
+# ---------------------------------------------------------------------- the generated sweep
+# Every option (and positional argument) of every sub-command, found in the parser itself, is
+# given every value of one set, in-process (nsbench.cli.main with captured streams, a few ms per
+# refused case). Each case must end with exit status 2 and one `nsbench: error:` line, or be a
+# documented success (SUCCESSES: the value is valid there, and why). A new option joins the sweep
+# by itself; one whose values are paths must be named in PATHS.
+
+SWEEP_VALUES = {
+    "empty": "", "nan": "nan", "inf": "inf", "-inf": "-inf", "zero": "0", "negative": "-1",
+    "huge": "1e300", "tiny": "1e-300", "text": "abc", "unicode": "\u00fc\u2202",
+    # a fresh folder per case ({fresh}: empty; a success may write into it)
+    "folder": "{fresh}", "file": "{fresh}/afile", "missing": "{fresh}/missing/x", "unwritable": "{d}/ro/x",
+    "loop": "{d}/loop",
+}
+#: A path's value kinds. Numbers and text are file names like any other (the plain name of the
+#: base command line is one), so the unicode name stands for them: each success here runs the
+#: command for real, and a name more would only cost time.
+PATH_KINDS = ("empty", "unicode", "folder", "file", "missing", "unwritable", "loop")
+#: Options and positional arguments whose value is a path, and what it names: an output file
+#: ("out-file"), an output folder ("out-dir"), or an input ("in").
+PATHS = {
+    ("simulate", "--events-out"): "out-file", ("simulate", "--trajectory-out"): "out-file",
+    ("simulate", "--plot"): "out-file", ("run", "--out"): "out-dir", ("run", "--suite"): "in",
+    ("bench", "suite"): "in", ("bench", "--out"): "out-dir", ("report", "directory"): "in",
+    ("compare", "a"): "in", ("compare", "b"): "in", ("compare", "--out"): "out-file",
+    ("ingest", "file"): "in", ("ingest", "--out"): "out-dir", ("bifurcation", "--out"): "out-dir",
+    ("continuation", "--out"): "out-dir", ("continuation", "--diagram"): "in",
+    ("lyapunov", "--out"): "out-file", ("paper", "--out"): "out-dir",
+}
+#: A valid, light command line per sub-command; the swept option replaces its value here
+#: ({fresh}: a new empty folder per case, so that each success writes a folder of its own).
+SWEEP_BASES = {
+    "list": ["list"],
+    "simulate": ["simulate", "one-dof", "--case", "2", "--t-end", "5", "--integrator", "henon-rk4"],
+    "check": ["check", "henon-rk4", "--check", "config-round-trip"],
+    "run": ["run", "--suite", "{d}/light.toml", "--out", "{fresh}/out", "--workers", "1", "--no-progress"],
+    "bench": ["bench", "{d}/light.toml", "--out", "{fresh}/out", "--workers", "1", "--no-progress",
+              "--no-report"],
+    "report": ["report", "{d}/res1"],
+    "compare": ["compare", "{d}/res1", "{d}/res1"],
+    "ingest": ["ingest", "{d}/good1.json", "--out", "{fresh}/out"],
+    "bifurcation": ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:2", "--transient", "10", "--record", "4",
+                    "--no-progress", "--formats", "png", "--out", "{fresh}/out", "--workers", "1",
+                    "--integrator", "henon-rk4"],
+    "continuation": ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.16:0.17", "--steps", "2",
+                     "--transient", "10", "--no-progress", "--formats", "png", "--out", "{fresh}/out"],
+    "lyapunov": ["lyapunov", "two-dof", "--case", "1", "--iterations", "80", "--members", "4", "--transient", "1"],
+    "paper": ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "1", "--case", "1",
+              "--out", "{fresh}/out", "--no-continuation", "--workers", "1"],
+}
+#: Where the value of NAME=VALUE options goes (a real name of the base's problem or integrator).
+ASSIGNMENTS = {"--param": "Omega={v}", "--option": "h={v}", "--sweep": None}
+SWEEP_FORMS = {"bifurcation": "v0={v}:1.0:2", "continuation": "v0={v}:0.17"}
+
+_NEW_OUT = {"unicode", "file"}  # a new file of that name (in the test's folder), or an existing one replaced
+_NEW_DIR = {"unicode", "folder", "missing"}  # an output folder is created with its parents
+_OMEGA = "a forcing frequency is any finite number >= 0"
+_UNFORCED = _OMEGA + "; the base problem is unforced (F = 0), so it changes nothing"
+_SPAN = "a span of zero or 1e-300 time units: a valid, short run"
+_SIZE = "a parameter is checked to be finite and physical, not bounded in size (docs/model.md)"
+#: (sub-command, option) -> {value kind: why it is valid}: exit status 0.
+SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
+    **{(cmd, opt): dict.fromkeys(_NEW_OUT, "a new file of that name, or an existing file replaced")
+       for (cmd, opt), kind in PATHS.items() if kind == "out-file" and opt != "--plot"},  # a plot needs .png etc.
+    **{(cmd, opt): dict.fromkeys(_NEW_DIR, "a new folder (with its parents), or an empty one")
+       for (cmd, opt), kind in PATHS.items() if kind == "out-dir"},
+    ("simulate", "--param"): dict.fromkeys(("zero", "tiny"), _OMEGA + " (0: a constant force)"),
+    ("simulate", "--t-end"): {"tiny": _SPAN},
+    ("check", "--option"): dict.fromkeys(("huge", "tiny"), "h > 0; config-round-trip only builds the configuration"),
+    ("check", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _OMEGA + "; config-round-trip builds no problem"),
+    ("compare", "--factor"): {"huge": "a factor is any finite number > 1"},
+    ("bifurcation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
+    ("bifurcation", "--sweep"): {"zero": "v0 from 0 (a belt at rest) to 1: valid values of v0",
+                                 "tiny": "v0 from 1e-300 to 1: valid values of v0",
+                                 "huge": "v0 from 1e300 to 1: " + _SIZE},
+    ("bifurcation", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
+    ("bifurcation", "--window"): {"tiny": "a recording window of 1e-300: every value is kept with its status "
+                                          "(too few points), the sweep itself completes"},
+    ("bifurcation", "--point-limit"): {"tiny": "every value passes its limit of 1e-300 s: each is kept with status "
+                                               "'time limit', the sweep itself completes"},
+    ("continuation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
+    ("continuation", "--sweep"): {**dict.fromkeys(("zero", "tiny"), "v0 from 0 or 1e-300 to 0.17: valid values of v0"),
+                                  "huge": "v0 from 1e300 to 0.17: " + _SIZE + "; values without an orbit are a result"},
+    ("continuation", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
+    ("lyapunov", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
+    ("lyapunov", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
+    ("lyapunov", "--seed"): {"zero": "a seed is a whole number from 0"},
+    ("paper", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
+}
+#: (sub-command, option) -> {value kind: why}: a valid value whose run fails, which exits with
+#: status 1 and one ``nsbench:`` line on stderr naming the failure (its details on stdout).
+FAILURES: dict[tuple[str, str], dict[str, str]] = {
+    ("lyapunov", "--member-limit"): {"tiny": "every member passes a limit of 1e-300 s: no exponent"},
+}
+
+
+def _sweep_actions(command: str):
+    from nsbench.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices[command]
+    return [a for a in sub._actions if "-h" not in a.option_strings]
+
+
+def _name(action) -> str:
+    return action.option_strings[-1] if action.option_strings else action.dest
+
+
+def _with_value(command: str, action, value: str) -> list[str]:
+    """The base command line with ``action`` set to ``value`` (replaced if the base has it)."""
+    base = list(SWEEP_BASES[command])
+    if not action.option_strings:  # a positional: the base's n-th positional token
+        positionals = [a.dest for a in _sweep_actions(command) if not a.option_strings]
+        index = positionals.index(action.dest)
+        slots = [i for i, tok in enumerate(base[1:], 1) if not tok.startswith("-") and not base[i - 1].startswith("--")]
+        if index < len(slots):
+            base[slots[index]] = value
+            return base
+        return base + [value]
+    flag = action.option_strings[-1]
+    if flag == "--sweep":
+        value = SWEEP_FORMS.get(command, "{v}").format(v=value)
+    elif flag in ASSIGNMENTS and ASSIGNMENTS[flag]:
+        value = ASSIGNMENTS[flag].format(v=value)
+    if flag in base and action.nargs != 0:
+        i = base.index(flag)
+        del base[i:i + 2]
+    return base + [f"{flag}={value}"]
+
+
+def sweep_cases(command: str) -> list[tuple[str, str, list[str]]]:
+    """``(option, value kind, argv)`` for every option of ``command`` and every value of the set."""
+    cases = []
+    for action in _sweep_actions(command):
+        name = _name(action)
+        kinds = PATH_KINDS if (command, name) in PATHS else tuple(SWEEP_VALUES)
+        for kind in kinds:
+            cases.append((name, kind, _with_value(command, action, SWEEP_VALUES[kind])))
+    return cases
+
+
+def _messages(err: str) -> list[str]:
+    """The lines of stderr, but numba's first-compilation notices (nsbench.compiling: a cold cache)."""
+    return [line for line in err.splitlines()
+            if line.strip() and not line.startswith(("nsbench: compiling", "nsbench: compiled"))]
+
+
+def _run_in_process(argv: list[str], capsys) -> tuple[int | None, str, str]:
+    capsys.readouterr()
+    try:
+        code = main(argv)
+    except BaseException as exc:  # noqa: BLE001 - a traceback is what the sweep looks for
+        import traceback
+
+        return None, "", "".join(traceback.format_exception(exc))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@functools.lru_cache(maxsize=None)
+def _sweep_actions_cached(command: str):
+    return _sweep_actions(command)
+
+
+@pytest.mark.parametrize("command", sorted(SWEEP_BASES))
+def test_generated_sweep_every_option_every_value(command, d, capsys, monkeypatch, tmp_path):
+    ro = os.path.join(d, "ro")
+    real = os.access
+    # the read-only folder is read-only for root too, as os.access sees it (root ignores the mode)
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if str(p).startswith(ro) else real(p, mode, **kw))
+    monkeypatch.chdir(tmp_path)  # new files and folders named by a value land here
+    wrong = []
+    for i, (name, kind, template) in enumerate(sweep_cases(command)):
+        fresh = tmp_path / f"case{i}"
+        fresh.mkdir()
+        (fresh / "afile").write_text("x")
+        argv = [a.replace("{fresh}", str(fresh)).replace("{d}", d) for a in template]
+        code, out, err = _run_in_process(argv, capsys)
+        lines = _messages(err)
+        refused = code == 2 and len(lines) == 1 and lines[0].startswith("nsbench: error: ") and "Traceback" not in err
+        documented = SUCCESSES.get((command, name), {}).get(kind)
+        failure = FAILURES.get((command, name), {}).get(kind)
+        if documented is not None:
+            if code != 0 or "Traceback" in err:
+                wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented success ({documented}) "
+                             f"ended with {code}: {err.strip()[-300:]}")
+        elif failure is not None:
+            if not (code == 1 and len(lines) == 1 and lines[0].startswith("nsbench: ") and "Traceback" not in err):
+                wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented failure ({failure}) "
+                             f"ended with {code}: {err.strip()[-300:]}")
+        elif not refused:
+            wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): exit {code}, stderr {err.strip()[-300:]!r}, "
+                         f"stdout {out.strip()[-200:]!r}")
+    assert not wrong, f"{len(wrong)} case(s) of {command}:\n" + "\n".join(wrong)
+
+
+def test_the_sweep_covers_every_sub_command_and_path():
+    from nsbench.cli import COMMANDS, build_parser
+
+    parser = build_parser()
+    names = set(next(a for a in parser._actions if a.dest == "command").choices)
+    assert names == set(SWEEP_BASES) and len(COMMANDS) == len(SWEEP_BASES)
+    known = {(cmd, _name(a)) for cmd in SWEEP_BASES for a in _sweep_actions(cmd)}
+    assert set(PATHS) <= known and set(SUCCESSES) <= known and set(FAILURES) <= known
+    total = sum(len(sweep_cases(cmd)) for cmd in SWEEP_BASES)
+    assert total > 1000, total

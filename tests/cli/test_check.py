@@ -44,3 +44,24 @@ def test_every_registered_integrator_runs_by_name_from_the_cli(capsys):
         assert main(["simulate", "two-dof", "--case", "2", "--integrator", name, "--t-end", "20"]) == 0, name
         out = capsys.readouterr().out
         assert f"integrator  {name}" in out and "status      success" in out
+
+
+def test_an_option_is_used_by_the_accuracy_checks(capsys):
+    """``--option h=0.5`` is what event-times runs (RK4 at 50 times its default step: about 2e-2 off)."""
+    assert main(["check", "henon-rk4", "--option", "h=0.5", "--check", "event-times"]) == 1
+    out = capsys.readouterr().out
+    assert "  event-times at h=0.5 (the options given)" in out
+    row = next(line for line in out.splitlines() if line.split()[:2] == ["event-times", "FAILED"])
+    assert "at h=0.5 (the options given): event times differ from exact by" in row and row.endswith("> 1e-05")
+    assert main(["check", "henon-rk4", "--check", "event-times"]) == 0
+    assert "event-times at h=0.0025 (middle accuracy level, 3 of 4)" in capsys.readouterr().out
+
+
+def test_non_finite_and_repeated_options_are_refused(capsys):
+    for argv, fragment in ((["--option", "h=inf"], "--option h=inf: an option value must be a finite number"),
+                           (["--option", "h=nan"], "must be a finite number"),
+                           (["--option", "h=1" + "0" * 400], "must be a finite number"),
+                           (["--option", "h=0.1", "--option", "h=0.2"], "--option h is given twice")):
+        assert main(["check", "henon-rk4", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and fragment in err, err

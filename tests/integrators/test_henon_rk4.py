@@ -64,3 +64,29 @@ def test_section_hits_beyond_the_buffer_are_all_kept():
     assert len(ref.sections) > _HIT_BUFFER
     assert len(res.sections) == len(ref.sections)
     np.testing.assert_allclose(res.sections["t"], ref.sections["t"], atol=1e-6)
+
+
+@pytest.mark.parametrize("h", [float("inf"), "inf", float("nan")])
+def test_a_step_that_is_not_finite_is_refused(h):
+    with pytest.raises(nsbench.ConfigError, match="h = .* must be a finite"):
+        nsbench.get_integrator("henon-rk4", h=h)
+
+
+@pytest.mark.parametrize("h, why", [(1e300, "beyond RK4's stability limit"), (2.0, "beyond RK4's stability limit"),
+                                    (1e-18, "too small to move the state")])
+def test_a_step_rk4_cannot_take_on_the_problem_is_refused(case1, h, why):
+    # case 1's fastest rate is the golden ratio 1.618 (kappa = mu = 1): RK4 is stable up to
+    # h = 2 sqrt(2) / 1.618 = 1.748; a step of 1e-18 changes nothing (1.6e-18 < eps = 2.2e-16).
+    # Before, both took one step over the whole span, found no event and said success.
+    with pytest.raises(nsbench.ConfigError, match=why):
+        nsbench.simulate(case1, "henon-rk4", 300.0, options={"h": h})
+    assert nsbench.simulate(case1, "henon-rk4", 30.0, options={"h": 1.7}).ok  # just inside the limit
+
+
+def test_a_step_count_beyond_int64_ends_with_the_budget_not_in_one_step():
+    # h just above the resolution limit (h * 1 > eps: one-dof's rate is 1) over a span of 3000:
+    # 3000 / 2.3e-16 = 1.3e19 steps, past int64's 9.2e18; the count used to wrap around and the
+    # arc ended in one step of 3000 with status success
+    p = nsbench.get_problem("one-dof")
+    res = nsbench.simulate(p, "henon-rk4", 3000.0, options={"h": 2.3e-16}, max_steps=1000)
+    assert res.status == nsbench.Status.BUDGET_EXHAUSTED and res.t_final < 1e-9

@@ -176,3 +176,60 @@ def test_importing_the_kit_loads_no_heavy_backend():
             "print(','.join(m for m in ('heyoka', 'sksundae', 'numba', 'matplotlib') if m in sys.modules))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+# ---------------------------------------------------------------------- the options given are used
+# RK4's global error grows like h**4: at h = 0.5 (50 times the default step) case 2's event
+# times are off by far more than the kit's 1e-5 (h**4 = 0.06; about 2e-2 measured), while the
+# middle accuracy level (h = 0.0025) is within it. Every check must run the options given.
+
+def test_an_option_given_is_used_by_the_accuracy_checks():
+    (failed,) = check_integrator("henon-rk4", ["event-times"], options={"h": 0.5})
+    assert failed.status == "failed"
+    assert failed.message.startswith("at h=0.5 (the options given): event times differ from exact")
+    (passed,) = check_integrator("henon-rk4", ["event-times"])  # no option: the middle accuracy level
+    assert passed.status == "passed"
+
+
+def test_a_configured_instance_is_checked_as_configured():
+    (result,) = check_integrator(HenonRK4(h=0.5), ["event-times"])
+    assert result.status == "failed" and "at h=0.5" in result.message
+    params = {p.id: p for p in parametrize_with_checks([HenonRK4(h=0.5)]).args[1]}
+    param = params["henon-rk4-energy-balance"]
+    integ, runner = param.values
+    with pytest.raises(AssertionError, match=r"at h=0\.5 \(the options given\): energy-balance residual"):
+        runner(integ)
+
+
+def test_the_plan_names_the_middle_level_or_the_options_given():
+    from nsbench.testing import plan
+
+    levels = HenonRK4.accuracy_levels
+    middle = levels[len(levels) // 2]["h"]
+    assert len(levels) == 4 and middle == 0.0025  # the third of four
+    default = plan("henon-rk4", checks=["event-times", "convergence"])
+    assert default == [f"event-times at h={middle:g} (middle accuracy level, 3 of 4)",
+                       "convergence at h = 0.04, 0.01, 0.0025, 0.000625 (the declared accuracy levels)"]
+    given = plan("henon-rk4", {"h": 0.01}, checks=["event-times", "declared-order"])
+    assert given == ["event-times at h=0.01 (the options given)",  # the default value, but given
+                     "declared-order at h = 0.04, 0.01, 0.0025 (around the given h)"]
+    # another option given: the declared levels, with it on top
+    (line,) = plan("ofapi", {"N": 10}, checks=["convergence"])
+    assert line == "convergence at tol = 1e-09, 1e-11, 1e-14 (the declared accuracy levels with the options given), " \
+                   "with N=10"
+    # a step near the end of its range: the levels move inwards (cvode's rtol is at most 1e-3)
+    (line,) = plan("cvode-bdf", {"rtol": 1e-3}, checks=["convergence"])
+    assert line.startswith("convergence at rtol = 0.001, 1e-06, 1e-09 (around the given rtol)")
+
+
+def test_stepped_checks_run_around_the_given_step():
+    (result,) = check_integrator("henon-rk4", ["convergence"], options={"h": 0.5})
+    # h = 2 steps past case 1's first guard: the failure names the configuration it ran
+    assert result.status == "failed" and result.message.startswith("at h=2: smooth arc did not reach its end")
+
+
+def test_a_bad_option_is_refused_before_any_check():
+    with pytest.raises(ConfigError, match="h = 0 must be > 0"):
+        check_integrator("henon-rk4", ["event-times"], options={"h": 0})
+    with pytest.raises(ConfigError, match="unknown option 'rtol'"):
+        check_integrator("henon-rk4", options={"rtol": 1e-6})

@@ -60,41 +60,61 @@ def _pyplot():
     return plt
 
 
-#: Method families and their colour maps: members of a family share a hue, told apart by shade and marker.
-FAMILIES = (("reference", "Greys"), ("scipy", "Blues"), ("sundials", "Greens"), ("heyoka", "Reds"),
-            ("picard", "Oranges"), ("rk4", "Purples"))
+#: Method families and their colour maps: members of a family share a hue, told apart by shade and
+#: marker. A family is what the integrator's capabilities say, never its name: reference-grade
+#: integrators, else its event location (``Capabilities.event_location``), labelled here.
+FAMILIES = (("reference", "Greys"), ("dense output", "Blues"), ("solver root finding", "Greens"),
+            ("Taylor", "Reds"), ("collocation", "Oranges"), ("Henon", "Purples"))
+_EVENT_FAMILIES = {"dense-output-root": "dense output", "solver-rootfinding": "solver root finding",
+                   "taylor-root": "Taylor", "collocation-newton": "collocation", "henon": "Henon"}
+#: Colours of integrators in no family above (a plug-in's own event location, or one not registered
+#: here): each its own, none of the families' hues.
+_OTHER_COLOURS = ("tab:brown", "tab:pink", "tab:olive", "tab:cyan", "gold", "magenta", "teal", "navy",
+                  "lime", "maroon", "darkkhaki", "slateblue")
 
 
 def family(name: str) -> str:
-    """The method family of an integrator name (``'other'`` for one nsbench does not know)."""
-    from nsbench.bench.summary import reference_grade
+    """The method family of an integrator, from its capabilities (``'other'`` if it is not registered here).
 
-    if reference_grade(name):
+    ``'reference'`` for reference-grade integrators; otherwise the event
+    location of its capabilities (``'dense output'`` for ``dense-output-root``,
+    ...), so a plug-in joins the family of the methods that locate events as it
+    does, or forms its own.
+    """
+    from nsbench.integrators import integrator_class
+
+    try:
+        caps = integrator_class(name).capabilities
+    except Exception:  # not registered here (results from elsewhere): a family of its own
+        return "other"
+    if caps.reference_grade:
         return "reference"
-    for prefix, fam in (("scipy-", "scipy"), ("cvode", "sundials"), ("ida", "sundials"), ("heyoka", "heyoka"),
-                        ("ofapi", "picard"), ("mcpi", "picard"), ("henon", "rk4")):
-        if name.startswith(prefix):
-            return fam
-    return "other"
+    return _EVENT_FAMILIES.get(caps.event_location, caps.event_location)
 
 
 def _styles(names: list[str]) -> dict[str, dict]:
-    """Colour by family (a shade per member, dark to light) and a distinct marker per member."""
+    """Colour by family (a shade per member, dark to light) and a distinct marker per member.
+
+    An integrator outside the known families (a plug-in that locates events its
+    own way, or one not registered here) gets a colour of its own, none of the
+    families' hues, and a marker of its own.
+    """
     plt = _pyplot()
     maps = dict(FAMILIES)
     members: dict[str, list[str]] = {}
     for n in sorted(names):
         members.setdefault(family(n), []).append(n)
     styles: dict[str, dict] = {}
-    others = plt.get_cmap("tab10")
+    others = 0
     for fam, group in members.items():
         for i, n in enumerate(group):
             if fam in maps:
                 shade = 0.9 - 0.45 * (i / max(len(group) - 1, 1)) if len(group) > 1 else 0.75
-                color = plt.get_cmap(maps[fam])(shade)
-            else:
-                color = others(i % others.N)
-            styles[n] = {"color": color, "marker": _MARKERS[i % len(_MARKERS)]}
+                styles[n] = {"color": plt.get_cmap(maps[fam])(shade), "marker": _MARKERS[i % len(_MARKERS)]}
+            else:  # markers from the end of the list: unlike the families' first members
+                styles[n] = {"color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)],
+                             "marker": _MARKERS[-1 - others % len(_MARKERS)]}
+                others += 1
     return styles
 
 

@@ -18,9 +18,10 @@ from typing import Any
 import pandas as pd
 
 from nsbench.bench import storage
-from nsbench.bench.schema import COLUMN_NAMES
+from nsbench.bench.schema import COLUMN_NAMES, LIST_COLUMNS, RUNNER_STATUSES
 from nsbench.bench.suite import stable_key
 from nsbench.errors import ConfigError
+from nsbench.results import Status
 
 
 def _got(value: Any) -> str:
@@ -42,14 +43,60 @@ def _check_benchmark(path: str | Path, i: int, bench: Any) -> None:
         if value is not None and not isinstance(value, str):
             raise ConfigError(f"{where}.{key} must be a string, got {_got(value)}")
     stats = bench.get("stats") or {}
-    for key in ("median", "min", "max", "rounds"):
+    for key in ("median", "min", "max"):
         value = stats.get(key)
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-            raise ConfigError(f"{where}.stats.{key} must be a number, got {_got(value)}")
+        if value is not None and not (_is_number(value) and math.isfinite(value) and value >= 0):
+            raise ConfigError(f"{where}.stats.{key} must be a number of seconds (finite, >= 0), got {_got(value)}")
+    rounds = stats.get("rounds")
+    if rounds is not None and not (_is_number(rounds) and float(rounds).is_integer() and rounds >= 0):
+        raise ConfigError(f"{where}.stats.rounds must be a whole number >= 0, got {_got(rounds)}")
     data = stats.get("data")
     if data is not None and not (isinstance(data, list) and all(
-            isinstance(t, (int, float)) and not isinstance(t, bool) for t in data)):
-        raise ConfigError(f"{where}.stats.data must be a list of times, got {_got(data)}")
+            _is_number(t) and math.isfinite(t) and t >= 0 for t in data)):
+        raise ConfigError(f"{where}.stats.data must be a list of times (finite, >= 0 seconds), got {_got(data)}")
+    for key, value in (bench.get("extra_info") or {}).items():
+        if key in COLUMN_NAMES:
+            _check_column(f"{where}.extra_info.{key}", key, value)
+
+
+#: Columns that count something (never negative).
+_COUNTS = ("nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix", "n_matched", "n_missed",
+           "n_extra")
+#: Columns that are seconds (finite and never negative when given).
+_SECONDS = ("wall_time", "wall_time_min", "wall_time_max", "integrator_time", "setup_time", "setup_time_timed",
+            "warmup_time")
+#: How a row may end (the engine's statuses and the runner's).
+STATUSES = tuple(s.value for s in Status) + RUNNER_STATUSES
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _check_column(where: str, key: str, value: Any) -> None:
+    """Refuse an ``extra_info`` value that the results schema would store as something else (or lose)."""
+    if value is None:  # JSON null: the value is missing (NaN, an empty text)
+        return
+    if key in storage.INT_COLUMNS:
+        if not (_is_number(value) and math.isfinite(value) and float(value).is_integer()):
+            raise ConfigError(f"{where} must be a whole number, got {_got(value)}")
+        if key in _COUNTS and value < 0:
+            raise ConfigError(f"{where} counts something: it must be >= 0, got {_got(value)}")
+    elif key in storage.FLOAT_COLUMNS:
+        if not _is_number(value):
+            raise ConfigError(f"{where} must be a number, got {_got(value)}")
+        if key in _SECONDS and not (math.isfinite(value) and value >= 0):
+            raise ConfigError(f"{where} must be a number of seconds (finite, >= 0), got {_got(value)}")
+    elif key in storage.BOOL_COLUMNS:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where} must be true or false, got {_got(value)}")
+    elif key in LIST_COLUMNS:
+        if not (isinstance(value, list) and all(v is None or _is_number(v) for v in value)):
+            raise ConfigError(f"{where} must be a list of numbers, got {_got(value)}")
+    elif not isinstance(value, str):
+        raise ConfigError(f"{where} must be a string, got {_got(value)}")
+    elif key == "status" and value not in STATUSES:
+        raise ConfigError(f"{where} = {value!r} is not a status; one of: {', '.join(STATUSES)}")
 
 
 def _row(bench: dict[str, Any]) -> dict[str, Any]:

@@ -71,49 +71,36 @@ def order_ties_as_reference(reference: pd.DataFrame, events: pd.DataFrame,
     return events.iloc[order].reset_index(drop=True)
 
 
-def common_prefix(a: list[str], b: list[str]) -> int:
-    """Length of the longest common prefix of two sequences."""
-    n = min(len(a), len(b))
-    for i in range(n):
-        if a[i] != b[i]:
-            return i
-    return n
-
-
-def lcs_length(a: list[str], b: list[str]) -> int:
-    """Length of the longest common subsequence (bit-parallel, O(len(a) len(b) / word))."""
-    if not a or not b:
-        return 0
-    masks: dict[str, int] = {}
-    for i, s in enumerate(a):
-        masks[s] = masks.get(s, 0) | (1 << i)
-    full = (1 << len(a)) - 1
-    v = full
-    for s in b:
-        u = v & masks.get(s, 0)
-        v = ((v + u) | (v - u)) & full
-    return len(a) - bin(v).count("1")
-
-
 @dataclass(frozen=True)
 class Alignment:
-    """How an event sequence lines up with the reference's ``(kind, block)`` sequence.
+    """How an event log lines up with the reference's, on ``(kind, block)`` and time.
+
+    The best alignment pairs events of the same ``(kind, block)`` in order and
+    leaves the others unmatched: it has the fewest unmatched events and, among
+    those, the smallest sum of ``|t - t_ref|`` over its pairs (:func:`align`). So
+    a run that misses a stick is not paired with the reference's next stick of
+    the same block when the one it missed is the closer in time: the missed event
+    is reported as missed, where it happened.
 
     Attributes
     ----------
     n_ref, n_events
         Events in the reference and in the run.
     n_prefix
-        Length of the matched prefix: events equal, in order, from the first one.
+        Length of the matched prefix: events paired one to one, in order, from
+        the first one up to the first unmatched event.
     n_matched
-        Events matched by the best alignment of the whole sequences (longest
-        common subsequence); ``n_missed = n_ref - n_matched``, ``n_extra = n_events - n_matched``.
+        Events paired by the best alignment; ``n_missed = n_ref - n_matched``,
+        ``n_extra = n_events - n_matched``.
     first_divergence_index
-        Index of the first event where the sequences differ (``-1`` if identical).
+        Index of the first unmatched event (``n_prefix``; ``-1`` if the logs match).
     first_divergence_time
-        Reference time of that event (the run's time if the reference has ended), NaN if identical.
+        Time of that event: the reference's for a missed event, the run's for an
+        extra one; NaN if the logs match.
+    first_divergence
+        ``'missed'``, ``'extra'`` or ``''`` (the logs match).
     sequence_ok
-        The two sequences are identical.
+        The two ``(kind, block)`` sequences are identical.
     truncated
         The logs were longer than :data:`MAX_ALIGN` and only their starts were aligned.
     """
@@ -128,24 +115,53 @@ class Alignment:
     first_divergence_time: float
     sequence_ok: bool
     truncated: bool
+    first_divergence: str = ""
+
+
+def _label_codes(reference: pd.DataFrame, events: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Integer codes of the ``(kind, block)`` labels of two logs (equal labels, equal codes)."""
+    kinds = np.concatenate([reference["kind"].to_numpy(dtype=str), events["kind"].to_numpy(dtype=str)])
+    blocks = np.concatenate([reference["block"].to_numpy(dtype=np.int64), events["block"].to_numpy(dtype=np.int64)])
+    if not kinds.size:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    _, kind_codes = np.unique(kinds, return_inverse=True)
+    low = int(blocks.min())
+    codes = kind_codes.astype(np.int64) * (int(blocks.max()) - low + 1) + (blocks - low)
+    return codes[:len(reference)], codes[len(reference):]
 
 
 def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
-    """Align the event log ``events`` with ``reference`` (see :class:`Alignment`)."""
-    ref_sym, sym = event_symbols(reference), event_symbols(events)
-    truncated = len(ref_sym) > MAX_ALIGN or len(sym) > MAX_ALIGN
-    p = common_prefix(ref_sym, sym)
-    same = p == len(ref_sym) == len(sym)
-    matched = len(ref_sym) if same else lcs_length(ref_sym[:MAX_ALIGN], sym[:MAX_ALIGN])
-    if same:
-        index, when = -1, math.nan
-    else:
-        index = p
-        when = float(reference["t"].iloc[p]) if p < len(reference) else float(events["t"].iloc[p])
-    return Alignment(n_ref=len(ref_sym), n_events=len(sym), n_prefix=p, n_matched=matched,
-                     n_missed=len(ref_sym) - matched, n_extra=len(sym) - matched,
-                     first_divergence_index=index, first_divergence_time=when,
-                     sequence_ok=same, truncated=truncated)
+    """Align the event log ``events`` with ``reference`` on ``(kind, block)`` and time (see :class:`Alignment`).
+
+    Identical label sequences are paired one to one. Otherwise a dynamic program
+    (:func:`nsbench.bench._alignment.diagonal_moves`, compiled) finds the
+    alignment with the fewest unmatched events and the smallest total time
+    difference of its pairs, in ``O(n m)`` time and ``O(m)`` memory; logs longer
+    than :data:`MAX_ALIGN` are aligned over their first :data:`MAX_ALIGN` events.
+    """
+    ref_codes, codes = _label_codes(reference, events)
+    n, m = len(ref_codes), len(codes)
+    truncated = n > MAX_ALIGN or m > MAX_ALIGN
+    if n == m and np.array_equal(ref_codes, codes):
+        return Alignment(n_ref=n, n_events=m, n_prefix=n, n_matched=n, n_missed=0, n_extra=0,
+                         first_divergence_index=-1, first_divergence_time=math.nan, sequence_ok=True,
+                         truncated=truncated)
+    from nsbench.bench._alignment import MATCH, SKIP_REFERENCE, diagonal_moves
+
+    t_ref = reference["t"].to_numpy(dtype=float)
+    t_run = events["t"].to_numpy(dtype=float)
+    na, ma = min(n, MAX_ALIGN), min(m, MAX_ALIGN)
+    gaps, _, moves = diagonal_moves(ref_codes[:na], t_ref[:na], codes[:ma], t_run[:ma])
+    matched = (na + ma - int(gaps)) // 2
+    k = int(np.argmax(moves != MATCH)) if (moves != MATCH).any() else len(moves)
+    if k < len(moves):
+        missed = moves[k] == SKIP_REFERENCE
+    else:  # one log is a prefix of the other (as far as aligned)
+        missed = k < n
+    when = float(t_ref[k]) if missed else float(t_run[k])
+    return Alignment(n_ref=n, n_events=m, n_prefix=k, n_matched=matched, n_missed=n - matched,
+                     n_extra=m - matched, first_divergence_index=k, first_divergence_time=when,
+                     sequence_ok=False, truncated=truncated, first_divergence="missed" if missed else "extra")
 
 
 #: Column of a reference's event log holding each event's certified error bound
@@ -253,6 +269,7 @@ def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.nd
         final_err, l2 = math.nan, math.nan
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
+    del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time
     out.update(switch_err_max=sw.err_max, switch_err_rms=sw.err_rms,
                switch_err_median=sw.err_median, switch_digits=sw.digits, at_ref_accuracy=sw.at_reference,
                final_state_err=final_err, state_err_l2=l2,

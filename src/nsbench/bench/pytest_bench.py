@@ -109,29 +109,54 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
     from nsbench.problems import problem_from_config
 
     t_end = bench_t_end() if t_end is None else float(t_end)
-    options = dict(options or {})
-    case = Case(problem=problem, integrator=integrator, options=options, level=-1, t0=0.0, t_end=t_end,
-                repeats=rounds, time_limit=math.inf, max_steps=2_000_000,
-                dense_points=DENSE_POINTS)
-    ref = get_reference(cache, problem, t_end)
     prob = problem_from_config(problem)
     grid = np.linspace(0.0, t_end, DENSE_POINTS)
-    integ = get_integrator(integrator, **options)
+    integ = get_integrator(integrator, **dict(options or {}))
     try:
-        first = simulate(prob, integ, t_end, t_eval=grid, max_steps=case.max_steps)
+        first = simulate(prob, integ, t_end, t_eval=grid, max_steps=MAX_STEPS)
     except UnsupportedProblemError as exc:
         pytest.skip(str(exc))
-    benchmark.pedantic(simulate, args=(prob, integ, t_end), kwargs={"t_eval": grid, "max_steps": case.max_steps},
+    benchmark.pedantic(simulate, args=(prob, integ, t_end), kwargs={"t_eval": grid, "max_steps": MAX_STEPS},
                        rounds=rounds, iterations=1, warmup_rounds=0)
+    return record_case(benchmark, cache, problem, integrator, options, first, t_end=t_end, rounds=rounds)
+
+
+#: Step budget of a benchmarked run.
+MAX_STEPS = 2_000_000
+
+
+def record_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], integrator: str,
+                options: dict[str, Any] | None, result, *, t_end: float, rounds: int) -> dict[str, Any]:
+    """The tidy row of a run a benchmark timed itself, stored in ``benchmark.extra_info`` (and returned).
+
+    For benchmark modules that time their own call (:func:`bench_case` is one):
+    ``result`` is one of the runs, the :class:`~nsbench.results.SimulationResult`
+    whose events and counters the row records; its accuracy metrics are taken
+    against the certified reference of ``problem`` over ``[0, t_end]`` (computed
+    once per ``cache``); the state errors need ``result`` run with
+    ``t_eval = np.linspace(0, t_end, DENSE_POINTS)`` (NaN otherwise). The
+    timing columns are left to pytest-benchmark's statistics, which ``nsbench
+    ingest`` reads. Keys a module adds to ``extra_info`` itself must not be
+    column names (:data:`nsbench.bench.schema.COLUMN_NAMES`): ingest would read
+    them as such.
+    """
+    from nsbench.problems import problem_from_config
+
+    t_end = float(t_end)
+    options = dict(options or {})
+    case = Case(problem=problem, integrator=integrator, options=options, level=-1, t0=0.0, t_end=t_end,
+                repeats=rounds, time_limit=math.inf, max_steps=MAX_STEPS, dense_points=DENSE_POINTS)
+    ref = get_reference(cache, problem, t_end)
+    prob = problem_from_config(problem)
     row = base_row(case, "pytest-benchmark")
-    counters = first.counters.as_dict()
-    row.update(status=first.status.value, message=first.message, t_final=first.t_final,
+    counters = result.counters.as_dict()
+    row.update(status=result.status.value, message=result.message, t_final=result.t_final,
                nfev=counters["nfev"], njev=counters["njev"], nsteps=counters["nsteps"],
-               n_events=counters["n_events"], setup_time=first.setup_time, **ref.columns())
+               n_events=counters["n_events"], setup_time=result.setup_time, **ref.columns())
     if ref.ok:
-        dense = (first.trajectory[list(prob.state_names)].to_numpy().T
-                 if first.ok and len(first.trajectory) == DENSE_POINTS else None)
-        metrics = case_metrics(ref.events, first.events, ref.y_dense, dense, ref.y_final, first.y_final)
+        dense = (result.trajectory[list(prob.state_names)].to_numpy().T
+                 if result.ok and len(result.trajectory) == DENSE_POINTS else None)
+        metrics = case_metrics(ref.events, result.events, ref.y_dense, dense, ref.y_final, result.y_final)
         metrics.pop("truncated")
         row.update(metrics)
     for key, value in row.items():

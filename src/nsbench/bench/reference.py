@@ -44,6 +44,10 @@ DOUBLE_GRADABLE = 1e-10
 FAILED = "reference failed"
 
 
+#: Ends the certification note of a log whose check gives another event sequence.
+NOT_CERTIFIED_FROM = "not certified from there"
+
+
 def failed_status(status: str) -> bool:
     """Whether a ``reference_status`` says the reference run failed (raised, failed, crashed)."""
     return str(status).startswith(FAILED)
@@ -149,9 +153,15 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
         events = res.events.copy()
         events[CERTIFIED], certify_note = certified_errors(problem, events, t0, t_end,
                                                            reference=config["name"])
-        return Reference(key, config["name"], config, "ok", events, grid, dense,
-                         res.y_final, res.wall_time + res.setup_time, conditioning=cond, conditioning_note=note,
-                         certify_note=certify_note)
+        status = "ok"
+        if NOT_CERTIFIED_FROM in certify_note:
+            # its independent check logs other events: which one is right is not known here, so
+            # grading against it could blame the integrators that agree with the check
+            status = (f"{FAILED}: {config['name']} is not certified ({certify_note}); nothing is graded "
+                      "against it")
+        return Reference(key, config["name"], config, status, events, grid, dense,
+                         res.y_final, res.wall_time + res.setup_time, failed=status != "ok", conditioning=cond,
+                         conditioning_note=note, certify_note=certify_note)
     if refused:
         reason = "no reference available: " + ", ".join(f"{n} refused the problem" for n in refused)
     else:
@@ -209,8 +219,15 @@ def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
             directory / f"{key}.dense.npy")
 
 
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def save_reference(directory: str | Path, ref: Reference) -> None:
-    """Write ``ref`` to the cache; the JSON file is written last, so it marks completion."""
+    """Write ``ref`` to the cache; the JSON file, with the checksums of the other two, is written last,
+    so it marks completion."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     meta, events, dense = _paths(d, ref.key)
@@ -221,15 +238,20 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
     data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
             "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed,
             "conditioning": repr(ref.conditioning), "conditioning_note": ref.conditioning_note,
-            "certify_note": ref.certify_note}
+            "certify_note": ref.certify_note,
+            "sha256": {events.name.removeprefix(ref.key): _digest(events),
+                       dense.name.removeprefix(ref.key): _digest(dense)}}
     write_atomic(meta, json.dumps(data, indent=1))
 
 
 def load_reference(directory: str | Path, key: str) -> Reference | None:
     """The cached reference ``key``, or ``None`` if it is not (completely and soundly) cached.
 
-    A damaged cache entry (truncated, edited, another key's) is deleted, with
-    one warning line, so that the reference is computed again.
+    A damaged cache entry (truncated, edited, a bit flipped, another key's) is
+    deleted, with one warning line, so that the reference is computed again:
+    the JSON file names its key and holds the SHA-256 of the event table and of
+    the dense states (an entry written before checksums were kept passes the
+    other checks).
     """
     import sys
 
@@ -239,8 +261,12 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
         return None
     try:
         data = json.loads(meta.read_text())
-        if data.get("key") != key:
-            raise ValueError(f"it holds reference {data.get('key')!r}")
+        if not isinstance(data, dict) or data.get("key") != key:
+            raise ValueError(f"it holds reference {data.get('key') if isinstance(data, dict) else data!r}")
+        for path, digest in ((events, (data.get("sha256") or {}).get(".events.parquet")),
+                             (dense, (data.get("sha256") or {}).get(".dense.npy"))):
+            if digest is not None and _digest(path) != digest:
+                raise ValueError(f"{path.name} does not match its checksum")
         table = np.load(dense, allow_pickle=False)
         t_dense, y_dense = table[0], table[1:]
         ref = Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
@@ -249,7 +275,7 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
                         str(data.get("conditioning_note", "")), str(data.get("certify_note", "")))
         if len(ref.events) and not {"t", "kind", "block"} <= set(ref.events.columns):
             raise ValueError("its event table lacks t, kind or block")
-    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError, AttributeError) as exc:
         print(f"nsbench: warning: cached reference {meta} is damaged ({type(exc).__name__}: {exc}); "
               "computing it again", file=sys.stderr)
         for p in paths:
@@ -325,7 +351,7 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
     out[:dt.size] = dt + np.spacing(np.abs(t_check))
     note = f"against {what}"
     if at is not None:
-        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): not certified from there"
+        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): {NOT_CERTIFIED_FROM}"
     return out, note
 
 

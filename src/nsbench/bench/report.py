@@ -193,6 +193,7 @@ ENGINE_CAPTION = ("Ranking and fixed-target times are wall times: the whole run 
 def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
     """Write the report of the results stored in ``directory`` (or of ``results``) into it."""
     d = Path(directory)
+    storage.check_no_links(d)  # what the report writes there replaces what is there: never through a link
     frame = with_engine_share(storage.load_results(d) if results is None else results)
     prov = storage.read_provenance(d)
     targets = tuple(prov.get("suite", {}).get("targets", DEFAULT_TARGETS))

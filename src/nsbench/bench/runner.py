@@ -208,7 +208,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     for name, reason in suite.unavailable().items():
         prov.setdefault("unavailable_integrators", {})[name] = reason
         print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)
-    storage.discard_damaged(out, err)  # named in one line each, then computed again
+    # named in one line each, then computed again; a row must hold the parameters its id stands for
+    storage.discard_damaged(out, err, expect={c.case_id: _identity(c) for c in cases})
     done = storage.done_ids(out)
     if done:
         _warn_other_version(out, prov, err)
@@ -255,7 +256,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda case: bar.update(warm_weight(case), case.label))
+                                  on_warm=lambda case: bar.update(warm_weight(case), case.label),
+                                  on_phase=bar.phase)
             timeline = scheduler.timeline
             scheduler.run()
     finally:
@@ -267,6 +269,9 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     if suite.target_list():  # the bifurcation targets: after every case, never while a case is timed
         from nsbench.bench.targets import run_targets
 
+        if progress:
+            print(f"nsbench: bifurcation targets: {len(suite.target_list())} target(s), each located by every "
+                  "configuration with its own simulations", file=err, flush=True)
         bifurcations = run_targets(suite, out, prov, workers=workers, in_process=bool(local),
                                    components=shareable, resume=resume, stream=err, progress=progress)
     summary = RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),
@@ -275,6 +280,14 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     for line in summary.problems():
         print(f"nsbench: warning: {line}", file=err)
     return summary
+
+
+def _identity(case: Case) -> dict[str, Any]:
+    """The columns of a stored row that say which computation it is (see ``execute.base_row``)."""
+    from nsbench.bench.execute import _jsonable
+
+    return {"problem_config": _jsonable(case.problem), "integrator": case.integrator,
+            "options": _jsonable(case.options), "t0": float(case.t0), "t_end": float(case.t_end)}
 
 
 def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any]):

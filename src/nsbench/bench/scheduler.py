@@ -155,12 +155,14 @@ class Scheduler:
     def __init__(self, cases: list[Case], references: list[ReferenceTask],
                  reference_of: Callable[[Case], Reference], on_reference: Callable[[str, Reference], None],
                  on_row: Callable[..., None], hello: msg.Hello, workers: int,
-                 suite: str = "suite", on_warm: Callable[[Case], None] | None = None) -> None:
+                 suite: str = "suite", on_warm: Callable[[Case], None] | None = None,
+                 on_phase: Callable[[str], None] | None = None) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
         self.ref_queue = deque(references)
         self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
         self.reference_of, self.on_reference, self.on_row = reference_of, on_reference, on_row
         self.on_warm = on_warm or (lambda case: None)
+        self.on_phase = on_phase or (lambda text: None)
         self.hello, self.suite = hello, suite
         self.slots = [_Slot(i) for i in range(max(1, workers))]
         self.timing = False  # the phase: False while preparing
@@ -171,6 +173,11 @@ class Scheduler:
     # ------------------------------------------------------------------ the loop
     def run(self) -> None:
         """Run everything; on any exception (Ctrl-C included) keep what finished, end the workers."""
+        n_refs = len(self.ref_queue)
+        self.on_phase(f"preparing: {n_refs} reference run(s), then a warm-up of each of {len(self.cases)} case(s) "
+                      "(set-up and compilation, a short untimed run)" if n_refs else
+                      f"preparing: a warm-up of each of {len(self.cases)} case(s) (set-up and compilation, a short "
+                      "untimed run)")
         try:
             while not self._finished():
                 self._dispatch()
@@ -191,6 +198,9 @@ class Scheduler:
     def _dispatch(self) -> None:
         if not self.timing and self._prepared():
             self.timing = True
+            runs = sum(s.case.repeats - s.rounds for s in self.cases.values() if not s.done)
+            rounds = max((s.case.repeats - s.rounds for s in self.cases.values() if not s.done), default=0)
+            self.on_phase(f"timing: every worker is warm; {runs} timed run(s) in {rounds} round(s)")
         for slot in self.slots:
             if self._finished():
                 return

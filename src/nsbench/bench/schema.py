@@ -57,12 +57,15 @@ COLUMNS: tuple[tuple[str, str], ...] = (
                       "higher precision, nsbench.bench.reference.certified_errors); inf where the check's event "
                       "sequence differs, NaN if not certified"),
     ("n_ref", "events in the reference"),
-    ("n_prefix", "length of the matched prefix of the (kind, block) sequence"),
-    ("n_matched", "events matched by the best alignment (longest common subsequence)"),
+    ("n_prefix", "events paired one to one from the first, up to the first missed or extra event"),
+    ("n_matched", "events paired by the best alignment on (kind, block) and time: fewest unmatched events, "
+                  "then the smallest total time difference of its pairs (nsbench.bench.metrics.align)"),
     ("n_missed", "reference events the run does not have"),
     ("n_extra", "events of the run the reference does not have"),
-    ("first_divergence_index", "first index where the sequences differ, -1 if identical"),
-    ("first_divergence_time", "reference time of that event, NaN if identical"),
+    ("first_divergence_index", "index of the first missed or extra event (n_prefix), -1 if the sequences are "
+                               "identical"),
+    ("first_divergence_time", "time of that event (the reference's if missed, the run's if extra), NaN if "
+                              "identical"),
     ("sequence_ok", "the (kind, block) sequences are identical"),
     ("switch_err_max", "max |t - t_ref| over the matched prefix, each event's error floored at the reference's "
                        "certified error there (never reported below what the reference can certify)"),

@@ -13,6 +13,7 @@ Layout of an output directory::
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -27,9 +28,21 @@ import pyarrow.parquet as pq
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
-from nsbench.files import STALE_AFTER, remove_stale_temporaries
+from nsbench.files import STALE_AFTER, fresh_temporary, refuse_links, remove_stale_temporaries, write_atomic
 
 PROVENANCE_KEY = b"nsbench.provenance"
+#: What nsbench writes in an output directory (the runner, ingest, the report), and the folders
+#: whose every entry it writes: none of them may be a symbolic link (:func:`check_no_links`).
+WRITTEN = ("cases", "references", "results.parquet", "results.csv", "provenance.json", "timeline.csv",
+           "report.md", "index.html", "table.tex", "figures", "scaling.csv", "scaling_summary.csv",
+           "bifurcation_targets", "bifurcation_references", "bifurcation_targets.parquet",
+           "bifurcation_targets.csv", "*.tmp")
+WRITTEN_FOLDERS = ("cases", "references", "figures", "bifurcation_targets", "bifurcation_references")
+
+
+def check_no_links(out: str | Path) -> None:
+    """``ConfigError`` if something nsbench writes or deletes in the output directory ``out`` is a link."""
+    refuse_links(out, WRITTEN, WRITTEN_FOLDERS)
 _INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
         "n_matched", "n_missed", "n_extra", "first_divergence_index")
 _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
@@ -38,6 +51,8 @@ _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", 
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
           "final_state_err", "state_err_l2", "ref_conditioning", "ref_double_floor", "ref_certainty")
 _BOOL = ("sequence_ok", "at_ref_accuracy")
+#: The integer, float and boolean columns of the schema (the others are text or lists).
+INT_COLUMNS, FLOAT_COLUMNS, BOOL_COLUMNS = _INT, _FLOAT, _BOOL
 
 
 def _float_list(value: Any) -> list[float]:
@@ -68,17 +83,47 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     return frame
 
 
+#: Schema metadata key of the SHA-256 of a stored table's values (a bit flipped in a value shows).
+CONTENT_KEY = b"nsbench.sha256"
+
+
+def content_digest(table: pa.Table) -> str:
+    """SHA-256 of every value of ``table``, column by column (floats exactly, by their repr)."""
+    import hashlib
+
+    values = {name: table.column(name).to_pylist() for name in table.column_names}
+    return hashlib.sha256(json.dumps(values, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def _table(frame: pd.DataFrame, provenance: dict[str, Any]) -> pa.Table:
     table = pa.Table.from_pandas(frame, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[PROVENANCE_KEY] = json.dumps(provenance, default=str).encode()
+    meta[CONTENT_KEY] = content_digest(table).encode()
     return table.replace_schema_metadata(meta)
 
 
+def read_table_checked(path: str | Path) -> pa.Table:
+    """A Parquet table nsbench wrote, read and checked against the checksum of its values.
+
+    Raises ``DamagedFile`` if its values changed; pyarrow's own errors if it is unreadable.
+    """
+    table = pq.read_table(path)
+    _check_content(table)
+    return table
+
+
+def _check_content(table: pa.Table) -> None:
+    """``DamagedFile`` if ``table`` records a checksum of its values that they no longer match."""
+    stored = (table.schema.metadata or {}).get(CONTENT_KEY)
+    if stored is not None and stored.decode(errors="replace") != content_digest(table):
+        raise DamagedFile("its values do not match the checksum stored with them (changed since nsbench wrote it)")
+
+
 def _write_atomic(table: pa.Table, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = fresh_temporary(path)  # a leftover (or a link) is removed: never written through
     pq.write_table(table, tmp)
-    os.replace(tmp, path)  # a reader never sees a half-written file
+    os.replace(tmp, path)  # a reader never sees a half-written file; a link at path is replaced, not followed
 
 
 #: What a case id may be: it names a file, so no path separators and no leading dot.
@@ -111,27 +156,45 @@ def clear_cases(out: str | Path) -> None:
     """Delete the stored cases of the nsbench store ``out`` (a fresh run into the same folder).
 
     Refuses, before deleting anything, when ``OUT/cases`` holds anything nsbench
-    does not write there (another tool's folder, a mistyped path): only
-    ``*.parquet`` case files and their ``.tmp`` siblings are deleted.
+    did not write there (another tool's folder, a mistyped path, someone's own
+    Parquet file): only nsbench's case files (:func:`nsbench_wrote`) and their
+    ``.tmp`` siblings are deleted.
     """
     cases = Path(out) / "cases"
+    check_no_links(out)
     if not cases.exists():
         return
     if not cases.is_dir():
         raise ConfigError(f"{str(cases)!r} is not a folder: {str(out)!r} is not an nsbench results folder")
-    foreign = [p.name for p in cases.iterdir()
-               if not (p.is_file() and (p.name.endswith(".parquet") or p.name.endswith(".parquet.tmp")))]
+    foreign = [p.name for p in sorted(cases.iterdir())
+               if not (p.name.endswith(".parquet.tmp") or (p.name.endswith(".parquet") and nsbench_wrote(p)))]
     if foreign:
         raise ConfigError(f"{str(out)!r} does not look like an nsbench results folder ({str(cases)!r} holds "
-                          f"{foreign[0]!r}); refusing to clear it: choose another --out")
+                          f"{foreign[0]!r}, which nsbench did not write); refusing to clear it: choose another "
+                          "--out")
     for p in cases.iterdir():
         p.unlink()
     cases.rmdir()
 
 
+#: A case id nsbench makes (:func:`nsbench.bench.suite.stable_key`): 16 hexadecimal digits.
+_STABLE_KEY = re.compile(r"[0-9a-f]{16}")
+
+
+def nsbench_wrote(path: str | Path) -> bool:
+    """Whether the Parquet file ``path`` is nsbench's: its metadata holds nsbench's provenance, or it
+    is unreadable under a name nsbench gives (a case file damaged on disk; nsbench's writes are atomic)."""
+    p = Path(path)
+    try:
+        return PROVENANCE_KEY in (pq.read_schema(p).metadata or {})
+    except (OSError, ValueError, pa.ArrowException):
+        return bool(_STABLE_KEY.fullmatch(p.name[: -len(".parquet")]))
+
+
 def append_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) -> Path:
     """Store one finished case as ``cases/<case_id>.parquet``."""
     path = case_path(out, row["case_id"])
+    refuse_links(out, ["cases"])  # the worker writes here: never into a folder a link points to
     path.parent.mkdir(parents=True, exist_ok=True)
     _write_atomic(_table(to_frame([row]), provenance), path)
     return path
@@ -151,13 +214,16 @@ def read_case(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DamagedFile
-        A truncated or foreign file, or a case file copied over another case's name.
+        A truncated or foreign file, a case file copied over another case's name, or
+        values that no longer match the checksum stored with them.
     """
     p = Path(path)
     try:
-        frame = pq.read_table(p).to_pandas()
+        table = pq.read_table(p)
+        frame = table.to_pandas()
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise DamagedFile(f"not a readable Parquet file: {exc}") from None
+    _check_content(table)
     missing = [c for c in _REQUIRED if c not in frame.columns]
     if missing:
         raise DamagedFile(f"not an nsbench case file (no column {missing[0]!r})")
@@ -169,28 +235,50 @@ def read_case(path: str | Path) -> pd.DataFrame:
     return frame
 
 
-def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER) -> list[Path]:
+def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER,
+                    expect: dict[str, dict[str, Any]] | None = None) -> list[Path]:
     """Before a resumed run: delete damaged case files (their cases run again) and stale temporary files.
 
     Each damaged file is named in one warning line on ``stream``; a damaged
     cached reference is dealt with when it is loaded (it is computed again).
-    Temporary files younger than ``stale_after`` seconds may belong to a run
-    writing into this folder right now and are left alone.
+    ``expect`` maps case ids to the columns their row must hold (the
+    parameters of the case the run would compute under that id): a stored row
+    that holds other parameters is damaged too. Temporary files younger than
+    ``stale_after`` seconds may belong to a run writing into this folder right
+    now and are left alone.
     """
     import sys
 
     o = Path(out)
+    check_no_links(o)
     bad = []
     cases = o / "cases"
     for f in sorted(cases.glob("*.parquet")) if cases.is_dir() else []:
         try:
-            read_case(f)
+            row = read_case(f).iloc[0]
+            wanted = (expect or {}).get(f.name[: -len(".parquet")], {})
+            differ = [k for k, v in wanted.items() if k not in row.index or _differs(row[k], v)]
+            if differ:
+                raise DamagedFile(f"it holds another computation than its case id says ({differ[0]} differs)")
         except DamagedFile as exc:
+            if not nsbench_wrote(f):  # someone else's file: never deleted, and not read as a result
+                raise ConfigError(f"{f} is not an nsbench case file ({exc}) and nsbench did not write it; move "
+                                  f"it out of {cases} or choose another --out") from None
             print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
             f.unlink(missing_ok=True)
             bad.append(f)
-    remove_stale_temporaries((o, cases, o / "references"), stale_after)
+    remove_stale_temporaries(((o, "results.*.tmp"), (o, "provenance.json.tmp"), (o, "timeline.csv.tmp"),
+                              (cases, "*.parquet.tmp"), (o / "references", "*.json.tmp")), stale_after)
     return bad
+
+
+def _differs(stored: Any, wanted: Any) -> bool:
+    if isinstance(wanted, float):
+        try:
+            return not (float(stored) == wanted or (math.isnan(float(stored)) and math.isnan(wanted)))
+        except (TypeError, ValueError):
+            return True
+    return str(stored) != str(wanted)
 
 
 def done_ids(out: str | Path) -> set[str]:
@@ -225,14 +313,8 @@ def read_provenance(path: str | Path) -> dict[str, Any]:
         prov = p / "provenance.json"
         return json.loads(prov.read_text()) if prov.exists() else {}
     if p.suffix == ".csv":
-        out = {}
-        with open(p) as fh:
-            for line in fh:
-                if not line.startswith("# "):
-                    break
-                key, _, value = line[2:].rstrip("\n").partition(": ")
-                out[key] = json.loads(value)
-        return out
+        meta, _ = _split_csv(p.read_text())
+        return {k: v for k, v in meta.items() if k not in (CSV_ROWS, CSV_SHA256)}
     meta = pq.read_schema(p).metadata or {}
     return json.loads(meta[PROVENANCE_KEY]) if PROVENANCE_KEY in meta else {}
 
@@ -253,16 +335,20 @@ def load_results(path: str | Path) -> pd.DataFrame:
     if not p.exists():
         raise ConfigError(f"results {str(path)!r} do not exist")
     if p.suffix == ".csv":
-        frame = pd.read_csv(p, comment="#")
+        frame = read_csv_checked(p)
         for name in LIST_COLUMNS:
             if name in frame:  # an older export may lack a newer list column
                 frame[name] = frame[name].map(lambda s: json.loads(s) if isinstance(s, str) else [])
         return to_frame(frame.to_dict("records"))
     if p.suffix == ".parquet":
         try:
-            frame = pd.read_parquet(p)
+            table = pq.read_table(p)
+            _check_content(table)
+            frame = table.to_pandas()
         except (OSError, ValueError, pa.ArrowException) as exc:
             raise ConfigError(f"{p} is not a readable Parquet file ({exc})") from None
+        except DamagedFile as exc:
+            raise ConfigError(f"{p} is damaged ({exc})") from None
         if "case_id" not in frame.columns:
             raise ConfigError(f"{p} holds no nsbench results (no column 'case_id')")
         return to_frame(frame.to_dict("records"))
@@ -277,19 +363,80 @@ def _checked(path: Path) -> pd.DataFrame:
                           "its case again") from None
 
 
+#: Header entries of a CSV export that prove its table (they are not provenance).
+CSV_ROWS, CSV_SHA256 = "nsbench_csv_rows", "nsbench_csv_sha256"
+
+
 def write_csv(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
-    """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically."""
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        for key, value in provenance.items():
-            fh.write(f"# {key}: {json.dumps(value, default=str)}\n")
-        frame.to_csv(fh, index=False, float_format="%.17g")
-    os.replace(tmp, path)
+    """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically.
+
+    The last two header lines hold the table's row count and SHA-256, so that a
+    reader refuses a truncated or edited copy (:func:`read_csv_checked`).
+    """
+    import hashlib
+
+    body = frame.to_csv(index=False, float_format="%.17g")
+    head = "".join(f"# {key}: {json.dumps(value, default=str)}\n" for key, value in provenance.items()
+                   if key not in (CSV_ROWS, CSV_SHA256))
+    head += f"# {CSV_ROWS}: {len(frame)}\n# {CSV_SHA256}: {json.dumps(hashlib.sha256(body.encode()).hexdigest())}\n"
+    write_atomic(path, head + body)
+
+
+def _split_csv(text: str) -> tuple[dict[str, Any], str]:
+    """The ``# key: value`` header of a CSV export (decoded where it is JSON) and the table after it."""
+    meta: dict[str, Any] = {}
+    at = 0
+    for line in text.splitlines(keepends=True):
+        if not line.startswith("# "):
+            break
+        key, _, value = line[2:].rstrip("\n").partition(": ")
+        try:
+            meta[key] = json.loads(value)
+        except ValueError:
+            meta[key] = value
+        at += len(line)
+    return meta, text[at:]
+
+
+def read_csv_checked(path: Path) -> pd.DataFrame:
+    """A CSV export as written: its checksum and row count hold (``ConfigError`` naming the file if not).
+
+    An export written before checksums were kept is checked for whole rows
+    (each with every column), which a truncated copy lacks.
+    """
+    import csv
+    import hashlib
+
+    try:
+        text = Path(path).read_text()
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path} holds no nsbench results (not UTF-8 text)") from None
+    meta, body = _split_csv(text)
+    damaged = f"{path} is damaged (truncated or edited since nsbench wrote it)"
+    if CSV_SHA256 in meta:
+        if hashlib.sha256(body.encode()).hexdigest() != meta[CSV_SHA256]:
+            raise ConfigError(f"{damaged}: its table does not match the checksum in its header")
+    else:  # an older export: at least every row whole
+        rows = list(csv.reader(io.StringIO(body)))
+        short = [i for i, r in enumerate(rows[1:], start=2) if r and len(r) != len(rows[0])]
+        if not rows or short or not body.endswith("\n"):
+            where = f" (line {short[0]} of its table)" if short else ""
+            raise ConfigError(f"{damaged}: a row does not have every column{where}")
+    try:
+        frame = pd.read_csv(io.StringIO(body))
+    except (ValueError, pd.errors.ParserError) as exc:
+        raise ConfigError(f"{damaged}: {exc}") from None
+    if CSV_ROWS in meta and len(frame) != meta[CSV_ROWS]:
+        raise ConfigError(f"{damaged}: {len(frame)} rows where its header says {meta[CSV_ROWS]}")
+    if "case_id" not in frame.columns:
+        raise ConfigError(f"{path} holds no nsbench results (no column 'case_id')")
+    return frame
 
 
 def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.DataFrame:
     """Write ``results.parquet``, ``results.csv`` and ``provenance.json`` from the stored cases."""
     o = Path(out)
+    check_no_links(o)
     frame = load_results(o)
     prov = provenance if provenance is not None else read_provenance(o)
     _write_atomic(_table(frame, prov), o / "results.parquet")
@@ -297,7 +444,7 @@ def export(out: str | Path, provenance: dict[str, Any] | None = None) -> pd.Data
     for name in LIST_COLUMNS:
         csv[name] = csv[name].map(json.dumps)
     write_csv(csv, o / "results.csv", prov)
-    (o / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
+    write_atomic(o / "provenance.json", json.dumps(prov, indent=1, default=str))
     return frame
 
 
@@ -313,7 +460,7 @@ def write_timeline(out: str | Path, records: Iterable[Any]) -> Path:
         t0 = frame["start"].min()
         frame["start"], frame["end"] = frame["start"] - t0, frame["end"] - t0
     path = Path(out) / "timeline.csv"
-    frame.to_csv(path, index=False, float_format="%.3f")
+    write_atomic(path, frame.to_csv(index=False, float_format="%.3f"))
     return path
 
 

@@ -21,7 +21,7 @@ from typing import Any
 from nsbench.bench.timing import MIN_REPEATS
 from nsbench.errors import ConfigError
 
-_SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "max_steps",
+_SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "setup_limit", "max_steps",
                "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
@@ -62,6 +62,7 @@ class Case:
     time_limit: float
     max_steps: int
     dense_points: int
+    setup_limit: float = 1800.0
 
     @property
     def case_id(self) -> str:
@@ -210,9 +211,14 @@ class Suite:
         Deprecated and ignored (accepted so that older suite files still load):
         every successful case is now timed on ``repeats`` warm runs.
     time_limit
-        Wall-clock seconds per run (the warm-up run and each timed run; setup,
-        i.e. compilation, is not limited). Past it the runner ends the worker
-        process and the case is recorded with status ``time limit``.
+        Wall-clock seconds per run (the warm-up run and each timed run). Past it
+        the runner ends the worker process and the case is recorded with status
+        ``time limit``.
+    setup_limit
+        Wall-clock seconds of an integrator's setup in a worker (construction and
+        ``setup``: compilation from a cold cache included; default 1800). Past it
+        the case is recorded with status ``time limit`` (a plug-in whose setup
+        never returns costs its cases, not the suite).
     max_steps
         Step budget per run.
     dense_points
@@ -236,6 +242,7 @@ class Suite:
     repeats: int = 3
     repeat_budget: float | None = None
     time_limit: float = 30.0
+    setup_limit: float = 1800.0
     max_steps: int = 2_000_000
     dense_points: int = 100
     targets: tuple[float, ...] = (1e-6, 1e-9, 1e-12)
@@ -259,7 +266,7 @@ class Suite:
                 raise ConfigError(f"{key} = {value!r} must be an integer >= {low} and <= {high} "
                                   f"(the bound is nsbench.bench.suite.{bound})")
         self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
-        for key in ("repeat_budget", "time_limit"):
+        for key in ("repeat_budget", "time_limit", "setup_limit"):
             value = getattr(self, key)
             if key == "repeat_budget" and value is None:
                 continue
@@ -334,6 +341,8 @@ class Suite:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"suite file {str(path)!r} is not valid TOML: {exc}") from None
+        except RecursionError:  # tomllib parses nested arrays and tables recursively
+            raise ConfigError(f"suite file {str(path)!r} is nested too deeply to be a suite") from None
         return cls.from_dict(data)
 
     def to_dict(self) -> dict[str, Any]:
@@ -498,7 +507,7 @@ class Suite:
                     out.append(Case(problem=problem, integrator=name, options=options, level=level,
                                     t0=self.t_span[0], t_end=self.t_span[1], repeats=self.repeats,
                                     time_limit=float(self.time_limit), max_steps=self.max_steps,
-                                    dense_points=self.dense_points))
+                                    dense_points=self.dense_points, setup_limit=float(self.setup_limit)))
         return out
 
 

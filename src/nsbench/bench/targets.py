@@ -383,7 +383,7 @@ class ProbeFailed(Exception):
 
 def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str, options: dict[str, Any],
                 *, max_steps: int = 2_000_000, stage: Callable[[str, float | None], None] | None = None,
-                time_limit: float | None = None) -> dict[str, Any]:
+                time_limit: float | None = None, setup_limit: float | None = None) -> dict[str, Any]:
     """Bisection for ``target`` with the flow of ``integrator(**options)``; the row's result columns.
 
     Never raises for the integrator's sake: a refusal is ``unsupported``, a
@@ -410,7 +410,7 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
         if integ is None:
             integ = get_integrator(integrator, **options)
             if stage is not None:
-                stage("setup", None)  # compilation is not limited (as for the cases)
+                stage("setup", setup_limit)  # as for the cases: the suite's setup_limit
             integ.setup(problem)
         if stage is not None:
             stage(f"probe {k} at {target.param} = {value:.12g}", time_limit)
@@ -576,19 +576,21 @@ def finish(row: dict[str, Any]) -> dict[str, Any]:
 
 
 def compute_row(loc: Location, ref: TargetReference, suite: str = "suite", *, max_steps: int = 2_000_000,
-                stage: Callable | None = None, time_limit: float | None = None) -> dict[str, Any]:
+                stage: Callable | None = None, time_limit: float | None = None,
+                setup_limit: float | None = None) -> dict[str, Any]:
     """The row of ``loc``: :func:`locate_with` and the identity columns; never raises for the integrator."""
     row = base_row(loc, suite, ref)
     row.update(locate_with(loc.target, ref, loc.integrator, loc.options, max_steps=max_steps, stage=stage,
-                           time_limit=time_limit))
+                           time_limit=time_limit, setup_limit=setup_limit))
     return finish(row)
 
 
-def location_job(loc: Location, ref: dict[str, Any], suite: str, max_steps: int, time_limit: float, *,
-                 stage: Callable = None, emit: Callable = None) -> dict[str, Any]:
-    """A :mod:`nsbench.jobs` job: the row of ``loc``, each probe a stage limited to ``time_limit`` seconds."""
+def location_job(loc: Location, ref: dict[str, Any], suite: str, max_steps: int, time_limit: float,
+                 setup_limit: float | None = None, *, stage: Callable = None, emit: Callable = None) -> dict[str, Any]:
+    """A :mod:`nsbench.jobs` job: the row of ``loc``, each probe a stage limited to ``time_limit`` seconds
+    (the integrator's setup to ``setup_limit``)."""
     return compute_row(loc, TargetReference.from_dict(ref), suite, max_steps=max_steps, stage=stage,
-                       time_limit=time_limit)
+                       time_limit=time_limit, setup_limit=setup_limit)
 
 
 def to_frame(rows) -> pd.DataFrame:
@@ -624,17 +626,22 @@ def store_row(out: str | Path, row: dict[str, Any], provenance: dict[str, Any]) 
 
 def done_rows(out: str | Path) -> set[str]:
     """Ids of the rows stored (readable) in ``out``; a damaged file is deleted (its row runs again)."""
+    import sys
+
+    from nsbench.bench.storage import read_table_checked
+
     d = Path(out) / ROWS_DIR
     done = set()
     for f in sorted(d.glob("*.parquet")) if d.is_dir() else []:
         try:
-            frame = pd.read_parquet(f)
+            frame = read_table_checked(f).to_pandas()  # its values checked against their checksum
             ok = len(frame) == 1 and str(frame["row_id"].iloc[0]) == f.name[: -len(".parquet")]
-        except Exception:  # noqa: BLE001 - truncated, foreign
+        except Exception:  # noqa: BLE001 - truncated, foreign, changed
             ok = False
         if ok:
             done.add(f.name[: -len(".parquet")])
         else:
+            print(f"nsbench: warning: {f} is damaged; its row runs again", file=sys.stderr)
             f.unlink(missing_ok=True)
     return done
 
@@ -785,7 +792,8 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
         for loc in pending:
             ref = refs[loc.target.key]
             jobs.submit(Job(loc.row_id, "nsbench.bench.targets:location_job",
-                            (loc, ref.as_dict(), suite.name, suite.max_steps, float(suite.time_limit))))
+                            (loc, ref.as_dict(), suite.name, suite.max_steps, float(suite.time_limit),
+                             float(suite.setup_limit))))
         for o in jobs.outcomes():
             if not o.final:
                 continue

@@ -9,7 +9,10 @@ integrator prints (Python or C) cannot corrupt the protocol.
 
 It ignores SIGINT: on Ctrl-C the runner keeps the finished rows and ends its
 workers itself. If the runner disappears without ending it (killed), the worker
-notices within a second and exits.
+notices within a second and exits; it never stores a row once its parent is
+gone: a task still in the pipe when the parent died would otherwise fail on
+its first message to the parent and leave an ``error`` row that a resumed run
+takes for a result.
 """
 
 from __future__ import annotations
@@ -25,6 +28,31 @@ import traceback
 from typing import Any, BinaryIO
 
 from nsbench.bench import protocol as msg
+
+#: The process that started this worker (set by :func:`main`); ``None`` when served in-process (tests).
+_PARENT: int | None = None
+
+
+class ParentGone(BaseException):
+    """The parent has ended: nothing of the task in hand may be reported or stored.
+
+    A ``BaseException``, so that a case's own error handling (which turns an
+    ``Exception`` into an ``error`` row) lets it through.
+    """
+
+
+def _parent_alive() -> bool:
+    return _PARENT is None or os.getppid() == _PARENT
+
+
+def _send(out: BinaryIO, message: Any) -> None:
+    """Write ``message`` to the parent; :class:`ParentGone` if it is not there to read it."""
+    if not _parent_alive():
+        raise ParentGone
+    try:
+        msg.write_message(out, message)
+    except (BrokenPipeError, ConnectionResetError) as exc:
+        raise ParentGone from exc
 
 
 def _channels() -> tuple[BinaryIO, BinaryIO]:
@@ -53,7 +81,7 @@ def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
     from nsbench.bench.reference import compute_reference
 
     def stage(what: str, limit: float | None) -> None:
-        msg.write_message(out, msg.Stage(task.task, what, limit))
+        _send(out, msg.Stage(task.task, what, limit))
 
     if isinstance(task, msg.ComputeReference):
         return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
@@ -64,12 +92,13 @@ def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
 
         module, _, name = task.target.partition(":")
         target = getattr(importlib.import_module(module), name)
-        return target(*task.args, stage=stage, emit=lambda item: msg.write_message(out, msg.Partial(task.task, item)))
+        return target(*task.args, stage=stage, emit=lambda item: _send(out, msg.Partial(task.task, item)))
     if isinstance(task, msg.TimeCase):
         if task.round > 0:  # timings only: the runner joins them to the stored row
             return time_case(task.case, task.reference, task.suite, stage, count=task.runs, metrics=False,
                              first_run=task.round)
         row = complete_row(time_case(task.case, task.reference, task.suite, stage, count=task.runs), task.warm)
+        stage("storing the row", None)  # raises ParentGone if the parent died meanwhile: then no row
         storage.append_row(hello.out, row, hello.provenance)  # here, not in the busy parent
         return row
     raise TypeError(f"unknown task {task!r}")
@@ -93,6 +122,8 @@ def serve(inp: BinaryIO, out: BinaryIO) -> None:
             return
         try:
             result = _handle(task, out, hello)
+        except ParentGone:
+            return
         except KeyboardInterrupt:
             msg.write_message(out, msg.Interrupted(task.task))
             continue
@@ -111,7 +142,9 @@ def _exit_with_parent(parent: int) -> None:
 
 
 def main() -> None:
-    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    global _PARENT
+    _PARENT = os.getppid()
+    threading.Thread(target=_exit_with_parent, args=(_PARENT,), daemon=True).start()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     faulthandler.enable()  # a crash in compiled code leaves a traceback on stderr
     inp, out = _channels()

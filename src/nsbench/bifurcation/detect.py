@@ -149,18 +149,23 @@ def _signature(spec: SweepSpec, value: float, integ, tol: float) -> pd.Series:
 
 
 def refine(spec: SweepSpec, left: float, right: float, kind: str, xtol: float | None = None,
-           tol: float = 1e-6, max_iter: int = 40) -> Refined:
+           tol: float = 1e-6, max_iter: int = 40, before=None) -> Refined:
     """Narrow a candidate between ``left`` and ``right`` by bisection on the same change ``kind``.
 
     The midpoint's features are computed with the sweep's settings; the half
     whose ends still differ in ``kind`` is kept, until the bracket is below
-    ``xtol`` (default 1e-4 of the sweep range).
+    ``xtol`` (default 1e-4 of the sweep range). ``before(value)``, if given, is
+    called before each value is computed (a supervised worker announces it
+    there, under its limit).
     """
     from nsbench.integrators import get_integrator
 
+    before = before or (lambda value: None)
     integ = get_integrator(spec.integrator, **spec.options)
     xtol = xtol if xtol is not None else 1e-4 * abs(spec.stop - spec.start)
+    before(left)
     a = _signature(spec, left, integ, tol)
+    before(right)
     b = _signature(spec, right, integ, tol)
     desc = ", ".join(t for k, t in _changes(a, b) if k == kind)
     n = 2
@@ -168,6 +173,7 @@ def refine(spec: SweepSpec, left: float, right: float, kind: str, xtol: float | 
         if right - left <= xtol:
             break
         mid = 0.5 * (left + right)
+        before(mid)
         m = _signature(spec, mid, integ, tol)
         n += 1
         if m["status"] not in OK_STATUSES:

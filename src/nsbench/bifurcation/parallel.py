@@ -3,13 +3,16 @@
 Only the values missing from the store are computed; each finished chunk is
 written at once, so an interrupted run loses at most the values in flight.
 
-Local workers are supervised processes (:mod:`nsbench.jobs`): every value has
-a hard time limit (``point_limit``), and a value whose integrator never returns
-or whose worker dies (segfault, ``os._exit``, out of memory) becomes one row
-with status ``time limit`` or ``crashed`` and the reason; the worker is
-replaced and the rest of its chunk goes on. A worker sets up the integrator
-once and runs it once, short, before its first value (compilation and first
-use, under ``setup_limit``), then keeps it for every later chunk.
+Every value runs in a supervised process (:mod:`nsbench.jobs`), locally and on
+a Dask cluster alike (there each Dask worker keeps its own supervised process):
+every value has a hard time limit (``point_limit``), and a value whose
+integrator never returns or whose process dies (segfault, ``os._exit``, out of
+memory) becomes one row with status ``time limit`` or ``crashed`` and the
+reason; the process is replaced and the rest of its chunk goes on. A process
+sets up the integrator once (compilation, under ``setup_limit``) and runs it
+once, short, at its first value (under ``point_limit``), then keeps it for every
+later chunk. A set-up that fails, hangs or crashes fails every value of the
+sweep not yet computed with that reason (it would fail again for each).
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import pickle
+import threading
 from dataclasses import replace
 from typing import Any, Callable
 
@@ -24,12 +29,15 @@ import pandas as pd
 
 from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec, compute_point, failure_rows
+from nsbench.jobs import SETUP_LIMIT
 from nsbench.progress import Progress
 
 #: Default hard limit of one parameter value (seconds): generous, a hung integrator is what it stops.
 POINT_LIMIT = 600.0
-#: Default limit of a worker's set-up and first short run (compilation from a cold cache included).
-SETUP_LIMIT = 1800.0
+#: The stage of a sweep job in which the integrator is set up (compiled) for the worker.
+SETUP_STAGE = "integrator set-up"
+#: Ends the message of every value failed by its integrator's set-up.
+SETUP_FAILED = "the integrator could not be set up; no value was run"
 
 def compute_chunk(spec_dict: dict, indices: list[int]) -> pd.DataFrame:
     """Rows of several parameter values (the unit of work sent to a worker)."""
@@ -66,16 +74,25 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
         process, without hard limits (for debugging and profiling).
     dask
         Address of a Dask scheduler (``tcp://host:port``) or a ``distributed.Client``;
-        replaces local processes.
+        replaces local processes. Each Dask worker runs its chunks in a
+        supervised process of its own, under the same limits.
     limit
         Compute at most this many missing values (then stop; a rerun resumes).
     point_limit, setup_limit
-        Hard limits in seconds (local workers) of one value, and of a worker's
-        integrator set-up with its first short run; ``None``: no limit.
+        Hard limits in seconds of one value (the first short run included), and
+        of a worker's integrator set-up (compilation); ``None``: no limit.
     fresh
         Discard what ``out`` holds first (it must be a sweep folder); by default
         a rerun resumes, computing only the missing values.
     """
+    from nsbench.jobs import check_limit
+
+    check_limit("point_limit", point_limit)
+    check_limit("setup_limit", setup_limit)
+    if dask is not None and workers is not None:
+        from nsbench.errors import ConfigError
+
+        raise ConfigError("give either workers or a Dask address, not both")
     spec.check()
     if fresh:
         from nsbench.bifurcation.storage import clear_sweep
@@ -87,75 +104,85 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     if limit is not None:
         todo = todo[:limit]
     n_workers = workers if workers is not None else default_workers()
-    from nsbench.jobs import check_limit
-
-    check_limit("point_limit", point_limit)
-    check_limit("setup_limit", setup_limit)
-    if dask is not None and workers is not None:
-        from nsbench.errors import ConfigError
-
-        raise ConfigError("give either workers or a Dask address, not both")
     parts = chunks(todo, n_workers if dask is None else 8, chunk_size)
     bar = Progress(len(todo), label=f"{spec.name}", enabled=progress)
     try:
         if not parts:
             pass
         elif dask is not None:
-            _run_dask(spec, parts, store, bar, dask)
+            _run_dask(spec, parts, store, bar, dask, point_limit, setup_limit)
         elif n_workers == 0:
             for part in parts:
                 store.write(compute_chunk(spec.to_dict(), part))
                 bar.update(len(part))
         else:
-            _run_local(spec, parts, store, bar, n_workers, point_limit, setup_limit)
+            from nsbench.jobs import drop_shared, shared_pool
+
+            pool = shared_pool(n_workers)  # warm workers of an earlier sweep in this process are reused
+            try:
+                supervise(pool, spec, parts, point_limit, setup_limit, store.write, bar.update)
+            except BaseException:
+                drop_shared(pool)  # jobs were in flight: the next sweep starts with fresh workers
+                raise
     finally:
         bar.close()
     return store.load()
 
 
-def _run_local(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, workers: int,
-               point_limit: float | None, setup_limit: float | None) -> None:
-    from nsbench.jobs import Job, JobPool, drop_shared, shared_pool
+def supervise(pool: Any, spec: SweepSpec, parts: list[list[int]], point_limit: float | None,
+              setup_limit: float | None, write: Callable[[pd.DataFrame], Any],
+              advance: Callable[[int], Any] = lambda n: None) -> None:
+    """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
+
+    ``write`` receives the rows of each chunk as it ends (and, after an
+    interruption, every row received), ``advance`` the number of values done.
+    A value that runs past ``point_limit``, crashes its process or raises is
+    stored as one row with that status and reason, and the rest of its chunk
+    goes on in a fresh process. A set-up that does so fails every value not yet
+    computed: it would fail again for each of them.
+    """
+    from nsbench.jobs import Job
 
     spec_dict = spec.to_dict()
     left: dict[int, list[int]] = {}  # job -> its values not yet received, in computing order
     got: dict[int, list[pd.DataFrame]] = {}  # job -> rows received, written when it ends
 
-    def submit(pool: JobPool, indices: list[int]) -> None:
+    def submit(indices: list[int]) -> None:
         key = len(left)
         left[key], got[key] = list(indices), []
         pool.submit(Job(key, f"{__name__}:sweep_job", (spec_dict, indices, point_limit, setup_limit)))
 
-    pool = shared_pool(workers)  # warm workers of an earlier sweep in this process are reused
     for part in parts:
-        submit(pool, part)
+        submit(part)
     try:
         for o in pool.outcomes():
             if o.kind == "partial":
                 got[o.key].append(o.value)
                 left[o.key].remove(int(o.value["index"].iloc[0]))
-                bar.update(1)
+                advance(1)
                 continue
             rest, rows = left[o.key], got.pop(o.key)
             left[o.key] = []
             if o.kind != "done" and rest:
                 status = {"failed": "failure"}.get(o.kind, o.kind)
-                # a value running when its job stopped is that value's result; a set-up that
-                # fails would fail again for every value, so it is the result of them all
-                blamed = rest[:1] if o.stage.startswith("value") else rest
-                rows += [failure_rows(spec, i, status, o.reason) for i in blamed]
-                bar.update(len(blamed))
-                if len(blamed) < len(rest):
-                    submit(pool, rest[1:])
+                if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
+                    rows.append(failure_rows(spec, rest[0], status, o.reason))
+                    advance(1)
+                    if rest[1:]:
+                        submit(rest[1:])
+                else:  # the set-up: it would fail again for every value, so it is the result of them all
+                    for job in pool.drop_queued():
+                        rest += left.pop(job.key)
+                        got.pop(job.key)
+                    reason = f"{o.reason} ({SETUP_FAILED})"
+                    rows += [failure_rows(spec, i, status, reason) for i in rest]
+                    advance(len(rest))
             if rows:
-                store.write(pd.concat(rows, ignore_index=True))
-    except BaseException:
-        drop_shared(pool)  # jobs were in flight: the next sweep starts with fresh workers
-        raise
+                write(pd.concat(rows, ignore_index=True))
     finally:  # an interrupted run keeps every value received
         for rows in got.values():
             if rows:
-                store.write(pd.concat(rows, ignore_index=True))
+                write(pd.concat(rows, ignore_index=True))
 
 
 #: Per worker process: the integrator of the last sweep, set up and run once (compiled code loaded).
@@ -164,22 +191,92 @@ _WARM: dict[str, Any] = {}
 
 def sweep_job(spec_dict: dict, indices: list[int], point_limit: float | None, setup_limit: float | None, *,
               stage: Callable[[str, float | None], None], emit: Callable[[Any], None]) -> int:
-    """A chunk of values in a supervised worker (:mod:`nsbench.jobs`): each value's rows emitted at once."""
+    """A chunk of values in a supervised worker (:mod:`nsbench.jobs`): each value's rows emitted at once.
+
+    The integrator's set-up (construction, ``setup``, loading or compiling the
+    core) runs under ``setup_limit``; everything that runs the integrator (the
+    first short run, then each value) under ``point_limit``.
+    """
+    from nsbench.hybrid.run import warm_up
     from nsbench.integrators import get_integrator
 
     spec = SweepSpec.from_dict(spec_dict)
     key = json.dumps([spec.integrator, spec.options], sort_keys=True, default=str)
     integ = _WARM.get(key)
-    if integ is None:
-        stage("integrator set-up and a first short run", setup_limit)
-        integ = get_integrator(spec.integrator, **spec.options)
-        compute_point(replace(spec, transient=0.0, record=1, window=None), 0, integ)  # compiles, loads
-        _WARM.clear()
-        _WARM[key] = integ
-    for i in indices:
-        stage(f"value {i} ({spec.name} = {spec.values[i]:.10g})", point_limit)
+    for n, i in enumerate(indices):
+        label = f"value {i} ({spec.name} = {spec.values[i]:.10g})"
+        if integ is None:
+            stage(SETUP_STAGE, setup_limit)
+            integ = get_integrator(spec.integrator, **spec.options)
+            problem = spec.problem_at(spec.values[i])
+            integ.setup(problem)
+            warm_up(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
+            stage(f"{label}, a first short run", point_limit)
+            compute_point(replace(spec, transient=0.0, record=1, window=None), i, integ)  # first use
+            _WARM.clear()
+            _WARM[key] = integ
+        stage(label, point_limit)
         emit(compute_point(spec, i, integ))
     return len(indices)
+
+
+def _set_up(spec: SweepSpec, value: float, setup_limit: float | None, stage: Callable) -> Any:
+    """The sweep's integrator, set up at ``value`` with the compiled core loaded, under ``setup_limit``."""
+    from nsbench.hybrid.run import warm_up
+    from nsbench.integrators import get_integrator
+
+    stage(SETUP_STAGE, setup_limit)
+    integ = get_integrator(spec.integrator, **spec.options)
+    problem = spec.problem_at(value)
+    integ.setup(problem)
+    warm_up(problem, integ)
+    return integ
+
+
+def refine_job(spec_dict: dict, left: float, right: float, kind: str, point_limit: float | None,
+               setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
+               emit: Callable[[Any], None]) -> dict:
+    """:func:`nsbench.bifurcation.detect.refine` in a supervised worker, each value under ``point_limit``."""
+    from nsbench.bifurcation.detect import refine
+
+    spec = SweepSpec.from_dict(spec_dict)
+    _set_up(spec, left, setup_limit, stage)  # compiled code loaded in this process: not a value's time
+    found = refine(spec, left, right, kind,
+                   before=lambda v: stage(f"refining a {kind} change at {spec.name} = {v:.10g}", point_limit))
+    return {"left": found.left, "right": found.right, "value": found.value}
+
+
+def locus_job(spec_dict: dict, value: float, pair: tuple[int, int], point_limit: float | None,
+              setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
+              emit: Callable[[Any], None]) -> Any:
+    """The locus-of-sticking run of a portrait (:func:`nsbench.bifurcation.locus.locus_run`), supervised."""
+    from nsbench.bifurcation.locus import locus_run
+
+    spec = SweepSpec.from_dict(spec_dict)
+    integ = _set_up(spec, value, setup_limit, stage)
+    stage(f"the locus run at {spec.name} = {value:.10g}", point_limit)
+    return locus_run(spec.problem_at(value), integ, transient=spec.transient,
+                     duration=min(300.0, spec.record_window), value=value, pair=pair)
+
+
+def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
+    """``(result, '')`` of the job ``target(*args)`` on the kept pool, or ``(None, reason)`` if it raised,
+    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only."""
+    from nsbench.jobs import Job, drop_shared, shared_pool
+
+    pool = shared_pool(max(1, workers))
+    pool.submit(Job("call", f"{__name__}:{target}", args))
+    result, reason = None, ""
+    try:
+        for o in pool.outcomes():
+            if o.kind == "done":
+                result = o.value
+            elif o.final:
+                reason = f"{o.kind}: {o.reason}"
+    except BaseException:
+        drop_shared(pool)
+        raise
+    return result, reason
 
 
 #: Seconds a Dask cluster may have no worker while chunks are pending before the sweep stops.
@@ -187,40 +284,108 @@ NO_WORKER_LIMIT = 60.0
 
 
 def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, dask,
-              no_worker_limit: float = NO_WORKER_LIMIT) -> None:
+              point_limit: float | None, setup_limit: float | None) -> None:
     import time
 
     from distributed import Client, wait
 
+    from nsbench import registry
     from nsbench.errors import NsbenchError
+    from nsbench.jobs import shareable
 
     own = not isinstance(dask, Client)
-    client = Client(dask) if own else dask
+    client = Client(dask, set_as_default=False) if own else dask
+    # components registered in this process (from importable modules) are registered on the workers too
+    components = pickle.dumps(shareable(registry.runtime_components()))
     futures: list = []
     try:
-        futures = [client.submit(compute_chunk, spec.to_dict(), part, pure=False) for part in parts]
-        sizes = {f.key: len(p) for f, p in zip(futures, parts)}
+        futures = [client.submit(dask_chunk, spec.to_dict(), part, point_limit, setup_limit, components,
+                                 pure=False) for part in parts]
+        part_of = {f.key: p for f, p in zip(futures, parts)}
         pending, alone_since = set(futures), None
-        while pending:
-            try:
-                done, pending = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
-            except TimeoutError:  # nothing finished in 2 s (distributed raises instead of returning)
-                done = set()
-            for fut in done:
-                store.write(fut.result())
-                bar.update(sizes[fut.key])
-            # a cluster whose last worker is gone would leave the futures waiting forever
-            if done or client.scheduler_info().get("workers"):
-                alone_since = None
-            elif alone_since is None:
-                alone_since = time.monotonic()
-            elif time.monotonic() - alone_since > no_worker_limit:
-                raise NsbenchError(f"the Dask cluster at {client.scheduler.address} has had no worker for "
-                                   f"{no_worker_limit:g} s with {len(pending)} chunk(s) pending; the finished "
-                                   "values are stored: rerun to compute the rest")
+        with client.as_current():  # distributed.wait() uses the current client, and ours may not be the default
+            while pending:
+                try:
+                    done, pending = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
+                except TimeoutError:  # nothing finished in 2 s (distributed raises instead of returning)
+                    done = set()
+                failed_setup = None
+                for fut in done:
+                    rows = _dask_rows(spec, fut, part_of[fut.key])
+                    store.write(rows)
+                    bar.update(len(part_of[fut.key]))
+                    hit = rows[rows["message"].str.endswith(f"({SETUP_FAILED})")]
+                    if len(hit) and failed_setup is None:
+                        failed_setup = hit.iloc[0]
+                if failed_setup is not None and pending:  # every other chunk would fail the same way
+                    client.cancel(list(pending))
+                    indices = [i for f in pending for i in part_of[f.key]]
+                    store.write(pd.concat([failure_rows(spec, i, failed_setup["status"], failed_setup["message"])
+                                           for i in indices], ignore_index=True))
+                    bar.update(len(indices))
+                    pending = set()
+                # a cluster whose last worker is gone would leave the futures waiting forever
+                if done or not pending or client.scheduler_info().get("workers"):
+                    alone_since = None
+                elif alone_since is None:
+                    alone_since = time.monotonic()
+                elif time.monotonic() - alone_since > NO_WORKER_LIMIT:
+                    raise NsbenchError(f"the Dask cluster at {client.scheduler.address} has had no worker for "
+                                       f"{NO_WORKER_LIMIT:g} s with {len(pending)} chunk(s) pending; the "
+                                       "finished values are stored: rerun to compute the rest")
     except BaseException:
         client.cancel(futures)
         raise
     finally:
         if own:
             client.close()
+
+
+def _dask_rows(spec: SweepSpec, future: Any, indices: list[int]) -> pd.DataFrame:
+    """The rows a Dask task returned; if the task itself failed (its Dask worker lost, say), one
+    ``failure`` row per value with the reason."""
+    try:
+        return future.result()
+    except Exception as exc:  # noqa: BLE001 - KilledWorker, a worker without nsbench...: the values' result
+        reason = f"the Dask task failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
+        return pd.concat([failure_rows(spec, i, "failure", reason) for i in indices], ignore_index=True)
+
+
+#: Per thread of a Dask worker: its supervised process pool (a pool serves one caller at a time).
+_DASK_POOLS = threading.local()
+
+
+def dask_chunk(spec_dict: dict, indices: list[int], point_limit: float | None, setup_limit: float | None,
+               components: bytes = b"") -> pd.DataFrame:
+    """The rows of a chunk, computed on a Dask worker in a supervised process of its own.
+
+    A value that hangs or kills its process costs that value (a ``time limit``
+    or ``crashed`` row), never the Dask worker: Dask would otherwise retry the
+    chunk on other workers and give up with ``KilledWorker``, or wait forever.
+    ``components`` (a pickle) are the runtime registrations of the submitting
+    process, registered here first.
+    """
+    import atexit
+
+    from nsbench import registry
+    from nsbench.jobs import JobPool
+
+    for kind, objs in (pickle.loads(components) if components else {}).items():
+        for name, obj in objs.items():
+            registry.register(kind, name, obj)
+    pool = getattr(_DASK_POOLS, "pool", None)
+    if pool is not None and _DASK_POOLS.components != components:  # its process knows other components
+        pool.close()
+        pool = None
+    if pool is None:
+        pool = _DASK_POOLS.pool = JobPool(1)
+        _DASK_POOLS.components = components
+        atexit.register(pool.close)
+    rows: list[pd.DataFrame] = []
+    spec = SweepSpec.from_dict(spec_dict)
+    try:
+        supervise(pool, spec, [list(indices)], point_limit, setup_limit, rows.append)
+    except BaseException:
+        pool.close()  # the next chunk on this thread starts a fresh process
+        raise
+    return pd.concat(rows, ignore_index=True).sort_values(["index", "k"], kind="stable", ignore_index=True)

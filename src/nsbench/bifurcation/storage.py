@@ -28,9 +28,9 @@ from typing import TextIO
 
 import pandas as pd
 
-from nsbench.bifurcation.sweep import SweepSpec, counter_columns
+from nsbench.bifurcation.sweep import SweepSpec, column_kinds, counter_columns
 from nsbench.errors import ConfigError
-from nsbench.files import STALE_AFTER, remove_stale_temporaries, write_atomic
+from nsbench.files import STALE_AFTER, refuse_links, remove_stale_temporaries, write_atomic
 
 
 class SweepStore:
@@ -49,9 +49,21 @@ class SweepStore:
         self.directory = Path(directory)
         self.points_dir = self.directory / "points"
         self._checked: dict[Path, tuple[tuple[int, int], pd.DataFrame | None, str]] = {}
+        refuse_links(self.directory, ("meta.json", "points", "*.tmp"), ("points",))
         meta_path = self.directory / "meta.json"
-        if meta_path.exists():
-            meta = json.loads(meta_path.read_text())
+        meta = None
+        if meta_path.exists() or meta_path.is_symlink():
+            try:
+                meta = _read_meta(meta_path)
+            except _Damaged as exc:
+                if spec is None:
+                    raise ConfigError(f"{meta_path} is damaged ({exc}); rerun the sweep into {self.directory} "
+                                      "to rebuild it") from None
+                import sys
+
+                print(f"nsbench: warning: {meta_path} is damaged ({exc}); it is written again for this sweep, "
+                      "and only stored values that prove to be of this sweep are kept", file=sys.stderr)
+        if meta is not None:
             stored = SweepSpec.from_dict(meta["spec"])
             self._columns: tuple[str, ...] | None = tuple(meta.get("columns", ())) or None
             if spec is not None and _canonical(stored) != _canonical(spec):
@@ -67,10 +79,15 @@ class SweepStore:
 
             self.spec = spec
             self._columns = spec.columns
-            self.meta = {"spec": spec.to_dict(), "columns": list(self._columns), "provenance": provenance()}
+            self.meta = {"spec": spec.to_dict(), "spec_key": spec_key(spec), "columns": list(self._columns),
+                         "provenance": provenance()}
             self.points_dir.mkdir(parents=True, exist_ok=True)
             write_atomic(meta_path, json.dumps(self.meta, indent=2, default=str))
         self.points_dir.mkdir(parents=True, exist_ok=True)
+        self.spec_key = spec_key(self.spec)
+        # a store written before chunks named their sweep trusts chunks without that name; a store
+        # whose meta.json records its key (every new one) does not: they may be another sweep's
+        self._keyed = "spec_key" in self.meta
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -91,8 +108,8 @@ class SweepStore:
         frame.loc[:, list(self.columns)].to_csv(buf, index=False, float_format="%.17g")
         data = buf.getvalue().encode()
         first, last = int(frame["index"].min()), int(frame["index"].max())
-        return write_atomic(self.points_dir / f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}.csv",
-                            data)
+        name = f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}-s{self.spec_key}.csv"
+        return write_atomic(self.points_dir / name, data)
 
     def _files(self) -> list[Path]:
         return sorted(self.points_dir.glob("chunk-*.csv"))
@@ -137,7 +154,7 @@ class SweepStore:
             print(f"nsbench: warning: {f} is damaged ({reason}); its values are computed again",
                   file=stream or sys.stderr)
             f.unlink(missing_ok=True)
-        remove_stale_temporaries([self.points_dir], stale_after)
+        remove_stale_temporaries([(self.points_dir, "chunk-*.tmp")], stale_after)
         return [f for f, _ in bad]
 
     def load(self) -> pd.DataFrame:
@@ -153,7 +170,7 @@ class SweepStore:
             raise ConfigError(f"{f} is damaged ({reason}){more}; rerun the sweep into {self.directory} "
                               "to compute its values again")
         if not good:
-            return pd.DataFrame(columns=list(self.columns))
+            return _typed_empty(self.columns)
         frame = pd.concat([rows for _, rows in good], ignore_index=True)
         # a value computed twice (two runs racing on one folder) keeps its first copy
         frame = frame.drop_duplicates(subset=["index", "k"], keep="first")
@@ -173,9 +190,16 @@ class SweepStore:
         named = _CHUNK.fullmatch(path.name)
         if named and named["sha"] and _digest(data) != named["sha"]:
             raise _Damaged("its checksum does not match its content")
-        text = {c: str for c in ("param", "section", "status", "message")}
-        try:
-            frame = pd.read_csv(io.BytesIO(data), dtype=text, keep_default_na=False, na_values={"t": [""]})
+        key = named["spec"] if named else None
+        if key is None and self._keyed:
+            raise _Damaged("its name does not say which sweep it belongs to")
+        if key is not None and key != self.spec_key:
+            raise _Damaged("it holds values of another sweep (other settings)")
+        kinds = column_kinds(self.columns)
+        numeric = [c for c, kind in kinds.items() if kind != "text"]
+        try:  # text stays text ('' is an empty message); an empty number is a missing one (NaN)
+            frame = pd.read_csv(io.BytesIO(data), dtype={c: str for c, k in kinds.items() if k == "text"},
+                                keep_default_na=False, na_values={c: [""] for c in numeric})
         except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
             raise _Damaged(f"not a readable CSV table: {exc}") from None
         if list(frame.columns) != list(self.columns):
@@ -184,11 +208,16 @@ class SweepStore:
             raise _Damaged(f"{len(frame)} rows where its name says {named['rows']}")
         if frame.empty:
             raise _Damaged("no rows")
-        try:
-            for col in ("index", "k", "n_points"):
-                frame[col] = pd.to_numeric(frame[col], errors="raise").astype(int)
-        except (ValueError, TypeError):
-            raise _Damaged("a non-integer index, k or n_points") from None
+        for col in numeric:  # the types the rows were computed with: a CSV keeps only text
+            try:
+                values = pd.to_numeric(frame[col], errors="raise")
+            except (ValueError, TypeError):
+                raise _Damaged(f"a value of column {col!r} is not a number") from None
+            if kinds[col] == "int":
+                if values.isna().any() or (values != values.round()).any():
+                    raise _Damaged(f"a value of column {col!r} is not a whole number")
+                values = values.astype("int64")
+            frame[col] = values.astype("int64") if kinds[col] == "int" else values.astype("float64")
         idx = frame["index"]
         if idx.min() < 0 or idx.max() >= self.spec.count:
             raise _Damaged(f"indices outside 0..{self.spec.count - 1}")
@@ -201,16 +230,39 @@ class SweepStore:
                 raise _Damaged(f"value {i} has {len(rows)} rows where n_points says {n}")
             if rows["value"].nunique() != 1 or not _close(float(rows["value"].iloc[0]), self.spec.values[i]):
                 raise _Damaged(f"value {i} is not {self.spec.name} = {self.spec.values[i]:.17g}")
-        for col in ("t", *self.state_names):
-            frame[col] = pd.to_numeric(frame[col], errors="coerce")
         return frame
+
+
+def _typed_empty(columns: tuple[str, ...]) -> pd.DataFrame:
+    """A sweep table without rows, with the column types of one that has some."""
+    dtypes = {"text": str, "int": "int64", "float": "float64"}
+    return pd.DataFrame({c: pd.Series(dtype=dtypes[k]) for c, k in column_kinds(columns).items()})
 
 
 class _Damaged(Exception):
     """A chunk file that cannot be used (the message says why)."""
 
 
-_CHUNK = re.compile(r"chunk-(?P<first>\d+)(?:-(?P<last>\d+)-n(?P<rows>\d+)-(?P<sha>[0-9a-f]{16}))?(?:-[0-9a-f]{8})?\.csv")
+_CHUNK = re.compile(r"chunk-(?P<first>\d+)(?:-(?P<last>\d+)-n(?P<rows>\d+)-(?P<sha>[0-9a-f]{16})"
+                    r"(?:-s(?P<spec>[0-9a-f]{16}))?)?(?:-[0-9a-f]{8})?\.csv")
+
+
+def spec_key(spec: SweepSpec) -> str:
+    """A checksum of everything that defines a sweep's values (aliases of an integrator agree)."""
+    return _digest(_canonical(spec).encode())
+
+
+def _read_meta(path: Path) -> dict:
+    """``meta.json``, checked: readable JSON with a valid spec, and its recorded key that spec's."""
+    try:
+        meta = json.loads(path.read_text())
+        stored = SweepSpec.from_dict(meta["spec"])
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        reason = f"{type(exc).__name__}: {exc}" if not isinstance(exc, KeyError) else f"no {exc} entry"
+        raise _Damaged(" ".join(reason.split())) from None
+    if "spec_key" in meta and meta["spec_key"] != spec_key(stored):
+        raise _Damaged("its checksum does not match the sweep it describes")
+    return meta
 
 
 def _digest(data: bytes) -> str:
@@ -226,6 +278,7 @@ def clear_sweep(directory: str | os.PathLike) -> None:
     d = Path(directory)
     if not d.exists():
         return
+    refuse_links(d, ("meta.json", "points"), ("points",))
     meta = d / "meta.json"
     try:
         json.loads(meta.read_text())["spec"]

@@ -36,6 +36,20 @@ def counter_columns(n_blocks: int) -> tuple[str, ...]:
     return ("n_events", *per_block, "nfev", "nsteps")
 
 
+#: The text columns of a sweep table; ``index``, ``k``, ``n_points``, ``event_block`` and the
+#: counters are integers, every other column a float (:func:`column_kinds`).
+TEXT_COLUMNS = ("param", "section", "status", "message")
+
+
+def column_kinds(columns: tuple[str, ...]) -> dict[str, str]:
+    """``'text'``, ``'int'`` or ``'float'`` for each column of a sweep table (what a store keeps)."""
+    ints = {"index", "k", "n_points", "event_block", "n_events", "nfev", "nsteps"}
+    counts = tuple(name for _, name in EVENT_COUNTS)
+    return {c: "text" if c in TEXT_COLUMNS else
+            "int" if c in ints or (c.startswith(counts) and c.rstrip("0123456789") in counts) else "float"
+            for c in columns}
+
+
 def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
     """The tidy columns of a sweep of a problem with these state names."""
     n_blocks = len(state_names) // 2
@@ -46,7 +60,7 @@ def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
 def parse_sweep(text: str) -> tuple[str, float, float, int]:
     """``NAME=START:STOP:COUNT`` as ``(name, start, stop, count)``.
 
-    START and STOP must be finite numbers, COUNT a whole number from 1 to
+    START and STOP must be finite, different numbers, COUNT a whole number from 1 to
     1 000 000 (``1e3`` reads as 1000); anything else is a ``ConfigError``
     naming the bad part and what is allowed.
     """
@@ -61,6 +75,9 @@ def parse_sweep(text: str) -> tuple[str, float, float, int]:
         raise ConfigError(f"--sweep {text!r}: START and STOP must be numbers") from None
     if not (math.isfinite(start) and math.isfinite(stop)):
         raise ConfigError(f"--sweep {text!r}: START and STOP must be finite")
+    if start == stop:
+        raise ConfigError(f"--sweep {text!r}: START and STOP are equal; a sweep needs a range of values "
+                          "(for one value, use nsbench simulate)")
     allowed = f"a whole number between 1 and {max_count}"
     try:
         count = float(parts[2])
@@ -107,6 +124,20 @@ class SweepSpec:
     params: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        import numbers
+
+        from nsbench.bifurcation import MAX_SWEEP_POINTS
+
+        count = self.count
+        if isinstance(count, bool) or not isinstance(count, numbers.Integral) or not 1 <= count <= MAX_SWEEP_POINTS:
+            raise ConfigError(f"count = {count!r} must be a whole number from 1 to {MAX_SWEEP_POINTS}")
+        for key in ("start", "stop"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ConfigError(f"{key} = {value!r} must be a finite number")
+        if self.start == self.stop and count > 1:
+            raise ConfigError(f"start = stop = {self.start!r}: {count} values of a sweep would all be the same; "
+                              "give a range, or count = 1")
         if self.section not in SECTIONS:
             raise ConfigError(f"section {self.section!r} is not allowed; choose one of {', '.join(SECTIONS)}")
         if not (math.isfinite(self.transient) and self.transient >= 0):
@@ -164,7 +195,15 @@ class SweepSpec:
                                   "use peaks, stick or mapping")
         problem = ends[0]
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
-        get_integrator(self.integrator, **self.options).setup(problem)
+        from nsbench.integrators.base import Integrator
+
+        integ = get_integrator(self.integrator, **self.options)
+        if type(integ).__module__.startswith("nsbench."):
+            integ.setup(problem)
+        else:  # a plug-in's own setup runs only in supervised workers (under the set-up limit): one
+            # that hangs or ends its process must not take the command with it; its capabilities
+            # still refuse a cubic problem here
+            Integrator.setup(integ, problem)
 
 
 def default_section(*problems) -> str:

@@ -18,10 +18,59 @@ COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare",
             "bifurcation", "continuation", "lyapunov", "paper")
 
 
+class UsageError(NsbenchError):
+    """A command line argparse cannot read (unknown option, missing value, an option given twice)."""
+
+
+def _refuse_empty(action: argparse.Action, values) -> None:
+    # an empty value never means "the default": `--events-out ''` used to write nothing, silently
+    if isinstance(values, str) and not values.strip():
+        raise argparse.ArgumentError(action, f"empty value {values!r}; give a value or leave the option out")
+
+
+class _Once(argparse.Action):
+    """``store``, but an option given twice is an error (the last value silently winning,
+    ``--out A --out B`` writing only to B, hides a typo), and so is an empty value."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        _refuse_empty(self, values)
+        seen = namespace.__dict__.setdefault("_nsbench_given", {})
+        if option_string is not None and self.dest in seen:
+            raise argparse.ArgumentError(self, f"given twice ({seen[self.dest]!r} and {values!r}); give it once")
+        seen[self.dest] = values
+        setattr(namespace, self.dest, values)
+
+
+class _Append(argparse.Action):
+    """``append`` (a repeatable option), refusing an empty value."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        _refuse_empty(self, values)
+        setattr(namespace, self.dest, [*(getattr(namespace, self.dest, None) or []), values])
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with nsbench's one-line errors; value options given at most once, never empty.
+
+    argparse prints its usage and exits on an error; here the error becomes a
+    :class:`UsageError`, printed by :func:`main` as the one ``nsbench: error:``
+    line every bad input gets, with the sub-command's ``--help`` named.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _Once)
+        self.register("action", "store", _Once)
+        self.register("action", "append", _Append)
+
+    def error(self, message: str):  # type: ignore[override]
+        raise UsageError(f"{message} (see {self.prog} --help)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     import importlib
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="nsbench",
         description="Compare time integrators on dry-friction (stick-slip) oscillators.",
     )
@@ -88,8 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     130 (interrupted) or 141 (stdout closed by its reader, e.g. ``| head``).
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help and --version print and end here
+            return int(exc.code or 0) if not isinstance(exc.code, str) else fail(exc.code)
         code = int(args.handler(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
         return code

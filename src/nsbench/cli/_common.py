@@ -10,13 +10,18 @@ prints it as one line and exits with status 2.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsbench.bifurcation import MAX_SWEEP_POINTS  # noqa: F401 - a bound of parse_count (paper --points)
 from nsbench.errors import ConfigError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.integrators.base import Integrator
+    from nsbench.problems.oscillator import FrictionOscillator
 
 # Upper bounds of counts given on the command line: they keep a typo (1e12) from
 # allocating terabytes or running for years. Raise them here if a run needs more.
@@ -32,6 +37,17 @@ MAX_ITERATIONS = 100_000_000
 MAX_MEMBERS = 100_000
 #: Largest seed (numpy's seeds are 32-bit here).
 MAX_SEED = 2**32 - 1
+#: Longest time span (``--t-end``, ``--transient``, ``--window``), in the problem's time units: the
+#: paper's problems have an event every 1 to 4 units, so a run this long meets the event budget
+#: (10^6 events) long before its end; far beyond it time itself stops resolving events
+#: (ulp(1e16) = 2). A typo (1e300) is refused here instead of running into a budget.
+MAX_SPAN = 1e8
+#: Longest per-task time limit in seconds (``--point-limit``, ``--member-limit``): about 30 years,
+#: in effect no limit, and a value the operating system's timers can still hold.
+MAX_TIME_LIMIT = 1e9
+#: Smallest Lyapunov separation ``--d0``: the states are O(1) and rounded to about 1e-16 at every
+#: step, so a separation below 1e-12 (four orders above that) measures the rounding, not the flow.
+MIN_D0 = 1e-12
 
 
 def parse_assignment(text: str, flag: str) -> tuple[str, str]:
@@ -112,7 +128,7 @@ def parse_count(text: str, what: str, *, low: int = 1, high: int | None = None, 
 
 
 def parse_real(text: str, what: str, *, low: float | None = None, low_open: bool = False,
-               high: float | None = None, high_open: bool = False) -> float:
+               high: float | None = None, high_open: bool = False, bound: str | None = None) -> float:
     """A finite number, optionally bounded below and above.
 
     Parameters
@@ -125,6 +141,9 @@ def parse_real(text: str, what: str, *, low: float | None = None, low_open: bool
         Bounds (``None``: unbounded on that side).
     low_open, high_open
         Whether the bound itself is excluded (``> low`` instead of ``>= low``).
+    bound
+        Instead of ``high``: the name of one of this module's bounds (e.g.
+        ``"MAX_SPAN"``), which the message names.
 
     Returns
     -------
@@ -136,12 +155,16 @@ def parse_real(text: str, what: str, *, low: float | None = None, low_open: bool
     ConfigError
         Not a number, ``nan``, ``inf``, or out of range.
     """
+    if bound is not None:
+        high = float(globals()[bound])
     parts = []
     if low is not None:
         parts.append(f"{'>' if low_open else '>='} {low:g}")
     if high is not None:
         parts.append(f"{'<' if high_open else '<='} {high:g}")
     allowed = "a finite number" + (" " + " and ".join(parts) if parts else "")
+    if bound is not None:
+        allowed += f" (the bound is {__name__}.{bound})"
     shown = _shown(text)
     try:
         value = float(text)
@@ -169,6 +192,55 @@ def _writable(folder: Path) -> bool:
     return os.access(folder, os.W_OK | os.X_OK)
 
 
+def _refuse_dangling_link(target: Path, head: str) -> None:
+    """A symbolic link that leads nowhere (broken, or a loop) looks missing but cannot be written."""
+    for candidate in (target, *target.parents):
+        if os.path.islink(candidate) and not os.path.exists(candidate):
+            what = "a loop" if _is_loop(candidate) else "broken"
+            raise ConfigError(f"{head}: {candidate} is a symbolic link that leads nowhere ({what})")
+
+
+def _is_loop(link: Path) -> bool:
+    try:
+        os.stat(link)
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
+
+
+def check_fixed_step(integrator: "Integrator", problem: "FrictionOscillator", span: float, what: str,
+                     max_steps: int, given: bool = False) -> None:
+    """Refuse a fixed step that cannot run ``problem`` over ``span``.
+
+    A fixed-step integrator takes ``span / h`` steps: beyond ``max_steps`` the run
+    could only stop at its budget (and beyond about ``2**63`` the count is not even
+    a machine integer), so ``--t-end 1e300`` or ``h = 1e-300`` is refused here,
+    naming both, instead of running to a failure. A forced problem also needs two
+    steps per forcing period at least (``w h < pi``): with fewer the steps alias
+    the force (``h = 1e300``, or ``Omega = 1e300``) and the run "succeeds" with
+    nothing to do with the problem. A step the user ``given`` must also be shorter
+    than the run (a default step may exceed a short span: the run is then one step).
+    """
+    caps = type(integrator).capabilities
+    name = caps.step_option
+    if caps.adaptive or name is None:
+        return
+    step = integrator.settings.get(name)
+    if step is None:
+        return
+    step = float(step)
+    label = f"{type(integrator).name}'s {name} = {step:g}"
+    if span > 0 and not span / step <= max_steps:
+        raise ConfigError(f"{what} with {label} needs {span / step:.3g} steps, more than the step budget of "
+                          f"{max_steps}: raise {name} or shorten the span")
+    if given and span > 0 and step > span:
+        raise ConfigError(f"{label} is longer than the whole run ({what}): give {name} < {span:g}")
+    w = float(problem.coefficients.w)
+    if problem.is_forced and not w * step < math.pi:
+        raise ConfigError(f"{label} takes fewer than two steps per forcing period (2 pi / w = {2 * math.pi / w:.3g}): "
+                          f"the force is not resolved; lower {name} below {math.pi / w:.3g}")
+
+
 def check_output_file(path: str, flag: str) -> Path:
     """Fail early unless ``path`` can be written as a file (its folder exists and is writable).
 
@@ -194,6 +266,7 @@ def check_output_file(path: str, flag: str) -> Path:
     head = f"cannot write {flag} {path}"
     if not str(path).strip():
         raise ConfigError(f"{flag} expects a file name, got {path!r}")
+    _refuse_dangling_link(target, head)
     if target.is_dir():
         raise ConfigError(f"{head}: it is a folder; give a file name")
     folder = target.parent
@@ -234,6 +307,7 @@ def check_output_dir(path: str | os.PathLike, flag: str) -> Path:
     head = f"cannot write {flag} {path}"
     if not str(path).strip():
         raise ConfigError(f"{flag} expects a folder, got {str(path)!r}")
+    _refuse_dangling_link(target, head)
     if target.exists():
         if not target.is_dir():
             raise ConfigError(f"{head}: it is a file, not a folder")
@@ -293,6 +367,29 @@ def parse_value(text: str) -> Any:
     return text
 
 
+def parse_options(texts: list[str], flag: str = "--option") -> dict[str, Any]:
+    """``NAME=VALUE`` integrator options (:func:`parse_value`), each name once and every number finite.
+
+    A non-finite number is refused here, as ``--h inf`` is: no option of a built-in
+    integrator means anything by ``inf`` or ``nan`` (an unbounded ``max_step`` is
+    its default, ``None``). Ranges are the integrator's to check.
+    """
+    options: dict[str, Any] = {}
+    for text in texts:
+        key, value = parse_assignment(text, flag)
+        if key in options:
+            raise ConfigError(f"{flag} {key} is given twice ({key}={options[key]!r} and {text!r}); give it once")
+        parsed = parse_value(value)
+        try:
+            finite = not isinstance(parsed, (int, float)) or math.isfinite(float(parsed))
+        except OverflowError:  # an integer beyond any float
+            finite = False
+        if not finite:
+            raise ConfigError(f"{flag} {key}={value}: an option value must be a finite number")
+        options[key] = parsed
+    return options
+
+
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     """PROBLEM, --case, --param, --dimensional."""
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. one-dof or two-dof")
@@ -309,6 +406,8 @@ def shared_params(args: argparse.Namespace) -> dict[str, float]:
     params: dict[str, float] = {}
     for text in args.param:
         name, value = parse_assignment(text, "--param")
+        if name in params:
+            raise ConfigError(f"--param {name} is given twice ({name}={params[name]:g} and {text!r}); give it once")
         params[name] = parse_number(value, f"parameter {name}")
     if getattr(args, "n", None) is not None:
         if "n" in params:

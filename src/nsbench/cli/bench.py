@@ -7,6 +7,7 @@ Exit status 1 when a case crashed or a reference could not be computed (see
 from __future__ import annotations
 
 import argparse
+import sys
 
 
 def add_parser(sub) -> None:
@@ -47,12 +48,30 @@ def run_and_report(suite, out: str, workers: str | int | None, resume: bool, pro
     if report and len(summary.results):
         from nsbench.bench.report import write_report
 
+        if progress:
+            print("nsbench: writing the report (tables, figures)", file=sys.stderr, flush=True)
         rep = write_report(summary.out, summary.results)
         print(f"report  -> {rep.html} (and report.md, table.tex, figures/)")
+    words = answer(summary.out, summary.results) if len(summary.results) else []
+    if words:  # the report's first sentences: the answer, where a log shows it
+        print("the answer:")
+        for line in words:
+            print(f"  - {line}")
     if not summary.ok:
         print("INCOMPLETE: " + "; ".join(summary.problems()))
         return 1
     return 0
+
+
+def answer(out, results) -> list[str]:
+    """The sentences the report opens with (:func:`nsbench.bench.summary.findings`), for the console."""
+    from nsbench.bench import storage
+    from nsbench.bench.summary import conditioning_table, findings, problem_summary, wrong_sequences
+    from nsbench.bench.tables import DEFAULT_TARGETS
+
+    targets = tuple(storage.read_provenance(out).get("suite", {}).get("targets", DEFAULT_TARGETS))
+    summary = problem_summary(results, targets)
+    return findings(summary, wrong_sequences(results), conditioning_table(results)) if len(summary) else []
 
 
 def main(args: argparse.Namespace) -> int:

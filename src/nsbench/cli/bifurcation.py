@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
-from nsbench.cli._common import (check_output_dir, parse_assignment, parse_count, parse_number, parse_real,
-                                 parse_value, shared_params)
+from nsbench.cli._common import (check_fixed_step, check_output_dir, parse_count, parse_number, parse_options,
+                                 parse_real, shared_params)
 from nsbench.cli._dask import connect as connect_dask
 from nsbench.errors import ConfigError
+
+
+#: Step budget of one value's run (nsbench.bifurcation.sweep gives run_hybrid max_steps=50_000_000).
+SWEEP_MAX_STEPS = 50_000_000
+#: What the command writes in a sweep folder besides the store (``meta.json``, ``points/``).
+WRITTEN = ("features.csv", "candidates.csv", "compare.md", "agreement.csv", "diagram.*", "locus_*", "portrait_*")
 
 
 def add_parser(sub) -> None:
@@ -59,13 +66,13 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     params = shared_params(args)
     if name == "n":
         raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
-    window = parse_real(args.window, "--window", low=0.0, low_open=True) if args.window is not None else None
+    window = parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN") if args.window is not None else None
     record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
     section = args.section or default_section(problem_probe(name, start, params),
                                               problem_probe(name, stop, params))
     return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
                      start=start, stop=stop, count=count, integrator=integrator, options=options,
-                     section=section, transient=parse_real(args.transient, "--transient", low=0.0),
+                     section=section, transient=parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN"),
                      record=record, window=window, params=params)
 
 
@@ -79,7 +86,7 @@ def _probe(problem: str, case: str):
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation import detect, figures
-    from nsbench.bifurcation.parallel import run_sweep
+    from nsbench.bifurcation.parallel import run_sweep, supervised
     from nsbench.bifurcation.storage import SweepStore, points_summary
     from nsbench.integrators import integrator_class
 
@@ -91,12 +98,11 @@ def main(args: argparse.Namespace) -> int:
     bad = [f for f in formats if f not in figures.FORMATS]
     if bad:
         raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
-    extra = {}
+    extra = parse_options(args.option)
     if args.h is not None:
+        if "h" in extra:
+            raise ConfigError("--h and --option h=... are both given; give it once")
         extra["h"] = parse_real(args.h, "--h", low=0.0, low_open=True)
-    for text in args.option:
-        key, value = parse_assignment(text, "--option")
-        extra[key] = parse_value(value)
     specs = []
     for name in names:
         if name is None:
@@ -109,6 +115,14 @@ def main(args: argparse.Namespace) -> int:
         if unknown:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
         specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
+    for spec in specs:  # a fixed step the span or the force cannot take: one line now, not a sweep of failures
+        from nsbench.integrators import get_integrator
+
+        integ = get_integrator(spec.integrator, **spec.options)
+        span = spec.transient + spec.record_window
+        for value in (spec.start, spec.stop):
+            check_fixed_step(integ, spec.problem_at(value), span, f"a value's run over {span:g} (transient and window)",
+                             SWEEP_MAX_STEPS, given=type(integ).capabilities.step_option in spec.options)
     pair = _pair(args.pair)
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
@@ -118,25 +132,45 @@ def main(args: argparse.Namespace) -> int:
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
     base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
     check_output_dir(base, "--out")
+    from nsbench.bench.storage import file_name
+    from nsbench.files import refuse_links
+
+    # the tables and figures written below replace what is there: never through a link
+    members = tuple(file_name(s.integrator, "integrator name") for s in specs) if len(specs) > 1 else ()
+    refuse_links(base, WRITTEN + members)
+    for name in members:
+        refuse_links(base / name, WRITTEN)
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}
+    from nsbench.bifurcation.parallel import default_workers
+
+    local_workers = workers or default_workers()  # refinements and portraits reuse the sweep's kept workers
     for spec in specs:
         from nsbench.bench.storage import file_name  # plug-in names are data: checked before they name a folder
 
         out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
+        point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
         frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
-                          point_limit=parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True))
+                          point_limit=point_limit)
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
         cands = detect.candidates(feats)
         if args.refine and len(cands):
-            refined = [detect.refine(spec, r.left, r.right, r.kind) for r in cands.itertuples()]
-            cands["refined_left"] = [r.left for r in refined]
-            cands["refined_right"] = [r.right for r in refined]
-            cands["refined_value"] = [r.value for r in refined]
+            # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
+            refined = []
+            for r in cands.itertuples():
+                found, why = supervised("refine_job", (spec.to_dict(), r.left, r.right, r.kind, point_limit),
+                                        local_workers)
+                if found is None:
+                    print(f"  refinement of the {r.kind} change in [{r.left:.6g}, {r.right:.6g}] failed: {why}")
+                    found = {"left": math.nan, "right": math.nan, "value": math.nan}
+                refined.append(found)
+            cands["refined_left"] = [r["left"] for r in refined]
+            cands["refined_right"] = [r["right"] for r in refined]
+            cands["refined_value"] = [r["value"] for r in refined]
         feats.to_csv(out / "features.csv", index=False)
         cands.to_csv(out / "candidates.csv", index=False)
         summary = points_summary(frame)
@@ -144,7 +178,7 @@ def main(args: argparse.Namespace) -> int:
                  f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
         for value in portraits:
-            _portrait(spec, value, out, formats, pair)
+            _portrait(spec, value, out, formats, pair, point_limit, local_workers)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
@@ -182,14 +216,14 @@ def _check_numbers(args: argparse.Namespace) -> None:
     if not whole:
         raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4")
     parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
-    parse_real(args.transient, "--transient", low=0.0)
+    parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     if args.window is not None:
-        parse_real(args.window, "--window", low=0.0, low_open=True)
+        parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
     if args.h is not None:
         parse_real(args.h, "--h", low=0.0, low_open=True)
     if args.workers is not None:
         parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
-    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True)
+    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     for text in args.portrait:
         parse_real(text, "--portrait")
     _pair(args.pair)
@@ -202,15 +236,17 @@ def _pair(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
-def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2)) -> None:
+def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2),
+              point_limit: float | None = None, workers: int = 1) -> None:
     from nsbench.bifurcation import figures
-    from nsbench.bifurcation.locus import locus_run
+    from nsbench.bifurcation.parallel import supervised
 
-    problem = spec.problem_at(value)
-    integ = spec.integrator
-    run = locus_run(problem, integ, transient=spec.transient, duration=min(300.0, spec.record_window),
-                    options=spec.options, value=value, pair=pair)
     tag = f"{spec.name}_{value:g}"
+    # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
+    run, why = supervised("locus_job", (spec.to_dict(), value, pair, point_limit), workers)
+    if run is None:
+        print(f"  locus and portrait at {tag} failed: {why}")
+        return
     figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
     figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}",
                      formats=formats)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nsbench.cli._common import parse_assignment, parse_value, shared_params
+from nsbench.cli._common import parse_options, shared_params
 
 
 def add_parser(sub) -> None:
@@ -28,24 +28,25 @@ def _one_line(text: str, width: int = 100) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from nsbench.integrators import get_integrator
-    from nsbench.testing import check_integrator
+    from nsbench.testing import check_integrator, configure, plan
+    from nsbench.testing._kit import checks_for
 
-    options = {}
-    for text in args.option:
-        key, value = parse_assignment(text, "--option")
-        options[key] = parse_value(value)
-    integ = get_integrator(args.integrator, **options)
+    options = parse_options(args.option)
+    integ, given = configure(args.integrator, options)  # an unknown option or a bad value: one line now
+    checks_for(integ, args.check)  # an unknown check: one line now
     problem = {"name": args.problem, **shared_params(args)}
     from nsbench.problems import get_problem
 
     get_problem(**problem)  # an unknown problem or a bad --n/--param: one line before anything runs
     print(f"conformance of {integ.name} {integ.settings} on {problem}")
-    results = check_integrator(integ, args.check, problem=problem)
+    for line in plan(integ, given, args.check):  # which configuration the accuracy checks run
+        print(f"  {line}")
+    results = check_integrator(integ, args.check, problem=problem, options=given)
     width = max(len(r.check) for r in results)
     print(f"  {'check':<{width}}  {'status':<7}  {'seconds':>7}  note")
     for r in results:
-        note = "" if r.status == "passed" else _one_line(r.message)
+        # a failure's note is its whole first line: it names the options the check ran with
+        note = "" if r.status == "passed" else _one_line(r.message, 240 if r.status == "failed" else 100)
         print(f"  {r.check:<{width}}  {r.status.upper():<7}  {r.seconds:7.2f}  {note}".rstrip())
     counts = {s: sum(r.status == s for r in results) for s in ("passed", "failed", "skipped", "xfail", "xpass")}
     print(f"{len(results)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.items() if n))

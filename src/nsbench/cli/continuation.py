@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from nsbench.cli._common import (check_output_dir, parse_count, parse_number, parse_real, shared_params)
-from nsbench.errors import ConfigError
+from nsbench.errors import ConfigError, NsbenchError
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
 
@@ -65,7 +65,7 @@ def main(args: argparse.Namespace) -> int:
 
     name, start, stop = parse_range(args.sweep)
     steps = parse_count(args.steps, "--steps", low=1, high=100_000)
-    transient = parse_real(args.transient, "--transient", low=0.0)
+    transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     try:
         case = int(parse_number(args.case, "--case"))
     except (ValueError, OverflowError):
@@ -110,9 +110,15 @@ def main(args: argparse.Namespace) -> int:
 
     tic = time.perf_counter()
     with bar:
-        result = trace(problem_at, name, start, stop, steps=steps,
-                       transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step,
-                       origin=origin, flow=flow)
+        try:
+            result = trace(problem_at, name, start, stop, steps=steps,
+                           transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step,
+                           origin=origin, flow=flow)
+        except ArithmeticError as exc:  # the flow from rest stopped (a budget) before any orbit was sought
+            if isinstance(exc, NsbenchError):
+                raise
+            raise ConfigError(f"no periodic orbit could be sought: {exc} (is --transient {transient:g} "
+                              "longer than the flow's event budget allows?)") from None
     seconds = time.perf_counter() - tic
     points = points_frame(flow, result, problem_at, section)
     meta = {"problem": args.problem, "case": case, "params": params, "param": name, "origin": origin, "start": start,

@@ -23,9 +23,9 @@ def main(args: argparse.Namespace) -> int:
 
     out = args.out or str(Path(args.file).with_suffix(""))
     read_benchmark_json(args.file)  # a missing, binary or malformed file is named before --out is checked
+    check_output_dir(out, "--out")  # before resolve(): a symbolic-link loop is named, not raised
     if Path(out).resolve() == Path(args.file).resolve():
         raise ConfigError(f"--out {out} is the benchmark file itself; give --out DIR")
-    check_output_dir(out, "--out")
     frame = ingest(args.file, out)
     print(f"{len(frame)} benchmarks -> {Path(out) / 'results.parquet'} (and results.csv)")
     if args.report:

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
-from nsbench.cli._common import (add_problem_arguments, check_output_file, parse_count, parse_real,
-                                 problem_from_args)
+from nsbench.cli._common import (MIN_D0, add_problem_arguments, check_fixed_step, check_output_file, parse_count,
+                                 parse_real, problem_from_args)
 
 
 def add_parser(sub) -> None:
@@ -21,7 +22,7 @@ def add_parser(sub) -> None:
     p.add_argument("--members", default="32",
                    help="independent estimates from perturbed starts; their spread gives the "
                         "standard error (default 32, at least 4)")
-    p.add_argument("--d0", default="1e-8", help="renormalised separation (default 1e-8)")
+    p.add_argument("--d0", default="1e-8", help="renormalised separation (default 1e-8; from 1e-12 to 0.01)")
     p.add_argument("--seed", default="0", help="seed of the start perturbations and directions (default 0)")
     p.add_argument("--workers", default="1", help="processes running members at once (default 1)")
     p.add_argument("--member-limit", default="1800", metavar="SECONDS",
@@ -35,18 +36,23 @@ def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.lyapunov import largest_exponent
 
     # every option is checked before the problem is built or anything integrated
-    transient = parse_real(args.transient, "--transient", low=0.0)  # inf would never end
+    transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")  # inf would never end
     members = parse_count(args.members, "--members", low=4, bound="MAX_MEMBERS")
     iterations = parse_count(args.iterations, "--iterations", low=1, bound="MAX_ITERATIONS")
-    d0 = parse_real(args.d0, "--d0", low=0.0, low_open=True, high=0.01, high_open=True)
+    d0 = parse_real(args.d0, "--d0", low=MIN_D0, high=0.01, high_open=True)
     seed = parse_count(args.seed, "--seed", low=0, bound="MAX_SEED")
     workers = parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     options = {"h": parse_real(args.h, "--h", low=0.0, low_open=True)} if args.h is not None else {}
-    member_limit = parse_real(args.member_limit, "--member-limit", low=0.0, low_open=True)
+    member_limit = parse_real(args.member_limit, "--member-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     if args.out:
         check_output_file(args.out, "--out")
     problem = problem_from_args(args)
     name = args.integrator or ("exact" if problem.is_linear else "henon-rk4")
+    from nsbench.integrators import get_integrator
+
+    # the transient is one run with the core's default step budget (5_000_000 steps); the whole run is
+    # longer (mapping points after it), so the step is not compared with the transient itself
+    check_fixed_step(get_integrator(name, **options), problem, transient, f"--transient {transient:g}", 5_000_000)
     res = largest_exponent(problem, name, options=options,
                            transient=transient,
                            iterations=iterations,
@@ -68,4 +74,8 @@ def main(args: argparse.Namespace) -> int:
                       "iteration": np.tile(np.arange(1, per + 1), members),
                       "log_growth": res.logs.ravel()}).to_csv(args.out, index=False)
         print(f"log growth per member and iteration -> {args.out}")
-    return 0 if res.status == "success" else 1
+    if res.status != "success":  # the members' reasons are printed above; one line on stderr says so
+        failed = res.message.count("member ") or "some"
+        print(f"nsbench: lyapunov: no exponent: {failed} member(s) failed (reasons above)", file=sys.stderr)
+        return 1
+    return 0

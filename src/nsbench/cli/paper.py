@@ -26,7 +26,7 @@ def main(args: argparse.Namespace) -> int:
 
     points = parse_count(args.points, "--points", low=2, bound="MAX_SWEEP_POINTS")
     record = parse_count(args.record, "--record", low=4, bound="MAX_RECORD")
-    transient = parse_real(args.transient, "--transient", low=0.0)
+    transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     case = parse_count(args.case, "--case", low=1, high=4) if args.case is not None else None
     workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     check_output_dir(args.out, "--out")

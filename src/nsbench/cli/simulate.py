@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from nsbench.cli._common import (add_problem_arguments, check_figure_path, check_output_file, parse_assignment,
-                                 parse_count, parse_real, parse_value, problem_from_args)
+from nsbench.cli._common import (add_problem_arguments, check_figure_path, check_output_file,
+                                 check_fixed_step, parse_count, parse_options, parse_real, problem_from_args)
+from nsbench.errors import ConfigError
+
+
+#: Step budget of a run (the engine's default): a fixed step that needs more is refused up front.
+MAX_STEPS = 5_000_000
 
 
 def add_parser(sub) -> None:
@@ -32,15 +38,14 @@ def add_parser(sub) -> None:
 
 def main(args: argparse.Namespace) -> int:
     # every option is checked before the problem is built and anything is integrated
-    options = {}
+    options = parse_options(args.option)
     for flag in ("rtol", "atol", "h"):
         text = getattr(args, flag)
         if text is not None:
+            if flag in options:
+                raise ConfigError(f"--{flag} and --option {flag}=... are both given; give it once")
             options[flag] = parse_real(text, f"--{flag}", low=0.0, low_open=True)
-    for text in args.option:
-        key, value = parse_assignment(text, "--option")
-        options[key] = parse_value(value)
-    t_end = parse_real(args.t_end, "--t-end")  # t_end > t0 is the engine's check
+    t_end = parse_real(args.t_end, "--t-end", bound="MAX_SPAN")  # t_end > t0 is the engine's check
     samples = parse_count(args.samples, "--samples", low=2, bound="MAX_SAMPLES")
     for flag in ("events_out", "trajectory_out"):
         if getattr(args, flag):
@@ -50,11 +55,18 @@ def main(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     name = args.integrator or ("exact" if problem.is_linear else "scipy-dop853")
     from nsbench.engine import simulate
+    from nsbench.integrators import get_integrator
 
+    integrator = get_integrator(name, **options)  # an unknown option or a bad value: one line now
+    check_fixed_step(integrator, problem, t_end, f"--t-end {t_end:g}", MAX_STEPS,
+                     given=type(integrator).capabilities.step_option in options)
     want_traj = bool(args.trajectory_out or args.plot)
     grid = np.linspace(0.0, t_end, samples) if want_traj and t_end > 0 else None
-    result = simulate(problem, name, t_end, options=options, t_eval=grid)
+    result = simulate(problem, integrator, t_end, t_eval=grid, max_steps=MAX_STEPS)
     print(result.summary())
+    if not result.ok:  # the reason is in the summary; one line on stderr says the run fell short
+        print(f"nsbench: simulate: the run ended at t = {result.t_final:g} of {t_end:g}: {result.status.value}"
+              + (f": {result.message}" if result.message else ""), file=sys.stderr)
     if name == "reference" and result.ok and len(result.events):
         # the reference's log says how far it can be trusted: an independent quad-precision check
         from nsbench.bench.reference import certified_errors

@@ -401,17 +401,23 @@ def _fresh_start(cx, j, b, fb, pb, pa, m, tol):
     """First zero in ``(0, b]`` of a guard that starts on its own surface (``g(0) = 0``), or NaN.
 
     If ``g'(0) > 0`` the guard stays positive on ``(0, u]`` with ``u = g'(0) / M``
-    (Taylor with the curvature bound); from there the ordinary search applies.
-    Otherwise (a start at rounding level, e.g. kinetic friction equal to static)
-    sample the interval for the first positive value; a guard that never becomes
-    positive ends the phase at once (zero length, left to the settle rules).
+    (Taylor with the curvature bound); from there the ordinary search applies,
+    provided ``g(u)`` stands above the rounding of the guard (``tol``). Otherwise
+    (a start at rounding level, e.g. kinetic friction equal to static: value and
+    rate both zero in exact arithmetic) the guard's computed values near 0 are
+    rounding noise of either sign, and a zero found there is none (it logged a
+    spurious ``reverse`` 1e-12..1e-8 after a breakaway). So the rule of
+    docs/model.md: sample the interval; the first sample that leaves the rounding
+    band decides. Above it, the phase goes on and zeros are searched from there;
+    below it (the wrong side by more than rounding), or never out of the band,
+    the phase ends at once (zero length, left to the settle rules).
     """
     if pa > 0.0 and np.isfinite(m):
         u = pa / m
         if u >= b:
             return np.nan if fb > 0.0 else _root(cx, j, 0.5 * b, b, _objective(cx, j, 0.5 * b, False), fb)
         fu = _objective(cx, j, u, False)
-        if fu > 0.0:
+        if fu > tol:
             return _first_zero(cx, j, u, b, fu, _objective(cx, j, u, True), fb, pb, m, tol)
     n = 16
     if pa > 0.0 and not np.isfinite(m):
@@ -423,7 +429,7 @@ def _fresh_start(cx, j, b, fb, pb, pa, m, tol):
             u = 0.5 * first
             for _ in range(60):
                 fu = _objective(cx, j, u, False)
-                if fu > 0.0:
+                if fu > tol:  # out of the rounding band, as below
                     return _root(cx, j, u, first, fu, v1)
                 u *= 0.5
     prev_s, prev_v, prev_r = 0.0, 0.0, pa
@@ -436,8 +442,10 @@ def _fresh_start(cx, j, b, fb, pb, pa, m, tol):
             hit = _first_zero(cx, j, prev_s, sk, prev_v, prev_r, vk, rk, m, tol)
             if not np.isnan(hit):
                 return hit
-        elif vk > 0.0:
+        elif vk > tol:
             positive = True
+        elif vk < -tol:
+            return 0.0
         prev_s, prev_v, prev_r = sk, vk, rk
     return 0.0 if not positive else np.nan
 

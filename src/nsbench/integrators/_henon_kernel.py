@@ -235,7 +235,10 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
     n = y0.shape[0]
     ns = sl.shape[0]
     kinds, blocks, signs = arc.guard_kind[:ng], arc.guard_index[:ng], arc.guard_sign[:ng]
-    n_steps_total = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
+    n_float = np.ceil((t_end - t0) / h - 1e-9)
+    # a step count past int64 (a step far below the span's resolution) would wrap around and end
+    # the arc in one step: clamp it, so that the step budget ends such a run instead
+    n_steps_total = max(1, int(n_float)) if n_float < 4e18 else 4_000_000_000_000_000_000
     wk = kd.f2a
     work = wk[0:8]  # rows cut to the state's length where used (contiguous views)
     y, fy, y1, f1, ystar, ybest = wk[8, :n], wk[9, :n], wk[10, :n], wk[11, :n], wk[12, :n], wk[13, :n]

@@ -11,7 +11,8 @@ many periods drifts by ~1e-13 per period, MODEL.md section 6).
 
 The arcs run in the compiled kernel :mod:`nsbench.integrators._exact_kernel`
 (guards in modal form, a curvature bound that rules out crossings between scan
-points, Brent roots, compensated event times). This module builds the tables
+points, Newton kept in the bracket and a double-double polish, compensated event
+times). This module builds the tables
 of a mode, on the first visit of that mode only (the ``3^n`` modes of a problem
 are never enumerated): the eigen-decomposition of the slipping sub-system, the
 particular solution, the rows that express each guard of the mode in the
@@ -224,7 +225,7 @@ def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:
 
 
 class ExactIntegrator(CompiledArcs):
-    """Exact event times for linear problems: closed-form flow, curvature-bounded scan, Brent roots."""
+    """Exact event times for linear problems: closed-form flow, curvature-bounded scan, Newton, double-double polish."""
 
     name = "exact"
     capabilities = Capabilities(

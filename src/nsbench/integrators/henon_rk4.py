@@ -14,9 +14,29 @@ interpolant, consistent with order 4. The arcs run in the compiled kernel
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import Capabilities, CompiledArcs, Option
+
+#: RK4 is stable for ``|h lambda|`` up to ``2 sqrt(2)`` on the imaginary axis (2.785 on the real one).
+STABILITY_LIMIT = 2.0 * math.sqrt(2.0)
+#: Below this ``|h lambda|`` a step changes a state of order one by less than its rounding.
+RESOLUTION_LIMIT = float(np.finfo(float).eps)
+
+
+def fastest_rate(problem) -> float:
+    """The largest ``|lambda|`` of the field linearised at the problem's start with every block slipping.
+
+    Slipping blocks carry every spring and damper (a stuck block is frozen), so
+    this is the fastest motion of the linear part; cubic springs only stiffen it
+    away from the rest state.
+    """
+    y = np.asarray(problem.initial_state(), dtype=float)
+    mode = problem.initial_mode(0.0, y)
+    return float(np.max(np.abs(np.linalg.eigvals(problem.jacobian(mode, 0.0, y)))))
 
 
 class HenonRK4(CompiledArcs):
@@ -30,6 +50,32 @@ class HenonRK4(CompiledArcs):
     options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
     accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025}, {"h": 0.000625})
     counter_names = ("henon_steps", "bisections")
+
+    def check_settings(self) -> None:
+        h = self.settings["h"]
+        if not math.isfinite(h):
+            raise ConfigError(f"{self.name}: option h = {h!r} must be a finite step size > 0")
+
+    def setup(self, problem) -> None:
+        """Refuse a step that RK4 cannot take on ``problem``, then build and load the kernel.
+
+        ``h`` times the fastest rate of the problem must lie between the
+        rounding of a step (below it the state never moves, and the step count
+        of a span can exceed any integer) and RK4's stability limit (above it
+        every step amplifies the motion; a step longer than the span would be
+        cut to the span and end in one unstable step).
+        """
+        h, rate = float(self.settings["h"]), fastest_rate(problem)
+        if h * rate > STABILITY_LIMIT:
+            raise UnsupportedProblemError(
+                f"{self.name}: h = {h:g} is beyond RK4's stability limit on this problem (h times its fastest "
+                f"rate {rate:.4g} is {h * rate:.3g} > {STABILITY_LIMIT:.3f}); use h <= {STABILITY_LIMIT / rate:.3g}")
+        if h * rate < RESOLUTION_LIMIT:
+            raise UnsupportedProblemError(
+                f"{self.name}: h = {h:g} is too small to move the state in double precision (h times the "
+                f"problem's fastest rate {rate:.4g} is {h * rate:.3g} < {RESOLUTION_LIMIT:.3g}); use "
+                f"h >= {RESOLUTION_LIMIT / rate:.3g}")
+        super().setup(problem)
 
     def build_kernel(self, problem):
         from nsbench.integrators._henon_kernel import OPTIONS, henon_arc, scratch

@@ -13,6 +13,7 @@ nsbench`` does not).
 from __future__ import annotations
 
 import hashlib
+import importlib
 import json
 import re
 import warnings
@@ -21,8 +22,15 @@ from pathlib import Path
 import numba
 from numba.core.errors import NumbaIRAssumptionWarning
 
-_IMPORTS = re.compile(r"^\s*(?:from\s+(nsbench[\w.]*)\s+import\s+\(?([\w\s,]*)|import\s+(nsbench[\w.]*))",
-                      re.MULTILINE)
+# The first compilation of the compiled core takes minutes: say so, with a progress line. Imported by
+# name so that the cache stamps below do not count nsbench.compiling (and what it imports) as
+# compiled code: editing a message there must not recompile the core.
+importlib.import_module("nsbench.compiling").announce()
+
+#: ``from nsbench.x import a, b``, ``from nsbench.x import (a,\n b)`` or ``import nsbench.x``; the names of
+#: the unparenthesised form stay on their line (``\s`` there would swallow the next import statement).
+_IMPORTS = re.compile(r"^[ \t]*(?:from[ \t]+(nsbench[\w.]*)[ \t]+import[ \t]+(?:\(([\w\s,]*)\)?|([\w \t,]*))"
+                      r"|import[ \t]+(nsbench[\w.]*))", re.MULTILINE)
 
 
 def drop_stale_numba_caches() -> None:
@@ -41,11 +49,11 @@ def drop_stale_numba_caches() -> None:
 
     def imports(name: str) -> set[str]:
         out = set()
-        for frm, names, plain in _IMPORTS.findall(texts[name]):
+        for frm, grouped, names, plain in _IMPORTS.findall(texts[name]):
             module = frm or plain
             if module in paths:
                 out.add(module)
-            for item in names.replace("\n", " ").split(","):
+            for item in (grouped or names).replace("\n", " ").split(","):
                 sub = f"{frm}.{item.strip()}"
                 if frm and sub in paths:
                     out.add(sub)

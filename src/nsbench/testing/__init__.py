@@ -17,6 +17,20 @@ The checks run on the presets (cases 1-4) of a problem family, by default the
 ``parametrize_with_checks([...], problem=...)`` or ``nsbench check INTEGRATOR
 --problem chain --n 5`` run them on another registered problem.
 
+**Which configuration each check runs.** Options the user gives
+(``check_integrator(..., options={"h": 0.5})``, ``nsbench check INTEGRATOR --option
+h=0.5``, or a configured instance's settings that differ from the defaults) are
+used by every check. The single-configuration checks (``event-times``,
+``cubic-event-times``, ``stuck-stays-stuck``, ``energy-balance``) run exactly that
+configuration; without options they run the *middle accuracy level*,
+``accuracy_levels[len(accuracy_levels) // 2]`` (the second of three levels, the
+third of four: ``h = 0.0025`` for ``henon-rk4``), or the defaults if the integrator
+declares no levels. The stepped checks (``declared-order``, ``convergence``) run
+the declared accuracy levels (with the options given on top), or three values of
+the step option around the given one (a factor 4 apart for a fixed step, 1000 for
+a tolerance). :func:`plan` says what will run; a failure note starts with the
+options its run used (``at h=0.5 (the options given): ...``).
+
 Capability tags (:class:`~nsbench.integrators.Capabilities`) decide which
 checks apply; an integrator declares the checks it knowingly fails in its
 class attribute ``known_gaps = {"check-name": "reason"}``, and they are
@@ -26,29 +40,39 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
   ``advance``; honest counters (``njev > 0`` if it needs a Jacobian).
 - ``determinism``: identical runs give identical events and counters.
 - ``inputs-not-mutated``: ``advance`` leaves the request's arrays alone.
-- ``declared-order``: step halving on a smooth arc shows the declared order
-  (fixed-step methods with an order and a step option).
-- ``convergence``: tightening the step or tolerance option never loses accuracy.
-- ``event-times``: the event sequence and times of case 2 against ``exact``.
-- ``cubic-event-times``: the same on case 4 (cubic) against ``reference``.
+- ``declared-order``: the end-state error of a smooth arc over the stepped levels
+  shows the declared order within 0.6 (fixed-step methods with an order and a
+  step option).
+- ``convergence``: tightening the step or tolerance option never loses accuracy
+  (an error may grow by at most half, above 1e-12), and the tightest level's error
+  is below ``CONVERGED_BOUND`` (1e-5).
+- ``event-times``: the event sequence of case 2 over ``tau`` in [0, 60] equals
+  ``exact``'s and every event time is within ``EVENT_BOUND`` (1e-5) of it.
+- ``cubic-event-times``: the same on case 4 (cubic) over [0, 30] against ``reference``.
 - ``refuses-unsupported``: linear-only integrators refuse cubic springs.
 - ``stuck-stays-stuck``: stuck blocks stay at belt speed until the force
-  reaches the static limit (no chattering, no drift).
-- ``energy-balance``: energy change equals the work of friction, damping, force.
+  reaches the static limit: block 1 slips first, within 1e-6 of the closed-form
+  time, and no stuck block drifts from the belt by more than 1e-9.
+- ``energy-balance``: energy change equals the work of friction, damping and force
+  along case 2 over [0, 40], to ``ENERGY_BOUND`` (1e-6).
 - ``failure-status``: an exhausted budget is a status, not an exception.
 - ``config-round-trip``: every configured integrator is a small dict and back.
 """
 
 from __future__ import annotations
 
-from nsbench.testing._checks import CHECKS, Check, checking_on
+from nsbench.testing._checks import (CHECKS, ENERGY_BOUND, EVENT_BOUND, Check, checking_on, checking_with,
+                                     configured, step_levels)
 from nsbench.testing._kit import (
     CheckResult,
     as_integrator,
     check_integrator,
+    configure,
     parametrize_with_checks,
+    plan,
     run_check,
 )
 
 __all__ = ["CHECKS", "Check", "CheckResult", "check_integrator", "parametrize_with_checks",
-           "run_check", "as_integrator", "checking_on"]
+           "run_check", "as_integrator", "checking_on", "checking_with", "configure", "configured", "plan",
+           "step_levels", "EVENT_BOUND", "ENERGY_BOUND"]

@@ -28,14 +28,29 @@ from nsbench.results import Status
 
 #: Arithmetic of an integrator's core (``Capabilities.precision``); ``mp``: arbitrary precision (mpmath).
 PRECISIONS = ("double", "long double", "quad", "mp")
-_EVENT_BOUND = 1e-5  # event times at the middle accuracy level, tau in [0, 60]
-_ENERGY_BOUND = 1e-6  # energy-balance residual at the middle accuracy level, tau in [0, 40]
+#: Largest event-time difference from the reference allowed by ``event-times`` (case 2, tau in
+#: [0, 60], against ``exact``) and ``cubic-event-times`` (case 4, tau in [0, 30], against ``reference``).
+EVENT_BOUND = 1e-5
+#: Largest energy-balance residual allowed by ``energy-balance`` (case 2, tau in [0, 40]).
+ENERGY_BOUND = 1e-6
+#: ``stuck-stays-stuck``: largest error of block 1's slip time, and largest drift of a stuck block
+#: from the belt (speed, and block 1's position) before it.
+SLIP_BOUND, DRIFT_BOUND = 1e-6, 1e-9
+#: Largest end-state error of the smooth arc at the tightest level allowed by ``convergence``.
+CONVERGED_BOUND = 1e-5
+#: The checks that run one configuration of the integrator (see :func:`configured`).
+ONE_CONFIGURATION = ("event-times", "cubic-event-times", "stuck-stays-stuck", "energy-balance")
+#: The checks that step the step option over several configurations (see :func:`step_levels`).
+STEPPED = ("declared-order", "convergence")
 
 
 #: The problem family the checks run on: a registry name and the parameters every case
 #: shares (``case`` is each check's own). Set for a run by :func:`checking_on`.
 FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_family",
                                                             default=("two-dof", {}))
+#: The options the user gave for this run of the kit (:func:`given_options`): every check
+#: runs with them. Set for a run by :func:`checking_with`.
+GIVEN: ContextVar[dict[str, Any]] = ContextVar("nsbench_check_given", default={})
 
 
 def problem_family(spec: str | dict[str, Any] | None) -> tuple[str, dict[str, Any]]:
@@ -86,24 +101,76 @@ def _simulate(integ: Integrator, problem, t_end: float, **kwargs):
     return simulate(problem, integ, t_end, **kwargs)
 
 
-def middle_level(integ: Integrator) -> Integrator:
-    """The integrator at the middle of its accuracy levels (its defaults if it declares none)."""
+def given_options(integ: Integrator, options: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The options of a configuration that the user chose: ``options``, and the settings of
+    ``integ`` that differ from the class defaults (a configured instance), validated.
+
+    Raises
+    ------
+    ConfigError
+        An unknown option or a bad value (the integrator's own message).
+    """
+    cls = type(integ)
+    chosen = {k: v for k, v in integ.settings.items() if k in cls.options and v != cls.options[k].default}
+    if options:
+        settings = cls(**{**chosen, **options}).settings  # validates and converts
+        chosen.update({k: settings[k] for k in options})
+    return chosen
+
+
+@contextmanager
+def checking_with(options: dict[str, Any]) -> Iterator[dict[str, Any]]:
+    """Run the checks inside this block with the user's ``options`` (see :func:`given_options`)."""
+    token = GIVEN.set(dict(options))
+    try:
+        yield dict(options)
+    finally:
+        GIVEN.reset(token)
+
+
+def describe(integ: Integrator) -> str:
+    """The options of ``integ`` that were given or differ from its defaults, as ``'h=0.5, N=10'``
+    (``'defaults'`` if none)."""
+    cls, given = type(integ), GIVEN.get()
+    parts = [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}"
+             for k, v in integ.settings.items()
+             if k in given or (k in cls.options and v != cls.options[k].default)]
+    return ", ".join(parts) or "defaults"
+
+
+def configured(integ: Integrator) -> tuple[Integrator, str]:
+    """The one configuration the single-configuration checks run (:data:`ONE_CONFIGURATION`), and how it was chosen.
+
+    With options given by the user (:data:`GIVEN`): ``integ`` exactly as configured
+    (the options not given at their defaults). Without: the *middle accuracy
+    level*, ``accuracy_levels[len(accuracy_levels) // 2]`` over the defaults (the
+    second of three levels, the third of four), or the defaults if the integrator
+    declares no levels.
+    """
     levels = type(integ).accuracy_levels
+    if GIVEN.get():
+        return integ, f"{describe(integ)} (the options given)"
     if not levels:
-        return integ
-    options = {**integ.settings, **levels[len(levels) // 2]}
-    return type(integ)(**options)
+        return integ, "defaults (no accuracy levels declared)"
+    index = len(levels) // 2
+    middle = type(integ)(**{**integ.settings, **levels[index]})
+    return middle, f"{describe(middle)} (middle accuracy level, {index + 1} of {len(levels)})"
 
 
-def _compare_events(events, reference, bound: float, what: str) -> float:
+def middle_level(integ: Integrator) -> Integrator:
+    """The configuration of the single-configuration checks (see :func:`configured`)."""
+    return configured(integ)[0]
+
+
+def _compare_events(events, reference, bound: float, what: str, ran_with: str) -> float:
     got = list(zip(events["kind"], events["block"]))
     want = list(zip(reference["kind"], reference["block"]))
     if got != want:
         first = next((i for i, (a, b) in enumerate(zip(got, want)) if a != b), min(len(got), len(want)))
-        raise AssertionError(f"event sequence differs from {what} at event {first}: "
+        raise AssertionError(f"at {ran_with}: event sequence differs from {what} at event {first}: "
                              f"{len(got)} events against {len(want)}")
     err = float(np.max(np.abs(events["t"].to_numpy() - reference["t"].to_numpy()))) if got else 0.0
-    assert err <= bound, f"event times differ from {what} by {err:.3g} > {bound:g}"
+    assert err <= bound, f"at {ran_with}: event times differ from {what} by {err:.3g} > {bound:g}"
     return err
 
 
@@ -201,64 +268,108 @@ def _smooth_error(integ: Integrator) -> float:
     integ.setup(problem)
     arc = integ.advance(request)
     assert arc.status.ok and arc.fired is None and arc.t == 4.0, \
-        f"smooth arc did not reach its end: {arc.message or f'guard {arc.fired} fired at {arc.t}'}"
+        f"at {describe(integ)}: smooth arc did not reach its end: " \
+        f"{arc.message or f'guard {arc.fired} fired at {arc.t}'}"
     return float(np.max(np.abs(arc.y - exact.advance(request).y)))
 
 
-def _levels(integ: Integrator) -> list[dict[str, Any]]:
+def _around(integ: Integrator, value: float) -> list[dict[str, Any]]:
+    """Three values of the step option from loose to tight around ``value`` (a factor 4 apart for a
+    fixed step, 1000 for a tolerance), the looser or tighter side moved inwards where the option's range ends."""
     cls, name = type(integ), type(integ).capabilities.step_option
-    if len(cls.accuracy_levels) >= 2:
-        return [dict(level) for level in cls.accuracy_levels]
-    base = float(integ.settings[name] or cls.options[name].default or 1e-6)
     factor = 4.0 if not cls.capabilities.adaptive else 1e3
-    return [{name: base * factor}, {name: base}, {name: base / factor}]
+    option = cls.options[name]
+
+    def allowed(v: float) -> bool:
+        try:
+            option.check(cls.name, name, v)
+        except ConfigError:
+            return False
+        return True
+
+    for candidates in ([value * factor, value, value / factor], [value, value / factor, value / factor ** 2],
+                       [value * factor ** 2, value * factor, value]):
+        if all(allowed(v) for v in candidates):
+            return [{name: v} for v in candidates]
+    raise ConfigError(f"{cls.name}: no three values of {name} a factor {factor:g} apart around {value:g} "
+                      "fit the option's range")
+
+
+def step_levels(integ: Integrator) -> tuple[list[dict[str, Any]], str]:
+    """The configurations of the stepped checks (:data:`STEPPED`), loose to tight, and how they were chosen.
+
+    Each is ``integ``'s settings with the level on top. Without options given by
+    the user: the declared accuracy levels (two or more), else three values of
+    the step option around its default. With the step option given: three values
+    around it (the given one in the middle), every other option as configured.
+    With other options given: the declared levels with the given options on top.
+    """
+    cls, name = type(integ), type(integ).capabilities.step_option
+    given = GIVEN.get()
+    declared = [dict(level) for level in cls.accuracy_levels]
+    if name in given:
+        levels, why = _around(integ, float(given[name])), f"around the given {name}"
+    elif len(declared) >= 2:
+        levels = [{**level, **{k: v for k, v in given.items() if k in level}} for level in declared]
+        why = "the declared accuracy levels" + (" with the options given" if given else "")
+    else:
+        levels = _around(integ, float(integ.settings[name] or cls.options[name].default or 1e-6))
+        why = f"around the configured {name}"
+    shown = ", ".join(f"{level[name]:g}" for level in levels)
+    others = {k for k in given if k != name}
+    return levels, f"{name} = {shown} ({why})" + (f", with {describe(integ)}" if others else "")
 
 
 def check_declared_order(integ: Integrator) -> None:
     """Step halving on a smooth arc shows the declared convergence order (within 0.6)."""
     caps, name = type(integ).capabilities, type(integ).capabilities.step_option
+    levels, ran_with = step_levels(integ)
     steps, errors = [], []
-    for level in _levels(integ):
+    for level in levels:
         errors.append(_smooth_error(type(integ)(**{**integ.settings, **level})))
         steps.append(float(level[name]))
     floor = 1e-12
     orders = [math.log(errors[i] / errors[i + 1]) / math.log(steps[i] / steps[i + 1])
               for i in range(len(errors) - 1) if errors[i + 1] > floor]
     if not orders:
-        assert max(errors) <= floor, f"errors {errors} do not decrease"
+        assert max(errors) <= floor, f"at {ran_with}: errors {errors} do not decrease"
         return  # already at rounding level at every step: accurate beyond measurement
     assert abs(orders[-1] - caps.order) <= 0.6, \
-        f"observed order {orders[-1]:.2f} (steps {steps}, errors {errors}) against declared {caps.order}"
+        f"at {ran_with}: observed order {orders[-1]:.2f} (errors {errors}) against declared {caps.order}"
 
 
 def check_convergence(integ: Integrator) -> None:
     """Tightening the step option (loose to tight) never makes a smooth arc less accurate."""
-    errors = [_smooth_error(type(integ)(**{**integ.settings, **lv})) for lv in _levels(integ)]
+    levels, ran_with = step_levels(integ)
+    errors = [_smooth_error(type(integ)(**{**integ.settings, **lv})) for lv in levels]
     for a, b in zip(errors, errors[1:]):
-        assert b <= max(a, 1e-12) * 1.5, f"errors {errors} grow as the step option tightens"
-    assert errors[-1] < 1e-5, f"tightest level still has error {errors[-1]:.3g}"
+        assert b <= max(a, 1e-12) * 1.5, f"at {ran_with}: errors {errors} grow as the step option tightens"
+    assert errors[-1] < CONVERGED_BOUND, \
+        f"at {ran_with}: tightest level still has error {errors[-1]:.3g} >= {CONVERGED_BOUND:g}"
 
 
 def check_event_times(integ: Integrator) -> None:
-    """Event sequence and times of case 2 over [0, 60] at the middle accuracy level, against ``exact``."""
+    """Event sequence and times of case 2 over [0, 60] within :data:`EVENT_BOUND` of ``exact`` (:func:`configured`)."""
     from nsbench.integrators.exact import ExactIntegrator
 
     problem = _problem(2)
     ref = _simulate(ExactIntegrator(), problem, 60.0).events
-    res = _simulate(middle_level(integ), problem, 60.0)
-    assert res.ok, res.message
-    _compare_events(res.events, ref, _EVENT_BOUND, "exact")
+    run, ran_with = configured(integ)
+    res = _simulate(run, problem, 60.0)
+    assert res.ok, f"at {ran_with}: {res.message}"
+    _compare_events(res.events, ref, EVENT_BOUND, "exact", ran_with)
 
 
 def check_cubic_event_times(integ: Integrator) -> None:
-    """Case 4 (cubic springs, forced) over [0, 30] at the middle accuracy level, against ``reference``."""
+    """Case 4 (cubic springs, forced) over [0, 30] within :data:`EVENT_BOUND` of ``reference`` (:func:`configured`)."""
     from nsbench.integrators.reference import Reference
 
     problem = _problem(4)
     ref = _simulate(Reference(), problem, 30.0).events
-    res = _simulate(middle_level(integ), problem, 30.0)
-    assert res.ok, res.message
-    _compare_events(res.events, ref, _EVENT_BOUND, "reference")
+    run, ran_with = configured(integ)
+    res = _simulate(run, problem, 30.0)
+    assert res.ok, f"at {ran_with}: {res.message}"
+    _compare_events(res.events, ref, EVENT_BOUND, "reference", ran_with)
 
 
 def check_refuses_unsupported_problems(integ: Integrator) -> None:
@@ -278,19 +389,21 @@ def check_stuck_block_stays_stuck(integ: Integrator) -> None:
     # per time unit, reaching 1 at t ~ 8.35, and the other blocks feel only their damping
     y0 = [0.3, v0] * problem.n_blocks
     grid = np.linspace(0.0, 8.0, 161)
-    res = _simulate(middle_level(integ), problem, 10.0, y0=y0, t_eval=grid)
-    assert res.ok, res.message
+    run, ran_with = configured(integ)
+    res = _simulate(run, problem, 10.0, y0=y0, t_eval=grid)
+    assert res.ok, f"at {ran_with}: {res.message}"
     ev = res.events
     assert len(ev) >= 1 and (ev["kind"].iloc[0], ev["block"].iloc[0]) == ("slip", 1), \
-        f"expected block 1 to slip first, got {list(zip(ev['kind'], ev['block']))[:3]}"
+        f"at {ran_with}: expected block 1 to slip first, got {list(zip(ev['kind'], ev['block']))[:3]}"
     t_slip = (1.0 - problem.coefficients.c[0] * v0 - 0.3) / v0  # R1 is linear in t while stuck
-    assert abs(ev["t"].iloc[0] - t_slip) < 1e-6, f"slip at {ev['t'].iloc[0]:.9g}, expected {t_slip:.9g}"
+    assert abs(ev["t"].iloc[0] - t_slip) < SLIP_BOUND, \
+        f"at {ran_with}: slip at {ev['t'].iloc[0]:.9g}, expected {t_slip:.9g}"
     tr = res.trajectory
     blocks = range(1, problem.n_blocks + 1)
-    assert all((tr[f"phase{b}"] == 0).all() for b in blocks), "a stuck block left stick before t = 8"
+    assert all((tr[f"phase{b}"] == 0).all() for b in blocks), f"at {ran_with}: a stuck block left stick before t = 8"
     drift = max(max(np.abs(tr[f"v{b}"] - v0).max() for b in blocks),
                 np.abs(tr["x1"] - (0.3 + v0 * tr["t"])).max())
-    assert drift <= 1e-9, f"stuck blocks drift by {drift:.3g} from the belt"
+    assert drift <= DRIFT_BOUND, f"at {ran_with}: stuck blocks drift by {drift:.3g} from the belt"
 
 
 def check_energy_balance(integ: Integrator) -> None:
@@ -298,10 +411,11 @@ def check_energy_balance(integ: Integrator) -> None:
     from nsbench.problems.energy import energy_balance
 
     problem = _problem(2)
-    res = _simulate(middle_level(integ), problem, 40.0, t_eval=np.linspace(0.0, 40.0, 4001))
-    assert res.ok, res.message
+    run, ran_with = configured(integ)
+    res = _simulate(run, problem, 40.0, t_eval=np.linspace(0.0, 40.0, 4001))
+    assert res.ok, f"at {ran_with}: {res.message}"
     worst = float(energy_balance(res)["residual"].abs().max())
-    assert worst <= _ENERGY_BOUND, f"energy-balance residual {worst:.3g} > {_ENERGY_BOUND:g}"
+    assert worst <= ENERGY_BOUND, f"at {ran_with}: energy-balance residual {worst:.3g} > {ENERGY_BOUND:g}"
 
 
 def check_failure_is_a_status(integ: Integrator) -> None:

@@ -12,7 +12,8 @@ from typing import Any, Iterable, Sequence
 
 from nsbench.errors import ConfigError
 from nsbench.integrators.base import Integrator
-from nsbench.testing._checks import CHECKS, Check, checking_on, problem_family
+from nsbench.testing._checks import (CHECKS, ONE_CONFIGURATION, STEPPED, Check, checking_on, checking_with,
+                                     configured, given_options, problem_family, step_levels)
 
 PASSED, FAILED, SKIPPED, XFAIL, XPASS = "passed", "failed", "skipped", "xfail", "xpass"
 
@@ -70,13 +71,47 @@ def checks_for(integ: Integrator, only: Sequence[str] | None = None) -> list[Che
     return [names[n] for n in only]
 
 
-def run_check(integ: Integrator, check: Check, problem: str | dict[str, Any] | None = None) -> CheckResult:
+def configure(obj: Any, options: dict[str, Any] | None = None) -> tuple[Integrator, dict[str, Any]]:
+    """The integrator to check and the options the user chose for it.
+
+    ``obj`` as for :func:`as_integrator`; ``options`` are set on top of it. The
+    chosen options are ``options`` and the settings of a configured instance that
+    differ from the defaults: every check runs with them (see :func:`plan`).
+    """
+    integ = as_integrator(obj)
+    given = given_options(integ, options)
+    if options:
+        integ = type(integ)(**{**integ.settings, **given})
+    return integ, given
+
+
+def plan(obj: Any, options: dict[str, Any] | None = None, checks: Sequence[str] | None = None) -> list[str]:
+    """What the accuracy checks will run, one line each: the configuration of the single-configuration
+    checks and the levels of the stepped ones (of ``checks``, default all, that apply to the integrator)."""
+    integ, given = configure(obj, options)
+    caps = type(integ).capabilities
+    applies = {c.name for c in checks_for(integ, checks) if c.applies(caps) is None}
+    lines = []
+    with checking_with(given):
+        one = [n for n in ONE_CONFIGURATION if n in applies]
+        if one:
+            lines.append(f"{', '.join(one)} at {configured(integ)[1]}")
+        stepped = [n for n in STEPPED if n in applies]
+        if stepped:
+            lines.append(f"{', '.join(stepped)} at {step_levels(integ)[1]}")
+    return lines
+
+
+def run_check(integ: Integrator, check: Check, problem: str | dict[str, Any] | None = None,
+              options: dict[str, Any] | None = None) -> CheckResult:
     """Run one check on a fresh copy of ``integ`` and classify the outcome.
 
     ``problem`` is the problem family of the checks (default the 2-DOF
-    oscillator; see :func:`nsbench.testing.checking_on`).
+    oscillator; see :func:`nsbench.testing.checking_on`); ``options`` are set on
+    the integrator and used by the check, as for :func:`check_integrator`.
     """
-    with checking_on(problem):
+    integ, given = configure(integ, options)
+    with checking_on(problem), checking_with(given):
         return _run_check(integ, check)
 
 
@@ -104,7 +139,8 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
 
 def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
                      raise_on_failure: bool = False,
-                     problem: str | dict[str, Any] | None = None) -> list[CheckResult]:
+                     problem: str | dict[str, Any] | None = None,
+                     options: dict[str, Any] | None = None) -> list[CheckResult]:
     """Run the conformance kit on one integrator.
 
     Parameters
@@ -119,15 +155,30 @@ def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
         The problem family the checks run on: a registry name or a dict of the
         name and the parameters every case shares, e.g. ``{"name": "chain",
         "n": 5}`` (default: ``'two-dof'``). The checks use its presets 1-4.
+    options
+        Integrator options, set on ``obj``. These, and the settings of a
+        configured instance that differ from the defaults, are *the options
+        given*, and every check runs with them: the single-configuration checks
+        (``event-times``, ``cubic-event-times``, ``stuck-stays-stuck``,
+        ``energy-balance``) at exactly that configuration instead of the middle
+        accuracy level, and the stepped checks (``declared-order``,
+        ``convergence``) around a given step option (:func:`plan` says what
+        will run). A failure note names the options its run used.
 
     Returns
     -------
     list of CheckResult
         One per check, in the kit's order.
+
+    Raises
+    ------
+    ConfigError
+        An unknown check, problem or option, or a bad option value, before any check runs.
     """
-    integ = as_integrator(obj)
+    integ, given = configure(obj, options)
     family = problem_family(problem)  # a bad problem fails here, before any check
-    results = [run_check(integ, check, {"name": family[0], **family[1]}) for check in checks_for(integ, checks)]
+    selected = checks_for(integ, checks)
+    results = [run_check(integ, check, {"name": family[0], **family[1]}, given) for check in selected]
     failed = [r for r in results if r.status == FAILED]
     if raise_on_failure and failed:
         raise AssertionError("; ".join(f"{r.check}: {r.message}" for r in failed))
@@ -179,7 +230,7 @@ class _Runner:
         self.family = family
 
     def __call__(self, integ: Integrator) -> None:
-        with checking_on(self.family):
+        with checking_on(self.family), checking_with(given_options(integ)):
             self.check.run(type(integ).from_config(integ.config()))
 
     def __repr__(self) -> str:

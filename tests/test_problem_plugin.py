@@ -70,3 +70,16 @@ def test_a_bad_parameter_is_refused_in_one_line(plugin_env):
     env, _ = plugin_env
     out = _nsbench(env, "simulate", "thermostat", "--integrator", "exact", "--param", "x_lo=3")
     assert out.returncode == 2 and "x_lo < x_hi" in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("integrator", ["exact", "scipy-dop853"])
+def test_the_conformance_kit_passes_on_it(plugin_env, integrator):
+    """`nsbench check INTEGRATOR --problem thermostat`: the kit runs on the plug-in problem as given,
+    against `reference` (its closed form through `exact`), the belt-only checks skipped with their reason."""
+    env, _ = plugin_env
+    out = _nsbench(env, "check", integrator, "--problem", "thermostat")
+    assert out.returncode == 0, out.stdout + out.stderr
+    lines = {row.split()[0]: row for row in out.stdout.splitlines()[2:] if row.startswith("  ")}
+    for check in ("protocol", "determinism", "inputs-not-mutated", "event-times", "failure-status"):
+        assert "PASSED" in lines[check], lines[check]
+    assert "presets (cases 1-4); thermostat has none" in lines["stuck-stays-stuck"]

@@ -105,7 +105,7 @@ def level_crossing(problem: "FrictionOscillator", variable: str, level: float = 
 
 def stroboscopic(problem: "FrictionOscillator", phase: float = 0.0) -> TimeSection:
     """States at ``t = phase + 2 pi k / w``, the forcing period of ``problem``."""
-    w = problem.coefficients.w
+    w = problem.forcing_frequency
     if w <= 0:
         raise ConfigError(f"stroboscopic section needs a forcing frequency > 0; the problem has {w:g}")
     return TimeSection("strobe", 2.0 * math.pi / w, phase)

@@ -30,6 +30,26 @@ def test_builtin_conformance_on_a_five_block_chain(integrator, check):
     check(integrator)
 
 
+@parametrize_with_checks(BUILTINS, problem="bouncing-ball")
+def test_builtin_conformance_on_the_bouncing_ball(integrator, check):
+    """Impacts and a Zeno accumulation: every built-in runs it against ``reference`` or refuses it at setup."""
+    check(integrator)
+
+
+@parametrize_with_checks(BUILTINS, problem="block-on-ground")
+def test_builtin_conformance_on_the_block_on_ground(integrator, check):
+    """Friction without a belt (no presets): checked as given, the belt-only checks skipped."""
+    check(integrator)
+
+
+def test_a_refusal_at_setup_is_reported_with_its_reason():
+    results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
+    assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())
+    ok = {r.check: r for r in check_integrator("exact", ["event-times", "stuck-stays-stuck"], problem="bouncing-ball")}
+    assert ok["event-times"].status == "passed"
+    assert ok["stuck-stays-stuck"].status == "skipped" and "bouncing-ball has none" in ok["stuck-stays-stuck"].message
+
+
 def test_kit_problem_family_is_checked_before_any_check():
     with pytest.raises(ConfigError, match="n = 99"):
         check_integrator("exact", problem={"name": "chain", "n": 99})
@@ -224,8 +244,10 @@ def test_the_plan_names_the_middle_level_or_the_options_given():
 
 def test_stepped_checks_run_around_the_given_step():
     (result,) = check_integrator("henon-rk4", ["convergence"], options={"h": 0.5})
-    # h = 2 steps past case 1's first guard: the failure names the configuration it ran
-    assert result.status == "failed" and result.message.startswith("at h=2: smooth arc did not reach its end")
+    # the loosest of the three levels around h = 0.5 is h = 2, beyond RK4's stability limit on the belt
+    # (2 x 1.618 > 2 sqrt 2): henon-rk4 refuses it at setup, and the failure says which step and why
+    assert result.status == "failed" and "refused a belt preset: henon-rk4: h = 2 is beyond RK4's stability" \
+        in result.message
 
 
 def test_a_bad_option_is_refused_before_any_check():

@@ -103,8 +103,8 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
     g2 = np.linspace(x2.min() - pad2, x2.max() + pad2, 300)
     m1, m2 = np.meshgrid(g1, g2)
     t = run.t_start
-    if problem.is_forced and problem.coefficients.w > 0:
-        period = 2 * np.pi / problem.coefficients.w
+    if problem.is_forced and problem.forcing_frequency > 0:
+        period = 2 * np.pi / problem.forcing_frequency
         t = phase_time if phase_time is not None else np.ceil(run.t_start / period) * period
     at = int(np.argmin(np.abs(traj["t"].to_numpy() - t)))  # the other blocks where the trajectory is then
     others = {k: float(traj[f"x{k}"].iloc[at]) for k in range(1, problem.n_blocks + 1) if k not in (a, b)}

@@ -258,8 +258,8 @@ def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, 
     atypical (measured in case 2, F = 0.1417: +0.93 +- 0.16 on the first
     iteration against +0.08 on average, indistinguishable from it afterwards).
     """
-    forced = problem.is_forced and problem.coefficients.w > 0
-    w = problem.coefficients.w if forced else 0.0
+    forced = problem.is_forced and problem.forcing_frequency > 0
+    w = problem.forcing_frequency if forced else 0.0
     n = problem.n_states
     y0 = problem.initial_state() + spread * rng.normal(size=n)
     ref, status = _mapping_point(integ, problem, 0.0, y0, None, transient, window)

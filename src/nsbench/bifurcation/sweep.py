@@ -187,9 +187,9 @@ class SweepSpec:
         if self.section == "strobe":
             # the forcing period must exist everywhere; F may be 0 at one end of an F sweep
             for v, problem in zip((self.start, self.stop), ends):
-                if problem.coefficients.w <= 0:
+                if problem.forcing_frequency <= 0:
                     raise ConfigError(f"section strobe needs Omega > 0; at {self.name} = {v:g} "
-                                      f"Omega = {problem.coefficients.w:g}")
+                                      f"Omega = {problem.forcing_frequency:g}")
             if not any(p.is_forced for p in ends):
                 raise ConfigError("section strobe needs a harmonic force (F > 0) in the sweep; "
                                   "use peaks, stick or mapping")
@@ -209,12 +209,12 @@ class SweepSpec:
 def default_section(*problems) -> str:
     """``strobe`` if any of ``problems`` (e.g. both ends of a sweep) is forced, ``peaks`` otherwise."""
     forced = any(p.is_forced for p in problems)
-    return "strobe" if forced and all(p.coefficients.w > 0 for p in problems) else "peaks"
+    return "strobe" if forced and all(p.forcing_frequency > 0 for p in problems) else "peaks"
 
 
 def strobe_times(problem, transient: float, record: int) -> np.ndarray:
     """The first ``record`` stroboscopic times ``2 pi k / Omega >= transient``."""
-    period = 2.0 * math.pi / problem.coefficients.w
+    period = 2.0 * math.pi / problem.forcing_frequency
     k0 = math.ceil(transient / period - 1e-12)
     return period * np.arange(k0, k0 + record)
 

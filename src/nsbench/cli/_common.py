@@ -235,7 +235,7 @@ def check_fixed_step(integrator: "Integrator", problem: "FrictionOscillator", sp
                           f"{max_steps}: raise {name} or shorten the span")
     if given and span > 0 and step > span:
         raise ConfigError(f"{label} is longer than the whole run ({what}): give {name} < {span:g}")
-    w = float(problem.coefficients.w)
+    w = float(problem.forcing_frequency)
     if problem.is_forced and not w * step < math.pi:
         raise ConfigError(f"{label} takes fewer than two steps per forcing period (2 pi / w = {2 * math.pi / w:.3g}): "
                           f"the force is not resolved; lower {name} below {math.pi / w:.3g}")

@@ -89,7 +89,7 @@ def main(args: argparse.Namespace) -> int:
         problem_at(origin)
     forced = any(p.is_forced for p in ends)
     section = args.section or ("strobe" if forced else "peaks")
-    if section == "strobe" and not all(p.is_forced and p.coefficients.w > 0 for p in ends):
+    if section == "strobe" and not all(p.is_forced and p.forcing_frequency > 0 for p in ends):
         raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
     from nsbench.periodic import HybridFlow
 

@@ -28,15 +28,18 @@ RESOLUTION_LIMIT = float(np.finfo(float).eps)
 
 
 def fastest_rate(problem) -> float:
-    """The largest ``|lambda|`` of the field linearised at the problem's start with every block slipping.
+    """The largest ``|lambda|`` of the field linearised at the problem's start, at least ``1 / time_scale``.
 
-    Slipping blocks carry every spring and damper (a stuck block is frozen), so
-    this is the fastest motion of the linear part; cubic springs only stiffen it
-    away from the rest state.
+    On the friction family the start mode has every block slipping, which carries
+    every spring and damper (a stuck block is frozen), so this is the fastest
+    motion of the linear part; cubic springs only stiffen it away from the rest
+    state. A field without a linear part (the falling ball: a nilpotent Jacobian,
+    every eigenvalue 0) still moves on the problem's own time scale.
     """
     y = np.asarray(problem.initial_state(), dtype=float)
     mode = problem.initial_mode(0.0, y)
-    return float(np.max(np.abs(np.linalg.eigvals(problem.jacobian(mode, 0.0, y)))))
+    rate = float(np.max(np.abs(np.linalg.eigvals(problem.jacobian(mode, 0.0, y)))))
+    return max(rate, 1.0 / problem.time_scale)
 
 
 class HenonRK4(CompiledArcs):

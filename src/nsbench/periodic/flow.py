@@ -242,7 +242,7 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
         ys = [e.y for e in orbit.events if e.kind == kind]
         return np.array(ys).reshape(len(ys), problem.n_states)
     if section == "strobe":
-        tf = 2.0 * np.pi / problem.coefficients.w
+        tf = 2.0 * np.pi / problem.forcing_frequency
         k0 = np.ceil(orbit.t0 / tf - 1e-12)
         times = tf * np.arange(k0, k0 + round(orbit.period / tf))
         return flow.states(orbit.t0, orbit.y0, orbit.mode0, times) if times.size else np.empty((0, problem.n_states))

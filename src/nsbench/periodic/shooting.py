@@ -104,7 +104,7 @@ class PeriodicOrbit:
         """``p`` of a forced orbit: its period in forcing periods."""
         if not self.forced:
             return None
-        return int(round(self.period * self.problem.coefficients.w / (2.0 * math.pi)))
+        return int(round(self.period * self.problem.forcing_frequency / (2.0 * math.pi)))
 
     def pattern_text(self) -> str:
         return " ".join(self.pattern)
@@ -229,7 +229,7 @@ def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> f
     """The shortest period ``T / d`` (``d > 1``) the converged pass repeats with, if any."""
     ev = p.events
     n = len(ev)
-    tf = 2.0 * math.pi / problem.coefficients.w if forced else None
+    tf = 2.0 * math.pi / problem.forcing_frequency if forced else None
     for d in range(n, 1, -1) if n else ():
         if n % d:
             continue
@@ -301,7 +301,7 @@ def resolve(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
     """
     period = orbit.period
     if orbit.forced:
-        period = orbit.forcing_periods * 2.0 * math.pi / flow.problem.coefficients.w
+        period = orbit.forcing_periods * 2.0 * math.pi / flow.problem.forcing_frequency
     try:
         return shoot(flow, orbit.t0, orbit.y0, orbit.mode0, period, forced=orbit.forced)
     except ShootingError:
@@ -338,7 +338,7 @@ def guess(flow: HybridFlow, *, transient: float = 1500.0, window: float = 1000.0
     y = problem.initial_state() if y0 is None else np.asarray(y0, dtype=float)
     mode = problem.initial_mode(t0, y)
     if problem.is_forced:
-        tf = 2.0 * math.pi / problem.coefficients.w
+        tf = 2.0 * math.pi / problem.forcing_frequency
         t = tf * math.ceil((t0 + transient) / tf - 1e-12)
         start = flow.run(t0, y, mode, t - t0)
         cur, cur_mode = start.y, start.mode

@@ -3,11 +3,13 @@
 Each check takes a configured :class:`~nsbench.integrators.Integrator` (a fresh
 copy built from its config) and raises ``AssertionError`` with a reason when
 the integrator falls short. :data:`CHECKS` lists them with the capability
-test that decides whether each applies. Problems are the presets of a problem
-family, by default the 2-DOF oscillator (any registered problem with cases 1-4,
-for example ``{"name": "chain", "n": 5}``, through :func:`checking_on`): case 2
+test that decides whether each applies. The problem is a registered problem
+(:func:`checking_on`). On the belt oscillators (``two-dof`` by default,
+``one-dof``, ``{"name": "chain", "n": 5}``) the checks use their presets: case 2
 (linear, forced: both kinds of guard, the forcing, ``exact`` as the reference),
-case 1 for a stuck phase, case 4 for cubic springs.
+case 1 for a stuck phase, case 3 and 4 for cubic springs. On any other problem
+(``bouncing-ball``, a plug-in's) they run on that problem as given, against
+``reference``; the checks that need the belt's presets are skipped with that reason.
 """
 
 from __future__ import annotations
@@ -44,20 +46,23 @@ ONE_CONFIGURATION = ("event-times", "cubic-event-times", "stuck-stays-stuck", "e
 STEPPED = ("declared-order", "convergence")
 
 
-#: The problem family the checks run on: a registry name and the parameters every case
-#: shares (``case`` is each check's own). Set for a run by :func:`checking_on`.
+#: The problem the checks run on: a registry name and its parameters (``case`` is each
+#: check's own on the belt oscillators). Set for a run by :func:`checking_on`.
 FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_family",
                                                             default=("two-dof", {}))
 #: The options the user gave for this run of the kit (:func:`given_options`): every check
 #: runs with them. Set for a run by :func:`checking_with`.
 GIVEN: ContextVar[dict[str, Any]] = ContextVar("nsbench_check_given", default={})
+#: Span of the event checks on a problem without the belt's presets, in its time scale
+#: (``time_scale()``), as ``tau`` in [0, 60] on the belt.
+SPAN = 60.0
 
 
 def problem_family(spec: str | dict[str, Any] | None) -> tuple[str, dict[str, Any]]:
-    """A problem family from ``'two-dof'``, ``{'name': 'chain', 'n': 5}`` or ``None`` (2-DOF).
+    """A problem from ``'two-dof'``, ``{'name': 'chain', 'n': 5}``, ``'bouncing-ball'`` or ``None`` (2-DOF).
 
-    Built at every case (1..4) at once, so a bad name or parameter raises a
-    ``ConfigError`` before any check runs.
+    Built at once (at every preset for the belt oscillators), so a bad name or
+    parameter raises a ``ConfigError`` before any check runs.
     """
     from nsbench.problems import get_problem
 
@@ -72,14 +77,31 @@ def problem_family(spec: str | dict[str, Any] | None) -> tuple[str, dict[str, An
             raise ConfigError(f"the checks choose the case; remove 'case' from the problem {spec!r}")
     else:
         raise ConfigError(f"a conformance problem is a registry name or a dict with 'name', got {spec!r}")
-    for case in (1, 2, 3, 4):
-        get_problem(name, case=case, **params)
+    problem = get_problem(name, **params)
+    if _is_belt(problem):
+        for case in (1, 2, 3, 4):
+            get_problem(name, case=case, **params)
     return name, params
+
+
+def _is_belt(problem) -> bool:
+    """A belt oscillator (the friction family with a moving belt): the checks use its presets 1-4."""
+    from nsbench.problems.oscillator import FrictionOscillator
+
+    return isinstance(problem, FrictionOscillator) and problem.v0 > 0.0
+
+
+def on_presets() -> bool:
+    """Whether the checks run on the belt oscillators' presets (else on one problem as given)."""
+    from nsbench.problems import get_problem
+
+    name, params = FAMILY.get()
+    return _is_belt(get_problem(name, **params))
 
 
 @contextmanager
 def checking_on(spec: str | dict[str, Any] | None) -> Iterator[tuple[str, dict[str, Any]]]:
-    """Run the checks inside this block on the problem family ``spec`` (see :func:`problem_family`)."""
+    """Run the checks inside this block on the problem ``spec`` (see :func:`problem_family`)."""
     family = problem_family(spec)
     token = FAMILY.set(family)
     try:
@@ -89,16 +111,40 @@ def checking_on(spec: str | dict[str, Any] | None) -> Iterator[tuple[str, dict[s
 
 
 def _problem(case: int):
+    """The belt's preset ``case``, or the problem as given when it has no presets."""
     from nsbench.problems import get_problem
 
     name, params = FAMILY.get()
+    if not on_presets():
+        return get_problem(name, **params)
     return get_problem(name, case=case, **params)
+
+
+def _span(problem, belt: float) -> float:
+    """``belt`` on the belt oscillators, :data:`SPAN` time scales on any other problem."""
+    return belt if on_presets() else SPAN * problem.time_scale
 
 
 def _simulate(integ: Integrator, problem, t_end: float, **kwargs):
     from nsbench.engine import simulate
 
     return simulate(problem, integ, t_end, **kwargs)
+
+
+class CheckSkipped(Exception):
+    """Raised inside a check that cannot run on this problem (no reference for it): reported as skipped."""
+
+
+def _reference_for(problem):
+    """``reference``, set up on ``problem``; a problem it cannot solve skips the check (:class:`CheckSkipped`)."""
+    from nsbench.integrators.reference import Reference
+
+    ref = Reference()
+    try:
+        ref.setup(problem)
+    except UnsupportedProblemError as exc:
+        raise CheckSkipped(f"no reference for {problem.name}: {exc}") from None
+    return ref
 
 
 def given_options(integ: Integrator, options: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -198,8 +244,11 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     assert isinstance(arc, ArcResult), f"advance returned {type(arc).__name__}, not ArcResult"
     assert isinstance(arc.status, Status) and arc.status.ok, f"first arc failed: {arc.message}"
     assert 0.0 < arc.t <= 5.0 and np.shape(arc.y) == (problem.n_states,), "bad stop time or state shape"
-    assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), \
-        "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
+    if on_presets():
+        assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), \
+            "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
+    else:
+        assert arc.fired is None or 0 <= arc.fired < len(problem.guards(mode)), f"fired = {arc.fired}: no such guard"
     expected = int(np.searchsorted(t_eval, arc.t, side="right"))
     shape = np.shape(arc.y_eval)
     assert shape != (expected, problem.n_states) or expected == problem.n_states, (
@@ -208,12 +257,14 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     assert shape == (problem.n_states, expected), (
         f"y_eval has shape {shape}, expected (n_states, n_points) = ({problem.n_states}, {expected}): "
         f"one column per time of t_eval <= t = {arc.t:.6g}")
-    res = _simulate(integ, problem, 30.0)
+    res = _simulate(integ, problem, _span(problem, 30.0))
     assert res.ok, f"run failed: {res.message}"
     c = res.counters
     assert c.nsteps > 0 or c.nfev > 0, "no work reported: nsteps and nfev are both 0"
     assert c.nfev >= 0 and c.njev >= 0 and c.nsteps >= 0
-    if caps.needs_jacobian:
+    if caps.needs_jacobian and on_presets():
+        # on the belt every such method evaluates it; elsewhere a method that takes a Jacobian only once
+        # the problem turns stiff (LSODA on the falling ball) may rightly evaluate none
         assert c.njev > 0, "declares needs_jacobian but reports njev = 0"
     for key, value in c.extra.items():
         assert isinstance(value, (int, float)) and math.isfinite(value), f"extra counter {key} = {value!r}"
@@ -222,8 +273,9 @@ def check_protocol_and_counters(integ: Integrator) -> None:
 def check_determinism(integ: Integrator) -> None:
     """The same run twice (same instance, then a fresh copy) gives identical events and counters."""
     problem = _problem(2)
-    runs = [_simulate(integ, problem, 20.0), _simulate(integ, problem, 20.0),
-            _simulate(type(integ).from_config(integ.config()), problem, 20.0)]
+    span = _span(problem, 20.0)
+    runs = [_simulate(integ, problem, span), _simulate(integ, problem, span),
+            _simulate(type(integ).from_config(integ.config()), problem, span)]
     for other in runs[1:]:
         assert other.events.equals(runs[0].events), "event logs differ between identical runs"
         assert other.counters.as_dict() == runs[0].counters.as_dict(), "counters differ between identical runs"
@@ -233,25 +285,33 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
     """``advance`` leaves the request's state and times alone (given writable copies)."""
     problem = _problem(2)
     integ.setup(problem)
-    y0 = np.resize([0.2, -0.1, 0.3, 0.05], problem.n_states)
-    t_eval = np.linspace(0.1, 3.0, 7)
+    if on_presets():
+        y0, scale = np.resize([0.2, -0.1, 0.3, 0.05], problem.n_states), 1.0
+    else:
+        y0, scale = problem.initial_state().copy(), problem.time_scale
+    t_eval = np.linspace(0.1, 3.0, 7) * scale
     saved = (y0.copy(), t_eval.copy())
     mode = problem.initial_mode(0.0, y0)
-    integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0,
+    integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0 * scale,
                              guards=problem.guards(mode), t_eval=t_eval))
     assert np.array_equal(y0, saved[0]), "advance changed request.y0"
     assert np.array_equal(t_eval, saved[1]), "advance changed request.t_eval"
 
 
 def _smooth_error(integ: Integrator) -> float:
-    """End-state error of one smooth slip arc of case 1 over 4 time units, against ``exact``.
+    """End-state error of one smooth arc, against the closed form.
 
-    Every block slips backwards near the mode's equilibrium (spring ``i`` carries
+    Without the belt's presets: the problem's first arc from its start state,
+    over half the time ``reference`` takes to its first guard (or :data:`SPAN`
+    time scales), against ``reference``. On the belt: case 1 over 4 time units,
+    against ``exact``; every block slips backwards near the mode's equilibrium (spring ``i`` carries
     the kinetic friction of blocks ``i..n``: for two blocks x1 = rf1 + rf2,
     x2 = x1 + rf2) with speeds well below the belt's, so no guard fires.
     """
     from nsbench.integrators.exact import ExactIntegrator
 
+    if not on_presets():
+        return _first_arc_error(integ)
     problem = _problem(1)
     c = problem.coefficients
     nb = problem.n_blocks
@@ -271,6 +331,24 @@ def _smooth_error(integ: Integrator) -> float:
         f"at {describe(integ)}: smooth arc did not reach its end: " \
         f"{arc.message or f'guard {arc.fired} fired at {arc.t}'}"
     return float(np.max(np.abs(arc.y - exact.advance(request).y)))
+
+
+def _first_arc_error(integ: Integrator) -> float:
+    problem = _problem(0)
+    ref = _reference_for(problem)
+    y0 = problem.initial_state()
+    mode = problem.initial_mode(0.0, y0)
+    span = SPAN * problem.time_scale
+    first = ref.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=span,
+                                   guards=problem.guards(mode)))
+    t_end = span if first.fired is None else 0.5 * first.t
+    request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=t_end, guards=problem.guards(mode))
+    integ.setup(problem)
+    arc = integ.advance(request)
+    assert arc.status.ok and arc.fired is None and arc.t == t_end, \
+        f"at {describe(integ)}: smooth arc did not reach its end: " \
+        f"{arc.message or f'guard {arc.fired} fired at {arc.t}'}"
+    return float(np.max(np.abs(arc.y - ref.advance(request).y)))
 
 
 def _around(integ: Integrator, value: float) -> list[dict[str, Any]]:
@@ -349,15 +427,21 @@ def check_convergence(integ: Integrator) -> None:
 
 
 def check_event_times(integ: Integrator) -> None:
-    """Event sequence and times of case 2 over [0, 60] within :data:`EVENT_BOUND` of ``exact`` (:func:`configured`)."""
+    """Event sequence and times of case 2 over [0, 60] within :data:`EVENT_BOUND` of ``exact`` (:func:`configured`);
+    without the belt's presets, of the problem over :data:`SPAN` time scales against ``reference``."""
     from nsbench.integrators.exact import ExactIntegrator
 
     problem = _problem(2)
-    ref = _simulate(ExactIntegrator(), problem, 60.0).events
+    span = _span(problem, 60.0)
+    if on_presets():
+        ref, what = _simulate(ExactIntegrator(), problem, span), "exact"
+    else:
+        ref, what = _simulate(_reference_for(problem), problem, span), "reference"
+    assert ref.ok, f"the {what} run failed: {ref.message}"
     run, ran_with = configured(integ)
-    res = _simulate(run, problem, 60.0)
+    res = _simulate(run, problem, span)
     assert res.ok, f"at {ran_with}: {res.message}"
-    _compare_events(res.events, ref, EVENT_BOUND, "exact", ran_with)
+    _compare_events(res.events, ref.events, EVENT_BOUND, what, ran_with)
 
 
 def check_cubic_event_times(integ: Integrator) -> None:
@@ -420,10 +504,12 @@ def check_energy_balance(integ: Integrator) -> None:
 
 def check_failure_is_a_status(integ: Integrator) -> None:
     """An exhausted step budget ends the run with a status and a message, never an exception."""
-    res = _simulate(integ, _problem(2), 300.0, max_steps=3)
-    assert not res.ok, "a budget of 3 steps did not stop a run over [0, 300]"
+    problem = _problem(2)
+    span = _span(problem, 300.0)
+    res = _simulate(integ, problem, span, max_steps=3)
+    assert not res.ok, f"a budget of 3 steps did not stop a run over [0, {span:g}]"
     assert res.status in (Status.BUDGET_EXHAUSTED, Status.INTEGRATOR_FAILURE), res.status
-    assert res.message and res.t_final < 300.0
+    assert res.message and res.t_final < span
 
 
 def check_config_round_trip(integ: Integrator) -> None:
@@ -451,6 +537,16 @@ class Check:
     name: str
     run: Callable[[Integrator], None]
     applies: Callable[[Capabilities], str | None] = lambda caps: None  # a reason when it does not apply
+    #: Runs on the belt oscillators' presets only (stuck phases, cubic springs, the energy balance).
+    belt: bool = False
+
+    def skip_reason(self, caps: Capabilities) -> str | None:
+        """Why this check does not run here (capabilities, or a problem without the belt's presets), or None."""
+        reason = self.applies(caps)
+        if reason is None and self.belt and not on_presets():
+            name = FAMILY.get()[0]
+            reason = f"needs the belt oscillators' presets (cases 1-4); {name} has none"
+        return reason
 
     @property
     def doc(self) -> str:
@@ -472,11 +568,11 @@ CHECKS: tuple[Check, ...] = (
           _needs(lambda c: c.step_option is not None, "no step or tolerance option declared")),
     Check("event-times", check_event_times),
     Check("cubic-event-times", check_cubic_event_times,
-          _needs(lambda c: c.supports_nonlinear, "linear problems only")),
+          _needs(lambda c: c.supports_nonlinear, "linear problems only"), belt=True),
     Check("refuses-unsupported", check_refuses_unsupported_problems,
-          _needs(lambda c: not c.supports_nonlinear, "supports cubic springs")),
-    Check("stuck-stays-stuck", check_stuck_block_stays_stuck),
-    Check("energy-balance", check_energy_balance),
+          _needs(lambda c: not c.supports_nonlinear, "supports cubic springs"), belt=True),
+    Check("stuck-stays-stuck", check_stuck_block_stays_stuck, belt=True),
+    Check("energy-balance", check_energy_balance, belt=True),
     Check("failure-status", check_failure_is_a_status),
     Check("config-round-trip", check_config_round_trip),
 )

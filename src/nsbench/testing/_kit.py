@@ -10,10 +10,11 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Iterable, Sequence
 
-from nsbench.errors import ConfigError
+from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import Integrator
-from nsbench.testing._checks import (CHECKS, ONE_CONFIGURATION, STEPPED, Check, checking_on, checking_with,
-                                     configured, given_options, problem_family, step_levels)
+from nsbench.testing._checks import (CHECKS, ONE_CONFIGURATION, STEPPED, Check, CheckSkipped, checking_on,
+                                     checking_with, configured, given_options, on_presets, problem_family,
+                                     step_levels)
 
 PASSED, FAILED, SKIPPED, XFAIL, XPASS = "passed", "failed", "skipped", "xfail", "xpass"
 
@@ -85,14 +86,16 @@ def configure(obj: Any, options: dict[str, Any] | None = None) -> tuple[Integrat
     return integ, given
 
 
-def plan(obj: Any, options: dict[str, Any] | None = None, checks: Sequence[str] | None = None) -> list[str]:
+def plan(obj: Any, options: dict[str, Any] | None = None, checks: Sequence[str] | None = None,
+         problem: str | dict[str, Any] | None = None) -> list[str]:
     """What the accuracy checks will run, one line each: the configuration of the single-configuration
-    checks and the levels of the stepped ones (of ``checks``, default all, that apply to the integrator)."""
+    checks and the levels of the stepped ones (of ``checks``, default all, that apply to the integrator
+    on ``problem``)."""
     integ, given = configure(obj, options)
     caps = type(integ).capabilities
-    applies = {c.name for c in checks_for(integ, checks) if c.applies(caps) is None}
     lines = []
-    with checking_with(given):
+    with checking_on(problem), checking_with(given):
+        applies = {c.name for c in checks_for(integ, checks) if c.skip_reason(caps) is None}
         one = [n for n in ONE_CONFIGURATION if n in applies]
         if one:
             lines.append(f"{', '.join(one)} at {configured(integ)[1]}")
@@ -117,13 +120,21 @@ def run_check(integ: Integrator, check: Check, problem: str | dict[str, Any] | N
 
 def _run_check(integ: Integrator, check: Check) -> CheckResult:
     cls = type(integ)
-    reason = check.applies(cls.capabilities)
+    reason = check.skip_reason(cls.capabilities)
     if reason is not None:
         return CheckResult(cls.name, check.name, SKIPPED, reason, 0.0)
     gap = known_gaps(integ).get(check.name)
     tic = time.perf_counter()
     try:
         check.run(cls.from_config(integ.config()))
+    except CheckSkipped as exc:
+        return CheckResult(cls.name, check.name, SKIPPED, str(exc), time.perf_counter() - tic)
+    except UnsupportedProblemError as exc:
+        if on_presets():  # every integrator runs the belt's linear presets
+            return CheckResult(cls.name, check.name, FAILED, f"refused a belt preset: {exc}",
+                               time.perf_counter() - tic)
+        # an integrator that cannot run this problem says so at setup: reported, not a failure
+        return CheckResult(cls.name, check.name, SKIPPED, f"refused at setup: {exc}", time.perf_counter() - tic)
     except Exception as exc:  # a failing check, whatever the integrator raised
         seconds = time.perf_counter() - tic
         if gap is not None:
@@ -154,7 +165,10 @@ def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
     problem
         The problem family the checks run on: a registry name or a dict of the
         name and the parameters every case shares, e.g. ``{"name": "chain",
-        "n": 5}`` (default: ``'two-dof'``). The checks use its presets 1-4.
+        "n": 5}`` (default: ``'two-dof'``). On the belt oscillators the checks use
+        its presets 1-4; any other problem (``'bouncing-ball'``, a plug-in's) is
+        checked as given against ``reference``, the belt-only checks skipped, and
+        an integrator that refuses it at ``setup`` has every check skipped with its reason.
     options
         Integrator options, set on ``obj``. These, and the settings of a
         configured instance that differ from the defaults, are *the options
@@ -212,7 +226,8 @@ def parametrize_with_checks(integrators: Iterable[Any], problem: str | dict[str,
         gaps = known_gaps(integ)
         for check in CHECKS:
             marks = []
-            reason = check.applies(cls.capabilities)
+            with checking_on(family):
+                reason = check.skip_reason(cls.capabilities)
             if reason is not None:
                 marks.append(pytest.mark.skip(reason=reason))
             elif check.name in gaps:
@@ -230,8 +245,17 @@ class _Runner:
         self.family = family
 
     def __call__(self, integ: Integrator) -> None:
+        import pytest
+
         with checking_on(self.family), checking_with(given_options(integ)):
-            self.check.run(type(integ).from_config(integ.config()))
+            try:
+                self.check.run(type(integ).from_config(integ.config()))
+            except CheckSkipped as exc:
+                pytest.skip(str(exc))
+            except UnsupportedProblemError as exc:
+                if on_presets():
+                    raise
+                pytest.skip(f"refused at setup: {exc}")
 
     def __repr__(self) -> str:
         return f"<check {self.check.name}>"

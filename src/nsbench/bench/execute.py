@@ -79,9 +79,13 @@ def _jsonable(obj: Any) -> str:
 
 
 def problem_label(config: dict[str, Any]) -> str:
-    """``'two-dof/2'`` plus any parameter overrides."""
-    label = f"{config['name']}/{config.get('case')}"
-    if config.get("dimensional"):
+    """``'two-dof/2'`` plus any parameter overrides; a problem without cases by its name (``'bouncing-ball'``).
+
+    ``dimensional`` is said only of a problem with presets: one without cases has one form.
+    """
+    case = config.get("case")
+    label = config["name"] if case is None else f"{config['name']}/{case}"
+    if config.get("dimensional") and case is not None:
         label += " dimensional"
     params = config.get("params") or {}
     if params:

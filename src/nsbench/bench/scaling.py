@@ -48,12 +48,9 @@ def _family_and_n(config_json: str) -> tuple[str, int | None]:
 def _family_label(key: str) -> str:
     if not key:
         return ""
-    config = json.loads(key)
-    label = f"{config['name']}/{config.get('case')}"
-    if config.get("dimensional"):
-        label += " dimensional"
-    params = config.get("params") or {}
-    return label + "".join(f" {k}={v:g}" for k, v in sorted(params.items()))
+    from nsbench.bench.execute import problem_label
+
+    return problem_label(json.loads(key))
 
 
 def with_family(frame: pd.DataFrame) -> pd.DataFrame:

@@ -30,14 +30,18 @@ RESOLUTION_LIMIT = float(np.finfo(float).eps)
 def fastest_rate(problem) -> float:
     """The largest ``|lambda|`` of the field linearised at the problem's start, at least ``1 / time_scale``.
 
-    On the friction family the start mode has every block slipping, which carries
-    every spring and damper (a stuck block is frozen), so this is the fastest
-    motion of the linear part; cubic springs only stiffen it away from the rest
-    state. A field without a linear part (the falling ball: a nilpotent Jacobian,
-    every eigenvalue 0) still moves on the problem's own time scale.
+    On the friction family the field is taken with every block slipping, which
+    carries every spring and damper (a stuck block is frozen: from rest on a belt
+    at rest every block starts stuck, with a zero Jacobian), so this is the
+    fastest motion of the linear part; cubic springs only stiffen it away from
+    the rest state. A field without a linear part (the falling ball: a nilpotent
+    Jacobian, every eigenvalue 0) still moves on the problem's own time scale.
     """
     y = np.asarray(problem.initial_state(), dtype=float)
-    mode = problem.initial_mode(0.0, y)
+    if problem.family == "friction":
+        mode = (1,) * problem.n_blocks
+    else:
+        mode = problem.initial_mode(0.0, y)
     rate = float(np.max(np.abs(np.linalg.eigvals(problem.jacobian(mode, 0.0, y)))))
     return max(rate, 1.0 / problem.time_scale)
 

@@ -3,7 +3,8 @@
 :class:`Status` says how something ended: a run (``simulate``: success, an
 exhausted budget, an event storm, an integrator failure, a missed event) and a
 case of a suite or sweep (``unsupported``, ``error``, ``crashed``, ``time
-limit``, on top of the run's own). Its value is the text written in results,
+limit``, on top of the run's own) and a value of a bifurcation sweep
+(``rest``, ``incomplete``). Its value is the text written in results,
 tables and reports; compare with the members, never with literal strings. The
 compiled core's outcome codes map to it one to one (:mod:`nsbench.hybrid.run`).
 """
@@ -26,6 +27,9 @@ class Status(str, Enum):
     ERROR = "error"
     CRASHED = "crashed"
     TIME_LIMIT = "time limit"
+    # outcomes of a bifurcation-sweep value, beyond a run's own
+    REST = "rest"  # the motion came to rest (sliding equilibrium) before its points: its final state is one point
+    INCOMPLETE = "incomplete"  # fewer section points than asked within the recording window
 
     @property
     def ok(self) -> bool:

@@ -105,7 +105,7 @@ def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):
     problem = get_problem("two-dof", case=1, v0=0.16)  # every member hangs here
     res = largest_exponent(problem, "hanging-at-test", iterations=80, members=4, transient=10.0, workers=2,
                            member_limit=2.0)
-    assert res.status == "failure" and not res.converged
+    assert res.status == "error" and not res.converged
     assert res.message.count("time limit") == 4 and "member 3" in res.message
     assert np.isnan(res.members).all()
 

@@ -106,7 +106,7 @@ def _row(bench: dict[str, Any]) -> dict[str, Any]:
     row.setdefault("case_id", stable_key({"pytest": bench.get("fullname", bench.get("name"))}))
     row.setdefault("integrator", bench.get("name", ""))
     row.setdefault("problem_label", bench.get("group") or "pytest-benchmark")
-    row.setdefault("status", "success")
+    row.setdefault("status", Status.SUCCESS.value)
     row.setdefault("suite", "pytest-benchmark")
     row.setdefault("reference_status", "no accuracy metrics in extra_info")
     data = stats.get("data") or []

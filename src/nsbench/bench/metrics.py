@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
+from nsbench.status import Status
+
 #: Relative error floor of a switching time (half an ulp): digits are capped at ~15.95.
 REL_FLOOR = 2.0 ** -53
 #: Longest event logs aligned in full; longer ones (event storms) are truncated.
@@ -248,7 +250,7 @@ def reaches(target: float, *, status: str, sequence_ok: bool, err_max: float) ->
     It must have succeeded, reproduced the reference's event sequence exactly (a
     wrong sequence never counts), and kept every switching-time error within ``target``.
     """
-    return bool(status == "success" and sequence_ok and math.isfinite(err_max) and err_max <= target)
+    return bool(status == Status.SUCCESS and sequence_ok and math.isfinite(err_max) and err_max <= target)
 
 
 def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.ndarray | None,

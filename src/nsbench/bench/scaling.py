@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.bench.tables import reached_mask
+from nsbench.status import Status
 
 #: the switching-time error the scaling study asks every integrator to reach
 SCALING_TARGET = 1e-8
@@ -75,7 +76,7 @@ def _why_not(rows: pd.DataFrame, target: float) -> str:
     """Why no configuration of one (integrator, n) reaches ``target``: the statuses, in short."""
     reasons = []
     for status, group in rows.groupby("status", sort=True):
-        if status == "success":
+        if status == Status.SUCCESS:
             wrong = int((~group["sequence_ok"].fillna(False).astype(bool)).sum())
             if wrong:
                 reasons.append(f"wrong event sequence x{wrong}")
@@ -115,7 +116,7 @@ def scaling_table(frame: pd.DataFrame, target: float = SCALING_TARGET) -> pd.Dat
                 "events_per_time": float(n_ref.iloc[0]) / span if len(n_ref) and span > 0 else math.nan,
                 "why": ""}
             is_reference = (rows["reference"] == name).all()
-            ok = rows[reached_mask(rows, target)] if not is_reference else rows[rows["status"] == "success"]
+            ok = rows[reached_mask(rows, target)] if not is_reference else rows[rows["status"] == Status.SUCCESS]
             if len(ok) and ok["wall_time"].notna().any():
                 best = ok.loc[ok["wall_time"].idxmin()]
                 row.update(reached=True, options=best["options"], wall_time=float(best["wall_time"]),

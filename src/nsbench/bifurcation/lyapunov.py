@@ -59,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nsbench.errors import ConfigError
+from nsbench.status import Status
 
 #: Family-wise false-alarm rate of the outlier test over all members.
 OUTLIER_ALPHA = 1e-3
@@ -143,7 +144,7 @@ class LyapunovResult:
     mean_return_time: float
     block_mismatches: int
     seed: int
-    status: str = "success"
+    status: str = Status.SUCCESS.value
     message: str = ""
     logs: np.ndarray = field(default_factory=lambda: np.empty((0, 0)), repr=False)
 
@@ -173,7 +174,7 @@ class LyapunovResult:
             verdict = "converged"
         else:
             why = []
-            if self.status != "success":
+            if self.status != Status.SUCCESS:
                 why.append(self.status)
             if not self.precise:
                 why.append("standard error too large")
@@ -551,4 +552,4 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
         iterations=n_done, iterations_per_member=per_member,
         mean_return_time=total_time / n_done if n_done else np.nan,
         block_mismatches=sum(r.mismatches for r in runs), seed=seed,
-        status="failure" if failed else "success", message="; ".join(failed), logs=logs)
+        status=(Status.ERROR if failed else Status.SUCCESS).value, message="; ".join(failed), logs=logs)

@@ -31,6 +31,7 @@ from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec, compute_point, failure_rows
 from nsbench.jobs import SETUP_LIMIT
 from nsbench.progress import Progress
+from nsbench.status import Status
 
 #: Default hard limit of one parameter value (seconds): generous, a hung integrator is what it stops.
 POINT_LIMIT = 600.0
@@ -164,7 +165,7 @@ def supervise(pool: Any, spec: SweepSpec, parts: list[list[int]], point_limit: f
             rest, rows = left[o.key], got.pop(o.key)
             left[o.key] = []
             if o.kind != "done" and rest:
-                status = {"failed": "failure"}.get(o.kind, o.kind)
+                status = {"failed": Status.ERROR.value}.get(o.kind, o.kind)  # "time limit", "crashed": Status values
                 if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
                     rows.append(failure_rows(spec, rest[0], status, o.reason))
                     advance(1)
@@ -348,7 +349,7 @@ def _dask_rows(spec: SweepSpec, future: Any, indices: list[int]) -> pd.DataFrame
         return future.result()
     except Exception as exc:  # noqa: BLE001 - KilledWorker, a worker without nsbench...: the values' result
         reason = f"the Dask task failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
-        return pd.concat([failure_rows(spec, i, "failure", reason) for i in indices], ignore_index=True)
+        return pd.concat([failure_rows(spec, i, Status.ERROR.value, reason) for i in indices], ignore_index=True)
 
 
 #: Per thread of a Dask worker: its supervised process pool (a pool serves one caller at a time).

@@ -21,11 +21,12 @@ import numpy as np
 import pandas as pd
 
 from nsbench.errors import ConfigError, NsbenchError
+from nsbench.status import Status
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
 #: statuses of a value whose points are usable: ``rest`` is a motion that came to rest
 #: (pure sliding damped out) before ``record`` points: its final state is its one point
-OK_STATUSES = ("success", "rest")
+OK_STATUSES = (Status.SUCCESS, Status.REST)
 REST_SPEED = 1e-9
 EVENT_COUNTS = (("stick", "sticks"), ("slip", "slips"), ("reverse", "reverses"))
 
@@ -262,21 +263,21 @@ def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
         integ = integrator if integrator is not None else get_integrator(spec.integrator, **spec.options)
         t, y, blocks, status, message, counters = _point(spec, problem, integ)
     except (NsbenchError, ArithmeticError, ValueError, RuntimeError) as exc:
-        return failure_rows(spec, index, "failure", f"{type(exc).__name__}: {exc}", time.perf_counter() - tic)
+        return failure_rows(spec, index, Status.ERROR.value, f"{type(exc).__name__}: {exc}", time.perf_counter() - tic)
     return _rows(spec, names, index, value, t, y, blocks, status, message, counters,
                  time.perf_counter() - tic)
 
 
 def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
-    if status != "success":
+    if status != Status.SUCCESS:
         return status, f"stopped at t = {t_last:.6g}"
     if n_found < spec.record and rest:
-        return "rest", (f"at rest (sliding equilibrium) by t = {t_last:.6g} after {n_found} "
+        return Status.REST.value, (f"at rest (sliding equilibrium) by t = {t_last:.6g} after {n_found} "
                         f"{spec.section} points; the final state is recorded")
     if n_found < spec.record:
-        return "incomplete", (f"{n_found} of {spec.record} {spec.section} points by t = {t_last:.6g} "
+        return Status.INCOMPLETE.value, (f"{n_found} of {spec.record} {spec.section} points by t = {t_last:.6g} "
                               f"(window {spec.record_window:g} after the transient)")
-    return "success", ""
+    return Status.SUCCESS.value, ""
 
 
 def _point(spec: SweepSpec, problem, integ):
@@ -321,6 +322,6 @@ def _point(spec: SweepSpec, problem, integ):
     status, message = _finish(spec, len(t), raw.status.value, raw.t, rest)
     if raw.status.ok is False:
         message = f"{message}: {raw.message}" if raw.message else message
-    if status == "rest":
+    if status == Status.REST:
         return np.array([raw.t]), raw.y[None, :], np.zeros(1, np.int64), status, message, counters
     return np.asarray(t), np.asarray(y), np.asarray(blocks), status, message, counters

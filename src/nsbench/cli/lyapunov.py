@@ -7,6 +7,7 @@ import sys
 
 from nsbench.cli._common import (MIN_D0, add_problem_arguments, check_fixed_step, check_output_file, parse_count,
                                  parse_real, problem_from_args)
+from nsbench.status import Status
 
 
 def add_parser(sub) -> None:
@@ -74,7 +75,7 @@ def main(args: argparse.Namespace) -> int:
                       "iteration": np.tile(np.arange(1, per + 1), members),
                       "log_growth": res.logs.ravel()}).to_csv(args.out, index=False)
         print(f"log growth per member and iteration -> {args.out}")
-    if res.status != "success":  # the members' reasons are printed above; one line on stderr says so
+    if res.status != Status.SUCCESS:  # the members' reasons are printed above; one line on stderr says so
         failed = res.message.count("member ") or "some"
         print(f"nsbench: lyapunov: no exponent: {failed} member(s) failed (reasons above)", file=sys.stderr)
         return 1

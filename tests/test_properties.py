@@ -7,6 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import nsbench
+from nsbench.status import Status
 
 NEXT = {"stick": {"slip"}, "slip": {"stick", "reverse"}, "reverse": {"stick", "reverse"}}
 
@@ -66,4 +67,15 @@ def test_exact_random_linear_problems(params):
 def test_dop853_random_cubic_problems(params):
     p = nsbench.get_problem("two-dof", case=4, **params)
     res = nsbench.simulate(p, "scipy-dop853", 40.0, t_eval=np.linspace(0, 40, 401))
+    if res.status is Status.EVENT_MISSED:
+        # at its default tolerance dop853 may step over a stick and its slip (a crossing pair inside one
+        # step): the core must then say so, and the flag must be true: the reference has an event there
+        # that the run lacks, its events before it are the run's, and the run ends where the guard was seen
+        # on its wrong side, after that event
+        ref = nsbench.simulate(p, "reference", 40.0).events
+        got = list(zip(res.events["kind"], res.events["block"]))
+        want = list(zip(ref["kind"], ref["block"]))
+        assert len(want) > len(got) and want[: len(got)] == got, (got, want)
+        assert ref["t"].iloc[len(got)] <= res.t_final, (ref["t"].iloc[len(got)], res.t_final)
+        return
     check_run(res, p)

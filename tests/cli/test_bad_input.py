@@ -162,7 +162,7 @@ CASES = [
     ("simulate-atol-inf", S + ["--integrator", "scipy-rk45", "--atol", "inf"], "--atol = inf"),
     ("simulate-h-inf", S + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
     ("simulate-h-zero", S + ["--integrator", "henon-rk4", "--h", "0"], "--h = 0"),
-    ("simulate-option-h-inf", S + ["--integrator", "henon-rk4", "--option", "h=inf"], "h = inf must be a finite"),
+    ("simulate-option-h-inf", S + ["--integrator", "henon-rk4", "--option", "h=inf"], "--option h=inf: an option value must be a finite number"),
     ("simulate-option-h-huge", S + ["--integrator", "henon-rk4", "--option", "h=1e300"], "stability limit"),
     ("simulate-h-tiny", S + ["--integrator", "henon-rk4", "--h", "1e-18"], "too small to move the state"),
     ("bifurcation-start-is-stop", ["bifurcation", "one-dof", "--sweep", "v0=0.5:0.5:20", "--out", "{d}/bif-ss"],

@@ -224,8 +224,9 @@ def test_the_plan_names_the_middle_level_or_the_options_given():
 
 def test_stepped_checks_run_around_the_given_step():
     (result,) = check_integrator("henon-rk4", ["convergence"], options={"h": 0.5})
-    # h = 2 steps past case 1's first guard: the failure names the configuration it ran
-    assert result.status == "failed" and result.message.startswith("at h=2: smooth arc did not reach its end")
+    # the loosest of the three levels around h = 0.5 is h = 2, beyond RK4's stability limit on the belt
+    # (2 x 1.618 > 2 sqrt 2): henon-rk4 refuses it at setup, and the failure says which step and why
+    assert result.status == "failed" and "henon-rk4: h = 2 is beyond RK4's stability" in result.message
 
 
 def test_a_bad_option_is_refused_before_any_check():

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -89,6 +90,13 @@ class _CaseState:
     done: bool = False
     rounds: int = 0  # timing rounds finished
     row: dict[str, Any] | None = None  # its row so far (from the first timing round on)
+
+    @property
+    def loops(self) -> int | None:
+        """Runs per sample, set by the calibration run of the first round (``None`` before it)."""
+        if self.row is None or self.row.get("loops") is None:
+            return None
+        return int(self.row["loops"])
 
     @property
     def risky(self) -> bool:
@@ -165,6 +173,8 @@ class Scheduler:
         self.slots = [_Slot(i) for i in range(max(1, workers))]
         self.timing = False  # the phase: False while preparing
         self.timeline: list[TaskRecord] = []
+        #: the 1-minute load average each time a sample was sent (the report's line on the machine's noise)
+        self.loads: list[float] = []
         self._refs_pending = len(references)
         self._next_task = 0
 
@@ -219,12 +229,19 @@ class Scheduler:
                 # earliest round first (runs interleaved in time), then longest first: the best balance
                 state = max(free, key=lambda s: (-s.rounds, s.order))
                 message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm,
-                                       round=state.rounds)
+                                       round=state.rounds, loops=state.loops)
+                self._sample_load()
                 return self._send(slot, "time", state, message, state.case.label)
             return
         need = self._needs(slot)
         if need:
             self._send_warm(slot, max(need, key=lambda s: s.estimate))
+
+    def _sample_load(self) -> None:
+        try:
+            self.loads.append(float(os.getloadavg()[0]))
+        except (AttributeError, OSError):  # pragma: no cover - platforms without a load average
+            pass
 
     def _check_progress(self) -> None:
         """Fail loudly rather than wait forever if a rule above leaves work unassigned."""

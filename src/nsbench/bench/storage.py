@@ -30,10 +30,10 @@ from nsbench.errors import ConfigError
 from nsbench.files import STALE_AFTER, remove_stale_temporaries
 
 PROVENANCE_KEY = b"nsbench.provenance"
-_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
+_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "loops", "n_ref", "n_prefix",
         "n_matched", "n_missed", "n_extra", "first_divergence_index")
 _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
-          "wall_spread", "integrator_time", "setup_time", "setup_time_timed", "warmup_time",
+          "wall_spread", "integrator_time", "cpu_time", "setup_time", "setup_time_timed", "warmup_time",
           "first_divergence_time",
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
           "final_state_err", "state_err_l2", "ref_conditioning", "ref_double_floor", "ref_certainty")

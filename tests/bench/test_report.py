@@ -80,8 +80,14 @@ def test_timing_spread_is_shown(report):
     assert len(reached) and reached["wall_spread"].notna().all()
     row = md[md.index("| one-dof/1 | henon-rk4 |"):].splitlines()[0]
     assert " s ±" in row                                    # median ± half its min-max range
-    assert "## Timing spread" in md and "Times are medians of 3 timed runs per case" in md
+    assert "## Timing spread" in md and "Times are medians of 3 timed samples per case" in md
     assert "This run is incomplete" not in md
+    # the line on the machine's noise comes first, from the loads sampled while timing
+    assert md.splitlines()[2].startswith("How noisy the machine was: load average ")
+    assert "a case's timed samples spread by" in md.splitlines()[2]
+    # set-up is charged to each integrator once, not to the level that happened to compile
+    setup = md[md.index("## Set-up per integrator"):].split("## Figures")[0]
+    assert "| integrator | first_use | on | later | cases |" in setup and "| henon-rk4 |" in setup
 
 
 def test_work_precision_whiskers_span_min_to_max():

@@ -19,12 +19,11 @@ from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_tabl
 from nsbench.bench.summary import (compact, conditioning_table, display, findings, problem_summary, reference_costs, reference_grade,
                                    wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
-from nsbench.bench.timing import WIDE_SPREAD, wide_spread
+from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 
 _RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
-                   "integrator_time", "engine_share", "n_repeats", "setup_time", "nfev", "n_events", "n_missed", "n_extra", "switch_err_max",
-                   "switch_digits",
-                   "state_err_l2"]
+                   "integrator_time", "engine_share", "n_repeats", "loops", "nfev", "n_events", "n_missed",
+                   "n_extra", "switch_err_max", "switch_digits", "state_err_l2"]
 
 
 @dataclass
@@ -151,13 +150,28 @@ def _spread_table(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def _timing_text(frame: pd.DataFrame) -> str:
-    reps = frame.loc[frame["status"] == "success", "n_repeats"].dropna()
+    ok = frame[frame["status"] == "success"]
+    reps = ok["n_repeats"].dropna()
     runs = f"{int(reps.min())}" if len(reps) and reps.min() == reps.max() else \
         (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
-    return (f"Times are medians of {runs} timed runs per case, all after an untimed warm-up (setup and "
-            "compilation apart, never while another case was timed), taken in rounds over all cases so that "
-            "a case's runs are spread over the run and meet the machine's drifting speed instead of one "
-            "moment of it; '±' is half the min-max range of the runs relative to the median.")
+    looped = int((pd.to_numeric(ok.get("loops"), errors="coerce") > 1).sum()) if "loops" in ok else 0
+    loops = (f" {looped} case(s) run shorter than the suite's minimum sample time, so each of their samples is "
+             "the mean of a loop of 2, 5, 10, 20, ... back-to-back runs lasting at least that long (the count is "
+             "the column loops)." if looped else "")
+    return (f"Times are medians of {runs} timed samples per case (seconds per run), all after an untimed warm-up "
+            "(setup and compilation apart, never while another case was timed), taken in rounds over all cases so "
+            "that a case's samples are spread over the run and meet the machine's drifting speed instead of one "
+            f"moment of it.{loops} '±' is half the min-max range of the samples relative to the median. An "
+            "interval [a-b] of a time is the distribution-free interval of its median (order statistics; with 5 "
+            "samples the range, 94 %); of a cost ratio, the 95 % Moses interval of the Hodges-Lehmann ratio "
+            "(the median of the ratios of every pair of samples).")
+
+
+SETUP_CAPTION = ("Set-up (compilation of numba kernels and heyoka models, SUNDIALS and other objects) is charged to "
+                 "the integrator, not to an accuracy level: the first case of an integrator that a worker process "
+                 "warms up compiles, and the others find it compiled, so a case's own setup_time only says which "
+                 "case came first. 'first_use' is the largest set-up over the integrator's cases (and the case "
+                 "that paid it), 'later' the median over its other cases. Set-up is never part of a timed sample.")
 
 
 def with_engine_share(frame: pd.DataFrame) -> pd.DataFrame:
@@ -233,7 +247,11 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
                       "widest first: their times are less certain (a busy machine, or a run that is not "
                       "repeatable)." + (f" {more} more are not listed (see wall_spread in the results)."
                                         if more else ""))
+    noise = noise_line(frame, prov)
+    setup = setup_table(frame)
     md = ["# nsbench report", ""]
+    if noise:
+        md += [noise, ""]
     if problems:
         md += ["**This run is incomplete:**", "", *[f"- {line}" for line in problems], ""]
     md += answer.markdown()
@@ -249,7 +267,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
            [f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).", ""])
     engine = engine_share_table(frame)
     md += ["## Ranking", "", rank_caption, "", markdown_table(rank), "", "## Integrator time and engine share",
-           "", ENGINE_CAPTION, "", markdown_table(engine), "", "## Figures", ""]
+           "", ENGINE_CAPTION, "", markdown_table(engine), "", "## Set-up per integrator", "", SETUP_CAPTION, "",
+           markdown_table(setup), "", "## Figures", ""]
     for fig in figures[len(scaling_figs):]:
         md += [f"### {fig.title}", "", f"![{fig.title}](figures/{fig.png.name})", "", fig.caption, ""]
     if len(bif_rows):
@@ -269,8 +288,9 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     for target in answer.summary["target"].unique():  # one page-sized table per target first
         tex += [latex_table(compact(answer.summary, target),
                             f"Cheapest method under test reaching a switching-time error of {target} on each "
-                            "problem (median warm wall time, ± half the min-max range of its timed runs), the "
-                            "next cheapest and its cost ratio, and how many methods reach the target.",
+                            "problem, or the methods tied for it (median warm wall time per run with the interval "
+                            "of that median), the next fastest and its cost ratio with the ratio's 95 % interval, "
+                            "and how many methods reach the target.",
                             f"tab:nsbench-target-{target}"), ""]
     tex += ["% Supplement: every integrator and target.",
             latex_table(wide, ft_caption, "tab:nsbench-fixed-target"), "",
@@ -282,15 +302,18 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     (d / "index.html").write_text(_html(frame, prov, wide, rank, figures, failures, results_view,
                                         ft_caption, rank_caption, problems, spread, spread_caption, engine,
-                                        (scaling, scaling_fit, scaling_figs), answer, bif))
+                                        (scaling, scaling_fit, scaling_figs), answer, bif, noise, setup))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
 
 
-ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it "
-                  "(median warm wall time ± half the min-max range of its timed runs), the others' cost as a "
-                  "ratio to it (with their own spread), and the methods that never reach it, with why. A run "
-                  "with a wrong event sequence never reaches a target. A target below what the reference can "
-                  "certify (or double precision can resolve on that problem) is not graded.")
+ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it (median "
+                  "warm wall time per run, with the interval of that median), every other method's cost as a ratio "
+                  "to the fastest with the ratio's 95 % interval, and the methods that never reach it, with why. "
+                  "Methods whose times cannot be told apart from the fastest one's (the intervals of their medians "
+                  "overlap, or the ratio's interval holds 1) are tied: then the cheapest column names every tied "
+                  "method and 'tied' follows their ratios. A run with a wrong event sequence never reaches a "
+                  "target. A target below what the reference can certify (or double precision can resolve on that "
+                  "problem) is not graded.")
 WRONG_CAPTION = ("Runs that succeeded with a different event sequence from the reference's (events missed / "
                  "extra, after aligning the sequences): they never reach a target and are never the cheapest.")
 REFERENCE_CAPTION = ("References, shown apart and not ranked: each problem's reference (what the errors above "
@@ -367,7 +390,7 @@ def _inline(text: str) -> str:
 
 
 def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, rank_caption, problems,
-          spread, spread_caption, engine, scaling_parts, answer, bif=None) -> str:
+          spread, spread_caption, engine, scaling_parts, answer, bif=None, noise="", setup=None) -> str:
     esc = html.escape
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              "<title>nsbench report</title><style>",
@@ -379,6 +402,8 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
              "overflow-x:auto}.wide{overflow-x:auto;max-width:100%}.answer{background:#f3f7fb;"
              "border-left:4px solid #2b6cb0;padding:0.6em 1em 0.6em 2em}",
              "</style></head><body>", "<h1>nsbench report</h1>"]
+    if noise:
+        parts.append(f"<p class='noise'>{esc(noise)}</p>")
     if problems:
         parts.append("<p><strong>This run is incomplete:</strong></p><ul>"
                      + "".join(f"<li>{_inline(p)}</li>" for p in problems) + "</ul>")
@@ -396,8 +421,10 @@ def _html(frame, prov, wide, rank, figures, failures, results_view, ft_caption, 
     parts += ([f"<p>{esc(spread_caption)}</p>", _html_table(spread)] if len(spread) else
               [f"<p>Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).</p>"])
     parts += ["<h2>Ranking</h2>", f"<p>{esc(rank_caption)}</p>", _html_table(rank),
-              "<h2>Integrator time and engine share</h2>", f"<p>{esc(ENGINE_CAPTION)}</p>", _html_table(engine),
-              "<h2>Figures</h2>"]
+              "<h2>Integrator time and engine share</h2>", f"<p>{esc(ENGINE_CAPTION)}</p>", _html_table(engine)]
+    if setup is not None:
+        parts += ["<h2>Set-up per integrator</h2>", f"<p>{esc(SETUP_CAPTION)}</p>", _html_table(setup)]
+    parts += ["<h2>Figures</h2>"]
     for fig in figures[len(scaling_figs):]:
         parts.append(_figure_html(fig))
     if bif is not None and len(bif[0]):

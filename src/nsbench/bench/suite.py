@@ -209,7 +209,7 @@ class Suite:
         time is their median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS`
         (3) are raised to 3.
     min_sample_time
-        Seconds a timed sample lasts at least (default 0.02): a case whose run is
+        Seconds a timed sample lasts at least (default 0.05): a case whose run is
         shorter is run ``loops`` times back to back per sample, and the sample is
         their mean (:func:`nsbench.bench.timing.loops_for`); 0 times single runs.
     repeat_budget

@@ -24,9 +24,10 @@ MIN_REPEATS = 3
 #: has a distribution-free interval of 94 % (the range of the samples).
 DEFAULT_SAMPLES = 5
 #: Shortest sample unless a suite says otherwise (seconds of timed run): shorter runs are looped.
-#: 20 ms is 20,000 times the clock's resolution and about 8 scheduler time slices, and keeps the
-#: default suite within its time budget (docs/bench.md, "How a case runs").
-MIN_SAMPLE_TIME = 0.02
+#: 50 ms is 50,000 times perf_counter's resolution and a dozen of the Linux scheduler's time
+#: slices (so one preemption is a few per cent of a sample), and costs the default suite about
+#: 40 s more than single runs on 2 cores (docs/bench.md, "How a case runs").
+MIN_SAMPLE_TIME = 0.05
 #: Most runs in one sample (a run of 1 us would otherwise loop 20,000 times).
 MAX_LOOPS = 10_000
 #: Relative spread ``(max - min) / median`` above which a report flags a case's timing.

@@ -1,11 +1,17 @@
 """Integrators with a planted slowdown, for ``benchmarks/compare_false_alarms.py``.
 
-``planted-dop853`` and ``planted-rk4`` are ``scipy-dop853`` and ``henon-rk4`` run
-through the per-arc ``advance`` path; their ``-2x`` twins compute every arc twice
-and return the second result: twice the work, really done (not a sleep), with
-the same results and the same counters (so that only the timing statistics of
-``nsbench compare`` can see the difference). They live in a module, not in the
-script, so that the bench's worker processes can import them.
+- ``planted-dop853`` is ``scipy-dop853``; its twin ``planted-dop853-2x`` computes
+  every arc twice and returns the second result: twice the integrator's work,
+  really done (not a sleep), with the same results and counters, so that only
+  the timing statistics of ``nsbench compare`` can see it (the arcs are nearly
+  all of a run's time: about 1.9x the run).
+- ``planted-rk4`` is ``henon-rk4`` (the whole run in its compiled kernel); its
+  twin ``planted-rk4-2x`` takes half the step at each level: twice the steps and
+  right-hand-side evaluations, so twice the counted work of the run (its
+  short runs are timed in loops: :func:`nsbench.bench.timing.loops_for`).
+
+They live in a module, not in the script, so that the bench's worker processes
+can import them.
 """
 
 from __future__ import annotations
@@ -32,22 +38,16 @@ class PlantedDOP853Twice(PlantedDOP853):
 
 
 class PlantedRK4(HenonRK4):
-    """``henon-rk4`` one arc per call (its compiled kernel per arc, the hybrid core in Python between)."""
+    """``henon-rk4`` under another name (the whole run in its compiled kernel)."""
 
     name = "planted-rk4"
 
-    def advance(self, request: ArcRequest) -> ArcResult:
-        return super().advance(request)
-
 
 class PlantedRK4Twice(PlantedRK4):
-    """``planted-rk4`` computing every arc twice."""
+    """``planted-rk4`` at half the step of each level: twice the steps."""
 
     name = "planted-rk4-2x"
-
-    def advance(self, request: ArcRequest) -> ArcResult:
-        super().advance(request)
-        return super().advance(request)
+    accuracy_levels = tuple({"h": level["h"] / 2} for level in HenonRK4.accuracy_levels)
 
 
 #: Each planted integrator and its twice-the-work twin.

@@ -86,6 +86,22 @@ def test_twenty_noisy_comparisons_of_identical_work_flag_nothing_and_a_planted_2
     assert flagged == 20
 
 
+def test_the_machine_probe_takes_a_slower_core_out_of_the_cpu_clock():
+    cpu = [0.095, 0.099, 0.094, 0.104, 0.096]
+    probe = [0.0050, 0.0051, 0.0049, 0.0052, 0.0050]
+    # identical work on a core running 1.8x slower (a busy hyperthread sibling): CPU and probe both 1.8x
+    v = time_verdict(A, [3.0 * t for t in A], 1.5, a_cpu=cpu, b_cpu=[1.8 * t for t in cpu], a_probe=probe,
+                     b_probe=[1.8 * t for t in probe])
+    assert v.verdict == "load" and v.cpu_ratio == pytest.approx(1.8) and v.work_ratio == pytest.approx(1.0)
+    # twice the work on a core running 1.8x faster: the CPU clock sees 1.1x, the work clock 2x
+    hidden = time_verdict(A, A, 1.5, a_cpu=cpu, b_cpu=[2.0 / 1.8 * t for t in cpu], a_probe=probe,
+                          b_probe=[t / 1.8 for t in probe])
+    assert hidden.verdict == "slower" and hidden.work_ratio == pytest.approx(2.0)
+    assert hidden.cpu_ratio == pytest.approx(2.0 / 1.8)
+    # probes missing on one side (older results): the CPU clock decides
+    assert time_verdict(A, A, 1.5, a_cpu=cpu, b_cpu=[2.0 * t for t in cpu], a_probe=probe).verdict == "slower"
+
+
 def test_work_and_error_verdicts():
     assert error_verdict(1e-9, 5e-9, 1.5)[1] == "worse"
     assert error_verdict(1e-17, 5e-16, 1.5)[1] == "same"          # both below the round-off floor

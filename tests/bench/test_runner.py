@@ -70,6 +70,7 @@ def test_tidy_schema_one_row_per_case(pooled):
     timed = frame[frame["status"] == "success"]
     assert (timed["n_repeats"] == 3).all() and all(len(w) == 3 for w in timed["wall_times"])
     assert all(len(w) == 3 for w in timed["cpu_times"]) and (timed["cpu_time"] > 0).all()
+    assert all(len(p) == 3 and min(p) > 0 for p in timed["probe_times"])   # the machine probe of each sample
     # a sample is one run, or a loop of 1, 2, 5, 10, 20, ... runs chosen by the calibration run
     autorange = {int(round(10 ** (k // 3) * (1, 2, 5)[k % 3])) for k in range(13)}
     assert set(timed["loops"]) <= autorange

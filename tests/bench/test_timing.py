@@ -9,8 +9,8 @@ import pytest
 
 from nsbench.bench.execute import merge_runs
 from nsbench.bench.storage import to_frame
-from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, noise_line, setup_table, spread_label, summarize,
-                                  wide_spread)
+from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, noise_line, probe, setup_table, spread_label,
+                                  summarize, wide_spread)
 
 
 def test_summarize_gives_median_range_and_relative_spread():
@@ -110,3 +110,9 @@ def test_setup_is_charged_to_the_integrator_not_to_the_level_that_ran_first():
     assert table.loc["cvode-adams", "first_use"] == 16.3 and table.loc["cvode-adams", "on"] == "two-dof/1 level 1"
     assert table.loc["cvode-adams", "later"] == pytest.approx(0.0008) and table.loc["cvode-adams", "cases"] == 3
     assert math.isnan(table.loc["exact", "later"]) and list(table.index) == ["cvode-adams", "exact"]
+
+
+def test_the_machine_probe_is_a_positive_cpu_time():
+    # a fixed workload on the CPU clock: positive and finite on any machine (its size is not asserted)
+    seconds = [probe() for _ in range(3)]
+    assert all(0 < s < 10 for s in seconds)

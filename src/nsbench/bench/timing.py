@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import statistics
+import time
 from typing import Iterable
 
 import pandas as pd
@@ -48,6 +49,33 @@ def loops_for(run_seconds: float, min_sample_time: float) -> int:
         loops = int(round(loops * (2, 2.5, 2)[k % 3]))  # 1 -> 2 -> 5 -> 10 -> 20 -> 50 ...
         k += 1
     return min(loops, MAX_LOOPS)
+
+
+#: Iterations of the machine probe (about 5 ms of one current core).
+PROBE_LOOPS = 8000
+
+
+def probe() -> float:
+    """CPU seconds of a fixed workload, timed just before each sample: how fast the core is right now.
+
+    On a shared (virtual) machine a core's speed changes with what else runs:
+    another process on its hyperthread sibling, the host taking the core (time
+    that can show as this process's CPU time), frequency changes. Measured on
+    the 2-core development machine at load average 6-8, the CPU time of the
+    same run rose by up to 1.85x. The probe slows with it, so a sample's CPU
+    time over the probe's (:mod:`nsbench.bench.compare`) measures the work
+    with the machine's speed taken out. The workload is interpreter steps and
+    small numpy calls, like the Python parts of most cases, and does not
+    depend on nsbench or on any integrator.
+    """
+    import numpy as np
+
+    a = np.arange(64.0)
+    x = 0.0
+    tic = time.process_time()
+    for i in range(PROBE_LOOPS):
+        x += float(np.dot(a, a)) * 1e-9 + (i % 7) * 0.5
+    return time.process_time() - tic
 
 
 def _median(values: list[float]) -> float:

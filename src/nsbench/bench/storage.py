@@ -277,6 +277,11 @@ def _checked(path: Path) -> pd.DataFrame:
                           "its case again") from None
 
 
+def write_results(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
+    """``frame`` (rows of the tidy schema) as one Parquet file with ``provenance`` in its metadata, atomically."""
+    _write_atomic(_table(to_frame(frame.to_dict("records")), provenance), Path(path))
+
+
 def write_csv(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
     """``frame`` as CSV after one ``# key: value`` line per provenance entry, written atomically."""
     tmp = path.with_name(path.name + ".tmp")

@@ -110,16 +110,15 @@ def main() -> int:
                      "load_b": loads[i].get("median"), "identical_cases": len(same),
                      "identical_flagged": int(same["flagged"].sum()),
                      "identical_flags": "; ".join(f"{r.integrator} {r.options} {r.flags} (x{r.time_ratio:.2f}, "
-                                                  f"cpu x{r.cpu_ratio:.2f}, work x{r.work_ratio:.2f})"
+                                                  f"cpu x{r.cpu_ratio:.2f})"
                                                   for r in same[same["flagged"]].itertuples()),
                      "identical_load_verdicts": int((same["time_verdict"] == "load").sum()),
                      "planted_cases": len(planted), "planted_slower": int((planted["time_verdict"] == "slower").sum()),
                      "planted_missed": "; ".join(f"{r.integrator} {r.options} {r.time_verdict} (x{r.time_ratio:.2f}, "
-                                                 f"cpu x{r.cpu_ratio:.2f}, work x{r.work_ratio:.2f})"
+                                                 f"cpu x{r.cpu_ratio:.2f})"
                                                  for r in planted[planted["time_verdict"] != "slower"].itertuples()),
                      "planted_wall_ratio_median": float(planted["time_ratio"].median()),
-                     "planted_cpu_ratio_median": float(planted["cpu_ratio"].median()),
-                     "planted_work_ratio_median": float(planted["work_ratio"].median())})
+                     "planted_cpu_ratio_median": float(planted["cpu_ratio"].median())})
     table = pd.DataFrame(rows)
     table.to_csv(out / "summary.csv", index=False)
     with pd.option_context("display.width", 250, "display.max_colwidth", 80):

@@ -75,6 +75,13 @@ class Progress:
             while self._next_line <= fraction + 1e-12:
                 self._next_line += 0.1
 
+    def grow(self, steps: float) -> None:
+        """``steps`` more (weighted) steps of work than announced (e.g. a noisy case's extra samples)."""
+        if steps > 0 and self.total > 0:
+            self.total += steps
+            self._bar.total = self.total
+            self._bar.refresh()
+
     def close(self) -> None:
         self._bar.close()
 

@@ -9,7 +9,7 @@ import pytest
 
 from nsbench.bench.execute import merge_runs
 from nsbench.bench.storage import to_frame
-from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, noise_line, probe, setup_table, spread_label,
+from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, needs_more, noise_line, setup_table, spread_label,
                                   summarize, wide_spread)
 
 
@@ -112,7 +112,12 @@ def test_setup_is_charged_to_the_integrator_not_to_the_level_that_ran_first():
     assert math.isnan(table.loc["exact", "later"]) and list(table.index) == ["cvode-adams", "exact"]
 
 
-def test_the_machine_probe_is_a_positive_cpu_time():
-    # a fixed workload on the CPU clock: positive and finite on any machine (its size is not asserted)
-    seconds = [probe() for _ in range(3)]
-    assert all(0 < s < 10 for s in seconds)
+def test_a_case_gets_more_samples_while_its_cpu_clock_spreads_widely():
+    tight = {"status": "success", "wall_times": [0.1, 0.3, 0.1, 0.2, 0.1],            # the wall clock is noisy
+             "cpu_times": [0.090, 0.092, 0.091, 0.093, 0.090]}
+    assert not needs_more(tight, 10)                                          # ... the CPU clock is not
+    wide = {**tight, "cpu_times": [0.09, 0.13, 0.09, 0.10, 0.09]}             # 44 % on the CPU clock
+    assert needs_more(wide, 10) and not needs_more(wide, 5)                   # until max_repeats
+    # rows without cpu times: the wall clock decides; a failure never gets more
+    assert needs_more({"status": "success", "wall_times": [0.1, 0.2, 0.1]}, 6)
+    assert not needs_more({**wide, "status": "time limit"}, 10)

@@ -10,25 +10,25 @@ both hold:
    samples tend to exceed A's" gives ``p <= 1 - confidence`` (default
    confidence 0.99; exact, distribution-free; :func:`nsbench.bench.stats.slower_p`).
 
-Both are checked on the *work clock*: each sample's CPU time (the worker
-process's clock over the timed runs) divided by the CPU time of a fixed
-workload run just before it (:func:`nsbench.bench.timing.probe`), where both
-runs recorded them; else the CPU time; else the wall time. On a shared machine
-the wall clock also counts the time other programs held the core, and even the
-CPU clock runs slower when another process shares the core's hyperthread or
-the host takes it; the probe slows with the machine, so the ratio to it keeps
-the work. Measured on the 2-core development machine (AMD EPYC, KVM) at load
-average 4-8 from other programs: the wall-clock samples of one case spread by
-93 % (median of (max - min) / median), its CPU-clock samples by 42 %, and the
-same run's CPU time rose by up to 1.85x from one run of the suite to the next.
-A significant change on the wall clock that the work clock does not show is
-reported as ``load`` (the machine, not the code) and not flagged. A speed-up
-is the same with the sides swapped (reported, never flagged). Too few samples
-to reach the confidence at all (3 a side cannot: the smallest p is 1/20) give
-``unverified``. A slowdown that does not use the CPU (sleeping, waiting on
-I/O) does not show on the work clock and is not flagged. Every listed time is
-warm; in results written before that, the first run was the cold one and is
-left out.
+Both are checked on the worker's CPU clock (``cpu_times``: the process's CPU
+time over the timed runs) where both runs recorded it, else on the wall clock.
+On a shared machine the wall clock also counts the time other programs held the
+core: measured on the 2-core development machine (AMD EPYC, KVM) with other
+developers' jobs keeping the load average at 4-8, one case's wall-clock samples
+spread by 93 % (median of (max - min) / median), its CPU-clock samples by 42 %. A
+significant change on the wall clock that the CPU clock does not show is
+reported as ``load`` (the machine, not the code) and not flagged. The CPU clock
+is not immune either (it runs slower when another process shares the core's
+hyperthread or the host takes the core: the same run's CPU time rose by up to
+1.85x from one run of a suite to the next); dividing each sample by a fixed 5 ms
+workload timed just before it was tried and made it worse (the short workload's
+own noise: more false flags and more missed slowdowns on the same runs), so the
+factor and the test guard against it. A speed-up is the same with the sides
+swapped (reported, never flagged). Too few samples to reach the confidence at
+all (3 a side cannot: the smallest p is 1/20) give ``unverified``. A slowdown
+that does not use the CPU (sleeping, waiting on I/O) does not show on the CPU
+clock and is not flagged. Every listed time is warm; in results written before
+that, the first run was the cold one and is left out.
 
 **Work and errors** are deterministic, so a change of ``nfev`` (the counted
 work) or of the max switching-time error beyond ``factor`` is flagged as it
@@ -74,17 +74,16 @@ def legacy_layout(row: pd.Series, side: str) -> bool:
 
 @dataclass(frozen=True)
 class TimeVerdict:
-    """The time change of one case: ``B / A`` with its interval, the test, the work clock's view, the verdict.
+    """The time change of one case: ``B / A`` with its interval, the test, the CPU clock's view, the verdict.
 
     ``verdict`` is one of ``same`` (the ratio within the factor), ``slower`` /
-    ``faster`` (beyond the factor and significant, on the work clock: see
-    :func:`time_verdict`), ``noise`` (beyond the factor, not significant),
-    ``load`` (beyond the factor and significant on the wall clock, not on the
-    work clock: the machine, not the work), ``unverified`` (too few samples to
-    reach the confidence), ``n/a`` (no samples on a side). ``ratio``, ``low``,
-    ``high`` (the interval at the confidence) and ``p`` (the one-sided test, NaN
-    within the factor) are the wall clock's; ``cpu_ratio`` the CPU clock's,
-    ``work_ratio`` the clock the verdict is taken on.
+    ``faster`` (beyond the factor and significant, on the CPU clock where both
+    runs recorded it, else on the wall clock), ``noise`` (beyond the factor, not
+    significant), ``load`` (beyond the factor and significant on the wall clock,
+    not on the CPU clock: the machine, not the work), ``unverified`` (too few
+    samples to reach the confidence), ``n/a`` (no samples on a side). ``ratio``,
+    ``low``, ``high`` (the interval at the confidence) and ``p`` (the one-sided
+    test, NaN within the factor) are the wall clock's; ``cpu_ratio`` the CPU clock's.
     """
 
     ratio: float
@@ -93,7 +92,6 @@ class TimeVerdict:
     p: float
     cpu_ratio: float
     verdict: str
-    work_ratio: float = math.nan
 
 
 def _direction(a: np.ndarray, b: np.ndarray, factor: float, alpha: float) -> tuple[float, float, str]:
@@ -105,28 +103,16 @@ def _direction(a: np.ndarray, b: np.ndarray, factor: float, alpha: float) -> tup
     return ratio, p, ("slower" if ratio > factor else "faster") if p <= alpha else "noise"
 
 
-def work_samples(cpu, probes) -> np.ndarray:
-    """Each sample's CPU time over the machine probe's just before it (empty unless both are known)."""
-    c = np.asarray(list(cpu) if cpu is not None else [], dtype=float)
-    p = np.asarray(list(probes) if probes is not None else [], dtype=float)
-    if c.size == 0 or c.size != p.size:
-        return np.empty(0)
-    ok = np.isfinite(c) & np.isfinite(p) & (c > 0) & (p > 0)
-    return c[ok] / p[ok]
-
-
 def time_verdict(a_times, b_times, factor: float = FACTOR, confidence: float = CONFIDENCE,
-                 cold_first: tuple[bool, bool] = (False, False), a_cpu=(), b_cpu=(), a_probe=(),
-                 b_probe=()) -> TimeVerdict:
+                 cold_first: tuple[bool, bool] = (False, False), a_cpu=(), b_cpu=()) -> TimeVerdict:
     """The :class:`TimeVerdict` of run B's samples against run A's (seconds per run).
 
-    The verdict is taken on the *work clock*: each sample's CPU time over the
-    machine probe's (``a_probe``, ``b_probe``: :func:`nsbench.bench.timing.probe`)
-    where both runs have two or more such samples, else the CPU time
-    (``a_cpu``, ``b_cpu``), else the wall time (``a_times``, ``b_times``). A
-    significant change beyond the factor on the wall clock that the work clock
-    does not show is ``load``. ``cold_first`` says, per side, that the first wall
-    time is a cold run to leave out (results written before every timed run was warm).
+    The verdict is taken on the CPU clock (``a_cpu``, ``b_cpu``) where both
+    sides have two or more samples, else on the wall clock (``a_times``,
+    ``b_times``). A significant change beyond the factor on the wall clock that
+    the CPU clock does not show is ``load``. ``cold_first`` says, per side, that
+    the first wall time is a cold run to leave out (results written before every
+    timed run was warm).
     """
     a, b = _samples(a_times, cold_first[0]), _samples(b_times, cold_first[1])
     if a.size == 0 or b.size == 0:
@@ -134,28 +120,24 @@ def time_verdict(a_times, b_times, factor: float = FACTOR, confidence: float = C
     alpha = 1.0 - confidence
     est = ratio_interval(a, b, confidence)
     ca, cb = _samples(a_cpu), _samples(b_cpu)
-    cpu_ratio = ratio_interval(ca, cb).estimate if ca.size >= 2 and cb.size >= 2 else math.nan
-    wa, wb = work_samples(a_cpu, a_probe), work_samples(b_cpu, b_probe)
-    if not (wa.size >= 2 and wb.size >= 2):
-        wa, wb = (ca, cb) if ca.size >= 2 and cb.size >= 2 else (np.empty(0), np.empty(0))
-    work = wa.size >= 2
-    work_ratio = ratio_interval(wa, wb).estimate if work else math.nan
+    cpu = ca.size >= 2 and cb.size >= 2
+    cpu_ratio = ratio_interval(ca, cb).estimate if cpu else math.nan
 
     def out(verdict: str, p: float = math.nan) -> TimeVerdict:
-        return TimeVerdict(est.estimate, est.low, est.high, p, cpu_ratio, verdict, work_ratio)
+        return TimeVerdict(est.estimate, est.low, est.high, p, cpu_ratio, verdict)
 
-    # the wall clock's own reading, then the work's where it was recorded
+    # the wall clock's own reading, then the CPU clock's where it was recorded
     if 1.0 / factor <= est.estimate <= factor:
         wall, p = "same", math.nan
     elif smallest_p(a.size, b.size) > alpha:
         wall, p = "unverified", math.nan
     else:
         _, p, wall = _direction(a, b, factor, alpha)
-    if not work:
+    if not cpu:
         return out(wall, p)
-    if smallest_p(wa.size, wb.size) > alpha and not 1.0 / factor <= work_ratio <= factor:
+    if smallest_p(ca.size, cb.size) > alpha and not 1.0 / factor <= cpu_ratio <= factor:
         return out("unverified", p)
-    _, _, verdict = _direction(wa, wb, factor, alpha)
+    _, _, verdict = _direction(ca, cb, factor, alpha)
     if verdict in ("same", "noise") and wall in ("slower", "faster"):
         return out("load", p)
     return out(verdict, p)
@@ -187,7 +169,7 @@ def work_verdict(nfev_a, nfev_b, factor: float) -> tuple[float, str]:
 
 #: Columns of :func:`compare_frames`.
 COLUMNS = ["problem", "integrator", "options", "level", "status_a", "status_b", "time_a", "time_b", "time_ratio",
-           "time_low", "time_high", "time_p", "cpu_ratio", "work_ratio", "time_verdict", "nfev_a", "nfev_b", "nfev_ratio",
+           "time_low", "time_high", "time_p", "cpu_ratio", "time_verdict", "nfev_a", "nfev_b", "nfev_ratio",
            "nfev_verdict", "err_a", "err_b", "err_ratio", "err_verdict", "flagged", "flags", "case_id"]
 
 
@@ -209,18 +191,17 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR,
     Columns: :data:`COLUMNS`. ``time_ratio`` is the Hodges-Lehmann ratio ``B / A``
     of the wall-clock samples, ``[time_low, time_high]`` its interval at
     ``confidence``, ``time_p`` the one-sided test's p-value (NaN when the ratio
-    is within the factor), ``cpu_ratio`` the same ratio on the CPU clock and
-    ``work_ratio`` on the work clock the verdict is taken on (:func:`time_verdict`).
+    is within the factor), ``cpu_ratio`` the same ratio on the CPU clock, where
+    the verdict is taken (:func:`time_verdict`).
     """
     _check(factor, confidence)
     merged = a.merge(b, on="case_id", suffixes=("_a", "_b"))
     rows = []
     for _, r in merged.iterrows():
-        side = {f"{name}_{x}": (r[f"{name}_{x}"] if f"{name}_{x}" in r else ())
-                for name in ("cpu_times", "probe_times") for x in "ab"}
+        cpu_a = r["cpu_times_a"] if "cpu_times_a" in r else ()
+        cpu_b = r["cpu_times_b"] if "cpu_times_b" in r else ()
         t = time_verdict(r["wall_times_a"], r["wall_times_b"], factor, confidence,
-                         (legacy_layout(r, "a"), legacy_layout(r, "b")), side["cpu_times_a"], side["cpu_times_b"],
-                         side["probe_times_a"], side["probe_times_b"])
+                         (legacy_layout(r, "a"), legacy_layout(r, "b")), cpu_a, cpu_b)
         e_a, e_b = _float(r["switch_err_max_a"]), _float(r["switch_err_max_b"])
         e_ratio, e_verdict = error_verdict(e_a, e_b, factor)
         n_ratio, n_verdict = work_verdict(r["nfev_a"], r["nfev_b"], factor)
@@ -233,8 +214,7 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR,
                      "options": r["options_a"], "level": r["level_a"], "status_a": r["status_a"],
                      "status_b": r["status_b"], "time_a": r["wall_time_a"], "time_b": r["wall_time_b"],
                      "time_ratio": t.ratio, "time_low": t.low, "time_high": t.high, "time_p": t.p,
-                     "cpu_ratio": t.cpu_ratio, "work_ratio": t.work_ratio, "time_verdict": t.verdict,
-                     "nfev_a": r["nfev_a"],
+                     "cpu_ratio": t.cpu_ratio, "time_verdict": t.verdict, "nfev_a": r["nfev_a"],
                      "nfev_b": r["nfev_b"], "nfev_ratio": n_ratio, "nfev_verdict": n_verdict, "err_a": e_a,
                      "err_b": e_b, "err_ratio": e_ratio, "err_verdict": e_verdict, "flagged": bool(flags),
                      "flags": ", ".join(flags), "case_id": r["case_id"]})

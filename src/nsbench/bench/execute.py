@@ -30,7 +30,7 @@ import numpy as np
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
-from nsbench.bench.timing import loops_for, probe, summarize
+from nsbench.bench.timing import loops_for, needs_more, summarize
 from nsbench.bench.suite import Case
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Integrator
@@ -109,7 +109,7 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
         t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], cpu_times=[],
-        probe_times=[], n_repeats=0,
+        n_repeats=0,
         counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[], event_cert=[],
     )
     return row
@@ -204,7 +204,6 @@ class _Sample:
     setup: float
     run: Any  # the last SimulationResult (the failing one, if a run failed)
     hit: bool = False  # the in-process time limit ended it
-    probe: float = math.nan  # CPU seconds of the machine probe just before it (timing.probe)
 
 
 def _quiet_heap() -> None:
@@ -226,7 +225,6 @@ def _sample(problem, integ, case: Case, grid: np.ndarray, loops: int) -> _Sample
     from nsbench.engine import simulate
 
     _quiet_heap()
-    speed = probe()
     wall = cpu = inner = setup = 0.0
     for _ in range(max(1, loops)):
         run = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
@@ -236,9 +234,9 @@ def _sample(problem, integ, case: Case, grid: np.ndarray, loops: int) -> _Sample
         setup = max(setup, float(run.setup_time))
         hit = isinstance(integ, TimeLimited) and integ.hit
         if hit or not run.ok:  # a failed run ends the sample; it is not repeated
-            return _Sample(run.wall_time, run.cpu_time, run.integrator_time, setup, run, hit, speed)
+            return _Sample(run.wall_time, run.cpu_time, run.integrator_time, setup, run, hit)
     n = max(1, loops)
-    return _Sample(wall / n, cpu / n, inner / n, setup, run, probe=speed)
+    return _Sample(wall / n, cpu / n, inner / n, setup, run)
 
 
 def time_case(case: Case, reference: Reference, suite: str = "suite", stage: StageCallback = _quiet,
@@ -272,14 +270,13 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         first = None
         if loops is None:
             _quiet_heap()
-            speed = probe()
             stage(f"timed sample {first_run + 1} of {total} (its calibration run)", case.time_limit)
             first = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
             loops = loops_for(float(first.wall_time), case.min_sample_time)
             hit = isinstance(integ, TimeLimited) and integ.hit
             if loops == 1 or hit or not first.ok:  # long enough (or failed): it is the first sample
                 samples.append(_Sample(first.wall_time, first.cpu_time, first.integrator_time,
-                                       first.setup_time, first, hit, speed))
+                                       first.setup_time, first, hit))
         while len(samples) < n_samples and not (samples and (samples[-1].hit or not samples[-1].run.ok)):
             k = first_run + len(samples) + 1
             stage(f"timed sample {k} of {total}" + (f" ({loops} runs)" if loops > 1 else ""), case.time_limit)
@@ -298,14 +295,12 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
     wall = [float(s.wall) for s in samples]
     inner = [float(s.inner) for s in samples]
     cpu = [float(s.cpu) for s in samples]
-    probes = [float(s.probe) for s in samples]
     counters = lead.counters.as_dict()
     extra = {k: v for k, v in counters.items() if k not in ("nfev", "njev", "nsteps", "n_events")}
     row.update(status=lead.status.value, message=" | ".join(notes), t_final=lead.t_final,
                nfev=int(counters["nfev"]), njev=int(counters["njev"]), nsteps=int(counters["nsteps"]),
                n_events=int(counters["n_events"]), counters_extra=_jsonable(extra),
-               wall_times=wall, n_repeats=len(wall), integrator_times=inner, cpu_times=cpu, probe_times=probes,
-               loops=int(loops),
+               wall_times=wall, n_repeats=len(wall), integrator_times=inner, cpu_times=cpu, loops=int(loops),
                setup_time_timed=max(float(s.setup) for s in samples), **summarize(wall, inner, cpu))
     if metrics and reference.ok:
         dense = None
@@ -334,7 +329,7 @@ def merge_runs(row: dict[str, Any], more: dict[str, Any]) -> dict[str, Any]:
         out["message"] = f"{out['message']} | {note}" if out.get("message") else note
         return out
     joined = {name: [float(w) for w in row.get(name) or []] + [float(w) for w in more.get(name) or []]
-              for name in ("wall_times", "integrator_times", "cpu_times", "probe_times")}
+              for name in ("wall_times", "integrator_times", "cpu_times")}
     out.update(joined, n_repeats=len(joined["wall_times"]),
                **summarize(joined["wall_times"], joined["integrator_times"], joined["cpu_times"]),
                setup_time_timed=max(float(row["setup_time_timed"]), float(more["setup_time_timed"])))
@@ -348,8 +343,21 @@ def complete_row(row: dict[str, Any], warm: WarmResult) -> dict[str, Any]:
 
 
 def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str, Any]:
-    """Warm ``case`` up and time it in this process (the fallback without workers); its row."""
+    """Warm ``case`` up and time it in this process (the fallback without workers); its row.
+
+    Its planned samples first, then, while they spread widely, one more at a time up to
+    ``case.max_repeats`` (:func:`nsbench.bench.timing.needs_more`).
+    """
     warm = warm_up(case, suite, in_process=True)
     if warm.row is not None:
         return warm.row
-    return complete_row(time_case(case, reference, suite, in_process=True), warm)
+    row = time_case(case, reference, suite, in_process=True)
+    while needs_more(row, case.max_repeats or case.repeats):
+        more = time_case(case, reference, suite, in_process=True, count=1, metrics=False,
+                         first_run=int(row["n_repeats"]), loops=int(row["loops"]))
+        grown = merge_runs(row, more)
+        if grown["n_repeats"] == row["n_repeats"]:  # the sample failed: its note is kept, no more
+            row = grown
+            break
+        row = grown
+    return complete_row(row, warm)

@@ -212,7 +212,7 @@ def _series(found: Iterable[Entry]) -> dict[tuple[str, str], list[Entry]]:
 
 #: Columns of :func:`steps`.
 STEP_COLUMNS = ["machine", "environment", "order", "commit", "previous", "problem", "integrator", "level",
-                "options", "time_ratio", "time_low", "time_high", "work_ratio", "time_verdict", "nfev_ratio",
+                "options", "time_ratio", "time_low", "time_high", "cpu_ratio", "time_verdict", "nfev_ratio",
                 "err_ratio", "flags", "case_id"]
 
 
@@ -234,7 +234,7 @@ def steps(store: str | Path, machine: str | None = None, environment: str | None
                     rows.append({"machine": mach, "environment": env, "order": order, "commit": entry.short,
                                  "previous": before[0].short, "problem": r.problem, "integrator": r.integrator,
                                  "level": r.level, "options": r.options, "time_ratio": r.time_ratio,
-                                 "time_low": r.time_low, "time_high": r.time_high, "work_ratio": r.work_ratio,
+                                 "time_low": r.time_low, "time_high": r.time_high, "cpu_ratio": r.cpu_ratio,
                                  "time_verdict": r.time_verdict, "nfev_ratio": r.nfev_ratio,
                                  "err_ratio": r.err_ratio, "flags": r.flags, "case_id": r.case_id})
             before = (entry, frame)

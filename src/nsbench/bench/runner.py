@@ -256,7 +256,8 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda case: bar.update(warm_weight(case), case.label))
+                                  on_warm=lambda case: bar.update(warm_weight(case), case.label),
+                                  on_extra=lambda case: bar.grow(weight(case)))
             timeline = scheduler.timeline
             loads = scheduler.loads
             scheduler.run()

@@ -49,8 +49,6 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("cpu_time", "CPU seconds of the worker process per run, over the same stretch as wall_time: median over "
                  "the timed samples (the work done, without the time other programs held the core)"),
     ("cpu_times", "list: cpu_time per run of every timed sample"),
-    ("probe_times", "list: CPU seconds of a fixed workload run just before each timed sample "
-                    "(nsbench.bench.timing.probe): the core's speed at that moment, which compare divides out"),
     ("setup_time", "seconds in the integrator's setup in this case's warm-up: compilation and operators for "
                    "the first case of an integrator in a worker, a cache load for the others (the report "
                    "charges the integrator its largest, nsbench.bench.timing.setup_table)"),
@@ -92,8 +90,7 @@ COLUMNS: tuple[tuple[str, str], ...] = (
 )
 
 COLUMN_NAMES: tuple[str, ...] = tuple(name for name, _ in COLUMNS)
-LIST_COLUMNS = ("wall_times", "integrator_times", "cpu_times", "probe_times", "event_t", "event_err",
-                "event_cert")
+LIST_COLUMNS = ("wall_times", "integrator_times", "cpu_times", "event_t", "event_err", "event_cert")
 JSON_COLUMNS = ("problem_config", "integrator_config", "options", "counters_extra", "reference_config")
 RUNNER_STATUSES = ("unsupported", "time limit", "error", "crashed")
 

@@ -21,7 +21,8 @@ from typing import Any
 from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_REPEATS, MIN_SAMPLE_TIME
 from nsbench.errors import ConfigError
 
-_SUITE_KEYS = {"name", "t_span", "repeats", "min_sample_time", "repeat_budget", "time_limit", "max_steps",
+_SUITE_KEYS = {"name", "t_span", "repeats", "max_repeats", "min_sample_time", "repeat_budget", "time_limit",
+               "max_steps",
                "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
@@ -63,6 +64,7 @@ class Case:
     max_steps: int
     dense_points: int
     min_sample_time: float = MIN_SAMPLE_TIME
+    max_repeats: int | None = None  # None: repeats (no samples beyond the planned ones)
 
     @property
     def case_id(self) -> str:
@@ -208,6 +210,11 @@ class Suite:
         Timed samples per case (default 5), all after an untimed warm-up; the wall
         time is their median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS`
         (3) are raised to 3.
+    max_repeats
+        Most timed samples per case (default twice ``repeats``): a case whose
+        planned samples spread by more than 25 % on the CPU clock
+        (:func:`nsbench.bench.timing.needs_more`) gets more, one per round, up to
+        this many. Equal to ``repeats``: never more.
     min_sample_time
         Seconds a timed sample lasts at least (default 0.05): a case whose run is
         shorter is run ``loops`` times back to back per sample, and the sample is
@@ -240,6 +247,7 @@ class Suite:
     problems: list[dict[str, Any]] = field(default_factory=list)
     integrators: dict[str, Any] = field(default_factory=lambda: {"registered": True})
     repeats: int = DEFAULT_SAMPLES
+    max_repeats: int | None = None
     min_sample_time: float = MIN_SAMPLE_TIME
     repeat_budget: float | None = None
     time_limit: float = 30.0
@@ -266,6 +274,12 @@ class Suite:
                 raise ConfigError(f"{key} = {value!r} must be an integer >= {low} and <= {high} "
                                   f"(the bound is nsbench.bench.suite.{bound})")
         self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
+        if self.max_repeats is None:
+            self.max_repeats = min(2 * self.repeats, MAX_REPEATS)
+        value = self.max_repeats
+        if isinstance(value, bool) or not isinstance(value, int) or not self.repeats <= value <= MAX_REPEATS:
+            raise ConfigError(f"max_repeats = {value!r} must be an integer >= repeats ({self.repeats}) and <= "
+                              f"{MAX_REPEATS} (the bound is nsbench.bench.suite.MAX_REPEATS)")
         for key in ("repeat_budget", "time_limit"):
             value = getattr(self, key)
             if key == "repeat_budget" and value is None:
@@ -510,7 +524,7 @@ class Suite:
                                     t0=self.t_span[0], t_end=self.t_span[1], repeats=self.repeats,
                                     time_limit=float(self.time_limit), max_steps=self.max_steps,
                                     dense_points=self.dense_points,
-                                    min_sample_time=float(self.min_sample_time)))
+                                    min_sample_time=float(self.min_sample_time), max_repeats=self.max_repeats))
         return out
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import statistics
-import time
 from typing import Iterable
 
 import pandas as pd
@@ -31,7 +30,8 @@ DEFAULT_SAMPLES = 5
 MIN_SAMPLE_TIME = 0.05
 #: Most runs in one sample (a run of 1 us would otherwise loop 20,000 times).
 MAX_LOOPS = 10_000
-#: Relative spread ``(max - min) / median`` above which a report flags a case's timing.
+#: Relative spread ``(max - min) / median`` above which a report flags a case's timing, and above which
+#: (on the CPU clock) a case gets more samples, up to the suite's ``max_repeats``.
 WIDE_SPREAD = 0.25
 
 
@@ -51,31 +51,22 @@ def loops_for(run_seconds: float, min_sample_time: float) -> int:
     return min(loops, MAX_LOOPS)
 
 
-#: Iterations of the machine probe (about 5 ms of one current core).
-PROBE_LOOPS = 8000
+def needs_more(row: dict, max_repeats: int) -> bool:
+    """Whether a successful case, timed on its planned samples, should get one more.
 
-
-def probe() -> float:
-    """CPU seconds of a fixed workload, timed just before each sample: how fast the core is right now.
-
-    On a shared (virtual) machine a core's speed changes with what else runs:
-    another process on its hyperthread sibling, the host taking the core (time
-    that can show as this process's CPU time), frequency changes. Measured on
-    the 2-core development machine at load average 6-8, the CPU time of the
-    same run rose by up to 1.85x. The probe slows with it, so a sample's CPU
-    time over the probe's (:mod:`nsbench.bench.compare`) measures the work
-    with the machine's speed taken out. The workload is interpreter steps and
-    small numpy calls, like the Python parts of most cases, and does not
-    depend on nsbench or on any integrator.
+    Yes while it has fewer than ``max_repeats`` samples and the relative spread
+    ``(max - min) / median`` of its CPU-clock samples (the clock
+    :mod:`nsbench.bench.compare` tests; the wall clock where they are missing)
+    exceeds :data:`WIDE_SPREAD`: on a busy machine a noisy case gets the
+    samples its comparisons need, on a quiet one the planned count is enough.
     """
-    import numpy as np
+    from nsbench.bench.stats import relative_spread
 
-    a = np.arange(64.0)
-    x = 0.0
-    tic = time.process_time()
-    for i in range(PROBE_LOOPS):
-        x += float(np.dot(a, a)) * 1e-9 + (i % 7) * 0.5
-    return time.process_time() - tic
+    wall = list(row.get("wall_times") or [])
+    if row.get("status") != "success" or len(wall) >= max_repeats:
+        return False
+    cpu = [c for c in row.get("cpu_times") or [] if c == c]
+    return relative_spread(cpu if len(cpu) == len(wall) else wall) > WIDE_SPREAD
 
 
 def _median(values: list[float]) -> float:

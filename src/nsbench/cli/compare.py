@@ -43,7 +43,7 @@ def main(args: argparse.Namespace) -> int:
     if len(view):
         view = view.assign(time_interval=[f"[{lo:.3g}, {hi:.3g}]" if lo == lo else ""
                                           for lo, hi in zip(view["time_low"], view["time_high"])])
-        cols = ["problem", "integrator", "options", "time_ratio", "time_interval", "time_p", "work_ratio",
+        cols = ["problem", "integrator", "options", "time_ratio", "time_interval", "time_p", "cpu_ratio",
                 "time_verdict", "nfev_ratio", "err_ratio", "err_verdict", "status_b", "flags"]
         print(markdown_table(view[cols]))
     if args.out:

@@ -106,7 +106,7 @@ def show(args: argparse.Namespace) -> int:
     print(f"\n{len(flagged)} flagged step(s) (factor {factor:g}, confidence {confidence:g})")
     if len(flagged):
         print(markdown_table(flagged[["commit", "previous", "problem", "integrator", "options", "time_ratio",
-                                      "work_ratio", "nfev_ratio", "err_ratio", "flags"]]))
+                                      "cpu_ratio", "nfev_ratio", "err_ratio", "flags"]]))
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)

@@ -9,8 +9,8 @@ import pytest
 
 from nsbench.bench.execute import merge_runs
 from nsbench.bench.storage import to_frame
-from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, needs_more, noise_line, setup_table, spread_label,
-                                  summarize, wide_spread)
+from nsbench.bench.timing import (MAX_LOOPS, WIDE_SPREAD, loops_for, loops_within, needs_more, noise_line,
+                                  setup_table, spread_label, summarize, wide_spread)
 
 
 def test_summarize_gives_median_range_and_relative_spread():
@@ -121,3 +121,12 @@ def test_a_case_gets_more_samples_while_its_cpu_clock_spreads_widely():
     # rows without cpu times: the wall clock decides; a failure never gets more
     assert needs_more({"status": "success", "wall_times": [0.1, 0.2, 0.1]}, 6)
     assert not needs_more({**wide, "status": "time limit"}, 10)
+
+
+def test_a_looped_sample_is_kept_within_a_quarter_of_the_time_limit():
+    # a 0.1 ms run in a 2 ms call: 500 loops by the engine's clock, a 1 s sample; a 1 s limit allows 0.25 s of
+    # calls, 125, rounded down to the autorange ladder: 100
+    assert loops_for(1e-4, 0.05) == 500 and loops_within(500, 2e-3, 0.25) == 100
+    assert loops_within(500, 2e-3, 30.0 / 4) == 500           # the default 30 s limit: untouched
+    assert loops_within(5, 1.0, 0.25) == 1                     # never below one run
+    assert loops_within(20, math.nan, 0.25) == 20              # an unmeasured call changes nothing

@@ -30,7 +30,7 @@ import numpy as np
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
-from nsbench.bench.timing import loops_for, needs_more, summarize
+from nsbench.bench.timing import loops_for, loops_within, needs_more, summarize
 from nsbench.bench.suite import Case
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Integrator
@@ -221,10 +221,13 @@ def _quiet_heap() -> None:
 
 
 def _sample(problem, integ, case: Case, grid: np.ndarray, loops: int) -> _Sample:
-    """``loops`` full runs of ``case``, timed by the engine (each run's own clocks, summed)."""
+    """``loops`` full runs of ``case``, timed by the engine (each run's own clocks, summed).
+
+    The caller quiets the heap first (:func:`_quiet_heap`), before it announces the
+    sample's stage, so the collection never counts against the time limit.
+    """
     from nsbench.engine import simulate
 
-    _quiet_heap()
     wall = cpu = inner = setup = 0.0
     for _ in range(max(1, loops)):
         run = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
@@ -271,14 +274,21 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         if loops is None:
             _quiet_heap()
             stage(f"timed sample {first_run + 1} of {total} (its calibration run)", case.time_limit)
+            tic = time.perf_counter()
             first = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
+            call = time.perf_counter() - tic
             loops = loops_for(float(first.wall_time), case.min_sample_time)
+            # the time limit covers a whole sample (one stage): a run of 0.1 ms in a call of 2 ms (setting up,
+            # building the result) loops 500 times, a 1 s sample; keep a looped sample within a quarter of the
+            # limit, a 4x margin for a busy machine
+            loops = loops_within(loops, call, case.time_limit / 4.0)
             hit = isinstance(integ, TimeLimited) and integ.hit
             if loops == 1 or hit or not first.ok:  # long enough (or failed): it is the first sample
                 samples.append(_Sample(first.wall_time, first.cpu_time, first.integrator_time,
                                        first.setup_time, first, hit))
         while len(samples) < n_samples and not (samples and (samples[-1].hit or not samples[-1].run.ok)):
             k = first_run + len(samples) + 1
+            _quiet_heap()  # before the stage: a full collection (0.3-0.45 s idle) is no part of a run's limit
             stage(f"timed sample {k} of {total}" + (f" ({loops} runs)" if loops > 1 else ""), case.time_limit)
             samples.append(_sample(problem, integ, case, grid, loops))
     except Exception as exc:  # after a clean warm-up: rare, but a row all the same

@@ -51,6 +51,23 @@ def loops_for(run_seconds: float, min_sample_time: float) -> int:
     return min(loops, MAX_LOOPS)
 
 
+
+def loops_within(loops: int, call_seconds: float, budget: float) -> int:
+    """``loops`` lowered to the largest of 1, 2, 5, 10, ... whose whole calls fit in ``budget`` seconds.
+
+    ``call_seconds`` is the whole call of one run (set-up and result included,
+    beyond the engine's clock that :func:`loops_for` counts); an unmeasured call
+    or budget leaves ``loops`` as it is, and the result is never below 1.
+    """
+    if not (call_seconds > 0 and math.isfinite(call_seconds) and budget > 0 and math.isfinite(budget)):
+        return loops
+    best, step, k = 1, 1, 0
+    while step <= loops and step * call_seconds <= budget:
+        best = step
+        step = int(round(step * (2, 2.5, 2)[k % 3]))
+        k += 1
+    return best
+
 def needs_more(row: dict, max_repeats: int) -> bool:
     """Whether a successful case, timed on its planned samples, should get one more.
 

@@ -16,7 +16,8 @@ def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
     # The reference list leaves out `reference`, so the cubic problem has none and
     # takes the cost-only figure path.
-    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "reference": ["exact"],
+    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "max_repeats": 3,
+                             "reference": ["exact"],
                              "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
                              "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"],
                                              # RK4 steps whose event error is ~1e-5 and ~1e-8:

@@ -230,8 +230,12 @@ class Scheduler:
             if not self._quiet():
                 return  # hold: nothing compiles or warms up while a case is timed
         else:
-            free = [s for s in self.cases.values() if not s.done and s.case.case_id in slot.warm
-                    and not self._in_flight(s.case.case_id)]
+            pending = [s for s in self.cases.values() if not s.done]
+            # rounds started by the case furthest behind: no case starts round k + 1 before every case has
+            # started round k (a slow round in flight would otherwise let the others run two rounds ahead)
+            floor = min((s.rounds + self._in_flight(s.case.case_id) for s in pending), default=0)
+            free = [s for s in pending if s.case.case_id in slot.warm and not self._in_flight(s.case.case_id)
+                    and s.rounds <= floor]
             if free:
                 # earliest round first (runs interleaved in time), then longest first: the best balance
                 state = max(free, key=lambda s: (-s.rounds, s.order))

@@ -40,7 +40,7 @@ def plot_simulation(result: "SimulationResult", path: str | Path):
             stick = ev[ev["kind"] == "stick"]
             ax.plot(stick["t"], stick[col], "o", ms=2.5, color=BLOCK_COLOURS[i - 1], alpha=0.7)
         ax.set_ylabel(q + " (" + units + ")")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=nb, fontsize=8, frameon=False)  # above the data
     axes[1, 0].set_xlabel("t")
     for i in range(1, nb + 1):
         ax = axes[0, i]
@@ -55,10 +55,10 @@ def plot_simulation(result: "SimulationResult", path: str | Path):
             ax.plot(ev["t"], ev[f"x{i}"], marker, ms=3, ls="none", label=kind)
         ax.set_xlabel("t")
         ax.set_ylabel(f"x{i} at events")
-        ax.legend(fontsize=7)
+        ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize=7, frameon=False)  # above the data
     name = result.integrator["name"]
     fig.suptitle(f"{problem!r} with {name}: {len(events)} events, status {result.status.value}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return fig

@@ -87,6 +87,13 @@ class Progress:
         else:
             self._bar.write(line, file=self._out)
 
+    def grow(self, steps: float) -> None:
+        """``steps`` more (weighted) steps of work than announced (e.g. a noisy case's extra samples)."""
+        if steps > 0 and self.total > 0:
+            self.total += steps
+            self._bar.total = self.total
+            self._bar.refresh()
+
     def close(self) -> None:
         self._bar.close()
 

@@ -91,6 +91,9 @@ class SimulationResult:
         Seconds spent inside the integrator: its compiled arc kernels, or its ``advance``
         calls; ``wall_time - integrator_time`` is the core's share (events, records).
         NaN where the platform offers no clock to compiled code.
+    cpu_time
+        CPU seconds of this process over the same stretch as ``wall_time``: the work
+        done, without the time other programs held the core (NaN if not measured).
     """
 
     problem: "FrictionOscillator"
@@ -107,6 +110,7 @@ class SimulationResult:
     wall_time: float
     setup_time: float
     integrator_time: float = float("nan")
+    cpu_time: float = float("nan")
 
     @property
     def ok(self) -> bool:

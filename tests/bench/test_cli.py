@@ -35,7 +35,7 @@ def test_bench_report_compare(tiny, capsys):
     assert "4 cases: 0 computed, 4 already stored" in capsys.readouterr().out
     assert main(["report", str(out)]) == 0
     assert main(["compare", str(out), str(out / "results.parquet")]) == 0
-    assert "4 common cases (0 only in A, 0 only in B); factor 1.5; 0 flagged" in capsys.readouterr().out
+    assert "4 common cases (0 only in A, 0 only in B); factor 1.5, confidence 0.99; 0 flagged" in capsys.readouterr().out
 
 
 def test_run_writes_the_report_and_says_each_phase_and_the_answer(tiny, capsys):
@@ -81,7 +81,8 @@ def test_run_resumes_and_fresh_starts_over_and_another_version_is_named(tiny, ca
     (["report", "no-such-dir"], "'no-such-dir' is not a directory"),
     (["compare", "no-a", "no-b"], "results 'no-a' do not exist"),
     (["ingest", "no.json"], "benchmark file 'no.json' does not exist"),
-    (["compare", ".", ".", "--factor", "0.5"], "holds no results"),
+    (["compare", ".", "."], "holds no results"),
+    (["compare", ".", ".", "--factor", "0.5"], "factor = 0.5 must be a finite number > 1"),  # checked first
 ])
 def test_bad_input_exits_2_with_one_line(argv, fragment, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -46,7 +46,8 @@ def test_ingest_round_trips_a_pytest_benchmark_file(bench_json, tmp_path):
     assert "machine_info" in json.loads((tmp_path / "ing" / "provenance.json").read_text())
     rep = write_report(tmp_path / "ing")
     # wall time, nfev and steps (no integrator time in a pytest-benchmark file), and the error along
-    assert rep.html.exists() and [f.name.split("_")[1] for f in rep.figures] == ["time", "nfev", "nsteps", "err"]
+    assert rep.html.exists() and [f.name.split("_")[1] for f in rep.figures] == ["distribution", "time", "nfev", "nsteps",
+                                                                                  "err"]
 
 
 def test_ingested_rows_match_the_runner_on_the_same_cases(bench_json, tmp_path):

@@ -16,7 +16,8 @@ def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
     # The reference list leaves out `reference`, so the cubic problem has none and
     # takes the cost-only figure path.
-    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "reference": ["exact"],
+    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "max_repeats": 3,
+                             "reference": ["exact"],
                              "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
                              "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"],
                                              # RK4 steps whose event error is ~1e-5 and ~1e-8:
@@ -29,7 +30,7 @@ def report(tmp_path_factory):
 def test_every_figure_is_saved_as_png_and_svg(report):
     out, rep = report
     names = [f.name for f in rep.figures]
-    assert names == ["wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "wp_nsteps_one-dof_1",
+    assert names == ["runtime_distribution", "wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "wp_nsteps_one-dof_1",
                      "event_err_one-dof_1",
                      "cost_two-dof_3"]
     for fig in rep.figures:
@@ -42,7 +43,7 @@ def test_html_is_self_contained_and_embeds_each_figure(report):
     out, rep = report
     html = rep.html.read_text()
     for fig in rep.figures:
-        assert f"id='{fig.name}'" in html
+        assert f'id="{fig.name}"' in html
         assert base64.b64encode(fig.png.read_bytes()).decode() in html
     sources = re.findall(r"src=['\"]([^'\"]+)['\"]", html)
     assert len(sources) == len(rep.figures) and all(s.startswith("data:image/png;base64,") for s in sources)
@@ -56,16 +57,17 @@ def test_markdown_and_latex(report):
     md = rep.markdown.read_text()
     for fig in rep.figures:
         assert f"figures/{fig.png.name}" in md
-    assert "| problem | integrator | 1e-06 | 1e-09 | 1e-12 |" in md
+    assert "| problem | integrator | 1e-06 | 1e-09 | 1e-12 |" in re.sub(" +", " ", md)
     assert "reference `exact`" in md and "no reference available" in md
     tex = rep.latex.read_text()
-    assert tex.count(r"\begin{tabular}") == 5 and r"\label{tab:nsbench-fixed-target}" in tex  # 3 targets + 2
+    # 3 targets, the references, the fixed-target table (short here: a float) and the ranking
+    assert tex.count(r"\begin{tabular}") == 6 and r"\label{tab:nsbench-fixed-target}" in tex
     assert "one-dof/1 & exact" in tex
     # exact is the reference of one-dof/1: reported with its cost, not as reaching targets
     ft = rep.fixed_target
     own = ft[(ft["integrator"] == "exact") & (ft["problem_label"] == "one-dof/1")]
     assert (own["outcome"] == "reference").all() and (own["wall_time"] > 0).all()
-    assert "| one-dof/1 | exact | ref (" in md and "exact" not in set(rep.ranking["integrator"])
+    assert "| one-dof/1 | exact | ref (" in re.sub(" +", " ", md) and "exact" not in set(rep.ranking["integrator"])
     rk4 = ft[(ft["integrator"] == "henon-rk4") & (ft["problem_label"] == "one-dof/1")].set_index("target")
     assert rk4.loc[1e-6, "outcome"] == "reached" and rk4.loc[1e-12, "outcome"] == "not reached"
     cubic = ft[ft["problem_label"] == "two-dof/3"].set_index("integrator")["outcome"]
@@ -78,10 +80,17 @@ def test_timing_spread_is_shown(report):
     ft = rep.fixed_target
     reached = ft[ft["outcome"] == "reached"]
     assert len(reached) and reached["wall_spread"].notna().all()
+    md = re.sub(" +", " ", md)
     row = md[md.index("| one-dof/1 | henon-rk4 |"):].splitlines()[0]
     assert " s ±" in row                                    # median ± half its min-max range
-    assert "## Timing spread" in md and "Times are medians of 3 timed runs per case" in md
+    assert "## Timing spread" in md and "Times are medians of 3 timed samples per case" in md
     assert "This run is incomplete" not in md
+    # the line on the machine's noise comes first, from the loads sampled while timing
+    assert md.splitlines()[2].startswith("How noisy the machine was: load average ")
+    assert "a case's timed samples spread by" in md.splitlines()[2]
+    # set-up is charged to each integrator once, not to the level that happened to compile
+    setup = md[md.index("## Set-up per integrator"):].split("## Figures")[0]
+    assert "| integrator | first_use | on | later | cases |" in setup and "| henon-rk4 |" in setup
 
 
 def test_work_precision_whiskers_span_min_to_max():
@@ -155,16 +164,23 @@ def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
     assert "henon-rk4" in html and "scipy-dop853" in html
 
 
-def test_table_tex_has_a_page_sized_table_per_target_then_the_supplement(report):
+def test_table_tex_has_a_page_sized_table_per_target_then_references_and_the_supplement(report):
     out, rep = report
     tex = rep.latex.read_text()
-    tables = tex.split(r"\begin{table}")[1:]
-    labels = [re.search(r"\\label\{([^}]*)\}", t).group(1) for t in tables]
+    labels = re.findall(r"\\label\{([^}]*)\}", tex)
     assert labels == ["tab:nsbench-target-1e-06", "tab:nsbench-target-1e-09", "tab:nsbench-target-1e-12",
-                      "tab:nsbench-fixed-target", "tab:nsbench-ranking"]
-    for t in tables[:3]:
+                      "tab:nsbench-references", "tab:nsbench-fixed-target", "tab:nsbench-ranking"]
+    for t in tex.split(r"\begin{table}")[1:4]:
         assert t.count(r"\\") <= 40  # a page
     assert "±" not in tex and "<1%" not in tex  # math mode, not text-mode glyphs LaTeX misprints
+
+
+def test_table_tex_compiles_without_overflow(report, tmp_path):
+    """pdflatex on an article that inputs table.tex: no error, no overfull box, no float past its page."""
+    from tests.test_render import compile_latex
+
+    log = compile_latex(report[1].latex.read_text(), tmp_path)
+    assert "Overfull \\hbox" not in log and "Float too large" not in log
 
 
 _OVERFLOW_PROBE = """<script>

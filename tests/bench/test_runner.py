@@ -4,6 +4,7 @@ crashes, and scripts without a main guard."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -16,12 +17,13 @@ import pytest
 
 from nsbench.bench import Suite, load_results, run_suite
 from nsbench.bench.schema import COLUMN_NAMES, markdown_table
+from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_SAMPLE_TIME
 from tests.bench import _integrators as ti
 
 
 def small_suite(only, **kw):
-    data = {"name": "small", "t_span": [0.0, 40.0], "repeats": 3, "problems": [{"name": "one-dof", "case": 1}],
-            "integrators": {"only": list(only)}}
+    data = {"name": "small", "t_span": [0.0, 40.0], "repeats": 3, "max_repeats": 3,
+            "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": list(only)}}
     data.update(kw)
     return Suite.from_dict(data)
 
@@ -35,7 +37,7 @@ def pooled(tmp_path_factory):
     """
     out = tmp_path_factory.mktemp("pooled")
     suite = Suite.from_dict({
-        "name": "pooled", "t_span": [0.0, 40.0], "repeats": 3, "reference": ["exact"],
+        "name": "pooled", "t_span": [0.0, 40.0], "repeats": 3, "max_repeats": 3, "reference": ["exact"],
         "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "cases": [2, 3]}],
         "integrators": {"only": ["exact", "scipy-dop853"]},
     })
@@ -64,18 +66,27 @@ def test_tidy_schema_one_row_per_case(pooled):
     for _, g in dop.groupby("problem_label"):  # tighter tolerance, smaller error
         assert g["switch_err_max"].iloc[-1] < g["switch_err_max"].iloc[0] < 1e-4
         assert np.isfinite(g["state_err_l2"]).all()
-    # every success: median of 3 warm timed runs, its range and spread; setup and warm-up apart
+    # every success: median of 3 warm timed samples, its range and spread; setup and warm-up apart
     timed = frame[frame["status"] == "success"]
     assert (timed["n_repeats"] == 3).all() and all(len(w) == 3 for w in timed["wall_times"])
+    assert all(len(w) == 3 for w in timed["cpu_times"]) and (timed["cpu_time"] > 0).all()
+    # a sample is one run, or a loop of 1, 2, 5, 10, 20, ... runs chosen by the calibration run
+    autorange = {int(round(10 ** (k // 3) * (1, 2, 5)[k % 3])) for k in range(13)}
+    assert set(timed["loops"]) <= autorange
+    # exact over [0, 40] runs in about 1e-4 s (2-core development machine): a run 400 times slower
+    # would still be shorter than the 50 ms minimum, so it is always looped
+    assert (timed.loc[timed["integrator"] == "exact", "loops"] > 1).all()
     assert np.allclose(timed["wall_time"], [np.median(w) for w in timed["wall_times"]])
     assert np.allclose(timed["wall_time_min"], [min(w) for w in timed["wall_times"]])
     assert np.allclose(timed["wall_time_max"], [max(w) for w in timed["wall_times"]])
     assert np.allclose(timed["wall_spread"], (timed["wall_time_max"] - timed["wall_time_min"]) / timed["wall_time"])
     assert all(len(t) == 3 for t in timed["integrator_times"])   # NaN until the engine reports it
+    timing = json.loads((out / "provenance.json").read_text())["timing"]
+    assert timing["samples"] == 3 and timing["min_sample_time"] == MIN_SAMPLE_TIME
+    assert timing["load"]["n"] == len(timed) * 3 and timing["load"]["min"] >= 0
     assert (timed["setup_time"] >= 0).all() and (timed["setup_time_timed"] >= 0).all()
     assert (timed["warmup_time"] > 0).all()
     assert not summary.in_process and summary.ok and summary.problems() == []
-    import json
 
     import nsbench
     row = dop.iloc[0]
@@ -182,6 +193,7 @@ def test_ctrl_c_of_a_parallel_cli_run_keeps_finished_cases(tmp_path):
     suite.write_text(f"""
 t_span = [0, 100]
 repeats = 3
+max_repeats = 3
 problems = [{{ name = "one-dof", case = 1 }}]
 [integrators]
 only = ["henon-rk4"]
@@ -242,9 +254,9 @@ def test_crash_and_hang_while_timing_are_rows_and_the_pool_recovers(register, tm
     frame = summary.results.set_index("integrator")
     crashed, hung = frame.loc[ti.CrashingWhenTimed.name], frame.loc[ti.HangingWhenTimed.name]
     assert crashed["status"] == "crashed"
-    assert "died (exit code 5) during the timed run 1 of 3" in crashed["message"]
+    assert "died (exit code 5) during the timed sample 1 of 3 (its calibration run)" in crashed["message"]
     assert hung["status"] == "time limit"
-    assert "limit of 5 s per run reached in the timed run 1 of 3" in hung["message"]
+    assert "limit of 5 s per run reached in the timed sample 1 of 3 (its calibration run)" in hung["message"]
     assert crashed["setup_time"] >= 0 and hung["warmup_time"] > 0     # their warm-ups went through
     rk45 = frame.loc["scipy-rk45"]
     assert len(rk45) == 4 and (rk45["status"] == "success").all() and (rk45["n_repeats"] == 3).all()
@@ -305,6 +317,18 @@ def run_script(tmp_path, only, extra=""):
     return proc, load_results(tmp_path / "out")
 
 
+def test_a_case_whose_samples_spread_widely_gets_its_extra_samples(register, tmp_path):
+    # every other run of uneven-rk45 does four times the work: its samples spread far beyond 25 % on
+    # every clock, so it is timed up to max_repeats; single runs (min_sample_time 0), so no loop averages
+    # the alternation away
+    register(ti.UnevenRK45.name, ti.UnevenRK45)
+    suite = small_suite([ti.UnevenRK45.name], repeats=3, max_repeats=5, min_sample_time=0.0, t_span=[0.0, 20.0])
+    summary = run_suite(suite, tmp_path, workers=1, progress=False)
+    row = summary.results.iloc[0]
+    assert row["status"] == "success" and row["n_repeats"] == 5 and len(row["cpu_times"]) == 5
+    assert row["loops"] == 1
+
+
 def test_a_script_without_main_guard_runs_in_workers(tmp_path):
     proc, frame = run_script(tmp_path, ["exact", "scipy-rk45"])
     assert proc.returncode == 0, proc.stderr
@@ -329,7 +353,9 @@ registry.register("integrators", "my-rk45", MyRK45)
     assert proc.returncode == 0, proc.stderr
     assert "integrator 'my-rk45' is defined in __main__" in proc.stderr
     assert "ROWS 2 IN_PROCESS True OK True" in proc.stdout
-    assert (frame["status"] == "success").all() and (frame["n_repeats"] == 3).all()
+    # the default 5 samples, and up to twice that for a case whose samples spread widely (a busy machine)
+    assert (frame["status"] == "success").all() and frame["n_repeats"].between(DEFAULT_SAMPLES,
+                                                                                 2 * DEFAULT_SAMPLES).all()
     assert frame["switch_err_max"].notna().all()
 
 

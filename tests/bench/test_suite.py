@@ -91,6 +91,18 @@ def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
     assert not hasattr(old.cases()[0], "repeat_budget")
 
 
+def test_max_repeats_defaults_to_twice_repeats_and_is_checked():
+    base = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
+    assert Suite.from_dict(base).max_repeats == 10 and Suite.from_dict({**base, "repeats": 1}).max_repeats == 6
+    assert {c.max_repeats for c in Suite.from_dict({**base, "max_repeats": 5}).cases()} == {5}
+    for bad in (4, 10**9, 2.5, True, "7"):
+        with pytest.raises(ConfigError, match="max_repeats = .* must be an integer >= repeats"):
+            Suite.from_dict({**base, "max_repeats": bad})
+    for bad in (-1, float("nan"), float("inf"), 30.0, "0.05"):
+        with pytest.raises(ConfigError, match="min_sample_time = .* must be a number of seconds >= 0"):
+            Suite.from_dict({**base, "min_sample_time": bad})
+
+
 @pytest.mark.parametrize("data, fragment", [
     ({"problems": []}, "at least one entry in problems"),
     ({"problems": [{"name": "one-dof"}], "colour": 1}, "unknown key(s) colour"),

@@ -11,12 +11,16 @@ from nsbench.bench.summary import findings, problem_summary, reference_costs, wr
 from nsbench.bench.tables import fixed_target, ranking
 
 
-def _row(integrator, wall, err, *, ok=True, status="success", level=0, missed=0, extra=0):
+#: Planted relative spread of every row's five timed samples (+-3 %).
+SPREAD = (0.97, 0.99, 1.0, 1.01, 1.03)
+
+
+def _row(integrator, wall, err, *, ok=True, status="success", level=0, missed=0, extra=0, spread=SPREAD):
     return {"case_id": f"p-{integrator}-{level}", "problem_label": "two-dof/1", "integrator": integrator,
             "options": '{"rtol": 1.0000000000000001e-11}', "level": level, "status": status,
             "reference": "exact", "reference_status": "ok", "sequence_ok": ok, "switch_err_max": err,
-            "wall_time": wall, "wall_spread": 0.1, "n_missed": missed, "n_extra": extra, "n_ref": 120,
-            "nfev": 1000}
+            "wall_time": wall, "wall_spread": 0.06, "wall_times": [wall * f for f in spread],
+            "n_missed": missed, "n_extra": extra, "n_ref": 120, "nfev": 1000}
 
 
 @pytest.fixture
@@ -35,12 +39,33 @@ def frame():
 def test_cheapest_and_cost_ratios_per_target(frame):
     s = problem_summary(frame, (1e-6, 1e-9, 1e-12)).set_index("target")
     assert s.loc["1e-06", "cheapest"] == "c"  # c reaches the loose target and is cheapest there
-    assert s.loc["1e-09", "cheapest"] == "a" and s.loc["1e-09", "others"].startswith("b x3 (±5%)")
+    assert s.loc["1e-09", "cheapest"] == "a" and s.loc["1e-09", "others"].startswith("b x3 [")
+    assert "tied" not in s.loc["1e-09", "others"] and s.loc["1e-09", "tied"] == ""
+    # the 95 % interval of b's cost ratio: the 3rd smallest to the 3rd largest of the 25 pairwise ratios
+    pairs = sorted(0.3 * fb / (0.1 * fa) for fa in SPREAD for fb in SPREAD)
+    assert s.loc["1e-09", "ratio_low"] == pytest.approx(pairs[2]) and s.loc["1e-09", "ratio_high"] == \
+        pytest.approx(pairs[-3])
+    assert s.loc["1e-09", "time"] == "0.1 s [0.097-0.103]"    # 5 samples: the median's interval is their range
     assert s.loc["1e-12", "cheapest"] == "a" and s.loc["1e-12", "ratio"] != s.loc["1e-12", "ratio"]  # alone
     why = s.loc["1e-09", "not_reached"]
     assert "c (best error 1.0e-07)" in why and "d (1 time limit)" in why
     assert "fast-wrong (wrong event sequence in 1 of 1 configurations)" in why
     assert "exact" not in " ".join(s["cheapest"]) + " ".join(s["others"]) + " ".join(s["not_reached"])
+
+
+def test_methods_whose_intervals_overlap_are_tied_and_both_named(frame):
+    # e is 5 % slower than a by the median, but their samples (+-3 %, +-10 %) overlap: not distinguishable
+    tied = to_frame([*frame.to_dict("records"), _row("e", 0.105, 1e-10, spread=(0.9, 0.95, 1.0, 1.05, 1.1))])
+    s = problem_summary(tied, (1e-9,)).iloc[0]
+    assert s["cheapest"] == "tied: a, e" and s["tied"] == "a, e"
+    assert s["others"].startswith("e x1.0") and "e x1" in s["others"] and " tied" in s["others"]
+    assert "b x3" in s["others"] and "b x3 [" in s["others"].split("tied")[-1]   # b still distinguishable
+    words = " ".join(findings(problem_summary(tied, (1e-9,)), wrong_sequences(tied)))
+    assert "no method is distinguishably the cheapest on any problem" in words
+    assert "they are tied: a and e on two-dof/1" in words and "a is the cheapest" not in words
+    # rows without their samples (one median each) cannot be told apart either
+    bare = frame.assign(wall_times=[[] for _ in range(len(frame))])
+    assert problem_summary(bare, (1e-9,)).iloc[0]["cheapest"] == "tied: a, b"
 
 
 def test_wrong_sequences_and_references_are_apart(frame):
@@ -50,7 +75,8 @@ def test_wrong_sequences_and_references_are_apart(frame):
     refs = reference_costs(frame)
     assert refs[["integrator", "role"]].values.tolist() == [["exact", "the reference"]]
     words = " ".join(findings(problem_summary(frame, (1e-9,)), wrong))
-    assert "a is the cheapest method on 1 of 1 problems; the next method costs 3 times as much" in words
+    assert "a is the cheapest method on 1 of 1 problems; the next method costs 3 times as much (the 95 % " \
+           "intervals of these ratios start at 2.9 or above)" in words
     assert "1 run(s) end with a wrong event sequence" in words and "fast-wrong" in words
 
 

@@ -224,6 +224,12 @@ CASES = [
     ("compare-out-under-file", R + ["--out", "{d}/afile/x.csv"], "is a file"),
     ("compare-out-is-dir", R + ["--out", "{d}/emptydir"], "it is a folder"),
     ("compare-out-missing-dir", R + ["--out", "{d}/missing/x.csv"], "does not exist"),
+    # ---- history
+    ("history-show-no-store", ["history", "show", "--store", "{d}/missing"], "history store"),
+    ("history-add-missing", ["history", "add", "{d}/missing", "--store", "{d}/hist"], "do not exist"),
+    ("history-factor-nan", ["history", "show", "--store", "{d}/missing", "--factor", "nan"], "factor = nan"),
+    ("history-run-workers-0", ["history", "run", "--repo", "{d}", "--commits", "a..b", "--store", "{d}/hist",
+                               "--workers", "0"], "--workers = 0"),
     # ---- ingest
     ("ingest-malformed-json", ["ingest", "{d}/bad.json", "--out", "{d}/io"], "is not JSON"),
     ("ingest-json-list", ["ingest", "{d}/list.json", "--out", "{d}/io"], "not a pytest-benchmark file"),

@@ -1,9 +1,10 @@
 """How long a suite run will take, said before it starts, and the weight of each task in its progress bar.
 
 The packaged suites come with the cost of every task measured on one machine
-(``nsbench/suites/costs.json``: seconds of a worker for each case's warm-up
-and each timed run, each reference, each bifurcation-target location, and the
-report). Before a run, a short fixed workload (:func:`calibrate`) says how much
+(``nsbench/suites/costs.json``: seconds of a worker for each case's warm-up,
+its first timing task (the calibration run, the first sample and the metrics)
+and each later timed sample, each reference, each bifurcation-target location,
+and the report). Before a run, a short fixed workload (:func:`calibrate`) says how much
 slower or faster this machine is, and the load average says how many of its
 cores other programs hold; the measured costs scaled by both, spread over the
 workers, are the estimate. A task the table does not know (a plug-in, a suite
@@ -75,7 +76,10 @@ class CostTable:
     machine: str = ""
     measured: str = ""
     warm_up: dict[str, float] = field(default_factory=dict)    # case label -> its first warm-up
-    run: dict[str, float] = field(default_factory=dict)        # case label -> one timed run
+    run: dict[str, float] = field(default_factory=dict)        # case label -> one later timed sample
+    #: case label -> its first timing task: the calibration run, the first sample, the metrics (a table
+    #: measured before samples were calibrated has none: its ``run`` stands for every timing task)
+    first: dict[str, float] = field(default_factory=dict)
     target: dict[str, float] = field(default_factory=dict)     # location label -> the whole location
     reference: float = 1.5                                      # one reference run
     report: float = 15.0                                        # writing the report
@@ -95,21 +99,22 @@ class CostTable:
     def to_json(self) -> str:
         return json.dumps(self.__dict__, indent=1, sort_keys=True)
 
-    def costs(self, label: str) -> tuple[float, float] | None:
-        """Worker seconds of a case's warm-up and of one of its timed runs, ``None`` if unknown.
+    def costs(self, label: str) -> tuple[float, float, float] | None:
+        """Worker seconds of a case's warm-up, its first timing task and each later one, ``None`` if unknown.
 
-        A case measured with a warm-up and no timed run (refused at ``setup``) costs only the warm-up.
+        A case measured with a warm-up and no timed sample (refused at ``setup``) costs only the warm-up.
         """
         if label not in self.warm_up and label not in self.run:
             return None
         run = self.run.get(label, 0.0)
-        return self.warm_up.get(label, run), run
+        return self.warm_up.get(label, run), self.first.get(label, run), run
 
-    def typical(self) -> tuple[float, float]:
-        """The median warm-up and timed run over the table's cases."""
+    def typical(self) -> tuple[float, float, float]:
+        """The median warm-up, first timing task and later timed sample over the table's cases."""
         if not self.run:
-            return 1.0, 1.0
+            return 1.0, 1.0, 1.0
         return (statistics.median(self.warm_up.get(k, v) for k, v in self.run.items()),
+                statistics.median(self.first.get(k, v) for k, v in self.run.items()),
                 statistics.median(self.run.values()))
 
 
@@ -124,7 +129,7 @@ class Plan:
     """What a run will do and how long it should take (see :func:`plan`)."""
 
     n_cases: int
-    n_runs: int            # timed runs (the warm-ups and references come on top)
+    n_runs: int            # timed samples (the warm-ups, calibration runs and references come on top)
     n_locations: int
     n_unknown: int         # tasks the cost table does not know (counted as its median)
     workers: int
@@ -132,12 +137,13 @@ class Plan:
     speed: float           # this machine's time for the calibration workload / the table's
     load: float            # other programs' runnable processes
     cores: int
-    #: case label -> worker seconds of its warm-up and of one timed run (the table's, or typical ones)
+    #: case label -> worker seconds of its warm-up and of one timing round, the mean of its rounds
+    #: (the table's, or typical ones)
     weights: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def statement(self) -> str:
         """One sentence for the user before the run starts."""
-        parts = [f"{self.n_cases} case(s): {self.n_runs} timed runs after a warm-up each"]
+        parts = [f"{self.n_cases} case(s): {self.n_runs} timed samples after a warm-up each"]
         if self.n_locations:
             parts.append(f"then {self.n_locations} bifurcation-target location(s)")
         head = ", ".join(parts) + f", on {self.workers} worker(s)"
@@ -185,10 +191,13 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
         if costs is None:
             unknown += 1
             costs = table.typical()
-        weights[c.label] = costs
-        work += costs[0] + c.repeats * costs[1]
+        warm, first, later = costs
+        timing = first + (c.repeats - 1) * later
+        weights[c.label] = (warm, timing / max(1, c.repeats))
+        work += warm + timing
     known_targets = list(table.target.values())
-    typical_target = statistics.median(known_targets) if known_targets else sum(table.typical()) * 4
+    typical_target = (statistics.median(known_targets) if known_targets
+                      else (table.typical()[0] + table.typical()[2]) * 4)
     target_work = 0.0
     for loc in locations:
         cost = table.target.get(location_label(loc.target.name, loc.integrator, loc.options))
@@ -208,9 +217,10 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
 def measure(out: str | Path, total: float, workers: int = 2, calibration: float | None = None) -> CostTable:
     """A :class:`CostTable` from a finished run's ``timeline.csv`` and ``bifurcation_targets.parquet``.
 
-    Each case's warm-up and timed runs are the worker-slot durations of its
-    tasks in the timeline (the median of its timed runs); ``total`` is the
-    run's wall time on ``workers`` workers, report excluded.
+    Each case's warm-up and timing tasks are the worker-slot durations of its
+    tasks in the timeline: its first timing task (calibration run, first sample,
+    metrics) and the median of its later ones (one timed sample each); ``total``
+    is the run's wall time on ``workers`` workers, report excluded.
     """
     import pandas as pd
 
@@ -220,7 +230,10 @@ def measure(out: str | Path, total: float, workers: int = 2, calibration: float 
     tl = pd.read_csv(out / "timeline.csv")
     tl["seconds"] = tl["end"] - tl["start"]
     warm = tl[tl["kind"] == "warm-up"].groupby("label")["seconds"].max().to_dict()
-    runs = tl[tl["kind"] == "time"].groupby("label")["seconds"].median().to_dict()
+    timed = tl[tl["kind"] == "time"].sort_values("start", kind="stable")
+    first = timed.groupby("label")["seconds"].first().to_dict()
+    later = timed[timed.duplicated("label")].groupby("label")["seconds"].median().to_dict()
+    runs = {label: later.get(label, seconds) for label, seconds in first.items()}
     refs = tl[tl["kind"] == "reference"]["seconds"]
     targets: dict[str, float] = {}
     bif = out / "bifurcation_targets.parquet"
@@ -237,6 +250,7 @@ def measure(out: str | Path, total: float, workers: int = 2, calibration: float 
                      measured=f"{time.strftime('%Y-%m-%d')} at {str(prov.get('git_commit', '?'))[:12]}",
                      warm_up={k: round(float(v), 4) for k, v in warm.items()},
                      run={k: round(float(v), 4) for k, v in runs.items()},
+                     first={k: round(float(v), 4) for k, v in first.items()},
                      target={k: round(v, 3) for k, v in targets.items()},
                      reference=round(float(refs.median()), 3) if len(refs) else 1.5,
                      overhead=round(max(0.0, total - tasks / workers), 1))

@@ -1,10 +1,11 @@
-"""Running one case, in a worker process: the untimed warm-up, the timed repeats, the row.
+"""Running one case, in a worker process: the untimed warm-up, the timed samples, the row.
 
 A case runs in two steps, which the runner schedules apart (see
 :mod:`nsbench.bench.scheduler`): :func:`warm_up` sets the integrator up
 (compilation, operators) and runs a short untimed stretch of the span (first
-use), and :func:`time_case` times ``case.repeats`` full runs and computes the
-metrics of the first one. Nothing a case does may end the suite: an integrator
+use), and :func:`time_case` times ``case.repeats`` samples (each one run, or a
+loop of runs shorter than ``case.min_sample_time``: :mod:`nsbench.bench.timing`)
+and computes the metrics of the first run. Nothing a case does may end the suite: an integrator
 that refuses the problem, fails, diverges or raises comes back as a row with its
 status and reason. Only ``KeyboardInterrupt`` (and other ``BaseException``) propagates.
 
@@ -29,7 +30,7 @@ import numpy as np
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
-from nsbench.bench.timing import summarize
+from nsbench.bench.timing import loops_for, loops_within, needs_more, summarize
 from nsbench.bench.suite import Case
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Integrator
@@ -111,7 +112,8 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         integrator=case.integrator, integrator_config=_jsonable(config), options=_jsonable(case.options),
         level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
-        t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], n_repeats=0,
+        t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], cpu_times=[],
+        n_repeats=0,
         counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[], event_cert=[],
     )
     return row
@@ -196,17 +198,70 @@ def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
     return WarmResult(setup_time, res.wall_time)
 
 
+@dataclass
+class _Sample:
+    """One timed sample: ``loops`` runs back to back, their mean per run on each clock, and the last run."""
+
+    wall: float
+    cpu: float
+    inner: float
+    setup: float
+    run: Any  # the last SimulationResult (the failing one, if a run failed)
+    hit: bool = False  # the in-process time limit ended it
+
+
+def _quiet_heap() -> None:
+    """Collect the garbage of what ran before, then freeze the survivors (:func:`gc.freeze`).
+
+    With heyoka, numba and pandas loaded a full collection walks a few hundred
+    thousand objects (0.3-0.45 s measured on the 2-core development machine); a
+    frozen object is never walked again, so the collection here and any the
+    interpreter starts during the sample only see the sample's own objects (5e-5 s).
+    Nothing frozen is freed by the cycle collector afterwards; survivors are
+    what the worker keeps anyway (modules, compiled code, the case's objects).
+    """
+    gc.collect()
+    gc.freeze()
+
+
+def _sample(problem, integ, case: Case, grid: np.ndarray, loops: int) -> _Sample:
+    """``loops`` full runs of ``case``, timed by the engine (each run's own clocks, summed).
+
+    The caller quiets the heap first (:func:`_quiet_heap`), before it announces the
+    sample's stage, so the collection never counts against the time limit.
+    """
+    from nsbench.engine import simulate
+
+    wall = cpu = inner = setup = 0.0
+    for _ in range(max(1, loops)):
+        run = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
+        wall += float(run.wall_time)
+        cpu += float(getattr(run, "cpu_time", math.nan))
+        inner += float(getattr(run, "integrator_time", math.nan))  # NaN where the engine has no clock
+        setup = max(setup, float(run.setup_time))
+        hit = isinstance(integ, TimeLimited) and integ.hit
+        if hit or not run.ok:  # a failed run ends the sample; it is not repeated
+            return _Sample(run.wall_time, run.cpu_time, run.integrator_time, setup, run, hit)
+    n = max(1, loops)
+    return _Sample(wall / n, cpu / n, inner / n, setup, run)
+
+
 def time_case(case: Case, reference: Reference, suite: str = "suite", stage: StageCallback = _quiet,
               in_process: bool = False, count: int | None = None, metrics: bool = True,
-              first_run: int = 0) -> dict[str, Any]:
-    """Time ``count`` full runs (default ``case.repeats``; after :func:`warm_up` in this process); the row.
+              first_run: int = 0, loops: int | None = None) -> dict[str, Any]:
+    """Time ``count`` samples of ``case`` (default ``case.repeats``; after :func:`warm_up` in this process).
 
-    Every run is timed; the first one gives the events, counters and, with
-    ``metrics``, the metrics against ``reference`` (runs are deterministic). A
-    run that does not succeed is not repeated. The row's ``setup_time`` and
-    ``warmup_time`` are the warm-up's: the caller sets them. The runner's workers
-    time one run per call, in rounds over all cases (``first_run``: the runs of
-    the case timed before, which numbers the stages), and join the rounds with
+    Without ``loops`` (the first timing round) a *calibration* run comes first:
+    it gives the events, counters and, with ``metrics``, the metrics against
+    ``reference`` (runs are deterministic), and its time sets ``loops``, the runs
+    per sample (:func:`nsbench.bench.timing.loops_for` with the case's
+    ``min_sample_time``). A run that long is itself the first sample; a shorter
+    one is not counted. Later rounds (``loops`` given, ``metrics=False``) time
+    their samples with the same ``loops``. A run that does not succeed ends the
+    timing (no further samples). The row's ``setup_time`` and ``warmup_time`` are
+    the warm-up's: the caller sets them. The runner's workers time one sample
+    per call, in rounds over all cases (``first_run``: the samples of the case
+    timed before, which numbers the stages), and join the rounds with
     :func:`merge_runs`.
     """
     from nsbench.engine import simulate
@@ -214,41 +269,59 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
     row = base_row(case, suite)
     row.update(reference_config=_jsonable(reference.config), **reference.columns())
     grid = np.linspace(case.t0, case.t_end, case.dense_points)
-    runs = []
+    samples: list[_Sample] = []
+    n_samples = case.repeats if count is None else int(count)
+    total = max(case.repeats, first_run + n_samples)
     try:
         problem, integ = _components(case, case.time_limit if in_process else None)
-        n_runs = case.repeats if count is None else int(count)
-        for k in range(n_runs):
-            gc.collect()  # the garbage of the previous run is not this run's to collect
-            stage(f"timed run {first_run + k + 1} of {max(case.repeats, first_run + n_runs)}", case.time_limit)
-            runs.append(simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps))
-            if (isinstance(integ, TimeLimited) and integ.hit) or not runs[0].ok:
-                break  # a failed run is not repeated
+        first = None
+        if loops is None:
+            _quiet_heap()
+            stage(f"timed sample {first_run + 1} of {total} (its calibration run)", case.time_limit)
+            tic = time.perf_counter()
+            first = simulate(problem, integ, case.t_end, t0=case.t0, t_eval=grid, max_steps=case.max_steps)
+            call = time.perf_counter() - tic
+            loops = loops_for(float(first.wall_time), case.min_sample_time)
+            # the time limit covers a whole sample (one stage): a run of 0.1 ms in a call of 2 ms (setting up,
+            # building the result) loops 500 times, a 1 s sample; keep a looped sample within a quarter of the
+            # limit, a 4x margin for a busy machine
+            loops = loops_within(loops, call, case.time_limit / 4.0)
+            hit = isinstance(integ, TimeLimited) and integ.hit
+            if loops == 1 or hit or not first.ok:  # long enough (or failed): it is the first sample
+                samples.append(_Sample(first.wall_time, first.cpu_time, first.integrator_time,
+                                       first.setup_time, first, hit))
+        while len(samples) < n_samples and not (samples and (samples[-1].hit or not samples[-1].run.ok)):
+            k = first_run + len(samples) + 1
+            _quiet_heap()  # before the stage: a full collection (0.3-0.45 s idle) is no part of a run's limit
+            stage(f"timed sample {k} of {total}" + (f" ({loops} runs)" if loops > 1 else ""), case.time_limit)
+            samples.append(_sample(problem, integ, case, grid, loops))
     except Exception as exc:  # after a clean warm-up: rare, but a row all the same
         row.update(status="error", message=_error_message(exc))
         return _finish(row)
-    first = runs[0]
-    if isinstance(integ, TimeLimited) and integ.hit:
-        row.update(status="time limit", message=runs[-1].message, t_final=runs[-1].t_final)
+    lead = first if first is not None else samples[0].run
+    last = samples[-1]
+    if last.hit:
+        row.update(status="time limit", message=last.run.message, t_final=last.run.t_final)
         return _finish(row)
-    notes = [first.message] if first.message else []
-    notes += [f"timed run {k + 1} ended with {r.status.value}: {r.message}"
-              for k, r in enumerate(runs) if r.status != first.status]
-    wall = [float(r.wall_time) for r in runs]
-    inner = [float(getattr(r, "integrator_time", math.nan)) for r in runs]  # the new engine's own clock
-    counters = first.counters.as_dict()
+    notes = [lead.message] if lead.message else []
+    notes += [f"timed sample {k + 1} ended with {s.run.status.value}: {s.run.message}"
+              for k, s in enumerate(samples) if s.run.status != lead.status]
+    wall = [float(s.wall) for s in samples]
+    inner = [float(s.inner) for s in samples]
+    cpu = [float(s.cpu) for s in samples]
+    counters = lead.counters.as_dict()
     extra = {k: v for k, v in counters.items() if k not in ("nfev", "njev", "nsteps", "n_events")}
-    row.update(status=first.status.value, message=" | ".join(notes), t_final=first.t_final,
+    row.update(status=lead.status.value, message=" | ".join(notes), t_final=lead.t_final,
                nfev=int(counters["nfev"]), njev=int(counters["njev"]), nsteps=int(counters["nsteps"]),
                n_events=int(counters["n_events"]), counters_extra=_jsonable(extra),
-               wall_times=wall, n_repeats=len(wall), integrator_times=inner,
-               setup_time_timed=max(float(r.setup_time) for r in runs), **summarize(wall, inner))
+               wall_times=wall, n_repeats=len(wall), integrator_times=inner, cpu_times=cpu, loops=int(loops),
+               setup_time_timed=max(float(s.setup) for s in samples), **summarize(wall, inner, cpu))
     if metrics and reference.ok:
         dense = None
-        if first.ok and len(first.trajectory) == case.dense_points:
-            dense = first.trajectory[list(problem.state_names)].to_numpy().T
-        metrics = case_metrics(reference.events, first.events, reference.y_dense, dense,
-                               reference.y_final, first.y_final)
+        if lead.ok and len(lead.trajectory) == case.dense_points:
+            dense = lead.trajectory[list(problem.state_names)].to_numpy().T
+        metrics = case_metrics(reference.events, lead.events, reference.y_dense, dense,
+                               reference.y_final, lead.y_final)
         if metrics.pop("truncated"):
             row["message"] = (row["message"] + " | " if row["message"] else "") + \
                 "event logs too long: only their starts were aligned"
@@ -257,7 +330,7 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
 
 
 def merge_runs(row: dict[str, Any], more: dict[str, Any]) -> dict[str, Any]:
-    """``row`` (a case's earlier timed runs, with its metrics) joined with the runs of ``more``.
+    """``row`` (a case's earlier timed samples, with its metrics) joined with the samples of ``more``.
 
     ``more`` is a later round of the same case (:func:`time_case` without
     metrics). Its timings are added and the summary columns recomputed; a round
@@ -266,12 +339,13 @@ def merge_runs(row: dict[str, Any], more: dict[str, Any]) -> dict[str, Any]:
     """
     out = dict(row)
     if more.get("status") != row.get("status") or not more.get("wall_times"):
-        note = f"a later timed run ended with {more.get('status')}: {more.get('message') or 'no message'}"
+        note = f"a later timed sample ended with {more.get('status')}: {more.get('message') or 'no message'}"
         out["message"] = f"{out['message']} | {note}" if out.get("message") else note
         return out
-    wall = [float(w) for w in row["wall_times"]] + [float(w) for w in more["wall_times"]]
-    inner = [float(w) for w in row["integrator_times"]] + [float(w) for w in more["integrator_times"]]
-    out.update(wall_times=wall, integrator_times=inner, n_repeats=len(wall), **summarize(wall, inner),
+    joined = {name: [float(w) for w in row.get(name) or []] + [float(w) for w in more.get(name) or []]
+              for name in ("wall_times", "integrator_times", "cpu_times")}
+    out.update(joined, n_repeats=len(joined["wall_times"]),
+               **summarize(joined["wall_times"], joined["integrator_times"], joined["cpu_times"]),
                setup_time_timed=max(float(row["setup_time_timed"]), float(more["setup_time_timed"])))
     return out
 
@@ -283,8 +357,21 @@ def complete_row(row: dict[str, Any], warm: WarmResult) -> dict[str, Any]:
 
 
 def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str, Any]:
-    """Warm ``case`` up and time it in this process (the fallback without workers); its row."""
+    """Warm ``case`` up and time it in this process (the fallback without workers); its row.
+
+    Its planned samples first, then, while they spread widely, one more at a time up to
+    ``case.max_repeats`` (:func:`nsbench.bench.timing.needs_more`).
+    """
     warm = warm_up(case, suite, in_process=True)
     if warm.row is not None:
         return warm.row
-    return complete_row(time_case(case, reference, suite, in_process=True), warm)
+    row = time_case(case, reference, suite, in_process=True)
+    while needs_more(row, case.max_repeats or case.repeats):
+        more = time_case(case, reference, suite, in_process=True, count=1, metrics=False,
+                         first_run=int(row["n_repeats"]), loops=int(row["loops"]))
+        grown = merge_runs(row, more)
+        if grown["n_repeats"] == row["n_repeats"]:  # the sample failed: its note is kept, no more
+            row = grown
+            break
+        row = grown
+    return complete_row(row, warm)

@@ -245,7 +245,14 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
         ax.set_yscale("log")
         ax.set_title(fam, fontsize=9)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=6, loc="best", frameon=False)
+    # one legend for every panel, right of them: a legend inside a small panel covers its curves
+    entries: dict[str, object] = {}
+    for ax in axes.flat[:len(order)]:
+        for handle, name in zip(*ax.get_legend_handles_labels()):
+            entries.setdefault(name, handle)
+    if entries:
+        fig.legend(list(entries.values()), list(entries), loc="upper left", bbox_to_anchor=(1.0, 0.95), fontsize=7,
+                   frameon=False)
     for ax in axes[-1]:
         ax.set_xlabel("reference switching time")
     for ax in axes[:, 0]:
@@ -289,6 +296,61 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
     caption = (f"Cost of each configuration on {label} (median warm wall time; whiskers: fastest to "
                f"slowest timed run); accuracy is not measured: {reason}.")
     return _save(fig, out, f"cost_{slug(label)}", f"{label}: cost only", caption)
+
+
+#: Cost axes of the runtime-distribution figure: (fixed-target column, axis label).
+ECDF_COSTS = {"wall_time": "warm wall time to reach the target (s)",
+              "nfev": "right-hand-side evaluations to reach the target (nfev)"}
+
+
+def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure | None:
+    """COCO-style runtime distributions: per method, the fraction of (problem, target) pairs solved within a cost.
+
+    ``long`` is the fixed-target table (:func:`nsbench.bench.tables.fixed_target`)
+    of the methods under test. The pairs are every (problem, target) that has a
+    reference and can be graded; a method solves a pair at the cost of its
+    cheapest configuration reaching the target (the fixed-target rule), and
+    does not solve it otherwise (not reached, refused, failed). One panel per
+    cost (wall time, ``nfev``); each curve rises in steps to the share of pairs
+    the method solves. ``None`` when no pair can be graded.
+    """
+    graded = long[~long["outcome"].isin(["no reference", "not graded", "reference"])]
+    pairs = graded[["problem_label", "target"]].drop_duplicates()
+    if pairs.empty:
+        return None
+    n_pairs = len(pairs)
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(ECDF_COSTS), figsize=(11.5, 4.4), sharey=True)
+    for ax, (cost, label) in zip(axes, ECDF_COSTS.items()):
+        for name, rows in graded.groupby("integrator", sort=True):
+            hit = pd.to_numeric(rows.loc[rows["outcome"] == "reached", cost], errors="coerce")
+            x = np.sort(hit[hit > 0].to_numpy(dtype=float))
+            if x.size == 0:
+                continue
+            y = np.arange(1, x.size + 1) / n_pairs
+            st = styles[name]
+            ax.step(np.concatenate([x[:1], x]), np.concatenate([[0.0], y]), where="post", color=st["color"],
+                    lw=1.3, label=name)
+            ax.plot(x[-1], y[-1], st["marker"], color=st["color"], ms=5)  # where the curve ends
+        ax.set_xscale("log")
+        ax.set_xlabel(label)
+        ax.set_ylim(0.0, 1.02)
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0].set_ylabel(f"fraction of the {n_pairs} (problem, target) pairs solved")
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.0, 0.92), fontsize=7, frameon=False)
+    fig.suptitle("Runtime distributions over every problem and target")
+    fig.tight_layout()
+    n_problems, n_targets = pairs["problem_label"].nunique(), pairs["target"].nunique()
+    caption = (f"Runtime distributions (COCO style): for each method under test, the fraction of the {n_pairs} "
+               f"(problem, target) pairs ({n_problems} problems, {n_targets} switching-time error targets, those "
+               "that have a reference and can be graded) that it solves within a given cost, by warm wall time "
+               "(left) and by nfev (right). A pair is solved at the cost of the method's cheapest configuration "
+               "that reaches the target with the reference's event sequence (the fixed-target rule); a curve "
+               "ends (marker) at the share of pairs the method solves at all. Higher and further left is better. "
+               "Methods that count no right-hand-side evaluations (nfev = 0) have no curve on the right.")
+    return _save(fig, out, "runtime_distribution", "Runtime distributions", caption)
 
 
 def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:

@@ -65,11 +65,13 @@ class WarmUp:
 
 @dataclass(frozen=True)
 class TimeCase:
-    """Time ``runs`` warm runs of ``case`` in timing round ``round``; return the row.
+    """Time ``runs`` warm samples of ``case`` in timing round ``round``; return the row.
 
-    Round 0 gives the full row (metrics against ``reference``), which the worker
-    stores; a later round gives only its timings, which the runner joins to it.
-    ``warm`` is the case's first warm-up (its cold setup and warm-up times go in the row).
+    Round 0 gives the full row (metrics against ``reference``, and ``loops``, the
+    runs per sample its calibration run chose), which the worker stores; a later
+    round gives only its timings, taken with the ``loops`` of round 0, which the
+    runner joins to it. ``warm`` is the case's first warm-up (its cold setup and
+    warm-up times go in the row).
     """
 
     task: int
@@ -79,6 +81,7 @@ class TimeCase:
     warm: WarmResult
     round: int = 0
     runs: int = 1
+    loops: int | None = None
 
 
 @dataclass(frozen=True)

@@ -246,24 +246,29 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
 
     row_case = {c.case_id: c for c in pending}
     timeline: list[TaskRecord] = []
+    loads: list[float] = []
     try:
         if local:
             print(f"nsbench: warning: {', '.join(local)} is defined in __main__, which worker processes "
                   "cannot import: running every case in this process (no parallelism, time limit checked "
                   "between arcs only, a crash ends the run); define it in an importable module to use workers",
                   file=err)
-            _run_in_process(pending, refs, suite.name, store, reference_done, bar, warm_weight)
+            _run_in_process(pending, refs, suite.name, store, reference_done, bar, warm_weight, loads)
         elif pending:
             scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
                                   _hello(shareable, out, prov), prov["workers"], suite.name,
                                   on_warm=lambda case: bar.update(warm_weight(case), case.label),
-                                  on_phase=bar.phase)
+                                  on_phase=bar.phase,
+                                  on_extra=lambda case: bar.grow(weight(case)))
             timeline = scheduler.timeline
+            loads = scheduler.loads
             scheduler.run()
     finally:
         bar.close()
         if timeline:  # kept after an interruption too: where did the time go
             storage.write_timeline(out, timeline)
+    kept = storage.read_provenance(out).get("timing") if not loads else None  # nothing timed: keep the last
+    prov["timing"] = kept or timing_provenance(suite, prov["workers"], loads)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
     bifurcations = None
     if suite.target_list():  # the bifurcation targets: after every case, never while a case is timed
@@ -311,17 +316,44 @@ def _weights(suite: Suite, pending: list[Case], n_references: int, workers: int,
     todo = [loc for loc in locations(suite) if loc.row_id not in done] if suite.target_list() else []
     plan = estimate.plan(pending, todo, n_references, workers, table=table)
     print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
-    typical = table.typical() if table else (1.0, 1.0)
+    typical = (table.typical()[0], table.typical()[2]) if table else (1.0, 1.0)
     return ((lambda case: plan.weights.get(case.label, typical)[0]),
             (lambda case: plan.weights.get(case.label, typical)[1]), (table.reference if table else 1.0))
 
 
 def _run_in_process(pending: list[Case], refs: _References, suite: str, store, reference_done, bar,
-                    warm_weight) -> None:
+                    warm_weight, loads: list[float]) -> None:
     """The fallback without workers: references, then each case warmed up and timed in turn."""
     for key, task in list(refs.todo.items()):
         reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end,
                                               task.dense_points))
     for case in pending:
         bar.update(warm_weight(case), case.label)  # its warm-up step
+        loads.extend(load_average())
         store(run_case(case, refs.of(case), suite), steps=case.repeats)
+
+
+def load_average() -> list[float]:
+    """``[the 1-minute load average]``, or ``[]`` where the platform has none."""
+    try:
+        return [float(os.getloadavg()[0])]
+    except (AttributeError, OSError):  # pragma: no cover - platforms without a load average
+        return []
+
+
+def timing_provenance(suite: Suite, workers: int, loads: list[float]) -> dict[str, Any]:
+    """How the cases were timed and how busy the machine was meanwhile (``provenance['timing']``).
+
+    ``load`` summarises the 1-minute load average sampled each time a timed
+    sample was sent to a worker (empty when this run timed nothing, e.g. a
+    rerun that only rewrites the report): it counts the workers' own processes
+    too, so ``load - workers`` is what other programs ran.
+    """
+    import statistics
+
+    info: dict[str, Any] = {"samples": suite.repeats, "min_sample_time": suite.min_sample_time,
+                            "workers": workers, "cores": os.cpu_count()}
+    if loads:
+        info["load"] = {"min": min(loads), "median": statistics.median(loads), "max": max(loads),
+                        "n": len(loads)}
+    return info

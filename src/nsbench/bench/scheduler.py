@@ -7,8 +7,9 @@
    :data:`STICKY_SETUP` seconds), so that any worker can time them; a case with
    an expensive setup (a long compilation) is *sticky*: only its home times it.
 2. **Barrier.** Timing starts when every worker is idle and warm for every case it may time.
-3. **Time, in rounds.** A case's ``repeats`` timed runs are taken one per
-   round: every case gets its first run before any gets its second, and so on
+3. **Time, in rounds.** A case's ``repeats`` timed samples are taken one per
+   round (a noisy case more, up to ``max_repeats``): every case gets its first
+   sample before any gets its second, and so on
    (:func:`nsbench.bench.execute.time_case`, joined by
    :func:`~nsbench.bench.execute.merge_runs`). On a shared or virtual machine
    whose speed drifts over seconds to minutes, consecutive runs all see the
@@ -32,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -39,6 +41,7 @@ from typing import Any, Callable
 
 from nsbench.bench import protocol as msg
 from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row, merge_runs
+from nsbench.bench.timing import needs_more
 from nsbench.bench.pool import WorkerProcess, readable
 from nsbench.bench.reference import FAILED, Reference
 from nsbench.bench.suite import Case
@@ -91,6 +94,13 @@ class _CaseState:
     row: dict[str, Any] | None = None  # its row so far (from the first timing round on)
 
     @property
+    def loops(self) -> int | None:
+        """Runs per sample, set by the calibration run of the first round (``None`` before it)."""
+        if self.row is None or self.row.get("loops") is None:
+            return None
+        return int(self.row["loops"])
+
+    @property
     def risky(self) -> bool:
         """Its warm-up predicts a run near or past the time limit (its worker may be ended)."""
         return self.estimate / self.case.repeats > RISKY_SHARE * self.case.time_limit
@@ -140,6 +150,9 @@ class Scheduler:
         References to compute first.
     reference_of
         The reference of a case (called once references are computed).
+    on_extra
+        Called with a case that gets a timing round beyond its planned ``repeats``
+        (its samples spread widely), before the row of the round that decided it.
     on_reference, on_row
         Called in this process with each computed reference and each row, as
         it grows round by round (``on_row(row, stored=..., steps=...)``: a worker
@@ -156,17 +169,21 @@ class Scheduler:
                  reference_of: Callable[[Case], Reference], on_reference: Callable[[str, Reference], None],
                  on_row: Callable[..., None], hello: msg.Hello, workers: int,
                  suite: str = "suite", on_warm: Callable[[Case], None] | None = None,
-                 on_phase: Callable[[str], None] | None = None) -> None:
+                 on_phase: Callable[[str], None] | None = None,
+                 on_extra: Callable[[Case], None] | None = None) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
         self.ref_queue = deque(references)
         self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
         self.reference_of, self.on_reference, self.on_row = reference_of, on_reference, on_row
         self.on_warm = on_warm or (lambda case: None)
         self.on_phase = on_phase or (lambda text: None)
+        self.on_extra = on_extra or (lambda case: None)
         self.hello, self.suite = hello, suite
         self.slots = [_Slot(i) for i in range(max(1, workers))]
         self.timing = False  # the phase: False while preparing
         self.timeline: list[TaskRecord] = []
+        #: the 1-minute load average each time a sample was sent (the report's line on the machine's noise)
+        self.loads: list[float] = []
         self._refs_pending = len(references)
         self._next_task = 0
 
@@ -223,18 +240,29 @@ class Scheduler:
             if not self._quiet():
                 return  # hold: nothing compiles or warms up while a case is timed
         else:
-            free = [s for s in self.cases.values() if not s.done and s.case.case_id in slot.warm
-                    and not self._in_flight(s.case.case_id)]
+            pending = [s for s in self.cases.values() if not s.done]
+            # rounds started by the case furthest behind: no case starts round k + 1 before every case has
+            # started round k (a slow round in flight would otherwise let the others run two rounds ahead)
+            floor = min((s.rounds + self._in_flight(s.case.case_id) for s in pending), default=0)
+            free = [s for s in pending if s.case.case_id in slot.warm and not self._in_flight(s.case.case_id)
+                    and s.rounds <= floor]
             if free:
                 # earliest round first (runs interleaved in time), then longest first: the best balance
                 state = max(free, key=lambda s: (-s.rounds, s.order))
                 message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm,
-                                       round=state.rounds)
+                                       round=state.rounds, loops=state.loops)
+                self._sample_load()
                 return self._send(slot, "time", state, message, state.case.label)
             return
         need = self._needs(slot)
         if need:
             self._send_warm(slot, max(need, key=lambda s: s.estimate))
+
+    def _sample_load(self) -> None:
+        try:
+            self.loads.append(float(os.getloadavg()[0]))
+        except (AttributeError, OSError):  # pragma: no cover - platforms without a load average
+            pass
 
     def _check_progress(self) -> None:
         """Fail loudly rather than wait forever if a rule above leaves work unassigned."""
@@ -349,14 +377,24 @@ class Scheduler:
             self._timed(payload, message.result)
 
     def _timed(self, state: _CaseState, result: dict[str, Any]) -> None:
-        """A timing round of ``state`` came back: join it to the row, store, finish after the last."""
+        """A timing round of ``state`` came back: join it to the row, store, finish after the last.
+
+        After its planned ``repeats`` rounds a case whose samples spread widely
+        gets more, one per round, up to ``max_repeats``
+        (:func:`nsbench.bench.timing.needs_more`); ``on_extra`` is told of each.
+        """
         first = state.row is None
         before = state.row
         state.row = result if first else merge_runs(state.row, result)
         state.rounds += 1
         broken = not first and state.row["n_repeats"] == before["n_repeats"]  # the round added no run
-        state.done = state.row["status"] != "success" or broken or state.rounds >= state.case.repeats
-        steps = 1 + (state.case.repeats - state.rounds if state.done else 0)
+        case = state.case
+        planned = state.rounds >= case.repeats
+        more = planned and not broken and needs_more(state.row, case.max_repeats or case.repeats)
+        state.done = state.row["status"] != "success" or broken or (planned and not more)
+        if more:
+            self.on_extra(case)
+        steps = 1 + (max(0, case.repeats - state.rounds) if state.done else 0)
         self.on_row(state.row, stored=first, steps=steps)
 
     def _warmed(self, slot: _Slot, state: _CaseState, warm: WarmResult) -> None:
@@ -410,7 +448,7 @@ class Scheduler:
         if state.row is not None:  # a later timing round was lost: the earlier rounds stand
             state.done = True
             self.on_row(merge_runs(state.row, {"status": status, "message": message}), stored=False,
-                        steps=state.case.repeats - state.rounds)
+                        steps=max(0, state.case.repeats - state.rounds))
             return
         if state.warm is None:  # its first warm-up ended here
             self.on_warm(state.case)

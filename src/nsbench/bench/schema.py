@@ -33,18 +33,27 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("nsteps", "steps or segments"),
     ("n_events", "events logged by the run"),
     ("counters_extra", "JSON: integrator-specific counters"),
-    ("wall_time", "seconds integrating: median of the timed runs (all warm: after an untimed warm-up)"),
-    ("wall_time_min", "fastest timed run (seconds)"),
-    ("wall_time_max", "slowest timed run (seconds)"),
-    ("wall_spread", "relative spread of the timed runs, (max - min) / median; NaN with one run"),
-    ("wall_times", "list: wall time of every timed run, in order (the warm-up is not among them)"),
-    ("n_repeats", "number of timed runs: the suite's repeats (at least 3) if successful, 1 if the run failed"),
-    ("integrator_time", "seconds inside the integrator (engine's own clock): median over the timed runs; "
-                        "NaN if the engine does not report it"),
-    ("integrator_times", "list: integrator_time of every timed run"),
-    ("setup_time", "seconds in the integrator's setup in the warm-up (cold): compilation, operators"),
+    ("wall_time", "seconds per run: median of the timed samples (all warm: after an untimed warm-up)"),
+    ("wall_time_min", "fastest timed sample (seconds per run)"),
+    ("wall_time_max", "slowest timed sample (seconds per run)"),
+    ("wall_spread", "relative spread of the timed samples, (max - min) / median; NaN with one sample"),
+    ("wall_times", "list: seconds per run of every timed sample, in order (a sample is the mean of its `loops` "
+                   "runs; the warm-up and the calibration run are not among them)"),
+    ("n_repeats", "number of timed samples: the suite's repeats (at least 3; 5 by default) if successful, 1 if "
+                  "the run failed"),
+    ("loops", "runs per timed sample: 1 for a run of at least the suite's min_sample_time, else the first of "
+              "1, 2, 5, 10, 20, ... whose runs last that long (from the calibration run)"),
+    ("integrator_time", "seconds inside the integrator (engine's own clock) per run: median over the timed "
+                        "samples; NaN if the engine does not report it"),
+    ("integrator_times", "list: integrator_time per run of every timed sample"),
+    ("cpu_time", "CPU seconds of the worker process per run, over the same stretch as wall_time: median over "
+                 "the timed samples (the work done, without the time other programs held the core)"),
+    ("cpu_times", "list: cpu_time per run of every timed sample"),
+    ("setup_time", "seconds in the integrator's setup in this case's warm-up: compilation and operators for "
+                   "the first case of an integrator in a worker, a cache load for the others (the report "
+                   "charges the integrator its largest, nsbench.bench.timing.setup_table)"),
     ("setup_time_timed", "longest setup among the timed runs: near 0 when warm; a large value means "
-                         "compilation happened while timing"),
+                         "compilation happened while timing (setup is never part of wall_time)"),
     ("warmup_time", "seconds of the untimed warm-up run (the first tenth of the span, cold)"),
     ("reference", "name of the reference integrator, empty if none"),
     ("reference_config", "JSON: its config"),
@@ -84,7 +93,7 @@ COLUMNS: tuple[tuple[str, str], ...] = (
 )
 
 COLUMN_NAMES: tuple[str, ...] = tuple(name for name, _ in COLUMNS)
-LIST_COLUMNS = ("wall_times", "integrator_times", "event_t", "event_err", "event_cert")
+LIST_COLUMNS = ("wall_times", "integrator_times", "cpu_times", "event_t", "event_err", "event_cert")
 JSON_COLUMNS = ("problem_config", "integrator_config", "options", "counters_extra", "reference_config")
 RUNNER_STATUSES = ("unsupported", "time limit", "error", "crashed")
 

@@ -43,10 +43,12 @@ WRITTEN_FOLDERS = ("cases", "references", "figures", "bifurcation_targets", "bif
 def check_no_links(out: str | Path) -> None:
     """``ConfigError`` if something nsbench writes or deletes in the output directory ``out`` is a link."""
     refuse_links(out, WRITTEN, WRITTEN_FOLDERS)
-_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix",
+
+
+_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "loops", "n_ref", "n_prefix",
         "n_matched", "n_missed", "n_extra", "first_divergence_index")
 _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
-          "wall_spread", "integrator_time", "setup_time", "setup_time_timed", "warmup_time",
+          "wall_spread", "integrator_time", "cpu_time", "setup_time", "setup_time_timed", "warmup_time",
           "first_divergence_time",
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
           "final_state_err", "state_err_l2", "ref_conditioning", "ref_double_floor", "ref_certainty")
@@ -361,6 +363,11 @@ def _checked(path: Path) -> pd.DataFrame:
     except DamagedFile as exc:
         raise ConfigError(f"{path} is damaged ({exc}); rerun into this folder (without --fresh) to compute "
                           "its case again") from None
+
+
+def write_results(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
+    """``frame`` (rows of the tidy schema) as one Parquet file with ``provenance`` in its metadata, atomically."""
+    _write_atomic(_table(to_frame(frame.to_dict("records")), provenance), Path(path))
 
 
 #: Header entries of a CSV export that prove its table (they are not provenance).

@@ -18,10 +18,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from nsbench.bench.timing import MIN_REPEATS
+from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_REPEATS, MIN_SAMPLE_TIME
 from nsbench.errors import ConfigError
 
-_SUITE_KEYS = {"name", "t_span", "repeats", "repeat_budget", "time_limit", "setup_limit", "max_steps",
+_SUITE_KEYS = {"name", "t_span", "repeats", "max_repeats", "min_sample_time", "repeat_budget", "time_limit",
+               "setup_limit", "max_steps",
                "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
@@ -30,7 +31,7 @@ _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
 #: anything is expanded, so a grid of 10^9 cases is refused at once; split a
 #: bigger study into several suites (or raise this bound).
 MAX_CASES = 100_000
-#: Most timed runs per case (``repeats``).
+#: Most timed samples per case (``repeats``).
 MAX_REPEATS = 1000
 #: Most states compared with the reference per case (``dense_points``).
 MAX_DENSE_POINTS = 1_000_000
@@ -63,6 +64,8 @@ class Case:
     max_steps: int
     dense_points: int
     setup_limit: float = 1800.0
+    min_sample_time: float = MIN_SAMPLE_TIME
+    max_repeats: int | None = None  # None: repeats (no samples beyond the planned ones)
 
     @property
     def case_id(self) -> str:
@@ -205,8 +208,18 @@ class Suite:
         (name -> ``{'levels': [indices], 'reason': str}``, data that keeps known
         slow levels out of a suite).
     repeats
-        Timed runs per case, all after an untimed warm-up; the wall time is their
-        median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS` (3) are raised to 3.
+        Timed samples per case (default 5), all after an untimed warm-up; the wall
+        time is their median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS`
+        (3) are raised to 3.
+    max_repeats
+        Most timed samples per case (default twice ``repeats``): a case whose
+        planned samples spread by more than 25 % on the CPU clock
+        (:func:`nsbench.bench.timing.needs_more`) gets more, one per round, up to
+        this many. Equal to ``repeats``: never more.
+    min_sample_time
+        Seconds a timed sample lasts at least (default 0.05): a case whose run is
+        shorter is run ``loops`` times back to back per sample, and the sample is
+        their mean (:func:`nsbench.bench.timing.loops_for`); 0 times single runs.
     repeat_budget
         Deprecated and ignored (accepted so that older suite files still load):
         every successful case is now timed on ``repeats`` warm runs.
@@ -239,7 +252,9 @@ class Suite:
     t_span: tuple[float, float] = (0.0, 300.0)
     problems: list[dict[str, Any]] = field(default_factory=list)
     integrators: dict[str, Any] = field(default_factory=lambda: {"registered": True})
-    repeats: int = 3
+    repeats: int = DEFAULT_SAMPLES
+    max_repeats: int | None = None
+    min_sample_time: float = MIN_SAMPLE_TIME
     repeat_budget: float | None = None
     time_limit: float = 30.0
     setup_limit: float = 1800.0
@@ -266,12 +281,22 @@ class Suite:
                 raise ConfigError(f"{key} = {value!r} must be an integer >= {low} and <= {high} "
                                   f"(the bound is nsbench.bench.suite.{bound})")
         self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
+        if self.max_repeats is None:
+            self.max_repeats = min(2 * self.repeats, MAX_REPEATS)
+        value = self.max_repeats
+        if isinstance(value, bool) or not isinstance(value, int) or not self.repeats <= value <= MAX_REPEATS:
+            raise ConfigError(f"max_repeats = {value!r} must be an integer >= repeats ({self.repeats}) and <= "
+                              f"{MAX_REPEATS} (the bound is nsbench.bench.suite.MAX_REPEATS)")
         for key in ("repeat_budget", "time_limit", "setup_limit"):
             value = getattr(self, key)
             if key == "repeat_budget" and value is None:
                 continue
             if not _is_number(value) or not (value > 0 and math.isfinite(value)):
                 raise ConfigError(f"{key} = {value!r} must be a positive, finite number of seconds")
+        value = self.min_sample_time
+        if not _is_number(value) or not 0 <= value < self.time_limit:
+            raise ConfigError(f"min_sample_time = {value!r} must be a number of seconds >= 0 and below time_limit "
+                              f"= {self.time_limit:g} (a timed sample loops runs shorter than it)")
         if isinstance(self.reference, str):
             self.reference = (self.reference,)
         _field(_is_str_list(self.reference) and len(self.reference) > 0, "reference",
@@ -507,7 +532,9 @@ class Suite:
                     out.append(Case(problem=problem, integrator=name, options=options, level=level,
                                     t0=self.t_span[0], t_end=self.t_span[1], repeats=self.repeats,
                                     time_limit=float(self.time_limit), max_steps=self.max_steps,
-                                    dense_points=self.dense_points, setup_limit=float(self.setup_limit)))
+                                    dense_points=self.dense_points,
+                                    min_sample_time=float(self.min_sample_time), max_repeats=self.max_repeats,
+                                    setup_limit=float(self.setup_limit)))
         return out
 
 

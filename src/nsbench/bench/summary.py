@@ -2,9 +2,12 @@
 
 The report opens with this. For each problem that has a reference and each
 switching-time error target: the cheapest method under test that reaches the
-target (median warm wall time and its spread), every other method's cost as a
-ratio to it, and the methods that never reach it with the reason (best error
-reached, wrong event sequence, a failure status). Runs with a wrong event
+target (median warm wall time and its interval), every other method's cost as a
+ratio to it with the ratio's interval, and the methods that never reach it with
+the reason (best error reached, wrong event sequence, a failure status). A
+method whose time cannot be told from the fastest one's (their intervals
+overlap, or the ratio's interval holds 1: :func:`tied_with`) is *tied* with it:
+then no single method is named the cheapest, and every tied one is named. Runs with a wrong event
 sequence (missed or extra events) are listed by name: they never count as
 reaching a target (:func:`nsbench.bench.metrics.reaches`), so they can never be
 the cheapest. Reference-grade integrators (closed form, extended precision; the
@@ -21,8 +24,12 @@ import math
 import numpy as np
 import pandas as pd
 
+from nsbench.bench.stats import Interval, median_interval, ratio_interval
 from nsbench.bench.tables import first_known, grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
+
+#: Confidence of the intervals of the report's times and cost ratios.
+CONFIDENCE = 0.95
 
 
 def reference_grade(name: str) -> bool:
@@ -47,6 +54,36 @@ def _time(wall: float, spread: float) -> str:
     return f"{wall:.3g} s" + (f" {label}" if label else "")
 
 
+def samples_of(row: pd.Series) -> list[float]:
+    """The timed samples of a row (seconds per run), or its median alone when it kept none."""
+    samples = list(row["wall_times"]) if "wall_times" in row and len(row["wall_times"]) else []
+    return samples or ([float(row["wall_time"])] if pd.notna(row["wall_time"]) else [])
+
+
+def tied_with(fast: list[float], other: list[float], confidence: float = CONFIDENCE) -> bool:
+    """Whether ``other``'s times cannot be told from the faster ``fast``'s.
+
+    Tied when either side has fewer than two samples (no spread to judge by),
+    when the two medians' distribution-free intervals overlap
+    (:func:`~nsbench.bench.stats.median_interval`), or when the interval of the
+    cost ratio holds 1 (:func:`~nsbench.bench.stats.ratio_interval`).
+    """
+    if len(fast) < 2 or len(other) < 2:
+        return True
+    a, b = median_interval(fast, confidence), median_interval(other, confidence)
+    return a.overlaps(b) or ratio_interval(fast, other, confidence).contains(1.0)
+
+
+def interval_text(est: Interval, unit: str = "") -> str:
+    """``'0.0123 s [0.0120-0.0127]'`` or ``'x1.8 [1.6-2.0]'``: an estimate and its interval."""
+    if not est.known:
+        return ""
+    head = f"x{est.estimate:.3g}" if unit == "x" else f"{est.estimate:.3g}{unit}"
+    if est.coverage <= 0:  # one sample: no interval
+        return head
+    return f"{head} [{est.low:.3g}-{est.high:.3g}]"
+
+
 def _why_not(rows: pd.DataFrame, target: float) -> str:
     """Why an integrator's configurations never reach ``target`` on one problem."""
     if (rows["status"] == "unsupported").all():
@@ -65,13 +102,17 @@ def _why_not(rows: pd.DataFrame, target: float) -> str:
     return "; ".join(parts) or "no usable run"
 
 
-def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
-    """One row per (problem, target): the cheapest method, the others' cost ratios, those never reaching it.
+def problem_summary(frame: pd.DataFrame, targets, confidence: float = CONFIDENCE) -> pd.DataFrame:
+    """One row per (problem, target): the cheapest method (or those tied for it), the others' cost ratios with
+    their intervals, those never reaching it.
 
     Columns: ``problem, target, cheapest, time, others, not_reached`` (display
-    strings), ``wall_time, runner_up, ratio`` (the cheapest's time, the
-    second cheapest and its cost ratio, for :func:`findings`) and ``reached``
-    (``'k of m'`` methods reach the target).
+    strings; ``cheapest`` is ``'tied: a, b'`` when the fastest method cannot be
+    told from others, :func:`tied_with`), ``wall_time, runner_up, ratio,
+    ratio_low, ratio_high`` (the fastest's median time, the second fastest and its
+    cost ratio with the ratio's interval, for :func:`findings`), ``tied`` (the
+    names tied for cheapest, comma-separated, empty when one method is
+    distinguishably cheapest) and ``reached`` (``'k of m'`` methods reach the target).
     """
     methods, _ = split_references(frame)
     rows = []
@@ -81,41 +122,49 @@ def problem_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
         limit, why = grading_floor(group[group["reference_status"] == "ok"])
         for target in targets:
             row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
-                   "not_reached": "", "wall_time": math.nan, "runner_up": "", "ratio": math.nan, "reached": ""}
+                   "not_reached": "", "wall_time": math.nan, "runner_up": "", "ratio": math.nan,
+                   "ratio_low": math.nan, "ratio_high": math.nan, "tied": "", "reached": ""}
             rows.append(row)
             if target < limit:  # no method can be told right from wrong at this target
                 row.update(not_reached=f"not graded at this target: {why}", reached="not graded")
                 continue
-            best = {}
+            best: dict[str, list[float]] = {}
             missed = {}
             for name, runs in group.groupby("integrator", sort=True):
                 hit = runs[reached_mask(runs, target)]
                 if len(hit):
-                    b = hit.loc[hit["wall_time"].idxmin()]
-                    best[name] = (float(b["wall_time"]), float(b["wall_spread"]) if pd.notna(b["wall_spread"])
-                                  else math.nan)
+                    best[name] = samples_of(hit.loc[hit["wall_time"].idxmin()])
                 elif not (runs["status"] == "unsupported").all():
                     missed[name] = _why_not(runs, target)
-            order = sorted(best, key=lambda n: best[n][0])
+            order = sorted(best, key=lambda n: float(np.median(best[n])))
             row.update(not_reached="; ".join(f"{n} ({why})" for n, why in missed.items()),
                        reached=f"{len(best)} of {len(best) + len(missed)}")
-            if order:
-                first = order[0]
-                t0 = best[first][0]
-                row.update(cheapest=first, time=_time(*best[first]), wall_time=t0)
-                row["others"] = _others([(n, best[n][0] / t0, best[n][1]) for n in order[1:]])
-                if len(order) > 1:
-                    row.update(runner_up=order[1], ratio=best[order[1]][0] / t0)
+            if not order:
+                continue
+            first = order[0]
+            fast = best[first]
+            ties = [first] + [n for n in order[1:] if tied_with(fast, best[n], confidence)]
+            ratios = [(n, ratio_interval(fast, best[n], confidence), n in ties) for n in order[1:]]
+            row.update(cheapest=first if len(ties) == 1 else "tied: " + ", ".join(ties),
+                       time=interval_text(median_interval(fast, confidence), " s"),
+                       wall_time=float(np.median(fast)), tied=", ".join(ties) if len(ties) > 1 else "",
+                       others=_others(ratios))
+            if ratios:
+                name, est, _ = ratios[0]
+                row.update(runner_up=name, ratio=est.estimate, ratio_low=est.low, ratio_high=est.high)
     return pd.DataFrame(rows, columns=["problem", "target", "cheapest", "time", "others", "not_reached",
-                                       "wall_time", "runner_up", "ratio", "reached"])
+                                       "wall_time", "runner_up", "ratio", "ratio_low", "ratio_high", "tied",
+                                       "reached"])
 
 
 def compact(summary: pd.DataFrame, target: str) -> pd.DataFrame:
-    """One row per problem at one target (a table that fits a page): cheapest, its time, runner-up and ratio."""
+    """One row per problem at one target (a table that fits a page): cheapest (or tied), its time, the
+    next fastest and the cost ratio with its interval."""
     rows = summary[summary["target"] == target]
+    ratio = [interval_text(Interval(r, lo, hi, 1.0 if lo == lo else 0.0), "x") if r == r else ""
+             for r, lo, hi in zip(rows["ratio"], rows["ratio_low"], rows["ratio_high"])]
     return pd.DataFrame({"problem": rows["problem"], "cheapest": rows["cheapest"], "time": rows["time"],
-                         "next": rows["runner_up"],
-                         "ratio": rows["ratio"].map(lambda r: f"{r:.3g}" if r == r else ""),
+                         "next": rows["runner_up"], "ratio": ratio,
                          "reach it": rows["reached"]}).reset_index(drop=True)
 
 
@@ -123,21 +172,20 @@ def compact(summary: pd.DataFrame, target: str) -> pd.DataFrame:
 SHOWN_RATIOS = 5
 
 
-def _others(ratios: list[tuple[str, float, float]]) -> str:
-    def one(name, ratio, spread):
-        label = spread_label(spread)
-        return f"{name} x{ratio:.3g}" + (f" ({label})" if label else "")
+def _others(ratios: list[tuple[str, Interval, bool]]) -> str:
+    def one(name, est, tied):
+        return f"{name} {interval_text(est, 'x')}" + (" tied" if tied else "")
 
     text = ", ".join(one(*r) for r in ratios[:SHOWN_RATIOS])
     if len(ratios) > SHOWN_RATIOS:
-        text += f", {len(ratios) - SHOWN_RATIOS} more up to x{ratios[-1][1]:.3g}"
+        text += f", {len(ratios) - SHOWN_RATIOS} more up to x{ratios[-1][1].estimate:.3g}"
     return text
 
 
 def display(summary: pd.DataFrame) -> pd.DataFrame:
     """The summary table as shown in a report."""
     return summary[["problem", "target", "cheapest", "time", "others", "not_reached"]].rename(
-        columns={"time": "its time", "others": "others: cost ratio to the cheapest",
+        columns={"time": "its time [interval]", "others": "others: cost ratio to the fastest [interval]",
                  "not_reached": "never reach the target (why)"})
 
 
@@ -242,18 +290,35 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
                 out.append(f"No method under test reaches a switching-time error of {target} on any problem"
                            + (f"; {not_graded}" if ungraded else "") + ".")
             continue
-        wins = won["cheapest"].value_counts()
-        lead, n = wins.index[0], int(wins.iloc[0])
-        mine = won[won["cheapest"] == lead]
-        ratios = mine["ratio"].dropna()
-        margin = (f"; the next method costs {ratios.min():.2g} to {ratios.max():.2g} times as much"
-                  if len(ratios) > 1 else (f"; the next method costs {ratios.iloc[0]:.2g} times as much"
-                                           if len(ratios) else ""))
-        others = [f"{name} on {int(k)}" for name, k in wins.iloc[1:].items()]
-        text = (f"At a switching-time error of {target}, {lead} is the cheapest method on {n} of "
-                f"{len(rows)} problems{margin}")
-        if others:
-            text += f" ({', '.join(others)} elsewhere)"
+        single = won[won["tied"] == ""]
+        parts = []
+        if len(single):
+            wins = single["cheapest"].value_counts()
+            lead, n = wins.index[0], int(wins.iloc[0])
+            mine = single[single["cheapest"] == lead]
+            ratio, lows = mine["ratio"].dropna(), mine["ratio_low"].dropna()
+            margin = ""
+            if len(ratio):
+                span = (f"{ratio.min():.2g} to {ratio.max():.2g} times" if len(ratio) > 1
+                        else f"{ratio.iloc[0]:.2g} times")
+                margin = f"; the next method costs {span} as much"
+                if len(lows):
+                    margin += f" (the 95 % intervals of these ratios start at {lows.min():.2g} or above)"
+            text = (f"At a switching-time error of {target}, {lead} is the cheapest method on {n} of "
+                    f"{len(rows)} problems{margin}")
+            others = [f"{name} on {int(k)}" for name, k in wins.iloc[1:].items()]
+            if others:
+                text += f" ({', '.join(others)} elsewhere)"
+            parts.append(text)
+        else:
+            parts.append(f"At a switching-time error of {target}, no method is distinguishably the cheapest "
+                         "on any problem")
+        tied = won[won["tied"] != ""]
+        if len(tied):
+            listed = "; ".join(f"{_and(r.tied.split(', '))} on {r.problem}" for r in tied.itertuples())
+            parts.append(f"on {len(tied)} problem(s) the cheapest cannot be told apart (their timing intervals "
+                         f"overlap), so they are tied: {listed}")
+        text = "; ".join(parts)
         unreached = rows["cheapest"].eq("").sum() - ungraded
         if unreached:
             text += f"; {int(unreached)} problem(s) have no method reaching it"
@@ -267,3 +332,8 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
     elif problems:
         out.append("Every successful run of a method under test has the reference's event sequence.")
     return out
+
+
+def _and(names: list[str]) -> str:
+    """``'a and b'``, ``'a, b and c'``."""
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]

@@ -83,12 +83,10 @@ def report(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = Non
 
 
 def _table(frame: pd.DataFrame) -> str:
-    """A Markdown table without the optional ``tabulate`` dependency."""
-    cols = list(frame.columns)
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for _, row in frame.iterrows():
-        out.append("| " + " | ".join(_fmt(row[c]) for c in cols) + " |")
-    return "\n".join(out)
+    """A Markdown table of the sweep reports (:func:`nsbench.render.markdown`, numbers to 4 digits)."""
+    from nsbench.render import markdown
+
+    return markdown(frame, fmt=_fmt)
 
 
 def _fmt(v) -> str:

@@ -26,14 +26,19 @@ def _plt():
 
 
 def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100) -> list[Path]:
-    """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths."""
+    """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths.
+
+    The saved area is the figure's tight bounding box, so a legend placed beside the
+    axes (where it covers no data) is kept whole.
+    """
     plt = _plt()
     base = Path(base)
     base.parent.mkdir(parents=True, exist_ok=True)
     out = []
     for fmt in formats:
         path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
-        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None)
+        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None,
+                    bbox_inches="tight")
         out.append(path)
     plt.close(fig)
     return out
@@ -68,7 +73,7 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
         if len(bad):
             lo = ok[var].min() if len(ok) else 0.0
             ax.plot(bad["value"], np.full(len(bad), lo), "x", color=RED, ms=3, label="failed/incomplete")
-            ax.legend(fontsize=7, loc="best")
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the data
         if candidates is not None:
             for v in candidates["value"]:
                 ax.axvline(v, color="tab:orange", lw=0.5, alpha=0.5)
@@ -127,7 +132,7 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
             fontsize=7, va="top")
     ax.set_xlabel(f"x{a}")
     ax.set_ylabel(f"x{b}")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the phase plane
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
@@ -151,7 +156,7 @@ def portrait(run, base: str | Path, title: str = "", formats: Sequence[str] = FO
         ax_p.set_xlabel(f"x{i}")
         ax_p.set_ylabel(f"v{i}")
     ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=len(blocks), frameon=False)  # above
     if title:
         fig.suptitle(title, fontsize=9)
     fig.tight_layout()

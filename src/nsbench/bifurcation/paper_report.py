@@ -114,10 +114,9 @@ def markdown_report(sweeps, table, found, points, transient, record, total, cont
 
 
 def _html_table(frame: pd.DataFrame) -> str:
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in row) + "</tr>"
-                   for row in frame.itertuples(index=False))
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    from nsbench.render import html as html_table
+
+    return html_table(frame, classes="", fmt=_fmt)
 
 
 def html_report(sweeps, table, found, points, transient, record, total, continued=None) -> str:

@@ -14,7 +14,7 @@ from typing import Sequence
 from nsbench.errors import NsbenchError
 
 # Sub-command modules; each defines ``add_parser(subparsers)`` and ``main(args) -> int``.
-COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "ingest",
+COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "history", "ingest",
             "bifurcation", "continuation", "lyapunov", "paper")
 
 

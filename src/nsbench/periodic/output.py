@@ -90,24 +90,47 @@ def summary(result: Continuation, meta: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+#: Colour of each bifurcation category's vertical line (other categories: grey).
+CATEGORY_COLOURS = {"fixed-point": "tab:red", "sliding": "tab:purple", "border-collision": "tab:brown"}
+#: Most branches named one by one in the legend; beyond, one entry says how the colours repeat.
+LEGEND_BRANCHES = 10
+
+
 def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, variable: str = "x1",
            diagram: pd.DataFrame | None = None, title: str = "",
            formats: Sequence[str] = ("png", "svg", "pdf")) -> list[Path]:
-    """Section points of every branch against the parameter; stable solid, unstable dashed.
+    """Section points of every branch against the parameter; stable solid, unstable dashed (:func:`draw`)."""
+    from nsbench.bifurcation.figures import save
+
+    return save(draw(result, points, variable=variable, diagram=diagram, title=title), base, formats)
+
+
+def draw(result: Continuation, points: pd.DataFrame, *, variable: str = "x1",
+         diagram: pd.DataFrame | None = None, title: str = ""):
+    """The figure of :func:`figure`, not saved: each branch in its own colour (stable parts solid,
+    unstable dashed), the located bifurcations as vertical lines coloured by category.
 
     Within a branch the ``k``-th smallest ``variable`` of consecutive orbits with the
     same number of points and stability is one line. ``diagram``: a brute-force
     sweep's points (``value`` and ``variable`` columns), drawn beneath as grey dots.
+    The legend, right of the axes, names each branch with its colour (up to
+    :data:`LEGEND_BRANCHES`; beyond, how the colours repeat), the two line styles and
+    the bifurcation categories drawn.
     """
-    from nsbench.bifurcation.figures import _plt, save
+    from matplotlib.lines import Line2D
+
+    from nsbench.bifurcation.figures import _plt
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8, 4.8), constrained_layout=True)
+    handles: list = []
     if diagram is not None and len(diagram) and variable in diagram:
-        ax.plot(diagram["value"], diagram[variable], ",", color="0.6", alpha=0.6, label="brute-force sweep")
+        ax.plot(diagram["value"], diagram[variable], ",", color="0.6", alpha=0.6)
+        handles.append(Line2D([], [], ls="none", marker=".", color="0.6", label="brute-force sweep"))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    drawn = {True: False, False: False}
-    for i, (label, grp) in enumerate(points.groupby("branch", sort=False)) if len(points) else ():
+    styles: set[bool] = set()
+    branches = list(points.groupby("branch", sort=False)) if len(points) else []
+    for i, (label, grp) in enumerate(branches):
         colour = colours[i % len(colours)]
         per_value = [(v, g[variable].sort_values().to_numpy(), bool(g["stable"].iloc[0]))
                      for v, g in grp.groupby("value", sort=True)]
@@ -116,31 +139,35 @@ def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, vari
             if run and (item[0] is None or len(item[1]) != len(run[-1][1]) or item[2] != run[-1][2]):
                 xs = np.array([r[0] for r in run])
                 ys = np.array([r[1] for r in run])
-                stable = run[0][2]
-                style = "-" if stable else "--"
+                stable = bool(run[0][2])
+                styles.add(stable)
                 for k in range(ys.shape[1]):
-                    lab = None
-                    if k == 0 and not drawn[stable]:
-                        lab, drawn[stable] = ("stable orbits" if stable else "unstable orbits"), True
-                    ax.plot(xs, ys[:, k], style, color=colour if stable else "0.3", lw=1.2, label=lab,
+                    ax.plot(xs, ys[:, k], "-" if stable else "--", color=colour, lw=1.2,
                             marker="." if len(xs) == 1 else None)
                 run = []
             if item[0] is not None:
                 run.append(item)
-    kinds = {}
+        if len(branches) <= LEGEND_BRANCHES:
+            handles.append(Line2D([], [], color=colour, lw=2.0, label=f"branch {label}"))
+    if len(branches) > LEGEND_BRANCHES:
+        handles.append(Line2D([], [], color=colours[0], lw=2.0,
+                              label=f"{len(branches)} branches, one colour each, repeating every "
+                                    f"{len(colours)} (table Branches)"))
+    handles += [Line2D([], [], color="k", ls="-" if stable else "--", lw=1.2,
+                       label="stable orbits" if stable else "unstable orbits") for stable in sorted(styles, reverse=True)]
+    drawn: dict[str, str] = {}
     for b in result.bifurcations:
         if b.category == "none":
             continue
-        line = ax.axvline(b.value, color="tab:red" if b.category == "fixed-point" else "tab:purple",
-                          lw=0.6, alpha=0.5)
-        kinds.setdefault(b.category, line)
-    for cat, line in kinds.items():
-        line.set_label(f"{cat} bifurcation")
+        colour = CATEGORY_COLOURS.get(b.category, "tab:gray")
+        ax.axvline(b.value, color=colour, lw=0.6, alpha=0.5)
+        drawn.setdefault(b.category, colour)
+    handles += [Line2D([], [], color=c, lw=1.0, label=f"{cat} bifurcation") for cat, c in drawn.items()]
     ax.set_xlabel(result.param)
     ax.set_ylabel(f"{variable} at the section")
     ax.set_title(title, fontsize=9)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    else:
+    if branches or handles:
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    if not branches:
         ax.text(0.5, 0.5, "no periodic orbit found in the range", transform=ax.transAxes, ha="center")
-    return save(fig, base, formats)
+    return fig

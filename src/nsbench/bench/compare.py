@@ -48,6 +48,7 @@ import pandas as pd
 from nsbench.bench import storage
 from nsbench.bench.stats import ratio_interval, slower_p, smallest_p
 from nsbench.errors import ConfigError
+from nsbench.status import Status
 
 #: Errors below this are treated as equal (round-off of a double-precision reference).
 ERROR_FLOOR = 1e-15
@@ -205,7 +206,7 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR,
         e_a, e_b = _float(r["switch_err_max_a"]), _float(r["switch_err_max_b"])
         e_ratio, e_verdict = error_verdict(e_a, e_b, factor)
         n_ratio, n_verdict = work_verdict(r["nfev_a"], r["nfev_b"], factor)
-        lost = r["status_a"] == "success" and r["status_b"] != "success"
+        lost = r["status_a"] == Status.SUCCESS and r["status_b"] != Status.SUCCESS
         broke = bool(r["sequence_ok_a"] is True and r["sequence_ok_b"] is False)
         flags = [name for name, on in (("slower", t.verdict == "slower"), ("more work", n_verdict == "more"),
                                        ("less accurate", e_verdict == "worse"), ("status", lost),

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.bench.tables import problem_groups
+from nsbench.status import Status
 
 #: Errors below this are drawn at it (log axes cannot show 0).
 ERROR_FLOOR = 1e-16
@@ -166,9 +167,9 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     methods, left_out = _methods(group)
-    dropped = int((methods["status"] != "success").sum())
+    dropped = int((methods["status"] != Status.SUCCESS).sum())
     for name, rows in methods.groupby("integrator", sort=True):
-        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna() & (rows["status"] == "success")]
+        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna() & (rows["status"] == Status.SUCCESS)]
         rows = rows.sort_values("level")
         if rows.empty:
             continue
@@ -217,7 +218,7 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     curves: dict[str, list] = {}
     band = (np.empty(0), np.empty(0))  # the reference's certified error along the longest matched prefix
     for name, rows in methods.groupby("integrator", sort=True):
-        ok = rows[(rows["status"] == "success") & rows["event_t"].map(len).gt(0)]
+        ok = rows[(rows["status"] == Status.SUCCESS) & rows["event_t"].map(len).gt(0)]
         if ok.empty:
             continue
         best = ok.sort_values("level").iloc[-1]

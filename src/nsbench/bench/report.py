@@ -27,6 +27,7 @@ from nsbench.bench.summary import (compact, conditioning_table, display, finding
                                    reference_grade, wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
+from nsbench.status import Status
 
 _RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
                    "integrator_time", "engine_share", "n_repeats", "loops", "nfev", "n_events", "n_missed",
@@ -152,7 +153,7 @@ def _spread_table(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def _timing_text(frame: pd.DataFrame) -> str:
-    ok = frame[frame["status"] == "success"]
+    ok = frame[frame["status"] == Status.SUCCESS]
     reps = ok["n_repeats"].dropna()
     runs = f"{int(reps.min())}" if len(reps) and reps.min() == reps.max() else \
         (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
@@ -190,7 +191,7 @@ def engine_share_table(frame: pd.DataFrame) -> pd.DataFrame:
     """Per integrator, over its successful cases: median and largest engine share, and median
     wall and integrator time (what a reader needs to see whether the ranking ranks the integrator)."""
     ok = with_engine_share(frame)
-    ok = ok[(ok["status"] == "success") & ok["engine_share"].notna()]
+    ok = ok[(ok["status"] == Status.SUCCESS) & ok["engine_share"].notna()]
     if ok.empty:
         return pd.DataFrame(columns=["integrator", "cases", "engine_share_median", "engine_share_max"])
     table = ok.groupby("integrator").agg(cases=("engine_share", "size"),
@@ -265,7 +266,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
                    _table(bt.reference_table(bif_rows)), Block("p", bt.TABLE_CAPTION), _table(bt.report_table(bif_rows))]
         for fig in bif_figs:
             blocks += _figure(fig)
-    failures = frame[frame["status"] != "success"][["problem_label", "integrator", "options", "status", "message"]]
+    failures = frame[frame["status"] != Status.SUCCESS][["problem_label", "integrator", "options", "status", "message"]]
     blocks += [Block("h2", "Statuses"), _table(_status_counts(frame))]
     if len(failures):
         blocks += [Block("p", "Cases that did not succeed:"), _table(failures)]

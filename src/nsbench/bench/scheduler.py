@@ -46,6 +46,7 @@ from nsbench.bench.pool import WorkerProcess, readable
 from nsbench.bench.reference import FAILED, Reference
 from nsbench.bench.suite import Case
 from nsbench.errors import ConfigError
+from nsbench.status import Status
 
 #: Seconds of setup (and more than its timing) above which a case is timed only where it
 #: was compiled (its home). The first case of a kind in a process pays the loading of
@@ -391,7 +392,7 @@ class Scheduler:
         case = state.case
         planned = state.rounds >= case.repeats
         more = planned and not broken and needs_more(state.row, case.max_repeats or case.repeats)
-        state.done = state.row["status"] != "success" or broken or (planned and not more)
+        state.done = state.row["status"] != Status.SUCCESS or broken or (planned and not more)
         if more:
             self.on_extra(case)
         steps = 1 + (max(0, case.repeats - state.rounds) if state.done else 0)

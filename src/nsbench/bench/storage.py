@@ -29,6 +29,7 @@ from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
 from nsbench.files import STALE_AFTER, fresh_temporary, refuse_links, remove_stale_temporaries, write_atomic
+from nsbench.status import Status
 
 PROVENANCE_KEY = b"nsbench.provenance"
 #: What nsbench writes in an output directory (the runner, ingest, the report), and the folders
@@ -303,7 +304,7 @@ def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> set[str]:
         except (OSError, ValueError, KeyError, pa.ArrowException, ConfigError):
             continue
         for status, n in zip(table.column("status").to_pylist(), table.column("n_repeats").to_pylist()):
-            if status == "success" and n is not None and n < wanted:
+            if status == Status.SUCCESS and n is not None and n < wanted:
                 short.add(case_id)
     return short
 

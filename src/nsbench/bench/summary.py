@@ -27,6 +27,7 @@ import pandas as pd
 from nsbench.bench.stats import Interval, median_interval, ratio_interval
 from nsbench.bench.tables import first_known, grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
+from nsbench.status import Status
 
 #: Confidence of the intervals of the report's times and cost ratios.
 CONFIDENCE = 0.95
@@ -88,9 +89,9 @@ def _why_not(rows: pd.DataFrame, target: float) -> str:
     """Why an integrator's configurations never reach ``target`` on one problem."""
     if (rows["status"] == "unsupported").all():
         return "refuses the problem"
-    ok = rows[(rows["status"] == "success") & rows["sequence_ok"].fillna(False).astype(bool)]
-    wrong = rows[(rows["status"] == "success") & ~rows["sequence_ok"].fillna(False).astype(bool)]
-    failed = rows[~rows["status"].isin(["success", "unsupported"])]
+    ok = rows[(rows["status"] == Status.SUCCESS) & rows["sequence_ok"].fillna(False).astype(bool)]
+    wrong = rows[(rows["status"] == Status.SUCCESS) & ~rows["sequence_ok"].fillna(False).astype(bool)]
+    failed = rows[~rows["status"].isin([Status.SUCCESS.value, Status.UNSUPPORTED.value])]
     parts = []
     if len(ok) and ok["switch_err_max"].notna().any():
         parts.append(f"best error {ok['switch_err_max'].min():.1e}")
@@ -192,7 +193,7 @@ def display(summary: pd.DataFrame) -> pd.DataFrame:
 def wrong_sequences(frame: pd.DataFrame) -> pd.DataFrame:
     """Successful runs whose event sequence differs from the reference's: missed and extra events."""
     methods, _ = split_references(frame)
-    bad = methods[(methods["status"] == "success") & (methods["reference_status"] == "ok")
+    bad = methods[(methods["status"] == Status.SUCCESS) & (methods["reference_status"] == "ok")
                   & ~methods["sequence_ok"].fillna(False).astype(bool)]
     table = bad.assign(missed_extra=[f"{_int(m)} / {_int(x)}" for m, x in zip(bad["n_missed"], bad["n_extra"])])
     table = table[["problem_label", "integrator", "options", "missed_extra", "n_ref"]].rename(
@@ -203,7 +204,7 @@ def wrong_sequences(frame: pd.DataFrame) -> pd.DataFrame:
 def reference_costs(frame: pd.DataFrame) -> pd.DataFrame:
     """The references and reference-grade integrators per problem: their cheapest run's cost (not ranked)."""
     _, refs = split_references(frame)
-    refs = refs[refs["status"] == "success"]
+    refs = refs[refs["status"] == Status.SUCCESS]
     rows = []
     for (label, name), runs in refs.groupby(["problem_label", "integrator"], sort=False):
         b = runs.loc[runs["wall_time"].idxmin()] if runs["wall_time"].notna().any() else runs.iloc[0]

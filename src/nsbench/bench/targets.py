@@ -55,6 +55,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.errors import ConfigError
+from nsbench.status import Status
 
 #: Keys of one ``[[bifurcation_targets]]`` table.
 TARGET_KEYS = {"name", "problem", "case", "params", "dimensional", "param", "origin", "bracket", "kind",
@@ -70,7 +71,7 @@ REFERENCE_LIMIT = 600.0
 #: Periods of the last probe window compared with the reference pattern.
 WINDOW_PERIODS = 2
 
-STATUS_OK = "success"
+STATUS_OK = Status.SUCCESS.value
 
 
 def _known_kinds() -> tuple[str, ...]:

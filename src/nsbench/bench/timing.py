@@ -17,6 +17,8 @@ from typing import Iterable
 
 import pandas as pd
 
+from nsbench.status import Status
+
 #: Fewest timed samples per case: a spread needs three (a suite asking for fewer gets three).
 MIN_REPEATS = 3
 #: Timed samples per case unless a suite says otherwise: with 5 a side, a difference between two
@@ -80,7 +82,7 @@ def needs_more(row: dict, max_repeats: int) -> bool:
     from nsbench.bench.stats import relative_spread
 
     wall = list(row.get("wall_times") or [])
-    if row.get("status") != "success" or len(wall) >= max_repeats:
+    if row.get("status") != Status.SUCCESS or len(wall) >= max_repeats:
         return False
     cpu = [c for c in row.get("cpu_times") or [] if c == c]
     return relative_spread(cpu if len(cpu) == len(wall) else wall) > WIDE_SPREAD
@@ -127,7 +129,7 @@ def wide_spread(frame: pd.DataFrame, threshold: float = WIDE_SPREAD) -> pd.DataF
     """Successful rows whose relative spread exceeds ``threshold``, widest first."""
     if "wall_spread" not in frame:
         return frame.iloc[0:0]
-    mask = (frame["status"] == "success") & (frame["wall_spread"].astype(float) > threshold)
+    mask = (frame["status"] == Status.SUCCESS) & (frame["wall_spread"].astype(float) > threshold)
     return frame[mask].sort_values("wall_spread", ascending=False, kind="stable")
 
 
@@ -148,7 +150,7 @@ def noise_line(frame: pd.DataFrame, provenance: dict | None = None) -> str:
             other = max(0.0, load["median"] - workers)
             text += f", on {cores} cores with {workers} worker(s) (about {other:.1f} from other programs)"
         parts.append(text)
-    ok = frame[(frame["status"] == "success")] if "status" in frame else frame
+    ok = frame[(frame["status"] == Status.SUCCESS)] if "status" in frame else frame
     spreads = pd.to_numeric(ok.get("wall_spread", pd.Series(dtype=float)), errors="coerce").dropna()
     if len(spreads):
         wide = int((spreads > WIDE_SPREAD).sum())

@@ -8,35 +8,21 @@ directory on their path.
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-PLUGIN = Path(__file__).resolve().parents[1] / "examples" / "plugin"
+from tests.examples import EXAMPLES, install_example, run_nsbench
 
 
 @pytest.fixture(scope="module")
 def plugin_env(tmp_path_factory):
-    work = tmp_path_factory.mktemp("plugin")
-    source = work / "source"
-    shutil.copytree(PLUGIN, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
-    site = work / "site"
-    install = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index",
-         "--quiet", "--target", str(site), str(source)],
-        capture_output=True, text=True)
-    assert install.returncode == 0, install.stderr[-2000:]
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env, site = install_example(tmp_path_factory.mktemp("plugin"), "plugin")
     return env
 
 
-def _nsbench(env, *args):
-    return subprocess.run([sys.executable, "-m", "nsbench", *args], capture_output=True, text=True,
-                          env=env, timeout=600)
+_nsbench = run_nsbench
 
 
 def test_plugin_is_listed_through_its_entry_point(plugin_env):
@@ -70,7 +56,7 @@ def test_plugin_is_in_the_provenance_with_its_version(plugin_env):
     import json
     import tomllib
 
-    version = tomllib.loads((PLUGIN / "pyproject.toml").read_text())["project"]["version"]
+    version = tomllib.loads((EXAMPLES / "plugin" / "pyproject.toml").read_text())["project"]["version"]
     assert json.loads(out.stdout) == [{"kind": "integrator", "name": "heun-bisect",
                                        "target": "nsbench_heun:HeunBisection",
                                        "distribution": "nsbench-heun-example", "version": version}]

@@ -7,36 +7,22 @@ environment) and exercised in subprocesses that have it on their path.
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
-PLUGIN = Path(__file__).resolve().parents[1] / "examples" / "problem_plugin"
+from tests.examples import install_example, run_nsbench
 
 
 @pytest.fixture(scope="module")
 def plugin_env(tmp_path_factory):
-    work = tmp_path_factory.mktemp("problem_plugin")
-    source = work / "source"
-    shutil.copytree(PLUGIN, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
-    site = work / "site"
-    install = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index",
-         "--quiet", "--target", str(site), str(source)],
-        capture_output=True, text=True)
-    assert install.returncode == 0, install.stderr[-2000:]
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env, site = install_example(tmp_path_factory.mktemp("problem_plugin"), "problem_plugin")
     return env, site
 
 
-def _nsbench(env, *args):
-    return subprocess.run([sys.executable, "-m", "nsbench", *args], capture_output=True, text=True,
-                          env=env, timeout=600)
+_nsbench = run_nsbench
 
 
 def test_the_problem_is_listed_through_its_entry_point(plugin_env):

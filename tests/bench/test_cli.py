@@ -50,8 +50,8 @@ def test_run_writes_the_report_and_says_each_phase_and_the_answer(tiny, capsys):
     assert [p.split(":")[1].split()[0] for p in phases] == ["suite", "preparing", "timing", "writing"], phases
     import re
 
-    planned = int(re.search(r"4 case\(s\): (\d+) timed runs", printed.err).group(1))
-    assert f"timing: every worker is warm; {planned} timed run(s) in {planned // 4} round(s)" in printed.err
+    planned = int(re.search(r"4 case\(s\): (\d+) timed samples", printed.err).group(1))
+    assert f"timing: every worker is warm; {planned} timed sample(s) in {planned // 4} round(s)" in printed.err
     answer = printed.out[printed.out.index("the answer:"):].splitlines()
     report = (out / "report.md").read_text()
     first = report[report.index("## The answer"):].splitlines()[2]  # the report's first sentence

@@ -113,7 +113,7 @@ def test_noise_is_not_flagged_but_a_lost_success_is():
 def test_planted_slowdown_is_flagged_and_identical_results_are_not(tmp_path):
     # The timing path runs for real once; the test asserts only what cannot depend on the
     # machine's speed. The slowdown is planted in the data compared (every sample 4x on both
-    # clocks), so the verdicts do not depend on how busy the machine is.
+    # clocks, over samples without spread), so the verdicts do not depend on how busy the machine is.
     run_suite(Suite.from_dict(SUITE), tmp_path / "a", workers=1, progress=False)
     a = read_results(tmp_path / "a")
     assert len(a) == 3 and (a["status"] == "success").all()
@@ -122,23 +122,32 @@ def test_planted_slowdown_is_flagged_and_identical_results_are_not(tmp_path):
     table, counts = compare(tmp_path / "a", tmp_path / "a", factor=2.0)   # a run against itself
     assert counts == {"common": 3, "only_a": 0, "only_b": 0, "flagged": 0}
     assert (table["time_verdict"] == "same").all() and np.allclose(table["time_ratio"], 1.0)
-    slow = a.copy()
+    # The planted pair: every case's samples set to their own median (a spread of 0, so the rank test
+    # sees two separated groups however busy the machine was: a load spike can make one real sample
+    # 4x another, and 5 against 5 samples then overlap), and the same times 4x.
+    base = a.copy()
     for column in ("wall_times", "cpu_times"):
-        slow[column] = [[4.0 * t for t in w] for w in a[column]]
-    slow["wall_time"] = 4.0 * a["wall_time"]
-    slow["wall_time_min"], slow["wall_time_max"] = 4.0 * a["wall_time_min"], 4.0 * a["wall_time_max"]
+        base[column] = [[float(np.median(w))] * len(w) for w in a[column]]
+    base["wall_time"] = base["wall_time_min"] = base["wall_time_max"] = [w[0] for w in base["wall_times"]]
+    base_path = tmp_path / "base.parquet"
+    base.to_parquet(base_path)
+    slow = base.copy()
+    for column in ("wall_times", "cpu_times"):
+        slow[column] = [[4.0 * t for t in w] for w in base[column]]
+    for column in ("wall_time", "wall_time_min", "wall_time_max"):
+        slow[column] = 4.0 * base[column]
     b = tmp_path / "b.parquet"
     slow.to_parquet(b)
-    table, counts = compare(tmp_path / "a", b, factor=2.0)
+    table, counts = compare(base_path, b, factor=2.0)
     assert counts["flagged"] == 3, table.to_string()
     assert (table["time_verdict"] == "slower").all() and np.allclose(table["time_ratio"], 4.0, rtol=1e-12)
     assert (table["err_verdict"] == "same").all() and (table["err_ratio"] == 1.0).all()  # same computation
     assert (table["nfev_verdict"] == "same").all()
     # a slowdown smaller than the factor is not flagged, whatever the spread
     for column in ("wall_times", "cpu_times"):
-        slow[column] = [[1.5 * t for t in w] for w in a[column]]
+        slow[column] = [[1.5 * t for t in w] for w in base[column]]
     slow.to_parquet(b)
-    assert compare(tmp_path / "a", b, factor=2.0)[1]["flagged"] == 0
+    assert compare(base_path, b, factor=2.0)[1]["flagged"] == 0
 
 
 def test_foreign_files_and_bad_settings_are_refused(tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -189,5 +190,6 @@ def test_a_reference_its_check_contradicts_grades_nothing_and_says_so(register, 
     from nsbench.bench.report import write_report
 
     report = write_report(tmp_path).markdown.read_text()
-    assert "| two-dof/1 | exact | no ref | no ref | no ref |" in report  # exact is not blamed, nor ranked
+    # (the tables are padded to their columns: compare with single spaces)
+    assert "| two-dof/1 | exact | no ref | no ref | no ref |" in re.sub(" +", " ", report)  # not blamed, nor ranked
     assert "nothing is graded against it" in report

@@ -83,7 +83,9 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert all(len(t) == 3 for t in timed["integrator_times"])   # NaN until the engine reports it
     timing = json.loads((out / "provenance.json").read_text())["timing"]
     assert timing["samples"] == 3 and timing["min_sample_time"] == MIN_SAMPLE_TIME
-    assert timing["load"]["n"] == len(timed) * 3 and timing["load"]["min"] >= 0
+    # the load is read each time a sample is sent: at least once per stored sample (a sample sent again
+    # after a worker was replaced on a busy machine reads it again)
+    assert timing["load"]["n"] >= len(timed) * 3 and timing["load"]["min"] >= 0
     assert (timed["setup_time"] >= 0).all() and (timed["setup_time_timed"] >= 0).all()
     assert (timed["warmup_time"] > 0).all()
     assert not summary.in_process and summary.ok and summary.problems() == []

@@ -606,6 +606,8 @@ SWEEP_BASES = {
     "paper": ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "1", "--case", "1",
               "--out", "{fresh}/out", "--no-continuation", "--workers", "1"],
 }
+#: Sub-commands with actions of their own, covered by hand-written cases instead of the generated sweep.
+NESTED = {"history"}
 #: Where the value of NAME=VALUE options goes (a real name of the base's problem or integrator).
 ASSIGNMENTS = {"--param": "Omega={v}", "--option": "h={v}", "--sweep": None}
 SWEEP_FORMS = {"bifurcation": "v0={v}:1.0:2", "continuation": "v0={v}:0.17"}
@@ -757,7 +759,10 @@ def test_the_sweep_covers_every_sub_command_and_path():
 
     parser = build_parser()
     names = set(next(a for a in parser._actions if a.dest == "command").choices)
-    assert names == set(SWEEP_BASES) and len(COMMANDS) == len(SWEEP_BASES)
+    # `history` has actions of its own (add, show, run), which the generated sweep does not walk: its bad
+    # inputs are the hand-written cases above (history-*); every other sub-command is swept
+    assert names == set(SWEEP_BASES) | NESTED and len(COMMANDS) == len(SWEEP_BASES) + len(NESTED)
+    assert all(any(case[0].startswith(f"{cmd}-") for case in CASES) for cmd in NESTED)
     known = {(cmd, _name(a)) for cmd in SWEEP_BASES for a in _sweep_actions(cmd)}
     assert set(PATHS) <= known and set(SUCCESSES) <= known and set(FAILURES) <= known
     total = sum(len(sweep_cases(cmd)) for cmd in SWEEP_BASES)

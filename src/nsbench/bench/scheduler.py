@@ -218,7 +218,7 @@ class Scheduler:
             self.timing = True
             runs = sum(s.case.repeats - s.rounds for s in self.cases.values() if not s.done)
             rounds = max((s.case.repeats - s.rounds for s in self.cases.values() if not s.done), default=0)
-            self.on_phase(f"timing: every worker is warm; {runs} timed run(s) in {rounds} round(s)")
+            self.on_phase(f"timing: every worker is warm; {runs} timed sample(s) in {rounds} round(s)")
         for slot in self.slots:
             if self._finished():
                 return

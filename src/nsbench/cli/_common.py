@@ -393,22 +393,24 @@ def parse_options(texts: list[str], flag: str = "--option") -> dict[str, Any]:
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     """PROBLEM, --case, --param, --dimensional."""
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. one-dof or two-dof")
-    p.add_argument("--case", default=None, help="preset 1..4 (default 1)")
+    p.add_argument("--case", default=None, help="preset 1..4 (default 1); one-dof also 'leine'")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="parameter override (repeatable); dimensionless names unless --dimensional")
+                   help="parameter override (repeatable); dimensionless names unless --dimensional; "
+                        "law=coulomb|weakening|stribeck picks the friction law")
     p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
     p.add_argument("--dimensional", action="store_true",
                    help="parameters, integration and outputs in dimensional units")
 
 
-def shared_params(args: argparse.Namespace) -> dict[str, float]:
-    """``--param NAME=VALUE`` (repeatable) and ``--n N`` as problem parameters."""
-    params: dict[str, float] = {}
+def shared_params(args: argparse.Namespace) -> dict[str, Any]:
+    """``--param NAME=VALUE`` (repeatable) and ``--n N`` as problem parameters (``law`` stays a name)."""
+    params: dict[str, Any] = {}
     for text in args.param:
         name, value = parse_assignment(text, "--param")
         if name in params:
-            raise ConfigError(f"--param {name} is given twice ({name}={params[name]:g} and {text!r}); give it once")
-        params[name] = parse_number(value, f"parameter {name}")
+            raise ConfigError(f"--param {name} is given twice ({name}={params[name]!r} and {text!r}); give it once")
+        # the friction law is a name (coulomb, weakening, stribeck), every other parameter a number
+        params[name] = value.strip() if name == "law" else parse_number(value, f"parameter {name}")
     if getattr(args, "n", None) is not None:
         if "n" in params:
             raise ConfigError("give the number of blocks once: --n or --param n=..., not both")

@@ -6,7 +6,9 @@ springs are cubic, forced or not, number of section slots, precision and
 tolerance); the coefficients, the mode and the sections are runtime
 parameters, so a mode switch or a new parameter value never recompiles.
 
-Parameter layout: ``m, c, k, h, fs, fr`` (one per block each), ``F, w, v0``,
+Parameter layout: ``m, c, k, h, fs, fr, fk, delta, vs, cv`` (one per block each; the
+last four are the friction law's, whose slip level enters the field as an expression
+when the law is not Coulomb's: the law code is part of the structure), ``F, w, v0, law``,
 then per block a stick flag ``sigma_i`` (1 stuck, 0 slipping) and a slip sign
 ``s_i``, then per guard (three per block: velocity ``v_i - v0``, upper
 ``R_i - fr_i`` and lower ``R_i + fr_i`` static limit) an activation flag and
@@ -35,7 +37,8 @@ import heyoka as hy
 import numpy as np
 
 from nsbench.integrators.base import SectionHit
-from nsbench.problems.friction_spec import LAYOUT
+from nsbench.problems.friction_laws import slip_level
+from nsbench.problems.friction_spec import COULOMB, LAYOUT
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.integrators.base import ArcRequest
@@ -58,11 +61,12 @@ class Structure:
     cubic: tuple[bool, ...]
     forced: bool
     n_sections: int
+    law: int = COULOMB
 
     @classmethod
     def of(cls, problem: "FrictionOscillator", n_sections: int) -> "Structure":
         c = problem.coefficients
-        return cls(c.n_blocks, tuple(h != 0.0 for h in c.h), c.F != 0.0, n_sections)
+        return cls(c.n_blocks, tuple(h != 0.0 for h in c.h), c.F != 0.0, n_sections, problem.law_spec.code)
 
     @property
     def n_mech(self) -> int:
@@ -121,8 +125,9 @@ def _system(st: Structure):
     mech = hy.make_vars(*[f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v")])
     x, v = mech[0::2], mech[1::2]
     par = hy.par
-    m, c, k, h, fs, fr = ([par[st.coefficient(name, i)] for i in range(nb)] for name in LAYOUT.fields)
-    F, w, v0 = (par[st.coefficient(name)] for name in LAYOUT.tail)
+    m, c, k, h, fs, fr, fk, delta, vs, cv = ([par[st.coefficient(name, i)] for i in range(nb)]
+                                             for name in LAYOUT.fields)
+    F, w, v0 = (par[st.coefficient(name)] for name in ("F", "w", "v0"))
     sigma = [par[st.mode_offset + i] for i in range(nb)]
     sign = [par[st.mode_offset + nb + i] for i in range(nb)]
     cos_wt, sin_wt = hy.make_vars("cos_wt", "sin_wt") if st.forced else (None, None)
@@ -147,7 +152,11 @@ def _system(st: Structure):
     for i in range(nb):
         slipping = 1.0 - sigma[i]
         sys.append((x[i], sigma[i] * v0 + slipping * v[i]))
-        sys.append((v[i], slipping * (-restoring[i] - fs[i] * sign[i]) / m[i]))
+        if st.law == COULOMB:
+            level = fs[i]
+        else:  # the friction law's slip level at u = s (v - v0) (0 while stuck: s = 0 there)
+            level = slip_level(st.law, sign[i] * (v[i] - v0), fs[i], fk[i], delta[i], vs[i], cv[i], exp=hy.exp)
+        sys.append((v[i], slipping * (-restoring[i] - level * sign[i]) / m[i]))
     if st.forced:
         sys += [(cos_wt, -w * sin_wt), (sin_wt, w * cos_wt)]
 

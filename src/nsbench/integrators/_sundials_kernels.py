@@ -10,7 +10,7 @@ only). Two formulations:
   enters only through ``c``, so the step-size control sees it.
 - IDA: the DAE on ``[x1, v1, ..., f1, ...]`` with the friction forces as
   algebraic variables. A slipping block is an ODE (``m v' = -R + f``,
-  ``f = -fs s``); a stuck block has the algebraic constraint ``v = v0`` and
+  ``f = -s S(s (v - v0))``, the friction law's slip force; ``-fs s`` for Coulomb); a stuck block has the algebraic constraint ``v = v0`` and
   ``f = R`` (the momentum balance with ``v' = 0``), an index-1 system.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 from nsbench.model.compile import jit
 from nsbench.problems import friction_law as k
 from nsbench.model.records import linear_section_value
-from nsbench.problems.friction_law import FR, FS, M, block, n_blocks, v0_of
+from nsbench.problems.friction_law import COULOMB, FR, M, block, law_of, n_blocks, slip_force, slip_slope, v0_of
 
 
 @jit
@@ -83,7 +83,7 @@ def ida_residual(p, mode, t, y, yp, out):
             out[n + i] = f - r
         else:
             out[2 * i + 1] = block(p, M, i) * yp[2 * i + 1] + r - f
-            out[n + i] = f + block(p, FS, i) * mode[i]
+            out[n + i] = f - slip_force(p, i, mode[i], y[2 * i + 1])
 
 
 @jit
@@ -94,8 +94,11 @@ def ida_jacobian(p, mode, slip_all, t, y, cj, scratch, out):
     out[:, :] = 0.0
     # dR_i/dy_j = -m_i * (slip Jacobian)[2i+1, j]
     k.jacobian(p, slip_all, t, y, scratch)
+    coulomb = law_of(p) == COULOMB
     for i in range(nb):
         m = block(p, M, i)
+        if not coulomb:  # keep only dR/dv in the slip Jacobian's row: remove the law's d(friction)/dv
+            scratch[2 * i + 1, 2 * i + 1] += slip_slope(p, i, slip_all[i] * (y[2 * i + 1] - v0_of(p))) / m
         out[2 * i, 2 * i] = cj
         out[2 * i, 2 * i + 1] = -1.0
         if mode[i] == 0:
@@ -109,6 +112,8 @@ def ida_jacobian(p, mode, slip_all, t, y, cj, scratch, out):
                 out[2 * i + 1, j] += -m * scratch[2 * i + 1, j]
             out[2 * i + 1, n + i] = -1.0
             out[n + i, n + i] = 1.0
+            if not coulomb:  # f = -s S(s (v - v0)): d(f - that)/dv = S'
+                out[n + i, 2 * i + 1] = slip_slope(p, i, mode[i] * (y[2 * i + 1] - v0_of(p)))
 
 
 @jit
@@ -128,6 +133,11 @@ def ida_roots(p, kinds, blocks, signs, sec_coeffs, sec_levels, y, out):
     m = kinds.shape[0]
     for j in range(sec_levels.shape[0]):
         out[m + j] = linear_section_value(sec_coeffs[j], sec_levels[j], y[:n])
+
+
+@jit
+def _slip_force(p, i, phase, v):
+    return slip_force(p, i, phase, v)
 
 
 @jit
@@ -153,5 +163,5 @@ def consistent_start(p: np.ndarray, mode: np.ndarray, t: float, y: np.ndarray) -
             yy[n + i] = _restoring(p, t, yy, i)
             yp[n + i] = _restoring_rate(p, t, yy, yp, i)  # d/dt of f = R along the flow
         else:
-            yy[n + i] = -float(block(p, FS, i)) * mode[i]
+            yy[n + i] = _slip_force(p, i, mode[i], yy[2 * i + 1])
     return yy, yp

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from nsbench.errors import ConfigError
+from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import Bound, Coefficients, check_friction_order, check_values, scales_of
 
@@ -43,15 +44,17 @@ def block_on_ground(case: int | str | None = None, dimensional: bool = True, **p
     """
     if case not in (None, 1, "1"):
         raise ConfigError(f"{NAME}: unknown case {case!r}; the problem has no cases (give its parameters)")
-    rest, _, start = split_start(NAME, params, 1)
+    rest, law = split_law(NAME, params)
+    rest, _, start = split_start(NAME, rest, 1)
     v = {**DEFAULTS, **check_values(NAME, rest, tuple(DEFAULTS), BOUNDS)}
     check_friction_order(NAME, "fs", v["fs"], "fr", v["fr"])
     y0 = np.array([start.get("x1_0", START["x1_0"]), start.get("v1_0", START["v1_0"])])
     coeffs = Coefficients(m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(0.0,), fs=(v["fs"],), fr=(v["fr"],),
                           F=0.0, w=0.0, v0=0.0)
+    check_against_blocks(NAME, law, coeffs.fs)
     return FrictionOscillator(coeffs, name=NAME, case=None, dimensional=True, params=dict(params),
-                              parameters={**v, "x1_0": float(y0[0]), "v1_0": float(y0[1])},
-                              scales=scales_of(v["m"], v["k"], v["fr"]), y0=y0)
+                              parameters={**v, **law.parameters(), "x1_0": float(y0[0]), "v1_0": float(y0[1])},
+                              scales=scales_of(v["m"], v["k"], v["fr"]), y0=y0, law=law)
 
 
 def closed_form_events(problem: FrictionOscillator) -> tuple[list[tuple[float, str]], float]:
@@ -62,8 +65,9 @@ def closed_form_events(problem: FrictionOscillator) -> tuple[list[tuple[float, s
     period after the previous reversal (the first after the start's own phase).
     """
     c = problem.coefficients
-    if c.c[0] != 0.0 or c.v0 != 0.0 or c.F != 0.0:
-        raise ValueError("the closed form is for the undamped, unforced block on fixed ground")
+    if c.c[0] != 0.0 or c.v0 != 0.0 or c.F != 0.0 or not problem.law_spec.is_coulomb:
+        raise ValueError("the closed form is for the undamped, unforced block on fixed ground with Coulomb "
+                         "friction")
     m, k, fs, fr = c.m[0], c.k[0], c.fs[0], c.fr[0]
     omega = math.sqrt(k / m)
     x, v = (float(a) for a in problem.initial_state())

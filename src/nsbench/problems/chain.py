@@ -17,6 +17,7 @@ import re
 from typing import Any
 
 from nsbench.errors import ConfigError
+from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
     Bound,
@@ -142,6 +143,7 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
     nb = check_n(n)
     case_n = check_case(NAME, 1 if case is None else case)
     user = {"n": nb, **params}
+    params, law = split_law(NAME, params)
     params, y0, start = split_start(NAME, params, nb)
     uniform_names = UNIFORM_DIMENSIONAL if dimensional else UNIFORM_DIMENSIONLESS
     stems = PER_BLOCK_DIMENSIONAL if dimensional else PER_BLOCK_DIMENSIONLESS
@@ -197,5 +199,7 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
                 parameters[f"{stem}{i}"] = 1.0
             else:
                 parameters[f"{stem}{i}"] = per_block(stem, i)
+    check_against_blocks(NAME, law, coeffs.fs, "fs" if dimensional else "rf")
     return FrictionOscillator(coeffs, name=NAME, case=case_n, dimensional=dimensional,
-                              params=user, parameters={**parameters, **start}, scales=scales, y0=y0)
+                              params=user, parameters={**parameters, **law.parameters(), **start}, scales=scales,
+                              y0=y0, law=law)

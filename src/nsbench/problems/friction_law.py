@@ -1,8 +1,10 @@
 """The law of the friction family (blocks on a belt, MODEL.md sections 1, 4 and 7), compiled: written once.
 
 A chain of ``n`` blocks; block 1 tied to the ground, block ``i`` to block
-``i - 1``; the harmonic force on the last block; Coulomb friction with stiction
-against a belt at speed ``v0`` (``v0 = 0``: fixed ground). The mode vector has
+``i - 1``; the harmonic force on the last block; friction with stiction against a
+belt at speed ``v0`` (``v0 = 0``: fixed ground): Coulomb, or a slip force that
+depends on the slip speed (:func:`slip_level`: weakening, Stribeck), with the
+static limit ``fr`` in every law. The mode vector has
 one phase per block: ``STICK`` (0), ``+1`` (slipping faster than the belt),
 ``-1``. Guards: ``VELOCITY`` (``v_i - v0``, in slip) and ``UPPER``/``LOWER``
 (``R_i -+ fr_i``, in stick), listed block by block (the tie order: the lowest
@@ -21,6 +23,9 @@ import numpy as np
 from nsbench.model.compile import hot, inline
 from nsbench.problems.friction_spec import (  # noqa: F401 - the family's vocabulary, re-exported
     C,
+    COULOMB,
+    CV,
+    DELTA,
     EV_REVERSE,
     EV_SLIP,
     EV_STICK,
@@ -28,10 +33,12 @@ from nsbench.problems.friction_spec import (  # noqa: F401 - the family's vocabu
     F_AMP,
     F_FREQ,
     FR,
+    FK,
     FS,
     GUARD_KINDS,
     H,
     K,
+    LAW,
     LAYOUT,
     LOWER,
     M,
@@ -39,9 +46,12 @@ from nsbench.problems.friction_spec import (  # noqa: F401 - the family's vocabu
     SLIP_NEG,
     SLIP_POS,
     STICK,
+    STRIBECK,
     UPPER,
     V0,
     VELOCITY,
+    VS,
+    WEAKENING,
 )
 
 _HEAD = LAYOUT.head_size
@@ -118,6 +128,52 @@ def restoring_rate(p, t, y, dy, i):
     return out
 
 
+# ---------------------------------------------------------------------- the friction law of a slip
+@inline
+def law_of(p):
+    """The friction law's code (``COULOMB``, ``WEAKENING``, ``STRIBECK``)."""
+    return int(scalar(p, LAW))
+
+
+@inline
+def slip_level(p, i, u):
+    """Magnitude of block i's slip friction at slip speed ``u = s (v - v0)`` (``|v - v0|`` in the phase).
+
+    ``fs`` (Coulomb); ``fs / (1 + delta u)`` (weakening); ``fk + (fs - fk) exp(-(u / vs)^2) + cv u``
+    (Stribeck). Written on ``u`` rather than ``|v - v0|`` so that each slip phase's field is smooth.
+    """
+    law = law_of(p)
+    fs = block(p, FS, i)
+    if law == COULOMB:
+        return fs
+    if law == WEAKENING:
+        return fs / (1.0 + block(p, DELTA, i) * u)
+    fk = block(p, FK, i)
+    q = u / block(p, VS, i)
+    return fk + (fs - fk) * np.exp(-q * q) + block(p, CV, i) * u
+
+
+@inline
+def slip_slope(p, i, u):
+    """``d slip_level / du`` (0 for Coulomb)."""
+    law = law_of(p)
+    if law == COULOMB:
+        return 0.0
+    if law == WEAKENING:
+        delta = block(p, DELTA, i)
+        den = 1.0 + delta * u
+        return -block(p, FS, i) * delta / (den * den)
+    vs = block(p, VS, i)
+    q = u / vs
+    return -2.0 * (block(p, FS, i) - block(p, FK, i)) * q / vs * np.exp(-q * q) + block(p, CV, i)
+
+
+@inline
+def slip_force(p, i, phase, v):
+    """Friction force on slipping block i (phase ``s = +-1``): ``-s slip_level(s (v - v0))``."""
+    return -slip_level(p, i, phase * (v - v0_of(p))) * phase
+
+
 # ---------------------------------------------------------------------- the law
 @inline
 def rhs(p, mode, t, y, out):
@@ -132,7 +188,7 @@ def rhs(p, mode, t, y, out):
         else:
             r = restoring(p, t, y, i)
             out[2 * i] = y[2 * i + 1]
-            out[2 * i + 1] = (-r - block(p, FS, i) * phase) / block(p, M, i)
+            out[2 * i + 1] = (-r - slip_level(p, i, phase * (y[2 * i + 1] - v0)) * phase) / block(p, M, i)
 
 
 @hot
@@ -158,6 +214,8 @@ def jacobian(p, mode, t, y, out):
         out[2 * i, 2 * i + 1] = 1.0
         out[2 * i + 1, 2 * i] = -diag / m
         out[2 * i + 1, 2 * i + 1] = -block(p, C, i) / m
+        if law_of(p) != COULOMB:  # d(-s level(s (v - v0)))/dv = -level'
+            out[2 * i + 1, 2 * i + 1] -= slip_slope(p, i, mode[i] * (y[2 * i + 1] - v0_of(p))) / m
 
 
 @inline

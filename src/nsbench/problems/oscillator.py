@@ -20,6 +20,7 @@ import numpy as np
 from nsbench.errors import ConfigError
 from nsbench.problems import friction_spec as spec
 from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.friction_laws import COULOMB_LAW, FrictionLaw, slip_level
 from nsbench.problems.modes import PHASE_NAMES, STICK, all_modes
 from nsbench.problems.parameters import Coefficients, Scales
 
@@ -78,6 +79,8 @@ class FrictionOscillator(HybridProblem):
         Scales that convert this problem's units to the dimensionless form.
     y0
         The start state (default: every block at rest at the origin).
+    law
+        The friction law of a slipping block (:mod:`nsbench.problems.friction_laws`; default Coulomb).
 
     Notes
     -----
@@ -102,6 +105,7 @@ class FrictionOscillator(HybridProblem):
         parameters: dict[str, float],
         scales: Scales,
         y0: np.ndarray | None = None,
+        law: FrictionLaw = COULOMB_LAW,
     ) -> None:
         self.coefficients = coefficients
         self.name = name
@@ -115,9 +119,11 @@ class FrictionOscillator(HybridProblem):
         self.state_names = tuple(f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v"))
         self.mode_columns = tuple(f"phase{i}" for i in range(1, nb + 1))
         self._y0 = np.zeros(2 * nb) if y0 is None else np.array(y0, dtype=float)
+        self.law_spec = law
         c = coefficients
         self.packed = spec.LAYOUT.pack({"n_blocks": nb, "m": c.m, "c": c.c, "k": c.k, "h": c.h, "fs": c.fs,
-                                       "fr": c.fr, "F": c.F, "w": c.w, "v0": c.v0}, nb)
+                                       "fr": c.fr, **law.fields(c.fs), "F": c.F, "w": c.w, "v0": c.v0,
+                                       "law": law.code}, nb)
 
     # ------------------------------------------------------------------ identity
     @property
@@ -129,8 +135,19 @@ class FrictionOscillator(HybridProblem):
 
     @property
     def is_linear(self) -> bool:
-        """True when every cubic coefficient is zero (the exact solver applies)."""
-        return self.coefficients.is_linear
+        """True when every cubic coefficient is zero and friction is Coulomb's (the exact solver applies)."""
+        return self.coefficients.is_linear and self.law_spec.is_coulomb
+
+    @property
+    def nonlinear_reason(self) -> str:
+        """Why the problem is not piecewise linear ('' if it is)."""
+        reasons = []
+        if not self.coefficients.is_linear:
+            reasons.append("cubic springs")
+        if not self.law_spec.is_coulomb:
+            reasons.append(f"the {self.law_spec.name} friction law (a slip force that varies with the slip "
+                           "speed)")
+        return " and ".join(reasons)
 
     @property
     def is_forced(self) -> bool:
@@ -150,7 +167,7 @@ class FrictionOscillator(HybridProblem):
 
     def __repr__(self) -> str:
         units = "dimensional" if self.dimensional else "dimensionless"
-        case = f", case={self.case}" if self.case is not None else ""
+        case = f", case={self.case!r}" if self.case is not None else ""
         extra = f", params={self.params}" if self.params else ""
         return f"<{self.name}{case}, {units}{extra}>"
 
@@ -294,11 +311,23 @@ class FrictionOscillator(HybridProblem):
         return e
 
     def friction_forces(self, mode: Mode, t, y) -> list[Any]:
-        """Friction force on each block: ``-fs_i s_i`` in slip, ``R_i`` in stick."""
+        """Friction force on each block: ``-s_i S_i(s_i (v_i - v0))`` in slip (``-fs_i s_i`` for Coulomb),
+        ``R_i`` in stick."""
         y, x, v = self._split(y)
         r = self.restoring_forces(t, x, v)
-        c = self.coefficients
-        return [r[i] if p == STICK else -c.fs[i] * p + 0.0 * r[i] for i, p in enumerate(mode)]
+        c, law = self.coefficients, self.law_spec
+        out = []
+        for i, p in enumerate(mode):
+            if p == STICK:
+                out.append(r[i])
+            elif law.is_coulomb:
+                out.append(-c.fs[i] * p + 0.0 * r[i])
+            else:
+                f = law.fields(c.fs)
+                level = slip_level(law.code, p * (v[i] - c.v0), c.fs[i], f["fk"][i], f["delta"][i], f["vs"][i],
+                                   f["cv"][i], exp=np.exp)
+                out.append(-level * p + 0.0 * r[i])
+        return out
 
     def power(self, mode: Mode, t, y) -> dict[str, Any]:
         """Power of friction, damping and the external force; they sum to dE/dt."""

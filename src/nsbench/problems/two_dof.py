@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from nsbench.errors import ConfigError
+from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
     TABLE3_DIMENSIONAL_TWO_DOF,
@@ -71,6 +72,7 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
     """
     case_n = check_case(NAME, 1 if case is None else case)
     user = dict(params)
+    params, law = split_law(NAME, params)
     params, y0, start = split_start(NAME, params, 2)
     if dimensional:
         given = check_values(NAME, params, TWO_DOF_DIMENSIONAL)
@@ -112,7 +114,8 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         parameters["inv_omega_r"] = 1.0 / parameters["omega_r"]
         if v["rf1"] == v["rf2"]:
             parameters["r_f"] = v["rf1"]
+    check_against_blocks(NAME, law, coeffs.fs, "fs" if dimensional else "rf")
     return FrictionOscillator(
         coeffs, name=NAME, case=case_n, dimensional=dimensional,
-        params=user, parameters={**parameters, **start}, scales=scales, y0=y0,
+        params=user, parameters={**parameters, **law.parameters(), **start}, scales=scales, y0=y0, law=law,
     )

@@ -40,6 +40,7 @@ from nsbench.problems.modes import STICK
 from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
+_ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
 
 
 def _caps(precision: str) -> Capabilities:
@@ -52,6 +53,11 @@ class HeyokaIntegrator(Integrator):
     """Base of the heyoka adapters; subclasses set the precision."""
 
     precision: ClassVar[str] = "double"
+    #: The double-zero guard (docs/core.md): a guard that starts an arc on its own surface is kept off
+    #: heyoka's event detection for the arc's first Taylor step, and for up to this many steps while it
+    #: stays exactly on its surface; its crossings there are found on the steps' polynomials. 0 turns
+    #: the guard off (heyoka alone: tests show what it then does).
+    fresh_steps: ClassVar[int] = 8
     options = {
         "tol": Option(None, float, lower=0.0, upper=1e-2, nullable=True,
                       doc="Taylor tolerance (relative and absolute); None: the precision's epsilon"),
@@ -207,11 +213,10 @@ class HeyokaIntegrator(Integrator):
     def _propagate(self, st, ta, request: ArcRequest):
         """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
         fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
-        fresh = self._fresh_guards(request)
+        fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
         outcome = model.hy.taylor_outcome.success
         if fresh:
-            outcome, fresh_hit = self._first_step(st, ta, request, fresh, first_rows)
-            nsteps = 1
+            outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, first_rows)
         if fresh_hit is None and outcome == model.hy.taylor_outcome.success:
             if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
                 outcome = model.hy.taylor_outcome.step_limit
@@ -250,34 +255,53 @@ class HeyokaIntegrator(Integrator):
                 if g.expected_sign * float(g.value(request.t0, request.y0)) == 0.0]
 
     def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
-        """One Taylor step with the fresh guards' events off; their crossings found on its polynomial.
+        """Taylor steps with the fresh guards' events off; their crossings found on the steps' polynomials.
 
-        heyoka does not look for the roots of an event function that is zero
-        where a step starts, so the first step of a phase that starts on its own
-        surface would miss that surface's next crossing if the step reached it
-        (quad precision takes long steps). After this step the guard is off its
-        surface and heyoka's own detection takes over. Returns heyoka's outcome
-        and ``(t, guard index, state)`` of the earliest fresh crossing, if any.
+        A guard that starts the arc on its own surface starts from a zero of its
+        event function, often a double zero (value and slope both zero: a slip
+        that starts at ``fs = fr``, where the block's acceleration is zero). heyoka
+        then reports that zero itself as a root (the run stops at once, and the
+        transitions cycle: an event storm at one instant), or does not look for
+        roots of a function that is zero where a step starts and misses the next
+        one if the step reaches it (quad precision takes long steps). So the
+        fresh guards are off for the first step, and for up to
+        :attr:`fresh_steps` steps while a guard is still exactly on its surface
+        at a step's end (a step cut short by the arc's end); a guard that has
+        left its surface goes back on and heyoka's own detection takes over.
+        Returns heyoka's outcome, ``(t, guard index, state)`` of the earliest
+        fresh crossing (if any) and the number of steps taken.
         """
         fp = self._fp
-        offsets = [st.guard_par(request.guards[q]) for q in fresh]
-        for off in offsets:
-            ta.pars[off] = fp(0.0)
-        t_start = ta.time
-        outcome, _ = ta.step(fp(request.t_end) - t_start)
-        t_end = ta.time
-        for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
-            if fp(float(te)) > t_end:
+        pending, best, outcome, steps = list(fresh), None, model.hy.taylor_outcome.success, 0
+        while pending:
+            offsets = [st.guard_par(request.guards[q]) for q in pending]
+            for off in offsets:
+                ta.pars[off] = fp(0.0)
+            t_start = ta.time
+            outcome, _ = ta.step(fp(request.t_end) - t_start)
+            steps += 1
+            t_end = ta.time
+            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+                if fp(float(te)) > t_end:
+                    break
+                dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
+            on_surface = []
+            for q in pending:
+                root = self._first_crossing(ta, request.guards[q], t_start, t_end)
+                if root is _ON_SURFACE:
+                    on_surface.append(q)
+                elif root is not None and (best is None or root < best[0]):
+                    best = (root, q, np.array(ta.update_d_output(root), copy=True))
+            for off in offsets:
+                ta.pars[off] = fp(1.0)
+            if best is not None or outcome != model.hy.taylor_outcome.success:
+                break  # a crossing, an event of another guard, or the arc's end: a guard on its surface is no event
+            if on_surface and steps >= self.fresh_steps:  # on its surface for good: the transition decides
+                q = on_surface[0]
+                best = (t_end, q, np.array(ta.update_d_output(t_end), copy=True))
                 break
-            dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
-        best = None
-        for q in fresh:
-            root = self._first_crossing(ta, request.guards[q], t_start, t_end)
-            if root is not None and (best is None or root < best[0]):
-                best = (root, q, np.array(ta.update_d_output(root), copy=True))
-        for off in offsets:
-            ta.pars[off] = fp(1.0)
-        return outcome, best
+            pending = on_surface
+        return outcome, best, steps
 
     def _first_crossing(self, ta, guard, t_start, t_end):
         """First zero of ``expected_sign * guard`` in ``(t_start, t_end]`` after it turned positive."""
@@ -291,7 +315,7 @@ class HeyokaIntegrator(Integrator):
                 return fp(sign) * (y[2 * guard.block - 1] - fp(problem.v0))
             return fp(sign * float(guard.value(float(t), np.asarray(y[: problem.n_states]).astype(float))))
 
-        lo, g_lo, positive = t_start, fp(0.0), False
+        lo, g_lo, positive, negative = t_start, fp(0.0), False, False
         for k in range(1, 33):
             t = t_start + (t_end - t_start) * fp(k) / fp(32)
             g = value(t)
@@ -299,7 +323,13 @@ class HeyokaIntegrator(Integrator):
                 lo, g_lo, positive = t, g, True
             elif positive:
                 return model.illinois(value, lo, g_lo, t, g)
-        return None if positive or value(t_end) > 0 else t_start  # never off its surface: at once
+            negative = negative or g < 0
+        g_end = value(t_end)
+        if positive or g_end > 0:
+            return None
+        negative = negative or g_end < 0
+        # on its wrong side: at once; still exactly on its surface (a short step): undecided, step on
+        return t_start if negative else _ON_SURFACE
 
 
 class Heyoka(HeyokaIntegrator):

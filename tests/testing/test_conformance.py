@@ -42,6 +42,23 @@ def test_builtin_conformance_on_the_block_on_ground(integrator, check):
     check(integrator)
 
 
+@parametrize_with_checks(BUILTINS, problem={"name": "one-dof", "case": "leine"})
+def test_builtin_conformance_on_leines_belt_oscillator(integrator, check):
+    """A non-linear friction law (weakening): checked as given against ``reference`` (quad precision);
+    ``exact`` and ``exact-mp`` refuse it at setup with the reason."""
+    check(integrator)
+
+
+def test_a_nonlinear_law_is_checked_as_given_and_a_coulomb_belt_keeps_its_presets():
+    results = {r.check: r for r in check_integrator("exact", ["event-times"], problem={"name": "one-dof",
+                                                                                       "case": "leine"})}
+    assert results["event-times"].status == "skipped"
+    assert "refused at setup: exact solves piecewise-linear problems only" in results["event-times"].message
+    assert "weakening friction law" in results["event-times"].message
+    with pytest.raises(ConfigError, match="the checks choose the case"):
+        check_integrator("exact", problem={"name": "one-dof", "case": 2})
+
+
 def test_a_refusal_at_setup_is_reported_with_its_reason():
     results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())

@@ -5,7 +5,8 @@
 ``taylor_coefficients``).
 
 Linear problems go to ``exact`` (closed-form flow, guard roots polished in
-extended precision); cubic ones to ``heyoka-q`` at its tightest tolerance (the
+extended precision); non-linear ones (cubic springs, or a friction law other than
+Coulomb's: ``problem.is_linear`` is false) to ``heyoka-q`` at its tightest tolerance (the
 real128 epsilon) with compensated summation. Both carry event times in
 compensated form between arcs. ``heyoka-q`` also keeps its real128 state and
 time across events (a double is produced only for the results), so for cubic

@@ -86,8 +86,10 @@ def _codes(guards):
                  zip(*[(g.code, g.block - 1, g.expected_sign) for g in guards]))
 
 
-def test_cvode_kernels_match_the_problem():
-    p = nsbench.get_problem("two-dof", case=4)
+@pytest.mark.parametrize("law", [{}, {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}],
+                         ids=["coulomb", "stribeck"])
+def test_cvode_kernels_match_the_problem(law):
+    p = nsbench.get_problem("two-dof", case=4, **law)
     pk = p.packed.copy()
     pk[LAYOUT.offset("F", 2)] = 0.0  # CVODE's coefficients: the force enters through cos(w t)
     F, w = p.coefficients.F, p.coefficients.w
@@ -114,12 +116,16 @@ def test_cvode_kernels_match_the_problem():
         np.testing.assert_allclose(roots, expected, atol=1e-14)
 
 
+@pytest.mark.parametrize("law", [{}, {"law": "weakening", "delta": 3.0},
+                                 {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}],
+                         ids=["coulomb", "weakening", "stribeck"])
 @pytest.mark.parametrize("mode", [(-1, -1), (0, 1), (1, 0), (0, 0)])
-def test_ida_dae_structure(mode):
+def test_ida_dae_structure(mode, law):
     # Consistent values at a switch: zero residual; a stuck block's velocity is
     # pinned algebraically and its friction force equals R, whose bound is the
-    # guard; the Jacobian is dF/dy + cj dF/dyp.
-    p = nsbench.get_problem("two-dof", case=4)
+    # guard; the Jacobian is dF/dy + cj dF/dyp. A friction law other than Coulomb's
+    # makes a slipping block's friction depend on its velocity (residual and Jacobian).
+    p = nsbench.get_problem("two-dof", case=4, **law)
     pk, m = p.packed.copy(), np.array(mode, dtype=np.int64)
     rng = np.random.default_rng(7)
     t = 12.3
@@ -127,6 +133,8 @@ def test_ida_dae_structure(mode):
     for i, ph in enumerate(mode):
         if ph == 0:
             y[2 * i + 1] = p.v0
+        elif law:  # a slip speed s (v - v0) >= 0, as while the phase holds
+            y[2 * i + 1] = p.v0 + ph * abs(y[2 * i + 1])
     yy, yp = sk.consistent_start(pk, m, t, y)
     res = np.empty(6)
     sk.ida_residual(pk, m, t, yy, yp, res)

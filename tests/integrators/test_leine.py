@@ -125,3 +125,12 @@ def test_the_cycle_constants_recomputed_in_mpmath():
     t_max = mp.findroot(lambda t: sol(t)[1], (mp.mpf("0.3"), mp.mpf("1.5")), solver="anderson")
     t_min = mp.findroot(lambda t: sol(t)[1], (mp.mpf("2.5"), mp.mpf("4.2")), solver="anderson")
     assert abs(sol(t_max)[0] - mp.mpf(X_MAX)) < 1e-15 and abs(sol(t_min)[0] - mp.mpf(X_MIN)) < 1e-15
+
+
+def test_the_bench_certifies_the_reference_per_event(leine, reference):
+    """The bench's certificate of a non-linear reference: heyoka-q at tol 1e-30 (another step sequence)."""
+    from nsbench.bench.reference import certified_errors
+
+    errors, note = certified_errors(leine, reference.events, 0.0, T_END, reference="reference")
+    assert "heyoka-q" in note and errors.shape == (51,) and np.isfinite(errors).all()
+    assert errors.max() <= 2 * np.spacing(T_END)

@@ -213,3 +213,15 @@ def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
                                              "only": []}})
     with pytest.raises(ConfigError, match="h = inf must be a finite"):
         suite.cases()
+
+
+def test_a_friction_law_is_a_name_in_a_suite_and_in_the_labels():
+    from nsbench.bench.execute import problem_label
+
+    suite = Suite(problems=[{"name": "two-dof", "case": 2, "params": {"law": "stribeck", "fk": 0.5, "vs": 0.2}},
+                            {"name": "one-dof", "case": "leine"}], t_span=(0, 60))
+    assert suite.problems[0]["params"]["law"] == "stribeck"
+    assert problem_label(suite.problems[0]) == "two-dof/2 fk=0.5 law=stribeck vs=0.2"
+    assert problem_label(suite.problems[1]) == "one-dof/leine"
+    with pytest.raises(ConfigError, match=r"params.fk' must be a number or a list of numbers \(law: a name\)"):
+        Suite(problems=[{"name": "two-dof", "params": {"law": "stribeck", "fk": "half", "vs": 0.2}}], t_span=(0, 60))

@@ -90,7 +90,8 @@ def problem_label(config: dict[str, Any]) -> str:
         label += " dimensional"
     params = config.get("params") or {}
     if params:
-        label += " " + " ".join(f"{k}={v:g}" for k, v in sorted(params.items()))
+        label += " " + " ".join(f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}"  # law=weakening
+                                for k, v in sorted(params.items()))
     return label
 
 

@@ -137,7 +137,8 @@ def _check_problem(p: Any, i: int) -> None:
                params)
         for key, value in params.items():
             ok = _is_number(value) or (isinstance(value, list) and all(_is_number(v) for v in value))
-            _field(ok, f"{where}.params.{key}", "a number or a list of numbers", value)
+            ok = ok or (key == "law" and isinstance(value, str))  # the friction law is a name
+            _field(ok, f"{where}.params.{key}", "a number or a list of numbers (law: a name)", value)
     if "dimensional" in p:
         _field(isinstance(p["dimensional"], bool), f"{where}.dimensional", "true or false", p["dimensional"])
 

@@ -134,3 +134,13 @@ def test_the_bench_certifies_the_reference_per_event(leine, reference):
     errors, note = certified_errors(leine, reference.events, 0.0, T_END, reference="reference")
     assert "heyoka-q" in note and errors.shape == (51,) and np.isfinite(errors).all()
     assert errors.max() <= 2 * np.spacing(T_END)
+
+
+@pytest.mark.parametrize("name", ["reference", "heyoka", "scipy-dop853", "henon-rk4"])
+def test_a_stuck_block_stays_stuck_until_the_static_limit(name):
+    """Stick keeps its static limit under the weakening law: from x = 0.5 at the belt speed the block moves
+    with the belt (x = 0.5 + 0.2 t) until the spring force reaches fr = 1, at t = 2.5 exactly."""
+    problem = nsbench.get_problem("one-dof", case="leine", x1_0=0.5, v1_0=0.2)
+    res = nsbench.simulate(problem, name, 3.0)
+    assert res.ok and res.events["kind"].tolist() == ["slip"]
+    assert res.events["t"].iloc[0] == pytest.approx(2.5, abs=1e-12)

@@ -23,7 +23,10 @@ RNG = np.random.default_rng(11)
 
 
 @pytest.mark.parametrize("name, params", [("two-dof", {"case": 4}), ("two-dof", {"case": 1}),
-                                          ("one-dof", {"case": 2}), ("chain", {"case": 4, "n": 3})])
+                                          ("one-dof", {"case": 2}), ("chain", {"case": 4, "n": 3}),
+                                          ("one-dof", {"case": "leine"}),
+                                          ("two-dof", {"case": 2, "law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}),
+                                          ("chain", {"case": 4, "n": 3, "law": "weakening", "delta": 1.5})])
 def test_heyoka_field_and_guards_are_the_law(name, params):
     problem = nsbench.get_problem(name, **params)
     st = Structure.of(problem, 0)
@@ -44,6 +47,10 @@ def test_heyoka_field_and_guards_are_the_law(name, params):
             pars[st.guard_par(guard) + 1] = 1.0
         for _ in range(3):
             y, t = RNG.normal(size=n) * 0.7, float(RNG.uniform(0, 20))
+            if not problem.law_spec.is_coulomb:  # slip speeds s (v - v0) >= 0, as while a phase holds
+                for i, phase in enumerate(mode):
+                    if phase != STICK:
+                        y[2 * i + 1] = problem.v0 + phase * abs(y[2 * i + 1])
             inputs = np.concatenate([y, [np.cos(w * t), np.sin(w * t)]]) if st.forced else y
             got = field(inputs, pars=pars[: st.guard_offset])  # the field reads the mode, not the guards
             np.testing.assert_allclose(got[:n], problem.rhs(mode, t, y), rtol=1e-14, atol=1e-14)

@@ -36,6 +36,8 @@ def block_on_ground(case: int | str | None = None, dimensional: bool = True, **p
 
     The parameters are in the problem's own units (there are no cases and no
     dimensionless presets; ``dimensional`` is ignored).
+    ``law`` and its parameters set the friction law (:mod:`nsbench.problems.friction_laws`;
+    default Coulomb, whose closed form :func:`closed_form_events` gives).
 
     Raises
     ------

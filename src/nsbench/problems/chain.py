@@ -132,6 +132,9 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
         Number of blocks, 1 to 64 (default 4).
     **params
         Parameter overrides; a per-block value wins over the uniform one.
+        ``law`` (``coulomb``, ``weakening``, ``stribeck``) and its parameters
+        (``delta``; ``fk``, ``vs``, ``cv``) set the friction law of every block
+        (:mod:`nsbench.problems.friction_laws`).
 
     Raises
     ------

@@ -63,6 +63,9 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         rf1 rf2 F Omega v0`` with shorthands ``r_f``, ``omega_r``, ``inv_omega_r``.
     **params
         Parameter overrides.
+        ``law`` (``coulomb``, ``weakening``, ``stribeck``) and its parameters
+        (``delta``; ``fk``, ``vs``, ``cv``) set the friction law of every block
+        (:mod:`nsbench.problems.friction_laws`).
 
     Raises
     ------

@@ -372,6 +372,18 @@ def test_the_issues_examples_exit_2_with_one_line(argv, fragment, d, capsys):
     assert fragment in _one_error_line(capsys)
 
 
+@pytest.mark.parametrize("argv, fragment", [
+    (["simulate", "one-dof", "--param", "law=viscous"], "law = 'viscous' is not a friction law; allowed: coulomb"),
+    (["simulate", "one-dof", "--param", "law=weakening"], "law=weakening needs the parameter(s) delta"),
+    (["simulate", "one-dof", "--case", "leine", "--param", "delta=-1"], "delta = -1 is out of range"),
+    (["simulate", "one-dof", "--case", "leine", "--integrator", "exact"], "weakening friction law"),
+    (["simulate", "two-dof", "--case", "leine"], "unknown case 'leine'"),
+])
+def test_a_bad_friction_law_exits_2_with_one_line(argv, fragment, capsys):
+    assert main(argv) == 2
+    assert fragment in _one_error_line(capsys)
+
+
 def test_a_run_that_fails_says_so_on_stderr(capsys):
     """A valid command whose run ends early exits with 1 and one line naming the failure (issue 30: a
     forcing frequency of 1e300 exhausts exact's step budget, which said nothing on stderr)."""

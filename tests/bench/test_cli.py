@@ -11,6 +11,7 @@ TINY = """
 name = "tiny"
 t_span = [0, 20]
 repeats = 2
+min_sample_time = 0  # one run per sample: the commands, not timing, are tested
 problems = [{ name = "one-dof", case = 1 }]
 [integrators]
 only = ["exact", "scipy-rk45"]

@@ -17,6 +17,7 @@ def report(tmp_path_factory):
     # The reference list leaves out `reference`, so the cubic problem has none and
     # takes the cost-only figure path.
     suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "max_repeats": 3,
+                             "min_sample_time": 0.0,  # one run per sample: the report, not timing, is tested
                              "reference": ["exact"],
                              "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
                              "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"],

@@ -16,6 +16,7 @@ from nsbench.errors import ConfigError
 
 def _suite():
     return Suite.from_dict({"name": "store", "t_span": [0.0, 30.0], "repeats": 1, "reference": ["exact"],
+                            "min_sample_time": 0.0,  # one run per sample: storage, not timing, is tested here
                             "problems": [{"name": "one-dof", "case": 1}],
                             "integrators": {"only": ["exact", "henon-rk4"]}})
 
@@ -190,7 +191,7 @@ def test_nothing_is_written_or_deleted_through_a_link_in_the_output_folder(store
     shutil.rmtree(out / "cases")
     (out / "cases").symlink_to(elsewhere)
     suite = tmp_path / "s.toml"
-    suite.write_text('name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nreference = ["exact"]\n'
+    suite.write_text('name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nmin_sample_time = 0\nreference = ["exact"]\n'
                      'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["exact", "henon-rk4"]\n')
     for fresh in (["--fresh"], []):  # bench --fresh deleted every *.parquet of the linked folder
         assert main(["bench", str(suite), "--out", str(out), "--no-progress", *fresh]) == 2

@@ -42,6 +42,22 @@ def test_builtin_conformance_on_the_block_on_ground(integrator, check):
     check(integrator)
 
 
+#: The library's problems (issue 27) in the default suite: one compiled integrator, one scipy method and one
+#: refusal each; the kit with every built-in on them is ``slow``.
+LIBRARY_KIT = ["reference", "ofapi", "scipy-radau", "heyoka"]
+
+
+@parametrize_with_checks(LIBRARY_KIT, problem="impact-oscillator")
+def test_library_conformance_on_the_impact_oscillator(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="impact-oscillator")
+def test_builtin_conformance_on_the_impact_oscillator(integrator, check):
+    check(integrator)
+
+
 def test_a_refusal_at_setup_is_reported_with_its_reason():
     results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())

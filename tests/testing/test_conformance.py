@@ -58,6 +58,17 @@ def test_builtin_conformance_on_the_impact_oscillator(integrator, check):
     check(integrator)
 
 
+@parametrize_with_checks(LIBRARY_KIT, problem="relay-feedback")
+def test_library_conformance_on_the_relay_feedback_system(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="relay-feedback")
+def test_builtin_conformance_on_the_relay_feedback_system(integrator, check):
+    check(integrator)
+
+
 def test_a_refusal_at_setup_is_reported_with_its_reason():
     results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())

@@ -110,7 +110,7 @@ def test_bad_parameters_are_refused(params, message):
 
 def test_integrators_without_a_form_for_it_refuse_at_setup():
     p = nsbench.get_problem("relay-feedback")
-    for name in ("heyoka", "cvode-bdf", "ida", "exact-mp"):
+    for name in ("heyoka", "cvode-bdf", "ida"):
         with pytest.raises(UnsupportedProblemError, match="friction family"):
             nsbench.get_integrator(name).setup(p)
 
@@ -138,3 +138,12 @@ def test_sliding_appears_where_the_crossing_orbit_reaches_the_sliding_region():
     above = nsbench.simulate(nsbench.get_problem("relay-feedback", lam=lam * (1 + 1e-3)), "exact", 3000.0).events
     assert set(below[below["t"] > 2900.0]["kind"]) == {"slide", "exit"}
     assert set(above[above["t"] > 2900.0]["kind"]) == {"cross"}
+
+
+def test_the_bench_certifies_the_closed_form_reference_per_event():
+    from nsbench.bench.reference import candidates, compute_reference
+
+    p = nsbench.get_problem("relay-feedback", lam=0.06)
+    ref = compute_reference(p.config(), candidates(["exact", "reference"]), 0.0, 60.0, 10)
+    assert ref.ok and ref.name == "exact" and "exact-mp" in ref.certify_note
+    assert set(ref.events["kind"]) == {"cross", "slide", "exit"} and ref.certainty <= 1e-13

@@ -69,6 +69,18 @@ def test_builtin_conformance_on_the_relay_feedback_system(integrator, check):
     check(integrator)
 
 
+@parametrize_with_checks(["reference", "ofapi", "heyoka", "exact"], problem="henon-heiles")
+def test_library_conformance_on_henon_heiles(integrator, check):
+    """The smooth case: heyoka through its symbolic form, exact refusing (not piecewise linear)."""
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="henon-heiles")
+def test_builtin_conformance_on_henon_heiles(integrator, check):
+    check(integrator)
+
+
 def test_a_refusal_at_setup_is_reported_with_its_reason():
     results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())

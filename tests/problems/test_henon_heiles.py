@@ -87,3 +87,14 @@ def test_the_bench_certifies_the_quad_reference_per_event():
     # exact refuses (not piecewise linear): reference (heyoka-q), checked by heyoka-q at tol 1e-30
     assert ref.ok and ref.name == "reference" and "heyoka-q" in ref.certify_note
     assert len(ref.events) >= 50 and ref.certainty <= 1e-13
+
+
+def test_the_conditioning_of_a_start_on_the_section_plane_is_measured():
+    # the start lies on x = 0: moved by +1e-9 it would start on the other side (an extra event at t0), so
+    # the bench moves it the other way and measures how the flow amplifies the change
+    from nsbench.bench.reference import conditioning
+
+    p = nsbench.get_problem("henon-heiles")
+    ev = nsbench.simulate(p, "reference", SPAN).events
+    factor, note = conditioning(p, {"name": "reference", "options": {}}, 0.0, SPAN, ev)
+    assert note == "" and 1.0 < factor < 1e6

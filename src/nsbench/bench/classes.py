@@ -23,7 +23,7 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
-from nsbench.bench.summary import split_references
+from nsbench.bench.summary import CONFIDENCE, samples_of, split_references, tied_with
 from nsbench.bench.tables import grading_floor, problem_groups, reached_mask
 
 #: The classes in the order the report lists them (others follow, alphabetically).
@@ -52,7 +52,8 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     Columns: ``class``, ``problems`` (the graded problems' labels), ``target``,
     ``cheapest``, ``ratio`` (its class cost ratio, text), ``runner_up`` (the next
     method and its ratio), ``wins`` (on how many of the problems it is the
-    cheapest), ``not_on_every_problem`` (methods reaching the target on some but
+    cheapest, and on how many more it is tied with the cheapest within the timing
+    noise, :func:`nsbench.bench.summary.tied_with`), ``not_on_every_problem`` (methods reaching the target on some but
     not all of them).
     """
     if frame.empty or "problem_config" not in frame:
@@ -66,6 +67,7 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                     if (rows_["reference_status"] == "ok").any()]
         for target in targets:
             costs: dict[str, dict[str, float]] = {}  # problem -> method -> cheapest reaching time
+            samples: dict[str, dict[str, list[float]]] = {}  # ... and that run's timed samples
             graded = []
             for label, rows_ in problems:
                 limit, _ = grading_floor(rows_[rows_["reference_status"] == "ok"])
@@ -73,7 +75,9 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                     continue
                 graded.append(label)
                 hit = rows_[reached_mask(rows_, target)]
-                costs[label] = {name: float(runs["wall_time"].min()) for name, runs in hit.groupby("integrator")}
+                fastest = {name: runs.loc[runs["wall_time"].idxmin()] for name, runs in hit.groupby("integrator")}
+                costs[label] = {name: float(row_["wall_time"]) for name, row_ in fastest.items()}
+                samples[label] = {name: samples_of(row_) for name, row_ in fastest.items()}
             row = {"class": klass, "problems": ", ".join(graded), "target": f"{target:.0e}", "cheapest": "",
                    "ratio": "", "runner_up": "", "wins": "", "not_on_every_problem": ""}
             rows.append(row)
@@ -91,7 +95,11 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
             order = sorted(everywhere, key=lambda m: (ratio[m], m))
             first = order[0]
             wins = sum(costs[p][first] == best[p] for p in graded)
-            row.update(cheapest=first, ratio=f"{ratio[first]:.2f}", wins=f"{wins} of {len(graded)}",
+            # where another method is cheaper, is the difference within the timing noise (summary.tied_with)?
+            ties = sum(costs[p][first] != best[p] and tied_with(
+                samples[p][min(costs[p], key=costs[p].get)], samples[p][first], CONFIDENCE) for p in graded)
+            won = f"{wins} of {len(graded)}" + (f" (tied on {ties} more)" if ties else "")
+            row.update(cheapest=first, ratio=f"{ratio[first]:.2f}", wins=won,
                        runner_up=f"{order[1]} ({ratio[order[1]]:.2f})" if len(order) > 1 else "")
     return pd.DataFrame(rows, columns=COLUMNS)
 

@@ -69,6 +69,6 @@ def test_integrators_without_a_form_for_it_refuse_at_setup():
     from nsbench.errors import UnsupportedProblemError
 
     p = nsbench.get_problem("bouncing-ball")
-    for name in ("heyoka", "cvode-bdf", "ida", "exact-mp"):
+    for name in ("heyoka", "cvode-bdf", "ida"):
         with pytest.raises(UnsupportedProblemError, match="friction family"):
             nsbench.get_integrator(name).setup(p)

@@ -59,6 +59,45 @@ def test_a_nonlinear_law_is_checked_as_given_and_a_coulomb_belt_keeps_its_preset
         check_integrator("exact", problem={"name": "one-dof", "case": 2})
 
 
+#: The library's problems (issue 27) in the default suite: one compiled integrator, one scipy method and one
+#: refusal each; the kit with every built-in on them is ``slow``.
+LIBRARY_KIT = ["reference", "ofapi", "scipy-radau", "heyoka"]
+
+
+@parametrize_with_checks(LIBRARY_KIT, problem="impact-oscillator")
+def test_library_conformance_on_the_impact_oscillator(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="impact-oscillator")
+def test_builtin_conformance_on_the_impact_oscillator(integrator, check):
+    check(integrator)
+
+
+@parametrize_with_checks(LIBRARY_KIT, problem="relay-feedback")
+def test_library_conformance_on_the_relay_feedback_system(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="relay-feedback")
+def test_builtin_conformance_on_the_relay_feedback_system(integrator, check):
+    check(integrator)
+
+
+@parametrize_with_checks(["reference", "ofapi", "heyoka", "exact"], problem="henon-heiles")
+def test_library_conformance_on_henon_heiles(integrator, check):
+    """The smooth case: heyoka through its symbolic form, exact refusing (not piecewise linear)."""
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="henon-heiles")
+def test_builtin_conformance_on_henon_heiles(integrator, check):
+    check(integrator)
+
+
 def test_a_refusal_at_setup_is_reported_with_its_reason():
     results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())

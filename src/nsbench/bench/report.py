@@ -19,7 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from nsbench import render
-from nsbench.bench import storage
+from nsbench.bench import classes, storage
 from nsbench.bench.figures import Figure, _styles, report_figures, runtime_distribution, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
@@ -245,7 +245,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     bif_rows = bt.load_rows(d)
     bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
 
-    blocks = _answer_blocks(frame, prov, summary, ecdf)
+    blocks = _answer_blocks(frame, prov, summary, ecdf, classes.class_summary(frame, targets))
     blocks += _context_blocks(frame, prov)
     if len(scaling):
         blocks += [Block("h2", "Scaling with the number of blocks"), Block("p", SCALING_CAPTION), _table(scaling_fit)]
@@ -284,9 +284,11 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
 
 
-def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf: Figure | None) -> list[Block]:
-    """The report's opening: the machine's noise, what failed in the run, the answer in words and tables,
-    wrong sequences, references apart, the runtime distributions."""
+def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf: Figure | None,
+                   by_class: pd.DataFrame | None = None) -> list[Block]:
+    """The report's opening: the machine's noise, what failed in the run, the answer by problem class when the
+    run has more than one class, the answer per problem in words and tables, wrong sequences, references apart,
+    the runtime distributions."""
     blocks = []
     noise = noise_line(frame, prov)
     if noise:
@@ -298,6 +300,10 @@ def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf:
         return blocks
     wrong, refs = wrong_sequences(frame), reference_costs(frame)
     words = findings(summary, wrong, conditioning_table(frame))
+    if by_class is not None and by_class["class"].nunique() > 1:
+        blocks += [Block("h2", "The answer by problem class"),
+                   Block("list", items=classes.class_findings(by_class), css="answer"), Block("p", CLASS_CAPTION),
+                   _table(classes.display(by_class), "summary")]
     blocks += [Block("h2", "The answer"), Block("list", items=words, css="answer"), Block("p", ANSWER_CAPTION),
                _table(display(summary), "summary")]
     if len(wrong):
@@ -341,6 +347,14 @@ def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataF
             "", latex_table(rank, RANK_CAPTION, "tab:nsbench-ranking"), ""]
     return "\n".join(tex)
 
+
+CLASS_CAPTION = ("Grouped by the class each problem declares (friction, impact, sliding, smooth). For each target: "
+                 "the method with the smallest class cost ratio, the geometric mean over the class's graded problems "
+                 "of its cost (cheapest configuration reaching the target, median warm wall time) divided by the "
+                 "cheapest method's cost on the same problem (1: the cheapest on every problem), among the methods "
+                 "that reach the target on every graded problem of the class; then how many problems it is the "
+                 "cheapest on (and on how many more its time cannot be told from the cheapest's), the runner-up, and the methods that reach it on some problems only. "
+                 "Reference-grade integrators are not ranked. Per-problem answers, with intervals, follow.")
 
 ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it (median "
                   "warm wall time per run, with the interval of that median), every other method's cost as a ratio "

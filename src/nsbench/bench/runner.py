@@ -126,8 +126,7 @@ class _References:
         self.suite, self.dir = suite, out / "references"
         self.known: dict[str, Reference] = {}
         self.todo: dict[str, ReferenceTask] = {}
-        t0, t_end = suite.t_span
-        for case in pending:
+        for case in pending:  # each over its case's span (a problem may have its own, Suite.problem_spans)
             key = self.key(case)
             if key in self.known or key in self.todo:
                 continue
@@ -135,11 +134,11 @@ class _References:
             if cached is not None and not cached.failed:
                 self.known[key] = cached
             else:
-                self.todo[key] = ReferenceTask(key, case.problem, self.cands, t0, t_end, suite.dense_points)
+                self.todo[key] = ReferenceTask(key, case.problem, self.cands, case.t0, case.t_end,
+                                               suite.dense_points)
 
     def key(self, case: Case) -> str:
-        return reference_key(case.problem, self.cands, self.suite.t_span[0], self.suite.t_span[1],
-                             self.suite.dense_points)
+        return reference_key(case.problem, self.cands, case.t0, case.t_end, self.suite.dense_points)
 
     def of(self, case: Case) -> Reference:
         return self.known[self.key(case)]

@@ -24,7 +24,7 @@ from nsbench.errors import ConfigError
 _SUITE_KEYS = {"name", "t_span", "repeats", "max_repeats", "min_sample_time", "repeat_budget", "time_limit",
                "setup_limit", "max_steps",
                "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
-_PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional"}
+_PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional", "t_span"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
 
 #: Most cases a suite may expand to. The count is computed from the TOML before
@@ -141,6 +141,10 @@ def _check_problem(p: Any, i: int) -> None:
             _field(ok, f"{where}.params.{key}", "a number or a list of numbers (law: a name)", value)
     if "dimensional" in p:
         _field(isinstance(p["dimensional"], bool), f"{where}.dimensional", "true or false", p["dimensional"])
+    if "t_span" in p:
+        span = _number_list(p["t_span"], f"{where}.t_span")
+        if len(span) != 2 or not span[1] > span[0]:
+            raise ConfigError(f"{where}.t_span = {list(p['t_span'])} must be [t0, t_end] with t_end > t0")
 
 
 def _check_integrators(spec: Any) -> None:
@@ -201,7 +205,8 @@ class Suite:
     t_span
         ``(t0, t_end)`` in the problems' units.
     problems
-        Tables with ``name`` and ``case`` (or ``cases``), optional ``params`` and ``dimensional``.
+        Tables with ``name`` and ``case`` (or ``cases``), optional ``params``, ``dimensional``
+        and ``t_span`` (the problem's own span, instead of the suite's).
     integrators
         ``registered`` (bool: every registered integrator), ``only`` (names),
         ``exclude`` (names), ``grids`` (name -> ``{'options': [...]}`` or
@@ -431,12 +436,17 @@ class Suite:
     # ------------------------------------------------------------------ expansion
     def problem_configs(self) -> list[dict[str, Any]]:
         """Problem config dicts (those of :meth:`FrictionOscillator.config`), validated."""
+        return [config for config, _ in self.problem_spans()]
+
+    def problem_spans(self) -> list[tuple[dict[str, Any], tuple[float, float]]]:
+        """``(config, (t0, t_end))`` of every problem: its own ``t_span`` if its table has one, else the suite's."""
         from nsbench.problems import problem_from_config
 
         if self.n_problems() > MAX_CASES:
             self.check_size()
         out = []
         for p in self.problems:
+            span = tuple(float(v) for v in p.get("t_span", self.t_span))
             cases = p.get("cases", [p.get("case", 1)])
             if not isinstance(cases, list):
                 cases = [cases]
@@ -450,7 +460,7 @@ class Suite:
                 for combo in itertools.product(*(params[k] for k in grid)):
                     config = {"name": p["name"], "case": case, "dimensional": bool(p.get("dimensional", False)),
                               "params": {**params, **dict(zip(grid, combo))}}
-                    out.append(problem_from_config(config).config())  # validates early
+                    out.append((problem_from_config(config).config(), span))  # validates early
         return out
 
     def integrator_names(self) -> list[str]:
@@ -524,14 +534,14 @@ class Suite:
             A bad problem or integrator setting, or more than :data:`MAX_CASES` cases.
         """
         self.check_size()
-        problems = self.problem_configs()
+        problems = self.problem_spans()
         plan = [(name, self.option_sets(name)) for name in self.integrator_names()]
         out = []
-        for problem in problems:
+        for problem, (t0, t_end) in problems:
             for name, sets in plan:
                 for level, options in sets:
                     out.append(Case(problem=problem, integrator=name, options=options, level=level,
-                                    t0=self.t_span[0], t_end=self.t_span[1], repeats=self.repeats,
+                                    t0=t0, t_end=t_end, repeats=self.repeats,
                                     time_limit=float(self.time_limit), max_steps=self.max_steps,
                                     dense_points=self.dense_points,
                                     min_sample_time=float(self.min_sample_time), max_repeats=self.max_repeats,

@@ -95,7 +95,6 @@ from typing import Any
 import mpmath
 import numpy as np
 
-from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
 from nsbench.problems.modes import Mode
@@ -409,6 +408,21 @@ class _Search:
 
 
 # ---------------------------------------------------------------------- the problem in mp
+def _friction(problem) -> bool:
+    return getattr(problem, "family", "") == "friction"
+
+
+def _forced(problem) -> bool:
+    """Whether the modes carry ``cos w t, sin w t`` (the friction family says so by its force ``F``)."""
+    if _friction(problem):
+        return problem.coefficients.F != 0.0
+    return bool(problem.is_forced and problem.forcing_frequency != 0.0)
+
+
+def _frequency(problem) -> float:
+    return float(problem.coefficients.w) if _friction(problem) else float(problem.forcing_frequency)
+
+
 class _Model:
     """A linear problem's modes in mp: the augmented matrix ``M`` and the guard rows.
 
@@ -421,13 +435,13 @@ class _Model:
     def __init__(self, ctx, problem: FrictionOscillator) -> None:
         self.ctx, self.problem = ctx, problem
         self.n = problem.n_states
-        self.forced = problem.coefficients.F != 0.0
+        self.forced = _forced(problem)
         self.d = self.n + 3 if self.forced else self.n + 1
 
     def _harmonic_rows(self, rows: list) -> None:
         """``cos' = -w sin``, ``sin' = w cos`` in place."""
         if self.forced:
-            w = self.ctx.mpf(float(self.problem.coefficients.w))
+            w = self.ctx.mpf(_frequency(self.problem))
             n = self.n
             rows[n + 1][n + 2], rows[n + 2][n + 1] = -w, w
 
@@ -674,16 +688,18 @@ class ExactMP(Integrator):
                             "what exact solves)"),
     }
     def setup(self, problem: FrictionOscillator) -> None:
-        """Refuse cubic problems; a fresh mp context, mode cache and carry for ``problem``."""
-        super().setup(problem)
-        if getattr(problem, "family", "") != "friction":
-            raise UnsupportedProblemError(
-                f"{self.name} writes the friction family's modes in extended precision; {problem!r} is of the "
-                f"{problem.family or 'other'!r} family")
+        """Refuse non-linear problems (the base class); a fresh mp context, mode cache and carry for ``problem``.
+
+        A piecewise-linear problem of another family (an impact, a relay) has no
+        coefficients in the friction family's sense: its modes are always read from
+        ``linear_form`` and ``guard_row`` (the model ``linear-form``).
+        """
+        super().setup(problem)  # refuses non-linear problems
         self._problem = problem
         self._ctx = mpmath.MPContext()  # private: global mpmath precision is never touched
         self._ctx.dps = int(self.settings["digits"])
-        self._model = MODELS[self.settings["model"]](self._ctx, problem)
+        model = self.settings["model"] if _friction(problem) else "linear-form"
+        self._model = MODELS[model](self._ctx, problem)
         self._flows: dict[Mode, _ModeFlow] = {}
         self._carry = None
 
@@ -701,6 +717,10 @@ class ExactMP(Integrator):
         if carry is None:
             return None
         t, t_lo, y_out, time_mp, z = carry
+        if not _friction(request.problem):  # only a transition that left the state alone is continued
+            same = (float(request.t0) == t and float(request.t0_lo) == t_lo
+                    and np.array_equal(np.asarray(request.y0, dtype=float), y_out))
+            return (time_mp, list(z)) if same else None
         reset = reset_velocities(request, t, t_lo, y_out)
         if reset is None:
             return None
@@ -715,7 +735,7 @@ class ExactMP(Integrator):
         t0 = ctx.fadd(float(request.t0), float(request.t0_lo), exact=True)
         z = [ctx.mpf(float(v)) for v in np.asarray(request.y0, dtype=float)] + [ctx.one]
         if self._model.forced:
-            wt = ctx.mpf(float(request.problem.coefficients.w)) * t0
+            wt = ctx.mpf(_frequency(request.problem)) * t0
             z += [ctx.cos(wt), ctx.sin(wt)]
         return t0, z
 

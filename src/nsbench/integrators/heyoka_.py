@@ -24,6 +24,14 @@ coefficients up to the order, about ``order`` field evaluations' worth of
 work) per step, and ``extra['taylor_coefficients']`` the jets times the order.
 Compilation happens in :meth:`setup` (two section slots); a request with more
 sections compiles a wider model once, reported in ``extra['compile_seconds']``.
+
+A problem of another family that writes its field symbolically
+(``symbolic_field``, ``symbolic_guard``: ``henon-heiles``) runs through
+:mod:`nsbench.integrators._heyoka_symbolic`: one compiled integrator per mode
+(compiled in :meth:`setup` for the start mode, on first visit for the others,
+reported in ``extra['compile_seconds']``), no state sections. Its state and time
+are carried across an event in the integrator's precision when the transition
+left the state alone.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import _heyoka_model as model
+from nsbench.integrators import _heyoka_symbolic as symbolic
 from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.problems.modes import STICK
@@ -69,7 +78,8 @@ class HeyokaIntegrator(Integrator):
 
     def setup(self, problem) -> None:
         super().setup(problem)
-        if getattr(problem, "family", "") != "friction":
+        self._symbolic = getattr(problem, "family", "") != "friction"
+        if self._symbolic and not symbolic.supports(problem):
             raise UnsupportedProblemError(
                 f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
                 f"{problem.family or 'other'!r} family, which has no heyoka form")
@@ -78,9 +88,18 @@ class HeyokaIntegrator(Integrator):
         self._fp = model.FP_TYPES.get(self.precision)
         if self._fp is None:  # pragma: no cover - depends on the heyoka build
             raise ConfigError(f"{self.name}: this heyoka build has no {self.precision} type")
-        self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self.compile_time = 0.0
-        self._carry = None  # the last event's state in our precision (see _continued)
+        self._carry = None
+        self._compiled_in_advance = 0.0
+        if self._symbolic:
+            self._mode_tas: dict[tuple[int, ...], Any] = {}
+            # every mode the problem names (else its start mode) now, so that no run compiles or copies one
+            start = problem.initial_mode(0.0, problem.initial_state())
+            for mode in getattr(problem, "symbolic_modes", (start,)):
+                self._mode_ta(mode)
+            self._compiled_in_advance = 0.0
+            return
+        self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self._model(_SECTION_SLOTS)
         self._compiled_in_advance = 0.0
 
@@ -170,10 +189,103 @@ class HeyokaIntegrator(Integrator):
             ev.callback.hits.clear()
         return t0
 
+    # -- problems written symbolically (_heyoka_symbolic)
+    def _mode_ta(self, mode):
+        ta = self._mode_tas.get(tuple(mode))
+        if ta is None:
+            compact = self.settings["compact_mode"]
+            if compact is None:
+                compact = self.precision == "quad"
+            ta, seconds = symbolic.compiled(self._problem, tuple(mode), self.precision, self.settings["tol"],
+                                            self.settings["high_accuracy"], compact)
+            self.compile_time += seconds
+            self._compiled_in_advance += seconds
+            self._mode_tas[tuple(mode)] = ta
+        return ta
+
+    def _advance_symbolic(self, request: ArcRequest) -> ArcResult:
+        """One arc of a symbolically written problem (see the module docstring)."""
+        problem, fp, n = request.problem, self._fp, request.problem.n_states
+        if request.sections:
+            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
+                             y_eval=np.empty((n, 0)), status=Status.INTEGRATOR_FAILURE,
+                             message=f"{self.name}: state sections are not supported on {problem.name}")
+        ta = self._mode_ta(request.mode)
+        carry, self._carry = self._carry, None
+        same = (carry is not None and carry[0] is problem and float(request.t0) == carry[1]
+                and float(request.t0_lo) == carry[2] and np.array_equal(np.asarray(request.y0, float), carry[3]))
+        if same and self.precision != "double":
+            ta.dtime, ta.state[:] = carry[4], carry[5]
+        else:
+            ta.dtime = (fp(request.t0), fp(request.t0_lo))
+            ta.state[:] = np.asarray(request.y0, dtype=float).astype(fp)
+        if request.max_steps <= 0:
+            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
+                             y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
+                             message=f"step budget exhausted at t = {request.t0:.6g}")
+        taylor = model.hy.taylor_outcome
+        t_start, nsteps, hit, rows = ta.time, 0, None, []
+        fresh = self._fresh_guards(request)
+        outcome, c_out = taylor.success, None
+        if fresh:  # heyoka looks for no root of an event that is zero where a step starts: one step alone
+            outcome, _ = ta.step(fp(request.t_end) - t_start)
+            nsteps = 1
+            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+                if fp(float(te)) > ta.time:
+                    break
+                rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
+            for q in fresh:
+                root = symbolic.first_crossing(ta, fp, request.guards[q], t_start, ta.time)
+                if root is not None and (hit is None or root < hit[0]):
+                    hit = (root, q, np.array(ta.update_d_output(root), copy=True))
+        if hit is None and outcome in (taylor.success, taylor.time_limit) and ta.time < fp(request.t_end):
+            if nsteps >= request.max_steps:
+                outcome = taylor.step_limit
+            else:
+                outcome, _, _, taken, c_out, _ = ta.propagate_until(
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0)
+                nsteps += int(taken)
+        if hit is not None:
+            hi, lo, y_fp, fired, status, message = hit[0], fp(0.0), hit[2], hit[1], Status.SUCCESS, ""
+        else:
+            (hi, lo), y_fp = ta.dtime, ta.state
+            fired, status, message = None, Status.SUCCESS, ""
+            if outcome == taylor.step_limit:
+                status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {float(hi):.6g}"
+            elif outcome == taylor.err_nf_state:
+                status, message = Status.INTEGRATOR_FAILURE, f"non-finite state at t = {float(hi):.6g}"
+            elif outcome not in (taylor.success, taylor.time_limit):
+                event = -int(outcome) - 1
+                if 0 <= event < len(request.guards):
+                    fired = event
+                else:
+                    status, message = Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
+        t_stop = float(hi)
+        t_lo = float((hi - fp(t_stop)) + lo)
+        if fired is None and status.ok:
+            t_stop, t_lo = request.t_end, 0.0
+        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
+        rows = rows[:n_eval]
+        if len(rows) < n_eval and c_out is not None:
+            times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
+            rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
+        rows += [y_fp] * (n_eval - len(rows))
+        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
+        y_out = np.asarray(y_fp[:n]).astype(float)
+        if fired is not None and status.ok:
+            self._carry = (problem, t_stop, t_lo, y_out, (hi, lo), np.array(y_fp, copy=True))
+        extra = {"taylor_coefficients": nsteps * int(ta.order)}
+        if self._compiled_in_advance:
+            extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
+        return ArcResult(t=t_stop, y=y_out, fired=fired, y_eval=y_eval, nfev=nsteps, njev=0, nsteps=nsteps,
+                         extra=extra, status=status, message=message, t_lo=t_lo)
+
     def advance(self, request: ArcRequest) -> ArcResult:
         problem = request.problem
         if getattr(self, "_problem", None) is not problem:
             self.setup(problem)
+        if self._symbolic:
+            return self._advance_symbolic(request)
         st, ta = self._model(len(request.sections))
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None

@@ -14,6 +14,15 @@ bound, so a stick guard driven by the harmonic force (``R_2`` contains
 default ``max_step=None`` therefore caps the step at 1/16 of the forcing period
 for forced problems (no cap otherwise); pass ``max_step=inf`` to see the
 uncapped behaviour.
+
+A guard that starts on its own surface (value exactly 0 at ``t0``, as after an
+impact or a release) is handed to scipy divided by ``t - t0`` (its rate at
+``t0`` itself), which has the same zeros after ``t0``. Otherwise scipy sees the
+zero at ``t0`` as one end of a sign change: a first step that carries the guard
+out and back across its surface (a short flight of a chattering impact) would
+be located at ``t0`` itself, the excursion lost. An exact zero of such a guard
+(a first step too short to move it off a double zero, as at a release from a
+stop) is taken as still on its surface, not across it.
 """
 
 from __future__ import annotations
@@ -50,14 +59,34 @@ class _StepCounter:
         return 1.0
 
 
-def _guard_event(guard, mode: np.ndarray, terminal: bool, direction: float):
-    """A guard as a scipy event function, evaluated by the problem's compiled law."""
+def _guard_event(guard, mode: np.ndarray, terminal: bool, direction: float, t0: float = np.nan,
+                 y0: np.ndarray | None = None):
+    """A guard as a scipy event function, evaluated by the problem's compiled law.
+
+    If the guard is exactly 0 at ``(t0, y0)`` it is returned divided by ``t - t0``
+    (its rate at ``t0``), and an exact zero as a tiny value of its expected sign: the
+    same crossings after ``t0``, none at ``t0``.
+    """
     problem = guard.problem
-    guard_value, p = problem.law.guard_value, problem.data.p
+    law, p = problem.law, problem.data.p
+    guard_value = law.guard_value
     kind, index = guard.code, guard.block - 1
 
-    def event(t: float, y: np.ndarray) -> float:
-        return guard_value(p, mode, kind, index, t, y)
+    if y0 is not None and guard_value(p, mode, kind, index, t0, y0) == 0.0:
+        dy = np.empty(y0.shape[0])
+        law.rhs(p, mode, t0, y0, dy)
+        start_rate = law.guard_rate(p, mode, kind, index, t0, y0, dy)
+
+        # exactly on the surface is not across it: the smallest value of the expected sign, so that a
+        # first step too short to move the guard off a double zero (a release) is no crossing for scipy
+        on_surface = float(guard.expected_sign) * 1e-300
+
+        def event(t: float, y: np.ndarray) -> float:
+            value = start_rate if t == t0 else guard_value(p, mode, kind, index, t, y) / (t - t0)
+            return value if value != 0.0 else on_surface
+    else:
+        def event(t: float, y: np.ndarray) -> float:
+            return guard_value(p, mode, kind, index, t, y)
 
     event.terminal = terminal
     event.direction = direction
@@ -97,7 +126,9 @@ class ScipyIntegrator(Integrator):
         counter = _StepCounter(request.max_steps)
         law, p = problem.law, problem.data.p
         m = problem.mode_array(mode)
-        guard_events = [_guard_event(g, m, True, -float(g.expected_sign)) for g in request.guards]
+        y0 = np.array(request.y0, dtype=float)
+        guard_events = [_guard_event(g, m, True, -float(g.expected_sign), float(request.t0), y0)
+                        for g in request.guards]
         section_events = [_section_event(s, float(s.direction)) for s in request.sections]
         dense = request.t_eval.size > 0
         max_step = opts["max_step"]

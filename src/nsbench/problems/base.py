@@ -93,6 +93,10 @@ class HybridProblem:
     ------------------------------
     family
         Short name of the family (``'friction'``, ``'impact'``), for reports.
+    problem_class
+        The class of non-smooth behaviour reports group problems by (``'friction'``,
+        ``'impact'``, ``'sliding'``, ``'smooth'``); empty: the family's name
+        (:meth:`HybridProblem.behaviour`).
     law_module
         The module holding the compiled law (:mod:`nsbench.model.law`), or its import path (so that
         building a problem loads no compiler).
@@ -112,6 +116,7 @@ class HybridProblem:
     """
 
     family: ClassVar[str] = ""
+    problem_class: ClassVar[str] = ""
     law_module: ClassVar[ModuleType | str]
     guard_kinds: ClassVar[tuple[str, ...]] = ()
     event_kinds: ClassVar[tuple[str, ...]] = ()
@@ -174,6 +179,10 @@ class HybridProblem:
     def config(self) -> dict[str, Any]:
         """The small dict that rebuilds this problem with :func:`nsbench.get_problem`."""
         return {"name": self.name, "case": self.case, "dimensional": self.dimensional, "params": dict(self.params)}
+
+    def behaviour(self) -> str:
+        """The problem class reports group by: the declared ``problem_class``, else the family."""
+        return self.problem_class or self.family
 
     # ------------------------------------------------------------------ derived from the law
     @property

@@ -109,8 +109,8 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
     row.update(
         case_id=case.case_id, suite=suite, problem=case.problem["name"], case=case.problem.get("case"),
         problem_label=problem_label(case.problem), problem_config=_jsonable(case.problem),
-        integrator=case.integrator, integrator_config=_jsonable(config), options=_jsonable(case.options),
-        level=case.level, step_option=step_option or "",
+        integrator=case.integrator, family=cls.capabilities.family, integrator_config=_jsonable(config),
+        options=_jsonable(case.options), level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
         t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], cpu_times=[],
         n_repeats=0,
@@ -320,8 +320,9 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         dense = None
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
+        belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
         metrics = case_metrics(reference.events, lead.events, reference.y_dense, dense,
-                               reference.y_final, lead.y_final)
+                               reference.y_final, lead.y_final, times=grid, v_belt=belt, t_end=case.t_end)
         if metrics.pop("truncated"):
             row["message"] = (row["message"] + " | " if row["message"] else "") + \
                 "event logs too long: only their starts were aligned"

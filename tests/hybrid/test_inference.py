@@ -110,3 +110,75 @@ def test_a_one_step_stick_past_the_static_limit_is_a_reversal():
     y[:, 0] = -0.5
     ev = infer_events(problem, t, y, np.array([[-1], [0], [1]]))
     assert [problem.event_kinds[k] for k in ev.kind] == ["stick", "slip"]
+
+
+def _method(result_of):
+    """A whole-system 'method' for the driver's checks: it returns what it is told to (never a measurement)."""
+    from nsbench.integrators.base import Capabilities
+    from nsbench.integrators.whole import WholeSystem
+
+    class Stub(WholeSystem):
+        name = "test-whole"
+        capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
+                                    family="time-stepping")
+
+        def integrate(self, request):
+            return result_of(request)
+
+    return Stub()
+
+
+def test_a_result_that_breaks_the_protocol_is_a_failure_status(one_dof):
+    from nsbench import simulate
+    from nsbench.integrators.whole import SystemResult
+
+    bad_shape = _method(lambda r: SystemResult(t=np.array([r.t0, r.t_end]), y=np.zeros((2, 3))))
+    res = simulate(one_dof, bad_shape, 1.0)
+    assert res.status.value == "integrator failure" and "(n_steps, n_states)" in res.message
+
+    short = _method(lambda r: SystemResult(t=np.array([r.t0, 0.5]), y=np.zeros((2, 2))))
+    res = simulate(one_dof, short, 1.0)
+    assert res.status.value == "integrator failure" and "< t_end" in res.message
+
+    def boom(request):
+        raise RuntimeError("no luck")
+
+    res = simulate(one_dof, _method(boom), 1.0)
+    assert res.status.value == "integrator failure" and "RuntimeError: no luck" in res.message
+
+
+def test_a_non_finite_step_ends_the_run_where_the_steps_were_finite(one_dof):
+    from nsbench import simulate
+    from nsbench.integrators.whole import SystemResult
+
+    v0 = one_dof.v0
+
+    def blows_up(request):
+        t = np.linspace(request.t0, request.t_end, 5)
+        y = np.column_stack([np.zeros(5), np.full(5, v0 - 0.1)])
+        y[3:] = np.nan
+        return SystemResult(t=t, y=y, modes=np.full((5, 1), -1))
+
+    res = simulate(one_dof, _method(blows_up), 1.0)
+    assert res.status.value == "integrator failure" and "non-finite" in res.message
+    assert res.t_final == 0.5
+
+
+def test_a_whole_system_method_has_no_arcs(one_dof):
+    from nsbench.errors import ConfigError
+    from nsbench.integrators.base import ArcRequest
+    from nsbench.integrators.whole import SystemResult
+
+    method = _method(lambda r: SystemResult(t=np.array([r.t0]), y=np.zeros((1, 2))))
+    mode = one_dof.initial_mode(0.0, one_dof.initial_state())
+    with pytest.raises(ConfigError, match="whole-system"):
+        method.advance(ArcRequest(one_dof, mode, 0.0, one_dof.initial_state(), 1.0, one_dof.guards(mode)))
+
+
+def test_a_family_is_one_of_the_four():
+    from nsbench.errors import ConfigError
+    from nsbench.integrators.base import FAMILIES, Capabilities
+
+    assert FAMILIES == ("event-driven", "time-stepping", "switch-model", "smoothing")
+    with pytest.raises(ConfigError, match="family 'implicit'"):
+        Capabilities(event_location="x", order=1, adaptive=False, family="implicit")

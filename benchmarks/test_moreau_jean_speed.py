@@ -7,7 +7,8 @@ enumeration (the previous status first). The figure is ``steps_per_s``: steps
 over the time inside the method (``integrator_time``, warm rounds; the event
 inference and the frames are nsbench's and left out). The goal of issue 28 is
 at least 2 million steps per second on one core; measured on the 2-core
-development machine: about 12 million (case 1) and 11 million (case 2), busy.
+development machine: 12-14 million per wall-clock second with the load average
+near 3.5, 5-8 million near 5 (14-17 million per CPU second).
 
 The run is checked against ``exact``: the same switch sequence, every
 switching time within 5 steps (first order). Speed is recorded and compared

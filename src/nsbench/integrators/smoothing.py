@@ -63,6 +63,10 @@ class Smoothing(WholeSystem):
         "stuck-stays-stuck": "a regularised block creeps (|v - v_belt| ~ 1/eps) instead of moving with the belt",
         "energy-balance": "the work of the regularised friction is not the Coulomb friction's of the phases",
         "cubic-event-times": "as event-times: no stiction",
+        "switch-convergence": "without stiction it never has the stick-slip cycle of case 1 (fr > fs): no level "
+                              "has exact's switch sequence",
+        "convergence": "on a slipping arc the regularised force misses fs by about 2 fs / (pi eps |u|): at "
+                       "eps = 1e4 the arc's error stays near 1e-3, above the check's 1e-5",
     }
 
     def stick_band(self, problem) -> float:

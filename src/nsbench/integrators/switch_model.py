@@ -47,7 +47,6 @@ class SwitchModel(WholeSystem):
     known_gaps = {
         "event-times": "switches are placed on the band's edges and the discontinuous field is stepped over by "
                        "error control: switching times within 1e-5 need eta and rtol far below the defaults",
-        "stuck-stays-stuck": "a stuck block keeps the velocity it entered the band with, up to eta off the belt",
         "energy-balance": "the phases of the band are not the model's: the balance closes to O(eta)",
         "cubic-event-times": "as event-times",
     }

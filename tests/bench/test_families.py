@@ -62,3 +62,16 @@ def test_a_small_families_suite_reports_per_family(tmp_path):
     assert "The answer per family of methods" in text
     assert text.index("The answer per family") < text.index("Fixed-target table")
     assert "one-dof/1, time-stepping (moreau-jean)" in text and "one-dof/1, smoothing (smoothing)" in text
+
+
+def test_a_whole_system_case_runs_in_process():
+    """The runner's in-process fallback wraps integrators to check a time limit between arcs; a whole-system
+    method has no arcs and runs unwrapped."""
+    from nsbench.bench import execute
+    from nsbench.bench.suite import Suite
+
+    suite = Suite.from_dict({"name": "t", "t_span": [0.0, 5.0], "repeats": 3, "dense_points": 50,
+                             "reference": ["exact"], "problems": [{"name": "one-dof", "case": 1}],
+                             "integrators": {"only": ["moreau-jean"]}})
+    warm = execute.warm_up(suite.cases()[0], in_process=True)
+    assert warm.row is None and warm.warmup_time >= 0.0

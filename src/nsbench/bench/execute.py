@@ -158,8 +158,13 @@ def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
     from nsbench.integrators import get_integrator
     from nsbench.problems import problem_from_config
 
+    from nsbench.integrators.whole import is_whole_system
+
     integ = get_integrator(case.integrator, **case.options)
-    return problem_from_config(case.problem), (TimeLimited(integ, limit) if limit is not None else integ)
+    # a whole-system method runs its span in one call: there is no arc between which to check the limit
+    # (in a worker, the parent's limit applies as to every integrator)
+    limited = limit is not None and not is_whole_system(integ)
+    return problem_from_config(case.problem), (TimeLimited(integ, limit) if limited else integ)
 
 
 def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,

@@ -182,3 +182,12 @@ def test_a_family_is_one_of_the_four():
     assert FAMILIES == ("event-driven", "time-stepping", "switch-model", "smoothing")
     with pytest.raises(ConfigError, match="family 'implicit'"):
         Capabilities(event_location="x", order=1, adaptive=False, family="implicit")
+
+
+def test_the_hybrid_core_refuses_a_whole_system_method_early(one_dof):
+    from nsbench.errors import ConfigError
+    from nsbench.hybrid.run import run_hybrid
+    from nsbench.integrators import get_integrator
+
+    with pytest.raises(ConfigError, match="whole-system method .time-stepping."):
+        run_hybrid(one_dof, get_integrator("moreau-jean"), 1.0)

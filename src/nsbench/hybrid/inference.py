@@ -30,6 +30,13 @@ friction family; ``u_i = v_i - v_belt``, ``b`` the method's stick band,
    its mode is the mode before with block ``i``'s new phase. Several blocks
    changing in one step give one event each, in time order (ties: lower block first).
 
+5. **Impact problems** (the bouncing ball, one contact): the method reports the impulse
+   of each step. An ``impact`` is a step with a positive impulse while the ball
+   approaches (``v < 0`` at the step's start), placed at the zero of the height's line
+   between the two steps, with ``x = 0`` and the post-impact velocity; a change of the
+   method's mode to resting is a ``rest`` event at that step (``v = 0``), after which
+   its impulses are resting contact, not impacts.
+
 The interpolation is first order, as are the methods: it adds an error of at
 most one step to a switching time, and none where the guard is linear in time
 over the step (a stuck block's force under a constant load). :func:`run_whole`
@@ -110,8 +117,33 @@ def _pass_through(problem, t: np.ndarray, y: np.ndarray, m: np.ndarray) -> None:
             m[k, i] = m[k + 1, i]
 
 
+def _impact_events(problem, t: np.ndarray, y: np.ndarray, modes: np.ndarray | None,
+                   impulses: np.ndarray | None) -> InferredEvents:
+    """Rule 5 (impact problems, one contact: the bouncing ball): see the module docstring."""
+    k = len(t)
+    m = np.zeros((k, 1), np.int64) if modes is None else np.asarray(modes, dtype=np.int64)
+    p = np.zeros((k, 1)) if impulses is None else np.asarray(impulses, dtype=float).reshape(k, -1)
+    impact, rest = problem.event_kinds.index("impact"), problem.event_kinds.index("rest")
+    out_t, out_k, out_y, out_m = [], [], [], []
+    for j in range(1, k):
+        if m[j, 0] != m[j - 1, 0]:
+            out_t.append(float(t[j]))
+            out_k.append(rest)
+            out_y.append(np.array([y[j, 0], 0.0]))
+            out_m.append(m[j].copy())
+        elif m[j, 0] == 0 and p[j, 0] > 0.0 and y[j - 1, 1] < 0.0:
+            out_t.append(_line_zero(t[j - 1], y[j - 1, 0], t[j], y[j, 0], t[j - 1], t[j]))
+            out_k.append(impact)
+            out_y.append(np.array([0.0, y[j, 1]]))
+            out_m.append(m[j].copy())
+    n = len(out_t)
+    return InferredEvents(t=np.array(out_t, dtype=float), kind=np.array(out_k, dtype=np.int64),
+                          block=np.zeros(n, np.int64), y=np.array(out_y, dtype=float).reshape(-1, 2),
+                          mode=np.array(out_m, dtype=np.int64).reshape(-1, 1), start_mode=m[0].copy())
+
+
 def infer_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: np.ndarray | None,
-                 band: float = 0.0) -> InferredEvents:
+                 band: float = 0.0, impulses: np.ndarray | None = None) -> InferredEvents:
     """The events of the discrete trajectory ``(t, y)`` by the rule of this module's docstring.
 
     Parameters
@@ -124,11 +156,15 @@ def infer_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: 
         The method's mode of each step ``(k, mode_size)``, or ``None`` (read off the band).
     band
         The method's stick band ``b >= 0``.
+    impulses
+        Impact problems: the impulse of each step (rule 5).
     """
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if not band >= 0.0:
         raise ValueError(f"stick band {band!r} must be >= 0")
+    if problem.family == "impact":
+        return _impact_events(problem, t, y, modes, impulses)
     if modes is None:
         m = band_modes(problem, y, band)
     else:
@@ -239,12 +275,13 @@ def run_whole(problem: "HybridProblem", integ: "WholeSystem", t_end: float, *, t
         bad = int(np.argmax(~np.all(np.isfinite(ys), axis=1)))
         t, ys = t[:bad], ys[:bad]
         modes = None if res.modes is None else np.asarray(res.modes)[:bad]
+        impulses = None if res.impulses is None else np.asarray(res.impulses)[:bad]
         status, message = Status.INTEGRATOR_FAILURE, f"non-finite state after t = {t[-1] if t.size else t0:.6g}"
         if t.size == 0:
             t, ys = np.array([float(t0)]), y.reshape(1, -1)
     else:
-        modes, status, message = res.modes, res.status, res.message
-    ev = infer_events(problem, t, ys, modes, float(integ.stick_band(problem)))
+        modes, impulses, status, message = res.modes, res.impulses, res.status, res.message
+    ev = infer_events(problem, t, ys, modes, float(integ.stick_band(problem)), impulses)
     k = len(ev)
     while rec.events.t.shape[0] < k:
         rec.grow_events(0)

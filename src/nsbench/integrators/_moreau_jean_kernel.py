@@ -193,3 +193,41 @@ def operators(m, c, K, h: float, theta: float):
         idx = [i for i in range(n) if mask >> i & 1]
         winv[mask][np.ix_(idx, idx)] = np.linalg.inv(W[np.ix_(idx, idx)])
     return W, winv
+
+
+@jit
+def mj_ball(g, e, theta, h, t0, x0, v0, n_steps, T, Y, MODES, P):
+    """Moreau-Jean on the bouncing ball: Newton's impact law at the velocity level, one contact.
+
+    The contact is active in a step when the position predicted half a step ahead,
+    ``x_k + h v_k / 2``, is not above the ground; then the impulse ``P >= 0`` makes
+    ``v_{k+1} + e v_k >= 0`` with complementarity (``P = 0`` or equality). A step whose
+    post-impact speed ``e |v_k|`` is at most one step's gain of speed under gravity
+    ``g h`` is resting (mode 1): the ball cannot leave the ground for more than a step.
+    Fills ``T``, ``Y`` (x, v), ``MODES`` and ``P`` (the impulse of the step ending there).
+    """
+    x = x0
+    v = v0
+    T[0] = t0
+    Y[0, 0] = x
+    Y[0, 1] = v
+    MODES[0, 0] = 0
+    P[0] = 0.0
+    mode = 0
+    for k in range(n_steps):
+        vfree = v - h * g
+        vnew = vfree
+        imp = 0.0
+        if x + 0.5 * h * v <= 0.0 and vfree + e * v < 0.0:
+            vnew = -e * v
+            imp = vnew - vfree
+        if imp > 0.0 and e * abs(v) <= g * h:
+            mode = 1
+        x = x + h * (theta * vnew + (1.0 - theta) * v)
+        v = vnew
+        T[k + 1] = t0 + (k + 1) * h
+        Y[k + 1, 0] = x
+        Y[k + 1, 1] = v
+        MODES[k + 1, 0] = mode
+        P[k + 1] = imp
+    return n_steps

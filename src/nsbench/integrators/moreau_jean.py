@@ -11,7 +11,9 @@ On a smooth arc (no status change) the scheme is the trapezoidal rule for
 ``theta = 1/2`` (order 2) and first order otherwise.
 
 Runs the friction family with linear springs (``one-dof``, ``two-dof``,
-``chain`` up to :data:`MAX_BLOCKS` blocks, ``block-on-ground``); refuses cubic
+``chain`` up to :data:`MAX_BLOCKS` blocks, ``block-on-ground``) and the bouncing ball
+(Newton's impact law at the velocity level, the impulses reported for the event
+inference: :func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); refuses cubic
 springs (the one-step problem would need a Newton iteration, not implemented)
 and longer chains (the enumeration grows as ``3^n``; no LCP solver yet).
 """
@@ -71,6 +73,9 @@ class MoreauJean(WholeSystem):
                           "balance closes to O(h), not to 1e-6",
     }
 
+    #: The friction family, and the bouncing ball (Newton's impact law at the velocity level).
+    INFERABLE = ("friction", "impact")
+
     def check_settings(self) -> None:
         if self.settings["theta"] < 0.5:
             from nsbench.errors import ConfigError
@@ -83,6 +88,9 @@ class MoreauJean(WholeSystem):
 
     def setup(self, problem) -> None:
         super().setup(problem)
+        if problem.family == "impact" and problem.name != "bouncing-ball":
+            raise UnsupportedProblemError(f"{self.name}: of the impact problems it knows the bouncing ball only, "
+                                          f"not {problem.name}")
         nb = getattr(problem, "n_blocks", 0)
         if nb > MAX_BLOCKS:
             raise UnsupportedProblemError(
@@ -109,6 +117,24 @@ class MoreauJean(WholeSystem):
                                              float(self.settings["theta"]), float(h))
         return cache[key]
 
+    def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
+        """The bouncing ball (:func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); impacts as ``impulses``."""
+        problem = request.problem
+        T = np.empty(n_run + 1)
+        Y = np.empty((n_run + 1, 2))
+        modes = np.zeros((n_run + 1, 1), np.int64)
+        P = np.zeros(n_run + 1)
+        self._kern.mj_ball(float(problem.g), float(problem.e), float(self.settings["theta"]), h, float(request.t0),
+                           float(request.y0[0]), float(request.y0[1]), n_run, T, Y, modes, P)
+        status, message = Status.SUCCESS, ""
+        if budget:
+            status, message = Status.BUDGET_EXHAUSTED, (f"{n_steps} steps of h = {h:.3g} needed, budget "
+                                                        f"{request.max_steps}; stopped at t = {T[-1]:.6g}")
+        else:
+            T[-1] = request.t_end
+        return SystemResult(t=T, y=Y, modes=modes, impulses=P.reshape(-1, 1), nsteps=n_run,
+                            extra={"impulse_steps": int(np.count_nonzero(P))}, status=status, message=message)
+
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         state.pop("_kern", None)
@@ -124,6 +150,8 @@ class MoreauJean(WholeSystem):
         n_steps, h = uniform_steps(request.t0, request.t_end, self.settings["h"])
         budget = n_steps > request.max_steps
         n_run = min(n_steps, int(request.max_steps))
+        if problem.family == "impact":
+            return self._ball(request, n_steps, n_run, h, budget)
         data = self._data(problem, h)
         nb = len(data.m)
         T = np.empty(n_run + 1)

@@ -80,6 +80,10 @@ class SystemResult:
         the switch model: its stick set); ``None`` when it does not
         (smoothing): nsbench then reads the mode off the velocities with the
         method's stick band (:meth:`WholeSystem.stick_band`).
+    impulses
+        For impact problems: the impulse of each contact in the step ending at each
+        time, shape ``(k, n_contacts)`` (0: none), or ``None``. A positive impulse
+        while the contact approaches is an impact (:mod:`nsbench.hybrid.inference`).
     y_eval
         States at ``request.t_eval`` from the method's own dense output, shape
         ``(len(t_eval), n_states)``, or ``None`` (linear interpolation of the steps).
@@ -94,6 +98,7 @@ class SystemResult:
     t: np.ndarray
     y: np.ndarray
     modes: np.ndarray | None = None
+    impulses: np.ndarray | None = None
     y_eval: np.ndarray | None = None
     nfev: int = 0
     njev: int = 0
@@ -116,7 +121,8 @@ class WholeSystem(Integrator):
     implement ``advance``: there are no frozen-mode arcs.
 
     Which problems the event inference knows: the friction family (one-dof,
-    two-dof, chain, block-on-ground).
+    two-dof, chain, block-on-ground) and, for a method that reports ``impulses``, the
+    bouncing ball; a subclass widens :attr:`INFERABLE` to what it runs.
     """
 
     #: The problem families whose events :func:`nsbench.hybrid.inference.infer_events` can infer.

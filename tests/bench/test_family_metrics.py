@@ -56,3 +56,15 @@ def test_case_metrics_fill_the_new_columns():
     assert out["stick_creep"] == pytest.approx(0.1) and out["stick_drift"] == 0.0
     assert out["breakaway_err_max"] == pytest.approx(0.1)
     assert math.isnan(case_metrics(ref, run, None, None, None, None)["stick_creep"])
+
+
+def test_impact_metrics_are_the_depth_below_ground_and_the_energy_left():
+    from nsbench.bench.metrics import impact_metrics
+    from nsbench.problems import get_problem
+
+    ball = get_problem("bouncing-ball")  # E = v^2 / 2 + g x, g = 9.81
+    dense = np.array([[0.5, -1e-4, 0.0], [1.0, -2.0, 0.0]])
+    pen, err = impact_metrics(ball.energy, dense, np.array([0.0, 0.0]), np.array([1e-3, 0.1]))
+    assert pen == pytest.approx(1e-4)
+    assert err == pytest.approx(0.005 + 9.81e-3)
+    assert math.isnan(impact_metrics(ball.energy, None, None, None)[0])

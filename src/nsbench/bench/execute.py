@@ -328,6 +328,11 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
         metrics = case_metrics(reference.events, lead.events, reference.y_dense, dense,
                                reference.y_final, lead.y_final, times=grid, v_belt=belt, t_end=case.t_end)
+        if problem.family == "impact" and hasattr(problem, "energy"):
+            from nsbench.bench.metrics import impact_metrics
+
+            metrics["penetration"], metrics["energy_err"] = impact_metrics(
+                problem.energy, dense, reference.y_final, lead.y_final if lead.ok else None)
         if metrics.pop("truncated"):
             row["message"] = (row["message"] + " | " if row["message"] else "") + \
                 "event logs too long: only their starts were aligned"

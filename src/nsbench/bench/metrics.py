@@ -306,6 +306,23 @@ def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: in
     return float(err.max()) if err.size else math.nan
 
 
+def impact_metrics(energy, dense: np.ndarray | None, ref_final: np.ndarray | None,
+                   final: np.ndarray | None) -> tuple[float, float]:
+    """``(penetration, energy_err)`` of an impact problem (one contact at ``x = 0``, the first state).
+
+    ``penetration`` is the largest depth below the ground at the dense points,
+    ``max(0, -x)`` (NaN without them); ``energy_err`` is ``|E(final) - E(ref_final)|``
+    with the problem's energy function ``energy`` (NaN without the final states).
+    """
+    pen = math.nan
+    if dense is not None and np.size(dense):
+        pen = float(max(0.0, -float(np.min(np.asarray(dense, dtype=float)[0]))))
+    err = math.nan
+    if ref_final is not None and final is not None:
+        err = float(abs(float(energy(np.asarray(final, dtype=float))) - float(energy(np.asarray(ref_final, dtype=float)))))
+    return pen, err
+
+
 def observed_order(steps, errors) -> float:
     """Slope of ``log(error)`` against ``log(step)`` by least squares over the finite, positive pairs (NaN with
     fewer than two distinct steps). For a regularisation parameter that sharpens as it grows (``eps``),

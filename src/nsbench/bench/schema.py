@@ -93,6 +93,10 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("stick_drift", "largest position drift relative to the belt over the same points, "
                     "|x_i(t) - x_i(t_a) - v_belt (t - t_a)| from the interval's first dense point t_a"),
     ("breakaway_err_max", "max |t - t_ref| over the break-away (slip) events of the matched prefix; NaN if none"),
+    ("penetration", "impact problems: the largest depth below the ground at the dense points, max(0, -x); NaN "
+                    "for other problems"),
+    ("energy_err", "impact problems: |E(t_end) - E_ref(t_end)|, the energy left at the end against the "
+                   "reference's; NaN for other problems"),
     ("event_t", "list: reference times of the matched prefix"),
     ("event_err", "list: signed switching-time errors t - t_ref of the matched prefix (as measured, not floored)"),
     ("event_cert", "list: the reference's certified error bound at each event of the matched prefix "

@@ -1,10 +1,14 @@
 """``nsbench.simulate``: one run of a problem with an integrator, as tidy frames.
 
-The work is done by the hybrid core (:mod:`nsbench.hybrid`): the compiled loop
+For an event-driven integrator the work is done by the hybrid core (:mod:`nsbench.hybrid`): the compiled loop
 applies the stick/slip/reverse rules of MODEL.md, runs the integrator's compiled
 arc kernel or calls its ``advance`` once per arc, records events, section hits
 and states, and turns budget exhaustion, event storms and integrator failures
-into a :class:`~nsbench.results.Status` instead of an exception or a hang. This
+into a :class:`~nsbench.results.Status` instead of an exception or a hang. A
+whole-system method (time-stepping, switch model, smoothing:
+:mod:`nsbench.integrators.whole`) advances the whole system itself, and its
+events are inferred from its steps (:mod:`nsbench.hybrid.inference`) into the
+same records, so the result is the same type with the same columns. This
 module checks the input, merges the requested times with stroboscopic
 sections, times the run (``wall_time``, and ``cpu_time`` on the process's CPU clock;
 ``integrator_time`` is the part spent inside the integrator) and builds the frames.
@@ -21,6 +25,8 @@ import pandas as pd
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import Integrator, get_integrator
+from nsbench.integrators.whole import is_whole_system
+from nsbench.hybrid.inference import run_whole
 from nsbench.hybrid.records import event_frame
 from nsbench.hybrid.run import run_hybrid, warm_up
 from nsbench.problems.base import HybridProblem
@@ -206,16 +212,22 @@ def simulate(
     traj_mask = np.isin(dense_times, grid)
     strobe_names = ["\n".join(labels[float(ts)]) if float(ts) in labels else None for ts in dense_times]
 
+    whole = is_whole_system(integ)
     tic = time.perf_counter()
     integ.setup(problem)
-    warm_up(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
+    if not whole:
+        warm_up(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
     setup_time = time.perf_counter() - tic
 
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     tic, cpu_tic = time.perf_counter(), time.process_time()
-    raw = run_hybrid(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
-                     max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span,
-                     accumulation=accumulation)
+    if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
+        raw = run_whole(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
+                        max_steps=max_steps)
+    else:
+        raw = run_hybrid(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
+                         max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span,
+                         accumulation=accumulation)
     # tables built for modes visited for the first time are first use (setup), not the run
     wall = time.perf_counter() - tic - raw.prepare_time
     # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts

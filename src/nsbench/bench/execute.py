@@ -110,8 +110,8 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
     row.update(
         case_id=case.case_id, suite=suite, problem=case.problem["name"], case=case.problem.get("case"),
         problem_label=problem_label(case.problem), problem_config=_jsonable(case.problem),
-        integrator=case.integrator, integrator_config=_jsonable(config), options=_jsonable(case.options),
-        level=case.level, step_option=step_option or "",
+        integrator=case.integrator, family=cls.capabilities.family, integrator_config=_jsonable(config),
+        options=_jsonable(case.options), level=case.level, step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
         t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], cpu_times=[],
         n_repeats=0,
@@ -159,8 +159,13 @@ def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
     from nsbench.integrators import get_integrator
     from nsbench.problems import problem_from_config
 
+    from nsbench.integrators.whole import is_whole_system
+
     integ = get_integrator(case.integrator, **case.options)
-    return problem_from_config(case.problem), (TimeLimited(integ, limit) if limit is not None else integ)
+    # a whole-system method runs its span in one call: there is no arc between which to check the limit
+    # (in a worker, the parent's limit applies as to every integrator)
+    limited = limit is not None and not is_whole_system(integ)
+    return problem_from_config(case.problem), (TimeLimited(integ, limit) if limited else integ)
 
 
 def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
@@ -321,8 +326,14 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         dense = None
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
+        belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
         metrics = case_metrics(reference.events, lead.events, reference.y_dense, dense,
-                               reference.y_final, lead.y_final)
+                               reference.y_final, lead.y_final, times=grid, v_belt=belt, t_end=case.t_end)
+        if problem.family == "impact" and hasattr(problem, "energy"):
+            from nsbench.bench.metrics import impact_metrics
+
+            metrics["penetration"], metrics["energy_err"] = impact_metrics(
+                problem.energy, dense, reference.y_final, lead.y_final if lead.ok else None)
         if metrics.pop("truncated"):
             row["message"] = (row["message"] + " | " if row["message"] else "") + \
                 "event logs too long: only their starts were aligned"

@@ -65,7 +65,8 @@ def _pyplot():
 #: marker. A family is what the integrator's capabilities say, never its name: reference-grade
 #: integrators, else its event location (``Capabilities.event_location``), labelled here.
 FAMILIES = (("reference", "Greys"), ("dense output", "Blues"), ("solver root finding", "Greens"),
-            ("Taylor", "Reds"), ("collocation", "Oranges"), ("Henon", "Purples"))
+            ("Taylor", "Reds"), ("collocation", "Oranges"), ("Henon", "Purples"),
+            ("time-stepping", "YlOrBr"), ("switch-model", "PuRd"), ("smoothing", "BuGn"))
 _EVENT_FAMILIES = {"dense-output-root": "dense output", "solver-rootfinding": "solver root finding",
                    "taylor-root": "Taylor", "collocation-newton": "collocation", "henon": "Henon"}
 #: Colours of integrators in no family above (a plug-in's own event location, or one not registered
@@ -77,7 +78,8 @@ _OTHER_COLOURS = ("tab:brown", "tab:pink", "tab:olive", "tab:cyan", "gold", "mag
 def family(name: str) -> str:
     """The method family of an integrator, from its capabilities (``'other'`` if it is not registered here).
 
-    ``'reference'`` for reference-grade integrators; otherwise the event
+    ``'reference'`` for reference-grade integrators; a whole-system method's
+    family (``'time-stepping'``, ``'switch-model'``, ``'smoothing'``); otherwise the event
     location of its capabilities (``'dense output'`` for ``dense-output-root``,
     ...), so a plug-in joins the family of the methods that locate events as it
     does, or forms its own.
@@ -90,6 +92,8 @@ def family(name: str) -> str:
         return "other"
     if caps.reference_grade:
         return "reference"
+    if caps.family != "event-driven":  # the whole-system families (time-stepping, switch model, smoothing)
+        return caps.family
     return _EVENT_FAMILIES.get(caps.event_location, caps.event_location)
 
 

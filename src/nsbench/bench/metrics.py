@@ -244,6 +244,97 @@ def state_errors(ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray
     return final_err, l2
 
 
+def stick_intervals(reference: pd.DataFrame, t_end: float) -> list[tuple[int, float, float]]:
+    """The true stick intervals of the reference: ``(block, start, stop)`` (1-based block), from each
+    ``stick`` event of a block to its next ``slip`` event (or ``t_end``). A block stuck from the start
+    (before any event) is not counted: the log does not say so."""
+    out = []
+    open_at: dict[int, float] = {}
+    for t, kind, block in zip(reference["t"].to_numpy(dtype=float), reference["kind"], reference["block"]):
+        b = int(block)
+        if kind == "stick":
+            open_at.setdefault(b, float(t))
+        elif kind == "slip" and b in open_at:
+            out.append((b, open_at.pop(b), float(t)))
+    out.extend((b, t0, float(t_end)) for b, t0 in open_at.items())
+    return sorted(out, key=lambda row: (row[1], row[0]))
+
+
+@dataclass(frozen=True)
+class StickCreep:
+    """How far a run moves off the belt while the reference sticks.
+
+    ``creep`` is the largest ``|v_i - v_belt|`` at the dense points inside the
+    reference's stick intervals of block ``i`` (over all blocks and intervals);
+    ``drift`` the largest position drift relative to the belt there,
+    ``|(x_i(t) - x_i(t_a)) - v_belt (t - t_a)|`` from the first dense point ``t_a`` of
+    the interval. Both NaN when no dense point falls inside a stick interval
+    (or the problem has no belt). An exact method has both at rounding level.
+    """
+
+    creep: float
+    drift: float
+
+
+def stick_creep(reference: pd.DataFrame, times: np.ndarray, dense: np.ndarray, v_belt: float,
+                t_end: float) -> StickCreep:
+    """:class:`StickCreep` of a run's dense states ``dense`` (shape ``(n_states, n_points)``, states
+    ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`).
+
+    The interval ends are left out (a point exactly at a switch belongs to neither phase).
+    """
+    times = np.asarray(times, dtype=float)
+    dense = np.asarray(dense, dtype=float)
+    creep, drift = -math.inf, -math.inf
+    for block, a, b in stick_intervals(reference, t_end):
+        inside = (times > a) & (times < b)
+        if not inside.any():
+            continue
+        x, v = dense[2 * (block - 1), inside], dense[2 * block - 1, inside]
+        t = times[inside]
+        creep = max(creep, float(np.max(np.abs(v - v_belt))))
+        drift = max(drift, float(np.max(np.abs((x - x[0]) - v_belt * (t - t[0])))))
+    if creep == -math.inf:
+        return StickCreep(math.nan, math.nan)
+    return StickCreep(creep, drift)
+
+
+def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: int) -> float:
+    """Largest ``|t - t_ref|`` over the break-away (``slip``) events of the matched prefix, NaN if none."""
+    kinds = reference["kind"].to_numpy()[:n_prefix]
+    err = np.abs(np.asarray(event_err, dtype=float)[:n_prefix])[kinds == "slip"]
+    return float(err.max()) if err.size else math.nan
+
+
+def impact_metrics(energy, dense: np.ndarray | None, ref_final: np.ndarray | None,
+                   final: np.ndarray | None) -> tuple[float, float]:
+    """``(penetration, energy_err)`` of an impact problem (one contact at ``x = 0``, the first state).
+
+    ``penetration`` is the largest depth below the ground at the dense points,
+    ``max(0, -x)`` (NaN without them); ``energy_err`` is ``|E(final) - E(ref_final)|``
+    with the problem's energy function ``energy`` (NaN without the final states).
+    """
+    pen = math.nan
+    if dense is not None and np.size(dense):
+        pen = float(max(0.0, -float(np.min(np.asarray(dense, dtype=float)[0]))))
+    err = math.nan
+    if ref_final is not None and final is not None:
+        err = float(abs(float(energy(np.asarray(final, dtype=float))) - float(energy(np.asarray(ref_final, dtype=float)))))
+    return pen, err
+
+
+def observed_order(steps, errors) -> float:
+    """Slope of ``log(error)`` against ``log(step)`` by least squares over the finite, positive pairs (NaN with
+    fewer than two distinct steps). For a regularisation parameter that sharpens as it grows (``eps``),
+    pass its inverse as the step."""
+    s = np.asarray(steps, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    keep = np.isfinite(s) & np.isfinite(e) & (s > 0) & (e > 0)
+    if np.unique(s[keep]).size < 2:
+        return math.nan
+    return float(np.polyfit(np.log(s[keep]), np.log(e[keep]), 1)[0])
+
+
 def reaches(target: float, *, status: str, sequence_ok: bool, err_max: float) -> bool:
     """Whether a run reaches a switching-time error target.
 
@@ -255,8 +346,12 @@ def reaches(target: float, *, status: str, sequence_ok: bool, err_max: float) ->
 
 def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.ndarray | None,
                  dense: np.ndarray | None, ref_final: np.ndarray | None,
-                 final: np.ndarray | None) -> dict:
+                 final: np.ndarray | None, times: np.ndarray | None = None,
+                 v_belt: float | None = None, t_end: float | None = None) -> dict:
     """Every metric column of a tidy row (see :mod:`nsbench.bench.schema`).
+
+    ``times`` (the dense grid), ``v_belt`` and ``t_end`` give the stick creep
+    (:func:`stick_creep`; NaN without them: a problem without a belt).
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
     reference's order (:func:`order_ties_as_reference`). If ``reference`` has a
@@ -269,12 +364,16 @@ def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.nd
         final_err, l2 = state_errors(ref_dense, dense, ref_final, final)
     else:
         final_err, l2 = math.nan, math.nan
+    creep = StickCreep(math.nan, math.nan)
+    if dense is not None and times is not None and v_belt is not None and t_end is not None:
+        creep = stick_creep(reference, times, dense, v_belt, t_end)
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time
     out.update(switch_err_max=sw.err_max, switch_err_rms=sw.err_rms,
                switch_err_median=sw.err_median, switch_digits=sw.digits, at_ref_accuracy=sw.at_reference,
-               final_state_err=final_err, state_err_l2=l2,
+               final_state_err=final_err, state_err_l2=l2, stick_creep=creep.creep, stick_drift=creep.drift,
+               breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
                event_t=t_ref.tolist(), event_err=dt.tolist(),
                event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [])
     return out

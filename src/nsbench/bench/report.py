@@ -245,7 +245,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     bif_rows = bt.load_rows(d)
     bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
 
-    blocks = _answer_blocks(frame, prov, summary, ecdf, classes.class_summary(frame, targets))
+    blocks = _family_blocks(frame, targets) + _answer_blocks(frame, prov, summary, ecdf,
+                                                         classes.class_summary(frame, targets))
     blocks += _context_blocks(frame, prov)
     if len(scaling):
         blocks += [Block("h2", "Scaling with the number of blocks"), Block("p", SCALING_CAPTION), _table(scaling_fit)]
@@ -282,6 +283,20 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         (d / "scaling.csv").write_text(scaling.to_csv(index=False))
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
+
+
+def _family_blocks(frame: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:
+    """The answer per family of methods (:mod:`nsbench.bench.families`), when the results hold a whole-system
+    method (time-stepping, switch model, smoothing); nothing otherwise."""
+    from nsbench.bench import families
+
+    if not families.has_whole_system(frame):
+        return []
+    table = families.families_table(frame, targets)
+    if not len(table):
+        return []
+    return [Block("h2", "The answer per family of methods"), Block("list", items=families.families_answer(table, targets)),
+            Block("p", families.CAPTION), _table(table)]
 
 
 def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf: Figure | None,

@@ -18,6 +18,8 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("problem_label", "readable problem label, e.g. 'two-dof/2' or 'two-dof/2 v0=0.1'"),
     ("problem_config", "JSON: the dict that rebuilds the problem (nsbench.problem_from_config)"),
     ("integrator", "registered integrator name"),
+    ("family", "the integrator's family of methods (Capabilities.family): event-driven, time-stepping, "
+               "switch-model, smoothing"),
     ("integrator_config", "JSON: the dict that rebuilds the integrator (nsbench.integrator_from_config)"),
     ("options", "JSON: the options the suite set (the rest are defaults)"),
     ("level", "index of the option set, loose to tight"),
@@ -85,6 +87,16 @@ COLUMNS: tuple[tuple[str, str], ...] = (
                         "there: the run's error is not measurable against this reference"),
     ("final_state_err", "max-norm of the state error at t_end (NaN unless success)"),
     ("state_err_l2", "RMS over the dense points of the Euclidean state error (NaN unless success)"),
+    ("stick_creep", "largest |v_i - v_belt| of the run at the dense points inside the reference's stick "
+                    "intervals of block i (from a stick event to the block's next slip), over all blocks; NaN "
+                    "if no dense point falls inside one (nsbench.bench.metrics.stick_creep)"),
+    ("stick_drift", "largest position drift relative to the belt over the same points, "
+                    "|x_i(t) - x_i(t_a) - v_belt (t - t_a)| from the interval's first dense point t_a"),
+    ("breakaway_err_max", "max |t - t_ref| over the break-away (slip) events of the matched prefix; NaN if none"),
+    ("penetration", "impact problems: the largest depth below the ground at the dense points, max(0, -x); NaN "
+                    "for other problems"),
+    ("energy_err", "impact problems: |E(t_end) - E_ref(t_end)|, the energy left at the end against the "
+                   "reference's; NaN for other problems"),
     ("event_t", "list: reference times of the matched prefix"),
     ("event_err", "list: signed switching-time errors t - t_ref of the matched prefix (as measured, not floored)"),
     ("event_cert", "list: the reference's certified error bound at each event of the matched prefix "

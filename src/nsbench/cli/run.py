@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
                    help="output directory (default reports/latest; reports/<suite> for another packaged suite)")
     p.add_argument("--suite", default="default", metavar="SUITE",
                    help="a packaged suite by name (default; full: every level of every integrator; "
-                        "chain-scaling) or a suite TOML file")
+                        "chain-scaling; families: one method per family of methods) or a suite TOML file")
     p.add_argument("--workers", default=None, help="processes (default: all cores)")
     p.add_argument("--fresh", action="store_true",
                    help="discard the cases already stored in --out (default: resume, computing only missing cases)")

@@ -101,6 +101,13 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     """
     from nsbench.model import loop
 
+    family = getattr(getattr(integ, "capabilities", None), "family", "event-driven")
+    if family != "event-driven":
+        from nsbench.errors import ConfigError
+
+        raise ConfigError(f"{integ.name} is a whole-system method ({family}): the hybrid core runs event-driven "
+                          "integrators only; nsbench.simulate runs it (sweeps, Lyapunov exponents and periodic "
+                          "orbits need an event-driven integrator)")
     n = problem.n_states
     prob = problem.data
     kernel = integ.kernel(problem)

@@ -21,6 +21,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from nsbench.sections import StateSection
 
 
+#: The four families of methods for non-smooth systems (Leine & Nijmeijer; Acary & Brogliato).
+FAMILIES = ("event-driven", "time-stepping", "switch-model", "smoothing")
+
+
 @dataclass(frozen=True)
 class Capabilities:
     """Tags that generic code (runner, conformance kit) branches on, never names.
@@ -48,6 +52,12 @@ class Capabilities:
     reference_grade
         A reference solution (a closed form, or extended precision at its
         tightest), not a method under test: reports show it apart and never rank it.
+    family
+        The family of numerical methods for non-smooth systems it belongs to
+        (:data:`FAMILIES`): ``'event-driven'`` (locates every switch, integrates
+        one frozen mode per arc: this protocol), or a whole-system method
+        (:class:`nsbench.integrators.whole.WholeSystem`): ``'time-stepping'``,
+        ``'switch-model'``, ``'smoothing'``.
     """
 
     event_location: str
@@ -58,6 +68,11 @@ class Capabilities:
     precision: str = "double"
     step_option: str | None = None
     reference_grade: bool = False
+    family: str = "event-driven"
+
+    def __post_init__(self) -> None:
+        if self.family not in FAMILIES:
+            raise ConfigError(f"capabilities: family {self.family!r} is not one of {', '.join(FAMILIES)}")
 
 
 @dataclass(frozen=True)

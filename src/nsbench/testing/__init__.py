@@ -37,12 +37,19 @@ class attribute ``known_gaps = {"check-name": "reason"}``, and they are
 reported as expected failures with that reason. The checks (:data:`CHECKS`):
 
 - ``protocol``: names, capabilities, options, accuracy levels; one arc through
-  ``advance``; honest counters (``njev > 0`` if it needs a Jacobian).
+  ``advance`` (a whole-system method: one call of ``integrate`` whose result
+  keeps :class:`~nsbench.integrators.whole.SystemResult`'s shapes); honest
+  counters (``njev > 0`` if it needs a Jacobian).
 - ``determinism``: identical runs give identical events and counters.
-- ``inputs-not-mutated``: ``advance`` leaves the request's arrays alone.
+- ``inputs-not-mutated``: ``advance`` (``integrate``) leaves the request's arrays alone.
+- ``switch-convergence`` (whole-system methods): from the loosest declared
+  accuracy level to the tightest, the switching-time error of case 1 over
+  [0, 20] against ``exact`` falls, and the tightest level has ``exact``'s
+  event sequence (convergence with ``h``, ``eta`` or ``eps``).
 - ``declared-order``: the end-state error of a smooth arc over the stepped levels
   shows the declared order within 0.6 (fixed-step methods with an order and a
-  step option).
+  step option; a whole-system method runs the whole system over the arc, where
+  no switch may be inferred, and declares its order there with ``smooth_order()``).
 - ``convergence``: tightening the step or tolerance option never loses accuracy
   (an error may grow by at most half, above 1e-12), and the tightest level's error
   is below ``CONVERGED_BOUND`` (1e-5).

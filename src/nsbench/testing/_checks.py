@@ -26,6 +26,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
+from nsbench.integrators.whole import is_whole_system
 from nsbench.results import Status
 
 #: Arithmetic of an integrator's core (``Capabilities.precision``); ``mp``: arbitrary precision (mpmath).
@@ -239,6 +240,38 @@ def check_protocol_and_counters(integ: Integrator) -> None:
         cls(**{**integ.settings, **level})
     problem = _problem(2)
     integ.setup(problem)
+    if is_whole_system(integ):
+        _check_whole_protocol(integ, problem)
+    else:
+        _check_one_arc(integ, problem)
+    res = _simulate(integ, problem, _span(problem, 30.0))
+    assert res.ok, f"run failed: {res.message}"
+    c = res.counters
+    assert c.nsteps > 0 or c.nfev > 0, "no work reported: nsteps and nfev are both 0"
+    assert c.nfev >= 0 and c.njev >= 0 and c.nsteps >= 0
+    if caps.needs_jacobian and on_presets():
+        # on the belt every such method evaluates it; elsewhere a method that takes a Jacobian only once
+        # the problem turns stiff (LSODA on the falling ball) may rightly evaluate none
+        assert c.njev > 0, "declares needs_jacobian but reports njev = 0"
+    for key, value in c.extra.items():
+        assert isinstance(value, (int, float)) and math.isfinite(value), f"extra counter {key} = {value!r}"
+
+
+def _check_whole_protocol(integ, problem) -> None:
+    """One call of ``integrate`` of a whole-system method keeps the protocol (:mod:`nsbench.integrators.whole`)."""
+    from nsbench.integrators.whole import SystemRequest, check_result
+
+    assert type(integ).capabilities.family != "event-driven", "a WholeSystem must declare a whole-system family"
+    t_eval = np.array([0.01, 0.02, 5.0])
+    request = SystemRequest(problem=problem, t0=0.0, y0=problem.initial_state(), t_end=5.0, t_eval=t_eval)
+    res = integ.integrate(request)
+    broken = check_result(type(integ).name, request, res, problem.n_states, problem.mode_size)
+    assert not broken, broken
+    assert res.status.ok, f"integrate failed over [0, 5]: {res.message}"
+
+
+def _check_one_arc(integ, problem) -> None:
+    """One arc through ``advance`` keeps the protocol."""
     mode = problem.initial_mode(0.0, problem.initial_state())
     t_eval = np.array([0.01, 0.02, 5.0])
     arc = integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=problem.initial_state(),
@@ -259,17 +292,6 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     assert shape == (problem.n_states, expected), (
         f"y_eval has shape {shape}, expected (n_states, n_points) = ({problem.n_states}, {expected}): "
         f"one column per time of t_eval <= t = {arc.t:.6g}")
-    res = _simulate(integ, problem, _span(problem, 30.0))
-    assert res.ok, f"run failed: {res.message}"
-    c = res.counters
-    assert c.nsteps > 0 or c.nfev > 0, "no work reported: nsteps and nfev are both 0"
-    assert c.nfev >= 0 and c.njev >= 0 and c.nsteps >= 0
-    if caps.needs_jacobian and on_presets():
-        # on the belt every such method evaluates it; elsewhere a method that takes a Jacobian only once
-        # the problem turns stiff (LSODA on the falling ball) may rightly evaluate none
-        assert c.njev > 0, "declares needs_jacobian but reports njev = 0"
-    for key, value in c.extra.items():
-        assert isinstance(value, (int, float)) and math.isfinite(value), f"extra counter {key} = {value!r}"
 
 
 def check_determinism(integ: Integrator) -> None:
@@ -293,6 +315,13 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
         y0, scale = problem.initial_state().copy(), problem.time_scale
     t_eval = np.linspace(0.1, 3.0, 7) * scale
     saved = (y0.copy(), t_eval.copy())
+    if is_whole_system(integ):
+        from nsbench.integrators.whole import SystemRequest
+
+        integ.integrate(SystemRequest(problem=problem, t0=0.0, y0=y0, t_end=3.0 * scale, t_eval=t_eval))
+        assert np.array_equal(y0, saved[0]), "integrate changed request.y0"
+        assert np.array_equal(t_eval, saved[1]), "integrate changed request.t_eval"
+        return
     mode = problem.initial_mode(0.0, y0)
     integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0 * scale,
                              guards=problem.guards(mode), t_eval=t_eval))
@@ -313,6 +342,8 @@ def _smooth_error(integ: Integrator) -> float:
     from nsbench.integrators.exact import ExactIntegrator
 
     if not on_presets():
+        if is_whole_system(integ):
+            raise CheckSkipped("the smooth arc of a whole-system method is checked on the belt's presets only")
         return _first_arc_error(integ)
     problem = _problem(1)
     c = problem.coefficients
@@ -327,6 +358,11 @@ def _smooth_error(integ: Integrator) -> float:
     request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=4.0, guards=problem.guards(mode))
     exact = ExactIntegrator()
     exact.setup(problem)
+    if is_whole_system(integ):  # the whole system over the arc: no switch may be inferred on it
+        res = _simulate(integ, problem, 4.0, y0=y0)
+        assert res.ok and len(res.events) == 0, \
+            f"at {describe(integ)}: smooth arc did not stay smooth: {res.message or list(res.events['kind'])}"
+        return float(np.max(np.abs(res.y_final - exact.advance(request).y)))
     integ.setup(problem)
     arc = integ.advance(request)
     assert arc.status.ok and arc.fired is None and arc.t == 4.0, \
@@ -414,8 +450,9 @@ def check_declared_order(integ: Integrator) -> None:
     if not orders:
         assert max(errors) <= floor, f"at {ran_with}: errors {errors} do not decrease"
         return  # already at rounding level at every step: accurate beyond measurement
-    assert abs(orders[-1] - caps.order) <= 0.6, \
-        f"at {ran_with}: observed order {orders[-1]:.2f} (errors {errors}) against declared {caps.order}"
+    declared = integ.smooth_order() if is_whole_system(integ) else caps.order
+    assert abs(orders[-1] - declared) <= 0.6, \
+        f"at {ran_with}: observed order {orders[-1]:.2f} (errors {errors}) against declared {declared}"
 
 
 def check_convergence(integ: Integrator) -> None:
@@ -532,6 +569,27 @@ def check_config_round_trip(integ: Integrator) -> None:
         raise AssertionError("an unknown option was accepted")
 
 
+def check_switch_convergence(integ: Integrator) -> None:
+    """Whole-system methods: from the loosest accuracy level to the tightest, the switching times of case 1 over
+    [0, 20] approach ``exact``'s, and the tightest level has ``exact``'s event sequence."""
+    from nsbench.integrators.exact import ExactIntegrator
+
+    levels = [dict(level) for level in type(integ).accuracy_levels]
+    assert len(levels) >= 2, "a whole-system method declares at least two accuracy levels, loose to tight"
+    problem = _problem(1)
+    ref = _simulate(ExactIntegrator(), problem, 20.0).events
+    errors = []
+    for level in (levels[0], levels[-1]):
+        run = type(integ)(**{**integ.settings, **level})
+        res = _simulate(run, problem, 20.0)
+        assert res.ok, f"at {describe(run)}: {res.message}"
+        same = list(zip(res.events["kind"], res.events["block"])) == list(zip(ref["kind"], ref["block"]))
+        errors.append(float(np.max(np.abs(res.events["t"].to_numpy() - ref["t"].to_numpy()))) if same else math.inf)
+    assert math.isfinite(errors[1]), f"at the tightest level {levels[-1]}: event sequence differs from exact"
+    assert errors[1] < errors[0], \
+        f"switching-time error {errors[1]:.3g} at {levels[-1]} is not below {errors[0]:.3g} at {levels[0]}"
+
+
 @dataclass(frozen=True)
 class Check:
     """A named check and the capability test that decides whether it applies."""
@@ -563,6 +621,9 @@ CHECKS: tuple[Check, ...] = (
     Check("protocol", check_protocol_and_counters),
     Check("determinism", check_determinism),
     Check("inputs-not-mutated", check_inputs_not_mutated),
+    Check("switch-convergence", check_switch_convergence,
+          _needs(lambda c: c.family != "event-driven", "event-driven: its event location is checked by event-times"),
+          belt=True),
     Check("declared-order", check_declared_order,
           _needs(lambda c: c.order is not None and c.step_option is not None and not c.adaptive,
                  "no fixed order with a step-size option declared")),

@@ -1,0 +1,129 @@
+"""The answer per family of methods: what each family costs and leaves, from the tidy results.
+
+For each problem and each integrator (one per family in the ``families`` suite)
+:func:`families_table` reads its ladder (the option the suite varies: ``h`` for
+fixed-step and time-stepping methods, ``eta`` for the switch model, ``eps`` for
+smoothing), the cheapest configuration that reaches each switching-time target,
+the observed order of the switching-time error and of the state error along the
+ladder (:func:`nsbench.bench.metrics.observed_order`; for ``eps``, which sharpens
+as it grows, against ``1/eps``), and the stick creep at the ladder's ends.
+:func:`families_answer` says it in sentences, for the report's opening.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+import pandas as pd
+
+from nsbench.bench.metrics import observed_order
+from nsbench.bench.tables import reached_mask
+
+#: The option each whole-system family's ladder varies, and whether it sharpens as it grows.
+LADDERS = {"time-stepping": ("h", False), "switch-model": ("eta", False), "smoothing": ("eps", True)}
+FAMILY_ORDER = ("event-driven", "time-stepping", "switch-model", "smoothing")
+
+CAPTION = ("One row per problem and integrator. `ladder`: the option the suite varies and its range; "
+           "`reaches <target>`: the median wall time per run of the cheapest configuration whose switch "
+           "sequence is the reference's with every switching-time error within the target (blank: none "
+           "does); `order (switches)`, `order (states)`: the log-log slope of `switch_err_max` and "
+           "`state_err_l2` along the ladder, over the configurations with the reference's switch sequence "
+           "(against `1/eps` for smoothing); `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
+           "reference sticks) at the loosest and the tightest configuration; `sequence ok`: configurations with "
+           "the reference's switch sequence, of all run.")
+
+
+def family_of(row: pd.Series) -> str:
+    """A row's family: its ``family`` column, or the registered integrator's (older results), else 'other'."""
+    fam = row.get("family")
+    if isinstance(fam, str) and fam:
+        return fam
+    from nsbench.integrators import integrator_class
+
+    try:
+        return integrator_class(str(row["integrator"])).capabilities.family
+    except Exception:  # an integrator not installed here
+        return "other"
+
+
+def has_whole_system(frame: pd.DataFrame) -> bool:
+    """Whether the results hold any whole-system method (the families report applies)."""
+    return bool(len(frame)) and any(family_of(r) in LADDERS for _, r in frame.iterrows())
+
+
+def _ladder(rows: pd.DataFrame, family: str) -> tuple[str, list[float], bool]:
+    """The option that varies along the rows (the family's ladder, else the step option) and its values."""
+    options = [json.loads(o) if isinstance(o, str) and o else {} for o in rows["options"]]
+    name, sharpens = LADDERS.get(family, ("", False))
+    if not name or not any(name in o for o in options):
+        name = str(rows["step_option"].iloc[0]) if "step_option" in rows else ""
+    values = [float(o.get(name, math.nan)) if isinstance(o.get(name), (int, float)) else math.nan for o in options]
+    return name, values, sharpens
+
+
+def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFrame:
+    """One row per (problem, integrator): family, ladder, cost to reach each target, observed orders, creep."""
+    out: list[dict[str, Any]] = []
+    if not len(frame):
+        return pd.DataFrame()
+    frame = frame.assign(_family=[family_of(r) for _, r in frame.iterrows()])
+    for (problem, name), rows in frame.groupby(["problem_label", "integrator"], sort=True):
+        family = str(rows["_family"].iloc[0])
+        if (rows["reference"] == name).all() or (rows["status"] == "unsupported").all():
+            continue
+        option, values, sharpens = _ladder(rows, family)
+        steps = [1.0 / v if sharpens and v else v for v in values]
+        good = (rows["status"] == "success") & rows["sequence_ok"].fillna(False).astype(bool)
+        row: dict[str, Any] = {"problem": problem, "family": family, "integrator": name,
+                               "ladder": _range(option, values)}
+        for target in targets:
+            ok = rows[reached_mask(rows, target)]
+            row[f"reaches {target:g}"] = float(ok["wall_time"].min()) if len(ok) else math.nan
+        sel = good.to_numpy()
+        row["order (switches)"] = observed_order([s for s, k in zip(steps, sel) if k],
+                                                 rows["switch_err_max"].to_numpy(dtype=float)[sel])
+        row["order (states)"] = observed_order([s for s, k in zip(steps, sel) if k],
+                                               rows["state_err_l2"].to_numpy(dtype=float)[sel])
+        creep = rows.assign(_v=values).sort_values("_v", ascending=sharpens)["stick_creep"].to_numpy(dtype=float)
+        row["creep (loosest)"] = float(creep[0]) if len(creep) else math.nan
+        row["creep (tightest)"] = float(creep[-1]) if len(creep) else math.nan
+        row["sequence ok"] = f"{int(sel.sum())} of {len(rows)}"
+        out.append(row)
+    table = pd.DataFrame(out)
+    if len(table):
+        rank = {f: i for i, f in enumerate(FAMILY_ORDER)}
+        table = table.sort_values(["problem", "family"], key=lambda col: col.map(rank).fillna(9)
+                                  if col.name == "family" else col, kind="stable").reset_index(drop=True)
+    return table
+
+
+def _range(option: str, values: list[float]) -> str:
+    finite = sorted(v for v in values if math.isfinite(v))
+    if not option or not finite:
+        return "defaults"
+    return f"{option} {finite[-1]:g} .. {finite[0]:g}" if len(finite) > 1 else f"{option} {finite[0]:g}"
+
+
+def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str]:
+    """The answer per family in sentences: cost to the targets, creep, observed order."""
+    lines = []
+    if not len(table):
+        return lines
+    for problem, rows in table.groupby("problem", sort=False):
+        for _, r in rows.iterrows():
+            reached = [f"{t:g} in {r[f'reaches {t:g}']:.3g} s" for t in targets if math.isfinite(r[f"reaches {t:g}"])]
+            missed = [f"{t:g}" for t in targets if not math.isfinite(r[f"reaches {t:g}"])]
+            cost = ("reaches " + ", ".join(reached)) if reached else "reaches no target"
+            if reached and missed:
+                cost += f" (not {', '.join(missed)})"
+            order = r["order (switches)"]
+            order_text = f"switching-time error of order {order:.2f} along {r['ladder']}" if math.isfinite(order) \
+                else f"no order measurable along {r['ladder']} (fewer than two configurations with the switch sequence)"
+            creep = ""
+            if math.isfinite(r["creep (tightest)"]):
+                creep = f"; creep {r['creep (loosest)']:.2g} to {r['creep (tightest)']:.2g} while the reference sticks"
+            lines.append(f"{problem}, {r['family']} ({r['integrator']}): {cost}; {order_text}{creep}; "
+                         f"switch sequence right in {r['sequence ok']} configurations.")
+    return lines

@@ -1,0 +1,80 @@
+"""Run Siconos's time-stepping on a friction chain: a script for the *system* Python, not for nsbench's.
+
+Debian's ``python3-siconos`` is built for the system interpreter and numpy 1.x, so it
+cannot be imported into nsbench's environment. ``siconos-moreau-jean`` runs this file
+with that interpreter; it imports numpy and Siconos only (never nsbench), reads one JSON
+request on stdin, writes the trajectory and the friction forces as ``.npy`` files
+(plain float64 arrays, readable by any numpy) and prints one JSON line on stdout.
+
+The chain is Siconos's first-order linear system ``z' = A z + B lambda`` in nsbench's
+state layout ``z = [x1, v1, ..., xn, vn]`` (``FirstOrderLinearTIDS``), with one relay per
+block on its velocity relative to the belt, ``y_i = v_i - v0`` (``FirstOrderLinearTIR``
+with ``e = -v0``), ``lambda_i`` its friction force in ``[-fr_i, fr_i]`` (``RelayNSL``), and
+the ``EulerMoreauOSI`` theta-scheme with the friction force taken implicitly: on this
+linear system the same discrete equations as Moreau-Jean's. A request ``{"probe": true}``
+only imports Siconos and prints its version.
+"""
+
+import json
+import sys
+
+import numpy as np
+
+
+def main() -> int:
+    req = json.loads(sys.stdin.read())
+    import siconos
+    import siconos.kernel as sk
+    import siconos.numerics as sn
+
+    if req.get("probe"):
+        print(json.dumps({"ok": True, "version": getattr(siconos, "__version__", "?")}))
+        return 0
+    m = np.array(req["m"], dtype=float)
+    n = m.size
+    C, K = np.array(req["C"], dtype=float), np.array(req["K"], dtype=float)
+    fr, v0 = np.array(req["fr"], dtype=float), float(req["v0"])
+    theta, h, steps, t0 = float(req["theta"]), float(req["h"]), int(req["n_steps"]), float(req["t0"])
+    A = np.zeros((2 * n, 2 * n))
+    B = np.zeros((2 * n, n))
+    Cy = np.zeros((n, 2 * n))
+    for i in range(n):
+        A[2 * i, 2 * i + 1] = 1.0
+        for j in range(n):
+            A[2 * i + 1, 2 * j] = -K[i, j] / m[i]
+            A[2 * i + 1, 2 * j + 1] = -C[i, j] / m[i]
+        B[2 * i + 1, i] = 1.0 / m[i]
+        Cy[i, 2 * i + 1] = 1.0
+    z0 = np.array(req["y0"], dtype=float)
+    ds = sk.FirstOrderLinearTIDS(z0, A)
+    nsds = sk.NonSmoothDynamicalSystem(t0, t0 + steps * h)
+    nsds.insertDynamicalSystem(ds)
+    inters = []
+    for i in range(n):  # one relay per block (RelayNSL takes scalar bounds)
+        rel = sk.FirstOrderLinearTIR(Cy[i:i + 1].copy(), B[:, i:i + 1].copy())
+        rel.setePtr(np.array([-v0]))
+        inter = sk.Interaction(sk.RelayNSL(1, -float(fr[i]), float(fr[i])), rel)
+        nsds.link(inter, ds)
+        inters.append(inter)
+    osi = sk.EulerMoreauOSI(theta)
+    td = sk.TimeDiscretisation(t0, h)
+    osnspb = sk.Relay(getattr(sn, req.get("solver", "SICONOS_RELAY_LEMKE")))
+    sim = sk.TimeStepping(nsds, td, osi, osnspb)
+    z = np.empty((steps + 1, 2 * n))
+    lam = np.zeros((steps + 1, n))
+    z[0] = z0
+    k = 0
+    while sim.hasNextEvent() and k < steps:
+        sim.computeOneStep()
+        k += 1
+        z[k] = np.array(ds.x())
+        lam[k] = [float(np.array(inter.lambda_(0)).reshape(-1)[0]) for inter in inters]
+        sim.nextStep()
+    np.save(req["out"] + ".z.npy", z[:k + 1])
+    np.save(req["out"] + ".lambda.npy", lam[:k + 1])
+    print(json.dumps({"ok": True, "steps": k, "version": getattr(siconos, "__version__", "?")}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""``siconos-moreau-jean``: INRIA Siconos's time-stepping of the friction chain, run in its own interpreter.
+
+Debian packages Siconos (``apt-get install python3-siconos``, version 4.4) for the system
+Python and numpy 1.x, so it cannot be imported here: each run starts the system
+interpreter (``NSBENCH_SICONOS_PYTHON``, default ``/usr/bin/python3``) on
+:mod:`nsbench.integrators._siconos_worker` and exchanges plain arrays (JSON in, ``.npy``
+files out). The model: the chain as Siconos's first-order linear system, one relay per
+block on its velocity relative to the belt, the ``EulerMoreauOSI`` theta-scheme (the same
+discrete equations as ``moreau-jean`` on these linear systems), the relay problem solved
+by Lemke's method. A step's mode is read off the relay: stuck while the friction force is
+inside ``(-fr, fr)``, slipping against its sign at a bound.
+
+Siconos's relay has one friction level, so problems with stiction above the kinetic level
+(``fr != fs``) are refused, as are cubic springs and the harmonic force (a time-dependent
+input needs a compiled Siconos plug-in); the block on the ground (``fs = fr``) and the
+belt problems with ``r_f = 1`` run. Where the package is absent every problem is refused
+with that reason and ``nsbench list integrators`` shows it as unavailable.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from nsbench.errors import UnsupportedProblemError
+from nsbench.integrators.base import Capabilities, Option
+from nsbench.integrators.moreau_jean import stiffness_matrix, uniform_steps
+from nsbench.integrators.whole import SystemRequest, SystemResult, WholeSystem
+from nsbench.status import Status
+
+WORKER = Path(__file__).with_name("_siconos_worker.py")
+_PROBE: dict[str, str | None] = {}
+
+
+def siconos_python() -> str:
+    """The interpreter that has Siconos: ``NSBENCH_SICONOS_PYTHON`` or ``/usr/bin/python3``."""
+    return os.environ.get("NSBENCH_SICONOS_PYTHON", "/usr/bin/python3")
+
+
+def unavailable_reason() -> str | None:
+    """Why Siconos cannot run here, or ``None`` (probed once per process)."""
+    exe = siconos_python()
+    if exe not in _PROBE:
+        if not Path(exe).exists():
+            _PROBE[exe] = f"no interpreter {exe} (set NSBENCH_SICONOS_PYTHON)"
+        else:
+            try:
+                out = subprocess.run([exe, str(WORKER)], input=json.dumps({"probe": True}), capture_output=True,
+                                     text=True, timeout=120)
+                _PROBE[exe] = None if out.returncode == 0 else (
+                    f"Siconos is not importable by {exe} (apt-get install python3-siconos): "
+                    + (out.stderr.strip().splitlines() or ["no message"])[-1])
+            except (OSError, subprocess.TimeoutExpired) as exc:
+                _PROBE[exe] = f"{exe} could not be run: {exc}"
+    return _PROBE[exe]
+
+
+class SiconosMoreauJean(WholeSystem):
+    """INRIA Siconos: EulerMoreauOSI theta-scheme with one relay per block (separate interpreter, plain arrays)."""
+
+    name = "siconos-moreau-jean"
+    capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
+                                supports_nonlinear=False, step_option="h", family="time-stepping")
+    options = {
+        "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
+        "theta": Option(0.5, float, lower=0.5, lower_inclusive=True, upper=1.0, doc="theta of the scheme"),
+    }
+    accuracy_levels = ({"h": 1e-2}, {"h": 1e-3}, {"h": 1e-4})
+    known_gaps = {
+        "event-times": "first order in h, as moreau-jean",
+        "energy-balance": "time-stepping: the balance closes to O(h), as moreau-jean",
+    }
+
+    @classmethod
+    def unavailable(cls) -> str | None:
+        """Why it cannot run on this machine (``nsbench list`` shows it), or ``None``."""
+        return unavailable_reason()
+
+    def smooth_order(self) -> int:
+        return 2 if self.settings["theta"] == 0.5 else 1
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        c = problem.coefficients
+        if any(abs(a - b) > 1e-15 * max(abs(b), 1.0) for a, b in zip(c.fs, c.fr)):
+            raise UnsupportedProblemError(
+                f"{self.name}: Siconos's relay has one friction level; {problem.name} has kinetic friction "
+                f"{list(c.fs)} below its static limit {list(c.fr)} (use moreau-jean, or r_f = 1)")
+        if c.F != 0.0:
+            raise UnsupportedProblemError(f"{self.name}: the harmonic force (F = {c.F:g}) needs a compiled Siconos "
+                                          "plug-in; unforced problems only")
+        reason = unavailable_reason()
+        if reason:
+            raise UnsupportedProblemError(f"{self.name}: {reason}")
+
+    def integrate(self, request: SystemRequest) -> SystemResult:
+        problem = request.problem
+        c = problem.coefficients
+        n_steps, h = uniform_steps(request.t0, request.t_end, self.settings["h"])
+        budget = n_steps > request.max_steps
+        n_run = min(n_steps, int(request.max_steps))
+        with tempfile.TemporaryDirectory(prefix="nsbench-siconos-") as tmp:
+            out = str(Path(tmp) / "run")
+            req = {"m": list(c.m), "C": np.diag(c.c).tolist(), "K": stiffness_matrix(c.k).tolist(), "fr": list(c.fr),
+                   "v0": float(c.v0), "theta": float(self.settings["theta"]), "h": h, "n_steps": n_run,
+                   "t0": float(request.t0), "y0": [float(v) for v in request.y0], "out": out}
+            run = subprocess.run([siconos_python(), str(WORKER)], input=json.dumps(req), capture_output=True,
+                                 text=True, timeout=3600)
+            if run.returncode != 0:
+                tail = (run.stderr.strip().splitlines() or ["no message"])[-1]
+                return SystemResult(t=np.array([request.t0]), y=np.array(request.y0, dtype=float).reshape(1, -1),
+                                    status=Status.INTEGRATOR_FAILURE, message=f"Siconos failed: {tail}")
+            z = np.load(out + ".z.npy")
+            lam = np.load(out + ".lambda.npy")
+        done = z.shape[0] - 1
+        t = request.t0 + h * np.arange(done + 1)
+        if done == n_steps:
+            t[-1] = request.t_end
+        fr = np.array(c.fr, dtype=float)
+        stuck = np.abs(lam) < fr * (1.0 - 1e-9)
+        modes = np.where(stuck, 0, -np.sign(lam)).astype(np.int64)
+        modes[0] = problem.initial_mode(request.t0, request.y0)
+        status, message = Status.SUCCESS, ""
+        if budget:
+            status, message = Status.BUDGET_EXHAUSTED, f"{n_steps} steps needed, budget {request.max_steps}"
+        elif done < n_steps:
+            status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
+        return SystemResult(t=t, y=z, modes=modes, nsteps=done, status=status, message=message)

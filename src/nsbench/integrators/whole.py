@@ -1,0 +1,182 @@
+"""The protocol of whole-system methods: time-stepping, the switch model, smoothing.
+
+An event-driven integrator (:class:`~nsbench.integrators.base.Integrator`) advances
+one frozen mode and locates that mode's guards; the hybrid core switches modes.
+A *whole-system* method instead advances the whole non-smooth system over
+``[t0, t_end]`` itself, through the problem's set-valued law (Moreau-Jean
+time-stepping), a stick band with force-based switching (Leine's switch model)
+or a regularised law (smoothing), and hands back its discrete trajectory and,
+where it knows it, the mode (the stick/slip status) of every step. nsbench then
+infers the switching events from that output by one documented rule
+(:func:`nsbench.hybrid.inference.infer_events`), so the event log, the
+trajectory and every metric of the bench are those of an event-driven run.
+
+A plug-in subclasses :class:`WholeSystem`, sets ``capabilities.family`` to one of
+``'time-stepping'``, ``'switch-model'``, ``'smoothing'``, implements
+:meth:`WholeSystem.integrate`, and registers under the ``nsbench.integrators``
+entry point like any integrator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from nsbench.errors import ConfigError, UnsupportedProblemError
+from nsbench.integrators.base import Integrator
+from nsbench.status import Status
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.integrators.base import ArcRequest, ArcResult
+    from nsbench.problems.base import HybridProblem
+
+
+@dataclass(frozen=True, eq=False)
+class SystemRequest:
+    """One call of :meth:`WholeSystem.integrate`: the whole system from ``(t0, y0)`` to ``t_end``.
+
+    Attributes
+    ----------
+    problem
+        The problem (its parameters, its law).
+    t0, y0
+        Start time and state (``y0`` read-only, shape ``(n_states,)``).
+    t_end
+        End of the span.
+    max_steps
+        Step budget: a method that would need more steps stops after this many
+        with ``Status.BUDGET_EXHAUSTED``.
+    t_eval
+        Sorted times in ``[t0, t_end]`` where states are wanted; a method with a
+        dense output of its own may return them (``SystemResult.y_eval``), else
+        nsbench interpolates the steps linearly.
+    """
+
+    problem: "HybridProblem"
+    t0: float
+    y0: np.ndarray
+    t_end: float
+    max_steps: int = 10**7
+    t_eval: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+
+@dataclass
+class SystemResult:
+    """What :meth:`WholeSystem.integrate` returns: the discrete trajectory and its cost.
+
+    Attributes
+    ----------
+    t
+        Step times, shape ``(k,)``, increasing, ``t[0] = t0``; the last is
+        ``t_end`` unless the run stopped early (a failure, the budget).
+    y
+        States at those times, shape ``(k, n_states)`` (one *row* per step).
+    modes
+        The mode of each step, shape ``(k, mode_size)`` in the problem's mode
+        vocabulary (friction: per block 0 stick, +1 slip+, -1 slip-), when the
+        method knows it (Moreau-Jean: the status its one-step problem chose;
+        the switch model: its stick set); ``None`` when it does not
+        (smoothing): nsbench then reads the mode off the velocities with the
+        method's stick band (:meth:`WholeSystem.stick_band`).
+    impulses
+        For impact problems: the impulse of each contact in the step ending at each
+        time, shape ``(k, n_contacts)`` (0: none), or ``None``. A positive impulse
+        while the contact approaches is an impact (:mod:`nsbench.hybrid.inference`).
+    y_eval
+        States at ``request.t_eval`` from the method's own dense output, shape
+        ``(len(t_eval), n_states)``, or ``None`` (linear interpolation of the steps).
+    nfev, njev, nsteps
+        Right-hand-side and Jacobian evaluations, steps.
+    extra
+        Method-specific counters (one-step problems solved, enumerations, ...).
+    status, message
+        ``Status.SUCCESS``, or the failure and its reason.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    modes: np.ndarray | None = None
+    impulses: np.ndarray | None = None
+    y_eval: np.ndarray | None = None
+    nfev: int = 0
+    njev: int = 0
+    nsteps: int = 0
+    extra: dict[str, float] = field(default_factory=dict)
+    status: Status = Status.SUCCESS
+    message: str = ""
+
+
+class WholeSystem(Integrator):
+    """Base class of the whole-system methods (see the module docstring).
+
+    An implementer sets ``name``, ``capabilities`` (with ``family`` one of
+    ``'time-stepping'``, ``'switch-model'``, ``'smoothing'``) and ``options`` as
+    for any integrator, refuses in :meth:`setup` the problems it cannot run (with
+    ``UnsupportedProblemError`` and the reason; it may compile there, untimed), and
+    implements :meth:`integrate`. Like every integrator it is deterministic,
+    never mutates ``request.y0``, respects ``request.max_steps``, and reports a
+    numerical failure as a ``Status``, never as an exception. It does not
+    implement ``advance``: there are no frozen-mode arcs.
+
+    Which problems the event inference knows: the friction family (one-dof,
+    two-dof, chain, block-on-ground) and, for a method that reports ``impulses``, the
+    bouncing ball; a subclass widens :attr:`INFERABLE` to what it runs.
+    """
+
+    #: The problem families whose events :func:`nsbench.hybrid.inference.infer_events` can infer.
+    INFERABLE: ClassVar[tuple[str, ...]] = ("friction",)
+
+    def setup(self, problem: "HybridProblem") -> None:
+        super().setup(problem)
+        if problem.family not in self.INFERABLE:
+            raise UnsupportedProblemError(
+                f"{self.name}: nsbench infers the events of whole-system methods on the "
+                f"{', '.join(self.INFERABLE)} family only; {problem.name} is of the {problem.family or '?'} family")
+
+    def integrate(self, request: SystemRequest) -> SystemResult:  # pragma: no cover - abstract
+        """Advance the whole system over ``[request.t0, request.t_end]``; see :class:`SystemResult`."""
+        raise NotImplementedError
+
+    def stick_band(self, problem: "HybridProblem") -> float:
+        """Half-width of the band ``|v - v_belt| <= band`` that counts as stuck, in the problem's velocity units.
+
+        Used by the event inference: a block *enters* stick where ``|v - v_belt|``
+        crosses the band downwards and *leaves* it where it crosses upwards
+        (0: the method sticks exactly and leaves by its force law).
+        """
+        return 0.0
+
+    def smooth_order(self) -> int | None:
+        """Convergence order on a smooth arc at this configuration (default ``capabilities.order``)."""
+        return type(self).capabilities.order
+
+    def advance(self, request: "ArcRequest") -> "ArcResult":
+        raise ConfigError(f"{self.name} is a whole-system method ({type(self).capabilities.family}): it has no "
+                          "frozen-mode arcs; run it with nsbench.simulate")
+
+
+def is_whole_system(integ: Integrator) -> bool:
+    """Whether ``integ`` follows the whole-system protocol (its family is not event-driven)."""
+    return isinstance(integ, WholeSystem)
+
+
+def check_result(name: str, request: SystemRequest, res: Any, n_states: int, mode_size: int) -> str:
+    """The first way ``res`` breaks the protocol, or ``''`` (the driver turns it into a failure status)."""
+    if not isinstance(res, SystemResult):
+        return f"{name}.integrate returned {type(res).__name__}, not SystemResult"
+    t, y = np.asarray(res.t), np.asarray(res.y)
+    if t.ndim != 1 or t.size < 1:
+        return f"{name}: t has shape {t.shape}; one time per step, at least t0"
+    if y.shape != (t.size, n_states):
+        return f"{name}: y has shape {y.shape}; the protocol wants (n_steps, n_states) = ({t.size}, {n_states})"
+    if t[0] != request.t0 or np.any(np.diff(t) <= 0) or t[-1] > request.t_end:
+        return f"{name}: step times must start at t0 = {request.t0!r}, increase, and stay <= t_end"
+    if res.modes is not None and np.shape(res.modes) != (t.size, mode_size):
+        return f"{name}: modes has shape {np.shape(res.modes)}; wanted ({t.size}, {mode_size})"
+    if res.y_eval is not None and np.shape(res.y_eval) != (request.t_eval.size, n_states):
+        return f"{name}: y_eval has shape {np.shape(res.y_eval)}; wanted ({request.t_eval.size}, {n_states})"
+    if res.status.ok and t[-1] != request.t_end:
+        return f"{name}: stopped at t = {t[-1]!r} < t_end = {request.t_end!r} with status success"
+    return ""

@@ -1,0 +1,77 @@
+"""The answer per family (nsbench.bench.families): on constructed rows, and end to end on a small suite."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pandas as pd
+import pytest
+
+from nsbench.bench.families import families_answer, families_table, has_whole_system
+
+
+def _row(integrator, family, options, err, l2, creep, seq=True, wall=1.0, step_option="h"):
+    return {"problem_label": "one-dof/1", "integrator": integrator, "family": family,
+            "options": json.dumps(options), "step_option": step_option, "status": "success", "sequence_ok": seq,
+            "switch_err_max": err, "state_err_l2": l2, "stick_creep": creep, "wall_time": wall,
+            "reference": "exact"}
+
+
+def test_the_table_reads_each_ladder_cost_order_and_creep():
+    rows = [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h)
+            for h in (1e-2, 5e-3, 2.5e-3)]
+    # smoothing: error ~ 1/eps**2 against 1/eps (order 2), creep ~ 1/eps
+    rows += [_row("smoothing", "smoothing", {"eps": e, "rtol": 1e-8}, 10.0 / e ** 2, 1.0 / e, 3.0 / e,
+                  step_option="rtol") for e in (1e2, 1e3)]
+    rows.append(_row("smoothing", "smoothing", {"eps": 10.0, "rtol": 1e-8}, 1.0, 1.0, 0.3, seq=False,
+                     step_option="rtol"))
+    frame = pd.DataFrame(rows)
+    assert has_whole_system(frame)
+    table = families_table(frame, (1e-3, 1e-6)).set_index("integrator")
+    mj, sm = table.loc["moreau-jean"], table.loc["smoothing"]
+    assert mj["order (switches)"] == pytest.approx(1.0) and mj["order (states)"] == pytest.approx(1.0)
+    # the cheapest configuration with error 0.5 h <= 1e-3 is h = 2e-3 or less: h = 2.5e-3 fails, none reaches
+    assert math.isnan(mj["reaches 0.001"])
+    assert sm["order (switches)"] == pytest.approx(2.0)  # the eps = 10 row has the wrong sequence: left out
+    assert sm["creep (loosest)"] == pytest.approx(0.3) and sm["creep (tightest)"] == pytest.approx(3e-3)
+    assert sm["reaches 0.001"] == pytest.approx(1.0) and sm["sequence ok"] == "2 of 3"
+    assert sm["ladder"] == "eps 1000 .. 10"
+    lines = families_answer(families_table(frame, (1e-3, 1e-6)), (1e-3, 1e-6))
+    assert any(line.startswith("one-dof/1, smoothing (smoothing): reaches 0.001 in 1 s") for line in lines)
+
+
+def test_event_driven_results_have_no_family_answer():
+    frame = pd.DataFrame([_row("henon-rk4", "event-driven", {"h": 0.01}, 1e-8, 1e-8, 0.0)])
+    assert not has_whole_system(frame)
+
+
+@pytest.mark.slow
+def test_a_small_families_suite_reports_per_family(tmp_path):
+    from nsbench.bench.report import write_report
+    from nsbench.bench.runner import run_suite
+
+    suite = {"name": "families-small", "t_span": [0.0, 20.0], "repeats": 3, "dense_points": 200,
+             "targets": [1e-2, 1e-3], "reference": ["exact"], "problems": [{"name": "one-dof", "case": 1}],
+             "integrators": {"only": ["moreau-jean", "smoothing"],
+                             "grids": {"moreau-jean": {"grid": {"h": [0.01, 0.005, 0.0025]}},
+                                       "smoothing": {"grid": {"eps": [1e2, 1e3]}, "fixed": {"rtol": 1e-8}}}}}
+    run_suite(suite, tmp_path, workers=1, progress=False)
+    report = write_report(tmp_path)
+    text = report.markdown.read_text() if hasattr(report, "markdown") else (tmp_path / "report.md").read_text()
+    assert "The answer per family of methods" in text
+    assert text.index("The answer per family") < text.index("Fixed-target table")
+    assert "one-dof/1, time-stepping (moreau-jean)" in text and "one-dof/1, smoothing (smoothing)" in text
+
+
+def test_a_whole_system_case_runs_in_process():
+    """The runner's in-process fallback wraps integrators to check a time limit between arcs; a whole-system
+    method has no arcs and runs unwrapped."""
+    from nsbench.bench import execute
+    from nsbench.bench.suite import Suite
+
+    suite = Suite.from_dict({"name": "t", "t_span": [0.0, 5.0], "repeats": 3, "dense_points": 50,
+                             "reference": ["exact"], "problems": [{"name": "one-dof", "case": 1}],
+                             "integrators": {"only": ["moreau-jean"]}})
+    warm = execute.warm_up(suite.cases()[0], in_process=True)
+    assert warm.row is None and warm.warmup_time >= 0.0

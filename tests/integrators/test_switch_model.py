@@ -1,0 +1,62 @@
+"""``switch-model``: Leine's switch model on a scipy solver, against exact's switches."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nsbench import simulate
+from nsbench.bench.metrics import stick_creep
+from nsbench.errors import ConfigError
+from nsbench.integrators import get_integrator
+from nsbench.problems import get_problem
+from nsbench.testing import check_integrator
+
+
+def _sequence(events):
+    return list(zip(events["kind"], events["block"]))
+
+
+def test_switches_approach_exacts_as_the_band_narrows():
+    problem = get_problem("one-dof")
+    ref = simulate(problem, "exact", 40.0).events
+    errors = []
+    for eta in (1e-3, 1e-4, 1e-5):
+        run = simulate(problem, "switch-model", 40.0, options={"eta": eta, "rtol": 1e-10, "atol": 1e-12})
+        assert run.ok and _sequence(run.events) == _sequence(ref), eta
+        errors.append(np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())))
+    assert errors[0] > errors[1] > errors[2]
+
+
+def test_a_stuck_block_stays_within_the_band():
+    problem = get_problem("one-dof")
+    eta = 1e-4
+    ref = simulate(problem, "exact", 11.0).events
+    grid = np.linspace(0.0, 11.0, 221)
+    run = simulate(problem, "switch-model", 11.0, t_eval=grid, options={"eta": eta})
+    dense = run.trajectory[list(problem.state_names)].to_numpy().T
+    creep = stick_creep(ref, grid, dense, problem.v0, 11.0)
+    assert creep.creep <= eta * (1 + 1e-9)
+    assert creep.drift <= eta * 11.0
+
+
+def test_two_dof_case_1_has_exacts_switches():
+    problem = get_problem("two-dof", case=1)
+    ref = simulate(problem, "exact", 30.0).events
+    run = simulate(problem, "switch-model", 30.0, options={"eta": 1e-5, "rtol": 1e-10, "atol": 1e-12})
+    assert _sequence(run.events) == _sequence(ref)
+    assert np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())) < 1e-2
+
+
+def test_conformance():
+    results = check_integrator("switch-model", checks=["protocol", "determinism", "inputs-not-mutated",
+                                                       "switch-convergence", "failure-status", "config-round-trip"],
+                               problem="one-dof")
+    failed = [(r.check, r.message) for r in results if r.status != "passed"]
+    assert not failed, failed
+
+
+def test_bad_input():
+    for bad in ({"eta": 0.0}, {"eta": -1.0}, {"solver": "Euler"}, {"rtol": 1.0}):
+        with pytest.raises(ConfigError):
+            get_integrator("switch-model", **bad)

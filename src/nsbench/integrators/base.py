@@ -321,10 +321,11 @@ class Integrator:
     def setup(self, problem: "HybridProblem") -> None:
         """Prepare for ``problem``; the default refuses nonlinear problems if not supported."""
         if not self.capabilities.supports_nonlinear and not problem.is_linear:
-            reason = getattr(problem, "nonlinear_reason", "") or "cubic springs"
+            reason = getattr(problem, "nonlinear_reason", "")
+            what = f"has {reason}" if reason else "is not piecewise linear"
             raise UnsupportedProblemError(
-                f"{self.name} solves piecewise-linear problems only (closed-form arcs); {problem!r} has "
-                f"{reason} (use a numerical integrator or 'reference')"
+                f"{self.name} solves piecewise-linear problems only (closed-form arcs); {problem!r} {what} "
+                "(use a numerical integrator or 'reference')"
             )
 
     def advance(self, request: ArcRequest) -> ArcResult:  # pragma: no cover - abstract

@@ -44,6 +44,7 @@ class Smoothing(WholeSystem):
     """Regularised friction (arctan or tanh, sharpness eps) on scipy's Radau or BDF with the analytic Jacobian."""
 
     name = "smoothing"
+    COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
     capabilities = Capabilities(event_location="inferred-from-band", order=None, adaptive=True,
                                 needs_jacobian=True, step_option="rtol", family="smoothing")
     options = {

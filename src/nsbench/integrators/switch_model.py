@@ -34,6 +34,7 @@ class SwitchModel(WholeSystem):
     """Leine's switch model: a stick band |v - v_belt| <= eta with force-based switching, on a scipy ODE solver."""
 
     name = "switch-model"
+    COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
     capabilities = Capabilities(event_location="inferred-from-status", order=None, adaptive=True,
                                 step_option="rtol", family="switch-model")
     options = {

@@ -128,12 +128,20 @@ class WholeSystem(Integrator):
     #: The problem families whose events :func:`nsbench.hybrid.inference.infer_events` can infer.
     INFERABLE: ClassVar[tuple[str, ...]] = ("friction",)
 
+    #: Whether the method's stick/slip law is Coulomb's only (it refuses the other friction laws at setup).
+    COULOMB_ONLY: bool = False
+
     def setup(self, problem: "HybridProblem") -> None:
         super().setup(problem)
         if problem.family not in self.INFERABLE:
             raise UnsupportedProblemError(
                 f"{self.name}: nsbench infers the events of whole-system methods on the "
                 f"{', '.join(self.INFERABLE)} family only; {problem.name} is of the {problem.family or '?'} family")
+        law = getattr(problem, "law_spec", None)
+        if self.COULOMB_ONLY and law is not None and not law.is_coulomb:
+            raise UnsupportedProblemError(
+                f"{self.name} regularises Coulomb's law (a constant slip force fs); {problem.name} has the "
+                f"{law.name} friction law")
 
     def integrate(self, request: SystemRequest) -> SystemResult:  # pragma: no cover - abstract
         """Advance the whole system over ``[request.t0, request.t_end]``; see :class:`SystemResult`."""

@@ -73,3 +73,17 @@ def test_bad_input():
         get_integrator("smoothing", law="sigmoid")
     with pytest.raises(UnsupportedProblemError):
         get_integrator("smoothing").setup(get_problem("bouncing-ball"))
+
+
+def test_a_non_coulomb_friction_law_is_refused_at_setup_with_its_name():
+    # the method's force law is built on fs alone: under a weakening or Stribeck law it would integrate
+    # another system, so it refuses (the rows of a suite say unsupported, with this reason)
+    from nsbench import registry
+    from nsbench.errors import UnsupportedProblemError
+    from nsbench.problems import get_problem
+
+    integ = registry.load("integrators", "smoothing")()
+    for problem, law in ((get_problem("one-dof", case="leine"), "weakening"),
+                         (get_problem("two-dof", case=2, law="stribeck", fk=0.5, vs=0.2), "stribeck")):
+        with pytest.raises(UnsupportedProblemError, match=f"regularises Coulomb's law .* the {law} friction law"):
+            integ.setup(problem)

@@ -61,12 +61,16 @@ class HeyokaIntegrator(Integrator):
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
-    def setup(self, problem) -> None:
+    def check_problem(self, problem) -> None:
+        """The refusals of :meth:`setup`, without compiling."""
         super().setup(problem)
         if getattr(problem, "family", "") != "friction":
             raise UnsupportedProblemError(
                 f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
                 f"{problem.family or 'other'!r} family, which has no heyoka form")
+
+    def setup(self, problem) -> None:
+        self.check_problem(problem)
         self._problem = problem
         self._models: dict[int, Any] = {}
         self._fp = model.FP_TYPES.get(self.precision)

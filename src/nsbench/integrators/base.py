@@ -335,6 +335,10 @@ class Integrator:
         return f"{type(self).__name__}({opts})"
 
 
+#: Compiled kernels (integrator class, address table) that have run an arc in this process: loaded.
+_KERNELS_RUN: set[tuple[type, bytes]] = set()
+
+
 class CompiledArcs(Integrator):
     """Base of the integrators whose arcs run in a compiled kernel of the hybrid core.
 
@@ -358,8 +362,12 @@ class CompiledArcs(Integrator):
             return
         self._kernel = self.build_kernel(problem)
         self._kernel_problem = problem
+        key = (type(self), self._kernel.table.tobytes())
+        if key in _KERNELS_RUN:  # its compiled code has run in this process: a sweep's next value
+            return
         mode = problem.initial_mode(0.0, problem.initial_state())
         kernel_advance(self, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
+        _KERNELS_RUN.add(key)
 
     def check_problem(self, problem: "HybridProblem") -> None:
         """The refusals of :meth:`setup` (a subclass's own included), without building or loading the kernel."""

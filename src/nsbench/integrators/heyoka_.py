@@ -79,6 +79,7 @@ class HeyokaIntegrator(Integrator):
         self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self.compile_time = 0.0
         self._carry = None  # the last event's state in our precision (see _continued)
+        self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._model(_SECTION_SLOTS)
         self._compiled_in_advance = 0.0
 
@@ -126,13 +127,18 @@ class HeyokaIntegrator(Integrator):
         self._carry = (request.problem, t_stop, t_lo, np.array(y_out, dtype=float, copy=True), dtime,
                        np.array(y_fp, copy=True))
 
-    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
-        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+    def _pars(self, st: model.Structure, request: ArcRequest) -> np.ndarray:
+        """The runtime parameters of an arc (coefficients, mode, guards, sections) in our precision.
 
-        ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
-        of the request's double time and state.
+        Kept per mode and structure for the sections of the last request (one run
+        hands every arc the same sections): an arc of a mode seen before only copies them in.
         """
-        fp = self._fp
+        if request.sections is not self._pars_sections:
+            self._pars_sections, self._pars_cache = request.sections, {}
+        key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards))
+        cached = self._pars_cache.get(key)
+        if cached is not None:
+            return cached
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
         nb = st.n_blocks
@@ -146,7 +152,17 @@ class HeyokaIntegrator(Integrator):
             off = st.section_offset(q)
             pars[off], pars[off + 1] = 1.0, sec.level
             pars[off + 2: off + 2 + st.n_mech] = sec.coeffs
-        ta.pars[:] = pars.astype(fp)
+        cached = self._pars_cache[key] = pars.astype(self._fp)
+        return cached
+
+    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
+        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+
+        ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
+        of the request's double time and state.
+        """
+        fp = self._fp
+        ta.pars[:] = self._pars(st, request)
         if carried is not None:
             ta.dtime = carried[0]
             ta.state[:] = carried[1]
@@ -159,7 +175,7 @@ class HeyokaIntegrator(Integrator):
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
         t0 = ta.time
         if st.forced:
-            w = np.array([pars[st.coefficient("w")]], dtype=float).astype(fp)
+            w = np.array([self._coefficients[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
             state = np.concatenate([state, np.cos(phase), np.sin(phase)])
         ta.state[:] = state

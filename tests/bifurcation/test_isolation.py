@@ -165,6 +165,34 @@ def test_a_chunk_under_another_name_or_edited_is_refused(tmp_path):
         SweepStore(out).load()
 
 
+def test_a_parquet_chunk_of_wrong_types_or_missing_values_is_refused(tmp_path):
+    """A chunk whose checksum and name hold but whose columns are not of the sweep's types (a counter
+    stored as floats) or miss a value (a null status) is damaged: the types are checked, not trusted."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "s"
+    _sweep(out)
+    for damage, match in (("float counter", "'sticks1' holds double values where the sweep stores int"),
+                          ("null status", "a value of column 'status' is missing")):
+        c = sorted((out / "points").glob("chunk-*.parquet"))[0]
+        table = pq.read_table(c)
+        i = table.column_names.index("sticks1" if damage == "float counter" else "status")
+        column = table.column(i)
+        changed = (column.cast(pa.float64()) if damage == "float counter"
+                   else pa.array([None] + column.to_pylist()[1:], type=column.type))
+        sink = pa.BufferOutputStream()
+        pq.write_table(table.set_column(i, table.field(i).name, changed), sink)
+        data = sink.getvalue().to_pybytes()
+        first, last, rows, _, key = c.stem.split("-")[1:]
+        c.unlink()
+        (out / "points" / f"chunk-{first}-{last}-{rows}-{hashlib.sha256(data).hexdigest()[:16]}-{key}.parquet"
+         ).write_bytes(data)
+        with pytest.raises(ConfigError, match=match):
+            SweepStore(out).load()
+        _sweep(out)  # a rerun replaces it
+
+
 def _csv_text(chunk) -> str:
     """A Parquet chunk's rows as the CSV that stores written before Parquet held."""
     return pd.read_parquet(chunk).to_csv(index=False, float_format="%.17g")

@@ -265,9 +265,22 @@ class HeyokaIntegrator(Integrator):
 
     @staticmethod
     def _fresh_guards(request: ArcRequest) -> list[int]:
-        """Guards exactly zero at the start: the phase starts on its own surface."""
-        return [q for q, g in enumerate(request.guards)
-                if g.expected_sign * float(g.value(request.t0, request.y0)) == 0.0]
+        """Guards exactly zero at the start: the phase starts on its own surface.
+
+        A velocity guard ``v_i - v0`` is zero exactly when ``v_i == v0``: read from the state,
+        without a call through the problem's guard functions per guard and arc.
+        """
+        y0, v0 = request.y0, None
+        fresh = []
+        for q, g in enumerate(request.guards):
+            if g.kind == "velocity":
+                v0 = float(request.problem.v0) if v0 is None else v0
+                zero = float(y0[2 * g.block - 1]) == v0
+            else:
+                zero = g.expected_sign * float(g.value(request.t0, y0)) == 0.0
+            if zero:
+                fresh.append(q)
+        return fresh
 
     def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
         """One Taylor step with the fresh guards' events off; their crossings found on its polynomial.

@@ -131,14 +131,10 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
     py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop))
-    call = None  # the loop's compiled entry point for this run's types, resolved after the first call
+    call = loop.hybrid_loop  # numba's dispatch; for arcs in Python, the resolved entry point (below)
     while True:
         args = (table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
-        if call is None:
-            code = loop.hybrid_loop(*args)  # numba's dispatch (compiles for new types)
-            call = _entry_point(loop.hybrid_loop, args)
-        else:
-            code = call(*args)
+        code = call(*args)
         if code == loop.R_DONE:
             break
         if code == loop.R_GROW_EVENTS:
@@ -149,8 +145,9 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
             tic = time.perf_counter()
             kd = kernel.prepare_mode(mode_arr.copy())
             prepare_time += time.perf_counter() - tic
-            call = None  # new kernel data: dispatched (and resolved) again
         else:  # R_NEED_ARC
+            if call is loop.hybrid_loop:  # one re-entry per arc from here on: skip the type dispatch
+                call = _entry_point(loop.hybrid_loop, args)
             py.arc(rec, st)
     status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
     cnt, si = st.cnt, st.si
@@ -180,6 +177,8 @@ def _entry_point(dispatcher: Any, args: tuple) -> Any:
     arrays again at every call: about 15-50 us, more than the rest of a Python arc's
     glue, paid once per arc by integrators without a compiled kernel. The buffers a run
     grows are new arrays of the same types, so the types of ``args`` hold for the run.
+    Resolving costs more than one dispatch (numba's Python-level typing), so runs whose
+    arcs are compiled, which re-enter only a few times, never resolve.
     Without a compiled form (numba's JIT disabled) ``dispatcher`` itself.
     """
     try:

@@ -54,7 +54,7 @@ def test_a_chain_sweeps_with_its_own_columns(tmp_path, monkeypatch):
                  "--pair", "2,4", "--formats", "png", "--no-progress"])
     assert code == 0
     out = tmp_path / "bifurcation" / "chain-n4-case1-v0"  # the default folder names n
-    points = pd.concat([pd.read_csv(f) for f in (out / "points").glob("*.csv")])
+    points = pd.concat([pd.read_parquet(f) for f in (out / "points").glob("*.parquet")])
     assert {f"{q}{i}" for i in range(1, 5) for q in "xv"} <= set(points.columns)
     assert {"sticks4", "slips4", "reverses4"} <= set(points.columns) and "x5" not in points.columns
     assert (points["status"] == "success").all() and points["index"].nunique() == 4

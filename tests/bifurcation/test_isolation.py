@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import subprocess
@@ -122,7 +123,7 @@ def _sweep(out):
 def test_a_truncated_chunk_is_refused_then_recomputed(tmp_path, capsys):
     out = tmp_path / "s"
     before = _sweep(out)
-    chunk = sorted((out / "points").glob("chunk-*.csv"))[1]
+    chunk = sorted((out / "points").glob("chunk-*.parquet"))[1]
     data = chunk.read_bytes()
     chunk.write_bytes(data[: int(0.55 * len(data))])  # cut mid-value, like a full disk
     with pytest.raises(ConfigError, match=f"{chunk.name} is damaged"):
@@ -136,26 +137,65 @@ def test_a_truncated_chunk_is_refused_then_recomputed(tmp_path, capsys):
 def test_a_chunk_under_another_name_or_edited_is_refused(tmp_path):
     out = tmp_path / "s"
     _sweep(out)
-    a, b = sorted((out / "points").glob("chunk-*.csv"))[:2]
+    a, b = sorted((out / "points").glob("chunk-*.parquet"))[:2]
     b.write_bytes(a.read_bytes())  # a chunk copied over another's name
     with pytest.raises(ConfigError, match="checksum"):
         SweepStore(out).load()
     _sweep(out)
-    c = sorted((out / "points").glob("chunk-*.csv"))[0]
-    text = c.read_text().splitlines()
-    legacy = out / "points" / "chunk-000000-0badf00d.csv"  # the naming of stores without checksums
-    c.rename(legacy)
+    c = sorted((out / "points").glob("chunk-*.parquet"))[0]
+    text = _csv_text(c)
+    legacy = out / "points" / "chunk-000000-0badf00d.csv"  # the naming (and format) of stores without checksums
+    c.unlink()
+    legacy.write_text(text)
     with pytest.raises(ConfigError, match="does not say which sweep"):
         SweepStore(out).load()  # in a store whose chunks name their sweep, such a chunk is anyone's
     meta = json.loads((out / "meta.json").read_text())
     del meta["spec_key"]  # an old store: written before chunks named their sweep
     (out / "meta.json").write_text(json.dumps(meta))
-    for f in (out / "points").glob("chunk-*-s*.csv"):  # and before checksums
-        f.rename(f.with_name(f.name.rsplit("-s", 1)[0] + ".csv"))
+    for f in (out / "points").glob("chunk-*-s*.parquet"):  # and before checksums: CSV files then
+        f.with_name(f.name.rsplit("-", 2)[0] + "-0123456789abcdef.csv").write_text(_csv_text(f))
+        f.unlink()
+    with pytest.raises(ConfigError, match="checksum"):
+        SweepStore(out).load()  # a CSV's checksum is that of its bytes too
+    for f in (out / "points").glob("chunk-*-n*.csv"):
+        f.rename(f.with_name(f.name.rsplit("-", 1)[0] + f"-{hashlib.sha256(f.read_bytes()).hexdigest()[:16]}.csv"))
     SweepStore(out).load()  # an old store still reads
-    legacy.write_text("\n".join(text[:-1]) + "\n")  # one point of a value lost
+    legacy.write_text("\n".join(text.splitlines()[:-1]) + "\n")  # one point of a value lost
     with pytest.raises(ConfigError, match="rows where n_points says 8"):
         SweepStore(out).load()
+
+
+def test_a_parquet_chunk_of_wrong_types_or_missing_values_is_refused(tmp_path):
+    """A chunk whose checksum and name hold but whose columns are not of the sweep's types (a counter
+    stored as floats) or miss a value (a null status) is damaged: the types are checked, not trusted."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "s"
+    _sweep(out)
+    for damage, match in (("float counter", "'sticks1' holds double values where the sweep stores int"),
+                          ("null status", "a value of column 'status' is missing")):
+        c = sorted((out / "points").glob("chunk-*.parquet"))[0]
+        table = pq.read_table(c)
+        i = table.column_names.index("sticks1" if damage == "float counter" else "status")
+        column = table.column(i)
+        changed = (column.cast(pa.float64()) if damage == "float counter"
+                   else pa.array([None] + column.to_pylist()[1:], type=column.type))
+        sink = pa.BufferOutputStream()
+        pq.write_table(table.set_column(i, table.field(i).name, changed), sink)
+        data = sink.getvalue().to_pybytes()
+        first, last, rows, _, key = c.stem.split("-")[1:]
+        c.unlink()
+        (out / "points" / f"chunk-{first}-{last}-{rows}-{hashlib.sha256(data).hexdigest()[:16]}-{key}.parquet"
+         ).write_bytes(data)
+        with pytest.raises(ConfigError, match=match):
+            SweepStore(out).load()
+        _sweep(out)  # a rerun replaces it
+
+
+def _csv_text(chunk) -> str:
+    """A Parquet chunk's rows as the CSV that stores written before Parquet held."""
+    return pd.read_parquet(chunk).to_csv(index=False, float_format="%.17g")
 
 
 def test_stale_temporary_files_are_removed_on_rerun(tmp_path):
@@ -172,9 +212,9 @@ def test_stale_temporary_files_are_removed_on_rerun(tmp_path):
 def test_fresh_starts_a_sweep_over_and_refuses_a_foreign_folder(tmp_path):
     out = tmp_path / "s"
     _sweep(out)
-    before = {f.name for f in (out / "points").glob("chunk-*.csv")}
+    before = {f.name for f in (out / "points").glob("chunk-*.parquet")}
     run_sweep(SweepSpec(**SMALL), out, workers=0, progress=False, chunk_size=2)  # resumes: nothing new
-    assert {f.name for f in (out / "points").glob("chunk-*.csv")} == before
+    assert {f.name for f in (out / "points").glob("chunk-*.parquet")} == before
     other = SweepSpec(**{**SMALL, "count": 4})
     with pytest.raises(ConfigError, match="different sweep"):
         run_sweep(other, out, workers=0, progress=False)

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import nsbench
@@ -59,9 +60,9 @@ def test_resume_computes_only_missing_values(tmp_path):
     run_sweep(spec, out, workers=1, progress=False, limit=2, chunk_size=1)
     store = SweepStore(out)
     assert store.done() == {0, 1}
-    first_files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.csv")}
+    first_files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.parquet")}
     full = run_sweep(spec, out, workers=1, progress=False, chunk_size=1)
-    files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.csv")}
+    files = {f.name: f.stat().st_mtime_ns for f in store.points_dir.glob("*.parquet")}
     assert len(files) == 6 and all(files[k] == v for k, v in first_files.items())
     fresh = run_sweep(spec, tmp_path / "fresh", workers=1, progress=False)
     assert full.drop(columns="wall_time").equals(fresh.drop(columns="wall_time"))
@@ -79,7 +80,7 @@ def test_killed_run_keeps_whole_chunks_and_resumes(tmp_path):
            "--sweep", f"v0=0.06:0.2:{count}", "--integrator", "exact", "--transient", "300", "--record", "10",
            "--workers", "1", "--out", str(out), "--formats", "png", "--no-progress"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while proc.poll() is None and len(list((out / "points").glob("*.csv"))) < 2:
+    while proc.poll() is None and len(list((out / "points").glob("*.parquet"))) < 2:
         time.sleep(0.01)
     assert proc.poll() is None, "the sweep ended before it could be killed"
     os.kill(proc.pid, signal.SIGKILL)
@@ -88,14 +89,13 @@ def test_killed_run_keeps_whole_chunks_and_resumes(tmp_path):
     done = store.done()
     assert 0 < len(done) < count  # killed part-way; what is stored is whole chunks
     assert (store.load().groupby("index").size() == 10).all()
-    before = {f.name for f in store.points_dir.glob("*.csv")}
+    before = {f.name for f in store.points_dir.glob("*.parquet")}
     frame = run_sweep(store.spec, out, workers=1, progress=False)
     assert sorted(frame["index"].unique()) == list(range(count))
-    new = {f.name for f in store.points_dir.glob("*.csv")} - before
+    new = {f.name for f in store.points_dir.glob("*.parquet")} - before
     recomputed = set()
     for name in new:
-        recomputed |= set(np.loadtxt(store.points_dir / name, delimiter=",", skiprows=1, usecols=2, dtype=str)
-                          .astype(float).astype(int).ravel().tolist())
+        recomputed |= set(pd.read_parquet(store.points_dir / name)["index"].tolist())
     assert recomputed == set(range(count)) - done
 
 

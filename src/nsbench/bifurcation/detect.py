@@ -27,12 +27,9 @@ from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec, compute_point
 def _features(points: pd.DataFrame, section: str) -> np.ndarray:
     """What must repeat for a point to repeat: the peaked position, the whole state on the
     stroboscopic section, the positions (and the block) at stick or slip events."""
-    blocks = range(1, n_blocks_of(points) + 1)
-    cols = ["x1"] if section == "peaks" else [c for b in blocks for c in (f"x{b}", f"v{b}")]
-    if section in ("stick", "mapping"):
-        cols = [f"x{b}" for b in blocks]
+    cols, block_feature = _feature_columns(points, section)
     feats = points[cols].to_numpy(dtype=float)
-    if section in ("stick", "mapping"):
+    if block_feature:
         feats = np.column_stack([feats, 10.0 * points["event_block"].to_numpy(dtype=float)])
     return feats[:, ~np.all(np.isnan(feats), axis=0)]
 
@@ -61,28 +58,82 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
     Columns: ``index, value, status, n_points, period, n_distinct``, then per block
     ``B``: ``sticksB, sticksB_per_cycle, blockB_sticks``, and ``pure_sliding``.
     ``period`` 0 means no period up to half the recorded points (aperiodic or long).
+
+    The values are classified together, with array operations over all the
+    values that recorded the same number of points (a sweep's usual case): the
+    same periods and counts as :func:`period_of` and :func:`distinct_count` give
+    value by value, without a Python loop per value.
     """
+    if frame.empty:
+        return pd.DataFrame([])
     blocks = range(1, n_blocks_of(frame) + 1)
-    rows = []
-    for index, pts in frame.groupby("index", sort=True):
-        first = pts.iloc[0]
-        ok = first["status"] in OK_STATUSES
-        section = first["section"]
-        feats = _features(pts, section) if ok else np.empty((0, 1))
-        scale = max(1.0, float(np.nanmax(np.abs(feats)))) if feats.size else 1.0
-        period = (1 if len(feats) == 1 else period_of(feats, tol * scale)) if ok else -1
-        n = int(first["n_points"])
-        cycles = n / period if period > 0 else np.nan
-        row = dict(index=int(index), value=float(first["value"]), status=first["status"], n_points=n,
-                   period=period, n_distinct=distinct_count(feats, tol * scale) if ok else -1)
-        sticks = {b: int(first[f"sticks{b}"]) for b in blocks}
-        row.update({f"sticks{b}": sticks[b] for b in blocks})
-        row.update({f"sticks{b}_per_cycle": float(round(sticks[b] / cycles)) if period > 0 else np.nan
-                    for b in blocks})
-        row.update({f"block{b}_sticks": sticks[b] > 0 for b in blocks})
-        row["pure_sliding"] = not any(sticks.values())
-        rows.append(row)
-    return pd.DataFrame(rows)
+    order = np.argsort(frame["index"].to_numpy(), kind="stable")  # a value's rows keep their order
+    rows = frame.take(order)
+    idx = rows["index"].to_numpy()
+    starts = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
+    counts = np.diff(np.r_[starts, len(idx)])
+    first = rows.iloc[starts]
+    status = first["status"].to_numpy(dtype=object)
+    ok = np.isin(status, [str(s) for s in OK_STATUSES])
+    period = np.full(len(starts), -1, dtype=np.int64)
+    distinct = np.full(len(starts), -1, dtype=np.int64)
+    sections = first["section"].to_numpy(dtype=object)
+    for section in np.unique(sections[ok]):
+        columns, block_feature = _feature_columns(rows, section)
+        values = rows[columns].to_numpy(dtype=float)
+        if block_feature:
+            values = np.column_stack([values, 10.0 * rows["event_block"].to_numpy(dtype=float)])
+        for m in np.unique(counts[ok & (sections == section)]):
+            members = np.flatnonzero(ok & (sections == section) & (counts == m))
+            for part in np.array_split(members, max(1, len(members) * int(m) ** 2 // 2_000_000)):
+                feats = values[starts[part][:, None] + np.arange(m)]  # (values, points, features)
+                period[part], distinct[part] = _period_and_distinct(feats, tol)
+    n = first["n_points"].to_numpy(dtype=np.int64)
+    out = pd.DataFrame({"index": idx[starts].astype(np.int64), "value": first["value"].to_numpy(dtype=float),
+                        "status": first["status"].to_numpy(), "n_points": n, "period": period,
+                        "n_distinct": distinct})
+    sticks = {b: first[f"sticks{b}"].to_numpy(dtype=np.int64) for b in blocks}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cycles = n / period
+        for b in blocks:
+            out[f"sticks{b}"] = sticks[b]
+        for b in blocks:
+            out[f"sticks{b}_per_cycle"] = np.where(period > 0, np.round(sticks[b] / cycles), np.nan)
+    for b in blocks:
+        out[f"block{b}_sticks"] = sticks[b] > 0
+    out["pure_sliding"] = ~np.any([sticks[b] > 0 for b in blocks], axis=0) if len(blocks) else True
+    return out
+
+
+def _feature_columns(points: pd.DataFrame, section: str) -> tuple[list[str], bool]:
+    """The columns of :func:`_features`, and whether ``10 * event_block`` joins them."""
+    blocks = range(1, n_blocks_of(points) + 1)
+    if section in ("stick", "mapping"):
+        return [f"x{b}" for b in blocks], True
+    return (["x1"] if section == "peaks" else [c for b in blocks for c in (f"x{b}", f"v{b}")]), False
+
+
+def _period_and_distinct(feats: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`period_of` and :func:`distinct_count` of each ``feats[i]`` (points by features), all at once.
+
+    As there, a feature that is NaN at every point of a value is left out of its
+    comparisons, and the tolerance is ``tol`` times the largest feature (at least 1).
+    """
+    n_values, m, _ = feats.shape
+    unused = np.all(np.isnan(feats), axis=1)[:, None, :]  # (values, 1, features)
+    scale = np.maximum(1.0, np.max(np.abs(np.nan_to_num(feats, nan=0.0)), axis=(1, 2)))
+    limit = (tol * scale)[:, None, None]
+    period = np.zeros(n_values, dtype=np.int64) if m > 1 else np.ones(n_values, dtype=np.int64)
+    for p in range(1, m // 2 + 1):
+        same = np.all((np.abs(feats[:, p:] - feats[:, :-p]) <= limit) | unused, axis=(1, 2))
+        period[(period == 0) & same] = p
+    # close[i, j, k]: points j and k of value i within the tolerance; greedy representatives in order
+    close = np.all((np.abs(feats[:, :, None, :] - feats[:, None, :, :]) <= limit[..., None]) | unused[:, None],
+                   axis=3)
+    rep = np.zeros((n_values, m), dtype=bool)
+    for j in range(m):
+        rep[:, j] = ~np.any(close[:, j, :j] & rep[:, :j], axis=1)
+    return period, rep.sum(axis=1)
 
 
 def _blocks(features: pd.Series | pd.DataFrame) -> list[int]:
@@ -120,7 +171,7 @@ def candidates(features: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     feats = features.sort_values("value").reset_index(drop=True)
-    for j in range(len(feats) - 1):
+    for j in _differing_pairs(feats):
         a, b = feats.iloc[j], feats.iloc[j + 1]
         if a["status"] not in OK_STATUSES or b["status"] not in OK_STATUSES:
             continue
@@ -128,6 +179,21 @@ def candidates(features: pd.DataFrame) -> pd.DataFrame:
             rows.append(dict(kind=kind, description=text, left=a["value"], right=b["value"],
                              value=0.5 * (a["value"] + b["value"]), width=b["value"] - a["value"]))
     return pd.DataFrame(rows, columns=["kind", "description", "left", "right", "value", "width"])
+
+
+def _differing_pairs(feats: pd.DataFrame) -> np.ndarray:
+    """Positions ``j`` where row ``j + 1`` differs from row ``j`` in something :func:`_changes` looks at
+    (the others have no change: only these are compared one by one)."""
+    if len(feats) < 2:
+        return np.zeros(0, dtype=np.int64)
+    blocks = _blocks(feats)
+    columns = [f"block{b}_sticks" for b in blocks] + ["pure_sliding", "period"]
+    plain = feats[columns].to_numpy(dtype=float)
+    differ = np.any(plain[1:] != plain[:-1], axis=1)
+    if blocks:
+        per_cycle = feats[[f"sticks{b}_per_cycle" for b in blocks]].to_numpy(dtype=float)
+        differ |= (feats["period"].to_numpy()[:-1] > 0) & np.any(per_cycle[1:] != per_cycle[:-1], axis=1)
+    return np.flatnonzero(differ)
 
 
 @dataclass(frozen=True)

@@ -67,22 +67,55 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
     good = frame["status"].isin(OK_STATUSES)
     ok = frame[good]
     bad = frame[~good].groupby("index").first()
+    x = ok["value"].to_numpy(dtype=float)
     for ax, var in zip(axes[:, 0], variables):
-        ax.plot(ok["value"], ok[var], ",", color="k", alpha=0.8, rasterized=True)
-        ax.plot(ok["value"], ok[var], ".", ms=1.0, color="k", alpha=0.5, rasterized=True)
+        y = ok[var].to_numpy(dtype=float)
         if len(bad):
-            lo = ok[var].min() if len(ok) else 0.0
+            lo = float(np.nanmin(y)) if np.isfinite(y).any() else 0.0
             ax.plot(bad["value"], np.full(len(bad), lo), "x", color=RED, ms=3, label="failed/incomplete")
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the data
         if candidates is not None:
             for v in candidates["value"]:
                 ax.axvline(v, color="tab:orange", lw=0.5, alpha=0.5)
+        ax.set_xlim(*_limits(np.r_[x, bad["value"].to_numpy(dtype=float)]))
+        ax.set_ylim(*_limits(y))
         ax.set_ylabel(var)
     axes[-1, 0].set_xlabel(name)
     if title:
         fig.suptitle(title, fontsize=9)
     fig.tight_layout()
+    for ax, var in zip(axes[:, 0], variables):  # the axes have their final size in pixels now
+        _point_image(ax, x, ok[var].to_numpy(dtype=float))
     return save(fig, base, formats)
+
+
+def _limits(values: np.ndarray) -> tuple[float, float]:
+    """Axis limits around the finite ``values`` with matplotlib's default 5 % margins (a band of a
+    tenth of the value around a single value)."""
+    finite = values[np.isfinite(values)]
+    if not finite.size:
+        return 0.0, 1.0
+    lo, hi = float(finite.min()), float(finite.max())
+    span = hi - lo
+    if not span > 1e-12 * max(1.0, abs(lo)):
+        span = 0.1 * max(abs(lo), 1.0)
+        lo, hi = lo - 0.5 * span, hi + 0.5 * span
+    return lo - 0.05 * span, hi + 0.05 * span
+
+
+def _point_image(ax, x: np.ndarray, y: np.ndarray) -> None:
+    """The points as one image of the axes' own pixels: a pixel holding points is black (more opaque the
+    more it holds). The points are binned once here, so every format embeds that image instead of
+    drawing a hundred thousand markers again for each format (and twice for its tight box)."""
+    box = ax.get_window_extent()
+    width, height = max(1, int(round(box.width))), max(1, int(round(box.height)))
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    keep = np.isfinite(x) & np.isfinite(y)
+    counts, _, _ = np.histogram2d(y[keep], x[keep], bins=(height, width), range=((y0, y1), (x0, x1)))
+    rgba = np.zeros((height, width, 4))
+    rgba[..., 3] = 1.0 - 0.15 ** counts  # one point: 0.85 opaque; two or more: nearly black
+    ax.imshow(rgba, extent=(x0, x1, y0, y1), origin="lower", aspect="auto", interpolation="nearest",
+              zorder=1.5, rasterized=True)
 
 
 def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS,

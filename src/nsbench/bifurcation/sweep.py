@@ -200,7 +200,7 @@ class SweepSpec:
 
         integ = get_integrator(self.integrator, **self.options)
         if type(integ).__module__.startswith("nsbench."):
-            integ.setup(problem)
+            integ.check_problem(problem)  # compiling or loading compiled code is the workers' set-up
         else:  # a plug-in's own setup runs only in supervised workers (under the set-up limit): one
             # that hangs or ends its process must not take the command with it; its capabilities
             # still refuse a cubic problem here

@@ -138,8 +138,10 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
     py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop))
+    call = loop.hybrid_loop  # numba's dispatch; for arcs in Python, the resolved entry point (below)
     while True:
-        code = loop.hybrid_loop(table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
+        args = (table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
+        code = call(*args)
         if code == loop.R_DONE:
             break
         if code == loop.R_GROW_EVENTS:
@@ -151,6 +153,8 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
             kd = kernel.prepare_mode(mode_arr.copy())
             prepare_time += time.perf_counter() - tic
         else:  # R_NEED_ARC
+            if call is loop.hybrid_loop:  # one re-entry per arc from here on: skip the type dispatch
+                call = _entry_point(loop.hybrid_loop, args)
             py.arc(rec, st)
     status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
     cnt, si = st.cnt, st.si
@@ -171,6 +175,23 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
                   n_dense=int(si[abi.SI_IEVAL]), n_events_total=int(si[abi.SI_EVENTS]),
                   counters=counters, integrator_time=float(integ_time), stopped=bool(si[abi.SI_STOPPED]),
                   t0=float(t0), start_mode=start_mode, prepare_time=prepare_time)
+
+
+def _entry_point(dispatcher: Any, args: tuple) -> Any:
+    """``dispatcher``'s compiled function for the types of ``args`` (compiled for them already).
+
+    Calling it skips numba's type dispatch, which types each of the loop's bundles of
+    arrays again at every call: about 15-50 us, more than the rest of a Python arc's
+    glue, paid once per arc by integrators without a compiled kernel. The buffers a run
+    grows are new arrays of the same types, so the types of ``args`` hold for the run.
+    Resolving costs more than one dispatch (numba's Python-level typing), so runs whose
+    arcs are compiled, which re-enter only a few times, never resolve.
+    Without a compiled form (numba's JIT disabled) ``dispatcher`` itself.
+    """
+    try:
+        return dispatcher.get_overload(tuple(dispatcher.typeof_pyval(a) for a in args))
+    except (AttributeError, KeyError):
+        return dispatcher
 
 
 def section_bundle(sections, n: int, hit_from: float = -math.inf, hit_stop: int = -1) -> abi.Sections:
@@ -240,6 +261,13 @@ class _PythonArcs:
     """Runs one arc of an integrator without a compiled kernel and stores its outcome for the loop."""
 
     def __init__(self, problem, integ, sections, t_eval, t_end, max_steps, hit_from, hit_stop) -> None:
+        from nsbench.integrators.base import ArcRequest
+
+        from nsbench.model import loop
+
+        self._request = ArcRequest  # imported once per run, not once per arc
+        self._arc_done = loop.P_ARC_DONE
+        self._no_states = np.empty((problem.n_states, 0))
         self.problem, self.integ = problem, integ
         self.sections = tuple(sections)
         self.t_eval, self.t_end, self.max_steps = t_eval, t_end, max_steps
@@ -249,31 +277,25 @@ class _PythonArcs:
         self.message = ""
 
     def _fail(self, si, code: int, message: str) -> None:
-        from nsbench.model import loop
-
         self.message = message
         si[abi.SI_ARC_STATUS] = code
-        si[abi.SI_PHASE] = loop.P_ARC_DONE
+        si[abi.SI_PHASE] = self._arc_done
 
     def _done(self, si, code: int) -> None:
-        from nsbench.model import loop
-
         si[abi.SI_ARC_STATUS] = code
-        si[abi.SI_PHASE] = loop.P_ARC_DONE
+        si[abi.SI_PHASE] = self._arc_done
 
     def arc(self, rec: Records, st) -> None:
-        from nsbench.integrators.base import ArcRequest
-
         problem, integ = self.problem, self.integ
         y, sf, si, cnt, y_arc = st.y, st.sf, st.si, st.cnt, st.y_arc
         n = problem.n_states
-        mode = tuple(int(v) for v in st.mode)
+        mode = tuple(st.mode.tolist())
         guards = problem.guards(mode)
         t, t_lo = float(sf[abi.SF_T]), float(sf[abi.SF_TLO])
         y_in = y.copy()
         y_in.flags.writeable = False
         i_eval = int(si[abi.SI_IEVAL])
-        request = ArcRequest(problem=problem, mode=mode, t0=t, y0=y_in, t_end=self.t_end, guards=guards,
+        request = self._request(problem=problem, mode=mode, t0=t, y0=y_in, t_end=self.t_end, guards=guards,
                              sections=self.sections, t_eval=self.t_eval[i_eval:],
                              max_steps=self.max_steps - int(cnt[abi.NSTEPS]), t0_lo=t_lo)
         tic = time.perf_counter()
@@ -288,16 +310,18 @@ class _PythonArcs:
         cnt[abi.NFEV] += int(res.nfev)
         cnt[abi.NJEV] += int(res.njev)
         cnt[abi.NSTEPS] += int(res.nsteps)
-        for key, value in (res.extra or {}).items():
-            self.extra[key] = self.extra.get(key, 0) + value
+        if res.extra:
+            extra = self.extra
+            for key, value in res.extra.items():
+                extra[key] = extra.get(key, 0) + value
         t1 = float(res.t)
         y1 = np.asarray(res.y, dtype=float).reshape(-1)
         sf[abi.SF_ARC_T], sf[abi.SF_ARC_TLO] = t1, 0.0
         y_arc[:] = y1 if y1.shape == (n,) else y
-        expected = int(np.searchsorted(request.t_eval, t1, side="right"))
+        expected = int(np.searchsorted(request.t_eval, t1, side="right")) if request.t_eval.size else 0
         y_eval = np.asarray(res.y_eval, dtype=float)
         if y_eval.size == 0:
-            y_eval = np.empty((n, 0))
+            y_eval = self._no_states
         if y_eval.ndim != 2 or y_eval.shape[0] != n:
             return self._fail(si, _PY_FAILURE, (
                 f"{integ.name} returned y_eval of shape {y_eval.shape}; the protocol wants "
@@ -306,8 +330,9 @@ class _PythonArcs:
             return self._fail(si, _PY_FAILURE, (
                 f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"))
         k = min(y_eval.shape[1], expected)
-        rec.dense.y[i_eval:i_eval + k] = y_eval[:, :k].T
-        si[abi.SI_IEVAL] = i_eval + k
+        if k:
+            rec.dense.y[i_eval:i_eval + k] = y_eval[:, :k].T
+            si[abi.SI_IEVAL] = i_eval + k
         stop_hit = None
         for hit in res.section_hits:
             if hit.t < self.hit_from:

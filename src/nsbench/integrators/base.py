@@ -328,6 +328,12 @@ class Integrator:
                 "(use a numerical integrator or 'reference')"
             )
 
+    def check_problem(self, problem: "HybridProblem") -> None:
+        """Refuse ``problem`` as :meth:`setup` would, without its costly part where the two can be told
+        apart (compiling, loading compiled code): a command checks its input with this in its own
+        process and sets up in its workers. The default runs :meth:`setup`."""
+        self.setup(problem)
+
     def advance(self, request: ArcRequest) -> ArcResult:  # pragma: no cover - abstract
         """Integrate one arc of a frozen mode; see the class docstring."""
         raise NotImplementedError
@@ -344,6 +350,10 @@ class Integrator:
     def __repr__(self) -> str:
         opts = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
         return f"{type(self).__name__}({opts})"
+
+
+#: Compiled kernels (integrator class, address table) that have run an arc in this process: loaded.
+_KERNELS_RUN: set[tuple[type, bytes]] = set()
 
 
 class CompiledArcs(Integrator):
@@ -365,10 +375,24 @@ class CompiledArcs(Integrator):
     def setup(self, problem: "HybridProblem") -> None:
         """Build the kernel's data and compile (or load) its arc, then run one short arc, untimed."""
         super().setup(problem)
+        if getattr(self, "_checking", False):  # check_problem: the refusals above only
+            return
         self._kernel = self.build_kernel(problem)
         self._kernel_problem = problem
+        key = (type(self), self._kernel.table.tobytes())
+        if key in _KERNELS_RUN:  # its compiled code has run in this process: a sweep's next value
+            return
         mode = problem.initial_mode(0.0, problem.initial_state())
         kernel_advance(self, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
+        _KERNELS_RUN.add(key)
+
+    def check_problem(self, problem: "HybridProblem") -> None:
+        """The refusals of :meth:`setup` (a subclass's own included), without building or loading the kernel."""
+        self._checking = True
+        try:
+            self.setup(problem)
+        finally:
+            self._checking = False
 
     def __getstate__(self) -> dict[str, Any]:
         """Without the kernel: its function addresses belong to this process (set up again after unpickling)."""

@@ -76,20 +76,25 @@ class HeyokaIntegrator(Integrator):
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
-    def setup(self, problem) -> None:
+    def check_problem(self, problem) -> None:
+        """The refusals of :meth:`setup`, without compiling."""
         super().setup(problem)
         self._symbolic = getattr(problem, "family", "") != "friction"
         if self._symbolic and not symbolic.supports(problem):
             raise UnsupportedProblemError(
                 f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
                 f"{problem.family or 'other'!r} family, which has no heyoka form")
+
+    def setup(self, problem) -> None:
+        self.check_problem(problem)
         self._problem = problem
         self._models: dict[int, Any] = {}
         self._fp = model.FP_TYPES.get(self.precision)
         if self._fp is None:  # pragma: no cover - depends on the heyoka build
             raise ConfigError(f"{self.name}: this heyoka build has no {self.precision} type")
         self.compile_time = 0.0
-        self._carry = None
+        self._carry = None  # the last event's state in our precision (see _continued)
+        self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._compiled_in_advance = 0.0
         if self._symbolic:
             self._mode_tas: dict[tuple[int, ...], Any] = {}
@@ -147,13 +152,18 @@ class HeyokaIntegrator(Integrator):
         self._carry = (request.problem, t_stop, t_lo, np.array(y_out, dtype=float, copy=True), dtime,
                        np.array(y_fp, copy=True))
 
-    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
-        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+    def _pars(self, st: model.Structure, request: ArcRequest) -> np.ndarray:
+        """The runtime parameters of an arc (coefficients, mode, guards, sections) in our precision.
 
-        ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
-        of the request's double time and state.
+        Kept per mode and structure for the sections of the last request (one run
+        hands every arc the same sections): an arc of a mode seen before only copies them in.
         """
-        fp = self._fp
+        if request.sections is not self._pars_sections:
+            self._pars_sections, self._pars_cache = request.sections, {}
+        key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards))
+        cached = self._pars_cache.get(key)
+        if cached is not None:
+            return cached
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
         nb = st.n_blocks
@@ -167,7 +177,17 @@ class HeyokaIntegrator(Integrator):
             off = st.section_offset(q)
             pars[off], pars[off + 1] = 1.0, sec.level
             pars[off + 2: off + 2 + st.n_mech] = sec.coeffs
-        ta.pars[:] = pars.astype(fp)
+        cached = self._pars_cache[key] = pars.astype(self._fp)
+        return cached
+
+    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
+        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+
+        ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
+        of the request's double time and state.
+        """
+        fp = self._fp
+        ta.pars[:] = self._pars(st, request)
         if carried is not None:
             ta.dtime = carried[0]
             ta.state[:] = carried[1]
@@ -180,7 +200,7 @@ class HeyokaIntegrator(Integrator):
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
         t0 = ta.time
         if st.forced:
-            w = np.array([pars[st.coefficient("w")]], dtype=float).astype(fp)
+            w = np.array([self._coefficients[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
             state = np.concatenate([state, np.cos(phase), np.sin(phase)])
         ta.state[:] = state
@@ -362,9 +382,22 @@ class HeyokaIntegrator(Integrator):
 
     @staticmethod
     def _fresh_guards(request: ArcRequest) -> list[int]:
-        """Guards exactly zero at the start: the phase starts on its own surface."""
-        return [q for q, g in enumerate(request.guards)
-                if g.expected_sign * float(g.value(request.t0, request.y0)) == 0.0]
+        """Guards exactly zero at the start: the phase starts on its own surface.
+
+        A velocity guard ``v_i - v0`` is zero exactly when ``v_i == v0``: read from the state,
+        without a call through the problem's guard functions per guard and arc.
+        """
+        y0, v0 = request.y0, None
+        fresh = []
+        for q, g in enumerate(request.guards):
+            if g.kind == "velocity":
+                v0 = float(request.problem.v0) if v0 is None else v0
+                zero = float(y0[2 * g.block - 1]) == v0
+            else:
+                zero = g.expected_sign * float(g.value(request.t0, y0)) == 0.0
+            if zero:
+                fresh.append(q)
+        return fresh
 
     def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
         """Taylor steps with the fresh guards' events off; their crossings found on the steps' polynomials.

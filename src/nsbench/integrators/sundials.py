@@ -54,13 +54,17 @@ class SundialsIntegrator(Integrator):
     options = dict(_OPTIONS)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
-    def setup(self, problem) -> None:
-        super().setup(problem)
+    def check_problem(self, problem) -> None:
+        """The refusals of :meth:`setup`, without compiling the callbacks."""
+        Integrator.setup(self, problem)
         if getattr(problem, "family", "") != "friction":
             raise UnsupportedProblemError(
                 f"{self.name} integrates the friction family's formulation (the forcing as states; for ida the "
                 f"friction forces as algebraic variables); {problem!r} is of the {problem.family or 'other'!r} "
                 "family")
+
+    def setup(self, problem) -> None:
+        self.check_problem(problem)
         self._problem = problem
         self._p = np.array(problem.packed, dtype=float)
         self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}

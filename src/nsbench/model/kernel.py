@@ -27,7 +27,14 @@ def arc_table(arc_function: Any, problem) -> np.ndarray:
 
     from nsbench.model.functions import table
 
-    return table({0: (arc_function, abi.arc_signature(numba.typeof(problem.data)))}, 1)
+    data_type = numba.typeof(problem.data)
+    key = (arc_function, data_type)
+    if key not in _TABLES:  # addresses of compiled code stay put for the life of the process
+        _TABLES[key] = table({0: (arc_function, abi.arc_signature(data_type))}, 1)
+    return _TABLES[key].copy()
+
+
+_TABLES: dict[tuple[Any, Any], np.ndarray] = {}
 
 
 @dataclass

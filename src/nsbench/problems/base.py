@@ -130,6 +130,14 @@ class HybridProblem:
     state_names: tuple[str, ...]
     packed: np.ndarray
 
+    def _given(self, name: str, params: dict[str, Any], parameters: dict[str, float],
+               state_names: tuple[str, ...]) -> None:
+        """Keep what every problem without presets or units holds: its name, the user's overrides, every
+        value by name, and its states' names."""
+        self.name, self.case, self.dimensional = name, None, False
+        self.params, self.parameters = dict(params), dict(parameters)
+        self.state_names = tuple(state_names)
+
     # ------------------------------------------------------------------ what a family implements
     def initial_state(self) -> np.ndarray:
         """The start state of the problem's standard run (from its parameters)."""
@@ -288,3 +296,22 @@ class HybridProblem:
         extra = f", params={self.params}" if self.params else ""
         return f"<{self.name}{case}{extra}>"
 
+
+
+class NamedModes:
+    """Modes of one column, each with a name (``mode_names``: code -> name), as event logs write them.
+
+    Mixed in before :class:`HybridProblem` by the families whose mode is one discrete state
+    (contact or flight, the relay's side, the side of a section plane).
+    """
+
+    mode_names: ClassVar[dict[int, str]] = {}
+
+    def mode_name(self, mode: Mode) -> str:
+        return self.mode_names[int(mode[0])]
+
+    def parse_mode(self, text: str) -> Mode:
+        for code, name in self.mode_names.items():
+            if name == text:
+                return (code,)
+        raise ValueError(f"unknown mode {text!r}; one of {', '.join(map(repr, self.mode_names.values()))}")

@@ -22,7 +22,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import bouncing_ball_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "bouncing-ball"
@@ -31,9 +31,10 @@ BOUNDS = {"g": Bound(0.0, False, "gravity g"), "e": Bound(0.0, True, "restitutio
           "x0": Bound(0.0, True, "start height x0"), "v0": Bound(-math.inf, False, "start velocity v0")}
 
 
-class BouncingBall(HybridProblem):
+class BouncingBall(NamedModes, HybridProblem):
     """A ball bouncing on the ground (see the module docstring)."""
 
+    mode_names = spec.MODE_NAMES
     family = "impact"
     law_module = "nsbench.problems.bouncing_ball_law"
     guard_kinds = spec.GUARD_KINDS
@@ -41,23 +42,12 @@ class BouncingBall(HybridProblem):
     mode_columns = ("contact",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self.name = NAME
-        self.case = None
-        self.dimensional = False
-        self.params = dict(params)
-        self.parameters = dict(parameters)
-        self.state_names = ("x", "v")
+        self._given(NAME, params, parameters, state_names=("x", "v"))
         self.g, self.e = parameters["g"], parameters["e"]
         self.packed = spec.LAYOUT.pack({"g": self.g, "e": self.e})
 
     def initial_state(self) -> np.ndarray:
         return np.array([self.parameters["x0"], self.parameters["v0"]])
-
-    def mode_name(self, mode: Mode) -> str:
-        return spec.MODE_NAMES[int(mode[0])]
-
-    def parse_mode(self, text: str) -> Mode:
-        return ({name: code for code, name in spec.MODE_NAMES.items()}[text],)
 
     def guard_name(self, guard: Guard) -> str:
         return "x"

@@ -20,7 +20,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import henon_heiles_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "henon-heiles"
@@ -34,9 +34,10 @@ DEFAULTS = {"coupling": 1.0, **HEYOKA_START}
 BOUNDS = {"coupling": Bound(_ANY, False, "coupling"), **{k: Bound(_ANY, False, f"start {k}") for k in HEYOKA_START}}
 
 
-class HenonHeiles(HybridProblem):
+class HenonHeiles(NamedModes, HybridProblem):
     """The Henon-Heiles system with its Poincare section as events (see the module docstring)."""
 
+    mode_names = spec.MODE_NAMES
     family = "smooth"
     problem_class = "smooth"
     law_module = "nsbench.problems.henon_heiles_law"
@@ -45,23 +46,12 @@ class HenonHeiles(HybridProblem):
     mode_columns = ("side",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self.name = NAME
-        self.case = None
-        self.dimensional = False
-        self.params = dict(params)
-        self.parameters = dict(parameters)
-        self.state_names = ("x", "y", "px", "py")
+        self._given(NAME, params, parameters, state_names=("x", "y", "px", "py"))
         self.coupling = parameters["coupling"]
         self.packed = spec.LAYOUT.pack({"coupling": self.coupling})
 
     def initial_state(self) -> np.ndarray:
         return np.array([self.parameters[k] for k in ("x0", "y0", "px0", "py0")])
-
-    def mode_name(self, mode: Mode) -> str:
-        return spec.MODE_NAMES[int(mode[0])]
-
-    def parse_mode(self, text: str) -> Mode:
-        return ({name: code for code, name in spec.MODE_NAMES.items()}[text],)
 
     def guard_name(self, guard: Guard) -> str:
         return "x"

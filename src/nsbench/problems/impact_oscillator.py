@@ -24,7 +24,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import impact_oscillator_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "impact-oscillator"
@@ -36,9 +36,10 @@ BOUNDS = {"zeta": Bound(0.0, True, "damping ratio zeta"), "F": Bound(_ANY, False
           "v0": Bound(_ANY, False, "start velocity v0")}
 
 
-class ImpactOscillator(HybridProblem):
+class ImpactOscillator(NamedModes, HybridProblem):
     """The harmonically forced impact oscillator (see the module docstring)."""
 
+    mode_names = spec.MODE_NAMES
     family = "impact"
     problem_class = "impact"
     law_module = "nsbench.problems.impact_oscillator_law"
@@ -47,24 +48,13 @@ class ImpactOscillator(HybridProblem):
     mode_columns = ("contact",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self.name = NAME
-        self.case = None
-        self.dimensional = False
-        self.params = dict(params)
-        self.parameters = dict(parameters)
-        self.state_names = ("x", "v")
+        self._given(NAME, params, parameters, state_names=("x", "v"))
         self.zeta, self.F, self.w = parameters["zeta"], parameters["F"], parameters["w"]
         self.sigma, self.r = parameters["sigma"], parameters["r"]
         self.packed = spec.LAYOUT.pack({k: parameters[k] for k in ("zeta", "F", "w", "sigma", "r")})
 
     def initial_state(self) -> np.ndarray:
         return np.array([self.parameters["x0"], self.parameters["v0"]])
-
-    def mode_name(self, mode: Mode) -> str:
-        return spec.MODE_NAMES[int(mode[0])]
-
-    def parse_mode(self, text: str) -> Mode:
-        return ({name: code for code, name in spec.MODE_NAMES.items()}[text],)
 
     def guard_name(self, guard: Guard) -> str:
         return guard.kind

@@ -22,7 +22,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import relay_feedback_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "relay-feedback"
@@ -43,9 +43,10 @@ def plant(zeta: float, omega: float, lam: float, sigma: float, rho: float) -> tu
     return a, np.array([1.0, -2.0 * sigma * rho, rho ** 2]), np.array([1.0, 0.0, 0.0])
 
 
-class RelayFeedback(HybridProblem):
+class RelayFeedback(NamedModes, HybridProblem):
     """A linear plant under relay feedback, with sliding (see the module docstring)."""
 
+    mode_names = spec.MODE_NAMES
     family = "relay"
     problem_class = "sliding"
     law_module = "nsbench.problems.relay_feedback_law"
@@ -54,24 +55,13 @@ class RelayFeedback(HybridProblem):
     mode_columns = ("relay",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self.name = NAME
-        self.case = None
-        self.dimensional = False
-        self.params = dict(params)
-        self.parameters = dict(parameters)
-        self.state_names = ("x1", "x2", "x3")
+        self._given(NAME, params, parameters, state_names=("x1", "x2", "x3"))
         self.A, self.B, self.C = plant(*(parameters[k] for k in ("zeta", "omega", "lam", "sigma", "rho")))
         values = dict(zip(spec.NAMES, [*self.A.ravel(), *self.B, *self.C]))
         self.packed = spec.LAYOUT.pack(values)
 
     def initial_state(self) -> np.ndarray:
         return np.array([self.parameters[k] for k in ("x1_0", "x2_0", "x3_0")])
-
-    def mode_name(self, mode: Mode) -> str:
-        return spec.MODE_NAMES[int(mode[0])]
-
-    def parse_mode(self, text: str) -> Mode:
-        return ({name: code for code, name in spec.MODE_NAMES.items()}[text],)
 
     def guard_name(self, guard: Guard) -> str:
         return guard.kind

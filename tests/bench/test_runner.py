@@ -186,6 +186,16 @@ def test_resume_after_interrupt_computes_only_missing_cases(register, tmp_path, 
     assert (summary.results["n_repeats"] == 3).all()
 
 
+def _ctrl_c_as_in_a_terminal() -> None:
+    """SIGINT's default disposition in the child, as a terminal gives it.
+
+    A shell starts a background job with SIGINT ignored, and Python then installs no
+    KeyboardInterrupt handler: a test run started that way (``pytest &`` in a script)
+    would see the interrupt ignored, which is the job's setting, not nsbench's.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_of_a_parallel_cli_run_keeps_finished_cases(tmp_path):
     # Twelve cases of similar cost: once two are stored, the other ten take far
     # longer than the moment between seeing the files and the interrupt, on any
@@ -204,7 +214,8 @@ grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out),
                              "--workers", "2", "--no-progress"], start_new_session=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_ctrl_c_as_in_a_terminal)
     while proc.poll() is None and len(list((out / "cases").glob("*.parquet"))) < 2:
         time.sleep(0.01)
     assert proc.poll() is None, "the suite ended before it could be interrupted"

@@ -76,17 +76,22 @@ class HeyokaIntegrator(Integrator):
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
+    @staticmethod
+    def _written_symbolically(problem) -> bool:
+        """Whether ``problem`` runs through its symbolic form (every family but friction's)."""
+        return getattr(problem, "family", "") != "friction"
+
     def check_problem(self, problem) -> None:
-        """The refusals of :meth:`setup`, without compiling."""
+        """The refusals of :meth:`setup`, without compiling (and without keeping any state)."""
         super().setup(problem)
-        self._symbolic = getattr(problem, "family", "") != "friction"
-        if self._symbolic and not symbolic.supports(problem):
+        if self._written_symbolically(problem) and not symbolic.supports(problem):
             raise UnsupportedProblemError(
                 f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
                 f"{problem.family or 'other'!r} family, which has no heyoka form")
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
+        self._symbolic = self._written_symbolically(problem)
         self._problem = problem
         self._models: dict[int, Any] = {}
         self._fp = model.FP_TYPES.get(self.precision)

@@ -75,3 +75,19 @@ def test_non_finite_and_repeated_options_are_refused(capsys):
         assert main(["check", "henon-rk4", *argv]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and fragment in err, err
+
+
+def test_a_named_preset_is_taken_by_param(capsys):
+    """``--param case=leine`` (a preset with a name, not a number) reaches the problem; the kit checks
+    Leine's belt oscillator as given, and the belt-only checks say why they skip."""
+    assert main(["check", "henon-rk4", "--problem", "one-dof", "--param", "case=leine",
+                 "--check", "event-times", "--check", "stuck-stays-stuck"]) == 0
+    out = capsys.readouterr().out
+    assert "on {'name': 'one-dof', 'case': 'leine'}" in out
+    assert any(row.split()[:2] == ["event-times", "PASSED"] for row in out.splitlines())
+    assert "one-dof (case='leine') runs as given" in out
+    # a numbered preset is still the kit's to choose on the Coulomb belt, and a bad name is named
+    assert main(["check", "exact", "--problem", "one-dof", "--param", "case=2"]) == 2
+    assert "the checks choose the case" in capsys.readouterr().err
+    assert main(["check", "exact", "--problem", "one-dof", "--param", "case=lein"]) == 2
+    assert "lein" in capsys.readouterr().err

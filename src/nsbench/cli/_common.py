@@ -403,14 +403,15 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def shared_params(args: argparse.Namespace) -> dict[str, Any]:
-    """``--param NAME=VALUE`` (repeatable) and ``--n N`` as problem parameters (``law`` stays a name)."""
+    """``--param NAME=VALUE`` (repeatable) and ``--n N`` as problem parameters (``law`` and ``case`` stay text)."""
     params: dict[str, Any] = {}
     for text in args.param:
         name, value = parse_assignment(text, "--param")
         if name in params:
             raise ConfigError(f"--param {name} is given twice ({name}={params[name]!r} and {text!r}); give it once")
-        # the friction law is a name (coulomb, weakening, stribeck), every other parameter a number
-        params[name] = value.strip() if name == "law" else parse_number(value, f"parameter {name}")
+        # the friction law is a name (coulomb, weakening, stribeck) and a preset a number or a name
+        # (one-dof's 'leine'); every other parameter is a number
+        params[name] = value.strip() if name in ("law", "case") else parse_number(value, f"parameter {name}")
     if getattr(args, "n", None) is not None:
         if "n" in params:
             raise ConfigError("give the number of blocks once: --n or --param n=..., not both")

@@ -604,8 +604,11 @@ class Check:
         """Why this check does not run here (capabilities, or a problem without the belt's presets), or None."""
         reason = self.applies(caps)
         if reason is None and self.belt and not on_presets():
-            name = FAMILY.get()[0]
+            name, params = FAMILY.get()
             reason = f"needs the belt oscillators' presets (cases 1-4); {name} has none"
+            if params:  # e.g. one-dof at case='leine': a belt, but its law leaves the presets' Coulomb friction
+                given = ", ".join(f"{k}={v!r}" for k, v in params.items())
+                reason = f"needs the Coulomb belt presets (cases 1-4); {name} ({given}) runs as given"
         return reason
 
     @property

@@ -34,6 +34,9 @@ def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers(
     assert p.seconds == pytest.approx(work / 2 + 4.0 + 10.0)
     assert p.weights[cases[0].label] == pytest.approx((0.5, (1.5 + 4 * 1.0) / 5))   # per timing round
     assert "4 case(s): 20 timed samples" in p.statement() and "2 task(s) of unmeasured cost" in p.statement()
+    # at most: every case's samples spread, so each gets max_repeats (twice repeats by default) samples
+    assert all(c.max_repeats == 10 for c in cases)
+    assert p.seconds_most == pytest.approx(p.seconds + 4 * 5 * 1.0 / 2)
     # a machine twice as slow, then the cores shared with two busy programs
     slow = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.04, load=0.0, cores=2)
     assert slow.seconds == pytest.approx(2 * p.seconds)

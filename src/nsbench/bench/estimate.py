@@ -140,6 +140,9 @@ class Plan:
     #: case label -> worker seconds of its warm-up and of one timing round, the mean of its rounds
     #: (the table's, or typical ones)
     weights: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: the estimate if every case's samples spread widely and each gets its extra samples, up to its
+    #: ``max_repeats`` (what a machine whose load changes during the run may cost); NaN without a table
+    seconds_most: float = math.nan
 
     def statement(self) -> str:
         """One sentence for the user before the run starts."""
@@ -153,7 +156,11 @@ class Plan:
         if self.load >= 0.5:
             why += f", load {self.load:.1f} on {self.cores} cores"
         unknown = f"; {self.n_unknown} task(s) of unmeasured cost counted as typical" if self.n_unknown else ""
-        return f"{head}; estimated {_duration(self.seconds)} ({why}{unknown})"
+        most = ""
+        if math.isfinite(self.seconds_most) and _duration(self.seconds_most) != _duration(self.seconds):
+            upper = _duration(self.seconds_most).removesuffix(" (long)").replace("about ", "up to about ")
+            most = f", {upper} if the timings spread"
+        return f"{head}; estimated {_duration(self.seconds)}{most} ({why}{unknown})"
 
 
 def _duration(seconds: float) -> str:
@@ -185,7 +192,7 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
     share_calibration = min(1.0, cores / (load + 1.0))
     share_workers = min(1.0, cores / (load + n_workers))
     speed = calibration * share_calibration / table.calibration
-    unknown, weights, work = 0, {}, 0.0
+    unknown, weights, work, extra = 0, {}, 0.0, 0.0
     for c in cases:
         costs = table.costs(c.label)
         if costs is None:
@@ -195,6 +202,8 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
         timing = first + (c.repeats - 1) * later
         weights[c.label] = (warm, timing / max(1, c.repeats))
         work += warm + timing
+        # a case whose samples spread gets more of them, one per round, up to max_repeats
+        extra += max(0, (getattr(c, "max_repeats", None) or c.repeats) - c.repeats) * later
     known_targets = list(table.target.values())
     typical_target = (statistics.median(known_targets) if known_targets
                       else (table.typical()[0] + table.typical()[2]) * 4)
@@ -210,7 +219,9 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
     seconds += table.overhead * speed / share_calibration
     if report:
         seconds += table.report * speed / share_calibration  # one process
-    return Plan(len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights)
+    seconds_most = seconds + extra * speed / (n_workers * share_workers)
+    return Plan(len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights,
+                seconds_most)
 
 
 # ---------------------------------------------------------------------- the table, from a finished run

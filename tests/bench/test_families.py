@@ -11,15 +11,15 @@ import pytest
 from nsbench.bench.families import families_answer, families_table, has_whole_system
 
 
-def _row(integrator, family, options, err, l2, creep, seq=True, wall=1.0, step_option="h"):
+def _row(integrator, family, options, err, l2, creep, seq=True, wall=1.0, step_option="h", arc=math.nan):
     return {"problem_label": "one-dof/1", "integrator": integrator, "family": family,
             "options": json.dumps(options), "step_option": step_option, "status": "success", "sequence_ok": seq,
             "switch_err_max": err, "state_err_l2": l2, "stick_creep": creep, "wall_time": wall,
-            "reference": "exact"}
+            "reference": "exact", "arc_err": arc}
 
 
 def test_the_table_reads_each_ladder_cost_order_and_creep():
-    rows = [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h)
+    rows = [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h, arc=3.0 * h * h)
             for h in (1e-2, 5e-3, 2.5e-3)]
     # smoothing: error ~ 1/eps**2 against 1/eps (order 2), creep ~ 1/eps
     rows += [_row("smoothing", "smoothing", {"eps": e, "rtol": 1e-8}, 10.0 / e ** 2, 1.0 / e, 3.0 / e,
@@ -31,6 +31,7 @@ def test_the_table_reads_each_ladder_cost_order_and_creep():
     table = families_table(frame, (1e-3, 1e-6)).set_index("integrator")
     mj, sm = table.loc["moreau-jean"], table.loc["smoothing"]
     assert mj["order (switches)"] == pytest.approx(1.0) and mj["order (states)"] == pytest.approx(1.0)
+    assert mj["order (smooth arcs)"] == pytest.approx(2.0) and math.isnan(table.loc["smoothing"]["order (smooth arcs)"])
     # the cheapest configuration with error 0.5 h <= 1e-3 is h = 2e-3 or less: h = 2.5e-3 fails, none reaches
     assert math.isnan(mj["reaches 0.001"])
     assert sm["order (switches)"] == pytest.approx(2.0)  # the eps = 10 row has the wrong sequence: left out
@@ -39,6 +40,54 @@ def test_the_table_reads_each_ladder_cost_order_and_creep():
     assert sm["ladder"] == "eps 1000 .. 10"
     lines = families_answer(families_table(frame, (1e-3, 1e-6)), (1e-3, 1e-6))
     assert any(line.startswith("one-dof/1, smoothing (smoothing): reaches 0.001 in 1 s") for line in lines)
+    assert any("moreau-jean" in line and "order 2.00 on a smooth arc" in line for line in lines)
+
+
+@pytest.fixture(scope="module")
+def one_dof_reference():
+    import numpy as np
+
+    from nsbench import simulate
+    from nsbench.problems import get_problem
+
+    problem = get_problem("one-dof")
+    grid = np.linspace(0.0, 40.0, 401)
+    ref = simulate(problem, "exact", 40.0, t_eval=grid)
+    return problem, grid, ref.events, ref.trajectory[list(problem.state_names)].to_numpy().T
+
+
+def test_the_smooth_arc_is_the_middle_of_the_longest_slipping_arc(one_dof_reference):
+    """On the 1-DOF scenario the stick arcs (the block moving with the belt) are longer than the slip arcs;
+    the window is the middle half of the longest arc on which the block slips, between two exact events."""
+    import numpy as np
+
+    from nsbench.bench.families import smooth_arc_window
+
+    problem, grid, events, dense = one_dof_reference
+    a, b = smooth_arc_window(events["t"].to_numpy(), grid, dense, problem.v0)
+    t = np.sort(events["t"].to_numpy())
+    k = np.searchsorted(t, grid[a])
+    start, end = t[k - 1], t[k]
+    assert events.set_index("t").loc[start, "kind"] == "slip"  # a slip arc, from a break-away to a stick
+    assert start + 0.25 * (end - start) <= grid[a] < grid[b] <= end - 0.25 * (end - start)
+    assert np.all(np.abs(dense[1, a:b + 1] - problem.v0) > 1e-3)
+    assert smooth_arc_window(np.empty(0), grid[:1], dense[:, :1], problem.v0) is None
+
+
+@pytest.mark.parametrize("theta, order", [(0.5, 2.0), (1.0, 1.0)])
+def test_smooth_arc_error_shows_the_order_on_a_smooth_arc(one_dof_reference, theta, order):
+    """moreau-jean is first order across switches but, on an arc without a switch, the trapezoidal rule at
+    theta = 1/2 (order 2) and the implicit Euler at theta = 1 (order 1): arc_err separates them (measured
+    slopes 2.00 and 1.00 over three halvings; the bound 0.15 leaves room for the error's higher terms)."""
+    from nsbench.bench.families import smooth_arc_error
+    from nsbench.bench.metrics import observed_order
+    from nsbench.integrators import get_integrator
+
+    problem, grid, events, dense = one_dof_reference
+    hs = (0.01, 0.005, 0.0025, 0.00125)
+    errs = [smooth_arc_error(problem, get_integrator("moreau-jean", h=h, theta=theta), events, grid, dense,
+                             problem.v0) for h in hs]
+    assert observed_order(hs, errs) == pytest.approx(order, abs=0.15), errs
 
 
 def test_event_driven_results_have_no_family_answer():

@@ -334,6 +334,12 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
 
             metrics["penetration"], metrics["energy_err"] = impact_metrics(
                 problem.energy, dense, reference.y_final, lead.y_final if lead.ok else None)
+        if lead.ok and reference.t_dense.size:
+            # the order on a smooth arc, apart from the switches: one more short run, untimed
+            from nsbench.bench.families import smooth_arc_error
+
+            metrics["arc_err"] = smooth_arc_error(problem, integ, reference.events, reference.t_dense,
+                                                  reference.y_dense, belt)
         if metrics.pop("truncated"):
             row["message"] = (row["message"] + " | " if row["message"] else "") + \
                 "event logs too long: only their starts were aligned"

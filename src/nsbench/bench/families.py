@@ -4,9 +4,11 @@ For each problem and each integrator (one per family in the ``families`` suite)
 :func:`families_table` reads its ladder (the option the suite varies: ``h`` for
 fixed-step and time-stepping methods, ``eta`` for the switch model, ``eps`` for
 smoothing), the cheapest configuration that reaches each switching-time target,
-the observed order of the switching-time error and of the state error along the
-ladder (:func:`nsbench.bench.metrics.observed_order`; for ``eps``, which sharpens
-as it grows, against ``1/eps``), and the stick creep at the ladder's ends.
+the observed order along the ladder (:func:`nsbench.bench.metrics.observed_order`;
+for ``eps``, which sharpens as it grows, against ``1/eps``) fitted separately across
+switches (the switching-time error), on a smooth arc (``arc_err``, measured by
+:func:`smooth_arc_error`) and over the whole trajectory (the state error), and the
+stick creep at the ladder's ends.
 :func:`families_answer` says it in sentences, for the report's opening.
 """
 
@@ -16,6 +18,7 @@ import json
 import math
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from nsbench.bench.metrics import observed_order
@@ -30,7 +33,9 @@ CAPTION = ("One row per problem and integrator. `ladder`: the option the suite v
            "sequence is the reference's with every switching-time error within the target (blank: none "
            "does); `order (switches)`, `order (states)`: the log-log slope of `switch_err_max` and "
            "`state_err_l2` along the ladder, over the configurations with the reference's switch sequence "
-           "(against `1/eps` for smoothing); `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
+           "(against `1/eps` for smoothing); `order (smooth arcs)`: the slope of `arc_err`, the state error "
+           "of a run started on the reference inside its longest slipping arc and stopped before the arc "
+           "ends (no switch), over the successful configurations; `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
            "reference sticks) at the loosest and the tightest configuration; `sequence ok`: configurations with "
            "the reference's switch sequence, of all run.")
 
@@ -86,6 +91,9 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
                                                  rows["switch_err_max"].to_numpy(dtype=float)[sel])
         row["order (states)"] = observed_order([s for s, k in zip(steps, sel) if k],
                                                rows["state_err_l2"].to_numpy(dtype=float)[sel])
+        ran = (rows["status"] == "success").to_numpy()
+        arc = rows["arc_err"].to_numpy(dtype=float) if "arc_err" in rows else np.full(len(rows), math.nan)
+        row["order (smooth arcs)"] = observed_order([s for s, k in zip(steps, ran) if k], arc[ran])
         creep = rows.assign(_v=values).sort_values("_v", ascending=sharpens)["stick_creep"].to_numpy(dtype=float)
         row["creep (loosest)"] = float(creep[0]) if len(creep) else math.nan
         row["creep (tightest)"] = float(creep[-1]) if len(creep) else math.nan
@@ -121,9 +129,64 @@ def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str
             order = r["order (switches)"]
             order_text = f"switching-time error of order {order:.2f} along {r['ladder']}" if math.isfinite(order) \
                 else f"no order measurable along {r['ladder']} (fewer than two configurations with the switch sequence)"
+            arc = r.get("order (smooth arcs)", math.nan)
+            if math.isfinite(arc):
+                order_text += f", order {arc:.2f} on a smooth arc"
             creep = ""
             if math.isfinite(r["creep (tightest)"]):
                 creep = f"; creep {r['creep (loosest)']:.2g} to {r['creep (tightest)']:.2g} while the reference sticks"
             lines.append(f"{problem}, {r['family']} ({r['integrator']}): {cost}; {order_text}{creep}; "
                          f"switch sequence right in {r['sequence ok']} configurations.")
     return lines
+
+
+#: Where the smooth-arc run starts and stops inside its arc: away from both switches by a quarter of the arc.
+ARC_MARGIN = 0.25
+
+
+def smooth_arc_window(ref_times: np.ndarray, t_dense: np.ndarray, y_dense: np.ndarray,
+                      v_belt: float | None) -> tuple[int, int] | None:
+    """Dense indices ``(a, b)`` of the reference's longest smooth arc, its middle half.
+
+    The arcs are the spans between consecutive reference events (and the span's ends); on a belt
+    problem only arcs on which some block slips count (on an all-stuck arc every method of the friction
+    family moves with the belt, so its error says nothing). ``a`` is the first dense point a quarter of
+    the arc after its start, ``b`` the last a quarter before its end; ``None`` if no arc holds two.
+    """
+    if t_dense.size < 2:
+        return None
+    bounds = np.concatenate([[t_dense[0]], np.sort(np.asarray(ref_times, dtype=float)), [t_dense[-1]]])
+    best, best_len = None, 0.0
+    for ta, tb in zip(bounds[:-1], bounds[1:]):
+        length = tb - ta
+        inside = np.flatnonzero((t_dense >= ta + ARC_MARGIN * length) & (t_dense <= tb - ARC_MARGIN * length))
+        if inside.size < 2 or length <= best_len:
+            continue
+        if v_belt is not None:
+            mid = inside[inside.size // 2]
+            if not np.any(np.abs(y_dense[1::2, mid] - v_belt) > 1e-6 * max(1.0, abs(v_belt))):
+                continue
+        best, best_len = (int(inside[0]), int(inside[-1])), length
+    return best
+
+
+def smooth_arc_error(problem, integ, ref_events: pd.DataFrame, t_dense: np.ndarray, y_dense: np.ndarray,
+                     v_belt: float | None) -> float:
+    """``arc_err``: the state error of ``integ`` over a smooth arc, started on the reference.
+
+    The run starts at the reference's dense state at ``a`` and stops at ``b``
+    (:func:`smooth_arc_window`) with no switch in between, so its error is the method's on smooth
+    stepping alone, where the whole-trajectory error mixes in what every switch left. Max-norm of the
+    state error at ``b``; NaN if there is no such arc, or the run fails or switches.
+    """
+    from nsbench.engine import simulate
+
+    window = smooth_arc_window(ref_events["t"].to_numpy() if len(ref_events) else np.empty(0), t_dense, y_dense,
+                               v_belt)
+    if window is None:
+        return math.nan
+    a, b = window
+    run = simulate(problem, integ, float(t_dense[b]), t0=float(t_dense[a]), y0=np.array(y_dense[:, a]))
+    if not run.ok or len(run.events):
+        return math.nan
+    return float(np.max(np.abs(np.asarray(run.y_final, dtype=float) - y_dense[:, b])))

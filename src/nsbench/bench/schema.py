@@ -93,6 +93,10 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("stick_drift", "largest position drift relative to the belt over the same points, "
                     "|x_i(t) - x_i(t_a) - v_belt (t - t_a)| from the interval's first dense point t_a"),
     ("breakaway_err_max", "max |t - t_ref| over the break-away (slip) events of the matched prefix; NaN if none"),
+    ("arc_err", "max-norm state error of a separate run on a smooth arc: started on the reference's dense "
+                "state a quarter into its longest slipping arc, stopped a quarter before the arc's end, so no "
+                "switch is stepped over (nsbench.bench.families.smooth_arc_error); NaN without such an arc, or if "
+                "that run fails or switches"),
     ("penetration", "impact problems: the largest depth below the ground at the dense points, max(0, -x); NaN "
                     "for other problems"),
     ("energy_err", "impact problems: |E(t_end) - E_ref(t_end)|, the energy left at the end against the "

@@ -52,7 +52,7 @@ _FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", 
           "wall_spread", "integrator_time", "cpu_time", "setup_time", "setup_time_timed", "warmup_time",
           "first_divergence_time",
           "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
-          "final_state_err", "state_err_l2", "stick_creep", "stick_drift", "breakaway_err_max", "penetration", "energy_err",
+          "final_state_err", "state_err_l2", "stick_creep", "stick_drift", "breakaway_err_max", "arc_err", "penetration", "energy_err",
           "ref_conditioning", "ref_double_floor", "ref_certainty")
 _BOOL = ("sequence_ok", "at_ref_accuracy")
 #: The integer, float and boolean columns of the schema (the others are text or lists).

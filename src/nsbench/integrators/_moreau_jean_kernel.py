@@ -1,4 +1,5 @@
-"""Compiled loop of ``moreau-jean``: Moreau-Jean time-stepping of the friction chain, one-step problem by enumeration.
+"""Compiled loop of ``moreau-jean``: Moreau-Jean time-stepping of the friction chain, one-step problem by
+enumeration (short chains) or by an active-set iteration (long chains).
 
 Per step of size ``h`` (MODEL.md section 7 with ``h_i = 0``; ``u = v - v_belt``)::
 
@@ -16,6 +17,13 @@ keeping the consistent one with the fewest changes from the previous status and,
 among those, the fewest reversals (a block whose velocity reaches the belt sticks
 if its force allows, as in the event-driven model). A consistent status always
 exists (the solution of the monotone problem with ``fr = fs`` is one).
+
+For long chains (``3^n`` statuses, ``2^n`` inverses) the one-step problem is solved
+instead by a primal-dual active-set iteration (:func:`_active_set`, a semismooth
+Newton method on the complementarity form of the law) started from the previous
+status, each linear step by Thomas' algorithm on the tridiagonal ``W``; it stops at a
+status that passes the same consistency test, and a step that finds none within
+:func:`active_set_cap` solves ends the run (``NOT_CONVERGED``).
 """
 
 from __future__ import annotations
@@ -42,6 +50,8 @@ class StepData(NamedTuple):
     v0: float
     theta: float
     h: float
+    method: int  # ENUMERATION or ACTIVE_SET: how a step whose previous status is inconsistent is solved
+    cap: int  # the active set's most solves per step (active_set_cap)
 
 
 class Trajectory(NamedTuple):
@@ -53,7 +63,14 @@ class Trajectory(NamedTuple):
     counters: np.ndarray  # one-step problems solved, steps that needed the enumeration, candidate solves
 
 #: Outcome codes of :func:`mj_run`.
-OK, BUDGET, NO_STATUS = 0, 1, 2
+OK, BUDGET, NO_STATUS, NOT_CONVERGED = 0, 1, 2, 3
+#: One-step solvers (:attr:`StepData.method`).
+ENUMERATION, ACTIVE_SET = 0, 1
+
+
+def active_set_cap(n: int) -> int:
+    """The iteration cap of the active-set solver on ``n`` blocks: a run whose step needs more ends with a failure."""
+    return 4 * n + 20
 #: Relative slack of the static-friction test (rounding of the solve, about 1e3 ulps).
 STATIC_SLACK = 1e-13
 
@@ -101,11 +118,100 @@ def _candidate(status, W, winv, b, h, v0, fs, fr, vnew, rhs):
 
 
 @jit
+def _tridiagonal_candidate(status, W, b, h, v0, fs, vnew, idx, diag, sup, rhs):
+    """Solve the step for ``status`` on a chain (``W`` tridiagonal): the slipping blocks' rows of
+    ``W v = b + h f`` with the stuck blocks at ``v0``, by Thomas' algorithm on the slipping blocks in order.
+
+    ``W`` restricted to any subset of the blocks is tridiagonal in the subset's order (two slipping blocks
+    that are not neighbours in the chain have no coupling), symmetric and strictly diagonally dominant (the
+    masses add to the springs' weakly dominant rows), so the elimination needs no pivoting: O(n) per solve.
+    """
+    n = status.shape[0]
+    p = 0
+    for i in range(n):
+        if status[i] == 0:
+            vnew[i] = v0
+        else:
+            r = b[i] - h * fs[i] * status[i]
+            if i > 0 and status[i - 1] == 0:
+                r -= W[i, i - 1] * v0
+            if i < n - 1 and status[i + 1] == 0:
+                r -= W[i, i + 1] * v0
+            idx[p] = i
+            rhs[p] = r
+            p += 1
+    # forward elimination: diag[q] the pivot, sup[q] the coupling to the next slipping block
+    for q in range(p):
+        i = idx[q]
+        dq = W[i, i]
+        r = rhs[q]
+        if q > 0:
+            lo = W[i, idx[q - 1]]  # 0 unless the previous slipping block is the chain neighbour
+            if lo != 0.0:
+                mult = lo / diag[q - 1]
+                dq -= mult * sup[q - 1]
+                r -= mult * rhs[q - 1]
+        diag[q] = dq
+        rhs[q] = r
+        sup[q] = W[i, idx[q + 1]] if q < p - 1 else 0.0
+    for q in range(p - 1, -1, -1):
+        x = rhs[q]
+        if q < p - 1:
+            x -= sup[q] * vnew[idx[q + 1]]
+        vnew[idx[q]] = x / diag[q]
+
+
+@jit
+def _active_set(status, W, b, h, v0, fs, fr, work, iwork, cap):
+    """The one-step problem by a primal-dual active-set (semismooth Newton) iteration; ``status`` is updated.
+
+    From ``status`` (the previous step's), solve the linear step; every block that violates the law
+    changes at once: a stuck block whose impulse exceeds the static bound ``h fr`` slips in the direction
+    its load drives it, a slipping block whose new velocity crossed the belt's sticks (a later iteration
+    lets it slip the other way if its load exceeds the bound). It stops at the first consistent status
+    (the enumeration's test, slack :data:`STATIC_SLACK`) and returns the number of solves, or ``-1`` after
+    ``cap`` solves without one (a cycle: the law with ``fr > fs`` is not monotone). ``work`` (4, n) holds
+    the new velocities (row 0) and scratch, ``iwork`` (2, n) scratch.
+    """
+    n = status.shape[0]
+    vnew, diag, sup, rhs = work[0], work[1], work[2], work[3]
+    trial, idx = iwork[0], iwork[1]
+    for i in range(n):
+        trial[i] = status[i]
+    for it in range(cap):
+        _tridiagonal_candidate(trial, W, b, h, v0, fs, vnew, idx, diag, sup, rhs)
+        changed = False
+        for i in range(n):
+            if trial[i] == 0:
+                r = -b[i]  # the friction impulse h f_i the stuck block needs: (W v - b)_i
+                lo = i - 1 if i > 0 else 0
+                hi = i + 2 if i < n - 1 else n
+                for j in range(lo, hi):
+                    r += W[i, j] * vnew[j]
+                if abs(r) > h * fr[i] * (1.0 + STATIC_SLACK):
+                    status[i] = -1 if r > 0.0 else 1  # a friction +fs needed beyond fr: the load drives u < 0
+                    changed = True
+                else:
+                    status[i] = 0
+            elif trial[i] * (vnew[i] - v0) < 0.0:
+                status[i] = 0
+                changed = True
+            else:
+                status[i] = trial[i]
+        if not changed:
+            return it + 1
+        for i in range(n):
+            trial[i] = status[i]
+    return -1
+
+
+@jit
 def mj_run(d, t0, y0, mode0, n_steps, out):
     """Run ``n_steps`` steps of :class:`StepData` ``d`` from ``(t0, y0)`` in status ``mode0``; fill the
     :class:`Trajectory` ``out``; return ``(code, steps done)``."""
     m, c, K, F, w, theta, h = d.m, d.c, d.K, d.F, d.w, d.theta, d.h
     W, winv, v0, fs, fr = d.W, d.winv, d.v0, d.fs, d.fr
+    active = d.method == ACTIVE_SET
     T, Y, MODES, counters = out.T, out.Y, out.MODES, out.counters
     n = m.shape[0]
     x = np.empty(n)
@@ -116,18 +222,21 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
     status = mode0.copy()
     trial = np.empty(n, np.int64)
     best = np.empty(n, np.int64)
-    vnew = np.empty(n)
+    work = np.empty((4, n))  # the active set's: new velocities (row 0, shared with the enumeration) and scratch
+    iwork = np.empty((2, n), np.int64)
+    vnew = work[0]
     vbest = np.empty(n)
     b = np.empty(n)
     xt = np.empty(n)
     rhs = np.empty(n)
+    cap = d.cap
     T[0] = t0
     for i in range(2 * n):
         Y[0, i] = y0[i]
     for i in range(n):
         MODES[0, i] = status[i]
     last = n - 1
-    n_codes = 3 ** n
+    n_codes = 0 if active else 3 ** n
     a1 = h * theta * (1.0 - theta)
     for k in range(n_steps):
         t = t0 + k * h
@@ -136,14 +245,25 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
             xt[i] = x[i] + a1 * v[i]
         for i in range(n):
             kx = 0.0
-            for j in range(n):
+            for j in range(i - 1 if i > 0 else 0, i + 2 if i < n - 1 else n):  # K is the chain's: tridiagonal
                 kx += K[i, j] * xt[j]
             b[i] = m[i] * v[i] - h * ((1.0 - theta) * c[i] * v[i] + kx)
         if F != 0.0:
             b[last] += h * F * (theta * np.cos(w * t1) + (1.0 - theta) * np.cos(w * t))
         counters[0] += 1
-        counters[2] += 1
-        if not _candidate(status, W, winv, b, h, v0, fs, fr, vnew, rhs):
+        first_ok = True
+        if active:
+            solves = _active_set(status, W, b, h, v0, fs, fr, work, iwork, cap)
+            if solves < 0:
+                counters[2] += cap
+                return NOT_CONVERGED, k
+            counters[2] += solves
+            if solves > 1:
+                counters[1] += 1
+        else:
+            counters[2] += 1
+            first_ok = _candidate(status, W, winv, b, h, v0, fs, fr, vnew, rhs)
+        if not first_ok:
             counters[1] += 1
             found = False
             best_changes, best_rev = n + 1, n + 1
@@ -184,10 +304,16 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
     return OK, n_steps
 
 
-def operators(m, c, K, h: float, theta: float):
-    """``W`` and, for every subset ``L`` of slipping blocks (bit mask), the inverse of ``W[L, L]`` embedded in n x n."""
+def operators(m, c, K, h: float, theta: float, inverses: bool = True):
+    """``W`` and, for every subset ``L`` of slipping blocks (bit mask), the inverse of ``W[L, L]`` embedded in n x n.
+
+    ``inverses=False`` (the active-set solver, which solves the tridiagonal systems as it goes) skips the
+    ``2^n`` inverses and returns a placeholder for them.
+    """
     n = len(m)
     W = np.diag(m) + h * theta * np.diag(c) + h * h * theta * theta * K
+    if not inverses:
+        return W, np.zeros((1, 1, 1))
     winv = np.zeros((2 ** n, n, n))
     for mask in range(1, 2 ** n):
         idx = [i for i in range(n) if mask >> i & 1]

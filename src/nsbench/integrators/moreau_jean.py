@@ -4,18 +4,19 @@ A fixed step ``h`` and the theta-method (``theta`` = 1/2 by default) on position
 and velocities; the friction *impulse* of each step obeys the set-valued
 Coulomb law with stiction at the step's new velocity, and that one-step problem
 is solved exactly (to rounding) by enumerating the stick/slip status of the
-blocks (:mod:`nsbench.integrators._moreau_jean_kernel`). No event is located: the
+blocks up to :data:`MAX_BLOCKS` blocks, and by an active-set (semismooth Newton)
+iteration on longer chains (option ``one_step``;
+:mod:`nsbench.integrators._moreau_jean_kernel`). No event is located: the
 switches are inferred afterwards from the status of the steps
 (:mod:`nsbench.hybrid.inference`), so switching times are first order in ``h``.
 On a smooth arc (no status change) the scheme is the trapezoidal rule for
 ``theta = 1/2`` (order 2) and first order otherwise.
 
 Runs the friction family with linear springs (``one-dof``, ``two-dof``,
-``chain`` up to :data:`MAX_BLOCKS` blocks, ``block-on-ground``) and the bouncing ball
+``chain``, ``block-on-ground``) and the bouncing ball
 (Newton's impact law at the velocity level, the impulses reported for the event
 inference: :func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); refuses cubic
-springs (the one-step problem would need a Newton iteration, not implemented)
-and longer chains (the enumeration grows as ``3^n``; no LCP solver yet).
+springs (the one-step problem would need a Newton iteration, not implemented).
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ from nsbench.status import Status
 
 #: Longest chain the enumeration of the one-step problem accepts (3**8 = 6561 statuses at a switching step).
 MAX_BLOCKS = 8
+#: Values of option ``one_step``: ``auto`` is the enumeration up to :data:`MAX_BLOCKS` blocks, the active set above.
+ONE_STEP = ("auto", "enumeration", "active-set")
 
 
 def stiffness_matrix(k) -> np.ndarray:
@@ -55,7 +58,7 @@ def uniform_steps(t0: float, t_end: float, h: float) -> tuple[int, float]:
 
 
 class MoreauJean(WholeSystem):
-    """Moreau-Jean time-stepping: theta-method, fixed step h, friction impulses by enumerating stick/slip statuses."""
+    """Moreau-Jean time-stepping: theta-method, fixed step h, friction impulses by enumeration or active set."""
 
     name = "moreau-jean"
     capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
@@ -64,6 +67,10 @@ class MoreauJean(WholeSystem):
         "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
         "theta": Option(0.5, float, lower=0.0, upper=1.0,
                         doc="theta of the theta-method (1/2: trapezoidal on smooth arcs, 1: implicit Euler)"),
+        "one_step": Option("auto", str, choices=ONE_STEP,
+                           doc="solver of the one-step friction problem: enumeration of the statuses (chains up to "
+                               f"{MAX_BLOCKS} blocks), active-set iteration (any chain), or auto (the first where "
+                               "it applies)"),
     }
     accuracy_levels = ({"h": 1e-2}, {"h": 1e-3}, {"h": 1e-4})
     known_gaps = {
@@ -92,10 +99,10 @@ class MoreauJean(WholeSystem):
             raise UnsupportedProblemError(f"{self.name}: of the impact problems it knows the bouncing ball only, "
                                           f"not {problem.name}")
         nb = getattr(problem, "n_blocks", 0)
-        if nb > MAX_BLOCKS:
+        if nb > MAX_BLOCKS and self.settings["one_step"] == "enumeration":
             raise UnsupportedProblemError(
-                f"{self.name}: the one-step friction problem is solved by enumerating 3^n statuses, for chains of "
-                f"at most {MAX_BLOCKS} blocks; {problem.name} has {nb} (no LCP or Newton solver yet)")
+                f"{self.name}: one_step = 'enumeration' enumerates 3^n statuses, for chains of at most "
+                f"{MAX_BLOCKS} blocks; {problem.name} has {nb} (one_step = 'active-set' or 'auto' runs it)")
         from nsbench.integrators import _moreau_jean_kernel as kern
 
         self._kern = kern
@@ -110,12 +117,22 @@ class MoreauJean(WholeSystem):
             c = problem.coefficients
             m, cc, k = (np.array(a, dtype=float) for a in (c.m, c.c, c.k))
             K = stiffness_matrix(k)
-            W, winv = self._kern.operators(m, cc, K, h, self.settings["theta"])
+            method = self._method(len(m))
+            W, winv = self._kern.operators(m, cc, K, h, self.settings["theta"],
+                                           inverses=method == self._kern.ENUMERATION)
             cache.clear()
             cache[key] = self._kern.StepData(W, winv, m, cc, K, np.array(c.fs, dtype=float),
                                              np.array(c.fr, dtype=float), float(c.F), float(c.w), float(c.v0),
-                                             float(self.settings["theta"]), float(h))
+                                             float(self.settings["theta"]), float(h), method,
+                                             self._kern.active_set_cap(len(m)))
         return cache[key]
+
+    def _method(self, n_blocks: int) -> int:
+        """The one-step solver's code for a chain of ``n_blocks`` blocks."""
+        choice = self.settings["one_step"]
+        if choice == "enumeration" or (choice == "auto" and n_blocks <= MAX_BLOCKS):
+            return self._kern.ENUMERATION
+        return self._kern.ACTIVE_SET
 
     def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
         """The bouncing ball (:func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); impacts as ``impulses``."""
@@ -166,12 +183,17 @@ class MoreauJean(WholeSystem):
         if code == self._kern.NO_STATUS:
             status = Status.INTEGRATOR_FAILURE
             message = f"no consistent stick/slip status at step {done} (t = {T[done]:.6g})"
+        elif code == self._kern.NOT_CONVERGED:
+            status = Status.INTEGRATOR_FAILURE
+            message = (f"the active-set solver found no consistent stick/slip status within "
+                       f"{self._kern.active_set_cap(nb)} solves at step {done} (t = {T[done]:.6g})")
         elif budget:
             status, message = Status.BUDGET_EXHAUSTED, (f"{n_steps} steps of h = {h:.3g} needed, budget "
                                                         f"{request.max_steps}; stopped at t = {T[done]:.6g}")
         if done == n_steps and status.ok:
             T[done] = request.t_end  # the last step ends exactly at t_end (t0 + n h may round off it)
-        extra = {"one_step_problems": int(counters[0]), "enumerations": int(counters[1]),
+        searched = "enumerations" if data.method == self._kern.ENUMERATION else "active_set_searches"
+        extra = {"one_step_problems": int(counters[0]), searched: int(counters[1]),
                  "candidate_solves": int(counters[2])}
         return SystemResult(t=T[:done + 1], y=Y[:done + 1], modes=modes[:done + 1], nfev=0, njev=0, nsteps=int(done),
                             extra=extra, status=status, message=message)

@@ -1,4 +1,4 @@
-"""``smoothing``: the friction law regularised, then a stiff ODE solver (scipy Radau or BDF).
+"""``smoothing``: the friction law regularised, then a stiff ODE solver (scipy Radau or BDF, SUNDIALS CVODE BDF).
 
 The set-valued ``sign(v - v_belt)`` of Coulomb friction is replaced by a smooth
 function of the relative velocity ``u = v - v_belt``: the friction force on block
@@ -13,10 +13,12 @@ reaches ``fs`` instead of the static limit ``fr``. nsbench reads the stick/slip
 status off the velocities with the band ``|u| <= band`` (default ``10/eps``, where
 arctan's force is 94% of ``fs``; :mod:`nsbench.hybrid.inference`).
 
-The step loop is scipy's (``Radau`` by default, ``BDF`` as option ``solver``) with
-the analytic Jacobian (the problem's slip-mode Jacobian plus the regularised
-friction's derivative); each step is returned with three points of the solver's
-dense output inside it. Any friction problem, cubic springs included.
+The step loop is scipy's (``Radau`` by default, ``BDF``) or SUNDIALS CVODE's
+variable-order BDF through scikit-sundae (``CVODE-BDF``), chosen by option
+``solver``, always with the analytic Jacobian (the problem's slip-mode Jacobian
+plus the regularised friction's derivative); each step is returned with three
+points of the solver's dense output inside it. Any friction problem, cubic
+springs included.
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ def friction(law: str, fs: np.ndarray, eps: float, u: np.ndarray) -> tuple[np.nd
 
 
 class Smoothing(WholeSystem):
-    """Regularised friction (arctan or tanh, sharpness eps) on scipy's Radau or BDF with the analytic Jacobian."""
+    """Regularised friction (arctan or tanh, sharpness eps) on scipy Radau/BDF or CVODE BDF, analytic Jacobian."""
 
     name = "smoothing"
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
@@ -50,7 +52,8 @@ class Smoothing(WholeSystem):
     options = {
         "eps": Option(1e3, float, lower=0.0, doc="sharpness of the regularisation (inverse velocity units)"),
         "law": Option("arctan", str, choices=LAWS, doc="the smooth sign: (2/pi) arctan or tanh"),
-        "solver": Option("Radau", str, choices=("Radau", "BDF"), doc="the stiff scipy solver"),
+        "solver": Option("Radau", str, choices=("Radau", "BDF", "CVODE-BDF"),
+                         doc="the stiff solver: scipy Radau or BDF, or SUNDIALS CVODE BDF (scikit-sundae)"),
         "rtol": Option(1e-8, float, lower=0.0, upper=0.1, doc="relative tolerance"),
         "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
         "band": Option(None, float, lower=0.0, nullable=True,
@@ -97,8 +100,12 @@ class Smoothing(WholeSystem):
         return fun, jac
 
     def integrate(self, request: SystemRequest) -> SystemResult:
-        from nsbench.integrators._whole_scipy import run_scipy
-
         fun, jac = self._fields(request.problem)
         s = self.settings
+        if s["solver"].startswith("CVODE"):
+            from nsbench.integrators._whole_sundials import CVODE_METHODS, run_cvode
+
+            return run_cvode(request, fun, jac, CVODE_METHODS[s["solver"]], s["rtol"], s["atol"], refine=4)
+        from nsbench.integrators._whole_scipy import run_scipy
+
         return run_scipy(request, fun, jac, s["solver"], s["rtol"], s["atol"], refine=4)

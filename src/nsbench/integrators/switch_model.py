@@ -1,4 +1,4 @@
-"""``switch-model``: Leine's switch model of Coulomb friction with stiction, on a scipy ODE solver.
+"""``switch-model``: Leine's switch model of Coulomb friction with stiction, on a scipy or SUNDIALS ODE solver.
 
 Leine, van Campen, de Kraker & van den Steen, "Stick-slip vibrations induced by
 alternate friction models", Nonlinear Dynamics 16 (1998) 41-54. A thin band
@@ -18,8 +18,10 @@ The method knows its stick set, so it reports the mode of each point it returns
 edges (``eta`` is its stick band). ``eta`` is in the problem's velocity units.
 The right-hand side is discontinuous at the band's edges: the solver's error
 control (option ``solver``: scipy ``RK45`` by default, as Leine used an explicit
-Runge-Kutta, or ``Radau``/``BDF``/``DOP853``) shortens the steps there. Any friction
-problem, cubic springs included.
+Runge-Kutta, or ``Radau``/``BDF``/``DOP853``, or SUNDIALS CVODE through scikit-sundae,
+``CVODE-BDF``/``CVODE-Adams``, with a difference-quotient Jacobian: the field has no
+Jacobian across the band's edges) shortens the steps there. Any friction problem,
+cubic springs included.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from nsbench.integrators.whole import SystemRequest, SystemResult, WholeSystem
 
 
 class SwitchModel(WholeSystem):
-    """Leine's switch model: a stick band |v - v_belt| <= eta with force-based switching, on a scipy ODE solver."""
+    """Leine's switch model: a stick band |v - v_belt| <= eta with force-based switching, on scipy or CVODE."""
 
     name = "switch-model"
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
@@ -39,7 +41,8 @@ class SwitchModel(WholeSystem):
                                 step_option="rtol", family="switch-model")
     options = {
         "eta": Option(1e-4, float, lower=0.0, doc="half-width of the stick band (velocity units)"),
-        "solver": Option("RK45", str, choices=("RK45", "DOP853", "Radau", "BDF"), doc="the scipy ODE solver"),
+        "solver": Option("RK45", str, choices=("RK45", "DOP853", "Radau", "BDF", "CVODE-BDF", "CVODE-Adams"),
+                         doc="the ODE solver: scipy's, or SUNDIALS CVODE (scikit-sundae)"),
         "rtol": Option(1e-8, float, lower=0.0, upper=0.1, doc="relative tolerance"),
         "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
     }
@@ -91,8 +94,13 @@ class SwitchModel(WholeSystem):
         return fun, modes_of
 
     def integrate(self, request: SystemRequest) -> SystemResult:
-        from nsbench.integrators._whole_scipy import run_scipy
-
         fun, modes_of = self._law(request.problem)
         s = self.settings
+        if s["solver"].startswith("CVODE"):
+            from nsbench.integrators._whole_sundials import CVODE_METHODS, run_cvode
+
+            return run_cvode(request, fun, None, CVODE_METHODS[s["solver"]], s["rtol"], s["atol"], refine=4,
+                             modes_of=modes_of)
+        from nsbench.integrators._whole_scipy import run_scipy
+
         return run_scipy(request, fun, None, s["solver"], s["rtol"], s["atol"], refine=4, modes_of=modes_of)

@@ -330,7 +330,7 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     against commit, one row of panels per problem; flagged steps circled in red. Saved as PNG, SVG, PDF."""
     import numpy as np
 
-    from nsbench.bench.figures import ERROR_FLOOR, Figure, _pyplot, _styles, slug
+    from nsbench.bench.figures import ERROR_FLOOR, _pyplot, _styles, slug
 
     plt = _pyplot()
     problems = sorted(tab["problem"].unique())

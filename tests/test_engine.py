@@ -252,5 +252,22 @@ def test_budgets_and_the_storm_span_are_checked(case1, kw, fragment):
         nsbench.simulate(case1, "exact", 10.0, **kw)
 
 
+@pytest.mark.parametrize("value", [1, -1, 2.0, True, "100", 10**8])
+def test_check_points_are_checked(case1, value):
+    with pytest.raises(nsbench.ConfigError, match=re.escape(f"check_points = {value!r} must be 0")):
+        nsbench.simulate(case1, "exact", 10.0, check_points=value)
+
+
+def test_check_points_leave_a_clean_run_as_it_is(case2):
+    """Check points are states the core looks at, not output: the log and the trajectory are unchanged."""
+    grid = np.linspace(0.0, 40.0, 41)
+    plain = nsbench.simulate(case2, "scipy-dop853", 40.0, t_eval=grid)
+    checked = nsbench.simulate(case2, "scipy-dop853", 40.0, t_eval=grid, check_points=4001)
+    assert plain.ok and checked.ok
+    assert checked.events[["kind", "block"]].equals(plain.events[["kind", "block"]])
+    assert np.allclose(checked.events["t"], plain.events["t"], rtol=0, atol=1e-6)  # same tolerance, same events
+    assert checked.trajectory["t"].tolist() == grid.tolist() and len(checked.sections) == 0
+
+
 def test_budgets_of_numpy_integers_are_accepted(case1):
     assert nsbench.simulate(case1, "exact", 10.0, max_steps=np.int64(1000), zeno_events=np.int32(8)).ok

@@ -81,6 +81,20 @@ def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span:
                               "problem's time scale)")
 
 
+#: Largest ``check_points`` (as many dense states as ``nsbench simulate --samples`` allows).
+MAX_CHECK_POINTS = 10**7
+
+
+def _check_points(value: Any) -> None:
+    """``check_points`` is 0 or a whole number from 2 to :data:`MAX_CHECK_POINTS`."""
+    import numbers
+
+    whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not (whole and (value == 0 or 2 <= value <= MAX_CHECK_POINTS)):
+        raise ConfigError(f"check_points = {value!r} must be 0 (no check points) or a whole number from 2 to "
+                          f"{MAX_CHECK_POINTS} (nsbench.engine.MAX_CHECK_POINTS)")
+
+
 def _frames(problem: HybridProblem, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
             strobe_names: list[str | None], state_sections: Sequence[StateSection]):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
@@ -141,6 +155,7 @@ def simulate(
     zeno_events: int = 64,
     zeno_span: float | None = None,
     accumulation: int = 8,
+    check_points: int = 0,
 ) -> SimulationResult:
     """Integrate ``problem`` with ``integrator`` over ``[t0, t_end]`` through every event.
 
@@ -175,6 +190,15 @@ def simulate(
         geometrically, the events accumulate (Zeno): the accumulation time is
         extrapolated and the problem's declared limit behaviour applied there,
         with an event of its own (the bouncing ball comes to rest). 0: never.
+    check_points
+        Evenly spaced times in ``[t0, t_end]`` (a whole number, 0 or from 2 to
+        :data:`MAX_CHECK_POINTS`) at which the integrator's dense states are computed
+        but not returned, so that the core checks each guard's sign there as at
+        ``t_eval``: a guard on its wrong side and back on its own side inside one
+        arc ends the run with ``EVENT_MISSED`` (docs/core.md, "Missed events").
+        Without ``t_eval`` and with 0 (the default) no state inside a step is
+        seen, and a crossing pair inside one step goes unnoticed.
+        ``nsbench simulate`` passes its ``--samples``.
 
     Returns
     -------
@@ -188,6 +212,7 @@ def simulate(
         integrator that refuses the problem.
     """
     _check_budgets(max_steps, max_events, zeno_events, zeno_span)
+    _check_points(check_points)
     integ = _resolve_integrator(integrator, options)
     y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
     grid = np.empty(0) if t_eval is None else np.asarray(list(t_eval), dtype=float).ravel()
@@ -209,6 +234,8 @@ def simulate(
         for ts in s.times(t0, t_end):
             labels.setdefault(float(ts), []).append(s.name)
     dense_times = np.union1d(grid, np.array(sorted(labels), dtype=float))
+    if check_points:  # states only the core's missed-crossing check sees (traj_mask leaves them out)
+        dense_times = np.union1d(dense_times, np.linspace(t0, t_end, int(check_points)))
     traj_mask = np.isin(dense_times, grid)
     strobe_names = ["\n".join(labels[float(ts)]) if float(ts) in labels else None for ts in dense_times]
 

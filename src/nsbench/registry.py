@@ -140,7 +140,7 @@ def load(kind: Kind, name: str) -> Any:
 
 def availability(kind: Kind) -> list[tuple[Entry, str | None]]:
     """Each entry with ``None`` if it imports, else the reason it does not."""
-    out = []
+    out: list[tuple[Entry, str | None]] = []
     for entry in entries(kind):
         try:
             load(kind, entry.name)

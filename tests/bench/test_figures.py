@@ -7,7 +7,6 @@ from dataclasses import replace
 
 import matplotlib
 import numpy as np
-import pandas as pd
 import pytest
 from matplotlib.colors import to_rgba
 

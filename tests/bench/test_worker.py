@@ -8,7 +8,6 @@ which a resumed run kept as the case's result.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time

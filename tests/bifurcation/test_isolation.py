@@ -77,7 +77,6 @@ def test_the_point_limit_bounds_a_workers_first_run_too(tmp_path, faulty_registe
 
 
 def test_a_setup_that_never_ends_fails_the_sweep_within_its_limit(tmp_path, faulty_registered, capsys):
-    from nsbench.cli import main
 
     # in the command's own process too: the sweep's early check never runs a plug-in's setup
     frame = run_sweep(SweepSpec(integrator="hanging-setup-test", **SPEC), tmp_path / "s", workers=2,

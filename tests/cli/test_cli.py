@@ -33,6 +33,28 @@ def test_simulate_trajectory_and_plot(tmp_path):
     assert png.stat().st_size > 10_000
 
 
+def test_simulate_never_reports_success_over_a_stepped_over_crossing(capsys):
+    """dop853 at its loosest level steps over block 1's stick near t = 25.68 on case 3 and the slip after
+    it (the relative velocity dips across zero and back inside one step). Without a trajectory asked for,
+    the run used to say 'success' with 20 of the 22 events; the samples are always checked now."""
+    code = main(["simulate", "two-dof", "--case", "3", "--integrator", "scipy-dop853", "--rtol", "1e-6",
+                 "--atol", "1e-8", "--t-end", "40"])
+    out, err = capsys.readouterr()
+    assert code == 1 and "status      event missed: a guard of mode slip-|slip- was on its wrong side" in out
+    assert err.startswith("nsbench: simulate: the run ended at t = ") and "event missed" in err
+    t_final = float(out.split("t_final")[1].split()[0])
+    # the flag is true: a run six orders tighter has a stick of block 1 before the reported time, after the
+    # last event the loose run found
+    from nsbench import get_problem, simulate
+
+    problem = get_problem("two-dof", case=3)
+    loose = simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-6, "atol": 1e-8}, check_points=3001)
+    tight = simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-12, "atol": 1e-14}).events
+    assert loose.status.value == "event missed" and loose.t_final == pytest.approx(t_final, abs=1e-4)
+    between = tight[(tight["t"] > loose.events["t"].iloc[-1]) & (tight["t"] <= t_final)]
+    assert ("stick", 1) in list(zip(between["kind"], between["block"]))
+
+
 def test_simulate_dimensional_units(tmp_path):
     out = tmp_path / "ev.csv"
     code = main(["simulate", "two-dof", "--case", "1", "--dimensional", "--param", "m1=4",

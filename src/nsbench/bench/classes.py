@@ -97,7 +97,7 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
             wins = sum(costs[p][first] == best[p] for p in graded)
             # where another method is cheaper, is the difference within the timing noise (summary.tied_with)?
             ties = sum(costs[p][first] != best[p] and tied_with(
-                samples[p][min(costs[p], key=costs[p].get)], samples[p][first], CONFIDENCE) for p in graded)
+                samples[p][min(costs[p], key=costs[p].__getitem__)], samples[p][first], CONFIDENCE) for p in graded)
             won = f"{wins} of {len(graded)}" + (f" (tied on {ties} more)" if ties else "")
             row.update(cheapest=first, ratio=f"{ratio[first]:.2f}", wins=won,
                        runner_up=f"{order[1]} ({ratio[order[1]]:.2f})" if len(order) > 1 else "")

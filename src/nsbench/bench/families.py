@@ -116,7 +116,7 @@ def _range(option: str, values: list[float]) -> str:
 
 def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str]:
     """The answer per family in sentences: cost to the targets, creep, observed order."""
-    lines = []
+    lines: list[str] = []
     if not len(table):
         return lines
     for problem, rows in table.groupby("problem", sort=False):

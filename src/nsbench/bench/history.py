@@ -330,7 +330,7 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     against commit, one row of panels per problem; flagged steps circled in red. Saved as PNG, SVG, PDF."""
     import numpy as np
 
-    from nsbench.bench.figures import ERROR_FLOOR, Figure, _pyplot, _styles, slug
+    from nsbench.bench.figures import ERROR_FLOOR, _pyplot, _styles, slug
 
     plt = _pyplot()
     problems = sorted(tab["problem"].unique())
@@ -361,7 +361,7 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     for ax in axes[-1]:
         ax.set_xticks(commits["order"].to_numpy(), commits["commit"].tolist(), rotation=45, ha="right", fontsize=7)
         ax.set_xlabel("commit (oldest first)")
-    entries_ = {}
+    entries_: dict[str, Any] = {}
     for ax in axes[:, 0]:
         for handle, text in zip(*ax.get_legend_handles_labels()):
             entries_.setdefault(text, handle)

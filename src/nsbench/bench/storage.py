@@ -319,8 +319,8 @@ def read_provenance(path: str | Path) -> dict[str, Any]:
     if p.suffix == ".csv":
         meta, _ = _split_csv(p.read_text())
         return {k: v for k, v in meta.items() if k not in (CSV_ROWS, CSV_SHA256)}
-    meta = pq.read_schema(p).metadata or {}
-    return json.loads(meta[PROVENANCE_KEY]) if PROVENANCE_KEY in meta else {}
+    stored: dict[bytes, bytes] = pq.read_schema(p).metadata or {}
+    return json.loads(stored[PROVENANCE_KEY]) if PROVENANCE_KEY in stored else {}
 
 
 def load_results(path: str | Path) -> pd.DataFrame:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Sequence
+from typing import NoReturn, Sequence
 
 from nsbench.errors import NsbenchError
 
@@ -63,7 +63,7 @@ class Parser(argparse.ArgumentParser):
         self.register("action", "store", _Once)
         self.register("action", "append", _Append)
 
-    def error(self, message: str):  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 

@@ -173,7 +173,6 @@ def infer_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: 
     kinds = problem.event_kinds
     code = {name: kinds.index(name) for name in ("stick", "slip", "reverse")}
     v0 = problem.v0
-    rows: list[tuple[float, int, int, np.ndarray]] = []
     changed = np.flatnonzero(np.any(m[1:] != m[:-1], axis=1)) if len(t) > 1 else np.zeros(0, np.int64)
     running = m[0].copy()
     out_t, out_k, out_b, out_y, out_m = [], [], [], [], []

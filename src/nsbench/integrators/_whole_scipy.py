@@ -9,7 +9,7 @@ the states at ``t_eval`` come from the dense output.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -29,7 +29,7 @@ def run_scipy(request: SystemRequest, fun: Callable, jac: Callable | None, metho
     from scipy import integrate
 
     cls = getattr(integrate, method)
-    kwargs = {"rtol": rtol, "atol": atol, "max_step": max_step}
+    kwargs: dict[str, Any] = {"rtol": rtol, "atol": atol, "max_step": max_step}
     if jac is not None and method in ("Radau", "BDF", "LSODA"):
         kwargs["jac"] = jac
     calls = {"fun": 0, "jac": 0}

@@ -451,7 +451,7 @@ def kernel_advance(integ: CompiledArcs, request: ArcRequest) -> ArcResult:
         code = Status.INTEGRATOR_FAILURE
         message = kernel.failure(out.status, out.t) if kernel.failure else f"failure code {out.status}"
     hits = [SectionHit(k, t, y) for k, t, y in out.hits]
-    extra = {name: int(out.counters[abi.X0 + k]) for k, name in enumerate(kernel.counters)}
+    extra: dict[str, float] = {name: int(out.counters[abi.X0 + k]) for k, name in enumerate(kernel.counters)}
     return ArcResult(t=out.t, y=out.y, fired=None if out.fired < 0 else out.fired, y_eval=out.y_eval,
                      section_hits=hits, nfev=int(out.counters[abi.NFEV]), njev=int(out.counters[abi.NJEV]),
                      nsteps=int(out.counters[abi.NSTEPS]), extra=extra, status=code, message=message,

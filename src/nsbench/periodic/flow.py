@@ -30,9 +30,9 @@ from nsbench.errors import ConfigError
 from nsbench.problems.modes import STICK, Guard, Mode
 
 #: Integrator of the flow by default: exact event times for linear problems.
-LINEAR_FLOW = ("exact", {})
+LINEAR_FLOW: tuple[str, dict[str, Any]] = ("exact", {})
 #: heyoka in double at its own epsilon (event times to a few ulp) for cubic springs.
-NONLINEAR_FLOW = ("heyoka", {})
+NONLINEAR_FLOW: tuple[str, dict[str, Any]] = ("heyoka", {})
 
 
 @dataclass(frozen=True)

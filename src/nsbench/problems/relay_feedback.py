@@ -135,7 +135,8 @@ def symmetric_orbit(problem: RelayFeedback, guess: tuple[float, float, float]) -
     sol, info, ok, msg = fsolve(lambda v: _half_period_residual(problem, *v), guess, xtol=1e-13, full_output=True)
     if not np.abs(info["fvec"]).max() <= 1e-12:
         raise ValueError(f"{NAME}: no symmetric orbit found from {guess}: {msg}")
-    return tuple(float(v) for v in sol)
+    a, b, c = (float(v) for v in sol)
+    return a, b, c
 
 
 def sliding_bifurcation(guess: tuple[float, float, float], **params: Any) -> tuple[float, float, float]:
@@ -157,4 +158,5 @@ def sliding_bifurcation(guess: tuple[float, float, float], **params: Any) -> tup
     sol, info, ok, msg = fsolve(residual, guess, xtol=1e-13, full_output=True)
     if not np.abs(info["fvec"]).max() <= 1e-12:
         raise ValueError(f"{NAME}: no sliding bifurcation found from {guess}: {msg}")
-    return tuple(float(v) for v in sol)
+    a, b, c = (float(v) for v in sol)
+    return a, b, c

@@ -163,7 +163,8 @@ def test_an_accumulation_over_time_is_named_as_such():
 
 @pytest.mark.parametrize("bad, fragment", [(_Diverges, "non-finite"), (_Raises, "RuntimeError: boom")])
 def test_integrator_failures_become_statuses(case1, bad, fragment):
-    res = nsbench.simulate(case1, bad(), 10.0)
+    # no check points: these fakes return no dense states, which the protocol check would name first
+    res = nsbench.simulate(case1, bad(), 10.0, check_points=0)
     assert res.status is Status.INTEGRATOR_FAILURE
     assert fragment in res.message
 
@@ -271,3 +272,23 @@ def test_check_points_leave_a_clean_run_as_it_is(case2):
 
 def test_budgets_of_numpy_integers_are_accepted(case1):
     assert nsbench.simulate(case1, "exact", 10.0, max_steps=np.int64(1000), zeno_events=np.int32(8)).ok
+
+
+def test_a_plain_call_is_checked_for_crossings_stepped_over_by_default():
+    """``simulate`` without ``t_eval`` checks its guards at DEFAULT_CHECK_POINTS states: the loose dop853 run
+    of 2-DOF case 3 that steps over a stick (tests/cli/test_cli.py) ends 'event missed', not 'success';
+    ``check_points=0`` is the unchecked run, which reports success with events missing."""
+    from nsbench.engine import DEFAULT_CHECK_POINTS
+
+    problem = nsbench.get_problem("two-dof", case=3)
+    loose = {"rtol": 1e-6, "atol": 1e-8}
+    default = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose)
+    explicit = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose, check_points=DEFAULT_CHECK_POINTS)
+    unchecked = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose, check_points=0)
+    assert default.status.value == "event missed" and default.t_final == explicit.t_final
+    assert unchecked.ok
+    # the unchecked success is false: a run six orders tighter has a stick of block 1 after the loose run's
+    # last event and before the checked run's end
+    tight = nsbench.simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-12, "atol": 1e-14}).events
+    between = tight[(tight["t"] > default.events["t"].iloc[-1]) & (tight["t"] <= default.t_final)]
+    assert ("stick", 1) in list(zip(between["kind"], between["block"]))

@@ -83,6 +83,8 @@ def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span:
 
 #: Largest ``check_points`` (as many dense states as ``nsbench simulate --samples`` allows).
 MAX_CHECK_POINTS = 10**7
+#: ``check_points`` of a run given no ``t_eval`` (the default of ``nsbench simulate --samples``).
+DEFAULT_CHECK_POINTS = 3001
 
 
 def _check_points(value: Any) -> None:
@@ -155,7 +157,7 @@ def simulate(
     zeno_events: int = 64,
     zeno_span: float | None = None,
     accumulation: int = 8,
-    check_points: int = 0,
+    check_points: int | None = None,
 ) -> SimulationResult:
     """Integrate ``problem`` with ``integrator`` over ``[t0, t_end]`` through every event.
 
@@ -196,8 +198,12 @@ def simulate(
         but not returned, so that the core checks each guard's sign there as at
         ``t_eval``: a guard on its wrong side and back on its own side inside one
         arc ends the run with ``EVENT_MISSED`` (docs/core.md, "Missed events").
-        Without ``t_eval`` and with 0 (the default) no state inside a step is
-        seen, and a crossing pair inside one step goes unnoticed.
+        ``None`` (the default): :data:`DEFAULT_CHECK_POINTS` when no ``t_eval`` is
+        given, none beside a ``t_eval`` (whose states are checked). With 0 and
+        without ``t_eval`` no state inside a step is seen, and a crossing pair
+        inside one step goes unnoticed; callers that compare the run with a
+        reference themselves (the bench) pass 0 so that only the integrator's
+        work is timed.
         ``nsbench simulate`` passes its ``--samples``.
 
     Returns
@@ -212,6 +218,8 @@ def simulate(
         integrator that refuses the problem.
     """
     _check_budgets(max_steps, max_events, zeno_events, zeno_span)
+    if check_points is None:
+        check_points = DEFAULT_CHECK_POINTS if t_eval is None and float(t_end) > float(t0) else 0
     _check_points(check_points)
     integ = _resolve_integrator(integrator, options)
     y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)

@@ -186,7 +186,8 @@ def smooth_arc_error(problem, integ, ref_events: pd.DataFrame, t_dense: np.ndarr
     if window is None:
         return math.nan
     a, b = window
-    run = simulate(problem, integ, float(t_dense[b]), t0=float(t_dense[a]), y0=np.array(y_dense[:, a]))
+    run = simulate(problem, integ, float(t_dense[b]), t0=float(t_dense[a]), y0=np.array(y_dense[:, a]),
+                   check_points=0)
     if not run.ok or len(run.events):
         return math.nan
     return float(np.max(np.abs(np.asarray(run.y_final, dtype=float) - y_dense[:, b])))

@@ -148,3 +148,17 @@ def test_one_status_vocabulary():
     defined = [name for name, tree in MODULES.items() for node in ast.walk(tree)
                if isinstance(node, ast.ClassDef) and node.name == "Status"]
     assert defined == ["nsbench.status"]
+
+
+def test_statuses_are_compared_with_the_members_never_with_their_text():
+    # ``rows["status"] == "crashed"`` keeps working if the text changes only by luck: compare with Status.CRASHED
+    from nsbench.status import Status
+
+    texts = "|".join(re.escape(s.value) for s in Status)
+    literal = re.compile(rf"status\w*\"?\]?\s*[=!]=\s*[\"']({texts})[\"']|[\"']({texts})[\"']\s*[=!]=\s*\S*status")
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if literal.search(line.split("#", 1)[0]):
+                offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not offenders, offenders

@@ -125,12 +125,16 @@ def test_no_compiled_function_takes_more_than_12_arguments():
 _BARE = re.compile(r"\b(p|fo|prob\.p)\[\s*[0-9][^\]]*\]")
 
 
+# A slot of a record in heyoka's runtime parameters taken by a number (``par[off + 1]``): the slots have names.
+_BARE_RECORD = re.compile(r"\b(par|pars|ta\.pars)\[[^\]]*[+-]\s*[0-9]")
+
+
 def test_no_bare_offset_into_a_parameter_or_option_vector():
     offenders = []
     for path in ROOT.rglob("*.py"):
         for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             code = line.split("#", 1)[0]
-            if _BARE.search(code):
+            if _BARE.search(code) or _BARE_RECORD.search(code):
                 offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
     assert not offenders, offenders
 

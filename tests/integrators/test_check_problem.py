@@ -15,6 +15,8 @@ from nsbench.problems import get_problem
     ("heyoka", {}, dict(name="bouncing-ball"), "friction family"),
     ("cvode-bdf", {}, dict(name="bouncing-ball"), "friction family"),
     ("ida", {}, dict(name="bouncing-ball"), "friction family"),
+    # the default refusal names the requirement, nothing of exact's method (exact-mp steps by Taylor series)
+    ("exact-mp", {}, dict(name="henon-heiles"), r"piecewise-linear problems only \(<henon-heiles> is not"),
 ])
 def test_check_problem_refuses_what_setup_refuses(name, options, problem, match):
     p = get_problem(problem.pop("name"), **problem)

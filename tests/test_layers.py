@@ -121,8 +121,9 @@ def test_no_compiled_function_takes_more_than_12_arguments():
     assert sum(1 for _ in _compiled_functions()) > 50  # the scan sees the kernels
 
 
-# A subscript of a parameter or option vector whose index is a number (``p[3 + 6*nb]``, ``fo[2]``).
-_BARE = re.compile(r"\b(p|fo|prob\.p)\[\s*[0-9][^\]]*\]")
+# A subscript of a parameter or option vector or of a counter vector whose index is a number (``p[3 + 6*nb]``,
+# ``fo[2]``, ``counters[0]``).
+_BARE = re.compile(r"\b(p|fo|prob\.p|counters|cnt)\[\s*[0-9][^\]]*\]")
 
 
 # A slot of a record in heyoka's runtime parameters taken by a number (``par[off + 1]``): the slots have names.

@@ -245,9 +245,15 @@ def illinois(f, a, fa, b, fb, iterations: int = 100):
     """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
     side = 0
     for _ in range(iterations):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b) or fb == 0:
+        if fb == 0:
             break
+        c = (a * fb - b * fa) / (fb - fa)
+        if not a < c < b:
+            # the secant lands on an end: one end is at the root to rounding (fa ~ 0) while the other is
+            # still far, so halve instead (returning b here could leave it 1e-6 past the root)
+            c = a + (b - a) / 2
+            if not a < c < b:
+                break  # [a, b] is two adjacent numbers: b is the root, on the guard's far side
         fc = f(c)
         if fc > 0:
             a, fa = c, fc

@@ -1,7 +1,7 @@
 """heyoka on a problem written symbolically whose guard restarts on its surface after a reset.
 
-A bouncing ball that writes its field and guard with ``+ - *`` (as a plug-in
-problem may) runs through heyoka's symbolic path. After each impact the contact
+The bouncing ball writes its field and guard with ``+ - *`` (``symbolic_field``,
+as a plug-in problem may), so it runs through heyoka's symbolic path. After each impact the contact
 guard starts at zero, so heyoka takes the arc's first step alone and looks for
 the next impact on that step's polynomial. A flight is a quadratic, whose Taylor
 series ends, so heyoka's step can span many flights: the late, short flights
@@ -19,29 +19,11 @@ import pytest
 
 import nsbench
 from nsbench.integrators._heyoka_model import illinois
-from nsbench.problems import bouncing_ball_spec as spec
-from nsbench.problems.bouncing_ball import BouncingBall
-
-
-class SymbolicBall(BouncingBall):
-    """The bouncing ball with a symbolic form: what a plug-in problem writes for heyoka."""
-
-    symbolic_modes = ((spec.FLIGHT,), (spec.REST,))
-
-    def symbolic_field(self, mode, t, y):
-        x, v = y
-        if int(mode[0]) == spec.FLIGHT:
-            return [v, -self.g + 0.0 * v]
-        return [0.0 * x, 0.0 * v]
-
-    def symbolic_guard(self, mode, kind, index, t, y):
-        return y[0]
 
 
 @pytest.fixture(scope="module")
 def ball():
-    p = nsbench.get_problem("bouncing-ball")
-    return SymbolicBall(p.params, p.parameters)
+    return nsbench.get_problem("bouncing-ball")
 
 
 @pytest.mark.parametrize("name", ["heyoka", "heyoka-ld", "heyoka-q"])

@@ -102,7 +102,8 @@ def test_builtin_conformance_on_henon_heiles(integrator, check):
 
 
 def test_a_refusal_at_setup_is_reported_with_its_reason():
-    results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="bouncing-ball")}
+    results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"],
+                                                    problem="impact-oscillator")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())
     ok = {r.check: r for r in check_integrator("exact", ["event-times", "stuck-stays-stuck"], problem="bouncing-ball")}
     assert ok["event-times"].status == "passed"

@@ -121,8 +121,13 @@ def test_no_compiled_function_takes_more_than_12_arguments():
     assert sum(1 for _ in _compiled_functions()) > 50  # the scan sees the kernels
 
 
-# A subscript of a parameter or option vector whose index is a number (``p[3 + 6*nb]``, ``fo[2]``).
-_BARE = re.compile(r"\b(p|fo|prob\.p)\[\s*[0-9][^\]]*\]")
+# A subscript of a parameter or option vector or of a counter vector whose index is a number (``p[3 + 6*nb]``,
+# ``fo[2]``, ``counters[0]``).
+_BARE = re.compile(r"\b(p|fo|prob\.p|counters|cnt)\[\s*[0-9][^\]]*\]")
+
+
+# A slot of a record in heyoka's runtime parameters taken by a number (``par[off + 1]``): the slots have names.
+_BARE_RECORD = re.compile(r"\b(par|pars|ta\.pars)\[[^\]]*[+-]\s*[0-9]")
 
 
 def test_no_bare_offset_into_a_parameter_or_option_vector():
@@ -130,7 +135,7 @@ def test_no_bare_offset_into_a_parameter_or_option_vector():
     for path in ROOT.rglob("*.py"):
         for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             code = line.split("#", 1)[0]
-            if _BARE.search(code):
+            if _BARE.search(code) or _BARE_RECORD.search(code):
                 offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
     assert not offenders, offenders
 
@@ -148,3 +153,17 @@ def test_one_status_vocabulary():
     defined = [name for name, tree in MODULES.items() for node in ast.walk(tree)
                if isinstance(node, ast.ClassDef) and node.name == "Status"]
     assert defined == ["nsbench.status"]
+
+
+def test_statuses_are_compared_with_the_members_never_with_their_text():
+    # ``rows["status"] == "crashed"`` keeps working if the text changes only by luck: compare with Status.CRASHED
+    from nsbench.status import Status
+
+    texts = "|".join(re.escape(s.value) for s in Status)
+    literal = re.compile(rf"status\w*\"?\]?\s*[=!]=\s*[\"']({texts})[\"']|[\"']({texts})[\"']\s*[=!]=\s*\S*status")
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if literal.search(line.split("#", 1)[0]):
+                offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not offenders, offenders

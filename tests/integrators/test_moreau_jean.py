@@ -100,6 +100,10 @@ def test_two_dof_case_1_has_exacts_switches():
     run = simulate(problem, "moreau-jean", 60.0, options={"h": 1e-3})
     assert _sequence(run.events) == _sequence(ref)
     assert np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())) < 5 * 1e-3
+    # its counters, by slot name: one one-step problem per step, one candidate solve at least for each
+    extra = run.counters.extra
+    assert extra["one_step_problems"] == run.counters.nsteps == 60_000
+    assert 0 < extra["enumerations"] < 60 and extra["candidate_solves"] > extra["one_step_problems"]
 
 
 def test_block_on_ground_passes_through_zero_speed_as_reversals():

@@ -40,7 +40,8 @@ def test_a_thrown_ball_and_another_restitution():
     assert abs(res.events["t"].iloc[-1] - p.accumulation_time()) <= 1e-12
 
 
-@pytest.mark.parametrize("name, bound", [("ofapi", 1e-12), ("scipy-radau", 1e-10), ("henon-rk4", 1e-5)])
+@pytest.mark.parametrize("name, bound", [("ofapi", 1e-12), ("scipy-radau", 1e-10), ("henon-rk4", 1e-5),
+                                         ("heyoka", 1e-12), ("heyoka-q", 1e-12)])
 def test_other_integrators_find_the_same_impacts(name, bound):
     p = nsbench.get_problem("bouncing-ball")
     ref = nsbench.simulate(p, "exact", 10.0).events
@@ -69,6 +70,6 @@ def test_integrators_without_a_form_for_it_refuse_at_setup():
     from nsbench.errors import UnsupportedProblemError
 
     p = nsbench.get_problem("bouncing-ball")
-    for name in ("heyoka", "cvode-bdf", "ida"):
+    for name in ("cvode-bdf", "ida"):
         with pytest.raises(UnsupportedProblemError, match="friction family"):
             nsbench.get_integrator(name).setup(p)

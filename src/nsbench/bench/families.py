@@ -23,6 +23,7 @@ import pandas as pd
 
 from nsbench.bench.metrics import observed_order
 from nsbench.bench.tables import reached_mask
+from nsbench.status import Status
 
 #: The option each whole-system family's ladder varies, and whether it sharpens as it grows.
 LADDERS = {"time-stepping": ("h", False), "switch-model": ("eta", False), "smoothing": ("eps", True)}
@@ -76,11 +77,11 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
     frame = frame.assign(_family=[family_of(r) for _, r in frame.iterrows()])
     for (problem, name), rows in frame.groupby(["problem_label", "integrator"], sort=True):
         family = str(rows["_family"].iloc[0])
-        if (rows["reference"] == name).all() or (rows["status"] == "unsupported").all():
+        if (rows["reference"] == name).all() or (rows["status"] == Status.UNSUPPORTED).all():
             continue
         option, values, sharpens = _ladder(rows, family)
         steps = [1.0 / v if sharpens and v else v for v in values]
-        good = (rows["status"] == "success") & rows["sequence_ok"].fillna(False).astype(bool)
+        good = (rows["status"] == Status.SUCCESS) & rows["sequence_ok"].fillna(False).astype(bool)
         row: dict[str, Any] = {"problem": problem, "family": family, "integrator": name,
                                "ladder": _range(option, values)}
         for target in targets:

@@ -133,7 +133,7 @@ def run_failures(frame: pd.DataFrame) -> list[str]:
     for label, group in problem_groups(bad):
         lines.append(f"The reference of `{label}` could not be computed ({group['reference_status'].iloc[0]}): "
                      "its cases have no accuracy metrics.")
-    crashed = frame[frame["status"] == "crashed"]
+    crashed = frame[frame["status"] == Status.CRASHED]
     if len(crashed):
         names = ", ".join(f"`{r.problem_label} {r.integrator}`" for r in crashed.itertuples())
         lines.append(f"{len(crashed)} case(s) crashed their worker process: {names} (see Statuses).")

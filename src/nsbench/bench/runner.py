@@ -32,6 +32,7 @@ from nsbench.bench.reference import (Reference, candidates, compute_reference, f
                                      reference_key, save_reference)
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
 from nsbench.bench.suite import Case, Suite, load_suite
+from nsbench.status import Status
 
 
 @dataclass
@@ -66,7 +67,7 @@ class RunSummary:
     @property
     def crashed(self) -> pd.DataFrame:
         """Rows of cases whose worker process died."""
-        return self.results[self.results["status"] == "crashed"]
+        return self.results[self.results["status"] == Status.CRASHED]
 
     @property
     def reference_failures(self) -> dict[str, str]:
@@ -88,7 +89,7 @@ class RunSummary:
             bad = b[(b["reference_status"] != "ok") & (b["reference_status"] != "")]
             for name, why in dict(zip(bad["target"], bad["reference_status"])).items():
                 lines.append(f"the reference of bifurcation target {name} could not be computed: {why}")
-            crashed = b[b["status"] == "crashed"]
+            crashed = b[b["status"] == Status.CRASHED]
             if len(crashed):
                 lines.append(f"{len(crashed)} bifurcation-target location(s) crashed their worker: "
                              + ", ".join(sorted(crashed["target"] + " " + crashed["integrator"])))

@@ -104,7 +104,7 @@ def scaling_table(frame: pd.DataFrame, target: float = SCALING_TARGET) -> pd.Dat
     for family in scaling_families(frame):
         fam = framed[framed["family"] == family]
         for (name, n), rows in fam.groupby(["integrator", "n"], sort=True):
-            if (rows["status"] == "unsupported").all():
+            if (rows["status"] == Status.UNSUPPORTED).all():
                 continue
             span = float(rows["t_end"].iloc[0] - rows["t0"].iloc[0])
             n_ref = rows["n_ref"].dropna()

@@ -87,7 +87,7 @@ def interval_text(est: Interval, unit: str = "") -> str:
 
 def _why_not(rows: pd.DataFrame, target: float) -> str:
     """Why an integrator's configurations never reach ``target`` on one problem."""
-    if (rows["status"] == "unsupported").all():
+    if (rows["status"] == Status.UNSUPPORTED).all():
         return "refuses the problem"
     ok = rows[(rows["status"] == Status.SUCCESS) & rows["sequence_ok"].fillna(False).astype(bool)]
     wrong = rows[(rows["status"] == Status.SUCCESS) & ~rows["sequence_ok"].fillna(False).astype(bool)]
@@ -135,7 +135,7 @@ def problem_summary(frame: pd.DataFrame, targets, confidence: float = CONFIDENCE
                 hit = runs[reached_mask(runs, target)]
                 if len(hit):
                     best[name] = samples_of(hit.loc[hit["wall_time"].idxmin()])
-                elif not (runs["status"] == "unsupported").all():
+                elif not (runs["status"] == Status.UNSUPPORTED).all():
                     missed[name] = _why_not(runs, target)
             order = sorted(best, key=lambda n: float(np.median(best[n])))
             row.update(not_reached="; ".join(f"{n} ({why})" for n, why in missed.items()),

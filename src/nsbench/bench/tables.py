@@ -16,6 +16,7 @@ import pandas as pd
 
 from nsbench.bench.metrics import reaches
 from nsbench.bench.timing import spread_label
+from nsbench.status import Status
 
 DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
 
@@ -91,7 +92,7 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
             row = {"problem_label": label, "integrator": name, "target": float(target),
                    "outcome": "no reference", "wall_time": math.nan, "wall_spread": math.nan, "nfev": pd.NA,
                    "options": "", "level": pd.NA, "case_id": ""}
-            if (group["status"] == "unsupported").all():
+            if (group["status"] == Status.UNSUPPORTED).all():
                 row["outcome"] = "unsupported"
             elif has_ref and (group["reference"] == name).all():
                 # the reference against itself: its cost is informative, its error is 0 by construction

@@ -45,6 +45,12 @@ if TYPE_CHECKING:  # pragma: no cover
     from nsbench.problems.oscillator import FrictionOscillator
 
 GUARD_SLOT = {"velocity": 0, "upper": 1, "lower": 2}
+#: The slots of a guard's record in the runtime parameters (at :meth:`Structure.guard_par`): the flag that
+#: switches the guard on (1) or off (0), and its expected sign.
+GUARD_ACTIVE, GUARD_SIGN, GUARD_RECORD = 0, 1, 2
+#: The slots of a section's record (at :meth:`Structure.section_offset`): its flag, its level, then the
+#: coefficients of the mechanical state.
+SECTION_ACTIVE, SECTION_LEVEL, SECTION_COEFFS = 0, 1, 2
 #: The coefficients' layout (the friction law's, whose head, the block count, is left out here).
 COEFFICIENTS = LAYOUT
 
@@ -86,12 +92,12 @@ class Structure:
         return self.mode_offset + 2 * self.n_blocks
 
     def guard_par(self, guard) -> int:
-        """Index of a guard's activation flag (its expected sign follows)."""
-        return self.guard_offset + 2 * (3 * (guard.block - 1) + GUARD_SLOT[guard.kind])
+        """Index of a guard's record (:data:`GUARD_ACTIVE`, :data:`GUARD_SIGN`) in the runtime parameters."""
+        return self.guard_offset + GUARD_RECORD * (len(GUARD_SLOT) * (guard.block - 1) + GUARD_SLOT[guard.kind])
 
     def section_offset(self, slot: int) -> int:
         """After the guards' flags and signs (two entries per guard kind and block)."""
-        return self.guard_offset + 2 * len(GUARD_SLOT) * self.n_blocks + slot * (2 + self.n_mech)
+        return self.guard_offset + GUARD_RECORD * len(GUARD_SLOT) * self.n_blocks + slot * (SECTION_COEFFS + self.n_mech)
 
     def coefficient(self, name: str, block: int = 0) -> int:
         """Index of a coefficient (of ``block``, 0-based, for the per-block ones) in the runtime parameters."""
@@ -163,16 +169,17 @@ def _system(st: Structure):
     guards = []
     for i in range(nb):
         for slot, value in enumerate((v[i] - v0, restoring[i] - fr[i], restoring[i] + fr[i])):
-            off = st.guard_offset + 2 * (3 * i + slot)
-            active, expected = par[off], par[off + 1]
+            off = st.guard_offset + GUARD_RECORD * (len(GUARD_SLOT) * i + slot)
+            active, expected = par[off + GUARD_ACTIVE], par[off + GUARD_SIGN]
             guards.append(active * (expected * value) + (1.0 - active))
     sections = []
     for q in range(st.n_sections):
         off = st.section_offset(q)
-        value = par[off + 2] * mech[0]
+        value = par[off + SECTION_COEFFS] * mech[0]
         for j in range(1, st.n_mech):
-            value = value + par[off + 2 + j] * mech[j]
-        sections.append(par[off] * (value - par[off + 1]) + (1.0 - par[off]))
+            value = value + par[off + SECTION_COEFFS + j] * mech[j]
+        active = par[off + SECTION_ACTIVE]
+        sections.append(active * (value - par[off + SECTION_LEVEL]) + (1.0 - active))
     return sys, guards, sections
 
 
@@ -238,9 +245,15 @@ def illinois(f, a, fa, b, fb, iterations: int = 100):
     """Root of ``f`` in ``[a, b]`` with ``fa > 0 >= fb`` (Illinois regula falsi), in ``a``'s precision."""
     side = 0
     for _ in range(iterations):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b) or fb == 0:
+        if fb == 0:
             break
+        c = (a * fb - b * fa) / (fb - fa)
+        if not a < c < b:
+            # the secant lands on an end: one end is at the root to rounding (fa ~ 0) while the other is
+            # still far, so halve instead (returning b here could leave it 1e-6 past the root)
+            c = a + (b - a) / 2
+            if not a < c < b:
+                break  # [a, b] is two adjacent numbers: b is the root, on the guard's far side
         fc = f(c)
         if fc > 0:
             a, fa = c, fc

@@ -71,6 +71,22 @@ def first_crossing(ta, fp, guard, t_start, t_end):
         return fp(sign * float(guard.value(float(t), np.asarray(y[:n]).astype(float))))
 
     lo, g_lo, positive = t_start, fp(0.0), False
+    # A phase shorter than the first sample's distance (a ball's late bounces within one long Taylor step
+    # of a quadratic flight): its guard is back on the wrong side there. Halve toward the start, where the
+    # guard left its surface, for a point on its own side; the first zero lies between that and the last
+    # point on the wrong side. None if no such point (the guard went to its wrong side at once).
+    hi = t_start + (t_end - t_start) / fp(32)
+    g_hi = value(hi)
+    if not g_hi > 0:
+        for _ in range(64):
+            t = t_start + (hi - t_start) / fp(2)
+            if not t_start < t < hi:
+                return None
+            g = value(t)
+            if g > 0:
+                return illinois(value, t, g, hi, g_hi)
+            hi, g_hi = t, g
+        return None
     for k in range(1, 33):
         t = t_start + (t_end - t_start) * fp(k) / fp(32)
         g = value(t)

@@ -54,6 +54,11 @@ class StepData(NamedTuple):
     cap: int  # the active set's most solves per step (active_set_cap)
 
 
+#: Slots of ``Trajectory.counters``: one-step problems solved, steps that needed the enumeration,
+#: candidate solves.
+ONE_STEP_PROBLEMS, ENUMERATIONS, CANDIDATE_SOLVES, N_COUNTERS = 0, 1, 2, 3
+
+
 class Trajectory(NamedTuple):
     """The buffers a run fills: step times, states, statuses, and the counters."""
 
@@ -250,21 +255,21 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
             b[i] = m[i] * v[i] - h * ((1.0 - theta) * c[i] * v[i] + kx)
         if F != 0.0:
             b[last] += h * F * (theta * np.cos(w * t1) + (1.0 - theta) * np.cos(w * t))
-        counters[0] += 1
+        counters[ONE_STEP_PROBLEMS] += 1
         first_ok = True
         if active:
             solves = _active_set(status, W, b, h, v0, fs, fr, work, iwork, cap)
             if solves < 0:
-                counters[2] += cap
+                counters[CANDIDATE_SOLVES] += cap
                 return NOT_CONVERGED, k
-            counters[2] += solves
+            counters[CANDIDATE_SOLVES] += solves
             if solves > 1:
-                counters[1] += 1
+                counters[ENUMERATIONS] += 1
         else:
-            counters[2] += 1
+            counters[CANDIDATE_SOLVES] += 1
             first_ok = _candidate(status, W, winv, b, h, v0, fs, fr, vnew, rhs)
         if not first_ok:
-            counters[1] += 1
+            counters[ENUMERATIONS] += 1
             found = False
             best_changes, best_rev = n + 1, n + 1
             for code in range(n_codes):
@@ -281,7 +286,7 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
                             rev += 1
                 if changes > best_changes or (changes == best_changes and rev >= best_rev):
                     continue
-                counters[2] += 1
+                counters[CANDIDATE_SOLVES] += 1
                 if _candidate(trial, W, winv, b, h, v0, fs, fr, vnew, rhs):
                     found = True
                     best_changes, best_rev = changes, rev

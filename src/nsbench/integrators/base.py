@@ -324,8 +324,8 @@ class Integrator:
             reason = getattr(problem, "nonlinear_reason", "")
             what = f"has {reason}" if reason else "is not piecewise linear"
             raise UnsupportedProblemError(
-                f"{self.name} solves piecewise-linear problems only (closed-form arcs); {problem!r} {what} "
-                "(use a numerical integrator or 'reference')"
+                f"{self.name} solves piecewise-linear problems only ({problem!r} {what}; "
+                "use a numerical integrator or 'reference')"
             )
 
     def check_problem(self, problem: "HybridProblem") -> None:

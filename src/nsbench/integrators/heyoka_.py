@@ -177,11 +177,12 @@ class HeyokaIntegrator(Integrator):
             pars[st.mode_offset + nb + i] = float(phase)
         for guard in request.guards:
             off = st.guard_par(guard)
-            pars[off], pars[off + 1] = 1.0, float(guard.expected_sign)
+            pars[off + model.GUARD_ACTIVE], pars[off + model.GUARD_SIGN] = 1.0, float(guard.expected_sign)
         for q, sec in enumerate(request.sections):
             off = st.section_offset(q)
-            pars[off], pars[off + 1] = 1.0, sec.level
-            pars[off + 2: off + 2 + st.n_mech] = sec.coeffs
+            pars[off + model.SECTION_ACTIVE], pars[off + model.SECTION_LEVEL] = 1.0, sec.level
+            coeffs = off + model.SECTION_COEFFS
+            pars[coeffs: coeffs + st.n_mech] = sec.coeffs
         cached = self._pars_cache[key] = pars.astype(self._fp)
         return cached
 
@@ -424,7 +425,7 @@ class HeyokaIntegrator(Integrator):
         fp = self._fp
         pending, best, outcome, steps = list(fresh), None, model.hy.taylor_outcome.success, 0
         while pending:
-            offsets = [st.guard_par(request.guards[q]) for q in pending]
+            offsets = [st.guard_par(request.guards[q]) + model.GUARD_ACTIVE for q in pending]
             for off in offsets:
                 ta.pars[off] = fp(0.0)
             t_start = ta.time

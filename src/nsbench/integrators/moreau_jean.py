@@ -174,7 +174,7 @@ class MoreauJean(WholeSystem):
         T = np.empty(n_run + 1)
         Y = np.empty((n_run + 1, 2 * nb))
         modes = np.empty((n_run + 1, nb), np.int64)
-        counters = np.zeros(3, np.int64)
+        counters = np.zeros(self._kern.N_COUNTERS, np.int64)
         mode0 = np.array(problem.initial_mode(request.t0, request.y0), dtype=np.int64)
         y0 = np.ascontiguousarray(request.y0, dtype=float)
         out = self._kern.Trajectory(T, Y, modes, counters)
@@ -192,8 +192,11 @@ class MoreauJean(WholeSystem):
                                                         f"{request.max_steps}; stopped at t = {T[done]:.6g}")
         if done == n_steps and status.ok:
             T[done] = request.t_end  # the last step ends exactly at t_end (t0 + n h may round off it)
-        searched = "enumerations" if data.method == self._kern.ENUMERATION else "active_set_searches"
-        extra = {"one_step_problems": int(counters[0]), searched: int(counters[1]),
-                 "candidate_solves": int(counters[2])}
+        kern = self._kern
+        # the second slot counts the steps whose first candidate failed: searched by enumeration or by the
+        # active set, whichever the run used
+        searched = "enumerations" if data.method == kern.ENUMERATION else "active_set_searches"
+        extra = {"one_step_problems": int(counters[kern.ONE_STEP_PROBLEMS]), searched: int(counters[kern.ENUMERATIONS]),
+                 "candidate_solves": int(counters[kern.CANDIDATE_SOLVES])}
         return SystemResult(t=T[:done + 1], y=Y[:done + 1], modes=modes[:done + 1], nfev=0, njev=0, nsteps=int(done),
                             extra=extra, status=status, message=message)

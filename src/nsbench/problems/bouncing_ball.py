@@ -72,6 +72,22 @@ class BouncingBall(NamedModes, HybridProblem):
         q[0] = 1.0  # x
         return q
 
+    # ------------------------------------------------------------------ a form for symbolic integrators
+    #: The modes a symbolic integrator prepares at set-up.
+    symbolic_modes = ((spec.FLIGHT,), (spec.REST,))
+
+    def symbolic_field(self, mode: Mode, t, y) -> list:
+        """The field written with ``+ - *`` only, so that ``y`` may hold heyoka's variables (the constants
+        times a state keep every entry an expression of the state)."""
+        x, v = y
+        if int(mode[0]) == spec.FLIGHT:
+            return [v, -self.g + 0.0 * v]
+        return [0.0 * x, 0.0 * v]
+
+    def symbolic_guard(self, mode: Mode, kind: int, index: int, t, y):
+        """The contact guard, the height ``x``, for symbolic integrators."""
+        return y[0]
+
     # ------------------------------------------------------------------ what is known exactly
     def impact_times(self, count: int) -> np.ndarray:
         """The first ``count`` impact times, in closed form (from the start state)."""

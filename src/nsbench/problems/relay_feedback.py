@@ -86,6 +86,21 @@ class RelayFeedback(NamedModes, HybridProblem):
         u = 1.0 if m == spec.UP else -1.0
         return self.A.copy(), u * self.B, np.zeros(3), np.zeros(3)
 
+    # ------------------------------------------------------------------ a form for symbolic integrators
+    #: The modes a symbolic integrator prepares at set-up.
+    symbolic_modes = ((spec.UP,), (spec.DOWN,), (spec.SLIDE,))
+
+    def symbolic_field(self, mode: Mode, t, y) -> list:
+        """The field of :meth:`linear_form` written with ``+ - *`` only, so that ``y`` may hold heyoka's
+        variables (its zero entries left out)."""
+        a, b, _, _ = self.linear_form(mode)
+        return [_affine(a[i], float(b[i]), y) for i in range(3)]
+
+    def symbolic_guard(self, mode: Mode, kind: int, index: int, t, y):
+        """The guard of :meth:`guard_row`, for symbolic integrators."""
+        q = self.guard_row(mode, kind, index)
+        return _affine(q[:3], float(q[3]), y)
+
     def guard_row(self, mode: Mode, kind: int, index: int) -> np.ndarray:
         q = np.zeros(6)
         if kind == spec.SWITCH:
@@ -94,6 +109,15 @@ class RelayFeedback(NamedModes, HybridProblem):
         ratio = self.C @ self.A / float(self.C @ self.B)  # -u_eq = ratio . x
         q[:3], q[3] = (ratio if kind == spec.LIMIT_UP else -ratio), 1.0
         return q
+
+
+def _affine(row, constant: float, y):
+    """``row . y + constant`` with ``+ - *`` only (``y`` numbers or symbolic variables)."""
+    out = 0.0 * y[0] + constant
+    for j, coefficient in enumerate(row):
+        if coefficient != 0.0:
+            out = out + float(coefficient) * y[j]
+    return out
 
 
 def relay_feedback(case: int | str | None = None, dimensional: bool = False, **params: Any) -> RelayFeedback:

@@ -372,6 +372,8 @@ CLASS_CAPTION = ("Grouped by the class each problem declares (friction, impact, 
                  "cheapest method's cost on the same problem (1: the cheapest on every problem), among the methods "
                  "that reach the target on every graded problem of the class; then how many problems it is the "
                  "cheapest on (and on how many more its time cannot be told from the cheapest's), the runner-up, and the methods that reach it on some problems only. "
+                 "Each class cost ratio has its 95 % interval (a bootstrap over the timed samples); methods whose "
+                 "ratio to the smallest cannot be told from 1 are tied, and all of them are named. "
                  "Reference-grade integrators are not ranked. Per-problem answers, with intervals, follow.")
 
 ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it (median "

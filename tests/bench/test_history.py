@@ -84,6 +84,14 @@ def test_show_writes_the_table_steps_and_figure_and_checks_the_newest(store, tmp
     assert "2 flagged step(s)" in text and "c2c2c2c2c2" in text
     assert len(pd.read_csv(out / "history.csv")) == 6 and len(pd.read_csv(out / "steps.csv")) == 2
     assert (out / "history.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # b has two levels in the store below: level 1 is drawn dashed, so the two lines can be told apart
+    levels = [dict(r, case_id=r["case_id"] + "-1", level=1) for r in (_row("b"),)]
+    two = tmp_path / "two"
+    history.add(_run(tmp_path / "lv", [_row("b"), *levels]), two, machine="box", commit="d1" * 20)
+    history.add(_run(tmp_path / "lv2", [_row("b"), *levels]), two, machine="box", commit="d2" * 20)
+    assert main(["history", "show", "--store", str(two), "--out", str(tmp_path / "two-out")]) == 0
+    assert "stroke-dasharray" in (tmp_path / "two-out" / "history.svg").read_text()
+    assert "stroke-dasharray" not in (out / "history.svg").read_text()      # one level each: solid lines
     # the newest run (c3) has a flagged step: --check fails the job; restricted to b, its step is older
     assert main(["history", "show", "--store", str(store), "--check"]) == 1
     assert main(["history", "show", "--store", str(store), "--check", "--integrator", "b"]) == 0

@@ -88,6 +88,25 @@ def test_the_ranking_leaves_out_reference_grade_integrators(frame):
     assert "exact" not in set(rank["integrator"]) and rank["integrator"].iloc[0] == "a"
 
 
+def test_the_ranking_shares_a_rank_between_methods_whose_timings_overlap(frame):
+    # e is 5 % slower than a by the median, their samples overlap; b is three times slower than both
+    rows = [*frame.to_dict("records"), _row("e", 0.105, 1e-10, spread=(0.9, 0.95, 1.0, 1.05, 1.1))]
+    tied = to_frame(rows)
+    long = fixed_target(tied, (1e-9,))
+    long = long[long["integrator"] != "exact"]
+    samples = {r["case_id"]: r["wall_times"] for r in rows}
+    rank = ranking(long, samples).set_index("integrator")
+    assert rank.loc["a", "mean_rank"] == rank.loc["e", "mean_rank"] == 1      # neither is singled out
+    assert rank.loc["a", "rank"] == rank.loc["e", "rank"] == 1
+    assert rank.loc["b", "mean_rank"] == 3 and rank.loc["b", "rank"] == 3     # both are distinguishably faster
+    # by medians alone (no samples given) the 5 % decides, as before
+    plain = ranking(long).set_index("integrator")
+    assert (plain.loc["a", "mean_rank"], plain.loc["e", "mean_rank"]) == (1, 2)
+    # a case without samples cannot be told apart from anything
+    bare = ranking(long, {}).set_index("integrator")
+    assert bare.loc[["a", "b", "e"], "mean_rank"].tolist() == [1, 1, 1]
+
+
 class _Text(HTMLParser):
     """The visible text of a page, without <pre> and <code> (where markdown-like text is legitimate)."""
 

@@ -12,6 +12,16 @@ is the one with the smallest ratio among the methods that reach the target on
 every graded problem of the class; a method that misses a problem cannot be the
 class's cheapest and is named apart. Reference-grade integrators and each
 problem's reference are left out, as in the per-problem answer.
+
+Every class cost ratio carries a 95 % interval, and the class's cheapest is
+named only where it is distinguishable. Both come from a percentile bootstrap
+over the timed samples (:func:`class_ratios`): each resample draws every
+(problem, method)'s samples with replacement and takes their median, so the
+interval holds the timing noise of every problem the ratio averages over. A
+method is *tied* with the one of smallest ratio when the interval of their
+quotient (the geometric mean over the problems of its cost over the smallest
+one's) holds 1, or when a cost it rests on has fewer than two samples, the rule
+of :func:`nsbench.bench.stats.tied_with` carried over to a geometric mean.
 """
 
 from __future__ import annotations
@@ -23,8 +33,12 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
+from nsbench.bench.stats import Interval
 from nsbench.bench.summary import CONFIDENCE, samples_of, split_references, tied_with
 from nsbench.bench.tables import grading_floor, problem_groups, reached_mask
+
+#: Bootstrap resamples of the class cost ratios (seeded: the same results give the same report).
+BOOTSTRAP = 2000
 
 #: The classes in the order the report lists them (others follow, alphabetically).
 CLASS_ORDER = ("friction", "impact", "sliding", "smooth")
@@ -46,12 +60,73 @@ def _order(name: str) -> tuple[int, str]:
     return (CLASS_ORDER.index(name) if name in CLASS_ORDER else len(CLASS_ORDER), name)
 
 
+def _resampled_medians(samples: list[float], rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` bootstrap medians of ``samples`` (their median ``n`` times when there are fewer than two)."""
+    x = np.asarray([v for v in samples if v > 0 and math.isfinite(v)], dtype=float)
+    if x.size < 2:
+        return np.full(n, float(np.median(x)) if x.size else math.nan)
+    return np.median(x[rng.integers(0, x.size, (n, x.size))], axis=1)
+
+
+def class_ratios(samples: dict[str, dict[str, list[float]]], methods, confidence: float = CONFIDENCE,
+                 n_boot: int = BOOTSTRAP, seed: int = 0) -> tuple[dict[str, Interval], dict[str, bool]]:
+    """Class cost ratios with bootstrap intervals, and which methods are tied with the one of smallest ratio.
+
+    Parameters
+    ----------
+    samples
+        problem -> method -> the timed samples of its cheapest configuration reaching the target
+        there (every method that reaches it on that problem: the per-problem cheapest is among them).
+    methods
+        The methods reaching the target on every problem of ``samples``; their ratios are returned.
+
+    Returns
+    -------
+    (ratios, tied)
+        ``ratios[m]``: the geometric mean over the problems of ``m``'s median cost over the
+        cheapest median cost there, with its percentile bootstrap interval at ``confidence``;
+        ``tied[m]``: whether ``m`` cannot be told from the method of smallest ratio (the interval
+        of their quotient holds 1, or a cost either rests on has fewer than two samples). The
+        method of smallest ratio is tied with itself.
+    """
+    rng = np.random.default_rng(seed)
+    problems = list(samples)
+    # per problem, method -> its bootstrap medians (one per resample), and the cheapest of each resample
+    boot = {p: {m: _resampled_medians(samples[p][m], rng, n_boot) for m in sorted(samples[p])} for p in problems}
+    cheapest = {p: np.min(np.vstack(list(boot[p].values())), axis=0) for p in problems}
+    point = {p: {m: float(np.median(samples[p][m])) for m in samples[p]} for p in problems}
+    lo_q, hi_q = (1.0 - confidence) / 2.0, (1.0 + confidence) / 2.0
+    ratios = {}
+    for m in methods:
+        estimate = np.mean([math.log(point[p][m] / min(point[p].values())) for p in problems])
+        draws = np.mean([np.log(boot[p][m] / cheapest[p]) for p in problems], axis=0)
+        ratios[m] = Interval(math.exp(estimate), float(np.exp(np.quantile(draws, lo_q))),
+                             float(np.exp(np.quantile(draws, hi_q))), confidence)
+    first = min(methods, key=lambda m: (ratios[m].estimate, m))
+    tied = {}
+    for m in methods:
+        few = any(len(samples[p][x]) < 2 for p in problems for x in (m, first))
+        quotient = np.mean([np.log(boot[p][m] / boot[p][first]) for p in problems], axis=0)
+        low, high = np.quantile(quotient, [lo_q, hi_q])
+        tied[m] = m == first or few or bool(low <= 0.0 <= high)
+    return ratios, tied
+
+
+def _ratio_text(est: Interval) -> str:
+    """``'1.23 [1.05-1.60]'``; the estimate alone where the interval is a point (the only method everywhere)."""
+    if est.low == est.high == est.estimate:
+        return f"{est.estimate:.2f}"
+    return f"{est.estimate:.2f} [{est.low:.2f}-{est.high:.2f}]"
+
+
 def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     """One row per (class, target): the cheapest method over the class's problems (module docstring).
 
     Columns: ``class``, ``problems`` (the graded problems' labels), ``target``,
-    ``cheapest``, ``ratio`` (its class cost ratio, text), ``runner_up`` (the next
-    method and its ratio), ``wins`` (on how many of the problems it is the
+    ``cheapest`` (``'tied: a, b'`` when the method of smallest ratio cannot be told
+    from others: :func:`class_ratios`), ``ratio`` (its class cost ratio with the
+    ratio's interval, text), ``runner_up`` (the next method and its ratio with its
+    interval, ``', tied'`` when tied), ``wins`` (on how many of the problems it is the
     cheapest, and on how many more it is tied with the cheapest within the timing
     noise, :func:`nsbench.bench.summary.tied_with`), ``not_on_every_problem`` (methods reaching the target on some but
     not all of them).
@@ -91,16 +166,20 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                 row["cheapest"] = "no method reaches it on every problem"
                 continue
             best = {p: min(costs[p].values()) for p in graded}
-            ratio = {m: math.exp(np.mean([math.log(costs[p][m] / best[p]) for p in graded])) for m in everywhere}
-            order = sorted(everywhere, key=lambda m: (ratio[m], m))
+            ratios, tied = class_ratios({p: samples[p] for p in graded}, sorted(everywhere))
+            order = sorted(everywhere, key=lambda m: (ratios[m].estimate, m))
             first = order[0]
             wins = sum(costs[p][first] == best[p] for p in graded)
             # where another method is cheaper, is the difference within the timing noise (summary.tied_with)?
             ties = sum(costs[p][first] != best[p] and tied_with(
                 samples[p][min(costs[p], key=costs[p].__getitem__)], samples[p][first], CONFIDENCE) for p in graded)
             won = f"{wins} of {len(graded)}" + (f" (tied on {ties} more)" if ties else "")
-            row.update(cheapest=first, ratio=f"{ratio[first]:.2f}", wins=won,
-                       runner_up=f"{order[1]} ({ratio[order[1]]:.2f})" if len(order) > 1 else "")
+            level = [m for m in order if tied[m]]
+            runner = order[1] if len(order) > 1 else ""
+            row.update(cheapest=first if len(level) == 1 else "tied: " + ", ".join(level),
+                       ratio=_ratio_text(ratios[first]), wins=won,
+                       runner_up=(f"{runner} ({_ratio_text(ratios[runner])}" + (", tied)" if tied[runner] else ")"))
+                       if runner else "")
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
@@ -110,7 +189,12 @@ def class_findings(summary: pd.DataFrame) -> list[str]:
     for klass, rows in summary.groupby("class", sort=False):
         parts = []
         for _, r in rows.iterrows():
-            if r["ratio"]:
+            if r["ratio"] and r["cheapest"].startswith("tied: "):
+                names = r["cheapest"][len("tied: "):]
+                parts.append(f"at {r['target']} no method is distinguishably the cheapest: {names} are tied "
+                             f"(their class cost ratios' intervals overlap; {names.split(', ')[0]} "
+                             f"{r['ratio']}, cheapest on {r['wins']})")
+            elif r["ratio"]:
                 parts.append(f"at {r['target']} {r['cheapest']} (cost ratio {r['ratio']}, cheapest on {r['wins']})")
             else:
                 parts.append(f"at {r['target']} {r['cheapest']}")

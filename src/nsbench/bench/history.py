@@ -325,6 +325,10 @@ def _run_suite(argv: list[str], env: dict[str, str], cwd: Path) -> int:
 
 
 # ---------------------------------------------------------------------- the figure
+#: Line styles of an integrator's levels 0, 1, 2, 3 (then again) in the history figure.
+LEVEL_LINES = ("-", "--", ":", "-.")
+
+
 def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = "history"):
     """Cost (median wall time) and accuracy (max switching-time error) of each (problem, integrator, level)
     against commit, one row of panels per problem; flagged steps circled in red. Saved as PNG, SVG, PDF."""
@@ -344,8 +348,10 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
             g = g.sort_values("order")
             st = styles[integ]
             tag = f"{integ} level {level}"
-            ax_t.plot(g["order"], g["wall_time"], "-", marker=st["marker"], color=st["color"], ms=4, lw=1, label=tag)
-            ax_e.plot(g["order"], np.maximum(g["switch_err_max"].astype(float), ERROR_FLOOR), "-",
+            # an integrator's levels share its colour and marker: the line style tells them apart
+            dash = LEVEL_LINES[int(level) % len(LEVEL_LINES)]
+            ax_t.plot(g["order"], g["wall_time"], dash, marker=st["marker"], color=st["color"], ms=4, lw=1, label=tag)
+            ax_e.plot(g["order"], np.maximum(g["switch_err_max"].astype(float), ERROR_FLOOR), dash,
                       marker=st["marker"], color=st["color"], ms=4, lw=1)
             marks = [flags.get((c, o), "") for c, o in zip(g["case_id"], g["order"])]
             cost = g[[("slower" in m or "more work" in m) for m in marks]]
@@ -371,7 +377,8 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     fig.suptitle("Cost and accuracy over commits (red circles: a step flagged as by nsbench compare)")
     fig.tight_layout()
     caption = ("Median warm wall time (left) and max switching-time error (right) of each (problem, integrator, "
-               "level) at each stored run of one machine and environment, oldest commit first. A red circle marks a "
+               "level) at each stored run of one machine and environment, oldest commit first; an integrator's levels "
+               "share its colour and marker, level 0 solid, 1 dashed, 2 dotted, 3 dash-dot. A red circle marks a "
                "step flagged as nsbench compare flags it against the run before: on the left slower (the test on "
                "the samples and the factor) or more work (nfev), on the right less accurate, a broken event "
                "sequence or a lost success.")

@@ -24,7 +24,7 @@ from nsbench.bench.figures import Figure, _styles, report_figures, runtime_distr
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
 from nsbench.bench.summary import (compact, conditioning_table, display, findings, problem_summary, reference_costs,
-                                   reference_grade, wrong_sequences)
+                                   reference_grade, samples_of, wrong_sequences)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 from nsbench.status import Status
@@ -213,9 +213,11 @@ FT_CAPTION = ("Fixed-target cost: for each switching-time error target, the chea
               "'unsupported' the integrator refuses the problem, 'not graded' a target below the reference's "
               "certified error or the problem's double-precision floor, 'ref' the problem's reference itself "
               "(its cost; its error is 0 by construction).")
-RANK_CAPTION = ("Ranking by time to reach each (problem, target); an integrator that does not reach a target is "
-                "ranked last there. geo_mean_time is over the targets it reached; problems an integrator refuses "
-                "or is the reference of are left out, and reference-grade integrators are not ranked.")
+RANK_CAPTION = ("Ranking by time to reach each (problem, target): an integrator's rank there is 1 + the number of "
+                "integrators that reach it distinguishably faster (their timing intervals do not overlap, the rule of "
+                "the answer's ties), so integrators that cannot be told apart share a rank; one that does not reach a "
+                "target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator "
+                "refuses or is the reference of are left out, and reference-grade integrators are not ranked.")
 COMPACT_CAPTION = ("Cheapest method under test reaching a switching-time error of {target} on each problem, or the "
                    "methods tied for it (median warm wall time per run with the interval of that median), the next "
                    "fastest and its cost ratio with the ratio's 95 % interval, and how many methods reach the "
@@ -233,7 +235,8 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     wide = fixed_target_wide(long)
     # reference-grade integrators are what the others are measured against: never ranked
     tested = long[~long["integrator"].map(reference_grade).astype(bool)]
-    rank = ranking(tested)
+    # ties in the ranking follow the timing noise, as in the answer (summary.tied_with)
+    rank = ranking(tested, {row["case_id"]: samples_of(row) for _, row in frame.iterrows()})
     summary = problem_summary(frame, targets)
     scaling = scaling_table(frame)
     scaling_fit = scaling_summary(scaling)
@@ -369,6 +372,8 @@ CLASS_CAPTION = ("Grouped by the class each problem declares (friction, impact, 
                  "cheapest method's cost on the same problem (1: the cheapest on every problem), among the methods "
                  "that reach the target on every graded problem of the class; then how many problems it is the "
                  "cheapest on (and on how many more its time cannot be told from the cheapest's), the runner-up, and the methods that reach it on some problems only. "
+                 "Each class cost ratio has its 95 % interval (a bootstrap over the timed samples); methods whose "
+                 "ratio to the smallest cannot be told from 1 are tied, and all of them are named. "
                  "Reference-grade integrators are not ranked. Per-problem answers, with intervals, follow.")
 
 ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it (median "

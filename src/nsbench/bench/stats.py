@@ -181,6 +181,22 @@ def smallest_p(n: int, m: int) -> float:
     return 1.0 / math.comb(n + m, n) if n > 0 and m > 0 else math.nan
 
 
+def tied_with(fast: Iterable[float], other: Iterable[float], confidence: float = 0.95) -> bool:
+    """Whether ``other``'s times cannot be told from the faster ``fast``'s.
+
+    Tied when either side has fewer than two samples (no spread to judge by),
+    when the two medians' distribution-free intervals overlap
+    (:func:`median_interval`), or when the interval of the cost ratio holds 1
+    (:func:`ratio_interval`). The report's answer, its class answer and its
+    ranking all judge ties by this rule.
+    """
+    fast, other = list(fast), list(other)
+    if len(fast) < 2 or len(other) < 2:
+        return True
+    a, b = median_interval(fast, confidence), median_interval(other, confidence)
+    return a.overlaps(b) or ratio_interval(fast, other, confidence).contains(1.0)
+
+
 def relative_spread(samples: Iterable[float]) -> float:
     """``(max - min) / median`` of the samples (NaN with fewer than two)."""
     x = _positive(samples)

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from nsbench.bench.stats import Interval, median_interval, ratio_interval
+from nsbench.bench.stats import Interval, median_interval, ratio_interval, tied_with  # noqa: F401 (re-exported)
 from nsbench.bench.tables import first_known, grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
 from nsbench.status import Status
@@ -59,20 +59,6 @@ def samples_of(row: pd.Series) -> list[float]:
     """The timed samples of a row (seconds per run), or its median alone when it kept none."""
     samples = list(row["wall_times"]) if "wall_times" in row and len(row["wall_times"]) else []
     return samples or ([float(row["wall_time"])] if pd.notna(row["wall_time"]) else [])
-
-
-def tied_with(fast: list[float], other: list[float], confidence: float = CONFIDENCE) -> bool:
-    """Whether ``other``'s times cannot be told from the faster ``fast``'s.
-
-    Tied when either side has fewer than two samples (no spread to judge by),
-    when the two medians' distribution-free intervals overlap
-    (:func:`~nsbench.bench.stats.median_interval`), or when the interval of the
-    cost ratio holds 1 (:func:`~nsbench.bench.stats.ratio_interval`).
-    """
-    if len(fast) < 2 or len(other) < 2:
-        return True
-    a, b = median_interval(fast, confidence), median_interval(other, confidence)
-    return a.overlaps(b) or ratio_interval(fast, other, confidence).contains(1.0)
 
 
 def interval_text(est: Interval, unit: str = "") -> str:

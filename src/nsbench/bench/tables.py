@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from nsbench.bench.metrics import reaches
+from nsbench.bench.stats import tied_with
 from nsbench.bench.timing import spread_label
 from nsbench.status import Status
 
@@ -150,13 +152,43 @@ def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
     return wide
 
 
-def ranking(long: pd.DataFrame) -> pd.DataFrame:
+def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None,
+                confidence: float) -> pd.Series:
+    """Ranks within one (problem, target): 1 + the reaching methods distinguishably faster; last if not reached.
+
+    Without ``samples`` (tables built from medians alone) a method's rank is
+    1 + the reaching methods with a smaller median (equal medians share a rank).
+    With them, a faster method counts only when the two methods' timings can be
+    told apart (:func:`nsbench.bench.stats.tied_with`): methods whose intervals
+    overlap share a rank, so no single method gets rank 1 where the timings do
+    not single it out.
+    """
+    hit = group["outcome"] == "reached"
+    t = group["wall_time"].where(hit, np.inf)
+    last = float(len(group))
+    if samples is None:
+        return t.rank(method="min").where(np.isfinite(t), last)
+    own = {i: list(samples.get(group.at[i, "case_id"], ())) for i in group.index[hit & np.isfinite(t)]}
+    out = pd.Series(last, index=group.index)
+    for i in own:
+        out[i] = 1.0 + sum(t[j] < t[i] and not tied_with(own[j], own[i], confidence) for j in own if j != i)
+    return out
+
+
+def ranking(long: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None = None,
+            confidence: float = 0.95) -> pd.DataFrame:
     """Rank integrators by time to reach each (problem, target) that has a reference.
 
-    In each (problem, target) the integrators that reach it are ranked by wall
-    time (1 = fastest, ties share the lower rank); those that do not are ranked
-    last (the number of integrators in that group). The table gives the mean rank, the targets
-    reached out of those attempted, and the geometric mean time over reached ones.
+    In each (problem, target) an integrator that reaches it gets rank 1 + the
+    number of reaching integrators that are faster; those that do not reach it
+    are ranked last (the number of integrators in that group). ``samples``
+    (``case_id`` -> the case's timed samples) makes the ranking honour the
+    timing noise: a faster integrator counts only when it is distinguishably
+    faster (:func:`nsbench.bench.stats.tied_with` at ``confidence``), so methods
+    whose intervals overlap share a rank. The table gives the mean rank, the
+    targets reached out of those attempted, and the geometric mean time over
+    reached ones; integrators with the same mean rank and targets reached share
+    the table's ``rank``.
     """
     scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference", "not graded"])]
     if scored.empty:
@@ -164,8 +196,7 @@ def ranking(long: pd.DataFrame) -> pd.DataFrame:
                                      "geo_mean_time"])
     ranks = []
     for _, group in scored.groupby(["problem_label", "target"]):
-        t = group["wall_time"].where(group["outcome"] == "reached", np.inf)
-        r = t.rank(method="min").where(np.isfinite(t), float(len(group)))
+        r = _pair_ranks(group, samples, confidence)
         ranks.append(pd.DataFrame({"integrator": group["integrator"], "r": r,
                                    "hit": group["outcome"] == "reached", "t": group["wall_time"]}))
     all_ranks = pd.concat(ranks)
@@ -174,5 +205,6 @@ def ranking(long: pd.DataFrame) -> pd.DataFrame:
         geo_mean_time=("t", lambda s: float(np.exp(np.log(s.dropna()).mean())) if s.notna().any() else math.nan),
     ).reset_index()
     table = table.sort_values(["mean_rank", "reached"], ascending=[True, False], kind="stable")
-    table.insert(0, "rank", range(1, len(table) + 1))
+    key = list(zip(table["mean_rank"].round(12), -table["reached"]))
+    table.insert(0, "rank", [1 + sum(k < mine for k in key) for mine in key])
     return table.reset_index(drop=True)

@@ -73,9 +73,9 @@ def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, metho
             k = j
             while k < grid.size and grid[k] <= t:
                 k += 1
-            for tt in wanted:
-                ts.append(tt)
-                ys.append(np.array(solver.step(tt, method="normal").y, dtype=float))
+            for t_in in wanted:
+                ts.append(t_in)
+                ys.append(np.array(solver.step(t_in, method="normal").y, dtype=float))
             inside = False
             for q in range(j, k):
                 if grid[q] == t:
@@ -94,11 +94,11 @@ def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, metho
                 t = t_end
     except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
         status, message = Status.INTEGRATOR_FAILURE, f"CVODE {method}: {exc}"
-    tt = np.array(ts)
+    times = np.array(ts)
     y = np.array(ys)
     if status.ok:
-        tt[-1] = t_end
+        times[-1] = t_end
         y_eval[j:] = y[-1]  # requested times at t_end that rounding left after the last step
-    modes = None if modes_of is None else modes_of(tt, y)
-    return SystemResult(t=tt, y=y, modes=modes, y_eval=y_eval if status.ok else None, nfev=nfev, njev=njev,
+    modes = None if modes_of is None else modes_of(times, y)
+    return SystemResult(t=times, y=y, modes=modes, y_eval=y_eval if status.ok else None, nfev=nfev, njev=njev,
                         nsteps=steps, status=status, message=message)

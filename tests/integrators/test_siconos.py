@@ -1,5 +1,7 @@
 """``siconos-moreau-jean`` against nsbench's ``moreau-jean``: the same trajectory at the same h and theta.
 
+On the friction problems it accepts and on the bouncing ball.
+
 Siconos runs in the system Python (Debian's python3-siconos); where it is absent these tests skip with
 the reason. Both solve each step's friction problem exactly (enumeration here, Lemke's pivoting in
 Siconos), so their states differ by rounding alone: measured 7.7e-13 on the block on ground over 4000
@@ -53,7 +55,42 @@ def test_its_events_are_inferred_like_moreau_jeans():
     assert np.max(np.abs(a.events["t"].to_numpy() - b.events["t"].to_numpy())) < 1e-2  # within a step
 
 
+@needs_siconos
+@pytest.mark.parametrize("theta", [0.5, 1.0])
+def test_the_bouncing_ball_as_moreau_jeans(theta):
+    """Siconos's classic (MoreauJeanOSI, LCP per step) and moreau-jean's kernel: both activate the contact on the
+    height predicted half a step ahead and solve Newton's law at the velocity level exactly (a one-contact LCP),
+    so they differ by rounding alone (measured 3e-14 over 6000 steps): states, impulses and the resting label."""
+    p = get_problem("bouncing-ball")
+    ours = _steps("moreau-jean", p, 6.0, h=1e-3, theta=theta)
+    theirs = _steps("siconos-moreau-jean", p, 6.0, h=1e-3, theta=theta)
+    assert theirs.status.ok, theirs.message
+    assert np.array_equal(ours.t, theirs.t) and np.array_equal(ours.modes, theirs.modes)
+    assert np.max(np.abs(ours.y - theirs.y)) <= 1e-9 * max(1.0, float(np.max(np.abs(ours.y))))
+    assert np.max(np.abs(ours.impulses - theirs.impulses)) <= 1e-9 * float(np.max(ours.impulses))
+
+
+@needs_siconos
+def test_the_ball_impacts_converge_to_the_closed_form():
+    """Inferred impacts against the closed-form impact times: first order in h (within 5 h, as moreau-jean), and
+    the rest within 20 h of the accumulation time (the flights it misses sum to about 12.5 h at e = 0.8)."""
+    p = get_problem("bouncing-ball")
+    closed = p.impact_times(6)
+    errors = []
+    for h in (1e-3, 1e-4):
+        run = simulate(p, "siconos-moreau-jean", 6.0, options={"h": h})
+        assert run.ok, run.message
+        kinds = list(run.events["kind"])
+        assert kinds[:6] == ["impact"] * 6 and kinds[-1] == "rest" and kinds.count("rest") == 1
+        err = np.max(np.abs(run.events["t"].to_numpy()[:6] - closed))
+        assert err <= 5 * h
+        errors.append(err)
+        assert abs(run.events["t"].iloc[-1] - p.accumulation_time()) <= 20 * h
+    assert errors[1] < errors[0] / 4
+
+
 @pytest.mark.parametrize("problem, match", [
+    (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
     (lambda: get_problem("one-dof"), "one friction level"),
     (lambda: get_problem("two-dof", case=2, r_f=1.0), "harmonic force"),
     (lambda: get_problem("two-dof", case=3), "cubic"),

@@ -14,7 +14,8 @@ the ``EulerMoreauOSI`` theta-scheme with the friction force taken implicitly: on
 linear system the same discrete equations as Moreau-Jean's. A request ``{"probe": true}``
 only imports Siconos and prints its version; a request with ``"model": "ball"`` runs the
 bouncing ball (:func:`ball_moreau_jean`), its ``.npy`` files holding the states and the
-impulse of each step.
+impulse of each step; ``"model": "ball-event-driven"`` runs Siconos's event-driven scheme
+on it (:func:`ball_event_driven`).
 """
 
 import json
@@ -34,6 +35,8 @@ def main() -> int:
         return 0
     if req.get("model") == "ball":
         return ball_moreau_jean(req, sk)
+    if req.get("model") == "ball-event-driven":
+        return ball_event_driven(req, sk)
     m = np.array(req["m"], dtype=float)
     n = m.size
     C, K = np.array(req["C"], dtype=float), np.array(req["K"], dtype=float)
@@ -118,6 +121,42 @@ def ball_moreau_jean(req, sk):
     np.save(req["out"] + ".z.npy", z[:k + 1])
     np.save(req["out"] + ".lambda.npy", imp[:k + 1])
     print(json.dumps({"ok": True, "steps": k}))
+    return 0
+
+
+def ball_event_driven(req, sk):
+    """``EventDriven`` with ``LsodarOSI``: LSODAR between events, an impact LCP at each, an acceleration LCP.
+
+    A sample is saved after every processed event (the output grid of step ``h`` and each
+    impact, which LSODAR's root finder places on the height); its impulse is Siconos's
+    ``p(1)`` at an impact (0 otherwise) and its mode 1 once the contact is in index set 2
+    (resting contact: Siconos has stopped the impacts). A sample at the time of the one
+    before replaces it. Stops after ``max_events`` events.
+    """
+    t0, t_end, h, cap = float(req["t0"]), float(req["t_end"]), float(req["h"]), int(req["max_events"])
+    ds, inter, nsds = ball_model(req, sk, t_end)
+    sim = sk.EventDriven(nsds, sk.TimeDiscretisation(t0, h))
+    sim.insertIntegrator(sk.LsodarOSI())
+    sim.insertNonSmoothProblem(sk.LCP(), sk.SICONOS_OSNSP_ED_IMPACT)
+    sim.insertNonSmoothProblem(sk.LCP(), sk.SICONOS_OSNSP_ED_SMOOTH_ACC)
+    rows = [(t0, float(req["y0"][0]), float(req["y0"][1]), 0.0, 0.0)]
+    k = 0
+    while sim.hasNextEvent() and k < cap:
+        sim.advanceToEvent()
+        impact = sim.eventsManager().nextEvent().getType() == 2  # a non-smooth event
+        sim.processEvents()
+        k += 1
+        row = (sim.startingTime(), ds.q()[0], ds.velocity()[0], float(ds.p(1)[0]) if impact else 0.0,
+               1.0 if len(sim.indexSet(2).interactions()) else 0.0)
+        if row[0] == rows[-1][0]:
+            row = row[:3] + (max(row[3], rows[-1][3]),) + row[4:]
+            rows[-1] = row
+        else:
+            rows.append(row)
+    out = np.array(rows, dtype=float)
+    np.save(req["out"] + ".z.npy", out[:, :3])  # t, x, v
+    np.save(req["out"] + ".lambda.npy", out[:, 3:])  # impulse, resting
+    print(json.dumps({"ok": True, "events": k, "done": bool(not sim.hasNextEvent())}))
     return 0
 
 

@@ -65,8 +65,8 @@ def unavailable_reason() -> str | None:
     return _PROBE[exe]
 
 
-def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray] | str:
-    """Run one request in Siconos's interpreter: its two ``.npy`` arrays, or why it failed (a message)."""
+def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray, dict] | str:
+    """Run one request in Siconos's interpreter: its two ``.npy`` arrays and its JSON line, or why it failed."""
     with tempfile.TemporaryDirectory(prefix="nsbench-siconos-") as tmp:
         out = str(Path(tmp) / "run")
         run = subprocess.run([siconos_python(), str(worker)], input=json.dumps({**req, "out": out}),
@@ -74,7 +74,8 @@ def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray
         if run.returncode != 0:
             tail = (run.stderr.strip().splitlines() or ["no message"])[-1]
             return f"Siconos failed: {tail}"
-        return np.load(out + ".z.npy"), np.load(out + ".lambda.npy")
+        info = json.loads((run.stdout.strip().splitlines() or ["{}"])[-1])
+        return np.load(out + ".z.npy"), np.load(out + ".lambda.npy"), info
 
 
 def failed(request: SystemRequest, message: str) -> SystemResult:
@@ -140,7 +141,7 @@ class SiconosMoreauJean(WholeSystem):
                              "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
         if isinstance(arrays, str):
             return failed(request, arrays)
-        z, imp = arrays
+        z, imp, _ = arrays
         done = z.shape[0] - 1
         t = request.t0 + h * np.arange(done + 1)
         if done == n_steps:
@@ -169,7 +170,7 @@ class SiconosMoreauJean(WholeSystem):
                              "n_steps": n_run, "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
         if isinstance(arrays, str):
             return failed(request, arrays)
-        z, lam = arrays
+        z, lam, _ = arrays
         done = z.shape[0] - 1
         t = request.t0 + h * np.arange(done + 1)
         if done == n_steps:
@@ -184,3 +185,74 @@ class SiconosMoreauJean(WholeSystem):
         elif done < n_steps:
             status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
         return SystemResult(t=t, y=z, modes=modes, nsteps=done, status=status, message=message)
+
+
+class SiconosEventDriven(WholeSystem):
+    """INRIA Siconos: the ``EventDriven`` simulation with ``LsodarOSI`` on the bouncing ball (separate interpreter).
+
+    Siconos's ``BouncingBallED`` model: LSODAR (ODEPACK) integrates the flight and its root
+    finder locates each impact on the height; an LCP at the velocity level applies
+    Newton's law there, and an LCP at the acceleration level keeps a resting contact once
+    Siconos has stopped the impacts (the contact in index set 2). It hands back a sample
+    at every point of an output grid of step ``h`` and at every impact, the impulse of
+    each sample and the resting label, from which nsbench infers the impacts and the rest
+    like a time-stepping run's (a sample sits at the impact itself, so the inference adds
+    no error).
+
+    Only the bouncing ball: ``LsodarOSI`` takes Newton's impact law alone (its
+    ``fillDSLinks`` refuses ``NewtonImpactFrictionNSL``; tried on the block on the ground,
+    the run died with a bare ``std::exception``), so the friction problems are refused at
+    setup, as are the other impact problems. LSODAR's tolerances are Siconos's defaults,
+    ``rtol = 10 eps`` and ``atol = 100 eps`` (``LsodarOSI::initialize`` sets them,
+    overwriting any earlier ``setTol``), so the run has no accuracy option.
+
+    The family tag is ``event-driven`` (what the scheme is), though nsbench runs it through
+    the whole-system protocol (:class:`WholeSystem`): Siconos's own loop locates the
+    events, nsbench only reads its samples.
+    """
+
+    name = "siconos-event-driven"
+    capabilities = Capabilities(event_location="lsodar-root", order=None, adaptive=True,
+                                supports_nonlinear=False, step_option=None, family="event-driven")
+    options = {
+        "h": Option(1e-3, float, lower=0.0, doc="output grid of Siconos's time discretisation (LSODAR picks its "
+                                                "own steps between the events)"),
+    }
+    accuracy_levels = ()  # LSODAR's tolerances are fixed (see the class docstring): it runs at its defaults
+    known_gaps = {"event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
+                                 "extrapolates the accumulation after ten: the sequences differ in length"}
+    INFERABLE = ("friction", "impact")
+
+    @classmethod
+    def unavailable(cls) -> str | None:
+        """Why it cannot run on this machine (``nsbench list`` shows it), or ``None``."""
+        return unavailable_reason()
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        if problem.name != "bouncing-ball":
+            why = ("Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
+                   "std::exception on the block on the ground)" if problem.family == "friction" else
+                   "its contact moves with a driven table")
+            raise UnsupportedProblemError(f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "
+                                          "siconos-moreau-jean runs the friction problems with one friction level")
+        reason = unavailable_reason()
+        if reason:
+            raise UnsupportedProblemError(f"{self.name}: {reason}")
+
+    def integrate(self, request: SystemRequest) -> SystemResult:
+        problem = request.problem
+        arrays = run_worker({"model": "ball-event-driven", "g": float(problem.g), "e": float(problem.e),
+                             "h": float(self.settings["h"]), "t0": float(request.t0), "t_end": float(request.t_end),
+                             "max_events": int(request.max_steps), "y0": [float(v) for v in request.y0]})
+        if isinstance(arrays, str):
+            return failed(request, arrays)
+        rows, marks, info = arrays
+        keep = rows[:, 0] <= request.t_end  # never past the span (Siconos ends on it)
+        rows, marks = rows[keep], marks[keep]
+        status, message = Status.SUCCESS, ""
+        if not info.get("done", False):
+            status, message = Status.BUDGET_EXHAUSTED, (f"{info.get('events')} events, budget {request.max_steps}; "
+                                                        f"stopped at t = {rows[-1, 0]:.6g}")
+        return SystemResult(t=rows[:, 0], y=rows[:, 1:], modes=marks[:, 1:].astype(np.int64),
+                            impulses=marks[:, :1], nsteps=int(info.get("events", 0)), status=status, message=message)

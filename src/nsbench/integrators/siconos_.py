@@ -1,4 +1,8 @@
-"""``siconos-moreau-jean``: INRIA Siconos's time-stepping of the friction chain and the bouncing ball.
+"""INRIA Siconos as an engine, run in its own interpreter: ``siconos-moreau-jean`` and ``siconos-event-driven``.
+
+``siconos-moreau-jean`` is Siconos's time-stepping of the friction chain and the bouncing
+ball; ``siconos-event-driven`` (:class:`SiconosEventDriven`) its event-driven scheme
+(``EventDriven``, ``LsodarOSI``) on the bouncing ball.
 
 Debian packages Siconos (``apt-get install python3-siconos``, version 4.4) for the system
 Python and numpy 1.x, so it cannot be imported here: each run starts the system
@@ -85,7 +89,7 @@ def failed(request: SystemRequest, message: str) -> SystemResult:
 
 
 class SiconosMoreauJean(WholeSystem):
-    """INRIA Siconos: EulerMoreauOSI theta-scheme with one relay per block (separate interpreter, plain arrays)."""
+    """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
     name = "siconos-moreau-jean"
     capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,

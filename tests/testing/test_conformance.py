@@ -13,10 +13,11 @@ from nsbench.integrators.exact import ExactIntegrator
 from nsbench.integrators.henon_rk4 import HenonRK4
 from nsbench.testing import CHECKS, check_integrator, parametrize_with_checks, run_check
 
-# siconos-moreau-jean runs only problems with one friction level (fs = fr), never the belt's presets, and
-# only where Siconos is installed: its conformance is tests/integrators/test_siconos.py
+# siconos-moreau-jean runs only problems with one friction level (fs = fr), never the belt's presets,
+# siconos-event-driven the bouncing ball only, and both only where Siconos is installed: their conformance
+# is tests/integrators/test_siconos.py
 BUILTINS = [e.name for e in registry.entries("integrators")
-            if e.distribution == "nsbench" and e.name != "siconos-moreau-jean"]
+            if e.distribution == "nsbench" and e.name not in ("siconos-moreau-jean", "siconos-event-driven")]
 
 
 def test_builtins_are_found_through_the_registry():

@@ -1,4 +1,8 @@
-"""``siconos-moreau-jean``: INRIA Siconos's time-stepping of the friction chain, run in its own interpreter.
+"""INRIA Siconos as an engine, run in its own interpreter: ``siconos-moreau-jean`` and ``siconos-event-driven``.
+
+``siconos-moreau-jean`` is Siconos's time-stepping of the friction chain and the bouncing
+ball; ``siconos-event-driven`` (:class:`SiconosEventDriven`) its event-driven scheme
+(``EventDriven``, ``LsodarOSI``) on the bouncing ball.
 
 Debian packages Siconos (``apt-get install python3-siconos``, version 4.4) for the system
 Python and numpy 1.x, so it cannot be imported here: each run starts the system
@@ -9,6 +13,11 @@ block on its velocity relative to the belt, the ``EulerMoreauOSI`` theta-scheme 
 discrete equations as ``moreau-jean`` on these linear systems), the relay problem solved
 by Lemke's method. A step's mode is read off the relay: stuck while the friction force is
 inside ``(-fr, fr)``, slipping against its sign at a bound.
+
+The bouncing ball is Siconos's classic (``LagrangianLinearTIDS`` under gravity,
+``LagrangianLinearTIR`` on the height, ``NewtonImpactNSL(e)``, ``MoreauJeanOSI(theta)``, an
+LCP per step): the same discrete equations and contact activation as ``moreau-jean``'s
+ball, its impulses handed to the event inference; the other impact problems are refused.
 
 Siconos's relay has one friction level, so problems with stiction above the kinetic level
 (``fr != fs``) are refused, as are cubic springs and the harmonic force (a time-dependent
@@ -60,8 +69,27 @@ def unavailable_reason() -> str | None:
     return _PROBE[exe]
 
 
+def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray, dict] | str:
+    """Run one request in Siconos's interpreter: its two ``.npy`` arrays and its JSON line, or why it failed."""
+    with tempfile.TemporaryDirectory(prefix="nsbench-siconos-") as tmp:
+        out = str(Path(tmp) / "run")
+        run = subprocess.run([siconos_python(), str(worker)], input=json.dumps({**req, "out": out}),
+                             capture_output=True, text=True, timeout=3600)
+        if run.returncode != 0:
+            tail = (run.stderr.strip().splitlines() or ["no message"])[-1]
+            return f"Siconos failed: {tail}"
+        info = json.loads((run.stdout.strip().splitlines() or ["{}"])[-1])
+        return np.load(out + ".z.npy"), np.load(out + ".lambda.npy"), info
+
+
+def failed(request: SystemRequest, message: str) -> SystemResult:
+    """A run that Siconos's process ended with an error: the start state only, and the message."""
+    return SystemResult(t=np.array([request.t0]), y=np.array(request.y0, dtype=float).reshape(1, -1),
+                        status=Status.INTEGRATOR_FAILURE, message=message)
+
+
 class SiconosMoreauJean(WholeSystem):
-    """INRIA Siconos: EulerMoreauOSI theta-scheme with one relay per block (separate interpreter, plain arrays)."""
+    """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
     name = "siconos-moreau-jean"
     capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
@@ -84,8 +112,19 @@ class SiconosMoreauJean(WholeSystem):
     def smooth_order(self) -> int:
         return 2 if self.settings["theta"] == 0.5 else 1
 
+    #: The friction family (one relay per block) and the bouncing ball (Siconos's classic).
+    INFERABLE = ("friction", "impact")
+
     def setup(self, problem) -> None:
         super().setup(problem)
+        if problem.family == "impact":
+            if problem.name != "bouncing-ball":
+                raise UnsupportedProblemError(f"{self.name}: of the impact problems it runs the bouncing ball only, "
+                                              f"not {problem.name} (its contact moves with a driven table)")
+            reason = unavailable_reason()
+            if reason:
+                raise UnsupportedProblemError(f"{self.name}: {reason}")
+            return
         c = problem.coefficients
         if any(abs(a - b) > 1e-15 * max(abs(b), 1.0) for a, b in zip(c.fs, c.fr)):
             raise UnsupportedProblemError(
@@ -98,25 +137,44 @@ class SiconosMoreauJean(WholeSystem):
         if reason:
             raise UnsupportedProblemError(f"{self.name}: {reason}")
 
+    def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
+        """Siconos's bouncing ball (``MoreauJeanOSI``, an LCP per step); the impulses go to the event inference."""
+        problem = request.problem
+        arrays = run_worker({"model": "ball", "g": float(problem.g), "e": float(problem.e),
+                             "theta": float(self.settings["theta"]), "h": h, "n_steps": n_run,
+                             "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
+        if isinstance(arrays, str):
+            return failed(request, arrays)
+        z, imp, _ = arrays
+        done = z.shape[0] - 1
+        t = request.t0 + h * np.arange(done + 1)
+        if done == n_steps:
+            t[-1] = request.t_end
+        # moreau-jean's resting label (its kernel mj_ball): from the first step whose impulse is positive
+        # while the speed it reverses, e |v_k|, is at most one step's gain under gravity, g h
+        resting = (imp[1:, 0] > 0.0) & (problem.e * np.abs(z[:-1, 1]) <= problem.g * h)
+        modes = np.concatenate([[0], np.maximum.accumulate(resting.astype(np.int64))]).reshape(-1, 1)
+        status, message = Status.SUCCESS, ""
+        if budget:
+            status, message = Status.BUDGET_EXHAUSTED, f"{n_steps} steps needed, budget {request.max_steps}"
+        elif done < n_steps:
+            status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
+        return SystemResult(t=t, y=z, modes=modes, impulses=imp, nsteps=done, status=status, message=message)
+
     def integrate(self, request: SystemRequest) -> SystemResult:
         problem = request.problem
-        c = problem.coefficients
         n_steps, h = uniform_steps(request.t0, request.t_end, self.settings["h"])
         budget = n_steps > request.max_steps
         n_run = min(n_steps, int(request.max_steps))
-        with tempfile.TemporaryDirectory(prefix="nsbench-siconos-") as tmp:
-            out = str(Path(tmp) / "run")
-            req = {"m": list(c.m), "C": np.diag(c.c).tolist(), "K": stiffness_matrix(c.k).tolist(), "fr": list(c.fr),
-                   "v0": float(c.v0), "theta": float(self.settings["theta"]), "h": h, "n_steps": n_run,
-                   "t0": float(request.t0), "y0": [float(v) for v in request.y0], "out": out}
-            run = subprocess.run([siconos_python(), str(WORKER)], input=json.dumps(req), capture_output=True,
-                                 text=True, timeout=3600)
-            if run.returncode != 0:
-                tail = (run.stderr.strip().splitlines() or ["no message"])[-1]
-                return SystemResult(t=np.array([request.t0]), y=np.array(request.y0, dtype=float).reshape(1, -1),
-                                    status=Status.INTEGRATOR_FAILURE, message=f"Siconos failed: {tail}")
-            z = np.load(out + ".z.npy")
-            lam = np.load(out + ".lambda.npy")
+        if problem.family == "impact":
+            return self._ball(request, n_steps, n_run, h, budget)
+        c = problem.coefficients
+        arrays = run_worker({"m": list(c.m), "C": np.diag(c.c).tolist(), "K": stiffness_matrix(c.k).tolist(),
+                             "fr": list(c.fr), "v0": float(c.v0), "theta": float(self.settings["theta"]), "h": h,
+                             "n_steps": n_run, "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
+        if isinstance(arrays, str):
+            return failed(request, arrays)
+        z, lam, _ = arrays
         done = z.shape[0] - 1
         t = request.t0 + h * np.arange(done + 1)
         if done == n_steps:
@@ -131,3 +189,74 @@ class SiconosMoreauJean(WholeSystem):
         elif done < n_steps:
             status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
         return SystemResult(t=t, y=z, modes=modes, nsteps=done, status=status, message=message)
+
+
+class SiconosEventDriven(WholeSystem):
+    """INRIA Siconos: the ``EventDriven`` simulation with ``LsodarOSI`` on the bouncing ball (separate interpreter).
+
+    Siconos's ``BouncingBallED`` model: LSODAR (ODEPACK) integrates the flight and its root
+    finder locates each impact on the height; an LCP at the velocity level applies
+    Newton's law there, and an LCP at the acceleration level keeps a resting contact once
+    Siconos has stopped the impacts (the contact in index set 2). It hands back a sample
+    at every point of an output grid of step ``h`` and at every impact, the impulse of
+    each sample and the resting label, from which nsbench infers the impacts and the rest
+    like a time-stepping run's (a sample sits at the impact itself, so the inference adds
+    no error).
+
+    Only the bouncing ball: ``LsodarOSI`` takes Newton's impact law alone (its
+    ``fillDSLinks`` refuses ``NewtonImpactFrictionNSL``; tried on the block on the ground,
+    the run died with a bare ``std::exception``), so the friction problems are refused at
+    setup, as are the other impact problems. LSODAR's tolerances are Siconos's defaults,
+    ``rtol = 10 eps`` and ``atol = 100 eps`` (``LsodarOSI::initialize`` sets them,
+    overwriting any earlier ``setTol``), so the run has no accuracy option.
+
+    The family tag is ``event-driven`` (what the scheme is), though nsbench runs it through
+    the whole-system protocol (:class:`WholeSystem`): Siconos's own loop locates the
+    events, nsbench only reads its samples.
+    """
+
+    name = "siconos-event-driven"
+    capabilities = Capabilities(event_location="lsodar-root", order=None, adaptive=True,
+                                supports_nonlinear=False, step_option=None, family="event-driven")
+    options = {
+        "h": Option(1e-3, float, lower=0.0, doc="output grid of Siconos's time discretisation (LSODAR picks its "
+                                                "own steps between the events)"),
+    }
+    accuracy_levels = ()  # LSODAR's tolerances are fixed (see the class docstring): it runs at its defaults
+    known_gaps = {"event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
+                                 "extrapolates the accumulation after ten: the sequences differ in length"}
+    INFERABLE = ("friction", "impact")
+
+    @classmethod
+    def unavailable(cls) -> str | None:
+        """Why it cannot run on this machine (``nsbench list`` shows it), or ``None``."""
+        return unavailable_reason()
+
+    def setup(self, problem) -> None:
+        super().setup(problem)
+        if problem.name != "bouncing-ball":
+            why = ("Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
+                   "std::exception on the block on the ground)" if problem.family == "friction" else
+                   "its contact moves with a driven table")
+            raise UnsupportedProblemError(f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "
+                                          "siconos-moreau-jean runs the friction problems with one friction level")
+        reason = unavailable_reason()
+        if reason:
+            raise UnsupportedProblemError(f"{self.name}: {reason}")
+
+    def integrate(self, request: SystemRequest) -> SystemResult:
+        problem = request.problem
+        arrays = run_worker({"model": "ball-event-driven", "g": float(problem.g), "e": float(problem.e),
+                             "h": float(self.settings["h"]), "t0": float(request.t0), "t_end": float(request.t_end),
+                             "max_events": int(request.max_steps), "y0": [float(v) for v in request.y0]})
+        if isinstance(arrays, str):
+            return failed(request, arrays)
+        rows, marks, info = arrays
+        keep = rows[:, 0] <= request.t_end  # never past the span (Siconos ends on it)
+        rows, marks = rows[keep], marks[keep]
+        status, message = Status.SUCCESS, ""
+        if not info.get("done", False):
+            status, message = Status.BUDGET_EXHAUSTED, (f"{info.get('events')} events, budget {request.max_steps}; "
+                                                        f"stopped at t = {rows[-1, 0]:.6g}")
+        return SystemResult(t=rows[:, 0], y=rows[:, 1:], modes=marks[:, 1:].astype(np.int64),
+                            impulses=marks[:, :1], nsteps=int(info.get("events", 0)), status=status, message=message)

@@ -209,13 +209,13 @@ def test_event_driven_absent_siconos_is_a_reason(monkeypatch, capsys):
 
 @needs_siconos
 def test_event_driven_conformance_on_the_ball():
-    """The kit's checks that apply (its 'protocol' check asks a whole-system method for a whole-system family
-    tag; this one is event-driven by its scheme, so that check is left out here); a budget ends it with a
-    status."""
+    """The kit's protocol checks on the ball (a whole-system method of the event-driven family: Siconos locates
+    its own impacts); a budget ends it with a status."""
     from nsbench.testing import check_integrator
 
     results = check_integrator("siconos-event-driven", problem="bouncing-ball",
-                               checks=["determinism", "inputs-not-mutated", "failure-status", "config-round-trip"])
+                               checks=["protocol", "determinism", "inputs-not-mutated", "failure-status",
+                                       "config-round-trip"])
     bad = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not bad, bad
     res = _steps("siconos-event-driven", get_problem("bouncing-ball"), 6.0)

@@ -141,6 +141,18 @@ def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):
     assert np.isnan(res.members).all()
 
 
+def test_a_lyapunov_setup_that_never_ends_costs_its_members_within_their_limit(faulty_registered):
+    # the plug-in's setup ran in the calling process first, with no limit: the command hung there
+    from nsbench.problems import get_problem
+
+    tic = time.monotonic()
+    res = largest_exponent(get_problem("two-dof", case=1), faulty.HangingSetup.name, iterations=80, members=4,
+                           transient=10.0, workers=2, member_limit=2.0)
+    assert time.monotonic() - tic < 300
+    assert res.status == "error" and not res.converged
+    assert res.message.count("integrator set-up ran past its limit of 2 s") == 4, res.message
+
+
 # ------------------------------------------------------------------------------- store integrity
 SMALL = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=6, transient=100.0, record=8,
              integrator="exact")

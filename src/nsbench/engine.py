@@ -63,12 +63,20 @@ def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarra
 
 #: Largest step or event budget of a run (the compiled core counts in 64-bit integers).
 MAX_BUDGET = 2**62
+#: Longest streak of intervals the accumulation rule looks at (the core keeps that many event times).
+MAX_ACCUMULATION = 10_000
 
 
-def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span: Any) -> None:
-    """Budgets are whole numbers from 1 to :data:`MAX_BUDGET`, the storm span a finite time > 0."""
+def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span: Any,
+                   accumulation: Any = 8) -> None:
+    """Budgets are whole numbers from 1 to :data:`MAX_BUDGET`, the storm span a finite time > 0,
+    ``accumulation`` 0 (off) or a whole number from 2 (one ratio of intervals) to :data:`MAX_ACCUMULATION`."""
     import numbers
 
+    whole = isinstance(accumulation, numbers.Integral) and not isinstance(accumulation, bool)
+    if not (whole and (accumulation == 0 or 2 <= accumulation <= MAX_ACCUMULATION)):
+        raise ConfigError(f"accumulation = {accumulation!r} must be 0 (no accumulation rule) or a whole number "
+                          f"from 2 to {MAX_ACCUMULATION} (intervals of a streak; a ratio needs two)")
     for name, value in (("max_steps", max_steps), ("max_events", max_events), ("zeno_events", zeno_events)):
         whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
         if not (whole and 1 <= value <= MAX_BUDGET):
@@ -191,7 +199,8 @@ def simulate(
         When this many consecutive intervals between events of one guard shrink
         geometrically, the events accumulate (Zeno): the accumulation time is
         extrapolated and the problem's declared limit behaviour applied there,
-        with an event of its own (the bouncing ball comes to rest). 0: never.
+        with an event of its own (the bouncing ball comes to rest). 0: never;
+        otherwise a whole number from 2 to :data:`MAX_ACCUMULATION`.
     check_points
         Evenly spaced times in ``[t0, t_end]`` (a whole number, 0 or from 2 to
         :data:`MAX_CHECK_POINTS`) at which the integrator's dense states are computed
@@ -217,7 +226,7 @@ def simulate(
         Bad input (span, state, grid, unknown integrator or option) or an
         integrator that refuses the problem.
     """
-    _check_budgets(max_steps, max_events, zeno_events, zeno_span)
+    _check_budgets(max_steps, max_events, zeno_events, zeno_span, accumulation)
     if check_points is None:
         check_points = DEFAULT_CHECK_POINTS if t_eval is None and float(t_end) > float(t0) else 0
     _check_points(check_points)

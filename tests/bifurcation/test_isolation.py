@@ -86,6 +86,36 @@ def test_a_setup_that_never_ends_fails_the_sweep_within_its_limit(tmp_path, faul
     assert frame["message"].str.contains("could not be set up; no value was run").all()
 
 
+def test_the_command_bounds_a_setup_that_never_ends_by_its_setup_limit(tmp_path):
+    # from the command line the set-up limit was fixed at 1800 s (--point-limit does not cover the
+    # set-up): a plug-in whose setup loops held the sweep for half an hour
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
+    code = ("import sys; from nsbench import registry; from tests.bench import _integrators as f; "
+            "registry.register('integrators', f.HangingSetup.name, f.HangingSetup); "
+            "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))")
+    out = tmp_path / "s"
+    tic = time.monotonic()
+    done = subprocess.run([sys.executable, "-c", code, "bifurcation", "two-dof", "--case", "1",
+                           "--sweep", "v0=0.06:0.2:3", "--integrator", faulty.HangingSetup.name, "--transient", "10",
+                           "--record", "2", "--workers", "1", "--setup-limit", "3", "--formats", "png",
+                           "--out", str(out), "--no-progress"], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert time.monotonic() - tic < 300  # the limit, a worker's start and the import: far below 1800 s
+    frame = SweepStore(out).load()
+    assert (frame["status"] == "time limit").all() and len(frame) == 3
+    assert frame["message"].str.contains("integrator set-up ran past its limit of 3 s").all()
+
+
+@pytest.mark.parametrize("text", ["0", "-1", "nan", "inf", "soon"])
+def test_a_bad_setup_limit_is_refused_with_one_line(tmp_path, text, capsys):
+    from nsbench.cli import main
+
+    assert main(["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:2", "--setup-limit", text,
+                 "--out", str(tmp_path / "s")]) == 2
+    assert "--setup-limit" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
+
+
 def test_killing_the_cli_ends_its_workers(tmp_path):
     # a sweep whose worker hangs (no limit in sight): kill the CLI, the worker must follow it
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
@@ -108,6 +138,18 @@ def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):
     assert res.status == "error" and not res.converged
     assert res.message.count("time limit") == 4 and "member 3" in res.message
     assert np.isnan(res.members).all()
+
+
+def test_a_lyapunov_setup_that_never_ends_costs_its_members_within_their_limit(faulty_registered):
+    # the plug-in's setup ran in the calling process first, with no limit: the command hung there
+    from nsbench.problems import get_problem
+
+    tic = time.monotonic()
+    res = largest_exponent(get_problem("two-dof", case=1), faulty.HangingSetup.name, iterations=80, members=4,
+                           transient=10.0, workers=2, member_limit=2.0)
+    assert time.monotonic() - tic < 300
+    assert res.status == "error" and not res.converged
+    assert res.message.count("integrator set-up ran past its limit of 2 s") == 4, res.message
 
 
 # ------------------------------------------------------------------------------- store integrity

@@ -513,7 +513,8 @@ NUMERIC = {
     "bench": (["bench", "{d}/light.toml", "--out", "{d}/hyp-bench"], {"--workers": "count"}),
     "compare": (R, {"--factor": "factor"}),
     "bifurcation": (B, {"--record": "count", "--workers": "count", "--transient": "nonneg", "--window": "positive",
-                        "--h": "positive", "--portrait": "finite", "--point-limit": "positive"}),
+                        "--h": "positive", "--portrait": "finite", "--point-limit": "positive",
+                        "--setup-limit": "positive"}),
     "lyapunov": (L, {"--iterations": "count", "--members": "count", "--seed": "seed", "--workers": "count",
                      "--transient": "nonneg", "--d0": "d0", "--h": "positive", "--member-limit": "positive"}),
     "continuation": (C, {"--steps": "count", "--transient": "nonneg", "--origin": "finite"}),
@@ -650,6 +651,8 @@ SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
                                           "(too few points), the sweep itself completes"},
     ("bifurcation", "--point-limit"): {"tiny": "every value passes its limit of 1e-300 s: each is kept with status "
                                                "'time limit', the sweep itself completes"},
+    ("bifurcation", "--setup-limit"): {"tiny": "every set-up passes its limit of 1e-300 s: each value is kept with "
+                                               "status 'time limit', the sweep itself completes"},
     ("continuation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
     ("continuation", "--sweep"): {**dict.fromkeys(("zero", "tiny"), "v0 from 0 or 1e-300 to 0.17: valid values of v0"),
                                   "huge": "v0 from 1e300 to 0.17: " + _SIZE + "; values without an orbit are a result"},

@@ -92,7 +92,7 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
                                                  rows["switch_err_max"].to_numpy(dtype=float)[sel])
         row["order (states)"] = observed_order([s for s, k in zip(steps, sel) if k],
                                                rows["state_err_l2"].to_numpy(dtype=float)[sel])
-        ran = (rows["status"] == "success").to_numpy()
+        ran = (rows["status"] == Status.SUCCESS).to_numpy()
         arc = rows["arc_err"].to_numpy(dtype=float) if "arc_err" in rows else np.full(len(rows), math.nan)
         row["order (smooth arcs)"] = observed_order([s for s, k in zip(steps, ran) if k], arc[ran])
         creep = rows.assign(_v=values).sort_values("_v", ascending=sharpens)["stick_creep"].to_numpy(dtype=float)

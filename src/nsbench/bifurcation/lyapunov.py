@@ -413,7 +413,12 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
     if integrator is None:
         integrator = "exact" if problem.is_linear else "henon-rk4"
     integ = get_integrator(integrator, **(options or {}))
-    integ.setup(problem)
+    if workers == 0:
+        integ.setup(problem)  # the members run here
+    else:  # set up in the workers, under member_limit: a plug-in's setup that hangs costs its members
+        from nsbench.bifurcation.sweep import check_in_caller
+
+        check_in_caller(integ, problem)
     members, per_member = int(members), int(iterations // members)
     seeds = np.random.SeedSequence(int(seed)).spawn(members)
     params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread,

@@ -196,15 +196,23 @@ class SweepSpec:
                                   "use peaks, stick or mapping")
         problem = ends[0]
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
-        from nsbench.integrators.base import Integrator
+        check_in_caller(get_integrator(self.integrator, **self.options), problem)
 
-        integ = get_integrator(self.integrator, **self.options)
-        if type(integ).__module__.startswith("nsbench."):
-            integ.check_problem(problem)  # compiling or loading compiled code is the workers' set-up
-        else:  # a plug-in's own setup runs only in supervised workers (under the set-up limit): one
-            # that hangs or ends its process must not take the command with it; its capabilities
-            # still refuse a cubic problem here
-            Integrator.setup(integ, problem)
+
+def check_in_caller(integ, problem) -> None:
+    """The refusals of ``integ`` on ``problem`` that the calling process may run before its workers start.
+
+    A built-in integrator's :meth:`~nsbench.integrators.base.Integrator.check_problem` (compiling or
+    loading compiled code is the workers' set-up); for a plug-in only the capabilities (a cubic
+    problem refused): its own setup runs only in supervised workers, under their limit, since one
+    that hangs or ends its process must not take the command with it.
+    """
+    from nsbench.integrators.base import Integrator
+
+    if type(integ).__module__.startswith("nsbench."):
+        integ.check_problem(problem)
+    else:
+        Integrator.setup(integ, problem)
 
 
 def default_section(*problems) -> str:

@@ -53,8 +53,12 @@ def add_parser(sub) -> None:
                    help="the two blocks whose positions the locus and portraits show (default 1,2)")
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
     p.add_argument("--point-limit", default="600", metavar="SECONDS",
-                   help="hard limit of one parameter value on local workers: past it the worker is ended "
-                        "and the value stored with status 'time limit' (default 600)")
+                   help="hard limit of one parameter value, on local workers and on Dask: past it the worker "
+                        "is ended and the value stored with status 'time limit' (default 600)")
+    p.add_argument("--setup-limit", default="1800", metavar="SECONDS",
+                   help="hard limit of the integrator's set-up in each worker (construction, setup, compiling "
+                        "or loading its compiled code): past it every value not computed yet is stored with "
+                        "status 'time limit' (default 1800)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
 
@@ -152,8 +156,9 @@ def main(args: argparse.Namespace) -> int:
         out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
         point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+        setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
         frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
-                          point_limit=point_limit)
+                          point_limit=point_limit, setup_limit=setup_limit)
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
@@ -162,8 +167,8 @@ def main(args: argparse.Namespace) -> int:
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []
             for r in cands.itertuples():
-                found, why = supervised("refine_job", (spec.to_dict(), r.left, r.right, r.kind, point_limit),
-                                        local_workers)
+                job = (spec.to_dict(), r.left, r.right, r.kind, point_limit, setup_limit)
+                found, why = supervised("refine_job", job, local_workers)
                 if found is None:
                     print(f"  refinement of the {r.kind} change in [{r.left:.6g}, {r.right:.6g}] failed: {why}")
                     found = {"left": math.nan, "right": math.nan, "value": math.nan}
@@ -178,7 +183,7 @@ def main(args: argparse.Namespace) -> int:
                  f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
         for value in portraits:
-            _portrait(spec, value, out, formats, pair, point_limit, local_workers)
+            _portrait(spec, value, out, formats, pair, point_limit, local_workers, setup_limit)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
@@ -224,6 +229,7 @@ def _check_numbers(args: argparse.Namespace) -> None:
     if args.workers is not None:
         parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     for text in args.portrait:
         parse_real(text, "--portrait")
     _pair(args.pair)
@@ -237,13 +243,16 @@ def _pair(text: str) -> tuple[int, int]:
 
 
 def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2),
-              point_limit: float | None = None, workers: int = 1) -> None:
+              point_limit: float | None = None, workers: int = 1, setup_limit: float | None = None) -> None:
     from nsbench.bifurcation import figures
     from nsbench.bifurcation.parallel import supervised
 
     tag = f"{spec.name}_{value:g}"
     # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
-    run, why = supervised("locus_job", (spec.to_dict(), value, pair, point_limit), workers)
+    from nsbench.jobs import SETUP_LIMIT
+
+    run, why = supervised("locus_job", (spec.to_dict(), value, pair, point_limit,
+                                        SETUP_LIMIT if setup_limit is None else setup_limit), workers)
     if run is None:
         print(f"  locus and portrait at {tag} failed: {why}")
         return

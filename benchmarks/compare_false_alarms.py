@@ -65,8 +65,7 @@ def planted_pairs(a: pd.DataFrame, b: pd.DataFrame) -> tuple[pd.DataFrame, pd.Da
     twins = {cls.name: name for name, cls in _planted.PAIRS.items()}
     right = b[b["integrator"].isin(list(twins))].copy()
     ids = {(r.problem_label, r.integrator, int(r.level)): r.case_id for r in left.itertuples()}
-    right["case_id"] = [ids.get((r.problem_label, twins[r.integrator], int(r.level)), "")
-                        for r in right.itertuples()]
+    right["case_id"] = [ids.get((r.problem_label, twins[r.integrator], int(r.level)), "") for r in right.itertuples()]
     return left, right[right["case_id"] != ""]
 
 
@@ -93,8 +92,11 @@ def main() -> int:
             if not (folder / "results.parquet").exists():
                 tic = time.perf_counter()
                 summary = run_suite(suite(), folder, workers=args.workers, progress=False, resume=False)
-                print(f"run {i}: {len(summary.results)} cases in {time.perf_counter() - tic:.0f} s, "
-                      f"load average {os.getloadavg()[0]:.1f}", flush=True)
+                print(
+                    f"run {i}: {len(summary.results)} cases in {time.perf_counter() - tic:.0f} s, "
+                    f"load average {os.getloadavg()[0]:.1f}",
+                    flush=True,
+                )
             runs.append(load_results(folder))
             prov = json.loads((folder / "provenance.json").read_text())
             loads[i] = prov.get("timing", {}).get("load", {})
@@ -106,19 +108,28 @@ def main() -> int:
         same = compare_frames(runs[i - 1], runs[i], args.factor, args.confidence)
         left, right = planted_pairs(runs[i - 1], runs[i])
         planted = compare_frames(left, right, args.factor, args.confidence)
-        rows.append({"comparison": f"run{i - 1:02d} -> run{i:02d}", "load_a": loads[i - 1].get("median"),
-                     "load_b": loads[i].get("median"), "identical_cases": len(same),
-                     "identical_flagged": int(same["flagged"].sum()),
-                     "identical_flags": "; ".join(f"{r.integrator} {r.options} {r.flags} (x{r.time_ratio:.2f}, "
-                                                  f"cpu x{r.cpu_ratio:.2f})"
-                                                  for r in same[same["flagged"]].itertuples()),
-                     "identical_load_verdicts": int((same["time_verdict"] == "load").sum()),
-                     "planted_cases": len(planted), "planted_slower": int((planted["time_verdict"] == "slower").sum()),
-                     "planted_missed": "; ".join(f"{r.integrator} {r.options} {r.time_verdict} (x{r.time_ratio:.2f}, "
-                                                 f"cpu x{r.cpu_ratio:.2f})"
-                                                 for r in planted[planted["time_verdict"] != "slower"].itertuples()),
-                     "planted_wall_ratio_median": float(planted["time_ratio"].median()),
-                     "planted_cpu_ratio_median": float(planted["cpu_ratio"].median())})
+        rows.append(
+            {
+                "comparison": f"run{i - 1:02d} -> run{i:02d}",
+                "load_a": loads[i - 1].get("median"),
+                "load_b": loads[i].get("median"),
+                "identical_cases": len(same),
+                "identical_flagged": int(same["flagged"].sum()),
+                "identical_flags": "; ".join(
+                    f"{r.integrator} {r.options} {r.flags} (x{r.time_ratio:.2f}, cpu x{r.cpu_ratio:.2f})"
+                    for r in same[same["flagged"]].itertuples()
+                ),
+                "identical_load_verdicts": int((same["time_verdict"] == "load").sum()),
+                "planted_cases": len(planted),
+                "planted_slower": int((planted["time_verdict"] == "slower").sum()),
+                "planted_missed": "; ".join(
+                    f"{r.integrator} {r.options} {r.time_verdict} (x{r.time_ratio:.2f}, cpu x{r.cpu_ratio:.2f})"
+                    for r in planted[planted["time_verdict"] != "slower"].itertuples()
+                ),
+                "planted_wall_ratio_median": float(planted["time_ratio"].median()),
+                "planted_cpu_ratio_median": float(planted["cpu_ratio"].median()),
+            }
+        )
     table = pd.DataFrame(rows)
     table.to_csv(out / "summary.csv", index=False)
     with pd.option_context("display.width", 250, "display.max_colwidth", 80):
@@ -126,9 +137,11 @@ def main() -> int:
     for r in table.itertuples():
         if r.identical_flags or r.planted_missed:
             print(f"{r.comparison}: flagged {r.identical_flags or '-'}; planted missed {r.planted_missed or '-'}")
-    print(f"identical code: {int(table['identical_flagged'].sum())} flagged in {len(table)} comparisons of "
-          f"{int(table['identical_cases'].sum())} cases; planted 2x: {int(table['planted_slower'].sum())} of "
-          f"{int(table['planted_cases'].sum())} flagged slower")
+    print(
+        f"identical code: {int(table['identical_flagged'].sum())} flagged in {len(table)} comparisons of "
+        f"{int(table['identical_cases'].sum())} cases; planted 2x: {int(table['planted_slower'].sum())} of "
+        f"{int(table['planted_cases'].sum())} flagged slower"
+    )
     return 0
 
 

@@ -36,8 +36,11 @@ import pytest
 
 from nsbench.bench.pytest_bench import bench_case
 
-BASELINE_ENV, MAX_RATIO_ENV, WRITE_ENV = ("NSBENCH_BENCH_BASELINE", "NSBENCH_BENCH_MAX_RATIO",
-                                          "NSBENCH_BENCH_WRITE_BASELINE")
+BASELINE_ENV, MAX_RATIO_ENV, WRITE_ENV = (
+    "NSBENCH_BENCH_BASELINE",
+    "NSBENCH_BENCH_MAX_RATIO",
+    "NSBENCH_BENCH_WRITE_BASELINE",
+)
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -54,15 +57,20 @@ def _cpu_model() -> str:
 def machine() -> dict[str, Any]:
     """What the figures depend on: CPU model, cores available to this process, platform."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return {"cpu": _cpu_model(), "cores": cores, "logical_cpus": os.cpu_count(),
-            "platform": platform.platform(), "python": platform.python_version()}
+    return {
+        "cpu": _cpu_model(),
+        "cores": cores,
+        "logical_cpus": os.cpu_count(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+    }
 
 
 def commit() -> dict[str, Any]:
     """Git commit of the checkout and whether it had uncommitted changes."""
+
     def git(*args: str) -> str:
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
-                              timeout=30).stdout.strip()
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
 
     try:
         return {"commit": git("rev-parse", "HEAD"), "dirty": bool(git("status", "--porcelain", "-uno"))}
@@ -98,8 +106,15 @@ class Baseline:
         self.new: dict[str, dict[str, Any]] = {}
         self.failed: set[str] = set()
 
-    def record(self, request, benchmark, figures: dict[str, Any], primary: str,
-               config: dict[str, Any], label: str | None = None) -> float | None:
+    def record(
+        self,
+        request,
+        benchmark,
+        figures: dict[str, Any],
+        primary: str,
+        config: dict[str, Any],
+        label: str | None = None,
+    ) -> float | None:
         """Store ``figures`` in ``extra_info`` and compare ``figures[primary]`` with the baseline.
 
         Parameters
@@ -128,22 +143,34 @@ class Baseline:
         value = figures.get(primary)
         ratio = value / base if value is not None and base else None
         benchmark.extra_info.update(figures)
-        benchmark.extra_info.update(baseline_figure=primary, baseline_value=base, baseline_ratio=ratio,
-                                    baseline_key=key)
+        benchmark.extra_info.update(
+            baseline_figure=primary, baseline_value=base, baseline_ratio=ratio, baseline_key=key
+        )
         name = label or request.node.name
         if ratio is None:
-            self.lines.append(f"{name}: {primary} = {value:.4g} (no baseline at this size)"
-                              if value is not None else f"{name}: {primary} not measured")
+            self.lines.append(
+                f"{name}: {primary} = {value:.4g} (no baseline at this size)"
+                if value is not None
+                else f"{name}: {primary} not measured"
+            )
         else:
             self.lines.append(f"{name}: {primary} = {value:.4g}, baseline {base:.4g}, ratio {ratio:.2f}")
         if value is not None:
             # the load of a shared machine explains most of the spread between runs: keep it with the figure
             load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
-            self.new[key] = {"test": request.node.nodeid, "config": config, "primary": primary,
-                             "figures": figures, "load_avg_1min": load}
+            self.new[key] = {
+                "test": request.node.nodeid,
+                "config": config,
+                "primary": primary,
+                "figures": figures,
+                "load_avg_1min": load,
+            }
         if ratio is not None and self.max_ratio is not None and ratio > self.max_ratio:
-            pytest.fail(f"{name}: {primary} = {value:.4g} is {ratio:.2f} x the baseline {base:.4g} "
-                        f"> {MAX_RATIO_ENV}={self.max_ratio:g}", pytrace=False)
+            pytest.fail(
+                f"{name}: {primary} = {value:.4g} is {ratio:.2f} x the baseline {base:.4g} "
+                f"> {MAX_RATIO_ENV}={self.max_ratio:g}",
+                pytrace=False,
+            )
         return ratio
 
     def save(self) -> str:
@@ -152,25 +179,29 @@ class Baseline:
         if not keep:
             return f"nothing measured: {self.path} left unchanged"
         here = machine()
-        same = not self.entries or ({k: self.data.get("machine", {}).get(k) for k in ("cpu", "cores")}
-                                    == {k: here[k] for k in ("cpu", "cores")})
+        same = not self.entries or (
+            {k: self.data.get("machine", {}).get(k) for k in ("cpu", "cores")} == {k: here[k] for k in ("cpu", "cores")}
+        )
         entries = dict(self.entries) if same else {}
         stamp = {"date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), **commit()}
         for key, entry in keep.items():
             entries[key] = {**entry, **stamp}
         data = {
-            "description": ("Figures measured by the benchmarks/ suites on the machine below (measured "
-                            "data, not goals). Each entry: the test, the size of the run, the figure "
-                            "compared ('primary'; lower is better), and when, at which commit and "
-                            "under which 1-minute load average of the machine it was measured. "
-                            "Regenerate with NSBENCH_BENCH_WRITE_BASELINE=1 python -m pytest "
-                            "benchmarks/ --benchmark-only (see docs/bench.md)."),
+            "description": (
+                "Figures measured by the benchmarks/ suites on the machine below (measured "
+                "data, not goals). Each entry: the test, the size of the run, the figure "
+                "compared ('primary'; lower is better), and when, at which commit and "
+                "under which 1-minute load average of the machine it was measured. "
+                "Regenerate with NSBENCH_BENCH_WRITE_BASELINE=1 python -m pytest "
+                "benchmarks/ --benchmark-only (see docs/bench.md)."
+            ),
             "machine": here,
             "entries": dict(sorted(entries.items())),
         }
         self.path.write_text(json.dumps(data, indent=1) + "\n")
-        return (f"wrote {len(keep)} entries to {self.path}"
-                + ("" if same else " (another machine: the previous entries were dropped)"))
+        return f"wrote {len(keep)} entries to {self.path}" + (
+            "" if same else " (another machine: the previous entries were dropped)"
+        )
 
 
 _SESSION: dict[str, Baseline] = {}
@@ -180,8 +211,7 @@ _SESSION: dict[str, Baseline] = {}
 def nsbench_baseline() -> Baseline:
     """The session's :class:`Baseline`; ``record(request, benchmark, figures, primary, config)``."""
     if "baseline" not in _SESSION:
-        _SESSION["baseline"] = Baseline(Path(os.environ.get(BASELINE_ENV) or Path(__file__).with_name(
-            "baseline.json")))
+        _SESSION["baseline"] = Baseline(Path(os.environ.get(BASELINE_ENV) or Path(__file__).with_name("baseline.json")))
     return _SESSION["baseline"]
 
 
@@ -225,9 +255,13 @@ def nsbench_bench(benchmark, nsbench_references, nsbench_baseline, request):
         if benchmark.stats:  # None with --benchmark-disable: nothing timed
             seconds = benchmark.stats.stats.median
             nodeid_size = {"t_end": row["t_end"], "options": json.dumps(options or {}, sort_keys=True)}
-            nsbench_baseline.record(request, benchmark,
-                                    {"seconds": seconds, "events_per_s": row["n_events"] / seconds
-                                     if seconds > 0 else None}, "seconds", nodeid_size)
+            nsbench_baseline.record(
+                request,
+                benchmark,
+                {"seconds": seconds, "events_per_s": row["n_events"] / seconds if seconds > 0 else None},
+                "seconds",
+                nodeid_size,
+            )
         return row
 
     return run

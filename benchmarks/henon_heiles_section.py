@@ -30,9 +30,12 @@ def heyoka_alone() -> tuple[np.ndarray, float]:
     vx, vy, x, y = hy.make_vars("vx", "vy", "x", "y")
     times: list[float] = []
     event = hy.nt_event(x, lambda ta, t, d_sgn: times.append(t), direction=hy.event_direction.positive)
-    ta = hy.taylor_adaptive([(vx, -x - 2.0 * x * y), (vy, y * y - y - x * x), (x, vx), (y, vy)],
-                            [-0.2525875586263492, -0.2178423952983717, 0.0, 0.2587703282931232],
-                            tol=HEYOKA_TOL, nt_events=[event])
+    ta = hy.taylor_adaptive(
+        [(vx, -x - 2.0 * x * y), (vy, y * y - y - x * x), (x, vx), (y, vy)],
+        [-0.2525875586263492, -0.2178423952983717, 0.0, 0.2587703282931232],
+        tol=HEYOKA_TOL,
+        nt_events=[event],
+    )
     best = np.inf
     for _ in range(5):
         run = copy.deepcopy(ta)
@@ -49,18 +52,23 @@ def main() -> None:
     ref_sections = ref[ref["kind"] == "section"]["t"].to_numpy()
     times, best = heyoka_alone()
     print(f"{'who':34s} {'sections':>8s} {'max |t - t_ref|':>16s} {'seconds':>10s}")
-    print(f"{'heyoka.py alone, tol 1e-15':34s} {len(times):8d} {np.abs(times - ref_sections).max():16.2e} "
-          f"{best:10.4f}")
-    for name, options in (("heyoka", {"tol": HEYOKA_TOL}), ("ofapi", {}), ("henon-rk4", {"h": 0.01}),
-                          ("scipy-dop853", {}), ("reference", {})):
+    print(f"{'heyoka.py alone, tol 1e-15':34s} {len(times):8d} {np.abs(times - ref_sections).max():16.2e} {best:10.4f}")
+    for name, options in (
+        ("heyoka", {"tol": HEYOKA_TOL}),
+        ("ofapi", {}),
+        ("henon-rk4", {"h": 0.01}),
+        ("scipy-dop853", {}),
+        ("reference", {}),
+    ):
         integ = nsbench.get_integrator(name, **options)
         runs = [nsbench.simulate(problem, integ, HEYOKA_T_END) for _ in range(3)]
         ev = runs[-1].events
         same = list(ev["kind"]) == list(ref["kind"])
         err = np.abs(ev["t"].to_numpy() - ref["t"].to_numpy()).max() if same else float("nan")
         label = f"nsbench {name} {options or ''}".strip()
-        print(f"{label:34s} {int((ev['kind'] == 'section').sum()):8d} {err:16.2e} "
-              f"{min(r.wall_time for r in runs):10.4f}")
+        print(
+            f"{label:34s} {int((ev['kind'] == 'section').sum()):8d} {err:16.2e} {min(r.wall_time for r in runs):10.4f}"
+        )
 
 
 if __name__ == "__main__":

@@ -41,11 +41,15 @@ print(json.dumps(times))
 def standalone_times(row: pd.Series, repeats: int) -> list[float]:
     """Warm ``wall_time`` of ``repeats`` standalone runs of a result row's case (fresh process)."""
     config = json.loads(row["integrator_config"])
-    spec = {"problem": json.loads(row["problem_config"]), "integrator": config["name"],
-            "options": config.get("options", {}), "t0": float(row["t0"]), "t_end": float(row["t_end"]),
-            "repeats": repeats}
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(spec)], capture_output=True,
-                         text=True, check=True)
+    spec = {
+        "problem": json.loads(row["problem_config"]),
+        "integrator": config["name"],
+        "options": config.get("options", {}),
+        "t0": float(row["t0"]),
+        "t_end": float(row["t_end"]),
+        "repeats": repeats,
+    }
+    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(spec)], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -58,8 +62,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--passes", type=int, default=3)
     args = parser.parse_args(argv)
     frame = pd.read_parquet(f"{args.results}/results.parquet")
-    rows = frame[frame["problem_label"].isin(args.problem) & frame["integrator"].isin(args.integrator)
-                 & (frame["status"] == "success")]
+    rows = frame[
+        frame["problem_label"].isin(args.problem)
+        & frame["integrator"].isin(args.integrator)
+        & (frame["status"] == "success")
+    ]
     print("| problem | integrator | options | report median (spread) | standalone median (spread) | ratio |")
     print("|---|---|---|---|---|---|")
     times: dict[int, list[float]] = {i: [] for i in rows.index}
@@ -72,9 +79,12 @@ def main(argv: list[str] | None = None) -> int:
         spread = (max(times[i]) - min(times[i])) / 2 / med
         ratios.append(row["wall_time"] / med)
         options = {k: v for k, v in json.loads(row["options"]).items() if v is not None}
-        print(f"| {row['problem_label']} | {row['integrator']} | {options} | {row['wall_time']:.4g} s "
-              f"(±{100 * row['wall_spread'] / 2:.0f}%) | {med:.4g} s (±{100 * spread:.0f}%) | "
-              f"{ratios[-1]:.2f} |", flush=True)
+        print(
+            f"| {row['problem_label']} | {row['integrator']} | {options} | {row['wall_time']:.4g} s "
+            f"(±{100 * row['wall_spread'] / 2:.0f}%) | {med:.4g} s (±{100 * spread:.0f}%) | "
+            f"{ratios[-1]:.2f} |",
+            flush=True,
+        )
     print(f"\nratios report / standalone: {min(ratios):.2f} .. {max(ratios):.2f}")
     return 0
 

@@ -49,10 +49,21 @@ def test_exact_on_a_64_block_chain(benchmark, request, nsbench_baseline):
     assert al.sequence_ok, f"exact and heyoka-q differ at event {al.first_divergence_index} of {al.n_ref}"
     max_dt = float(np.max(np.abs(theirs["t"].to_numpy() - quad.events["t"].to_numpy()))) if len(events) else 0.0
     wall = statistics.median(r.wall_time for r in runs)
-    figures = {"wall_s": wall, "events": len(events), "events_per_s": len(events) / wall if wall > 0 else None,
-               "max_dt_vs_quad": max_dt, "setup_s": first.setup_time,
-               "call_s": benchmark.stats.stats.median if benchmark.stats else None}
+    figures = {
+        "wall_s": wall,
+        "events": len(events),
+        "events_per_s": len(events) / wall if wall > 0 else None,
+        "max_dt_vs_quad": max_dt,
+        "setup_s": first.setup_time,
+        "call_s": benchmark.stats.stats.median if benchmark.stats else None,
+    }
     benchmark.extra_info.update(problem=f"chain/1 n={BLOCKS}", t_end=SPAN, rounds=ROUNDS)
-    nsbench_baseline.record(request, benchmark, figures, "wall_s", {"t_end": SPAN, "n": BLOCKS},
-                            label=f"exact chain n={BLOCKS} [0, {SPAN:g}]: {wall:.3g} s, {len(events)} events, "
-                                  f"max |dt| against heyoka-q {max_dt:.2g}")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "wall_s",
+        {"t_end": SPAN, "n": BLOCKS},
+        label=f"exact chain n={BLOCKS} [0, {SPAN:g}]: {wall:.3g} s, {len(events)} events, "
+        f"max |dt| against heyoka-q {max_dt:.2g}",
+    )

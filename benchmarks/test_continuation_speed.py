@@ -41,15 +41,33 @@ def test_case1_v0_continuation_vs_sweep(benchmark, request, nsbench_baseline, tm
     cont_s = benchmark.stats.stats.median if benchmark.stats else float("nan")
     assert branch.bifurcations and branch.bifurcations[-1].kind == "grazing-sliding"
 
-    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=START, stop=STOP, count=VALUES,
-                     integrator="exact", transient=1500.0, record=100)
-    run_sweep(SweepSpec(**{**spec.to_dict(), "count": 2}), tmp_path_factory.mktemp("warm"), workers=2,
-              progress=False)
+    spec = SweepSpec(
+        problem="two-dof",
+        case=1,
+        name="v0",
+        start=START,
+        stop=STOP,
+        count=VALUES,
+        integrator="exact",
+        transient=1500.0,
+        record=100,
+    )
+    run_sweep(SweepSpec(**{**spec.to_dict(), "count": 2}), tmp_path_factory.mktemp("warm"), workers=2, progress=False)
     tic = time.perf_counter()
     run_sweep(spec, tmp_path_factory.mktemp("sweep"), workers=2, progress=False)
     sweep_s = time.perf_counter() - tic
-    figures = {"continuation_s": cont_s, "sweep_s": sweep_s, "ratio_to_sweep": cont_s / sweep_s,
-               "steps": len(branch.values), "located_end": branch.bifurcations[-1].value}
-    nsbench_baseline.record(request, benchmark, figures, "ratio_to_sweep",
-                            {"start": START, "stop": STOP, "steps": STEPS, "values": VALUES},
-                            label="continuation vs 1000-value sweep (case 1, v0)")
+    figures = {
+        "continuation_s": cont_s,
+        "sweep_s": sweep_s,
+        "ratio_to_sweep": cont_s / sweep_s,
+        "steps": len(branch.values),
+        "located_end": branch.bifurcations[-1].value,
+    }
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "ratio_to_sweep",
+        {"start": START, "stop": STOP, "steps": STEPS, "values": VALUES},
+        label="continuation vs 1000-value sweep (case 1, v0)",
+    )

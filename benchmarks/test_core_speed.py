@@ -72,15 +72,26 @@ def test_core_events_per_second(benchmark, request, nsbench_baseline, name):
     wall = statistics.median(r.wall_time for r in runs)
     inner = statistics.median(r.integrator_time for r in runs)
     overhead = statistics.median((r.wall_time - r.integrator_time) / max(len(r.events), 1) for r in runs)
-    figures = {"wall_s": wall, "integrator_s": inner, "events": events,
-               "events_per_s": events / wall if wall > 0 else None,
-               "overhead_us_per_event": 1e6 * overhead,
-               "engine_share": 1.0 - inner / wall if wall > 0 else None,
-               "call_s": call, "events_per_s_call": events / call if call > 0 else None}
+    figures = {
+        "wall_s": wall,
+        "integrator_s": inner,
+        "events": events,
+        "events_per_s": events / wall if wall > 0 else None,
+        "overhead_us_per_event": 1e6 * overhead,
+        "engine_share": 1.0 - inner / wall if wall > 0 else None,
+        "call_s": call,
+        "events_per_s_call": events / call if call > 0 else None,
+    }
     benchmark.extra_info.update(integrator=name, problem="two-dof/1", t_end=SPAN, rounds=ROUNDS)
-    nsbench_baseline.record(request, benchmark, figures, "wall_s", {"t_end": SPAN},
-                            label=f"core {name} 2-DOF case 1 [0, {SPAN:g}]: {events / wall:,.0f} events/s, "
-                                  f"{1e6 * overhead:.2f} us/event in the core")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "wall_s",
+        {"t_end": SPAN},
+        label=f"core {name} 2-DOF case 1 [0, {SPAN:g}]: {events / wall:,.0f} events/s, "
+        f"{1e6 * overhead:.2f} us/event in the core",
+    )
 
 
 def _bare_rk4():
@@ -142,9 +153,19 @@ def test_rk4_step_floor(benchmark, request, nsbench_baseline):
     bare(p, mode, y0, 0.01, 10, work)  # compile
     benchmark.pedantic(bare, args=(p, mode, y0, 0.01, steps, work), rounds=ROUNDS, iterations=1)
     floor = benchmark.stats.stats.median / steps if benchmark.stats else float("nan")
-    figures = {"kernel_ns_per_step": 1e9 * kernel, "bare_ns_per_step": 1e9 * floor,
-               "kernel_over_bare": kernel / floor, "steps": steps}
+    figures = {
+        "kernel_ns_per_step": 1e9 * kernel,
+        "bare_ns_per_step": 1e9 * floor,
+        "kernel_over_bare": kernel / floor,
+        "steps": steps,
+    }
     benchmark.extra_info.update(problem="two-dof/1", h=0.01, t_end=SPAN)
-    nsbench_baseline.record(request, benchmark, figures, "kernel_ns_per_step", {"t_end": SPAN},
-                            label=f"henon-rk4 step {1e9 * kernel:.0f} ns against a bare RK4 loop "
-                                  f"{1e9 * floor:.0f} ns (2-DOF case 1, h = 0.01)")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "kernel_ns_per_step",
+        {"t_end": SPAN},
+        label=f"henon-rk4 step {1e9 * kernel:.0f} ns against a bare RK4 loop "
+        f"{1e9 * floor:.0f} ns (2-DOF case 1, h = 0.01)",
+    )

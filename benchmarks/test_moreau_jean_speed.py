@@ -51,10 +51,21 @@ def test_moreau_jean_steps_per_second_on_two_dof(benchmark, request, nsbench_bas
     assert max_dt <= 5 * H
     inner = statistics.median(r.integrator_time for r in runs)
     steps = runs[-1].counters.nsteps
-    figures = {"integrator_s": inner, "steps": steps, "steps_per_s": steps / inner if inner > 0 else None,
-               "wall_s": statistics.median(r.wall_time for r in runs), "max_dt_vs_exact": max_dt,
-               "setup_s": first.setup_time}
+    figures = {
+        "integrator_s": inner,
+        "steps": steps,
+        "steps_per_s": steps / inner if inner > 0 else None,
+        "wall_s": statistics.median(r.wall_time for r in runs),
+        "max_dt_vs_exact": max_dt,
+        "setup_s": first.setup_time,
+    }
     benchmark.extra_info.update(problem=f"two-dof/{case}", t_end=SPAN, h=H, rounds=ROUNDS)
-    nsbench_baseline.record(request, benchmark, figures, "integrator_s", {"t_end": SPAN, "h": H, "case": case},
-                            label=f"moreau-jean two-dof/{case} h={H:g} [0, {SPAN:g}]: {steps / inner / 1e6:.3g} "
-                                  f"million steps/s, max |dt| against exact {max_dt:.2g}")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "integrator_s",
+        {"t_end": SPAN, "h": H, "case": case},
+        label=f"moreau-jean two-dof/{case} h={H:g} [0, {SPAN:g}]: {steps / inner / 1e6:.3g} "
+        f"million steps/s, max |dt| against exact {max_dt:.2g}",
+    )

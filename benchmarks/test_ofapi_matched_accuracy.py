@@ -87,17 +87,19 @@ def test_matched_accuracy(benchmark, request, nsbench_baseline, case, name):
     result = benchmark.pedantic(run, rounds=ROUNDS[name], iterations=1, warmup_rounds=0)
     # the tidy row of the timed run (problem, integrator and its options, span, event-time accuracy
     # against the certified reference, counters) for `nsbench ingest`; no dense grid, so no state errors
-    row = record_case(benchmark, _references, problem.config(), name, options, result, t_end=T_END,
-                      rounds=ROUNDS[name])
+    row = record_case(benchmark, _references, problem.config(), name, options, result, t_end=T_END, rounds=ROUNDS[name])
     same = bool(row["sequence_ok"])
     error = float(row["switch_err_max"]) if same else float("inf")
     c = result.counters
     seconds = benchmark.stats.stats.median if benchmark.stats else result.wall_time
-    benchmark.extra_info.update({  # figures of this module (no column names: see record_case)
-        "implementation": type(integrator).__module__, "event_time_error": error,
-        "counters_of_timed_run": {"nfev": c.nfev, "nsteps": c.nsteps, "n_events": c.n_events, **dict(c.extra)},
-        "integrator_time_median": float(np.median(inside)),
-    })
+    benchmark.extra_info.update(
+        {  # figures of this module (no column names: see record_case)
+            "implementation": type(integrator).__module__,
+            "event_time_error": error,
+            "counters_of_timed_run": {"nfev": c.nfev, "nsteps": c.nsteps, "n_events": c.n_events, **dict(c.extra)},
+            "integrator_time_median": float(np.median(inside)),
+        }
+    )
     assert result.ok, result.message
     assert same, "event sequence differs from the reference"
     assert error <= TARGET, f"max event-time error {error:.3g} > {TARGET:g}"
@@ -108,5 +110,4 @@ def test_matched_accuracy(benchmark, request, nsbench_baseline, case, name):
     if name != NORMALISER and norm:
         figures[f"ratio_to_{NORMALISER.replace('-', '_')}"] = seconds / norm
         primary = f"ratio_to_{NORMALISER.replace('-', '_')}"
-    nsbench_baseline.record(request, benchmark, figures, primary, {"t_end": T_END},
-                            label=f"matched case {case} {name}")
+    nsbench_baseline.record(request, benchmark, figures, primary, {"t_end": T_END}, label=f"matched case {case} {name}")

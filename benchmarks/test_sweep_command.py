@@ -45,25 +45,53 @@ TRANSIENT = FULL_TRANSIENT * SCALE
 RECORD = FULL_RECORD if SCALE == 1 else max(5, round(FULL_RECORD * SCALE))
 COUNT = FULL_COUNT if SCALE == 1 else max(10, round(FULL_COUNT * SCALE))
 ROUNDS = 2
-INTEGRATORS = [n.strip() for n in os.environ.get("NSBENCH_COMMAND_INTEGRATORS", "exact,heyoka").split(",")
-               if n.strip()]
+INTEGRATORS = [n.strip() for n in os.environ.get("NSBENCH_COMMAND_INTEGRATORS", "exact,heyoka").split(",") if n.strip()]
 _walls: dict[str, float] = {}
 
 # The command run as `python -m nsbench ...` in this process's interpreter, with the process's own
 # CPU seconds written at its exit (atexit runs after the command's sys.exit)
-_WRAP = ("import atexit, json, resource, runpy, sys\n"
-         "out = sys.argv.pop(1)\n"
-         "atexit.register(lambda: open(out, 'w').write(json.dumps(resource.getrusage(resource.RUSAGE_SELF)[:2])))\n"
-         "sys.argv[0] = 'nsbench'\n"
-         "runpy.run_module('nsbench', run_name='__main__', alter_sys=True)\n")
+_WRAP = (
+    "import atexit, json, resource, runpy, sys\n"
+    "out = sys.argv.pop(1)\n"
+    "atexit.register(lambda: open(out, 'w').write(json.dumps(resource.getrusage(resource.RUSAGE_SELF)[:2])))\n"
+    "sys.argv[0] = 'nsbench'\n"
+    "runpy.run_module('nsbench', run_name='__main__', alter_sys=True)\n"
+)
 
 
-def command(name: str, out, usage, count: int = COUNT, transient: float = TRANSIENT, record: int = RECORD,
-            workers: int = WORKERS) -> list[str]:
+def command(
+    name: str,
+    out,
+    usage,
+    count: int = COUNT,
+    transient: float = TRANSIENT,
+    record: int = RECORD,
+    workers: int = WORKERS,
+) -> list[str]:
     """The command line of the timed sweep, wrapped to record its own CPU seconds in ``usage``."""
-    return [sys.executable, "-c", _WRAP, str(usage), "bifurcation", "two-dof", "--case", "1",
-            "--sweep", f"v0=0.04:0.22:{count}", "--transient", f"{transient:g}", "--record", str(record),
-            "--integrator", name, "--workers", str(workers), "--out", str(out), "--no-progress"]
+    return [
+        sys.executable,
+        "-c",
+        _WRAP,
+        str(usage),
+        "bifurcation",
+        "two-dof",
+        "--case",
+        "1",
+        "--sweep",
+        f"v0=0.04:0.22:{count}",
+        "--transient",
+        f"{transient:g}",
+        "--record",
+        str(record),
+        "--integrator",
+        name,
+        "--workers",
+        str(workers),
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
 
 
 def run_command(name: str, out, usage) -> tuple[float, float, float]:
@@ -84,8 +112,11 @@ def run_command(name: str, out, usage) -> tuple[float, float, float]:
 def test_sweep_command_end_to_end(benchmark, request, nsbench_baseline, tmp_path_factory, name):
     # the numba caches and heyoka's compilation of this machine, once, untimed
     warm = tmp_path_factory.mktemp("warm")
-    subprocess.run(command(name, warm / "out", warm / "usage.json", count=2, transient=10.0, record=2, workers=1),
-                   capture_output=True, check=True)
+    subprocess.run(
+        command(name, warm / "out", warm / "usage.json", count=2, transient=10.0, record=2, workers=1),
+        capture_output=True,
+        check=True,
+    )
     runs = []
 
     def once():
@@ -95,14 +126,24 @@ def test_sweep_command_end_to_end(benchmark, request, nsbench_baseline, tmp_path
     benchmark.pedantic(once, rounds=ROUNDS, iterations=1)
     runs.sort()
     wall, cpu, values = runs[len(runs) // 2]
-    figures = {"wall_s": wall, "parent_cpu_s": cpu, "parent_share": cpu / wall, "values_s": values,
-               "wall_over_values": wall / values}
+    figures = {
+        "wall_s": wall,
+        "parent_cpu_s": cpu,
+        "parent_share": cpu / wall,
+        "values_s": values,
+        "wall_over_values": wall / values,
+    }
     primary = "wall_over_values"
     _walls[name] = wall
     if name != "exact" and "exact" in _walls:
         figures["ratio_to_exact"] = wall / _walls["exact"]
         primary = "ratio_to_exact"
     benchmark.extra_info.update(values=COUNT, transient=TRANSIENT, record=RECORD, workers=WORKERS)
-    nsbench_baseline.record(request, benchmark, figures, primary,
-                            {"values": COUNT, "transient": TRANSIENT, "record": RECORD, "workers": WORKERS},
-                            label=f"sweep command {name} ({COUNT} values, end to end)")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        primary,
+        {"values": COUNT, "transient": TRANSIENT, "record": RECORD, "workers": WORKERS},
+        label=f"sweep command {name} ({COUNT} values, end to end)",
+    )

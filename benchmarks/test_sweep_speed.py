@@ -48,8 +48,7 @@ RECORD = FULL_RECORD if SCALE == 1 else max(5, round(FULL_RECORD * SCALE))
 COUNT = FULL_COUNT if SCALE == 1 else max(10, round(FULL_COUNT * SCALE))
 # the engine integrators dominate a scaled-down run (seconds per value even over a short
 # transient), so their subset shrinks too unless NSBENCH_SWEEP_SUBSET says otherwise
-SUBSET = min(int(os.environ.get("NSBENCH_SWEEP_SUBSET", 10 if SCALE == 1 else max(2, round(10 * SCALE)))),
-             COUNT)
+SUBSET = min(int(os.environ.get("NSBENCH_SWEEP_SUBSET", 10 if SCALE == 1 else max(2, round(10 * SCALE)))), COUNT)
 #: the integrator every other one is compared with (timed first)
 REFERENCE = "exact"
 _reference: dict[str, object] = {}
@@ -86,8 +85,17 @@ def _capable() -> list[str]:
 
 
 def _spec(name: str, count: int) -> SweepSpec:
-    return SweepSpec(problem="two-dof", case=1, name="v0", start=0.04, stop=0.22, count=count,
-                     integrator=name, transient=TRANSIENT, record=RECORD)
+    return SweepSpec(
+        problem="two-dof",
+        case=1,
+        name="v0",
+        start=0.04,
+        stop=0.22,
+        count=count,
+        integrator=name,
+        transient=TRANSIENT,
+        record=RECORD,
+    )
 
 
 def _cpu() -> float:
@@ -155,13 +163,20 @@ def test_case1_v0_sweep(benchmark, request, nsbench_baseline, tmp_path_factory, 
     frame, wall, cpu = _timed_sweep(benchmark, tmp_path_factory, name, 2 if name == REFERENCE else 1)
     estimate, cpu_s = wall * COUNT / count, cpu * COUNT / count
     pts = frame.groupby("index").first()
-    info = dict(values=COUNT, values_timed=count, transient=TRANSIENT, record=RECORD, workers=WORKERS,
-                measured=full, failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
-                at_rest=int((pts["status"] == "rest").sum()), nfev=int(pts["nfev"].sum()),
-                reference_integrator=REFERENCE)
+    info = dict(
+        values=COUNT,
+        values_timed=count,
+        transient=TRANSIENT,
+        record=RECORD,
+        workers=WORKERS,
+        measured=full,
+        failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
+        at_rest=int((pts["status"] == "rest").sum()),
+        nfev=int(pts["nfev"].sum()),
+        reference_integrator=REFERENCE,
+    )
     benchmark.extra_info.update(info)
-    figures = {"sweep_s": estimate, "values_per_s": COUNT / estimate if estimate > 0 else None,
-               "cpu_s": cpu_s}
+    figures = {"sweep_s": estimate, "values_per_s": COUNT / estimate if estimate > 0 else None, "cpu_s": cpu_s}
     # compared with the baseline: the wall ratio to the reference timed in the same session
     # (both see about the same load); only the reference itself compares absolute seconds
     primary = "sweep_s"
@@ -174,7 +189,11 @@ def test_case1_v0_sweep(benchmark, request, nsbench_baseline, tmp_path_factory, 
         figures[f"median_hausdorff_vs_{REFERENCE.replace('-', '_')}"] = _agreement(ref["frame"], frame)
         primary = "ratio_to_reference"
     how = "measured" if full else f"extrapolated from {count}"
-    nsbench_baseline.record(request, benchmark, figures, primary,
-                            {"values": COUNT, "timed": count, "transient": TRANSIENT, "record": RECORD,
-                             "workers": WORKERS},
-                            label=f"sweep {name} ({COUNT} values, {how})")
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        primary,
+        {"values": COUNT, "timed": count, "transient": TRANSIENT, "record": RECORD, "workers": WORKERS},
+        label=f"sweep {name} ({COUNT} values, {how})",
+    )

@@ -24,8 +24,9 @@ def conditioning_of(problem: str, case: int, t_end: float = 300.0) -> float:
     from nsbench.bench.reference import conditioning
 
     p = nsbench.get_problem(problem, case=case)
-    kappa, note = conditioning(p, nsbench.get_integrator("reference").config(), 0.0, t_end,
-                               nsbench.simulate(p, "reference", t_end).events)
+    kappa, note = conditioning(
+        p, nsbench.get_integrator("reference").config(), 0.0, t_end, nsbench.simulate(p, "reference", t_end).events
+    )
     assert np.isfinite(kappa), note
     return kappa
 
@@ -45,9 +46,11 @@ def precision_bound(times, kappa: float, eps: float, steps: int = 1) -> float:
 
 def same_sequence(a, b) -> bool:
     """Whether two event logs have the same ``(kind, block)`` sequence."""
-    return (len(a) == len(b)
-            and (a["kind"].to_numpy() == b["kind"].to_numpy()).all()
-            and (a["block"].to_numpy() == b["block"].to_numpy()).all())
+    return (
+        len(a) == len(b)
+        and (a["kind"].to_numpy() == b["kind"].to_numpy()).all()
+        and (a["block"].to_numpy() == b["block"].to_numpy()).all()
+    )
 
 
 def max_time_error(a, b) -> float:

@@ -20,9 +20,22 @@ def install_example(work: Path, name: str) -> tuple[dict[str, str], Path]:
     shutil.copytree(EXAMPLES / name, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
     site = work / "site"
     install = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index",
-         "--quiet", "--target", str(site), str(source)],
-        capture_output=True, text=True)
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--no-deps",
+            "--no-build-isolation",
+            "--no-index",
+            "--quiet",
+            "--target",
+            str(site),
+            str(source),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert install.returncode == 0, install.stderr[-2000:]
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
@@ -31,5 +44,6 @@ def install_example(work: Path, name: str) -> tuple[dict[str, str], Path]:
 
 def run_nsbench(env: dict[str, str], *args: str) -> subprocess.CompletedProcess:
     """``python -m nsbench ARGS`` in ``env``, its output captured."""
-    return subprocess.run([sys.executable, "-m", "nsbench", *args], capture_output=True, text=True,
-                          env=env, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "nsbench", *args], capture_output=True, text=True, env=env, timeout=600
+    )

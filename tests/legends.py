@@ -14,6 +14,8 @@ def overlaps(fig) -> list[str]:
         box = legend.get_window_extent(renderer)
         for ax in fig.axes:
             if ax.get_visible() and box.overlaps(ax.get_window_extent(renderer)):
-                found.append(f"legend {[t.get_text() for t in legend.get_texts()][:3]} over axes "
-                             f"{ax.get_title() or ax.get_ylabel()!r}")
+                found.append(
+                    f"legend {[t.get_text() for t in legend.get_texts()][:3]} over axes "
+                    f"{ax.get_title() or ax.get_ylabel()!r}"
+                )
     return found

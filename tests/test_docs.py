@@ -16,8 +16,8 @@ BUILTINS = [e.name for e in registry.entries("integrators") if e.distribution ==
 
 
 def _integrator_row(name: str) -> str:
-    table = README[README.index("## Integrators"):]
-    table = table[:table.index("\n\n", table.index("|---"))]
+    table = README[README.index("## Integrators") :]
+    table = table[: table.index("\n\n", table.index("|---"))]
     rows = [line for line in table.splitlines() if line.startswith("| ")]
     (row,) = [r for r in rows if f"`{name}`" in r.split("|")[1]]
     return row
@@ -60,6 +60,6 @@ def test_exact_locates_events_as_nsbench_list_says():
 
 def test_the_layout_names_modules_that_exist():
     src = Path(__file__).resolve().parents[1] / "src" / "nsbench"
-    layout = README[README.index("## Layout"):]
+    layout = README[README.index("## Layout") :]
     for name in re.findall(r"\b(_?[a-z][a-z0-9_]*\.py)\b", layout):
         assert list(src.rglob(name)), name

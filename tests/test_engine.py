@@ -72,8 +72,7 @@ def test_peak_sections_agree_across_integrators(case2):
 
 def test_sections_do_not_change_events(case2):
     plain = nsbench.simulate(case2, "scipy-dop853", 60.0).events
-    observed = nsbench.simulate(case2, "scipy-dop853", 60.0,
-                                sections=[peaks(case2), stroboscopic(case2)]).events
+    observed = nsbench.simulate(case2, "scipy-dop853", 60.0, sections=[peaks(case2), stroboscopic(case2)]).events
     np.testing.assert_array_equal(plain["t"].to_numpy(), observed["t"].to_numpy())
 
 
@@ -88,13 +87,16 @@ def test_section_validation(case1):
         nsbench.simulate(case1, "exact", 1.0, sections=[StateSection("s", (1.0, 0.0, 0.0))])
 
 
-@pytest.mark.parametrize("kwargs, fragment", [
-    (dict(t_end=-1.0), "must be greater than t0"),
-    (dict(t_end=float("nan")), "must be finite"),
-    (dict(t_end=1.0, y0=[0.0, 0.0]), "needs 4 states"),
-    (dict(t_end=1.0, t_eval=[0.5, 0.2]), "sorted"),
-    (dict(t_end=1.0, t_eval=[0.5, 2.0]), "must lie in"),
-])
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(t_end=-1.0), "must be greater than t0"),
+        (dict(t_end=float("nan")), "must be finite"),
+        (dict(t_end=1.0, y0=[0.0, 0.0]), "needs 4 states"),
+        (dict(t_end=1.0, t_eval=[0.5, 0.2]), "sorted"),
+        (dict(t_end=1.0, t_eval=[0.5, 2.0]), "must lie in"),
+    ],
+)
 def test_bad_engine_input(case1, kwargs, fragment):
     with pytest.raises(nsbench.ConfigError, match=fragment):
         nsbench.simulate(case1, "exact", **kwargs)
@@ -122,8 +124,7 @@ class _AlwaysFires(Integrator):
     capabilities = Capabilities(event_location="none", order=None, adaptive=False)
 
     def advance(self, request):
-        return ArcResult(t=request.t0, y=np.array(request.y0), fired=0,
-                         y_eval=np.empty((request.problem.n_states, 0)))
+        return ArcResult(t=request.t0, y=np.array(request.y0), fired=0, y_eval=np.empty((request.problem.n_states, 0)))
 
 
 class _Diverges(Integrator):
@@ -131,8 +132,12 @@ class _Diverges(Integrator):
     capabilities = Capabilities(event_location="none", order=None, adaptive=False)
 
     def advance(self, request):
-        return ArcResult(t=request.t0 + 1.0, y=np.full(request.problem.n_states, np.nan), fired=None,
-                         y_eval=np.empty((request.problem.n_states, 0)))
+        return ArcResult(
+            t=request.t0 + 1.0,
+            y=np.full(request.problem.n_states, np.nan),
+            fired=None,
+            y_eval=np.empty((request.problem.n_states, 0)),
+        )
 
 
 class _Raises(Integrator):
@@ -233,27 +238,30 @@ def test_invalid_low_time_parts_are_dropped():
     assert _low_part(100.0, float("nan")) == 0.0
 
 
-@pytest.mark.parametrize("kw, fragment", [
-    ({"max_steps": 0}, "max_steps = 0 must be a whole number from 1"),
-    ({"max_steps": -5}, "max_steps = -5"),
-    ({"max_steps": 2.5}, "max_steps = 2.5"),
-    ({"max_steps": True}, "max_steps = True"),
-    ({"max_steps": 10**30}, "max_steps = 10000"),
-    ({"max_events": 0}, "max_events = 0"),
-    ({"zeno_events": -1}, "zeno_events = -1"),
-    ({"zeno_span": -1.0}, "zeno_span = -1.0 must be a finite time > 0"),
-    ({"zeno_span": float("nan")}, "zeno_span = nan"),
-    ({"zeno_span": float("inf")}, "zeno_span = inf"),
-    ({"zeno_span": "1e-9"}, "zeno_span = '1e-9'"),
-    # these ran too: -1 as if 0, 1 (no ratio to compare) never extrapolating, 1.5 truncated, a huge
-    # one sizing the core's ring of event times, nan ending in a bare ValueError
-    ({"accumulation": -1}, "accumulation = -1 must be 0 (no accumulation rule) or a whole number from 2"),
-    ({"accumulation": 1}, "accumulation = 1 must be 0"),
-    ({"accumulation": 1.5}, "accumulation = 1.5"),
-    ({"accumulation": float("nan")}, "accumulation = nan"),
-    ({"accumulation": 10**12}, "accumulation = 1000000000000"),
-    ({"accumulation": True}, "accumulation = True"),
-])
+@pytest.mark.parametrize(
+    "kw, fragment",
+    [
+        ({"max_steps": 0}, "max_steps = 0 must be a whole number from 1"),
+        ({"max_steps": -5}, "max_steps = -5"),
+        ({"max_steps": 2.5}, "max_steps = 2.5"),
+        ({"max_steps": True}, "max_steps = True"),
+        ({"max_steps": 10**30}, "max_steps = 10000"),
+        ({"max_events": 0}, "max_events = 0"),
+        ({"zeno_events": -1}, "zeno_events = -1"),
+        ({"zeno_span": -1.0}, "zeno_span = -1.0 must be a finite time > 0"),
+        ({"zeno_span": float("nan")}, "zeno_span = nan"),
+        ({"zeno_span": float("inf")}, "zeno_span = inf"),
+        ({"zeno_span": "1e-9"}, "zeno_span = '1e-9'"),
+        # these ran too: -1 as if 0, 1 (no ratio to compare) never extrapolating, 1.5 truncated, a huge
+        # one sizing the core's ring of event times, nan ending in a bare ValueError
+        ({"accumulation": -1}, "accumulation = -1 must be 0 (no accumulation rule) or a whole number from 2"),
+        ({"accumulation": 1}, "accumulation = 1 must be 0"),
+        ({"accumulation": 1.5}, "accumulation = 1.5"),
+        ({"accumulation": float("nan")}, "accumulation = nan"),
+        ({"accumulation": 10**12}, "accumulation = 1000000000000"),
+        ({"accumulation": True}, "accumulation = True"),
+    ],
+)
 def test_budgets_and_the_storm_span_are_checked(case1, kw, fragment):
     # each of these used to run: a budget of 0 or -5 steps ended at once with a message about
     # "-5 steps used", and a storm span of -1 or nan silently switched the storm check off
@@ -279,8 +287,9 @@ def test_check_points_leave_a_clean_run_as_it_is(case2):
 
 
 def test_budgets_of_numpy_integers_are_accepted(case1):
-    assert nsbench.simulate(case1, "exact", 10.0, max_steps=np.int64(1000), zeno_events=np.int32(8),
-                            accumulation=np.int64(8)).ok
+    assert nsbench.simulate(
+        case1, "exact", 10.0, max_steps=np.int64(1000), zeno_events=np.int32(8), accumulation=np.int64(8)
+    ).ok
 
 
 def test_a_plain_call_is_checked_for_crossings_stepped_over_by_default():

@@ -17,7 +17,7 @@ def test_an_atomic_write_never_writes_through_a_link(tmp_path):
     store = tmp_path / "store"
     store.mkdir()
     (store / "a.json.tmp").symlink_to(outside)  # a link where the temporary file goes
-    (store / "b.json").symlink_to(outside)      # a link where the file goes
+    (store / "b.json").symlink_to(outside)  # a link where the file goes
     write_atomic(store / "a.json", "one")
     write_atomic(store / "b.json", b"two")
     assert outside.read_text() == "precious"

@@ -15,11 +15,17 @@ def _loaded(code: str) -> set[str]:
 
 
 def test_import_loads_no_heavy_backend():
-    assert _loaded("import nsbench\np = nsbench.get_problem('two-dof', case=2)\n"
-                   "nsbench.list_integrators()\nnsbench.list_problems()") == set()
+    assert (
+        _loaded(
+            "import nsbench\np = nsbench.get_problem('two-dof', case=2)\n"
+            "nsbench.list_integrators()\nnsbench.list_problems()"
+        )
+        == set()
+    )
 
 
 def test_a_simulation_loads_only_the_compiled_core():
     # the hybrid core is compiled (numba); heyoka, SUNDIALS and matplotlib wait for their users
-    assert _loaded("import nsbench\nnsbench.simulate(nsbench.get_problem('two-dof', case=2), 'exact', 20.0)") \
-        == {"numba"}
+    assert _loaded("import nsbench\nnsbench.simulate(nsbench.get_problem('two-dof', case=2), 'exact', 20.0)") == {
+        "numba"
+    }

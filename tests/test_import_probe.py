@@ -17,8 +17,11 @@ from nsbench.integrators import list_integrators
 
 PLUGINS = {
     "exits-at-import": ("evil_exit_plugin", "import os\nos._exit(3)\n", "ended its process (exit code 3)"),
-    "segfaults-at-import": ("evil_segv_plugin", "import os, signal\nos.kill(os.getpid(), signal.SIGSEGV)\n",
-                            "ended its process (signal 11 (SIGSEGV))"),
+    "segfaults-at-import": (
+        "evil_segv_plugin",
+        "import os, signal\nos.kill(os.getpid(), signal.SIGSEGV)\n",
+        "ended its process (signal 11 (SIGSEGV))",
+    ),
     "hangs-at-import": ("evil_hang_plugin", "import time\ntime.sleep(3600)\n", "did not finish importing within 5 s"),
     "raises-at-import": ("evil_raise_plugin", "raise RuntimeError('broken plug-in')\n", "RuntimeError: broken plug-in"),
 }
@@ -35,14 +38,18 @@ def evil_env(tmp_path_factory):
         (site / f"{module}.py").write_text(code)
         lines.append(f"{name} = {module}:Thing")
     (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
-    env = {**os.environ, "NSBENCH_IMPORT_LIMIT": "5",
-           "PYTHONPATH": os.pathsep.join([str(site), os.getcwd(), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+    env = {
+        **os.environ,
+        "NSBENCH_IMPORT_LIMIT": "5",
+        "PYTHONPATH": os.pathsep.join([str(site), os.getcwd(), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep),
+    }
     return env
 
 
 def _nsbench(env, *args):
-    return subprocess.run([sys.executable, "-m", "nsbench", *args], capture_output=True, text=True, env=env,
-                          timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "nsbench", *args], capture_output=True, text=True, env=env, timeout=600
+    )
 
 
 def test_nsbench_list_survives_plugins_that_end_their_process_at_import(evil_env):
@@ -57,10 +64,13 @@ def test_nsbench_list_survives_plugins_that_end_their_process_at_import(evil_env
 def test_a_registered_true_suite_leaves_them_out_and_runs(evil_env, tmp_path):
     others = [n for n in list_integrators() if n != "exact"]
     suite = tmp_path / "s.toml"
-    suite.write_text('t_span = [0, 5]\nrepeats = 1\nproblems = [{ name = "one-dof", case = 1 }]\n'
-                     f"[integrators]\nregistered = true\nexclude = {others!r}\n".replace("'", '"'))
-    out = _nsbench(evil_env, "bench", str(suite), "--out", str(tmp_path / "o"), "--no-progress", "--no-report",
-                   "--workers", "1")
+    suite.write_text(
+        't_span = [0, 5]\nrepeats = 1\nproblems = [{ name = "one-dof", case = 1 }]\n'
+        f"[integrators]\nregistered = true\nexclude = {others!r}\n".replace("'", '"')
+    )
+    out = _nsbench(
+        evil_env, "bench", str(suite), "--out", str(tmp_path / "o"), "--no-progress", "--no-report", "--workers", "1"
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     for name, (_, _, reason) in PLUGINS.items():
         assert f"integrator {name!r} left out" in out.stderr and reason in out.stderr

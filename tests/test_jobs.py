@@ -71,8 +71,9 @@ def test_a_job_that_never_returns_is_stopped_and_the_others_finish():
 @pytest.mark.parametrize("how, reason", [("exit", "exit code 9"), ("segv", "signal 11 (SIGSEGV)")])
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_worker_that_dies_costs_only_its_job(how, reason, workers):
-    out = _run([Job("bad", TARGET + "dies_at", (3, 1, how)), *(Job(k, TARGET + "squares", (2,)) for k in range(4))],
-               workers)
+    out = _run(
+        [Job("bad", TARGET + "dies_at", (3, 1, how)), *(Job(k, TARGET + "squares", (2,)) for k in range(4))], workers
+    )
     bad = [o for o in out if o.key == "bad"]
     assert [o.value for o in bad if o.kind == "partial"] == [0]
     assert bad[-1].kind == "crashed" and bad[-1].stage == "item 1" and reason in bad[-1].reason

@@ -68,13 +68,26 @@ def _package_edges() -> dict[tuple[str, str], list[str]]:
     return edges
 
 
-@pytest.mark.parametrize("lower, upper", [
-    ("model", "problems"), ("model", "integrators"), ("model", "hybrid"), ("model", "engine"),
-    ("model", "results"), ("model", "bench"),
-    ("problems", "integrators"), ("problems", "hybrid"), ("problems", "engine"),
-    ("integrators", "hybrid"), ("integrators", "engine"),
-    ("hybrid", "engine"), ("hybrid", "bench"), ("engine", "bench"), ("engine", "cli"),
-])
+@pytest.mark.parametrize(
+    "lower, upper",
+    [
+        ("model", "problems"),
+        ("model", "integrators"),
+        ("model", "hybrid"),
+        ("model", "engine"),
+        ("model", "results"),
+        ("model", "bench"),
+        ("problems", "integrators"),
+        ("problems", "hybrid"),
+        ("problems", "engine"),
+        ("integrators", "hybrid"),
+        ("integrators", "engine"),
+        ("hybrid", "engine"),
+        ("hybrid", "bench"),
+        ("engine", "bench"),
+        ("engine", "cli"),
+    ],
+)
 def test_a_lower_layer_never_imports_a_higher_one(lower, upper):
     offending = _package_edges().get((lower, upper), [])
     assert not offending, f"{lower} imports {upper}: {offending}"
@@ -83,7 +96,7 @@ def test_a_lower_layer_never_imports_a_higher_one(lower, upper):
 def test_no_import_circle_among_problems_integrators_and_the_core():
     core = {"model", "problems", "integrators", "hybrid"}
     graph: dict[str, set[str]] = {name: set() for name in core}
-    for (a, b) in _package_edges():
+    for a, b in _package_edges():
         if a in core and b in core:
             graph[a].add(b)
 
@@ -97,8 +110,12 @@ def test_no_import_circle_among_problems_integrators_and_the_core():
 def test_the_core_imports_no_integrator_and_no_problem_module():
     # the loop and the rules call a problem's law and an integrator's kernel through function tables
     for name in ("nsbench.model.loop", "nsbench.model.rules", "nsbench.model.law", "nsbench.hybrid.run"):
-        bad = [t for t in _imports(MODULES[name]) if t.startswith(("nsbench.integrators.", "nsbench.problems."))
-               and not t.startswith(("nsbench.integrators.base", "nsbench.problems.base"))]
+        bad = [
+            t
+            for t in _imports(MODULES[name])
+            if t.startswith(("nsbench.integrators.", "nsbench.problems."))
+            and not t.startswith(("nsbench.integrators.base", "nsbench.problems.base"))
+        ]
         assert not bad, f"{name} imports {bad}"
 
 
@@ -115,8 +132,11 @@ def _compiled_functions():
 
 
 def test_no_compiled_function_takes_more_than_12_arguments():
-    wide = [f"{name}.{fn.name}: {len(fn.args.args)}" for name, fn in _compiled_functions()
-            if len(fn.args.args) + len(fn.args.kwonlyargs) > 12]
+    wide = [
+        f"{name}.{fn.name}: {len(fn.args.args)}"
+        for name, fn in _compiled_functions()
+        if len(fn.args.args) + len(fn.args.kwonlyargs) > 12
+    ]
     assert not wide, f"group these arguments in named bundles: {wide}"
     assert sum(1 for _ in _compiled_functions()) > 50  # the scan sees the kernels
 
@@ -150,8 +170,12 @@ def test_one_status_vocabulary():
     assert from_results is Status
     codes = [v for k, v in vars(abi).items() if k.startswith("RUN_")]
     assert sorted(RUN_STATUS) == sorted(codes) and set(RUN_STATUS.values()) <= set(Status)
-    defined = [name for name, tree in MODULES.items() for node in ast.walk(tree)
-               if isinstance(node, ast.ClassDef) and node.name == "Status"]
+    defined = [
+        name
+        for name, tree in MODULES.items()
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ClassDef) and node.name == "Status"
+    ]
     assert defined == ["nsbench.status"]
 
 

@@ -24,8 +24,9 @@ def test_ci_runs_ruff_and_mypy_before_the_tests():
     commands = [line for line in lines if line and not line.startswith("#")]
     assert any('".[test,lint]"' in line for line in commands)
     ruff, mypy = commands.index("ruff check ."), commands.index("mypy")
+    formatted = commands.index("ruff format --check .")
     tests = next(i for i, line in enumerate(commands) if line.startswith("python -m pytest"))
-    assert ruff < tests and mypy < tests
+    assert ruff < tests and mypy < tests and formatted < tests
 
 
 def test_the_type_checker_baseline_names_only_existing_modules():
@@ -42,6 +43,13 @@ def test_ruff_is_clean():
     if shutil.which("ruff") is None:
         pytest.skip("ruff is not installed (pip install -e '.[lint]')")
     done = subprocess.run(["ruff", "check", "."], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_code_is_formatted():
+    if shutil.which("ruff") is None:
+        pytest.skip("ruff is not installed (pip install -e '.[lint]')")
+    done = subprocess.run(["ruff", "format", "--check", "."], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
 
 

@@ -41,22 +41,31 @@ def test_plugin_passes_the_conformance_kit(plugin_env):
 
 
 def test_plugin_runs_by_name(plugin_env):
-    out = _nsbench(plugin_env, "simulate", "two-dof", "--case", "1", "--integrator", "heun-bisect",
-                   "--t-end", "20", "--h", "0.002")
+    out = _nsbench(
+        plugin_env, "simulate", "two-dof", "--case", "1", "--integrator", "heun-bisect", "--t-end", "20", "--h", "0.002"
+    )
     assert out.returncode == 0, out.stderr
     assert "heun-bisect" in out.stdout and "status      success" in out.stdout
 
 
 def test_plugin_is_in_the_provenance_with_its_version(plugin_env):
     """provenance.json (of every run, sweep, report) names each plug-in, its distribution and version."""
-    code = ("import json; from nsbench.provenance import provenance; "
-            "print(json.dumps([p for p in provenance()['plugins'] if p['name'] == 'heun-bisect']))")
+    code = (
+        "import json; from nsbench.provenance import provenance; "
+        "print(json.dumps([p for p in provenance()['plugins'] if p['name'] == 'heun-bisect']))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=plugin_env, timeout=120)
     assert out.returncode == 0, out.stderr
     import json
     import tomllib
 
     version = tomllib.loads((EXAMPLES / "plugin" / "pyproject.toml").read_text())["project"]["version"]
-    assert json.loads(out.stdout) == [{"kind": "integrator", "name": "heun-bisect",
-                                       "target": "nsbench_heun:HeunBisection",
-                                       "distribution": "nsbench-heun-example", "version": version}]
+    assert json.loads(out.stdout) == [
+        {
+            "kind": "integrator",
+            "name": "heun-bisect",
+            "target": "nsbench_heun:HeunBisection",
+            "distribution": "nsbench-heun-example",
+            "version": version,
+        }
+    ]

@@ -34,20 +34,39 @@ def test_the_problem_is_listed_through_its_entry_point(plugin_env):
     assert "thermostat" not in _nsbench(dict(os.environ), "list", "problems").stdout  # not installed here
 
 
-@pytest.mark.parametrize("integrator, bound", [("exact", 1e-12), ("henon-rk4", 1e-6), ("ofapi", 1e-10),
-                                               ("scipy-dop853", 1e-6)])
+@pytest.mark.parametrize(
+    "integrator, bound", [("exact", 1e-12), ("henon-rk4", 1e-6), ("ofapi", 1e-10), ("scipy-dop853", 1e-6)]
+)
 def test_built_in_integrators_solve_it_against_its_closed_form(plugin_env, tmp_path, integrator, bound):
     env, site = plugin_env
     events = tmp_path / "ev.csv"
-    out = _nsbench(env, "simulate", "thermostat", "--integrator", integrator, "--t-end", "20",
-                   "--param", "a=0.7", "--param", "x_hi=2.5", "--param", "b=2.2", "--events-out", str(events))
+    out = _nsbench(
+        env,
+        "simulate",
+        "thermostat",
+        "--integrator",
+        integrator,
+        "--t-end",
+        "20",
+        "--param",
+        "a=0.7",
+        "--param",
+        "x_hi=2.5",
+        "--param",
+        "b=2.2",
+        "--events-out",
+        str(events),
+    )
     assert out.returncode == 0, out.stderr
     assert "status      success" in out.stdout
     got = pd.read_csv(events)
-    code = ("import sys; sys.path.insert(0, %r); import nsbench_thermostat as m; "
-            "p = m.thermostat(a=0.7, x_hi=2.5, b=2.2); print(repr(p.switching_times(%d)))") % (str(site), len(got))
-    want = eval(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                               check=True).stdout)
+    code = (
+        "import sys; sys.path.insert(0, %r); import nsbench_thermostat as m; "
+        "p = m.thermostat(a=0.7, x_hi=2.5, b=2.2); print(repr(p.switching_times(%d)))"
+    ) % (str(site), len(got))
+    want = eval(
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    )
     assert len(got) >= 10 and list(got["kind"]) == [k for _, k in want]
     assert (got["t"] - [t for t, _ in want]).abs().max() <= bound
 

@@ -44,8 +44,10 @@ def test_a_line_per_tenth_in_a_log_and_silent_when_disabled():
     with Progress(10.0, label="cases", stream=log, weighted=True) as bar:
         bar.update(7.0)
         bar.update(3.0)
-    assert [line.split(" done")[0] for line in log.getvalue().splitlines()] == ["nsbench: cases 70%",
-                                                                             "nsbench: cases 100%"]
+    assert [line.split(" done")[0] for line in log.getvalue().splitlines()] == [
+        "nsbench: cases 70%",
+        "nsbench: cases 100%",
+    ]
     off = Terminal()
     with Progress(3, label="v0", stream=off, enabled=False) as bar:
         bar.update(3)

@@ -17,10 +17,16 @@ def two_dof_params(draw, cubic: bool):
     rho2 = draw(st.floats(0.5, 2.0))
     rf1 = draw(st.floats(0.3, 1.0))
     params = dict(
-        c1=draw(st.floats(0.0, 0.4)), c2=draw(st.floats(0.0, 0.4)),
-        kappa=draw(st.floats(0.2, 5.0)), mu=draw(st.floats(0.2, 5.0)), rho2=rho2,
-        rf1=rf1, rf2=draw(st.floats(0.3, 1.0)) * rho2, F=draw(st.floats(0.0, 0.8)),
-        Omega=draw(st.floats(0.3, 3.0)), v0=draw(st.floats(0.02, 0.5)),
+        c1=draw(st.floats(0.0, 0.4)),
+        c2=draw(st.floats(0.0, 0.4)),
+        kappa=draw(st.floats(0.2, 5.0)),
+        mu=draw(st.floats(0.2, 5.0)),
+        rho2=rho2,
+        rf1=rf1,
+        rf2=draw(st.floats(0.3, 1.0)) * rho2,
+        F=draw(st.floats(0.0, 0.8)),
+        Omega=draw(st.floats(0.3, 3.0)),
+        v0=draw(st.floats(0.02, 0.5)),
     )
     if cubic:
         params.update(h1=draw(st.floats(0.0, 1.5)), h2=draw(st.floats(0.0, 1.5)))

@@ -30,8 +30,15 @@ def test_provenance_lists_a_component_registered_at_run_time():
         rows = [p for p in provenance()["plugins"] if p["name"] == Mine.name]
     finally:
         registry.unregister("integrators", Mine.name)
-    assert rows == [{"kind": "integrator", "name": Mine.name, "target": f"{__name__}:{Mine.__qualname__}",
-                     "distribution": None, "version": None}]
+    assert rows == [
+        {
+            "kind": "integrator",
+            "name": Mine.name,
+            "target": f"{__name__}:{Mine.__qualname__}",
+            "distribution": None,
+            "version": None,
+        }
+    ]
 
 
 @pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
@@ -45,8 +52,13 @@ def test_an_untrusted_checkout_in_the_current_directory_runs_nothing(tmp_path, m
     hook = tmp_path / "hook.sh"
     hook.write_text(f"#!/bin/sh\ntouch {marker}\n")
     hook.chmod(0o755)
-    env = {**os.environ, "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
-           "GIT_COMMITTER_EMAIL": "t@t"}
+    env = {
+        **os.environ,
+        "GIT_AUTHOR_NAME": "t",
+        "GIT_AUTHOR_EMAIL": "t@t",
+        "GIT_COMMITTER_NAME": "t",
+        "GIT_COMMITTER_EMAIL": "t@t",
+    }
     for cmd in (["init", "-q"], ["config", "core.fsmonitor", str(hook)]):
         subprocess.run(["git", *cmd], cwd=repo, check=True, env=env)
     (repo / "f.txt").write_text("x")
@@ -58,13 +70,18 @@ def test_an_untrusted_checkout_in_the_current_directory_runs_nothing(tmp_path, m
     marker.unlink()
     monkeypatch.chdir(repo)
     provenance()
-    git_commit(repo)       # asked about that checkout explicitly: still nothing runs
+    git_commit(repo)  # asked about that checkout explicitly: still nothing runs
     assert not marker.exists()
 
 
 def _git(repo, *args):
-    env = {**os.environ, "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
-           "GIT_COMMITTER_EMAIL": "t@t"}
+    env = {
+        **os.environ,
+        "GIT_AUTHOR_NAME": "t",
+        "GIT_AUTHOR_EMAIL": "t@t",
+        "GIT_COMMITTER_NAME": "t",
+        "GIT_COMMITTER_EMAIL": "t@t",
+    }
     return subprocess.run(["git", *args], cwd=repo, check=True, env=env, capture_output=True, text=True)
 
 

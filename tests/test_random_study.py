@@ -57,8 +57,14 @@ def parameter_sets(seed: int = 2024, per_case: int = 75) -> list[tuple[int, dict
                 v0 = (0.27442, 0.10042)[i % 2] * (1.0 + rng.choice([-1, 1]) * 10.0 ** rng.uniform(-5, -3))
                 out.append((case, {"v0": float(v0)}, T_GRAZING))
                 continue
-            p = dict(c1=rng.uniform(0.0, 0.1), c2=rng.uniform(0.0, 0.1), kappa=rng.uniform(0.2, 2.0),
-                     mu=rng.uniform(0.2, 2.0), rho2=rng.uniform(0.5, 2.0), v0=rng.uniform(0.02, 0.5))
+            p = dict(
+                c1=rng.uniform(0.0, 0.1),
+                c2=rng.uniform(0.0, 0.1),
+                kappa=rng.uniform(0.2, 2.0),
+                mu=rng.uniform(0.2, 2.0),
+                rho2=rng.uniform(0.5, 2.0),
+                v0=rng.uniform(0.02, 0.5),
+            )
             p["rf1"] = 1.0 if i % 4 in (0, 2) else rng.uniform(0.4, 0.95)
             p["rf2"] = p["rho2"] if i % 4 in (1, 2) else rng.uniform(0.4, 0.95) * p["rho2"]
             if case in (2, 4):
@@ -110,8 +116,9 @@ def _sequence(events) -> list[tuple[str, int]]:
     return list(zip(events["kind"], events["block"].astype(int)))
 
 
-def study_set(index: int, case: int, params: dict, t_end: float, names: list[str], limit: float, *,
-              stage, emit) -> dict:
+def study_set(
+    index: int, case: int, params: dict, t_end: float, names: list[str], limit: float, *, stage, emit
+) -> dict:
     """One set in a supervised worker: its reference, then each integrator; a small record of each."""
     from nsbench.bench.metrics import case_metrics, order_ties_as_reference
     from nsbench.bench.reference import candidates, compute_reference
@@ -130,19 +137,32 @@ def study_set(index: int, case: int, params: dict, t_end: float, names: list[str
             res = simulate(problem, name, t_end, t_eval=ref.t_dense)
         except UnsupportedProblemError:
             continue
-        row = {"integrator": name, "status": res.status.value, "message": res.message,
-               "reference_grade": integrator_class(name).capabilities.reference_grade,
-               # events of the reference at one instant (within 1e-9) are compared in its order, as the bench does
-               "same_sequence": (_sequence(order_ties_as_reference(ref.events, res.events)) == _sequence(ref.events)
-                                 if ref.ok else None),
-               "sequence_ok": None}
+        row = {
+            "integrator": name,
+            "status": res.status.value,
+            "message": res.message,
+            "reference_grade": integrator_class(name).capabilities.reference_grade,
+            # events of the reference at one instant (within 1e-9) are compared in its order, as the bench does
+            "same_sequence": (
+                _sequence(order_ties_as_reference(ref.events, res.events)) == _sequence(ref.events) if ref.ok else None
+            ),
+            "sequence_ok": None,
+        }
         if ref.ok and res.ok:
             dense = res.trajectory[list(problem.state_names)].to_numpy().T
             metrics = case_metrics(ref.events, res.events, ref.y_dense, dense, ref.y_final, res.y_final)
             row["sequence_ok"] = bool(metrics["sequence_ok"])
         runs.append(row)
-    return {"index": index, "case": case, "params": params, "reference": ref.name, "reference_status": ref.status,
-            "certify_note": ref.certify_note, "conditioning": ref.conditioning, "runs": runs}
+    return {
+        "index": index,
+        "case": case,
+        "params": params,
+        "reference": ref.name,
+        "reference_status": ref.status,
+        "certify_note": ref.certify_note,
+        "conditioning": ref.conditioning,
+        "runs": runs,
+    }
 
 
 @pytest.mark.slow
@@ -186,8 +206,10 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
                 inconsistent.append(f"set {r['index']} {run['integrator']}: metrics say {run['sequence_ok']}")
             ill_conditioned = not math.isfinite(r["conditioning"])
             if run["reference_grade"] and not run["same_sequence"] and not ill_conditioned:
-                wrong.append(f"set {r['index']} case {r['case']} {r['params']}: {run['integrator']} "
-                             f"off the certified reference's sequence")
+                wrong.append(
+                    f"set {r['index']} case {r['case']} {r['params']}: {run['integrator']} "
+                    f"off the certified reference's sequence"
+                )
     assert not refs, "\n".join(refs)
     assert not inconsistent, "\n".join(inconsistent)  # every success off the sequence is flagged
     assert not wrong, "\n".join(wrong)

@@ -24,8 +24,9 @@ def test_unknown_name_suggests_a_close_one():
 
 
 def test_broken_plugin_is_listed_as_unavailable(monkeypatch):
-    broken = metadata.EntryPoint(name="broken-plugin", value="nsbench_no_such_module:Thing",
-                                 group="nsbench.integrators")
+    broken = metadata.EntryPoint(
+        name="broken-plugin", value="nsbench_no_such_module:Thing", group="nsbench.integrators"
+    )
     real = registry._entry_points
 
     def fake(kind):
@@ -60,8 +61,9 @@ def test_the_entry_points_are_read_once_per_process(monkeypatch):
     """A plug-in installed while a run goes on is seen by none of its parts, not some: only after refresh()."""
     registry.refresh()
     before = registry.names("integrators")
-    late = metadata.EntryPoint(name="late-plugin", value="nsbench.integrators.henon_rk4:HenonRK4",
-                               group="nsbench.integrators")
+    late = metadata.EntryPoint(
+        name="late-plugin", value="nsbench.integrators.henon_rk4:HenonRK4", group="nsbench.integrators"
+    )
     real = metadata.entry_points
 
     def installed_now(**kw):

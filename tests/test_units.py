@@ -37,8 +37,24 @@ def test_config2_time_scale_is_one_third():
 
 
 def test_dimensional_run_equals_dimensionless_run():
-    dim = nsbench.get_problem("two-dof", case=2, dimensional=True, m1=2.0, k1=3.0, fr1=1.5, fr2=1.5,
-                              fs1=1.2, fs2=1.2, v0=0.1, w=0.8, F=0.5, c1=0.1, c2=0.1, k2=2.0, m2=1.0)
+    dim = nsbench.get_problem(
+        "two-dof",
+        case=2,
+        dimensional=True,
+        m1=2.0,
+        k1=3.0,
+        fr1=1.5,
+        fr2=1.5,
+        fs1=1.2,
+        fs2=1.2,
+        v0=0.1,
+        w=0.8,
+        F=0.5,
+        c1=0.1,
+        c2=0.1,
+        k2=2.0,
+        m2=1.0,
+    )
     nondim = dimensionless_problem(dim)
     assert not nondim.dimensional
     t_end_tau = 150.0

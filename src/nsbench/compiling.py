@@ -83,8 +83,11 @@ class _Notice:
         if thread is not None:
             thread.join()
         if announced:
-            self._print(f"nsbench: compiled {self.done} function(s) in {clock(time.monotonic() - self.start)}; "
-                        "cached on disk, later runs load them in seconds", end=True)
+            self._print(
+                f"nsbench: compiled {self.done} function(s) in {clock(time.monotonic() - self.start)}; "
+                "cached on disk, later runs load them in seconds",
+                end=True,
+            )
 
     # ------------------------------------------------------------------ the reporter
     def _tty(self) -> bool:
@@ -106,15 +109,20 @@ class _Notice:
             return  # done before anyone waited long: nothing to say
         with self.lock:
             self.announced = True
-        self._print(f"nsbench: compiling {self.top} and the functions it calls with numba (pid {os.getpid()}): "
-                    "first use on this install, cached afterwards (the whole compiled core takes minutes once)",
-                    end=True)
+        self._print(
+            f"nsbench: compiling {self.top} and the functions it calls with numba (pid {os.getpid()}): "
+            "first use on this install, cached afterwards (the whole compiled core takes minutes once)",
+            end=True,
+        )
         tty = self._tty()
         while not self.finished.wait(1.0 if tty else self.every):
             with self.lock:
                 done, current = self.done, self.current
-            self._print(f"nsbench: compiling, {clock(time.monotonic() - self.start)} so far, {done} function(s) "
-                        f"done, now {current}", end=not tty)
+            self._print(
+                f"nsbench: compiling, {clock(time.monotonic() - self.start)} so far, {done} function(s) "
+                f"done, now {current}",
+                end=not tty,
+            )
 
 
 _NOTICE = _Notice()

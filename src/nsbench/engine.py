@@ -33,6 +33,7 @@ from nsbench.problems.base import HybridProblem
 from nsbench.results import SimulationResult
 from nsbench.sections import Section, StateSection, TimeSection
 
+
 def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | None) -> Integrator:
     if isinstance(integrator, str):
         return get_integrator(integrator, **(options or {}))
@@ -43,15 +44,16 @@ def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | 
     return integrator
 
 
-def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarray,
-                  t_eval: np.ndarray) -> None:
+def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarray, t_eval: np.ndarray) -> None:
     if not (math.isfinite(t0) and math.isfinite(t_end)):
         raise ConfigError(f"time span [{t0}, {t_end}] must be finite")
     if not t_end > t0:
         raise ConfigError(f"t_end = {t_end:g} must be greater than t0 = {t0:g}")
     if y0.shape != (problem.n_states,):
-        raise ConfigError(f"y0 has shape {y0.shape}; {problem.name} needs {problem.n_states} states "
-                          f"({', '.join(problem.state_names)})")
+        raise ConfigError(
+            f"y0 has shape {y0.shape}; {problem.name} needs {problem.n_states} states "
+            f"({', '.join(problem.state_names)})"
+        )
     if not np.all(np.isfinite(y0)):
         raise ConfigError(f"y0 = {y0.tolist()} must be finite")
     if t_eval.size:
@@ -67,26 +69,29 @@ MAX_BUDGET = 2**62
 MAX_ACCUMULATION = 10_000
 
 
-def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span: Any,
-                   accumulation: Any = 8) -> None:
+def _check_budgets(max_steps: Any, max_events: Any, zeno_events: Any, zeno_span: Any, accumulation: Any = 8) -> None:
     """Budgets are whole numbers from 1 to :data:`MAX_BUDGET`, the storm span a finite time > 0,
     ``accumulation`` 0 (off) or a whole number from 2 (one ratio of intervals) to :data:`MAX_ACCUMULATION`."""
     import numbers
 
     whole = isinstance(accumulation, numbers.Integral) and not isinstance(accumulation, bool)
     if not (whole and (accumulation == 0 or 2 <= accumulation <= MAX_ACCUMULATION)):
-        raise ConfigError(f"accumulation = {accumulation!r} must be 0 (no accumulation rule) or a whole number "
-                          f"from 2 to {MAX_ACCUMULATION} (intervals of a streak; a ratio needs two)")
+        raise ConfigError(
+            f"accumulation = {accumulation!r} must be 0 (no accumulation rule) or a whole number "
+            f"from 2 to {MAX_ACCUMULATION} (intervals of a streak; a ratio needs two)"
+        )
     for name, value in (("max_steps", max_steps), ("max_events", max_events), ("zeno_events", zeno_events)):
         whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
         if not (whole and 1 <= value <= MAX_BUDGET):
-            raise ConfigError(f"{name} = {value!r} must be a whole number from 1 to {MAX_BUDGET} "
-                              "(nsbench.engine.MAX_BUDGET)")
+            raise ConfigError(
+                f"{name} = {value!r} must be a whole number from 1 to {MAX_BUDGET} (nsbench.engine.MAX_BUDGET)"
+            )
     if zeno_span is not None:
         real = isinstance(zeno_span, numbers.Real) and not isinstance(zeno_span, bool)
         if not (real and math.isfinite(zeno_span) and zeno_span > 0):
-            raise ConfigError(f"zeno_span = {zeno_span!r} must be a finite time > 0 (or None: 1e-9 times the "
-                              "problem's time scale)")
+            raise ConfigError(
+                f"zeno_span = {zeno_span!r} must be a finite time > 0 (or None: 1e-9 times the problem's time scale)"
+            )
 
 
 #: Largest ``check_points`` (as many dense states as ``nsbench simulate --samples`` allows).
@@ -101,12 +106,20 @@ def _check_points(value: Any) -> None:
 
     whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
     if not (whole and (value == 0 or 2 <= value <= MAX_CHECK_POINTS)):
-        raise ConfigError(f"check_points = {value!r} must be 0 (no check points) or a whole number from 2 to "
-                          f"{MAX_CHECK_POINTS} (nsbench.engine.MAX_CHECK_POINTS)")
+        raise ConfigError(
+            f"check_points = {value!r} must be 0 (no check points) or a whole number from 2 to "
+            f"{MAX_CHECK_POINTS} (nsbench.engine.MAX_CHECK_POINTS)"
+        )
 
 
-def _frames(problem: HybridProblem, raw, dense_times: np.ndarray, traj_mask: np.ndarray,
-            strobe_names: list[str | None], state_sections: Sequence[StateSection]):
+def _frames(
+    problem: HybridProblem,
+    raw,
+    dense_times: np.ndarray,
+    traj_mask: np.ndarray,
+    strobe_names: list[str | None],
+    state_sections: Sequence[StateSection],
+):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
     names = list(problem.state_names)
     rec = raw.records
@@ -238,8 +251,9 @@ def simulate(
     state_sections = tuple(s for s in sections if isinstance(s, StateSection))
     for s in state_sections:
         if len(s.coeffs) != problem.n_states:
-            raise ConfigError(f"section {s.name!r} has {len(s.coeffs)} coefficients; "
-                              f"{problem.name} has {problem.n_states} states")
+            raise ConfigError(
+                f"section {s.name!r} has {len(s.coeffs)} coefficients; {problem.name} has {problem.n_states} states"
+            )
     strobes = [s for s in sections if isinstance(s, TimeSection)]
     unknown = [s for s in sections if not isinstance(s, (StateSection, TimeSection))]
     if unknown:
@@ -266,23 +280,45 @@ def simulate(
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     tic, cpu_tic = time.perf_counter(), time.process_time()
     if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
-        raw = run_whole(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
-                        max_steps=max_steps)
+        raw = run_whole(
+            problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times, max_steps=max_steps
+        )
     else:
-        raw = run_hybrid(problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times,
-                         max_steps=max_steps, max_events=max_events, zeno_events=zeno_events, zeno_span=span,
-                         accumulation=accumulation)
+        raw = run_hybrid(
+            problem,
+            integ,
+            t_end,
+            t0=t0,
+            y0=y,
+            sections=state_sections,
+            t_eval=dense_times,
+            max_steps=max_steps,
+            max_events=max_events,
+            zeno_events=zeno_events,
+            zeno_span=span,
+            accumulation=accumulation,
+        )
     # tables built for modes visited for the first time are first use (setup), not the run
     wall = time.perf_counter() - tic - raw.prepare_time
     # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts
     # the time other programs held the core, the CPU clock only the work done (nsbench.bench.compare)
     cpu = max(0.0, time.process_time() - cpu_tic - raw.prepare_time)
     setup_time += raw.prepare_time
-    events, section_frame, trajectory = _frames(problem, raw, dense_times, traj_mask, strobe_names,
-                                                state_sections)
+    events, section_frame, trajectory = _frames(problem, raw, dense_times, traj_mask, strobe_names, state_sections)
     return SimulationResult(
-        problem=problem, integrator=integ.config(), status=raw.status, message=raw.message,
-        events=events, sections=section_frame, trajectory=trajectory, counters=raw.counters,
-        t_final=raw.t, y_final=np.array(raw.y, dtype=float), mode_final=raw.mode,
-        wall_time=wall, setup_time=setup_time, integrator_time=raw.integrator_time, cpu_time=cpu,
+        problem=problem,
+        integrator=integ.config(),
+        status=raw.status,
+        message=raw.message,
+        events=events,
+        sections=section_frame,
+        trajectory=trajectory,
+        counters=raw.counters,
+        t_final=raw.t,
+        y_final=np.array(raw.y, dtype=float),
+        mode_final=raw.mode,
+        wall_time=wall,
+        setup_time=setup_time,
+        integrator_time=raw.integrator_time,
+        cpu_time=cpu,
     )

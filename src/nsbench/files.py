@@ -48,8 +48,7 @@ def fresh_temporary(target: Path) -> Path:
     return tmp
 
 
-def remove_stale_temporaries(folders: Iterable[tuple[str | os.PathLike, str]],
-                             stale_after: float = STALE_AFTER) -> int:
+def remove_stale_temporaries(folders: Iterable[tuple[str | os.PathLike, str]], stale_after: float = STALE_AFTER) -> int:
     """Delete nsbench's temporary files older than ``stale_after`` seconds; their number.
 
     ``folders`` are ``(folder, pattern)`` pairs: the ``*.tmp`` names nsbench
@@ -95,5 +94,7 @@ def refuse_links(root: str | os.PathLike, names: Iterable[str], folders: Iterabl
 
 def _refuse_link(root: Path, entry: Path) -> None:
     if entry.is_symlink():
-        raise ConfigError(f"{entry} is a symbolic link: nsbench never follows a link inside the folder it "
-                          f"writes ({root}), it could lead anywhere; remove the link or choose another folder")
+        raise ConfigError(
+            f"{entry} is a symbolic link: nsbench never follows a link inside the folder it "
+            f"writes ({root}), it could lead anywhere; remove the link or choose another folder"
+        )

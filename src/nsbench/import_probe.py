@@ -25,11 +25,13 @@ IMPORT_LIMIT = 60.0
 #: Environment variable listing the entry points (``module:object``) already seen to import.
 CHECKED_VAR = "NSBENCH_IMPORTS_CHECKED"
 
-_PROBE = ("import importlib, sys\n"
-          "module, _, attr = sys.argv[1].partition(':')\n"
-          "obj = importlib.import_module(module)\n"
-          "for part in filter(None, attr.split('.')):\n"
-          "    obj = getattr(obj, part)\n")
+_PROBE = (
+    "import importlib, sys\n"
+    "module, _, attr = sys.argv[1].partition(':')\n"
+    "obj = importlib.import_module(module)\n"
+    "for part in filter(None, attr.split('.')):\n"
+    "    obj = getattr(obj, part)\n"
+)
 
 
 def _limit() -> float:
@@ -61,16 +63,23 @@ def check_import(what: str, target: str) -> None:
         raise PluginLoadError(_FAILED[target])
     limit = _limit()
     try:
-        done = subprocess.run([sys.executable, "-c", _PROBE, target], stdin=subprocess.DEVNULL,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=limit,
-                              env={**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)})
+        done = subprocess.run(
+            [sys.executable, "-c", _PROBE, target],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            timeout=limit,
+            env={**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)},
+        )
     except subprocess.TimeoutExpired:
-        _FAILED[target] = (f"{what} ({target}) did not finish importing within {limit:g} s "
-                           "(NSBENCH_IMPORT_LIMIT); it was not imported")
+        _FAILED[target] = (
+            f"{what} ({target}) did not finish importing within {limit:g} s (NSBENCH_IMPORT_LIMIT); it was not imported"
+        )
         raise PluginLoadError(_FAILED[target]) from None
     if done.returncode < 0 or (done.returncode != 0 and b"Traceback" not in done.stderr):
-        _FAILED[target] = (f"{what} ({target}): importing it ended its process "
-                           f"({_describe(done.returncode)}); it was not imported")
+        _FAILED[target] = (
+            f"{what} ({target}): importing it ended its process ({_describe(done.returncode)}); it was not imported"
+        )
         raise PluginLoadError(_FAILED[target])
     if done.returncode == 0:  # a raising import is not remembered: the caller's import reports it
         os.environ[CHECKED_VAR] = ",".join(sorted(_checked() | {target}))

@@ -216,8 +216,9 @@ class JobPool:
         slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
         if job is None:
             raise NsbenchError(f"a worker process did not start within {START_LIMIT:g} s")
-        yield Outcome(job.key, "time limit", None, stage,
-                      f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)")
+        yield Outcome(
+            job.key, "time limit", None, stage, f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)"
+        )
 
 
 _SHARED: dict[tuple[int, bytes], JobPool] = {}
@@ -292,5 +293,4 @@ def drop_shared(pool: JobPool) -> None:
 
 def shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """The runtime registrations a worker can import."""
-    return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)}
-            for kind, objs in components.items()}
+    return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)} for kind, objs in components.items()}

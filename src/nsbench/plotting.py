@@ -28,8 +28,9 @@ def plot_simulation(result: "SimulationResult", path: str | Path):
     plt = _pyplot()
     traj, events, problem = result.trajectory, result.events, result.problem
     nb = problem.n_blocks
-    fig, axes = plt.subplots(2, nb + 1, figsize=(4.2 * (nb + 1), 6.5), squeeze=False,
-                             gridspec_kw={"width_ratios": [2.0] + [1.0] * nb})
+    fig, axes = plt.subplots(
+        2, nb + 1, figsize=(4.2 * (nb + 1), 6.5), squeeze=False, gridspec_kw={"width_ratios": [2.0] + [1.0] * nb}
+    )
     units = "dimensional" if problem.dimensional else "dimensionless"
     for row, q in enumerate(("x", "v")):
         ax = axes[row, 0]

@@ -44,8 +44,9 @@ class Progress:
         The steps carry weights: show a percentage, not counts.
     """
 
-    def __init__(self, total: float, label: str = "", stream: TextIO | None = None, enabled: bool = True,
-                 weighted: bool = False) -> None:
+    def __init__(
+        self, total: float, label: str = "", stream: TextIO | None = None, enabled: bool = True, weighted: bool = False
+    ) -> None:
         from tqdm import tqdm
 
         out = stream if stream is not None else sys.stderr
@@ -58,9 +59,17 @@ class Progress:
         self._start = time.monotonic()
         self._lines = enabled and not tty and self.total > 0
         self._next_line = 0.1
-        self._bar = tqdm(total=self.total, desc=label or None, file=out, unit="step",
-                         disable=not (enabled and tty and self.total > 0), dynamic_ncols=True,
-                         smoothing=0.05, leave=True, bar_format=_WEIGHTED_FORMAT if weighted else None)
+        self._bar = tqdm(
+            total=self.total,
+            desc=label or None,
+            file=out,
+            unit="step",
+            disable=not (enabled and tty and self.total > 0),
+            dynamic_ncols=True,
+            smoothing=0.05,
+            leave=True,
+            bar_format=_WEIGHTED_FORMAT if weighted else None,
+        )
 
     def update(self, steps: float = 1, note: str = "") -> None:
         """``steps`` more (weighted) steps finished (``note``: what the last one was, shown beside the bar)."""

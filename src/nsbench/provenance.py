@@ -75,10 +75,17 @@ def git_commit(package: str | Path | None = None) -> str | None:
     for key in ("GIT_DIR", "GIT_WORK_TREE", "GIT_INDEX_FILE", "GIT_CONFIG_PARAMETERS"):
         env.pop(key, None)
     try:
-        sha = subprocess.run([*_SAFE_GIT, "rev-parse", "HEAD"], cwd=top, capture_output=True, env=env,
-                             text=True, timeout=5, check=True).stdout.strip()
-        dirty = subprocess.run([*_SAFE_GIT, "status", "--porcelain", "--untracked-files=no"], cwd=top,
-                               capture_output=True, text=True, timeout=5, env=env).stdout.strip()
+        sha = subprocess.run(
+            [*_SAFE_GIT, "rev-parse", "HEAD"], cwd=top, capture_output=True, env=env, text=True, timeout=5, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            [*_SAFE_GIT, "status", "--porcelain", "--untracked-files=no"],
+            cwd=top,
+            capture_output=True,
+            text=True,
+            timeout=5,
+            env=env,
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return None
     return sha + ("+dirty" if dirty else "") if sha else None
@@ -103,9 +110,15 @@ def plugins() -> list[dict[str, Any]]:
         for entry in entries:
             if entry.distribution == "nsbench":
                 continue
-            rows.append({"kind": kind[:-1], "name": entry.name, "target": entry.target,
-                         "distribution": entry.distribution,
-                         "version": _version(entry.distribution) if entry.distribution else None})
+            rows.append(
+                {
+                    "kind": kind[:-1],
+                    "name": entry.name,
+                    "target": entry.target,
+                    "distribution": entry.distribution,
+                    "version": _version(entry.distribution) if entry.distribution else None,
+                }
+            )
     return rows
 
 

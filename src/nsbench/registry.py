@@ -81,8 +81,7 @@ def entries(kind: Kind) -> list[Entry]:
     """
     eps = _entry_points(kind)
     rows = {
-        name: Entry(kind, name, ep.value, ep.dist.name if ep.dist is not None else None)
-        for name, ep in eps.items()
+        name: Entry(kind, name, ep.value, ep.dist.name if ep.dist is not None else None) for name, ep in eps.items()
     }
     for name, obj in _RUNTIME[kind].items():
         rows[name] = Entry(kind, name, f"{obj.__module__}:{getattr(obj, '__qualname__', obj)}", None)
@@ -119,9 +118,7 @@ def load(kind: Kind, name: str) -> Any:
         known = names(kind)
         close = difflib.get_close_matches(name, known, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ConfigError(
-            f"unknown {kind[:-1]} {name!r}{hint}; registered: {', '.join(known)}"
-        )
+        raise ConfigError(f"unknown {kind[:-1]} {name!r}{hint}; registered: {', '.join(known)}")
     ep = eps[name]
     if ep.dist is None or ep.dist.name != "nsbench":  # a plug-in: its first import is tried apart
         from nsbench.import_probe import check_import
@@ -131,8 +128,7 @@ def load(kind: Kind, name: str) -> Any:
         obj = ep.load()
     except Exception as exc:  # any import-time failure of a plug-in
         raise PluginLoadError(
-            f"{kind[:-1]} {name!r} ({eps[name].value}) failed to import: "
-            f"{type(exc).__name__}: {exc}"
+            f"{kind[:-1]} {name!r} ({eps[name].value}) failed to import: {type(exc).__name__}: {exc}"
         ) from exc
     _LOADED[key] = obj
     return obj

@@ -56,10 +56,23 @@ def inline(text: str) -> str:
 
 
 # ---------------------------------------------------------------------- LaTeX
-_TEX = (("\\", "\x00"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"), ("#", r"\#"), ("{", r"\{"), ("}", r"\}"),
-        ("$", r"\$"), ("\x00", r"\textbackslash{}"),
-        # text-mode < > ~ ^ print wrongly (or not at all) in LaTeX's default OT1 encoding; ± is math
-        ("<", r"$<$"), (">", r"$>$"), ("±", r"$\pm$"), ("~", r"\textasciitilde{}"), ("^", r"\textasciicircum{}"))
+_TEX = (
+    ("\\", "\x00"),
+    ("&", r"\&"),
+    ("%", r"\%"),
+    ("_", r"\_"),
+    ("#", r"\#"),
+    ("{", r"\{"),
+    ("}", r"\}"),
+    ("$", r"\$"),
+    ("\x00", r"\textbackslash{}"),
+    # text-mode < > ~ ^ print wrongly (or not at all) in LaTeX's default OT1 encoding; ± is math
+    ("<", r"$<$"),
+    (">", r"$>$"),
+    ("±", r"$\pm$"),
+    ("~", r"\textasciitilde{}"),
+    ("^", r"\textasciicircum{}"),
+)
 
 
 def tex_escape(text: str) -> str:
@@ -99,8 +112,11 @@ def _layout(texts: pd.DataFrame, headers: list[str], numeric: list[bool]) -> tup
     spare = max(0.0, 0.995 - sum(least))  # a hair short of the line: the shares are rounded down
     extra = [m - lo for m, lo in zip(most, least)]
     share = [lo + (spare * e / sum(extra) if sum(extra) > 0 else 0.0) for lo, e in zip(least, extra)]
-    return size, "".join(rf">{{\raggedright\arraybackslash}}p{{\dimexpr {math.floor(1000 * s) / 1000:.3f}"
-                         rf"\linewidth-2\tabcolsep\relax}}" for s in share)
+    return size, "".join(
+        rf">{{\raggedright\arraybackslash}}p{{\dimexpr {math.floor(1000 * s) / 1000:.3f}"
+        rf"\linewidth-2\tabcolsep\relax}}"
+        for s in share
+    )
 
 
 def latex(frame: pd.DataFrame, caption: str, label: str, *, long: bool | None = None) -> str:
@@ -111,19 +127,27 @@ def latex(frame: pd.DataFrame, caption: str, label: str, *, long: bool | None = 
     Needs ``\\usepackage{booktabs}``, ``array`` (wrapped columns) and ``longtable`` (long tables).
     """
     shown = _texts(frame)
-    numeric = [pd.api.types.is_numeric_dtype(frame[c]) and not pd.api.types.is_bool_dtype(frame[c])
-               for c in frame.columns]
+    numeric = [
+        pd.api.types.is_numeric_dtype(frame[c]) and not pd.api.types.is_bool_dtype(frame[c]) for c in frame.columns
+    ]
     size, fmt = _layout(shown, [str(c) for c in frame.columns], numeric)  # sized by the text as printed
     texts = shown.map(tex_escape)
     texts.columns = [tex_escape(str(c)) for c in frame.columns]
     long = len(frame) > LONG_ROWS if long is None else long
     styler = texts.style.hide(axis="index")
     if long:
-        body = styler.to_latex(environment="longtable", hrules=True, column_format=fmt,
-                               caption=tex_escape(caption), label=label)
+        body = styler.to_latex(
+            environment="longtable", hrules=True, column_format=fmt, caption=tex_escape(caption), label=label
+        )
         return "{" + size + "\\setlength{\\tabcolsep}{4pt}\n" + body.rstrip() + "\n}"
-    body = styler.to_latex(hrules=True, column_format=fmt, caption=tex_escape(caption), label=label,
-                           position="htbp", position_float="centering")
+    body = styler.to_latex(
+        hrules=True,
+        column_format=fmt,
+        caption=tex_escape(caption),
+        label=label,
+        position="htbp",
+        position_float="centering",
+    )
     return body.replace("\\centering\n", f"\\centering\n{size}\n\\setlength{{\\tabcolsep}}{{4pt}}\n", 1).rstrip()
 
 
@@ -136,11 +160,20 @@ def page(template: str, **context: Any) -> str:
     """
     import jinja2
 
-    env = jinja2.Environment(loader=jinja2.PackageLoader("nsbench", "templates"),
-                             autoescape=jinja2.select_autoescape(["html"]), keep_trailing_newline=True,
-                             trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
-    env.filters.update(markdown=markdown, html=lambda f, classes="tbl": _markup(html(f, classes)),
-                       inline=lambda t: _markup(inline(t)), cell=cell)
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("nsbench", "templates"),
+        autoescape=jinja2.select_autoescape(["html"]),
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    env.filters.update(
+        markdown=markdown,
+        html=lambda f, classes="tbl": _markup(html(f, classes)),
+        inline=lambda t: _markup(inline(t)),
+        cell=cell,
+    )
     return env.get_template(template).render(**context)
 
 

@@ -40,8 +40,7 @@ class Counters:
     n_events: int = 0
     extra: dict[str, float] = field(default_factory=dict)
 
-    def add(self, nfev: int = 0, njev: int = 0, nsteps: int = 0,
-            extra: dict[str, float] | None = None) -> None:
+    def add(self, nfev: int = 0, njev: int = 0, nsteps: int = 0, extra: dict[str, float] | None = None) -> None:
         self.nfev += int(nfev)
         self.njev += int(njev)
         self.nsteps += int(nsteps)
@@ -50,8 +49,7 @@ class Counters:
 
     def as_dict(self) -> dict[str, float]:
         """Flat dict: the four standard counters then the extras."""
-        out: dict[str, float] = {"nfev": self.nfev, "njev": self.njev,
-                                 "nsteps": self.nsteps, "n_events": self.n_events}
+        out: dict[str, float] = {"nfev": self.nfev, "njev": self.njev, "nsteps": self.nsteps, "n_events": self.n_events}
         out.update(self.extra)
         return out
 
@@ -132,8 +130,10 @@ class SimulationResult:
             lines.append("events      0")
         counters = ", ".join(f"{k}={v:g}" for k, v in self.counters.as_dict().items())
         lines.append(f"counters    {counters}")
-        lines.append(f"wall time   {self.wall_time:.4g} s, of which {self.integrator_time:.4g} s in the "
-                     f"integrator (setup {self.setup_time:.3g} s)")
+        lines.append(
+            f"wall time   {self.wall_time:.4g} s, of which {self.integrator_time:.4g} s in the "
+            f"integrator (setup {self.setup_time:.3g} s)"
+        )
         return "\n".join(lines)
 
     def dimensionless(self) -> "SimulationResult":

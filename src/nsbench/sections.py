@@ -93,8 +93,9 @@ def peaks(problem: "FrictionOscillator", block: int = 1) -> StateSection:
     return StateSection(f"peaks_x{block}", tuple(coeffs), 0.0, -1)
 
 
-def level_crossing(problem: "FrictionOscillator", variable: str, level: float = 0.0,
-                   direction: int = 0) -> StateSection:
+def level_crossing(
+    problem: "FrictionOscillator", variable: str, level: float = 0.0, direction: int = 0
+) -> StateSection:
     """A Poincare section ``variable = level`` (``variable`` one of the state names)."""
     if variable not in problem.state_names:
         raise ConfigError(f"unknown state variable {variable!r}; allowed: {', '.join(problem.state_names)}")

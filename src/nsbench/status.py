@@ -37,4 +37,3 @@ class Status(str, Enum):
 
     def __str__(self) -> str:
         return self.value
-

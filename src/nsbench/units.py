@@ -72,7 +72,7 @@ def _scale_frame(frame: pd.DataFrame, scales: Scales, power: int) -> pd.DataFram
             factor = scales.velocity
         else:
             continue
-        out[col] = out[col] * factor ** power
+        out[col] = out[col] * factor**power
     return out
 
 

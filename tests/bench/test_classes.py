@@ -14,8 +14,14 @@ from nsbench.errors import ConfigError
 
 
 def test_every_problem_declares_its_class():
-    names = {"two-dof": "friction", "block-on-ground": "friction", "bouncing-ball": "impact",
-             "impact-oscillator": "impact", "relay-feedback": "sliding", "henon-heiles": "smooth"}
+    names = {
+        "two-dof": "friction",
+        "block-on-ground": "friction",
+        "bouncing-ball": "impact",
+        "impact-oscillator": "impact",
+        "relay-feedback": "sliding",
+        "henon-heiles": "smooth",
+    }
     for name, klass in names.items():
         assert class_of(json.dumps({"name": name, "case": 2 if name == "two-dof" else None})) == klass
 
@@ -29,8 +35,14 @@ def test_the_library_suite_lists_one_problem_per_line_with_its_own_span():
     assert classes == {"friction", "impact", "sliding", "smooth"}
 
 
-@pytest.mark.parametrize("span, message", [([1.0], r"t_span = \[1.0\] must be \[t0, t_end\]"),
-                                           ([2.0, 1.0], "t_end > t0"), ("x", "non-empty list of numbers")])
+@pytest.mark.parametrize(
+    "span, message",
+    [
+        ([1.0], r"t_span = \[1.0\] must be \[t0, t_end\]"),
+        ([2.0, 1.0], "t_end > t0"),
+        ("x", "non-empty list of numbers"),
+    ],
+)
 def test_a_bad_problem_span_is_refused(span, message):
     with pytest.raises(ConfigError, match=message):
         Suite.from_dict({"name": "s", "problems": [{"name": "bouncing-ball", "t_span": span}]})
@@ -43,12 +55,22 @@ def test_a_tiny_library_run_answers_by_problem_class(tmp_path):
     from nsbench.bench.report import _answer_blocks
     from nsbench.bench.summary import problem_summary
 
-    suite = Suite.from_dict({
-        "name": "library-tiny", "t_span": [0.0, 30.0], "repeats": 3, "min_sample_time": 0.0,
-        "reference": ["exact", "reference"], "targets": [1e-6, 1e-12],
-        "problems": [{"name": "block-on-ground"}, {"name": "bouncing-ball", "t_span": [0.0, 6.0]},
-                     {"name": "relay-feedback", "t_span": [0.0, 20.0]}],
-        "integrators": {"only": ["henon-rk4", "ofapi"], "grids": {"henon-rk4": {"options": [{"h": 0.01}]}}}})
+    suite = Suite.from_dict(
+        {
+            "name": "library-tiny",
+            "t_span": [0.0, 30.0],
+            "repeats": 3,
+            "min_sample_time": 0.0,
+            "reference": ["exact", "reference"],
+            "targets": [1e-6, 1e-12],
+            "problems": [
+                {"name": "block-on-ground"},
+                {"name": "bouncing-ball", "t_span": [0.0, 6.0]},
+                {"name": "relay-feedback", "t_span": [0.0, 20.0]},
+            ],
+            "integrators": {"only": ["henon-rk4", "ofapi"], "grids": {"henon-rk4": {"options": [{"h": 0.01}]}}},
+        }
+    )
     run_suite(suite, tmp_path, workers=1, progress=False)
     frame = storage.load_results(tmp_path)
     assert set(frame["t_end"]) == {30.0, 6.0, 20.0}
@@ -66,11 +88,26 @@ def test_a_tiny_library_run_answers_by_problem_class(tmp_path):
 
 def _planted(integrator: str, problem: str, wall: float, spread=(0.97, 0.99, 1.0, 1.01, 1.03)) -> dict:
     case = {"one-dof": 1, "two-dof": 2}[problem]
-    return {"case_id": f"{problem}-{integrator}", "problem_label": f"{problem}/{case}", "integrator": integrator,
-            "problem_config": json.dumps({"case": case, "dimensional": False, "name": problem, "params": {}}),
-            "options": "{}", "level": 0, "status": "success", "reference": "exact", "reference_status": "ok",
-            "sequence_ok": True, "switch_err_max": 1e-10, "wall_time": wall, "wall_spread": 0.06,
-            "wall_times": [wall * f for f in spread], "n_missed": 0, "n_extra": 0, "n_ref": 100, "nfev": 1000}
+    return {
+        "case_id": f"{problem}-{integrator}",
+        "problem_label": f"{problem}/{case}",
+        "integrator": integrator,
+        "problem_config": json.dumps({"case": case, "dimensional": False, "name": problem, "params": {}}),
+        "options": "{}",
+        "level": 0,
+        "status": "success",
+        "reference": "exact",
+        "reference_status": "ok",
+        "sequence_ok": True,
+        "switch_err_max": 1e-10,
+        "wall_time": wall,
+        "wall_spread": 0.06,
+        "wall_times": [wall * f for f in spread],
+        "n_missed": 0,
+        "n_extra": 0,
+        "n_ref": 100,
+        "nfev": 1000,
+    }
 
 
 def test_the_class_answer_gives_intervals_and_names_tied_methods():
@@ -79,12 +116,17 @@ def test_the_class_answer_gives_intervals_and_names_tied_methods():
     from nsbench.bench.storage import to_frame
 
     noisy = (0.9, 0.95, 1.0, 1.05, 1.1)
-    rows = [_planted("a", "one-dof", 0.100, noisy), _planted("b", "one-dof", 0.106, noisy),
-            _planted("a", "two-dof", 0.200, noisy), _planted("b", "two-dof", 0.192, noisy),
-            _planted("c", "one-dof", 0.300), _planted("c", "two-dof", 0.600)]
+    rows = [
+        _planted("a", "one-dof", 0.100, noisy),
+        _planted("b", "one-dof", 0.106, noisy),
+        _planted("a", "two-dof", 0.200, noisy),
+        _planted("b", "two-dof", 0.192, noisy),
+        _planted("c", "one-dof", 0.300),
+        _planted("c", "two-dof", 0.600),
+    ]
     row = class_summary(to_frame(rows), [1e-9]).iloc[0]
     assert row["class"] == "friction" and row["cheapest"] == "tied: a, b"
-    est, interval = row["ratio"].split(" ", 1)                  # '1.02 [lo-hi]': a's ratio with its interval
+    est, interval = row["ratio"].split(" ", 1)  # '1.02 [lo-hi]': a's ratio with its interval
     low, high = (float(v) for v in interval.strip("[]").split("-"))
     assert float(est) == pytest.approx(math.sqrt(1.0 * 0.2 / 0.192), abs=0.005) and low <= float(est) <= high
     assert row["runner_up"].startswith("b (") and row["runner_up"].endswith(", tied)")
@@ -95,7 +137,7 @@ def test_the_class_answer_gives_intervals_and_names_tied_methods():
     assert alone["cheapest"] == "a" and alone["ratio"] == "1.00"
     assert alone["runner_up"].startswith("c (3.00 [") and "tied" not in alone["runner_up"]
     c_low = float(alone["runner_up"].split("[")[1].split("-")[0])
-    assert 2.7 < c_low < 3.0                                     # the samples' +-3 % noise, not more
+    assert 2.7 < c_low < 3.0  # the samples' +-3 % noise, not more
     # one sample a side: nothing can be told apart
     bare = [dict(r, wall_times=[r["wall_time"]]) for r in rows if r["integrator"] != "b"]
     assert class_summary(to_frame(bare), [1e-9]).iloc[0]["cheapest"] == "tied: a, c"

@@ -36,7 +36,9 @@ def test_bench_report_compare(tiny, capsys):
     assert "4 cases: 0 computed, 4 already stored" in capsys.readouterr().out
     assert main(["report", str(out)]) == 0
     assert main(["compare", str(out), str(out / "results.parquet")]) == 0
-    assert "4 common cases (0 only in A, 0 only in B); factor 1.5, confidence 0.99; 0 flagged" in capsys.readouterr().out
+    assert (
+        "4 common cases (0 only in A, 0 only in B); factor 1.5, confidence 0.99; 0 flagged" in capsys.readouterr().out
+    )
 
 
 def test_run_writes_the_report_and_says_each_phase_and_the_answer(tiny, capsys):
@@ -46,18 +48,22 @@ def test_run_writes_the_report_and_says_each_phase_and_the_answer(tiny, capsys):
     assert (out / "index.html").stat().st_size > 10_000
     printed = capsys.readouterr()
     assert "nsbench run took" in printed.out
-    phases = [line for line in printed.err.splitlines() if line.startswith("nsbench: ") and "% done" not in line
-              and not line.startswith(("nsbench: compiling", "nsbench: compiled"))]  # a cold numba cache
+    phases = [
+        line
+        for line in printed.err.splitlines()
+        if line.startswith("nsbench: ")
+        and "% done" not in line
+        and not line.startswith(("nsbench: compiling", "nsbench: compiled"))
+    ]  # a cold numba cache
     assert [p.split(":")[1].split()[0] for p in phases] == ["suite", "preparing", "timing", "writing"], phases
     import re
 
     planned = int(re.search(r"4 case\(s\): (\d+) timed samples", printed.err).group(1))
     assert f"timing: every worker is warm; {planned} timed sample(s) in {planned // 4} round(s)" in printed.err
-    answer = printed.out[printed.out.index("the answer:"):].splitlines()
+    answer = printed.out[printed.out.index("the answer:") :].splitlines()
     report = (out / "report.md").read_text()
-    first = report[report.index("## The answer"):].splitlines()[2]  # the report's first sentence
+    first = report[report.index("## The answer") :].splitlines()[2]  # the report's first sentence
     assert answer[1] == "  " + first
-
 
 
 def test_run_resumes_and_fresh_starts_over_and_another_version_is_named(tiny, capsys):
@@ -77,14 +83,17 @@ def test_run_resumes_and_fresh_starts_over_and_another_version_is_named(tiny, ca
     assert " 0 computed" not in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["bench", "nope.toml", "--out", "x"], "suite file 'nope.toml' does not exist"),
-    (["report", "no-such-dir"], "'no-such-dir' is not a directory"),
-    (["compare", "no-a", "no-b"], "results 'no-a' do not exist"),
-    (["ingest", "no.json"], "benchmark file 'no.json' does not exist"),
-    (["compare", ".", "."], "holds no results"),
-    (["compare", ".", ".", "--factor", "0.5"], "factor = 0.5 must be a finite number > 1"),  # checked first
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["bench", "nope.toml", "--out", "x"], "suite file 'nope.toml' does not exist"),
+        (["report", "no-such-dir"], "'no-such-dir' is not a directory"),
+        (["compare", "no-a", "no-b"], "results 'no-a' do not exist"),
+        (["ingest", "no.json"], "benchmark file 'no.json' does not exist"),
+        (["compare", ".", "."], "holds no results"),
+        (["compare", ".", ".", "--factor", "0.5"], "factor = 0.5 must be a finite number > 1"),  # checked first
+    ],
+)
 def test_bad_input_exits_2_with_one_line(argv, fragment, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(argv) == 2
@@ -115,7 +124,7 @@ only = ["scipy-rk45"]
     top = md[: md.index("## Fixed-target table")]
     assert "**This run is incomplete:**" in top and "The reference of `one-dof/1` could not be computed" in top
     assert "(reference failed: crashed: the worker process died (exit code 3))" in top
-    assert not list((out / "references").glob("*.json"))            # a failure is not cached
+    assert not list((out / "references").glob("*.json"))  # a failure is not cached
     from nsbench.bench import load_results
 
     frame = load_results(out)

@@ -14,10 +14,16 @@ from nsbench.bench.compare import compare, compare_frames, error_verdict, read_r
 from nsbench.bench.stats import slower_p
 from nsbench.bench.storage import to_frame
 
-SUITE = {"name": "cmp", "t_span": [0.0, 25.0], "repeats": 5, "max_repeats": 5,
-         "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
+SUITE = {
+    "name": "cmp",
+    "t_span": [0.0, 25.0],
+    "repeats": 5,
+    "max_repeats": 5,
+    "problems": [{"name": "one-dof", "case": 1}],
+    "integrators": {"only": ["scipy-rk45"]},
+}
 
-A = [0.100, 0.104, 0.098, 0.110, 0.101]        # five warm samples (seconds per run)
+A = [0.100, 0.104, 0.098, 0.110, 0.101]  # five warm samples (seconds per run)
 
 
 def test_a_planted_slowdown_beyond_the_factor_is_slower():
@@ -26,7 +32,7 @@ def test_a_planted_slowdown_beyond_the_factor_is_slower():
     assert v.verdict == "slower" and v.ratio == pytest.approx(2.0) and v.p == pytest.approx(1 / 252)
     assert v.low < 2.0 < v.high and v.low > 1.5
     assert time_verdict(A, [0.5 * t for t in A], 1.5).verdict == "faster"
-    assert time_verdict(A, [1.3 * t for t in A], 1.5).verdict == "same"      # within the factor
+    assert time_verdict(A, [1.3 * t for t in A], 1.5).verdict == "same"  # within the factor
 
 
 def test_a_ratio_beyond_the_factor_that_the_test_does_not_support_is_noise():
@@ -35,7 +41,7 @@ def test_a_ratio_beyond_the_factor_that_the_test_does_not_support_is_noise():
     assert slower_p(A, b) == pytest.approx(4 / 252)
     v = time_verdict(A, b, 1.5)
     assert v.verdict == "noise" and v.ratio > 1.5 and not v.low > 1.5
-    assert time_verdict(A, b, 1.5, confidence=0.95).verdict == "slower"      # a looser confidence flags it
+    assert time_verdict(A, b, 1.5, confidence=0.95).verdict == "slower"  # a looser confidence flags it
 
 
 def test_too_few_samples_cannot_be_significant():
@@ -88,14 +94,22 @@ def test_twenty_noisy_comparisons_of_identical_work_flag_nothing_and_a_planted_2
 
 def test_work_and_error_verdicts():
     assert error_verdict(1e-9, 5e-9, 1.5)[1] == "worse"
-    assert error_verdict(1e-17, 5e-16, 1.5)[1] == "same"          # both below the round-off floor
+    assert error_verdict(1e-17, 5e-16, 1.5)[1] == "same"  # both below the round-off floor
     assert work_verdict(1000, 2000, 1.5) == (2.0, "more") and work_verdict(1000, 1100, 1.5)[1] == "same"
     assert work_verdict(None, 10, 1.5)[1] == "n/a"
 
 
 def test_noise_is_not_flagged_but_a_lost_success_is():
-    base = {"case_id": "x", "problem_label": "p", "integrator": "i", "options": "{}", "status": "success",
-            "sequence_ok": True, "switch_err_max": 1e-9, "nfev": 1000}
+    base = {
+        "case_id": "x",
+        "problem_label": "p",
+        "integrator": "i",
+        "options": "{}",
+        "status": "success",
+        "sequence_ok": True,
+        "switch_err_max": 1e-9,
+        "nfev": 1000,
+    }
     a = to_frame([{**base, "wall_times": [0.10, 0.30, 0.12], "wall_time": 0.12, "wall_time_min": 0.10}])
     b = to_frame([{**base, "wall_times": [0.11, 0.31, 0.29], "wall_time": 0.29, "wall_time_min": 0.11}])
     row = compare_frames(a, b, 1.5).iloc[0]
@@ -117,9 +131,9 @@ def test_planted_slowdown_is_flagged_and_identical_results_are_not(tmp_path):
     run_suite(Suite.from_dict(SUITE), tmp_path / "a", workers=1, progress=False)
     a = read_results(tmp_path / "a")
     assert len(a) == 3 and (a["status"] == "success").all()
-    assert all(len(w) == 5 and min(w) > 0 for w in a["wall_times"])     # repeats = 5, all warm, all timed
+    assert all(len(w) == 5 and min(w) > 0 for w in a["wall_times"])  # repeats = 5, all warm, all timed
     assert all(len(w) == 5 and min(w) > 0 for w in a["cpu_times"])
-    table, counts = compare(tmp_path / "a", tmp_path / "a", factor=2.0)   # a run against itself
+    table, counts = compare(tmp_path / "a", tmp_path / "a", factor=2.0)  # a run against itself
     assert counts == {"common": 3, "only_a": 0, "only_b": 0, "flagged": 0}
     assert (table["time_verdict"] == "same").all() and np.allclose(table["time_ratio"], 1.0)
     # The planted pair: every case's samples set to their own median (a spread of 0, so the rank test

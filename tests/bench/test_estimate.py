@@ -12,19 +12,30 @@ from nsbench.bench import Suite, load_suite, run_suite
 from nsbench.bench.estimate import CostTable, calibrate, location_label, measure, plan
 from nsbench.bench.targets import locations
 
-SMALL = {"name": "small", "t_span": [0.0, 20.0], "problems": [{"name": "one-dof", "case": 1}],
-         "integrators": {"only": ["exact", "scipy-rk45"]}}
+SMALL = {
+    "name": "small",
+    "t_span": [0.0, 20.0],
+    "problems": [{"name": "one-dof", "case": 1}],
+    "integrators": {"only": ["exact", "scipy-rk45"]},
+}
 
 
 def _table(**kw) -> CostTable:
     cases = Suite.from_dict(SMALL).cases()
-    return CostTable(calibration=0.02, warm_up={c.label: 0.5 for c in cases[:2]},
-                     run={c.label: 1.0 for c in cases[:2]}, first={c.label: 1.5 for c in cases[:2]},
-                     reference=2.0, report=10.0, overhead=4.0, **kw)
+    return CostTable(
+        calibration=0.02,
+        warm_up={c.label: 0.5 for c in cases[:2]},
+        run={c.label: 1.0 for c in cases[:2]},
+        first={c.label: 1.5 for c in cases[:2]},
+        reference=2.0,
+        report=10.0,
+        overhead=4.0,
+        **kw,
+    )
 
 
 def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers():
-    cases = Suite.from_dict(SMALL).cases()        # exact (1 level) and scipy-rk45 (3 levels)
+    cases = Suite.from_dict(SMALL).cases()  # exact (1 level) and scipy-rk45 (3 levels)
     assert len(cases) == 4 and all(c.repeats == 5 for c in cases)
     p = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02, load=0.0, cores=2)
     # two known cases: warm-up 0.5, the first timing task 1.5 (calibration run, a sample, the metrics),
@@ -32,7 +43,7 @@ def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers(
     work = 4 * (0.5 + 1.5 + 4 * 1.0) + 2.0
     assert p.n_unknown == 2 and p.n_runs == 20 and p.speed == pytest.approx(1.0)
     assert p.seconds == pytest.approx(work / 2 + 4.0 + 10.0)
-    assert p.weights[cases[0].label] == pytest.approx((0.5, (1.5 + 4 * 1.0) / 5))   # per timing round
+    assert p.weights[cases[0].label] == pytest.approx((0.5, (1.5 + 4 * 1.0) / 5))  # per timing round
     assert "4 case(s): 20 timed samples" in p.statement() and "2 task(s) of unmeasured cost" in p.statement()
     # at most: every case's samples spread, so each gets max_repeats (twice repeats by default) samples
     assert all(c.max_repeats == 10 for c in cases)
@@ -61,17 +72,26 @@ def test_the_packaged_table_knows_every_task_of_the_packaged_suites():
     for name in ("default", "full"):
         suite = load_suite(name)
         missing = [c.label for c in suite.cases() if table.costs(c.label) is None]
-        missing += [loc for loc in locations(suite)
-                    if location_label(loc.target.name, loc.integrator, loc.options) not in table.target]
+        missing += [
+            loc
+            for loc in locations(suite)
+            if location_label(loc.target.name, loc.integrator, loc.options) not in table.target
+        ]
         assert not missing, f"suite {name!r}: no measured cost for {missing[:5]}"
 
 
 def test_the_table_is_measured_from_a_timeline(tmp_path):
-    pd.DataFrame({"slot": [0, 0, 0, 1, 1, 1, 1], "pid": [1] * 7,
-                  "kind": ["start", "reference", "warm-up", "time", "time", "time", "time"],
-                  "label": ["worker start", "k", "a", "a", "a", "a", "a"],
-                  "start": [0.0, 0.5, 1.5, 2.0, 3.0, 5.0, 6.5], "end": [0.5, 1.5, 2.0, 3.0, 5.0, 6.5, 7.0],
-                  "outcome": ["ready"] + ["done"] * 6}).to_csv(tmp_path / "timeline.csv", index=False)
+    pd.DataFrame(
+        {
+            "slot": [0, 0, 0, 1, 1, 1, 1],
+            "pid": [1] * 7,
+            "kind": ["start", "reference", "warm-up", "time", "time", "time", "time"],
+            "label": ["worker start", "k", "a", "a", "a", "a", "a"],
+            "start": [0.0, 0.5, 1.5, 2.0, 3.0, 5.0, 6.5],
+            "end": [0.5, 1.5, 2.0, 3.0, 5.0, 6.5, 7.0],
+            "outcome": ["ready"] + ["done"] * 6,
+        }
+    ).to_csv(tmp_path / "timeline.csv", index=False)
     t = measure(tmp_path, total=7.5, workers=1, calibration=0.03)
     # the first timing task (1.0 s) apart, the later samples' median (2.0, 1.5, 0.5 -> 1.5)
     assert t.warm_up == {"a": 0.5} and t.first == {"a": 1.0} and t.run == {"a": 1.5} and t.reference == 1.0
@@ -82,8 +102,14 @@ def test_the_table_is_measured_from_a_timeline(tmp_path):
 def test_a_table_measured_before_calibrated_samples_still_estimates():
     # costs.json of an older nsbench has no 'first': its timed run stands for every timing task
     cases = Suite.from_dict(SMALL).cases()
-    old = CostTable(calibration=0.02, warm_up={c.label: 0.5 for c in cases},
-                    run={c.label: 1.0 for c in cases}, reference=2.0, report=10.0, overhead=4.0)
+    old = CostTable(
+        calibration=0.02,
+        warm_up={c.label: 0.5 for c in cases},
+        run={c.label: 1.0 for c in cases},
+        reference=2.0,
+        report=10.0,
+        overhead=4.0,
+    )
     p = plan(cases, n_references=0, workers=1, table=old, calibration=0.02, load=0.0, cores=1)
     assert p.n_unknown == 0 and p.seconds == pytest.approx(4 * (0.5 + 5 * 1.0) + 4.0 + 10.0)
 
@@ -95,8 +121,9 @@ def test_calibration_is_a_short_positive_time():
 
 def test_a_run_says_what_it_will_do_before_it_starts(tmp_path):
     err = io.StringIO()
-    run_suite(Suite.from_dict({**SMALL, "integrators": {"only": ["exact"]}}), tmp_path, workers=1,
-              progress=True, stream=err)
+    run_suite(
+        Suite.from_dict({**SMALL, "integrators": {"only": ["exact"]}}), tmp_path, workers=1, progress=True, stream=err
+    )
     first = err.getvalue().splitlines()[0]
     assert first.startswith("nsbench: suite 'small': 1 case(s): 5 timed samples after a warm-up each, on 1 worker(s)")
     assert "estimated about" in first

@@ -12,20 +12,36 @@ from nsbench.bench.families import families_answer, families_table, has_whole_sy
 
 
 def _row(integrator, family, options, err, l2, creep, seq=True, wall=1.0, step_option="h", arc=math.nan):
-    return {"problem_label": "one-dof/1", "integrator": integrator, "family": family,
-            "options": json.dumps(options), "step_option": step_option, "status": "success", "sequence_ok": seq,
-            "switch_err_max": err, "state_err_l2": l2, "stick_creep": creep, "wall_time": wall,
-            "reference": "exact", "arc_err": arc}
+    return {
+        "problem_label": "one-dof/1",
+        "integrator": integrator,
+        "family": family,
+        "options": json.dumps(options),
+        "step_option": step_option,
+        "status": "success",
+        "sequence_ok": seq,
+        "switch_err_max": err,
+        "state_err_l2": l2,
+        "stick_creep": creep,
+        "wall_time": wall,
+        "reference": "exact",
+        "arc_err": arc,
+    }
 
 
 def test_the_table_reads_each_ladder_cost_order_and_creep():
-    rows = [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h, arc=3.0 * h * h)
-            for h in (1e-2, 5e-3, 2.5e-3)]
+    rows = [
+        _row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h, arc=3.0 * h * h)
+        for h in (1e-2, 5e-3, 2.5e-3)
+    ]
     # smoothing: error ~ 1/eps**2 against 1/eps (order 2), creep ~ 1/eps
-    rows += [_row("smoothing", "smoothing", {"eps": e, "rtol": 1e-8}, 10.0 / e ** 2, 1.0 / e, 3.0 / e,
-                  step_option="rtol") for e in (1e2, 1e3)]
-    rows.append(_row("smoothing", "smoothing", {"eps": 10.0, "rtol": 1e-8}, 1.0, 1.0, 0.3, seq=False,
-                     step_option="rtol"))
+    rows += [
+        _row("smoothing", "smoothing", {"eps": e, "rtol": 1e-8}, 10.0 / e**2, 1.0 / e, 3.0 / e, step_option="rtol")
+        for e in (1e2, 1e3)
+    ]
+    rows.append(
+        _row("smoothing", "smoothing", {"eps": 10.0, "rtol": 1e-8}, 1.0, 1.0, 0.3, seq=False, step_option="rtol")
+    )
     frame = pd.DataFrame(rows)
     assert has_whole_system(frame)
     table = families_table(frame, (1e-3, 1e-6)).set_index("integrator")
@@ -70,7 +86,7 @@ def test_the_smooth_arc_is_the_middle_of_the_longest_slipping_arc(one_dof_refere
     start, end = t[k - 1], t[k]
     assert events.set_index("t").loc[start, "kind"] == "slip"  # a slip arc, from a break-away to a stick
     assert start + 0.25 * (end - start) <= grid[a] < grid[b] <= end - 0.25 * (end - start)
-    assert np.all(np.abs(dense[1, a:b + 1] - problem.v0) > 1e-3)
+    assert np.all(np.abs(dense[1, a : b + 1] - problem.v0) > 1e-3)
     assert smooth_arc_window(np.empty(0), grid[:1], dense[:, :1], problem.v0) is None
 
 
@@ -85,8 +101,10 @@ def test_smooth_arc_error_shows_the_order_on_a_smooth_arc(one_dof_reference, the
 
     problem, grid, events, dense = one_dof_reference
     hs = (0.01, 0.005, 0.0025, 0.00125)
-    errs = [smooth_arc_error(problem, get_integrator("moreau-jean", h=h, theta=theta), events, grid, dense,
-                             problem.v0) for h in hs]
+    errs = [
+        smooth_arc_error(problem, get_integrator("moreau-jean", h=h, theta=theta), events, grid, dense, problem.v0)
+        for h in hs
+    ]
     assert observed_order(hs, errs) == pytest.approx(order, abs=0.15), errs
 
 
@@ -100,11 +118,22 @@ def test_a_small_families_suite_reports_per_family(tmp_path):
     from nsbench.bench.report import write_report
     from nsbench.bench.runner import run_suite
 
-    suite = {"name": "families-small", "t_span": [0.0, 20.0], "repeats": 3, "dense_points": 200,
-             "targets": [1e-2, 1e-3], "reference": ["exact"], "problems": [{"name": "one-dof", "case": 1}],
-             "integrators": {"only": ["moreau-jean", "smoothing"],
-                             "grids": {"moreau-jean": {"grid": {"h": [0.01, 0.005, 0.0025]}},
-                                       "smoothing": {"grid": {"eps": [1e2, 1e3]}, "fixed": {"rtol": 1e-8}}}}}
+    suite = {
+        "name": "families-small",
+        "t_span": [0.0, 20.0],
+        "repeats": 3,
+        "dense_points": 200,
+        "targets": [1e-2, 1e-3],
+        "reference": ["exact"],
+        "problems": [{"name": "one-dof", "case": 1}],
+        "integrators": {
+            "only": ["moreau-jean", "smoothing"],
+            "grids": {
+                "moreau-jean": {"grid": {"h": [0.01, 0.005, 0.0025]}},
+                "smoothing": {"grid": {"eps": [1e2, 1e3]}, "fixed": {"rtol": 1e-8}},
+            },
+        },
+    }
     run_suite(suite, tmp_path, workers=1, progress=False)
     report = write_report(tmp_path)
     text = report.markdown.read_text() if hasattr(report, "markdown") else (tmp_path / "report.md").read_text()
@@ -119,8 +148,16 @@ def test_a_whole_system_case_runs_in_process():
     from nsbench.bench import execute
     from nsbench.bench.suite import Suite
 
-    suite = Suite.from_dict({"name": "t", "t_span": [0.0, 5.0], "repeats": 3, "dense_points": 50,
-                             "reference": ["exact"], "problems": [{"name": "one-dof", "case": 1}],
-                             "integrators": {"only": ["moreau-jean"]}})
+    suite = Suite.from_dict(
+        {
+            "name": "t",
+            "t_span": [0.0, 5.0],
+            "repeats": 3,
+            "dense_points": 50,
+            "reference": ["exact"],
+            "problems": [{"name": "one-dof", "case": 1}],
+            "integrators": {"only": ["moreau-jean"]},
+        }
+    )
     warm = execute.warm_up(suite.cases()[0], in_process=True)
     assert warm.row is None and warm.warmup_time >= 0.0

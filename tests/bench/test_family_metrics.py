@@ -42,7 +42,7 @@ def test_breakaway_error_takes_the_slip_events_of_the_prefix():
 
 def test_observed_order_is_the_log_log_slope():
     h = np.array([0.1, 0.05, 0.025])
-    assert observed_order(h, 3.0 * h ** 2) == pytest.approx(2.0)
+    assert observed_order(h, 3.0 * h**2) == pytest.approx(2.0)
     assert observed_order(h, [1e-3, np.nan, 2.5e-4]) == pytest.approx(1.0)
     assert math.isnan(observed_order([0.1, 0.1], [1.0, 2.0]))
 
@@ -51,8 +51,17 @@ def test_case_metrics_fill_the_new_columns():
     ref = _log([(1.0, "stick", 1), (3.0, "slip", 1)])
     run = _log([(1.1, "stick", 1), (2.9, "slip", 1)])
     times = np.array([2.0])
-    out = case_metrics(ref, run, np.zeros((2, 1)), np.array([[0.0], [0.6]]), np.zeros(2), np.zeros(2),
-                       times=times, v_belt=0.5, t_end=4.0)
+    out = case_metrics(
+        ref,
+        run,
+        np.zeros((2, 1)),
+        np.array([[0.0], [0.6]]),
+        np.zeros(2),
+        np.zeros(2),
+        times=times,
+        v_belt=0.5,
+        t_end=4.0,
+    )
     assert out["stick_creep"] == pytest.approx(0.1) and out["stick_drift"] == 0.0
     assert out["breakaway_err_max"] == pytest.approx(0.1)
     assert math.isnan(case_metrics(ref, run, None, None, None, None)["stick_creep"])

@@ -26,8 +26,9 @@ matplotlib.use("Agg")
 def kept(monkeypatch):
     """The figures handed to ``_save``, kept open (nothing written); each call returns its index."""
     out = []
-    monkeypatch.setattr(figures, "_save", lambda fig, folder, name, title, caption: out.append(
-        (fig, name, caption)) or len(out) - 1)
+    monkeypatch.setattr(
+        figures, "_save", lambda fig, folder, name, title, caption: out.append((fig, name, caption)) or len(out) - 1
+    )
     yield out
     import matplotlib.pyplot as plt
 
@@ -36,11 +37,24 @@ def kept(monkeypatch):
 
 
 def _row(problem, integrator, level, wall, nfev, err, ok=True):
-    return {"case_id": f"{problem}-{integrator}-{level}", "problem_label": problem, "integrator": integrator,
-            "level": level, "status": "success", "reference": "exact", "reference_status": "ok", "sequence_ok": ok,
-            "switch_err_max": err, "wall_time": wall, "nfev": nfev, "options": "{}",
-            "event_t": [1.0, 2.0, 3.0], "event_err": [err, -err, err / 2], "wall_time_min": wall * 0.9,
-            "wall_time_max": wall * 1.1}
+    return {
+        "case_id": f"{problem}-{integrator}-{level}",
+        "problem_label": problem,
+        "integrator": integrator,
+        "level": level,
+        "status": "success",
+        "reference": "exact",
+        "reference_status": "ok",
+        "sequence_ok": ok,
+        "switch_err_max": err,
+        "wall_time": wall,
+        "nfev": nfev,
+        "options": "{}",
+        "event_t": [1.0, 2.0, 3.0],
+        "event_err": [err, -err, err / 2],
+        "wall_time_min": wall * 0.9,
+        "wall_time_max": wall * 1.1,
+    }
 
 
 @pytest.fixture
@@ -48,10 +62,15 @@ def frame():
     # two problems x three targets = six pairs; costs and errors planted
     rows = []
     for p in ("two-dof/1", "two-dof/2"):
-        rows += [_row(p, "exact", 0, 0.001, 0, 0.0),
-                 _row(p, "a", 0, 0.01, 1000, 1e-7), _row(p, "a", 1, 0.04, 4000, 1e-10), _row(p, "a", 2, 0.1, 9000, 1e-13),
-                 _row(p, "b", 0, 0.02, 500, 1e-7), _row(p, "b", 1, 0.3, 6000, 1e-8)]
-    rows.append(_row("two-dof/2", "b", 2, 0.5, 8000, 1e-10, ok=False))      # a wrong sequence never solves
+        rows += [
+            _row(p, "exact", 0, 0.001, 0, 0.0),
+            _row(p, "a", 0, 0.01, 1000, 1e-7),
+            _row(p, "a", 1, 0.04, 4000, 1e-10),
+            _row(p, "a", 2, 0.1, 9000, 1e-13),
+            _row(p, "b", 0, 0.02, 500, 1e-7),
+            _row(p, "b", 1, 0.3, 6000, 1e-8),
+        ]
+    rows.append(_row("two-dof/2", "b", 2, 0.5, 8000, 1e-10, ok=False))  # a wrong sequence never solves
     return to_frame(rows)
 
 
@@ -126,7 +145,7 @@ def test_families_come_from_capabilities_not_names(plugins):
     assert family("cvode-bdf") == family("ida") == "solver root finding"
     assert family("heyoka-q") == "Taylor" and family("ofapi") == family("mcpi") == "collocation"
     assert family("exact") == family("exact-mp") == family("reference") == "reference"
-    assert family("scipy-lookalike") == "bisection"          # its name says scipy, its capabilities do not
+    assert family("scipy-lookalike") == "bisection"  # its name says scipy, its capabilities do not
     assert family("not-registered-here") == "other"
 
 
@@ -136,12 +155,12 @@ def test_a_plugin_gets_its_own_colour_and_marker(plugins):
     names = sorted(list_integrators())
     styles = _styles(names)
     pairs = {n: (to_rgba(st["color"]), st["marker"]) for n, st in styles.items()}
-    assert len(set(pairs.values())) == len(names)            # no two integrators look alike
+    assert len(set(pairs.values())) == len(names)  # no two integrators look alike
     family_maps = dict(FAMILIES)
     own = [n for n in names if family(n) not in family_maps]
     assert set(own) >= {"scipy-lookalike", "own-way"}
     colours = [to_rgba(styles[n]["color"]) for n in names]
-    for n in own:                                             # a colour nobody else has
+    for n in own:  # a colour nobody else has
         assert colours.count(to_rgba(styles[n]["color"])) == 1, n
     # a plug-in in a known family shares its hue, told apart by shade and marker
     dense = [n for n in names if family(n) == "dense output"]

@@ -20,17 +20,36 @@ from nsbench.bench import history, storage
 from nsbench.bench.storage import to_frame
 from nsbench.cli import main
 
-PROV = {"python": "3.11.7", "version_numpy": "2.4.6", "version_scipy": "1.17.1", "cpu": "Planted CPU",
-        "cpu_count": 2, "date": "2026-11-25T10:00:00+00:00"}
-A = [0.100, 0.104, 0.098, 0.110, 0.101]                       # five samples (seconds per run)
+PROV = {
+    "python": "3.11.7",
+    "version_numpy": "2.4.6",
+    "version_scipy": "1.17.1",
+    "cpu": "Planted CPU",
+    "cpu_count": 2,
+    "date": "2026-11-25T10:00:00+00:00",
+}
+A = [0.100, 0.104, 0.098, 0.110, 0.101]  # five samples (seconds per run)
 
 
 def _row(integrator: str, slow: float = 1.0, err: float = 1e-9) -> dict:
-    return {"case_id": f"two-dof-2-{integrator}", "problem_label": "two-dof/2", "integrator": integrator,
-            "level": 0, "options": "{}", "status": "success", "sequence_ok": True, "switch_err_max": err,
-            "nfev": 1000, "wall_times": [slow * t for t in A], "cpu_times": [slow * 0.95 * t for t in A],
-            "wall_time": slow * 0.101, "wall_time_min": slow * 0.098,
-            "wall_time_max": slow * 0.110, "wall_spread": 0.12, "cpu_time": slow * 0.096}
+    return {
+        "case_id": f"two-dof-2-{integrator}",
+        "problem_label": "two-dof/2",
+        "integrator": integrator,
+        "level": 0,
+        "options": "{}",
+        "status": "success",
+        "sequence_ok": True,
+        "switch_err_max": err,
+        "nfev": 1000,
+        "wall_times": [slow * t for t in A],
+        "cpu_times": [slow * 0.95 * t for t in A],
+        "wall_time": slow * 0.101,
+        "wall_time_min": slow * 0.098,
+        "wall_time_max": slow * 0.110,
+        "wall_spread": 0.12,
+        "cpu_time": slow * 0.096,
+    }
 
 
 def _run(folder: Path, rows: list[dict], prov: dict = PROV) -> Path:
@@ -45,11 +64,19 @@ def store(tmp_path):
     """Three commits: b gets twice as slow at c2 (every sample, on both clocks); a's error
     grows 10-fold at c3."""
     out = tmp_path / "store"
-    runs = [("c1" * 20, [_row("a"), _row("b")]), ("c2" * 20, [_row("a"), _row("b", slow=2.0)]),
-            ("c3" * 20, [_row("a", err=1e-8), _row("b", slow=2.0)])]
+    runs = [
+        ("c1" * 20, [_row("a"), _row("b")]),
+        ("c2" * 20, [_row("a"), _row("b", slow=2.0)]),
+        ("c3" * 20, [_row("a", err=1e-8), _row("b", slow=2.0)]),
+    ]
     for i, (commit, rows) in enumerate(runs):
-        history.add(_run(tmp_path / f"run{i}", rows), out, machine="box", commit=commit,
-                    commit_time=f"2026-11-2{i + 1}T10:00:00+00:00")
+        history.add(
+            _run(tmp_path / f"run{i}", rows),
+            out,
+            machine="box",
+            commit=commit,
+            commit_time=f"2026-11-2{i + 1}T10:00:00+00:00",
+        )
     return out
 
 
@@ -67,8 +94,7 @@ def test_runs_are_keyed_by_machine_environment_and_commit(store):
 
 def test_the_planted_change_is_found_at_its_commit(store):
     tab = history.table(store)
-    assert len(tab) == 6 and list(tab.drop_duplicates("order")["commit"]) == ["c1c1c1c1c1", "c2c2c2c2c2",
-                                                                            "c3c3c3c3c3"]
+    assert len(tab) == 6 and list(tab.drop_duplicates("order")["commit"]) == ["c1c1c1c1c1", "c2c2c2c2c2", "c3c3c3c3c3"]
     found = history.steps(store).set_index(["commit", "integrator"])
     assert list(found.index) == [("c2c2c2c2c2", "b"), ("c3c3c3c3c3", "a")]
     assert found.loc[("c2c2c2c2c2", "b"), "flags"] == "slower"
@@ -91,19 +117,22 @@ def test_show_writes_the_table_steps_and_figure_and_checks_the_newest(store, tmp
     history.add(_run(tmp_path / "lv2", [_row("b"), *levels]), two, machine="box", commit="d2" * 20)
     assert main(["history", "show", "--store", str(two), "--out", str(tmp_path / "two-out")]) == 0
     assert "stroke-dasharray" in (tmp_path / "two-out" / "history.svg").read_text()
-    assert "stroke-dasharray" not in (out / "history.svg").read_text()      # one level each: solid lines
+    assert "stroke-dasharray" not in (out / "history.svg").read_text()  # one level each: solid lines
     # the newest run (c3) has a flagged step: --check fails the job; restricted to b, its step is older
     assert main(["history", "show", "--store", str(store), "--check"]) == 1
     assert main(["history", "show", "--store", str(store), "--check", "--integrator", "b"]) == 0
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["history", "show", "--store", "{d}/none"], "does not exist"),
-    (["history", "show", "--store", "{d}/store", "--confidence", "1"], "confidence = 1.0 must be"),
-    (["history", "show", "--store", "{d}/store", "--factor", "nan"], "factor = nan"),
-    (["history", "add", "{d}/none", "--store", "{d}/store"], "do not exist"),
-    (["history", "run", "--repo", "{d}/none", "--commits", "a..b", "--store", "{d}/s"], "is not a folder"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["history", "show", "--store", "{d}/none"], "does not exist"),
+        (["history", "show", "--store", "{d}/store", "--confidence", "1"], "confidence = 1.0 must be"),
+        (["history", "show", "--store", "{d}/store", "--factor", "nan"], "factor = nan"),
+        (["history", "add", "{d}/none", "--store", "{d}/store"], "do not exist"),
+        (["history", "run", "--repo", "{d}/none", "--commits", "a..b", "--store", "{d}/s"], "is not a folder"),
+    ],
+)
 def test_bad_input_is_one_line(store, argv, message, capsys):
     d = str(Path(store).parent)
     assert main([a.replace("{d}", d) for a in argv]) == 2
@@ -148,8 +177,13 @@ only = ["plant-rk45"]
 
 
 def _git(repo: Path, *args: str) -> str:
-    return subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=repo, check=True,
-                          capture_output=True, text=True).stdout.strip()
+    return subprocess.run(
+        ["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+        cwd=repo,
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
 
 
 def test_history_run_over_three_commits_finds_the_commit_that_doubled_the_work(tmp_path):
@@ -158,10 +192,12 @@ def test_history_run_over_three_commits_finds_the_commit_that_doubled_the_work(t
     repo = tmp_path / "plantpkg"
     (repo / "src" / "plantpkg-0.1.dist-info").mkdir(parents=True)
     # the package's metadata travels with its source, so the commit's tree registers the entry point
-    (repo / "src" / "plantpkg-0.1.dist-info" / "METADATA").write_text("Metadata-Version: 2.1\nName: plantpkg\n"
-                                                                       "Version: 0.1\n")
+    (repo / "src" / "plantpkg-0.1.dist-info" / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: plantpkg\nVersion: 0.1\n"
+    )
     (repo / "src" / "plantpkg-0.1.dist-info" / "entry_points.txt").write_text(
-        "[nsbench.integrators]\nplant-rk45 = plantpkg:Planted\n")
+        "[nsbench.integrators]\nplant-rk45 = plantpkg:Planted\n"
+    )
     _git(repo, "init", "-q")
     shas = []
     for work, note in ((1, ""), (2, ""), (2, "# unchanged work\n")):
@@ -174,12 +210,19 @@ def test_history_run_over_three_commits_finds_the_commit_that_doubled_the_work(t
     suite.write_text(SUITE)
     store = tmp_path / "store"
     log = []
-    added = history.run_commits(repo, ",".join(shas), store,
-                                suite=str(suite), machine="box", workers=1,
-                                runner=lambda argv, env, cwd: log.append(argv) or subprocess.run(
-                                    argv, env=env, cwd=cwd, capture_output=True).returncode)
+    added = history.run_commits(
+        repo,
+        ",".join(shas),
+        store,
+        suite=str(suite),
+        machine="box",
+        workers=1,
+        runner=lambda argv, env, cwd: (
+            log.append(argv) or subprocess.run(argv, env=env, cwd=cwd, capture_output=True).returncode
+        ),
+    )
     assert [e.commit for e in added] == shas and len(log) == 3
-    assert _git(repo, "worktree", "list").count("\n") == 0          # every temporary worktree removed
+    assert _git(repo, "worktree", "list").count("\n") == 0  # every temporary worktree removed
     tab = history.table(store)
     assert list(tab.sort_values("order")["nfev"] / tab["nfev"].min()) == [1, 2, 2]
     found = history.steps(store)
@@ -187,7 +230,7 @@ def test_history_run_over_three_commits_finds_the_commit_that_doubled_the_work(t
     assert list(more["commit"]) == [shas[1][:10]] and more["nfev_ratio"].iloc[0] == pytest.approx(2.0)
     # 3 samples a side can never reach 99 % (p >= 1/20): no time flag anywhere, whatever the machine did
     assert not found["flags"].str.contains("slower").any()
-    assert not found["commit"].eq(shas[2][:10]).any()                # nothing changed at the third commit
+    assert not found["commit"].eq(shas[2][:10]).any()  # nothing changed at the third commit
 
 
 def test_a_range_lists_commits_oldest_first(tmp_path):

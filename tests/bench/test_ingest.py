@@ -23,9 +23,20 @@ def bench_json(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("pb")
     out = tmp / "bench.json"
     env = {**os.environ, "NSBENCH_BENCH_T_END": "30"}
-    cmd = [sys.executable, "-m", "pytest", str(ROOT / "benchmarks" / "test_registry.py"), "-q",
-           "-p", "no:cacheprovider", "--benchmark-only", f"--benchmark-json={out}",
-           "--benchmark-save-data", "-k", "one-dof-1 and (scipy-dop853 or exact) and not jit and not mp"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        str(ROOT / "benchmarks" / "test_registry.py"),
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--benchmark-only",
+        f"--benchmark-json={out}",
+        "--benchmark-save-data",
+        "-k",
+        "one-dof-1 and (scipy-dop853 or exact) and not jit and not mp",
+    ]
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     return out
@@ -46,18 +57,28 @@ def test_ingest_round_trips_a_pytest_benchmark_file(bench_json, tmp_path):
     assert "machine_info" in json.loads((tmp_path / "ing" / "provenance.json").read_text())
     rep = write_report(tmp_path / "ing")
     # wall time, nfev and steps (no integrator time in a pytest-benchmark file), and the error along
-    assert rep.html.exists() and [f.name.split("_")[1] for f in rep.figures] == ["distribution", "time", "nfev", "nsteps",
-                                                                                  "err"]
+    assert rep.html.exists() and [f.name.split("_")[1] for f in rep.figures] == [
+        "distribution",
+        "time",
+        "nfev",
+        "nsteps",
+        "err",
+    ]
 
 
 def test_ingested_rows_match_the_runner_on_the_same_cases(bench_json, tmp_path):
     frame = ingest(bench_json, tmp_path / "ing")
-    suite = Suite.from_dict({"t_span": [0.0, 30.0], "problems": [{"name": "one-dof", "case": 1}], "repeats": 1,
-                             "integrators": {"only": ["exact", "scipy-dop853"],
-                                             "grids": {"scipy-dop853": {"options": [{}]}}}})
+    suite = Suite.from_dict(
+        {
+            "t_span": [0.0, 30.0],
+            "problems": [{"name": "one-dof", "case": 1}],
+            "repeats": 1,
+            "integrators": {"only": ["exact", "scipy-dop853"], "grids": {"scipy-dop853": {"options": [{}]}}},
+        }
+    )
     runner = run_suite(suite, tmp_path / "run", workers=1, progress=False).results
     merged = frame.merge(runner, on="case_id", suffixes=("_bench", "_run"))
-    assert len(merged) == 2                                   # same case ids
+    assert len(merged) == 2  # same case ids
     for key in ("switch_err_max", "n_prefix", "nfev", "state_err_l2"):
         assert (merged[f"{key}_bench"] == merged[f"{key}_run"]).all(), key  # deterministic runs agree
 
@@ -70,34 +91,47 @@ def test_bad_files(tmp_path):
         read_benchmark_json(tmp_path / "x.json")
 
 
-@pytest.mark.parametrize("data, fragment", [
-    ({"benchmarks": 5}, "'benchmarks' must be a list, got int 5"),
-    ({"benchmarks": []}, "holds no benchmarks"),
-    ({"benchmarks": [1]}, "benchmarks[0] must be a table"),
-    ({"benchmarks": [{"name": "a", "stats": "x"}]}, "benchmarks[0].stats must be a table"),
-    ({"benchmarks": [{"name": "a", "extra_info": 5}]}, "benchmarks[0].extra_info must be a table"),
-    ({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}, "benchmarks[0].stats.median must be a number"),
-    ({"benchmarks": [{"name": "a", "stats": {"data": ["x"]}}]}, "stats.data must be a list of times"),
-    # values that used to be stored as something else, or lost
-    ({"benchmarks": [{"name": "a", "stats": {"median": float("inf")}}]}, "stats.median must be a number of "
-                                                                          "seconds (finite, >= 0), got float inf"),
-    ({"benchmarks": [{"name": "a", "stats": {"median": -0.1}}]}, "stats.median must be a number of seconds"),
-    ({"benchmarks": [{"name": "a", "stats": {"rounds": -3}}]}, "stats.rounds must be a whole number >= 0"),
-    ({"benchmarks": [{"name": "a", "stats": {"rounds": 2.5}}]}, "stats.rounds must be a whole number >= 0"),
-    ({"benchmarks": [{"name": "a", "stats": {"data": [0.1, -1]}}]}, "stats.data must be a list of times"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"n_events": "abc"}}]},
-     "benchmarks[0].extra_info.n_events must be a whole number, got str 'abc'"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"nfev": -4}}]}, "extra_info.nfev counts something"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"status": {"a": 1}}}]},
-     "extra_info.status must be a string, got dict"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"status": "fine"}}]}, "'fine' is not a status"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"switch_err_max": "small"}}]},
-     "extra_info.switch_err_max must be a number"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"setup_time": float("inf")}}]},
-     "extra_info.setup_time must be a number of seconds"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"sequence_ok": "yes"}}]}, "sequence_ok must be true or false"),
-    ({"benchmarks": [{"name": "a", "extra_info": {"event_err": [1, "x"]}}]}, "event_err must be a list of numbers"),
-])
+@pytest.mark.parametrize(
+    "data, fragment",
+    [
+        ({"benchmarks": 5}, "'benchmarks' must be a list, got int 5"),
+        ({"benchmarks": []}, "holds no benchmarks"),
+        ({"benchmarks": [1]}, "benchmarks[0] must be a table"),
+        ({"benchmarks": [{"name": "a", "stats": "x"}]}, "benchmarks[0].stats must be a table"),
+        ({"benchmarks": [{"name": "a", "extra_info": 5}]}, "benchmarks[0].extra_info must be a table"),
+        ({"benchmarks": [{"name": "a", "stats": {"median": "slow"}}]}, "benchmarks[0].stats.median must be a number"),
+        ({"benchmarks": [{"name": "a", "stats": {"data": ["x"]}}]}, "stats.data must be a list of times"),
+        # values that used to be stored as something else, or lost
+        (
+            {"benchmarks": [{"name": "a", "stats": {"median": float("inf")}}]},
+            "stats.median must be a number of seconds (finite, >= 0), got float inf",
+        ),
+        ({"benchmarks": [{"name": "a", "stats": {"median": -0.1}}]}, "stats.median must be a number of seconds"),
+        ({"benchmarks": [{"name": "a", "stats": {"rounds": -3}}]}, "stats.rounds must be a whole number >= 0"),
+        ({"benchmarks": [{"name": "a", "stats": {"rounds": 2.5}}]}, "stats.rounds must be a whole number >= 0"),
+        ({"benchmarks": [{"name": "a", "stats": {"data": [0.1, -1]}}]}, "stats.data must be a list of times"),
+        (
+            {"benchmarks": [{"name": "a", "extra_info": {"n_events": "abc"}}]},
+            "benchmarks[0].extra_info.n_events must be a whole number, got str 'abc'",
+        ),
+        ({"benchmarks": [{"name": "a", "extra_info": {"nfev": -4}}]}, "extra_info.nfev counts something"),
+        (
+            {"benchmarks": [{"name": "a", "extra_info": {"status": {"a": 1}}}]},
+            "extra_info.status must be a string, got dict",
+        ),
+        ({"benchmarks": [{"name": "a", "extra_info": {"status": "fine"}}]}, "'fine' is not a status"),
+        (
+            {"benchmarks": [{"name": "a", "extra_info": {"switch_err_max": "small"}}]},
+            "extra_info.switch_err_max must be a number",
+        ),
+        (
+            {"benchmarks": [{"name": "a", "extra_info": {"setup_time": float("inf")}}]},
+            "extra_info.setup_time must be a number of seconds",
+        ),
+        ({"benchmarks": [{"name": "a", "extra_info": {"sequence_ok": "yes"}}]}, "sequence_ok must be true or false"),
+        ({"benchmarks": [{"name": "a", "extra_info": {"event_err": [1, "x"]}}]}, "event_err must be a list of numbers"),
+    ],
+)
 def test_json_of_the_wrong_shape_is_refused(tmp_path, data, fragment):
     (tmp_path / "x.json").write_text(json.dumps(data))  # inf is written as Infinity, which json reads back
     with pytest.raises(ConfigError) as info:
@@ -117,9 +151,17 @@ def test_binary_and_folder_files_are_refused(tmp_path):
 def test_a_case_id_that_names_a_file_elsewhere_is_refused(tmp_path, bad):
     # extra_info comes from whoever wrote the JSON: its case id must not steer a write
     # outside --out (an absolute path, or ../ up from OUT/cases)
-    data = {"version": "5.0", "benchmarks": [
-        {"name": "b", "fullname": "b", "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
-         "extra_info": {"case_id": bad}}]}
+    data = {
+        "version": "5.0",
+        "benchmarks": [
+            {
+                "name": "b",
+                "fullname": "b",
+                "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
+                "extra_info": {"case_id": bad},
+            }
+        ],
+    }
     src = tmp_path / "evil.json"
     src.write_text(json.dumps(data))
     out = tmp_path / "deep" / "out"
@@ -133,8 +175,12 @@ def test_a_case_id_that_names_a_file_elsewhere_is_refused(tmp_path, bad):
 
 
 def test_duplicate_case_ids_are_refused(tmp_path):
-    bench = {"name": "b", "fullname": "b", "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
-             "extra_info": {"case_id": "same"}}
+    bench = {
+        "name": "b",
+        "fullname": "b",
+        "stats": {"median": 0.1, "min": 0.1, "max": 0.1, "rounds": 1},
+        "extra_info": {"case_id": "same"},
+    }
     src = tmp_path / "dup.json"
     src.write_text(json.dumps({"benchmarks": [bench, dict(bench, name="c", fullname="c")]}))
     with pytest.raises(ConfigError, match="more than once"):
@@ -160,15 +206,23 @@ def matched_json(tmp_path_factory):
     env = {**os.environ, "NSBENCH_BENCH_T_END": "20"}
     module = "benchmarks/test_ofapi_matched_accuracy.py"
     ids = [f"{module}::test_matched_accuracy[1-{name}]" for name in ("henon-rk4", "ofapi", "mcpi")]
-    cmd = [sys.executable, "-m", "pytest", *ids, "-q", "-p", "no:cacheprovider", "--benchmark-only",
-           f"--benchmark-json={out}"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        *ids,
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--benchmark-only",
+        f"--benchmark-json={out}",
+    ]
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     return out
 
 
-def test_ingest_keeps_problem_integrator_span_and_accuracy_of_a_module_with_several_integrators(
-        matched_json, tmp_path):
+def test_ingest_keeps_problem_integrator_span_and_accuracy_of_a_module_with_several_integrators(matched_json, tmp_path):
     frame = ingest(matched_json, tmp_path / "ing").set_index("integrator")
     assert sorted(frame.index) == ["henon-rk4", "mcpi", "ofapi"]
     assert set(frame["problem"]) == {"two-dof"} and set(frame["case"]) == {1}

@@ -31,7 +31,7 @@ def test_known_shift():
     assert al.sequence_ok and al.first_divergence_index == -1 and math.isnan(al.first_divergence_time)
     sw, t_ref, dt = switching_errors(REF, run, al.n_prefix)
     assert sw.err_max == pytest.approx(3e-6, rel=1e-9)
-    assert sw.err_rms == pytest.approx(math.sqrt(15 / 5) * 1e-6, rel=1e-9)   # (1+4+9+0+1)/5
+    assert sw.err_rms == pytest.approx(math.sqrt(15 / 5) * 1e-6, rel=1e-9)  # (1+4+9+0+1)/5
     assert sw.err_median == pytest.approx(1e-6, rel=1e-9)
     # relative errors 1e-6, 1e-6, 1e-6, 0, 2e-7: the worst time has 6 correct digits
     assert sw.digits == pytest.approx(6.0, abs=1e-6)
@@ -39,8 +39,8 @@ def test_known_shift():
 
 
 def test_missing_event_limits_errors_to_the_matched_prefix():
-    kinds = KINDS[:2] + KINDS[3:]                      # stick@2 at t = 3 is missed
-    times = [1.0 + 1e-9, 2.0 - 2e-9, 4.5, 5.5]           # later events would look 1.5 off if compared
+    kinds = KINDS[:2] + KINDS[3:]  # stick@2 at t = 3 is missed
+    times = [1.0 + 1e-9, 2.0 - 2e-9, 4.5, 5.5]  # later events would look 1.5 off if compared
     run = log(times, kinds)
     al = align(REF, run)
     assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (2, 4, 1, 0)
@@ -65,7 +65,7 @@ def test_extra_event_after_the_reference_ends():
     run = log(T_REF + [6.0], KINDS + [("slip", 1)])
     al = align(REF, run)
     assert (al.n_prefix, al.n_missed, al.n_extra, al.first_divergence_index) == (5, 0, 1, 5)
-    assert al.first_divergence_time == 6.0          # the run's time: the reference has none there
+    assert al.first_divergence_time == 6.0  # the run's time: the reference has none there
 
 
 def test_empty_run_and_digits_cap():
@@ -73,7 +73,7 @@ def test_empty_run_and_digits_cap():
     assert (al.n_prefix, al.n_matched, al.n_missed) == (0, 0, 5)
     assert math.isnan(switching_errors(REF, log([], []), 0)[0].err_max)
     exact = switching_errors(REF, REF, 5)[0]
-    assert exact.err_max == 0.0 and exact.digits == pytest.approx(-math.log10(2.0 ** -53))
+    assert exact.err_max == 0.0 and exact.digits == pytest.approx(-math.log10(2.0**-53))
 
 
 # A stick-slip cycle of block 2 every 3.58 time units, with block 1 slipping once: the run misses
@@ -86,7 +86,7 @@ T_CYCLE = [0.5, 1.0, 4.58, 8.16, 11.74, 15.32, 18.9]
 
 def test_a_missed_stick_is_missed_where_it_happened():
     ref = log(T_CYCLE, CYCLE)
-    keep = [0, 3, 4, 5, 6]                                   # stick@2 at 1.0 and slip@2 at 4.58 missed
+    keep = [0, 3, 4, 5, 6]  # stick@2 at 1.0 and slip@2 at 4.58 missed
     run = log([T_CYCLE[i] + 1e-9 for i in keep], [CYCLE[i] for i in keep])
     al = align(ref, run)
     assert (al.n_prefix, al.n_matched, al.n_missed, al.n_extra) == (1, 5, 2, 0)
@@ -138,7 +138,7 @@ def test_long_logs_align_in_full():
 
 def test_state_errors_by_hand():
     ref = np.zeros((2, 4))
-    run = np.array([[3.0, 0.0, 0.0, 0.0], [4.0, 0.0, 0.0, 1.0]])   # norms 5, 0, 0, 1
+    run = np.array([[3.0, 0.0, 0.0, 0.0], [4.0, 0.0, 0.0, 1.0]])  # norms 5, 0, 0, 1
     final, l2 = state_errors(ref, run, np.zeros(2), np.array([0.5, -2.0]))
     assert final == 2.0
     assert l2 == pytest.approx(math.sqrt((25 + 1) / 4))
@@ -151,18 +151,31 @@ def test_case_metrics_has_every_metric_column():
 
 
 def _row(integrator, options, err, time, ok=True, status="success", label="p/1"):
-    return {"case_id": f"{integrator}{options}", "problem_label": label, "integrator": integrator,
-            "options": options, "status": status, "sequence_ok": ok, "switch_err_max": err,
-            "wall_time": time, "nfev": int(time * 1000), "reference_status": "ok", "level": 0}
+    return {
+        "case_id": f"{integrator}{options}",
+        "problem_label": label,
+        "integrator": integrator,
+        "options": options,
+        "status": status,
+        "sequence_ok": ok,
+        "switch_err_max": err,
+        "wall_time": time,
+        "nfev": int(time * 1000),
+        "reference_status": "ok",
+        "level": 0,
+    }
 
 
 def test_fixed_target_picks_the_cheapest_reaching_config_and_ignores_wrong_sequences():
-    frame = to_frame([
-        _row("a", "loose", 1e-7, 0.1), _row("a", "tight", 1e-10, 0.5),
-        _row("b", "wrong-seq", 1e-13, 0.01, ok=False),      # never counts
-        _row("b", "failed", 1e-13, 0.02, status="integrator failure"),
-        _row("b", "ok", 1e-7, 0.3),
-    ])
+    frame = to_frame(
+        [
+            _row("a", "loose", 1e-7, 0.1),
+            _row("a", "tight", 1e-10, 0.5),
+            _row("b", "wrong-seq", 1e-13, 0.01, ok=False),  # never counts
+            _row("b", "failed", 1e-13, 0.02, status="integrator failure"),
+            _row("b", "ok", 1e-7, 0.3),
+        ]
+    )
     long = fixed_target(frame, (1e-6, 1e-9, 1e-12))
     got = {(r.integrator, r.target): (r.outcome, r.wall_time) for r in long.itertuples()}
     assert got[("a", 1e-6)] == ("reached", 0.1)
@@ -181,11 +194,14 @@ def test_tie_groups_are_compared_in_the_reference_order():
     from nsbench.bench.metrics import order_ties_as_reference, tie_groups
 
     t0 = 0.100251
-    ref = log([0.05, t0, t0 + 2e-16, t0 + 4e-16, 0.3],
-              [("slip", 1), ("stick", 31), ("stick", 4), ("stick", 17), ("slip", 2)])
+    ref = log(
+        [0.05, t0, t0 + 2e-16, t0 + 4e-16, 0.3], [("slip", 1), ("stick", 31), ("stick", 4), ("stick", 17), ("slip", 2)]
+    )
     assert tie_groups(ref["t"]).tolist() == [0, 1, 1, 1, 2]
-    run = log([0.05 + 1e-9, t0 + 3e-9, t0 + 3e-9, t0 + 3e-9 + 1e-16, 0.3 - 2e-9],
-              [("slip", 1), ("stick", 4), ("stick", 17), ("stick", 31), ("slip", 2)])
+    run = log(
+        [0.05 + 1e-9, t0 + 3e-9, t0 + 3e-9, t0 + 3e-9 + 1e-16, 0.3 - 2e-9],
+        [("slip", 1), ("stick", 4), ("stick", 17), ("stick", 31), ("slip", 2)],
+    )
     row = case_metrics(ref, run, None, None, None, None)
     assert row["sequence_ok"] and row["n_prefix"] == 5
     assert row["switch_err_max"] == pytest.approx(3e-9, rel=1e-6)
@@ -213,11 +229,11 @@ def test_no_error_is_reported_below_the_references_certified_error():
     shift = np.array([5e-10, -2e-9, 0.0, 1e-8, 3e-9])
     run = log(np.array(T_REF) + shift, KINDS)
     sw, _, dt = switching_errors(ref, run, 5)
-    assert np.allclose(dt, shift, rtol=0, atol=1e-15)            # the signed errors are as measured
-    assert sw.err_max == pytest.approx(5e-8)                      # floored: 1e-9, 2e-9, 1e-9, 5e-8, 3e-9
+    assert np.allclose(dt, shift, rtol=0, atol=1e-15)  # the signed errors are as measured
+    assert sw.err_max == pytest.approx(5e-8)  # floored: 1e-9, 2e-9, 1e-9, 5e-8, 3e-9
     assert sw.err_median == pytest.approx(2e-9, rel=1e-6)
     assert sw.err_rms == pytest.approx(math.sqrt((1 + 4 + 1 + 2500 + 9) / 5) * 1e-9, rel=1e-6)
-    assert not sw.at_reference                                    # event 2 (2e-9) is outside 1e-9
+    assert not sw.at_reference  # event 2 (2e-9) is outside 1e-9
     assert not reaches(1e-8, status="success", sequence_ok=True, err_max=sw.err_max)  # below the reference
     # without the column nothing is floored
     plain, _, _ = switching_errors(REF, run, 5)

@@ -14,15 +14,15 @@ from nsbench.bench.pool import describe_exit
 
 def test_messages_round_trip_through_a_pipe():
     r, w = os.pipe()
-    big = msg.Done(7, {"x": list(range(50_000))})               # larger than a pipe buffer
+    big = msg.Done(7, {"x": list(range(50_000))})  # larger than a pipe buffer
     pid = os.fork()
-    if pid == 0:                                                 # the writer: a raw fd, like the parent
+    if pid == 0:  # the writer: a raw fd, like the parent
         os.close(r)
         msg.write_fd(w, msg.Stage(7, "timed run 1 of 3", 30.0))
         msg.write_fd(w, big)
         os._exit(0)
     os.close(w)
-    with os.fdopen(r, "rb", buffering=0) as stream:             # unbuffered, like the parent's reads
+    with os.fdopen(r, "rb", buffering=0) as stream:  # unbuffered, like the parent's reads
         assert msg.read_message(stream) == msg.Stage(7, "timed run 1 of 3", 30.0)
         assert msg.read_message(stream) == big
         with pytest.raises(EOFError):

@@ -62,8 +62,23 @@ def test_simulate_reference_prints_and_writes_its_certified_error(tmp_path, caps
     from nsbench.cli import main
 
     out = tmp_path / "ev.csv"
-    assert main(["simulate", "two-dof", "--case", "2", "--integrator", "reference", "--t-end", "100",
-                 "--events-out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "two-dof",
+                "--case",
+                "2",
+                "--integrator",
+                "reference",
+                "--t-end",
+                "100",
+                "--events-out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "certified error of this log" in text and "exact-mp" in text
     events = pd.read_csv(out)
@@ -91,8 +106,9 @@ def test_every_reference_log_carries_a_certified_error_that_bounds_its_true_erro
     # 7e-14 of it, and the bound adds one ulp of t (5.7e-14 near t = 300), so at most about 1.3e-13
     from nsbench.bench.reference import candidates, compute_reference
 
-    ref = compute_reference(get_problem("two-dof", case=case).config(), candidates(["exact", "reference"]),
-                            0.0, 300.0, 20)
+    ref = compute_reference(
+        get_problem("two-dof", case=case).config(), candidates(["exact", "reference"]), 0.0, 300.0, 20
+    )
     assert ref.ok and ref.name == "exact" and "exact-mp" in ref.certify_note
     cert = ref.events["certified_error"].to_numpy()
     t = ref.events["t"].to_numpy()
@@ -109,11 +125,17 @@ def test_the_ill_conditioned_point_is_flagged_and_not_graded_below_its_certainty
     from nsbench.bench.report import write_report
     from nsbench.bench.suite import Suite
 
-    suite = Suite.from_dict({
-        "name": "stiff", "t_span": [0.0, 300.0], "repeats": 3, "reference": ["exact"], "targets": [1e-6, 1e-9],
-        "problems": [{"name": "two-dof", "case": 2, "params": STIFF}],
-        "integrators": {"only": ["henon-rk4"]},
-    })
+    suite = Suite.from_dict(
+        {
+            "name": "stiff",
+            "t_span": [0.0, 300.0],
+            "repeats": 3,
+            "reference": ["exact"],
+            "targets": [1e-6, 1e-9],
+            "problems": [{"name": "two-dof", "case": 2, "params": STIFF}],
+            "integrators": {"only": ["henon-rk4"]},
+        }
+    )
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
     frame = summary.results
     cert, floor = float(frame["ref_certainty"].iloc[0]), float(frame["ref_double_floor"].iloc[0])
@@ -177,9 +199,15 @@ def test_a_reference_its_check_contradicts_grades_nothing_and_says_so(register, 
     from tests.bench import _integrators as ti
 
     register(ti.CoarseReference.name, ti.CoarseReference)
-    suite = Suite.from_dict({"t_span": [0.0, 50.0], "repeats": 1, "reference": [ti.CoarseReference.name],
-                             "problems": [{"name": "two-dof", "case": 1}],
-                             "integrators": {"only": ["exact"], "grids": {"exact": {"options": [{}]}}}})
+    suite = Suite.from_dict(
+        {
+            "t_span": [0.0, 50.0],
+            "repeats": 1,
+            "reference": [ti.CoarseReference.name],
+            "problems": [{"name": "two-dof", "case": 1}],
+            "integrators": {"only": ["exact"], "grids": {"exact": {"options": [{}]}}},
+        }
+    )
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
     row = summary.results.iloc[0]
     assert row["status"] == "success"

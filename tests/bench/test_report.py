@@ -16,14 +16,23 @@ def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
     # The reference list leaves out `reference`, so the cubic problem has none and
     # takes the cost-only figure path.
-    suite = Suite.from_dict({"name": "rep", "t_span": [0.0, 30.0], "repeats": 2, "max_repeats": 3,
-                             "min_sample_time": 0.0,  # one run per sample: the report, not timing, is tested
-                             "reference": ["exact"],
-                             "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
-                             "integrators": {"only": ["exact", "scipy-rk45", "henon-rk4"],
-                                             # RK4 steps whose event error is ~1e-5 and ~1e-8:
-                                             # 1e-6 is reached, 1e-12 is not
-                                             "grids": {"henon-rk4": {"options": [{"h": 0.04}, {"h": 0.01}]}}}})
+    suite = Suite.from_dict(
+        {
+            "name": "rep",
+            "t_span": [0.0, 30.0],
+            "repeats": 2,
+            "max_repeats": 3,
+            "min_sample_time": 0.0,  # one run per sample: the report, not timing, is tested
+            "reference": ["exact"],
+            "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "case": 3}],
+            "integrators": {
+                "only": ["exact", "scipy-rk45", "henon-rk4"],
+                # RK4 steps whose event error is ~1e-5 and ~1e-8:
+                # 1e-6 is reached, 1e-12 is not
+                "grids": {"henon-rk4": {"options": [{"h": 0.04}, {"h": 0.01}]}},
+            },
+        }
+    )
     run_suite(suite, out, workers=1, progress=False)
     return out, write_report(out)
 
@@ -31,9 +40,15 @@ def report(tmp_path_factory):
 def test_every_figure_is_saved_as_png_and_svg(report):
     out, rep = report
     names = [f.name for f in rep.figures]
-    assert names == ["runtime_distribution", "wp_time_one-dof_1", "wp_inttime_one-dof_1", "wp_nfev_one-dof_1", "wp_nsteps_one-dof_1",
-                     "event_err_one-dof_1",
-                     "cost_two-dof_3"]
+    assert names == [
+        "runtime_distribution",
+        "wp_time_one-dof_1",
+        "wp_inttime_one-dof_1",
+        "wp_nfev_one-dof_1",
+        "wp_nsteps_one-dof_1",
+        "event_err_one-dof_1",
+        "cost_two-dof_3",
+    ]
     for fig in rep.figures:
         assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert fig.svg.read_text().lstrip().startswith(("<?xml", "<svg"))
@@ -82,15 +97,15 @@ def test_timing_spread_is_shown(report):
     reached = ft[ft["outcome"] == "reached"]
     assert len(reached) and reached["wall_spread"].notna().all()
     md = re.sub(" +", " ", md)
-    row = md[md.index("| one-dof/1 | henon-rk4 |"):].splitlines()[0]
-    assert " s ±" in row                                    # median ± half its min-max range
+    row = md[md.index("| one-dof/1 | henon-rk4 |") :].splitlines()[0]
+    assert " s ±" in row  # median ± half its min-max range
     assert "## Timing spread" in md and "Times are medians of 3 timed samples per case" in md
     assert "This run is incomplete" not in md
     # the line on the machine's noise comes first, from the loads sampled while timing
     assert md.splitlines()[2].startswith("How noisy the machine was: load average ")
     assert "a case's timed samples spread by" in md.splitlines()[2]
     # set-up is charged to each integrator once, not to the level that happened to compile
-    setup = md[md.index("## Set-up per integrator"):].split("## Figures")[0]
+    setup = md[md.index("## Set-up per integrator") :].split("## Figures")[0]
     assert "| integrator | first_use | on | later | cases |" in setup and "| henon-rk4 |" in setup
 
 
@@ -110,7 +125,7 @@ def test_work_precision_whiskers_span_min_to_max():
     segments = [seg for coll in ax.collections for seg in coll.get_segments()]
     plt.close(fig)
     spans = sorted((float(s[0][0]), float(s[1][0])) for s in segments)
-    assert spans == [(0.9, 1.2), (1.8, 2.5)]                 # no whisker where the range is unknown
+    assert spans == [(0.9, 1.2), (1.8, 2.5)]  # no whisker where the range is unknown
 
 
 def test_integrator_time_and_engine_share_are_reported(report):
@@ -137,8 +152,14 @@ def test_problem_labels_sort_by_their_numbers():
     from nsbench.bench.tables import natural_key, problem_groups
 
     labels = ["chain/2 n=16", "chain/2 n=2", "chain/2 n=64", "chain/2 n=4", "two-dof/10", "two-dof/2"]
-    assert sorted(labels, key=natural_key) == ["chain/2 n=2", "chain/2 n=4", "chain/2 n=16", "chain/2 n=64",
-                                               "two-dof/2", "two-dof/10"]
+    assert sorted(labels, key=natural_key) == [
+        "chain/2 n=2",
+        "chain/2 n=4",
+        "chain/2 n=16",
+        "chain/2 n=64",
+        "two-dof/2",
+        "two-dof/10",
+    ]
     frame = pd.DataFrame({"problem_label": labels, "x": range(6)})
     assert [label for label, _ in problem_groups(frame)] == sorted(labels, key=natural_key)
 
@@ -154,11 +175,23 @@ def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
 
     root = Path(__file__).resolve().parents[2]
     out = tmp_path / "bench.json"
-    cmd = [sys.executable, "-m", "pytest", str(root / "benchmarks" / "test_registry.py"),
-           str(root / "benchmarks" / "test_sweep_speed.py"), "-q", "-p", "no:cacheprovider", "--benchmark-only",
-           f"--benchmark-json={out}", "-k", "(one-dof-1 and scipy-dop853) or (case1_v0 and henon-rk4)"]
-    done = subprocess.run(cmd, cwd=root, env={**os.environ, "NSBENCH_BENCH_T_END": "20"}, capture_output=True,
-                          text=True, timeout=600)
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        str(root / "benchmarks" / "test_registry.py"),
+        str(root / "benchmarks" / "test_sweep_speed.py"),
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--benchmark-only",
+        f"--benchmark-json={out}",
+        "-k",
+        "(one-dof-1 and scipy-dop853) or (case1_v0 and henon-rk4)",
+    ]
+    done = subprocess.run(
+        cmd, cwd=root, env={**os.environ, "NSBENCH_BENCH_T_END": "20"}, capture_output=True, text=True, timeout=600
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     assert main(["ingest", str(out), "--out", str(tmp_path / "pb"), "--report"]) == 0
     html = (tmp_path / "pb" / "index.html").read_text()
@@ -169,8 +202,14 @@ def test_table_tex_has_a_page_sized_table_per_target_then_references_and_the_sup
     out, rep = report
     tex = rep.latex.read_text()
     labels = re.findall(r"\\label\{([^}]*)\}", tex)
-    assert labels == ["tab:nsbench-target-1e-06", "tab:nsbench-target-1e-09", "tab:nsbench-target-1e-12",
-                      "tab:nsbench-references", "tab:nsbench-fixed-target", "tab:nsbench-ranking"]
+    assert labels == [
+        "tab:nsbench-target-1e-06",
+        "tab:nsbench-target-1e-09",
+        "tab:nsbench-target-1e-12",
+        "tab:nsbench-references",
+        "tab:nsbench-fixed-target",
+        "tab:nsbench-ranking",
+    ]
     for t in tex.split(r"\begin{table}")[1:4]:
         assert t.count(r"\\") <= 40  # a page
     assert "±" not in tex and "<1%" not in tex  # math mode, not text-mode glyphs LaTeX misprints
@@ -206,9 +245,21 @@ def test_the_page_does_not_overflow_in_a_browser(report, tmp_path, width):
         pytest.skip("no Chromium on this machine (apt install chromium to run this check)")
     page = tmp_path / "probe.html"
     page.write_text(report[1].html.read_text().replace("</body>", _OVERFLOW_PROBE))
-    done = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", f"--window-size={width},900",
-                           "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            f"--window-size={width},900",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     found = re.search(r'data-overflow="([^"]*)"', done.stdout)
     assert found, done.stderr[-2000:]
     assert found.group(1) == "", f"past the right edge at {width} px: {found.group(1)}"

@@ -22,8 +22,14 @@ from tests.bench import _integrators as ti
 
 
 def small_suite(only, **kw):
-    data = {"name": "small", "t_span": [0.0, 40.0], "repeats": 3, "max_repeats": 3,
-            "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": list(only)}}
+    data = {
+        "name": "small",
+        "t_span": [0.0, 40.0],
+        "repeats": 3,
+        "max_repeats": 3,
+        "problems": [{"name": "one-dof", "case": 1}],
+        "integrators": {"only": list(only)},
+    }
     data.update(kw)
     return Suite.from_dict(data)
 
@@ -36,11 +42,17 @@ def pooled(tmp_path_factory):
     cubic problem takes the "no reference available" path.
     """
     out = tmp_path_factory.mktemp("pooled")
-    suite = Suite.from_dict({
-        "name": "pooled", "t_span": [0.0, 40.0], "repeats": 3, "max_repeats": 3, "reference": ["exact"],
-        "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "cases": [2, 3]}],
-        "integrators": {"only": ["exact", "scipy-dop853"]},
-    })
+    suite = Suite.from_dict(
+        {
+            "name": "pooled",
+            "t_span": [0.0, 40.0],
+            "repeats": 3,
+            "max_repeats": 3,
+            "reference": ["exact"],
+            "problems": [{"name": "one-dof", "case": 1}, {"name": "two-dof", "cases": [2, 3]}],
+            "integrators": {"only": ["exact", "scipy-dop853"]},
+        }
+    )
     summary = run_suite(suite, out, workers=2, progress=False)
     return out, summary
 
@@ -52,7 +64,7 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert len(frame) == summary.n_cases == 3 * (1 + 3) and frame["case_id"].is_unique
     assert set(load_results(out)["case_id"]) == set(frame["case_id"])
     docs = (Path(__file__).resolve().parents[2] / "docs" / "bench.md").read_text()
-    for name in COLUMN_NAMES:           # the documented column list covers every column
+    for name in COLUMN_NAMES:  # the documented column list covers every column
         assert f"`{name}`" in markdown_table() and f"| `{name}` |" in docs
     ok = frame[(frame["status"] == "success") & (frame["reference_status"] == "ok")]
     assert len(ok) == 2 * 4
@@ -80,7 +92,7 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert np.allclose(timed["wall_time_min"], [min(w) for w in timed["wall_times"]])
     assert np.allclose(timed["wall_time_max"], [max(w) for w in timed["wall_times"]])
     assert np.allclose(timed["wall_spread"], (timed["wall_time_max"] - timed["wall_time_min"]) / timed["wall_time"])
-    assert all(len(t) == 3 for t in timed["integrator_times"])   # NaN until the engine reports it
+    assert all(len(t) == 3 for t in timed["integrator_times"])  # NaN until the engine reports it
     timing = json.loads((out / "provenance.json").read_text())["timing"]
     assert timing["samples"] == 3 and timing["min_sample_time"] == MIN_SAMPLE_TIME
     # the load is read each time a sample is sent: at least once per stored sample (a sample sent again
@@ -91,6 +103,7 @@ def test_tidy_schema_one_row_per_case(pooled):
     assert not summary.in_process and summary.ok and summary.problems() == []
 
     import nsbench
+
     row = dop.iloc[0]
     integ = nsbench.integrator_from_config(json.loads(row["integrator_config"]))
     assert integ.config() == json.loads(row["integrator_config"])
@@ -117,8 +130,18 @@ def test_provenance_in_every_file(pooled):
     files = [out / "results.parquet", out / "results.csv", next((out / "cases").glob("*.parquet")), out]
     for f in files:
         prov = read_provenance(f)
-        for key in ("version_nsbench", "version_numpy", "version_scipy", "version_heyoka",
-                    "version_scikit-sundae", "python", "cpu", "date", "git_commit", "suite"):
+        for key in (
+            "version_nsbench",
+            "version_numpy",
+            "version_scipy",
+            "version_heyoka",
+            "version_scikit-sundae",
+            "python",
+            "cpu",
+            "date",
+            "git_commit",
+            "suite",
+        ):
             assert key in prov, (f, key)
     csv = load_results(out / "results.csv")
     assert csv["event_err"].map(len).tolist() == pooled[1].results["event_err"].map(len).tolist()
@@ -127,7 +150,7 @@ def test_provenance_in_every_file(pooled):
 def test_references_are_cached_on_disk(pooled, tmp_path):
     out, summary = pooled
     refs = sorted((out / "references").glob("*.json"))
-    assert len(refs) == 3                         # one per problem config
+    assert len(refs) == 3  # one per problem config
     stamps = [p.stat().st_mtime_ns for p in refs]
     again = run_suite(small_suite(["exact"], t_span=[0.0, 40.0]), out, workers=1, progress=False)
     assert again.n_computed == 0
@@ -151,10 +174,15 @@ def test_stand_in_reference_for_a_cubic_problem(register, tmp_path):
     # A tight DOP853 registered under a test-only name stands in for the quad-precision
     # reference; it is not a certified reference, only a way through the cubic code path.
     register(ti.StandInReference.name, ti.StandInReference)
-    suite = Suite.from_dict({"t_span": [0.0, 40.0], "problems": [{"name": "two-dof", "case": 3}],
-                             "integrators": {"only": ["scipy-rk45"]},
-                             "reference": ["exact", ti.StandInReference.name]})
-    frame = run_suite(suite, tmp_path, workers=2, progress=False).results   # workers see the registration
+    suite = Suite.from_dict(
+        {
+            "t_span": [0.0, 40.0],
+            "problems": [{"name": "two-dof", "case": 3}],
+            "integrators": {"only": ["scipy-rk45"]},
+            "reference": ["exact", ti.StandInReference.name],
+        }
+    )
+    frame = run_suite(suite, tmp_path, workers=2, progress=False).results  # workers see the registration
     assert (frame["reference"] == ti.StandInReference.name).all() and (frame["reference_status"] == "ok").all()
     assert frame["sequence_ok"].all()
     errs = frame.sort_values("level")["switch_err_max"].to_numpy()
@@ -212,10 +240,14 @@ only = ["henon-rk4"]
 grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
 """)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out),
-                             "--workers", "2", "--no-progress"], start_new_session=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_ctrl_c_as_in_a_terminal)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out), "--workers", "2", "--no-progress"],
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_ctrl_c_as_in_a_terminal,
+    )
     while proc.poll() is None and len(list((out / "cases").glob("*.parquet"))) < 2:
         time.sleep(0.01)
     assert proc.poll() is None, "the suite ended before it could be interrupted"
@@ -224,7 +256,7 @@ grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
     assert proc.returncode == 130, err
     stored = {p.name for p in (out / "cases").glob("*.parquet")}
     assert 2 <= len(stored) < len(steps)
-    frame = load_results(out)                          # what was stored is whole and readable
+    frame = load_results(out)  # what was stored is whole and readable
     assert (frame["status"] == "success").all() and (frame["n_repeats"] >= 1).all()
     # rows are stored after each timing round: a case with all its runs is kept, one with
     # fewer (interrupted between its rounds) is timed again
@@ -259,10 +291,15 @@ def test_crash_and_hang_while_timing_are_rows_and_the_pool_recovers(register, tm
     register(ti.HangingWhenTimed.name, ti.HangingWhenTimed)
     # The crashing and hanging cases are tighter than the rk45 ones, so they are timed first and
     # cheaper cases remain after them: the lost workers must be replaced.
-    suite = small_suite(["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
-                        t_span=[0.0, 20.0], time_limit=5.0,
-                        integrators={"only": ["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
-                                     "grids": {"scipy-rk45": {"grid": {"rtol": [1e-3, 1e-4, 1e-5, 1e-6]}}}})
+    suite = small_suite(
+        ["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
+        t_span=[0.0, 20.0],
+        time_limit=5.0,
+        integrators={
+            "only": ["scipy-rk45", ti.CrashingWhenTimed.name, ti.HangingWhenTimed.name],
+            "grids": {"scipy-rk45": {"grid": {"rtol": [1e-3, 1e-4, 1e-5, 1e-6]}}},
+        },
+    )
     summary = run_suite(suite, tmp_path, workers=2, progress=False)
     frame = summary.results.set_index("integrator")
     crashed, hung = frame.loc[ti.CrashingWhenTimed.name], frame.loc[ti.HangingWhenTimed.name]
@@ -270,7 +307,7 @@ def test_crash_and_hang_while_timing_are_rows_and_the_pool_recovers(register, tm
     assert "died (exit code 5) during the timed sample 1 of 3 (its calibration run)" in crashed["message"]
     assert hung["status"] == "time limit"
     assert "limit of 5 s per run reached in the timed sample 1 of 3 (its calibration run)" in hung["message"]
-    assert crashed["setup_time"] >= 0 and hung["warmup_time"] > 0     # their warm-ups went through
+    assert crashed["setup_time"] >= 0 and hung["warmup_time"] > 0  # their warm-ups went through
     rk45 = frame.loc["scipy-rk45"]
     assert len(rk45) == 4 and (rk45["status"] == "success").all() and (rk45["n_repeats"] == 3).all()
     assert not summary.ok and (tmp_path / "results.parquet").exists()
@@ -295,7 +332,7 @@ def test_the_phases_keep_warm_ups_apart_from_timing(pooled):
     ran = status.isin(["success", "event missed"])
     assert kinds.count("time") == 3 * sum(status == "success") + sum(ran & (status != "success"))
     first_time = min(r.start for r in timeline if r.kind == "time")
-    assert all(r.end <= first_time for r in timeline if r.kind != "time")   # one barrier, no replacement
+    assert all(r.end <= first_time for r in timeline if r.kind != "time")  # one barrier, no replacement
     assert_nothing_else_while_timing(timeline)
 
 
@@ -325,8 +362,7 @@ print("ROWS", len(summary.results), "IN_PROCESS", summary.in_process, "OK", summ
 def run_script(tmp_path, only, extra=""):
     script = tmp_path / "script.py"
     script.write_text(SCRIPT.format(extra=extra, only=only, out=str(tmp_path / "out")))
-    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=600)
+    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600)
     return proc, load_results(tmp_path / "out")
 
 
@@ -367,8 +403,9 @@ registry.register("integrators", "my-rk45", MyRK45)
     assert "integrator 'my-rk45' is defined in __main__" in proc.stderr
     assert "ROWS 2 IN_PROCESS True OK True" in proc.stdout
     # the default 5 samples, and up to twice that for a case whose samples spread widely (a busy machine)
-    assert (frame["status"] == "success").all() and frame["n_repeats"].between(DEFAULT_SAMPLES,
-                                                                                 2 * DEFAULT_SAMPLES).all()
+    assert (frame["status"] == "success").all() and frame["n_repeats"].between(
+        DEFAULT_SAMPLES, 2 * DEFAULT_SAMPLES
+    ).all()
     assert frame["switch_err_max"].notna().all()
 
 
@@ -389,15 +426,23 @@ def test_killing_a_run_ends_its_workers(tmp_path):
     from tests.procs import kill_leaves_no_workers
 
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
-    proc = subprocess.Popen([sys.executable, "-c", KILLED.format(out=str(tmp_path / "k"))], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", KILLED.format(out=str(tmp_path / "k"))],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     kill_leaves_no_workers(proc, 2)
 
 
 def test_a_step_henon_rk4_cannot_take_is_an_unsupported_row_not_a_success(tmp_path):
     # h = 1e300 used to take one step over the span and report success
-    suite = small_suite([], t_span=[0.0, 20.0], reference=["exact"],
-                        integrators={"only": [], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}})
+    suite = small_suite(
+        [],
+        t_span=[0.0, 20.0],
+        reference=["exact"],
+        integrators={"only": [], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}},
+    )
     frame = run_suite(suite, tmp_path, workers=1, progress=False).results.sort_values("step_value")
     assert frame["status"].tolist() == ["success", "unsupported"]
     assert "beyond RK4's stability limit" in frame["message"].iloc[1]

@@ -14,18 +14,32 @@ from nsbench.bench.scaling import growth_exponent, scaling_families, scaling_sum
 
 def _row(n, integrator, level, wall, err, *, status="success", seq=True, nfev=100, setup=0.1, case=2):
     config = {"name": "chain", "case": case, "dimensional": False, "params": {"n": n}}
-    return {"problem_config": json.dumps(config, sort_keys=True), "integrator": integrator, "level": level,
-            "options": json.dumps({"level": level}), "status": status, "sequence_ok": seq, "switch_err_max": err,
-            "wall_time": wall, "wall_spread": 0.05, "integrator_time": 0.9 * wall, "nfev": nfev,
-            "setup_time": setup, "t0": 0.0, "t_end": 300.0, "n_ref": 3 * n, "reference": "exact"}
+    return {
+        "problem_config": json.dumps(config, sort_keys=True),
+        "integrator": integrator,
+        "level": level,
+        "options": json.dumps({"level": level}),
+        "status": status,
+        "sequence_ok": seq,
+        "switch_err_max": err,
+        "wall_time": wall,
+        "wall_spread": 0.05,
+        "integrator_time": 0.9 * wall,
+        "nfev": nfev,
+        "setup_time": setup,
+        "t0": 0.0,
+        "t_end": 300.0,
+        "n_ref": 3 * n,
+        "reference": "exact",
+    }
 
 
 def _frame():
     rows = []
     for n in (2, 4, 8, 16):
         # "fast": cost ~ n^1 at its tight level, which reaches 1e-8 everywhere
-        rows.append(_row(n, "fast", 0, 0.01 * n, 1e-5, nfev=10 * n, setup=0.5 * n ** 2))
-        rows.append(_row(n, "fast", 1, 0.1 * n, 1e-9, nfev=100 * n, setup=0.5 * n ** 2))
+        rows.append(_row(n, "fast", 0, 0.01 * n, 1e-5, nfev=10 * n, setup=0.5 * n**2))
+        rows.append(_row(n, "fast", 1, 0.1 * n, 1e-9, nfev=100 * n, setup=0.5 * n**2))
         # "slow": cost ~ n^2, wrong sequence from n = 8 on, time limit at 16
         if n < 8:
             rows.append(_row(n, "slow", 0, 0.2 * n * n, 1e-10))
@@ -72,9 +86,9 @@ def test_exponents_and_where_an_integrator_stops():
 
 def test_growth_exponent_recovers_a_power_law():
     n = np.array([2, 4, 8, 16, 32, 64])
-    assert growth_exponent(n, 3e-4 * n ** 1.7) == pytest.approx(1.7)
+    assert growth_exponent(n, 3e-4 * n**1.7) == pytest.approx(1.7)
     assert math.isnan(growth_exponent(n[:2], n[:2]))
-    assert growth_exponent(n, np.where(n > 8, n ** 2.0, 0.0)) == pytest.approx(2.0)  # zeros are left out
+    assert growth_exponent(n, np.where(n > 8, n**2.0, 0.0)) == pytest.approx(2.0)  # zeros are left out
 
 
 def test_report_opens_with_the_scaling_section(tmp_path):
@@ -83,10 +97,21 @@ def test_report_opens_with_the_scaling_section(tmp_path):
 
     rows = _frame().to_dict("records")
     for r in rows:
-        r.update(problem="chain", case=2, problem_label=f"chain/2 n={json.loads(r['problem_config'])['params']['n']}",
-                 reference_status="ok", n_repeats=3, wall_time_min=r["wall_time"], wall_time_max=r["wall_time"],
-                 n_events=r["n_ref"], n_missed=0, n_extra=0, switch_digits=8.0, state_err_l2=1e-9,
-                 message="")
+        r.update(
+            problem="chain",
+            case=2,
+            problem_label=f"chain/2 n={json.loads(r['problem_config'])['params']['n']}",
+            reference_status="ok",
+            n_repeats=3,
+            wall_time_min=r["wall_time"],
+            wall_time_max=r["wall_time"],
+            n_events=r["n_ref"],
+            n_missed=0,
+            n_extra=0,
+            switch_digits=8.0,
+            state_err_l2=1e-9,
+            message="",
+        )
     frame = to_frame(rows)
     rep = write_report(tmp_path, frame)
     md = rep.markdown.read_text()

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import binom, mannwhitneyu
 
-from nsbench.bench.stats import (median_interval, ratio_interval, relative_spread, slower_p, smallest_p,
-                                 u_distribution)
+from nsbench.bench.stats import median_interval, ratio_interval, relative_spread, slower_p, smallest_p, u_distribution
 
 
 def _enumerated(n: int, m: int) -> np.ndarray:
@@ -40,8 +39,8 @@ def test_slower_p_matches_scipy(n, m):
 def test_smallest_p_is_reached_by_separated_samples():
     a, b = [1.0, 1.1, 1.2, 1.3, 1.4], [2.0, 2.1, 2.2, 2.3, 2.4]
     assert slower_p(a, b) == pytest.approx(smallest_p(5, 5)) == pytest.approx(1 / 252)
-    assert slower_p(b, a) == pytest.approx(1.0)                   # B faster: no evidence of a slowdown
-    assert smallest_p(3, 3) == pytest.approx(0.05)                  # 3 a side cannot reach 99 %
+    assert slower_p(b, a) == pytest.approx(1.0)  # B faster: no evidence of a slowdown
+    assert smallest_p(3, 3) == pytest.approx(0.05)  # 3 a side cannot reach 99 %
     assert math.isnan(slower_p([], [1.0]))
 
 
@@ -71,7 +70,7 @@ def test_ratio_interval_covers_the_true_ratio():
 
 def test_too_few_samples_give_the_widest_interval_with_its_coverage():
     est = ratio_interval([1.0, 1.1, 1.2], [1.0, 1.3, 1.2])
-    assert est.coverage == pytest.approx(1 - 2 / 20)            # the full range of 9 pairwise ratios
+    assert est.coverage == pytest.approx(1 - 2 / 20)  # the full range of 9 pairwise ratios
     assert est.low == pytest.approx(1.0 / 1.2) and est.high == pytest.approx(1.3)
     assert not ratio_interval([], [1.0]).known
 
@@ -80,7 +79,7 @@ def test_median_interval_order_statistics():
     x = [5.0, 1.0, 3.0, 2.0, 4.0]
     est = median_interval(x)
     assert (est.estimate, est.low, est.high) == (3.0, 1.0, 5.0)
-    assert est.coverage == pytest.approx(1 - 2 / 32)          # 5 samples cannot reach 95 %: the range
+    assert est.coverage == pytest.approx(1 - 2 / 32)  # 5 samples cannot reach 95 %: the range
     many = median_interval(range(1, 21))
     # the largest j with 1 - 2 P(Bin(20, 1/2) <= j - 1) >= 0.95
     j = max(j for j in range(1, 11) if 1 - 2 * binom.cdf(j - 1, 20, 0.5) >= 0.95)

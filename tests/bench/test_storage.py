@@ -15,10 +15,17 @@ from nsbench.errors import ConfigError
 
 
 def _suite():
-    return Suite.from_dict({"name": "store", "t_span": [0.0, 30.0], "repeats": 1, "reference": ["exact"],
-                            "min_sample_time": 0.0,  # one run per sample: storage, not timing, is tested here
-                            "problems": [{"name": "one-dof", "case": 1}],
-                            "integrators": {"only": ["exact", "henon-rk4"]}})
+    return Suite.from_dict(
+        {
+            "name": "store",
+            "t_span": [0.0, 30.0],
+            "repeats": 1,
+            "reference": ["exact"],
+            "min_sample_time": 0.0,  # one run per sample: storage, not timing, is tested here
+            "problems": [{"name": "one-dof", "case": 1}],
+            "integrators": {"only": ["exact", "henon-rk4"]},
+        }
+    )
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +42,7 @@ def _copy(stored, tmp_path):
 
 
 def _cols(frame):
-    return frame.sort_values("case_id").reset_index(drop=True)[["case_id", "status", "n_events",
-                                                                 "switch_err_max"]]
+    return frame.sort_values("case_id").reset_index(drop=True)[["case_id", "status", "n_events", "switch_err_max"]]
 
 
 def test_a_truncated_case_file_is_refused_then_run_again(stored, tmp_path):
@@ -191,8 +197,10 @@ def test_nothing_is_written_or_deleted_through_a_link_in_the_output_folder(store
     shutil.rmtree(out / "cases")
     (out / "cases").symlink_to(elsewhere)
     suite = tmp_path / "s.toml"
-    suite.write_text('name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nmin_sample_time = 0\nreference = ["exact"]\n'
-                     'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["exact", "henon-rk4"]\n')
+    suite.write_text(
+        'name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nmin_sample_time = 0\nreference = ["exact"]\n'
+        'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["exact", "henon-rk4"]\n'
+    )
     for fresh in (["--fresh"], []):  # bench --fresh deleted every *.parquet of the linked folder
         assert main(["bench", str(suite), "--out", str(out), "--no-progress", *fresh]) == 2
         assert "cases is a symbolic link" in capsys.readouterr().err

@@ -64,13 +64,21 @@ def test_default_suite_is_packaged_and_uses_accuracy_levels():
 
     names = {c.integrator for c in suite.cases()}
     # the whole-system families are graded by the families suite
-    assert names == set(list_integrators()) - {"moreau-jean", "switch-model", "smoothing", "siconos-moreau-jean",
-                                                    "siconos-event-driven"}
+    assert names == set(list_integrators()) - {
+        "moreau-jean",
+        "switch-model",
+        "smoothing",
+        "siconos-moreau-jean",
+        "siconos-event-driven",
+    }
     for name in names:  # every level of every integrator, minus the ones the data skips
         levels = integrator_class(name).accuracy_levels or ({},)
         skip = suite.integrators.get("skip_levels", {}).get(name, {}).get("levels", [])
-        got = [c.options for c in suite.cases() if c.integrator == name and c.problem["case"] == 1
-               and c.problem["name"] == "one-dof"]
+        got = [
+            c.options
+            for c in suite.cases()
+            if c.integrator == name and c.problem["case"] == 1 and c.problem["name"] == "one-dof"
+        ]
         assert got == [dict(o) for i, o in enumerate(levels) if i not in skip]
     assert default_suite().to_dict() == suite.to_dict()
 
@@ -79,17 +87,18 @@ def test_case_ids_are_stable_and_distinct():
     suite = Suite.from_dict({"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}})
     ids = [c.case_id for c in suite.cases()]
     assert len(set(ids)) == 3 and ids == [c.case_id for c in suite.cases()]
-    longer = Suite.from_dict({"problems": [{"name": "one-dof"}], "integrators": {"only": ["scipy-rk45"]},
-                              "t_span": [0, 100]})
+    longer = Suite.from_dict(
+        {"problems": [{"name": "one-dof"}], "integrators": {"only": ["scipy-rk45"]}, "t_span": [0, 100]}
+    )
     assert set(ids).isdisjoint(c.case_id for c in longer.cases())
 
 
 def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
     base = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
-    assert Suite.from_dict({**base, "repeats": 1}).repeats == 3          # a spread needs three runs
+    assert Suite.from_dict({**base, "repeats": 1}).repeats == 3  # a spread needs three runs
     assert {c.repeats for c in Suite.from_dict({**base, "repeats": 5}).cases()} == {5}
-    old = Suite.from_dict({**base, "repeat_budget": 0.5})                 # an older suite file still loads
-    assert old.cases() == Suite.from_dict(base).cases()                   # ... and times the same way
+    old = Suite.from_dict({**base, "repeat_budget": 0.5})  # an older suite file still loads
+    assert old.cases() == Suite.from_dict(base).cases()  # ... and times the same way
     assert not hasattr(old.cases()[0], "repeat_budget")
 
 
@@ -105,25 +114,32 @@ def test_max_repeats_defaults_to_twice_repeats_and_is_checked():
             Suite.from_dict({**base, "min_sample_time": bad})
 
 
-@pytest.mark.parametrize("data, fragment", [
-    ({"problems": []}, "at least one entry in problems"),
-    ({"problems": [{"name": "one-dof"}], "colour": 1}, "unknown key(s) colour"),
-    ({"problems": [{"name": "one-dof", "cas": 1}]}, "unknown key(s) cas"),
-    ({"problems": [{"name": "three-dof"}]}, "unknown problem 'three-dof'"),
-    ({"problems": [{"name": "one-dof", "params": {"c": -1}}]}, "out of range"),
-    ({"problems": [{"name": "one-dof"}], "t_span": [5, 1]}, "t_end > t0"),
-    ({"problems": [{"name": "chain", "params": {"n": []}}]}, "params.n is an empty list"),
-    ({"problems": [{"name": "chain", "params": {"n": [2, 100]}}]}, "n = 100 is not allowed"),
-    ({"problems": [{"name": "one-dof"}], "repeats": 0}, "repeats = 0"),
-    ({"problems": [{"name": "one-dof"}], "time_limit": -1}, "time_limit = -1"),
-    ({"problems": [{"name": "one-dof"}], "repeat_budget": "x"}, "repeat_budget = 'x'"),
-    ({"problems": [{"name": "one-dof"}], "targets": [0]}, "must be positive"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"only": ["rk99"]}}, "unknown integrator(s) rk99"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": {"scipy-rk45": {"grid": {"rtol": [-1]}}}}},
-     "rtol = -1"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": {"henon-rk4": {"grid": {"k": [1]}}}}},
-     "unknown option 'k'"),
-])
+@pytest.mark.parametrize(
+    "data, fragment",
+    [
+        ({"problems": []}, "at least one entry in problems"),
+        ({"problems": [{"name": "one-dof"}], "colour": 1}, "unknown key(s) colour"),
+        ({"problems": [{"name": "one-dof", "cas": 1}]}, "unknown key(s) cas"),
+        ({"problems": [{"name": "three-dof"}]}, "unknown problem 'three-dof'"),
+        ({"problems": [{"name": "one-dof", "params": {"c": -1}}]}, "out of range"),
+        ({"problems": [{"name": "one-dof"}], "t_span": [5, 1]}, "t_end > t0"),
+        ({"problems": [{"name": "chain", "params": {"n": []}}]}, "params.n is an empty list"),
+        ({"problems": [{"name": "chain", "params": {"n": [2, 100]}}]}, "n = 100 is not allowed"),
+        ({"problems": [{"name": "one-dof"}], "repeats": 0}, "repeats = 0"),
+        ({"problems": [{"name": "one-dof"}], "time_limit": -1}, "time_limit = -1"),
+        ({"problems": [{"name": "one-dof"}], "repeat_budget": "x"}, "repeat_budget = 'x'"),
+        ({"problems": [{"name": "one-dof"}], "targets": [0]}, "must be positive"),
+        ({"problems": [{"name": "one-dof"}], "integrators": {"only": ["rk99"]}}, "unknown integrator(s) rk99"),
+        (
+            {"problems": [{"name": "one-dof"}], "integrators": {"grids": {"scipy-rk45": {"grid": {"rtol": [-1]}}}}},
+            "rtol = -1",
+        ),
+        (
+            {"problems": [{"name": "one-dof"}], "integrators": {"grids": {"henon-rk4": {"grid": {"k": [1]}}}}},
+            "unknown option 'k'",
+        ),
+    ],
+)
 def test_bad_suites_raise_config_error(data, fragment):
     with pytest.raises(ConfigError, match=None) as info:
         Suite.from_dict(data).cases()
@@ -140,8 +156,12 @@ def test_missing_and_invalid_files(tmp_path):
 
 
 def test_list_valued_params_are_a_grid_of_problems():
-    suite = Suite.from_dict({"problems": [{"name": "chain", "cases": [1, 2], "params": {"n": [2, 8], "mu": 0.5}}],
-                             "integrators": {"only": ["exact"]}})
+    suite = Suite.from_dict(
+        {
+            "problems": [{"name": "chain", "cases": [1, 2], "params": {"n": [2, 8], "mu": 0.5}}],
+            "integrators": {"only": ["exact"]},
+        }
+    )
     configs = suite.problem_configs()
     assert [(c["case"], c["params"]["n"]) for c in configs] == [(1, 2), (1, 8), (2, 2), (2, 8)]
     assert all(c["params"]["mu"] == 0.5 for c in configs)
@@ -159,24 +179,29 @@ def test_packaged_suites_by_name():
         load_suite("chain-scalin")
 
 
-@pytest.mark.parametrize("data, fragment", [
-    ({"problems": 5}, "suite field 'problems' must be a list of tables (each with a 'name'), got int 5"),
-    ({"problems": [{"name": 5}]}, "suite field 'problems[0].name' must be a registered problem name"),
-    ({"problems": [{"name": "one-dof", "params": 5}]}, "'problems[0].params' must be a table"),
-    ({"problems": [{"name": "one-dof", "params": {"c": "abc"}}]}, "'problems[0].params.c' must be a number"),
-    ({"problems": [{"name": "one-dof", "dimensional": "yes"}]}, "'problems[0].dimensional' must be true or false"),
-    ({"problems": [{"name": "one-dof"}], "t_span": [0, float("inf")]}, "finite numbers only"),
-    ({"problems": [{"name": "one-dof"}], "reference": ["nope"]}, "unknown integrator(s) nope; registered: "),
-    ({"problems": [{"name": "one-dof"}], "reference": 5}, "suite field 'reference' must be a list"),
-    ({"problems": [{"name": "one-dof"}], "repeats": 10**12}, "MAX_REPEATS"),
-    ({"problems": [{"name": "one-dof"}], "dense_points": 10**12}, "MAX_DENSE_POINTS"),
-    ({"problems": [{"name": "one-dof"}], "time_limit": float("inf")}, "positive, finite number of seconds"),
-    ({"problems": [{"name": "one-dof"}], "name": 5}, "suite field 'name' must be a string, got int 5"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"only": "exact"}}, "'integrators.only' must be a list"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"grids": 5}}, "'integrators.grids' must be a table"),
-    ({"problems": [{"name": "one-dof"}], "integrators": {"skip_levels": {"exact": 5}}},
-     "'integrators.skip_levels.exact' must be a table"),
-])
+@pytest.mark.parametrize(
+    "data, fragment",
+    [
+        ({"problems": 5}, "suite field 'problems' must be a list of tables (each with a 'name'), got int 5"),
+        ({"problems": [{"name": 5}]}, "suite field 'problems[0].name' must be a registered problem name"),
+        ({"problems": [{"name": "one-dof", "params": 5}]}, "'problems[0].params' must be a table"),
+        ({"problems": [{"name": "one-dof", "params": {"c": "abc"}}]}, "'problems[0].params.c' must be a number"),
+        ({"problems": [{"name": "one-dof", "dimensional": "yes"}]}, "'problems[0].dimensional' must be true or false"),
+        ({"problems": [{"name": "one-dof"}], "t_span": [0, float("inf")]}, "finite numbers only"),
+        ({"problems": [{"name": "one-dof"}], "reference": ["nope"]}, "unknown integrator(s) nope; registered: "),
+        ({"problems": [{"name": "one-dof"}], "reference": 5}, "suite field 'reference' must be a list"),
+        ({"problems": [{"name": "one-dof"}], "repeats": 10**12}, "MAX_REPEATS"),
+        ({"problems": [{"name": "one-dof"}], "dense_points": 10**12}, "MAX_DENSE_POINTS"),
+        ({"problems": [{"name": "one-dof"}], "time_limit": float("inf")}, "positive, finite number of seconds"),
+        ({"problems": [{"name": "one-dof"}], "name": 5}, "suite field 'name' must be a string, got int 5"),
+        ({"problems": [{"name": "one-dof"}], "integrators": {"only": "exact"}}, "'integrators.only' must be a list"),
+        ({"problems": [{"name": "one-dof"}], "integrators": {"grids": 5}}, "'integrators.grids' must be a table"),
+        (
+            {"problems": [{"name": "one-dof"}], "integrators": {"skip_levels": {"exact": 5}}},
+            "'integrators.skip_levels.exact' must be a table",
+        ),
+    ],
+)
 def test_suite_fields_are_type_checked_with_their_path(data, fragment):
     with pytest.raises(ConfigError) as info:
         Suite.from_dict(data)
@@ -187,14 +212,22 @@ def test_a_huge_grid_is_refused_before_it_is_expanded():
     from nsbench.bench.suite import MAX_CASES
 
     values = [0.1 * (i + 1) for i in range(1000)]
-    suite = Suite.from_dict({"problems": [{"name": "one-dof", "params": {"c": values, "h": values, "F": values}}],
-                             "integrators": {"only": ["exact"]}})
+    suite = Suite.from_dict(
+        {
+            "problems": [{"name": "one-dof", "params": {"c": values, "h": values, "F": values}}],
+            "integrators": {"only": ["exact"]},
+        }
+    )
     assert suite.n_problems() == 10**9
     with pytest.raises(ConfigError, match=f"more than the {MAX_CASES} cases"):
         suite.cases()
     grid = {"rtol": [1e-6] * 1000, "atol": [1e-8] * 1000, "first_step": [0.1] * 1000}
-    suite = Suite.from_dict({"problems": [{"name": "one-dof"}],
-                             "integrators": {"only": ["scipy-rk45"], "grids": {"scipy-rk45": {"grid": grid}}}})
+    suite = Suite.from_dict(
+        {
+            "problems": [{"name": "one-dof"}],
+            "integrators": {"only": ["scipy-rk45"], "grids": {"scipy-rk45": {"grid": grid}}},
+        }
+    )
     assert suite.n_cases() == 10**9
     with pytest.raises(ConfigError, match="expands to 1000000000 cases"):
         suite.cases()
@@ -210,9 +243,12 @@ def test_binary_and_folder_suite_files_are_refused(tmp_path):
 
 
 def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
-    suite = Suite.from_dict({"problems": [{"name": "one-dof"}],
-                             "integrators": {"grids": {"henon-rk4": {"grid": {"h": [0.01, float("inf")]}}},
-                                             "only": []}})
+    suite = Suite.from_dict(
+        {
+            "problems": [{"name": "one-dof"}],
+            "integrators": {"grids": {"henon-rk4": {"grid": {"h": [0.01, float("inf")]}}}, "only": []},
+        }
+    )
     with pytest.raises(ConfigError, match="h = inf must be a finite"):
         suite.cases()
 
@@ -220,8 +256,13 @@ def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
 def test_a_friction_law_is_a_name_in_a_suite_and_in_the_labels():
     from nsbench.bench.execute import problem_label
 
-    suite = Suite(problems=[{"name": "two-dof", "case": 2, "params": {"law": "stribeck", "fk": 0.5, "vs": 0.2}},
-                            {"name": "one-dof", "case": "leine"}], t_span=(0, 60))
+    suite = Suite(
+        problems=[
+            {"name": "two-dof", "case": 2, "params": {"law": "stribeck", "fk": 0.5, "vs": 0.2}},
+            {"name": "one-dof", "case": "leine"},
+        ],
+        t_span=(0, 60),
+    )
     assert suite.problems[0]["params"]["law"] == "stribeck"
     assert problem_label(suite.problems[0]) == "two-dof/2 fk=0.5 law=stribeck vs=0.2"
     assert problem_label(suite.problems[1]) == "one-dof/leine"

@@ -16,24 +16,41 @@ SPREAD = (0.97, 0.99, 1.0, 1.01, 1.03)
 
 
 def _row(integrator, wall, err, *, ok=True, status="success", level=0, missed=0, extra=0, spread=SPREAD):
-    return {"case_id": f"p-{integrator}-{level}", "problem_label": "two-dof/1", "integrator": integrator,
-            "options": '{"rtol": 1.0000000000000001e-11}', "level": level, "status": status,
-            "reference": "exact", "reference_status": "ok", "sequence_ok": ok, "switch_err_max": err,
-            "wall_time": wall, "wall_spread": 0.06, "wall_times": [wall * f for f in spread],
-            "n_missed": missed, "n_extra": extra, "n_ref": 120, "nfev": 1000}
+    return {
+        "case_id": f"p-{integrator}-{level}",
+        "problem_label": "two-dof/1",
+        "integrator": integrator,
+        "options": '{"rtol": 1.0000000000000001e-11}',
+        "level": level,
+        "status": status,
+        "reference": "exact",
+        "reference_status": "ok",
+        "sequence_ok": ok,
+        "switch_err_max": err,
+        "wall_time": wall,
+        "wall_spread": 0.06,
+        "wall_times": [wall * f for f in spread],
+        "n_missed": missed,
+        "n_extra": extra,
+        "n_ref": 120,
+        "nfev": 1000,
+    }
 
 
 @pytest.fixture
 def frame():
     # timings are given, not measured: the summary is arithmetic on the stored rows
-    return to_frame([
-        _row("exact", 0.001, 0.0),                       # the reference itself: never ranked
-        _row("fast-wrong", 0.01, 1e-12, ok=False, missed=3, extra=1),  # cheapest, but a wrong sequence
-        _row("a", 0.1, 1e-10), _row("a", 0.2, 1e-13, level=1),
-        _row("b", 0.3, 1e-10),
-        _row("c", 0.05, 1e-7),                           # never reaches 1e-9
-        _row("d", float("nan"), float("nan"), status="time limit"),
-    ])
+    return to_frame(
+        [
+            _row("exact", 0.001, 0.0),  # the reference itself: never ranked
+            _row("fast-wrong", 0.01, 1e-12, ok=False, missed=3, extra=1),  # cheapest, but a wrong sequence
+            _row("a", 0.1, 1e-10),
+            _row("a", 0.2, 1e-13, level=1),
+            _row("b", 0.3, 1e-10),
+            _row("c", 0.05, 1e-7),  # never reaches 1e-9
+            _row("d", float("nan"), float("nan"), status="time limit"),
+        ]
+    )
 
 
 def test_cheapest_and_cost_ratios_per_target(frame):
@@ -43,9 +60,10 @@ def test_cheapest_and_cost_ratios_per_target(frame):
     assert "tied" not in s.loc["1e-09", "others"] and s.loc["1e-09", "tied"] == ""
     # the 95 % interval of b's cost ratio: the 3rd smallest to the 3rd largest of the 25 pairwise ratios
     pairs = sorted(0.3 * fb / (0.1 * fa) for fa in SPREAD for fb in SPREAD)
-    assert s.loc["1e-09", "ratio_low"] == pytest.approx(pairs[2]) and s.loc["1e-09", "ratio_high"] == \
-        pytest.approx(pairs[-3])
-    assert s.loc["1e-09", "time"] == "0.1 s [0.097-0.103]"    # 5 samples: the median's interval is their range
+    assert s.loc["1e-09", "ratio_low"] == pytest.approx(pairs[2]) and s.loc["1e-09", "ratio_high"] == pytest.approx(
+        pairs[-3]
+    )
+    assert s.loc["1e-09", "time"] == "0.1 s [0.097-0.103]"  # 5 samples: the median's interval is their range
     assert s.loc["1e-12", "cheapest"] == "a" and s.loc["1e-12", "ratio"] != s.loc["1e-12", "ratio"]  # alone
     why = s.loc["1e-09", "not_reached"]
     assert "c (best error 1.0e-07)" in why and "d (1 time limit)" in why
@@ -59,7 +77,7 @@ def test_methods_whose_intervals_overlap_are_tied_and_both_named(frame):
     s = problem_summary(tied, (1e-9,)).iloc[0]
     assert s["cheapest"] == "tied: a, e" and s["tied"] == "a, e"
     assert s["others"].startswith("e x1.0") and "e x1" in s["others"] and " tied" in s["others"]
-    assert "b x3" in s["others"] and "b x3 [" in s["others"].split("tied")[-1]   # b still distinguishable
+    assert "b x3" in s["others"] and "b x3 [" in s["others"].split("tied")[-1]  # b still distinguishable
     words = " ".join(findings(problem_summary(tied, (1e-9,)), wrong_sequences(tied)))
     assert "no method is distinguishably the cheapest on any problem" in words
     assert "they are tied: a and e on two-dof/1" in words and "a is the cheapest" not in words
@@ -75,8 +93,10 @@ def test_wrong_sequences_and_references_are_apart(frame):
     refs = reference_costs(frame)
     assert refs[["integrator", "role"]].values.tolist() == [["exact", "the reference"]]
     words = " ".join(findings(problem_summary(frame, (1e-9,)), wrong))
-    assert "a is the cheapest method on 1 of 1 problems; the next method costs 3 times as much (the 95 % " \
-           "intervals of these ratios start at 2.9 or above)" in words
+    assert (
+        "a is the cheapest method on 1 of 1 problems; the next method costs 3 times as much (the 95 % "
+        "intervals of these ratios start at 2.9 or above)" in words
+    )
     assert "1 run(s) end with a wrong event sequence" in words and "fast-wrong" in words
 
 
@@ -96,9 +116,9 @@ def test_the_ranking_shares_a_rank_between_methods_whose_timings_overlap(frame):
     long = long[long["integrator"] != "exact"]
     samples = {r["case_id"]: r["wall_times"] for r in rows}
     rank = ranking(long, samples).set_index("integrator")
-    assert rank.loc["a", "mean_rank"] == rank.loc["e", "mean_rank"] == 1      # neither is singled out
+    assert rank.loc["a", "mean_rank"] == rank.loc["e", "mean_rank"] == 1  # neither is singled out
     assert rank.loc["a", "rank"] == rank.loc["e", "rank"] == 1
-    assert rank.loc["b", "mean_rank"] == 3 and rank.loc["b", "rank"] == 3     # both are distinguishably faster
+    assert rank.loc["b", "mean_rank"] == 3 and rank.loc["b", "rank"] == 3  # both are distinguishably faster
     # by medians alone (no samples given) the 5 % decides, as before
     plain = ranking(long).set_index("integrator")
     assert (plain.loc["a", "mean_rank"], plain.loc["e", "mean_rank"]) == (1, 2)
@@ -161,14 +181,14 @@ def test_an_ill_conditioned_problem_is_stated(frame):
     # the conditioning itself is measured and checked in tests/bench/test_reference.py
     frame["ref_conditioning"] = 1.61e6
     cond = conditioning_table(frame)
-    assert cond[["problem", "conditioning", "double floor"]].values.tolist() == [["two-dof/1", "1.61e+06",
-                                                                                   "3.6e-10"]]
+    assert cond[["problem", "conditioning", "double floor"]].values.tolist() == [["two-dof/1", "1.61e+06", "3.6e-10"]]
     words = findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), cond)
     assert words[0].startswith("two-dof/1 amplifies a change of its start 1.61e+06-fold")
     assert "uncertain by about 4e-10" in words[0]
     frame["ref_conditioning"] = 12.0
-    assert findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), conditioning_table(frame))[0] \
-        .startswith("At a switching-time error of 1e-09")
+    assert findings(problem_summary(frame, (1e-9,)), wrong_sequences(frame), conditioning_table(frame))[0].startswith(
+        "At a switching-time error of 1e-09"
+    )
 
 
 def test_targets_below_the_references_certainty_are_not_graded(frame):
@@ -179,13 +199,13 @@ def test_targets_below_the_references_certainty_are_not_graded(frame):
     assert grading_floor(frame) == (3e-11, "the reference is certified to 3.0e-11 only")
     summary = problem_summary(frame, (1e-9, 1e-12))
     at9, at12 = summary.iloc[0], summary.iloc[1]
-    assert at9["cheapest"] == "a" and at9["reached"] == "2 of 5"       # graded as before
+    assert at9["cheapest"] == "a" and at9["reached"] == "2 of 5"  # graded as before
     assert at12["cheapest"] == "" and at12["reached"] == "not graded"  # 'a' at 1e-13 does not count
     assert "not graded at this target: the reference is certified to 3.0e-11 only" in at12["not_reached"]
     long = fixed_target(frame, (1e-9, 1e-12))
     at = long[long["target"] == 1e-12].set_index("integrator")["outcome"]
     assert at["exact"] == "reference" and (at.drop("exact") == "not graded").all()
-    assert set(ranking(long)["attempted"]) == {1}                      # only 1e-9 is ranked
+    assert set(ranking(long)["attempted"]) == {1}  # only 1e-9 is ranked
     words = findings(summary, wrong_sequences(frame), conditioning_table(frame))
     assert "No problem can be graded at a switching-time error of 1e-12" in " ".join(words)
     # a reference the check does not certify to the end: nothing is graded, and it is said

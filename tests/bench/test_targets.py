@@ -7,37 +7,57 @@ import math
 import pytest
 
 from nsbench.bench.suite import Suite
-from nsbench.bench.targets import (BifurcationTarget, Location, TargetReference, compute_row, compute_target_reference,
-                                   load_rows, locate_with, near_side, parse_target, run_targets,
-                                   save_target_reference)
+from nsbench.bench.targets import (
+    BifurcationTarget,
+    Location,
+    TargetReference,
+    compute_row,
+    compute_target_reference,
+    load_rows,
+    locate_with,
+    near_side,
+    parse_target,
+    run_targets,
+    save_target_reference,
+)
 from nsbench.errors import ConfigError
 
 #: Case 1, block 1 starts sticking as v0 decreases (v0 ~ 0.10042); cheap (about 1 s) on the reference flow.
-STICK1 = dict(name="stick1", problem="two-dof", case=1, param="v0", origin=0.16, bracket=[0.0995, 0.101],
-              kind="grazing-sliding")
+STICK1 = dict(
+    name="stick1", problem="two-dof", case=1, param="v0", origin=0.16, bracket=[0.0995, 0.101], kind="grazing-sliding"
+)
 
 
 def _suite(targets, **integrators):
-    return Suite.from_dict({"problems": [{"name": "one-dof", "case": 1}], "t_span": [0.0, 5.0],
-                            "integrators": integrators or {"only": ["henon-rk4"]}, "bifurcation_targets": targets})
+    return Suite.from_dict(
+        {
+            "problems": [{"name": "one-dof", "case": 1}],
+            "t_span": [0.0, 5.0],
+            "integrators": integrators or {"only": ["henon-rk4"]},
+            "bifurcation_targets": targets,
+        }
+    )
 
 
 # ---------------------------------------------------------------------- validation
-@pytest.mark.parametrize("change, words", [
-    ({"bracket": [0.101, 0.0995]}, "low < high"),
-    ({"bracket": [0.1]}, "must be [low, high]"),
-    ({"bracket": [0.09, "x"]}, "must be [low, high]"),
-    ({"origin": 0.1}, "lies in the bracket"),
-    ({"problem": "three-body"}, "three-body"),
-    ({"param": "warp"}, "warp"),
-    ({"kind": "hopf"}, "kind"),
-    ({"colour": "red"}, "unknown key(s) colour"),
-    ({"periods": 1}, "periods"),
-    ({"max_probes": 2.5}, "max_probes"),
-    ({"xtol": -1.0}, "xtol"),
-    ({"exclude": ["no-such-integrator"]}, "no-such-integrator"),
-    ({"params": {"v0": 0.1}}, "also fixed in params"),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"bracket": [0.101, 0.0995]}, "low < high"),
+        ({"bracket": [0.1]}, "must be [low, high]"),
+        ({"bracket": [0.09, "x"]}, "must be [low, high]"),
+        ({"origin": 0.1}, "lies in the bracket"),
+        ({"problem": "three-body"}, "three-body"),
+        ({"param": "warp"}, "warp"),
+        ({"kind": "hopf"}, "kind"),
+        ({"colour": "red"}, "unknown key(s) colour"),
+        ({"periods": 1}, "periods"),
+        ({"max_probes": 2.5}, "max_probes"),
+        ({"xtol": -1.0}, "xtol"),
+        ({"exclude": ["no-such-integrator"]}, "no-such-integrator"),
+        ({"params": {"v0": 0.1}}, "also fixed in params"),
+    ],
+)
 def test_bad_target_is_refused_when_the_suite_loads(change, words):
     with pytest.raises(ConfigError) as info:
         _suite([{**STICK1, **change}])
@@ -133,8 +153,9 @@ def test_rows_are_stored_resumed_and_reported(stick1, tmp_path, register):
 
     target, ref = stick1
     register("refusing-test", Refusing)
-    suite = _suite([STICK1], only=["exact", "henon-rk4", "refusing-test"],
-                   grids={"henon-rk4": {"options": [{"h": 0.01}]}})
+    suite = _suite(
+        [STICK1], only=["exact", "henon-rk4", "refusing-test"], grids={"henon-rk4": {"options": [{"h": 0.01}]}}
+    )
     save_target_reference(tmp_path, ref)  # the cached reference: not computed again
     rows = run_targets(suite, tmp_path, {"suite": suite.to_dict()}, in_process=True, progress=False)
     assert sorted(rows["integrator"]) == ["henon-rk4", "refusing-test"]  # exact is reference-grade

@@ -21,8 +21,9 @@ from tests.procs import alive, children_of
 
 
 def test_a_task_whose_parent_stopped_reading_stores_no_row(tmp_path):
-    suite = Suite.from_dict({"t_span": [0.0, 20.0], "problems": [{"name": "one-dof", "case": 1}],
-                             "integrators": {"only": ["exact"]}})
+    suite = Suite.from_dict(
+        {"t_span": [0.0, 20.0], "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["exact"]}}
+    )
     case = suite.cases()[0]
     ref = compute_reference(case.problem, candidates(["exact"]), case.t0, case.t_end, case.dense_points)
     worker = wp.WorkerProcess(wp.hello({}, tmp_path, {}))
@@ -57,9 +58,11 @@ grids = {{ henon-rk4 = {{ grid = {{ h = {steps} }} }} }}
 """)
     whole = run_suite(suite, tmp_path / "whole", workers=2, progress=False).results
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out),
-                             "--workers", "2", "--no-progress"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "nsbench", "bench", str(suite), "--out", str(out), "--workers", "2", "--no-progress"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     workers: set[int] = set()
     while proc.poll() is None and not list((out / "cases").glob("*.parquet")):
         workers |= children_of(proc.pid)

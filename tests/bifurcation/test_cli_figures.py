@@ -11,9 +11,27 @@ from nsbench.cli import main
 
 def test_bifurcation_command_writes_figures(tmp_path, capsys):
     out = tmp_path / "b"
-    code = main(["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.1:0.2:6", "--transient", "300",
-                 "--record", "20", "--workers", "1", "--out", str(out), "--portrait", "0.1",
-                 "--no-progress"])
+    code = main(
+        [
+            "bifurcation",
+            "two-dof",
+            "--case",
+            "1",
+            "--sweep",
+            "v0=0.1:0.2:6",
+            "--transient",
+            "300",
+            "--record",
+            "20",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--portrait",
+            "0.1",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     for stem in ("diagram", "locus_v0_0.1", "portrait_v0_0.1"):
         for fmt in ("png", "svg", "pdf"):
@@ -26,9 +44,31 @@ def test_bifurcation_command_writes_figures(tmp_path, capsys):
 
 def test_several_integrators_are_compared(tmp_path):
     out = tmp_path / "c"
-    code = main(["bifurcation", "two-dof", "--case", "2", "--sweep", "F=0.2:0.4:3", "--transient", "200",
-                 "--record", "8", "--workers", "1", "--out", str(out), "--integrator", "exact",
-                 "--integrator", "ofapi", "--formats", "png", "--no-progress"])
+    code = main(
+        [
+            "bifurcation",
+            "two-dof",
+            "--case",
+            "2",
+            "--sweep",
+            "F=0.2:0.4:3",
+            "--transient",
+            "200",
+            "--record",
+            "8",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--integrator",
+            "exact",
+            "--integrator",
+            "ofapi",
+            "--formats",
+            "png",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     text = (out / "compare.md").read_text()
     assert "ofapi" in text and "Hausdorff" in text
@@ -40,8 +80,24 @@ def test_several_integrators_are_compared(tmp_path):
 def test_bad_input_exits_2(tmp_path, capsys):
     assert main(["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2", "--out", str(tmp_path / "x")]) == 2
     assert main(["bifurcation", "two-dof", "--sweep", "nope=0.1:0.2:3", "--out", str(tmp_path / "y")]) == 2
-    assert main(["bifurcation", "two-dof", "--case", "3", "--sweep", "v0=0.1:0.2:3",
-                 "--integrator", "exact", "--out", str(tmp_path / "z"), "--no-progress"]) == 2
+    assert (
+        main(
+            [
+                "bifurcation",
+                "two-dof",
+                "--case",
+                "3",
+                "--sweep",
+                "v0=0.1:0.2:3",
+                "--integrator",
+                "exact",
+                "--out",
+                str(tmp_path / "z"),
+                "--no-progress",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.count("nsbench: error:") == 3
 
@@ -49,9 +105,31 @@ def test_bad_input_exits_2(tmp_path, capsys):
 def test_a_chain_sweeps_with_its_own_columns(tmp_path, monkeypatch):
     """``nsbench bifurcation chain --n 4``: columns x1..x4, v1..v4, per-block counters, locus of a chosen pair."""
     monkeypatch.chdir(tmp_path)
-    code = main(["bifurcation", "chain", "--n", "4", "--case", "1", "--sweep", "v0=0.06:0.2:4",
-                 "--transient", "200", "--record", "10", "--workers", "1", "--portrait", "0.1",
-                 "--pair", "2,4", "--formats", "png", "--no-progress"])
+    code = main(
+        [
+            "bifurcation",
+            "chain",
+            "--n",
+            "4",
+            "--case",
+            "1",
+            "--sweep",
+            "v0=0.06:0.2:4",
+            "--transient",
+            "200",
+            "--record",
+            "10",
+            "--workers",
+            "1",
+            "--portrait",
+            "0.1",
+            "--pair",
+            "2,4",
+            "--formats",
+            "png",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     out = tmp_path / "bifurcation" / "chain-n4-case1-v0"  # the default folder names n
     points = pd.concat([pd.read_parquet(f) for f in (out / "points").glob("*.parquet")])
@@ -64,8 +142,23 @@ def test_a_chain_sweeps_with_its_own_columns(tmp_path, monkeypatch):
 def test_chain_block_count_errors_exit_2(tmp_path, capsys):
     assert main(["bifurcation", "chain", "--n", "0", "--sweep", "v0=0.1:0.2:3", "--out", str(tmp_path / "a")]) == 2
     assert main(["bifurcation", "chain", "--n", "4", "--sweep", "n=2:4:3", "--out", str(tmp_path / "b")]) == 2
-    assert main(["bifurcation", "chain", "--n", "3", "--param", "n=4", "--sweep", "v0=0.1:0.2:3",
-                 "--out", str(tmp_path / "c")]) == 2
+    assert (
+        main(
+            [
+                "bifurcation",
+                "chain",
+                "--n",
+                "3",
+                "--param",
+                "n=4",
+                "--sweep",
+                "v0=0.1:0.2:3",
+                "--out",
+                str(tmp_path / "c"),
+            ]
+        )
+        == 2
+    )
     assert main(["simulate", "two-dof", "--n", "3"]) == 2
     err = capsys.readouterr().err
     assert "integer from 1 to 64" in err and "cannot be swept" in err and "once" in err
@@ -81,10 +174,33 @@ def test_a_failing_member_of_several_integrators_is_compared(tmp_path, capsys):
     registry.register("integrators", faulty.ExitingAt.name, faulty.ExitingAt)
     try:
         out = tmp_path / "m"
-        code = main(["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:8", "--transient", "50",
-                     "--record", "5", "--workers", "1", "--out", str(out), "--integrator", "exact",
-                     "--integrator", "ofapi", "--integrator", faulty.ExitingAt.name, "--formats", "png",
-                     "--no-progress"])
+        code = main(
+            [
+                "bifurcation",
+                "two-dof",
+                "--case",
+                "1",
+                "--sweep",
+                "v0=0.06:0.2:8",
+                "--transient",
+                "50",
+                "--record",
+                "5",
+                "--workers",
+                "1",
+                "--out",
+                str(out),
+                "--integrator",
+                "exact",
+                "--integrator",
+                "ofapi",
+                "--integrator",
+                faulty.ExitingAt.name,
+                "--formats",
+                "png",
+                "--no-progress",
+            ]
+        )
     finally:
         registry.unregister("integrators", faulty.ExitingAt.name)
     assert code == 0, capsys.readouterr().err
@@ -106,10 +222,35 @@ def test_a_portrait_whose_plugin_hangs_costs_only_the_portrait(tmp_path, capsys)
     registry.register("integrators", faulty.HangingAt.name, faulty.HangingAt)
     try:
         out = tmp_path / "p"
-        code = main(["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:8", "--transient", "50",
-                     "--record", "5", "--workers", "1", "--out", str(out), "--integrator", faulty.HangingAt.name,
-                     "--portrait", "0.16", "--portrait", "0.1", "--point-limit", "3", "--formats", "png",
-                     "--no-progress"])
+        code = main(
+            [
+                "bifurcation",
+                "two-dof",
+                "--case",
+                "1",
+                "--sweep",
+                "v0=0.06:0.2:8",
+                "--transient",
+                "50",
+                "--record",
+                "5",
+                "--workers",
+                "1",
+                "--out",
+                str(out),
+                "--integrator",
+                faulty.HangingAt.name,
+                "--portrait",
+                "0.16",
+                "--portrait",
+                "0.1",
+                "--point-limit",
+                "3",
+                "--formats",
+                "png",
+                "--no-progress",
+            ]
+        )
     finally:
         registry.unregister("integrators", faulty.HangingAt.name)
     printed = capsys.readouterr().out

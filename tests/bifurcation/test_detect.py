@@ -18,8 +18,7 @@ def _sticks_after(v0: float, transient: float = 1000.0, span: float = 300.0) -> 
 
 
 def test_pure_sliding_threshold_is_found_and_refined(tmp_path):
-    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.17, stop=0.21, count=9,
-                     transient=1000.0, record=30)
+    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.17, stop=0.21, count=9, transient=1000.0, record=30)
     frame = run_sweep(spec, tmp_path / "s", workers=1, progress=False)
     feats = detect.classify(frame)
     assert feats["pure_sliding"].iloc[0] == False and feats["pure_sliding"].iloc[-1] == True  # noqa: E712
@@ -75,11 +74,28 @@ def test_classify_of_all_values_at_once_is_the_value_by_value_one():
         if index % 17 == 0 and n > 2:
             pts[n // 2, 0] = np.nan  # x1 missing at one point: nothing repeats it
         status = "error" if index == 29 else ("rest" if n == 1 else "success")
-        frames.append(pd.DataFrame({
-            "param": "v0", "value": 0.1 + index, "index": index, "section": section, "k": np.arange(n),
-            "t": np.arange(n, dtype=float), "x1": pts[:, 0], "v1": pts[:, 1], "x2": pts[:, 2], "v2": pts[:, 3],
-            "event_block": 1 + (np.arange(n) % period) % 2, "status": status, "message": "", "n_points": n,
-            "sticks1": index % 4, "sticks2": index % 3}))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "param": "v0",
+                    "value": 0.1 + index,
+                    "index": index,
+                    "section": section,
+                    "k": np.arange(n),
+                    "t": np.arange(n, dtype=float),
+                    "x1": pts[:, 0],
+                    "v1": pts[:, 1],
+                    "x2": pts[:, 2],
+                    "v2": pts[:, 3],
+                    "event_block": 1 + (np.arange(n) % period) % 2,
+                    "status": status,
+                    "message": "",
+                    "n_points": n,
+                    "sticks1": index % 4,
+                    "sticks2": index % 3,
+                }
+            )
+        )
     frame = pd.concat(frames[::-1], ignore_index=True)  # not in index order
     got = detect.classify(frame)
     want = _by_value(frame)

@@ -28,9 +28,19 @@ def kept(monkeypatch):
 
 def test_the_diagrams_legend_of_failed_values_is_beside_the_data(kept):
     values = np.linspace(0.1, 0.2, 40)
-    rows = [{"param": "v0", "value": v, "index": i, "k": k, "status": "success" if i % 7 else "step budget exhausted",
-             "x1": np.sin(30 * v) + 0.05 * k, "x2": np.cos(30 * v) + 0.05 * k}
-            for i, v in enumerate(values) for k in range(5)]
+    rows = [
+        {
+            "param": "v0",
+            "value": v,
+            "index": i,
+            "k": k,
+            "status": "success" if i % 7 else "step budget exhausted",
+            "x1": np.sin(30 * v) + 0.05 * k,
+            "x2": np.cos(30 * v) + 0.05 * k,
+        }
+        for i, v in enumerate(values)
+        for k in range(5)
+    ]
     figures.diagram(pd.DataFrame(rows), "unused", title="planted sweep")
     (fig,) = kept
     assert any(ax.get_legend() is not None for ax in fig.axes) and overlaps(fig) == []

@@ -30,8 +30,9 @@ BAD = 5
 @pytest.fixture(scope="module")
 def clean(tmp_path_factory):
     """The same sweep with the well-behaved integrator the faulty ones wrap."""
-    return run_sweep(SweepSpec(integrator="scipy-rk45", **SPEC), tmp_path_factory.mktemp("clean"), workers=0,
-                     progress=False)
+    return run_sweep(
+        SweepSpec(integrator="scipy-rk45", **SPEC), tmp_path_factory.mktemp("clean"), workers=0, progress=False
+    )
 
 
 @pytest.fixture
@@ -44,15 +45,24 @@ def faulty_registered():
         registry.unregister("integrators", cls.name)
 
 
-@pytest.mark.parametrize("name, status, reason", [
-    ("hanging-at-test", "time limit", "ran past its limit of 4 s"),
-    ("exiting-at-test", "crashed", "exit code 7"),
-    ("segfaulting-at-test", "crashed", "signal 11 (SIGSEGV)"),
-])
+@pytest.mark.parametrize(
+    "name, status, reason",
+    [
+        ("hanging-at-test", "time limit", "ran past its limit of 4 s"),
+        ("exiting-at-test", "crashed", "exit code 7"),
+        ("segfaulting-at-test", "crashed", "signal 11 (SIGSEGV)"),
+    ],
+)
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_bad_value_costs_only_itself(tmp_path, clean, faulty_registered, name, status, reason, workers):
-    frame = run_sweep(SweepSpec(integrator=name, **SPEC), tmp_path / "s", workers=workers, progress=False,
-                      point_limit=4.0, chunk_size=3)
+    frame = run_sweep(
+        SweepSpec(integrator=name, **SPEC),
+        tmp_path / "s",
+        workers=workers,
+        progress=False,
+        point_limit=4.0,
+        chunk_size=3,
+    )
     first = frame.groupby("index").first()
     assert first.loc[BAD, "status"] == status and reason in first.loc[BAD, "message"]
     assert f"value {BAD} (v0 = 0.16)" in first.loc[BAD, "message"]
@@ -60,8 +70,9 @@ def test_a_bad_value_costs_only_itself(tmp_path, clean, faulty_registered, name,
     ref = clean[clean["index"] != BAD].reset_index(drop=True)
     assert (good["status"] == "success").all()
     # the other values are those of the undisturbed integrator, chunk-mates of the bad value included
-    np.testing.assert_allclose(good[["t", "x1", "v1", "x2", "v2"]], ref[["t", "x1", "v1", "x2", "v2"]],
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        good[["t", "x1", "v1", "x2", "v2"]], ref[["t", "x1", "v1", "x2", "v2"]], rtol=1e-12, atol=1e-12
+    )
     # a rerun keeps the recorded failure (it is a result, not a missing value)
     assert SweepStore(tmp_path / "s").missing() == []
 
@@ -79,8 +90,14 @@ def test_the_point_limit_bounds_a_workers_first_run_too(tmp_path, faulty_registe
 def test_a_setup_that_never_ends_fails_the_sweep_within_its_limit(tmp_path, faulty_registered, capsys):
 
     # in the command's own process too: the sweep's early check never runs a plug-in's setup
-    frame = run_sweep(SweepSpec(integrator="hanging-setup-test", **SPEC), tmp_path / "s", workers=2,
-                      progress=False, setup_limit=2.0, chunk_size=1)
+    frame = run_sweep(
+        SweepSpec(integrator="hanging-setup-test", **SPEC),
+        tmp_path / "s",
+        workers=2,
+        progress=False,
+        setup_limit=2.0,
+        chunk_size=1,
+    )
     assert (frame["status"] == "time limit").all() and len(frame) == 8
     assert frame["message"].str.contains("integrator set-up ran past its limit of 2 s").all()
     assert frame["message"].str.contains("could not be set up; no value was run").all()
@@ -90,15 +107,45 @@ def test_the_command_bounds_a_setup_that_never_ends_by_its_setup_limit(tmp_path)
     # from the command line the set-up limit was fixed at 1800 s (--point-limit does not cover the
     # set-up): a plug-in whose setup loops held the sweep for half an hour
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
-    code = ("import sys; from nsbench import registry; from tests.bench import _integrators as f; "
-            "registry.register('integrators', f.HangingSetup.name, f.HangingSetup); "
-            "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))")
+    code = (
+        "import sys; from nsbench import registry; from tests.bench import _integrators as f; "
+        "registry.register('integrators', f.HangingSetup.name, f.HangingSetup); "
+        "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
     out = tmp_path / "s"
     tic = time.monotonic()
-    done = subprocess.run([sys.executable, "-c", code, "bifurcation", "two-dof", "--case", "1",
-                           "--sweep", "v0=0.06:0.2:3", "--integrator", faulty.HangingSetup.name, "--transient", "10",
-                           "--record", "2", "--workers", "1", "--setup-limit", "3", "--formats", "png",
-                           "--out", str(out), "--no-progress"], env=env, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "bifurcation",
+            "two-dof",
+            "--case",
+            "1",
+            "--sweep",
+            "v0=0.06:0.2:3",
+            "--integrator",
+            faulty.HangingSetup.name,
+            "--transient",
+            "10",
+            "--record",
+            "2",
+            "--workers",
+            "1",
+            "--setup-limit",
+            "3",
+            "--formats",
+            "png",
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr
     assert time.monotonic() - tic < 300  # the limit, a worker's start and the import: far below 1800 s
     frame = SweepStore(out).load()
@@ -110,8 +157,10 @@ def test_the_command_bounds_a_setup_that_never_ends_by_its_setup_limit(tmp_path)
 def test_a_bad_setup_limit_is_refused_with_one_line(tmp_path, text, capsys):
     from nsbench.cli import main
 
-    assert main(["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:2", "--setup-limit", text,
-                 "--out", str(tmp_path / "s")]) == 2
+    assert (
+        main(["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:2", "--setup-limit", text, "--out", str(tmp_path / "s")])
+        == 2
+    )
     assert "--setup-limit" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
 
@@ -119,13 +168,38 @@ def test_a_bad_setup_limit_is_refused_with_one_line(tmp_path, text, capsys):
 def test_killing_the_cli_ends_its_workers(tmp_path):
     # a sweep whose worker hangs (no limit in sight): kill the CLI, the worker must follow it
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
-    code = ("import sys; from nsbench import registry; from tests.bench import _integrators as f; "
-            "registry.register('integrators', f.HangingAt.name, f.HangingAt); "
-            "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))")
-    proc = subprocess.Popen([sys.executable, "-c", code, "bifurcation", "two-dof", "--case", "1",
-                             "--sweep", "v0=0.16:0.161:2", "--integrator", "hanging-at-test", "--transient", "10",
-                             "--record", "2", "--workers", "2", "--out", str(tmp_path / "k"), "--no-progress"],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    code = (
+        "import sys; from nsbench import registry; from tests.bench import _integrators as f; "
+        "registry.register('integrators', f.HangingAt.name, f.HangingAt); "
+        "from nsbench.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "bifurcation",
+            "two-dof",
+            "--case",
+            "1",
+            "--sweep",
+            "v0=0.16:0.161:2",
+            "--integrator",
+            "hanging-at-test",
+            "--transient",
+            "10",
+            "--record",
+            "2",
+            "--workers",
+            "2",
+            "--out",
+            str(tmp_path / "k"),
+            "--no-progress",
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     kill_leaves_no_workers(proc, 2)
 
 
@@ -133,8 +207,9 @@ def test_a_lyapunov_member_past_its_limit_fails_alone(faulty_registered):
     from nsbench.problems import get_problem
 
     problem = get_problem("two-dof", case=1, v0=0.16)  # every member hangs here
-    res = largest_exponent(problem, "hanging-at-test", iterations=80, members=4, transient=10.0, workers=2,
-                           member_limit=2.0)
+    res = largest_exponent(
+        problem, "hanging-at-test", iterations=80, members=4, transient=10.0, workers=2, member_limit=2.0
+    )
     assert res.status == "error" and not res.converged
     assert res.message.count("time limit") == 4 and "member 3" in res.message
     assert np.isnan(res.members).all()
@@ -145,16 +220,24 @@ def test_a_lyapunov_setup_that_never_ends_costs_its_members_within_their_limit(f
     from nsbench.problems import get_problem
 
     tic = time.monotonic()
-    res = largest_exponent(get_problem("two-dof", case=1), faulty.HangingSetup.name, iterations=80, members=4,
-                           transient=10.0, workers=2, member_limit=2.0)
+    res = largest_exponent(
+        get_problem("two-dof", case=1),
+        faulty.HangingSetup.name,
+        iterations=80,
+        members=4,
+        transient=10.0,
+        workers=2,
+        member_limit=2.0,
+    )
     assert time.monotonic() - tic < 300
     assert res.status == "error" and not res.converged
     assert res.message.count("integrator set-up ran past its limit of 2 s") == 4, res.message
 
 
 # ------------------------------------------------------------------------------- store integrity
-SMALL = dict(problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=6, transient=100.0, record=8,
-             integrator="exact")
+SMALL = dict(
+    problem="two-dof", case=1, name="v0", start=0.06, stop=0.2, count=6, transient=100.0, record=8, integrator="exact"
+)
 
 
 def _sweep(out):
@@ -214,21 +297,27 @@ def test_a_parquet_chunk_of_wrong_types_or_missing_values_is_refused(tmp_path):
 
     out = tmp_path / "s"
     _sweep(out)
-    for damage, match in (("float counter", "'sticks1' holds double values where the sweep stores int"),
-                          ("null status", "a value of column 'status' is missing")):
+    for damage, match in (
+        ("float counter", "'sticks1' holds double values where the sweep stores int"),
+        ("null status", "a value of column 'status' is missing"),
+    ):
         c = sorted((out / "points").glob("chunk-*.parquet"))[0]
         table = pq.read_table(c)
         i = table.column_names.index("sticks1" if damage == "float counter" else "status")
         column = table.column(i)
-        changed = (column.cast(pa.float64()) if damage == "float counter"
-                   else pa.array([None] + column.to_pylist()[1:], type=column.type))
+        changed = (
+            column.cast(pa.float64())
+            if damage == "float counter"
+            else pa.array([None] + column.to_pylist()[1:], type=column.type)
+        )
         sink = pa.BufferOutputStream()
         pq.write_table(table.set_column(i, table.field(i).name, changed), sink)
         data = sink.getvalue().to_pybytes()
         first, last, rows, _, key = c.stem.split("-")[1:]
         c.unlink()
-        (out / "points" / f"chunk-{first}-{last}-{rows}-{hashlib.sha256(data).hexdigest()[:16]}-{key}.parquet"
-         ).write_bytes(data)
+        (
+            out / "points" / f"chunk-{first}-{last}-{rows}-{hashlib.sha256(data).hexdigest()[:16]}-{key}.parquet"
+        ).write_bytes(data)
         with pytest.raises(ConfigError, match=match):
             SweepStore(out).load()
         _sweep(out)  # a rerun replaces it
@@ -275,8 +364,7 @@ def test_stored_columns_keep_their_types(tmp_path):
 
     spec = SweepSpec(**SMALL)
     store = SweepStore(tmp_path / "s", spec)
-    computed = pd.concat([compute_point(spec, 0), failure_rows(spec, 1, "crashed", "worker ended")],
-                         ignore_index=True)
+    computed = pd.concat([compute_point(spec, 0), failure_rows(spec, 1, "crashed", "worker ended")], ignore_index=True)
     store.write(computed)
     loaded = SweepStore(tmp_path / "s").load()
     assert loaded.dtypes.to_dict() == computed.dtypes.to_dict()
@@ -305,9 +393,13 @@ def test_a_damaged_meta_json_is_refused_by_readers_and_rebuilt_by_a_run(tmp_path
     before = _sweep(out)
     meta = out / "meta.json"
     text = meta.read_text()
-    meta.write_text({"truncated": text[: len(text) // 2],
-                     "edited": text.replace('"transient": 100.0', '"transient": 60.0'),
-                     "not json": "\x00\x01"}[damage])
+    meta.write_text(
+        {
+            "truncated": text[: len(text) // 2],
+            "edited": text.replace('"transient": 100.0', '"transient": 60.0'),
+            "not json": "\x00\x01",
+        }[damage]
+    )
     with pytest.raises(ConfigError, match="meta.json is damaged"):
         SweepStore(out).load()
     after = _sweep(out)  # the same sweep again: the stored chunks prove to be its own and are kept
@@ -333,7 +425,24 @@ def test_a_sweep_never_writes_or_deletes_through_a_link(tmp_path, capsys):
     mine = tmp_path / "my-features.csv"
     mine.write_text("precious")
     (out / "features.csv").symlink_to(mine)
-    argv = ["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:6", "--transient", "100",
-            "--record", "8", "--workers", "1", "--out", str(out), "--no-progress", "--formats", "png"]
+    argv = [
+        "bifurcation",
+        "two-dof",
+        "--case",
+        "1",
+        "--sweep",
+        "v0=0.06:0.2:6",
+        "--transient",
+        "100",
+        "--record",
+        "8",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+        "--no-progress",
+        "--formats",
+        "png",
+    ]
     assert main(argv) == 2 and "features.csv is a symbolic link" in capsys.readouterr().err
     assert mine.read_text() == "precious"

@@ -43,7 +43,7 @@ def chaotic_exact(chaotic):
 
 
 def combined_error(a, b) -> float:
-    return math.sqrt(a.standard_error ** 2 + b.standard_error ** 2)
+    return math.sqrt(a.standard_error**2 + b.standard_error**2)
 
 
 def test_negative_exponent_on_a_periodic_case():
@@ -98,9 +98,9 @@ def test_positive_exponent_on_a_chaotic_case(chaotic, chaotic_exact):
     # 64 where 0.7 are expected.
     assert res.converged and res.n_kept >= 0.75 * 64
     for i in res.outliers:
-        assert res.members[i] < 0                                   # the stable motion
+        assert res.members[i] < 0  # the stable motion
     kept = np.delete(res.members, list(res.outliers))
-    assert (kept > 0).all()                                         # every kept member stretches
+    assert (kept > 0).all()  # every kept member stretches
     # the uncertainty comes from the kept members' spread, not from one series
     assert res.standard_error == pytest.approx(np.std(kept, ddof=1) / math.sqrt(len(kept)))
     assert res.exponent_all == pytest.approx(np.mean(res.members))
@@ -120,8 +120,7 @@ def test_two_seeds_agree_within_their_uncertainty(chaotic, chaotic_exact):
 
 def test_henon_rk4_agrees_with_exact(chaotic, chaotic_exact):
     # 16 members: each runs its transient with RK4 steps of 0.01, which costs
-    other = largest_exponent(chaotic, "henon-rk4", options={"h": 0.01}, iterations=4000, members=16,
-                             workers=2)
+    other = largest_exponent(chaotic, "henon-rk4", options={"h": 0.01}, iterations=4000, members=16, workers=2)
     assert other.status == "success" and other.n_members == 16
     # same margin as for two seeds: the RK4 discretisation error (event times to
     # about 1e-10) adds no visible bias at this precision
@@ -173,8 +172,27 @@ def test_lyapunov_command(capsys, tmp_path):
     from nsbench.cli import main
 
     out = tmp_path / "logs.csv"
-    assert main(["lyapunov", "two-dof", "--case", "1", "--param", "v0=0.1", "--iterations", "200",
-                 "--members", "4", "--seed", "3", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "lyapunov",
+                "two-dof",
+                "--case",
+                "1",
+                "--param",
+                "v0=0.1",
+                "--iterations",
+                "200",
+                "--members",
+                "4",
+                "--seed",
+                "3",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "largest Lyapunov exponent -" in text and "4 members x 50 iterations" in text and "seed 3" in text
     logs = pd.read_csv(out)

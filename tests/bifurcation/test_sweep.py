@@ -46,9 +46,16 @@ def test_a_sweep_with_python_arcs_agrees_with_exact(tmp_path):
     # scipy's DOP853 has no compiled kernel: the core calls it once per arc. At rtol 1e-12
     # its peaks after tau = 200 are within ~1e-9 of the closed form (1e-7 leaves room)
     a = run_sweep(SweepSpec(integrator="exact", **SMALL), tmp_path / "a", workers=1, progress=False)
-    b = run_sweep(SweepSpec(integrator="scipy-dop853", options={"rtol": 1e-12, "atol": 1e-14},
-                            **{**SMALL, "count": 3, "stop": SMALL["start"] + 2 * (SMALL["stop"] - SMALL["start"]) / 5}),
-                  tmp_path / "b", workers=1, progress=False)
+    b = run_sweep(
+        SweepSpec(
+            integrator="scipy-dop853",
+            options={"rtol": 1e-12, "atol": 1e-14},
+            **{**SMALL, "count": 3, "stop": SMALL["start"] + 2 * (SMALL["stop"] - SMALL["start"]) / 5},
+        ),
+        tmp_path / "b",
+        workers=1,
+        progress=False,
+    )
     a = a[a["index"] < 3]
     assert np.abs(a["x1"].to_numpy() - b["x1"].to_numpy()).max() < 1e-7
     assert (a.groupby("index")["sticks1"].first() == b.groupby("index")["sticks1"].first()).all()
@@ -76,9 +83,30 @@ def test_killed_run_keeps_whole_chunks_and_resumes(tmp_path):
     # cannot finish in the moment between seeing them and the kill.
     out = tmp_path / "k"
     count = 400
-    cmd = [sys.executable, "-m", "nsbench", "bifurcation", "two-dof", "--case", "1",
-           "--sweep", f"v0=0.06:0.2:{count}", "--integrator", "exact", "--transient", "300", "--record", "10",
-           "--workers", "1", "--out", str(out), "--formats", "png", "--no-progress"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "nsbench",
+        "bifurcation",
+        "two-dof",
+        "--case",
+        "1",
+        "--sweep",
+        f"v0=0.06:0.2:{count}",
+        "--integrator",
+        "exact",
+        "--transient",
+        "300",
+        "--record",
+        "10",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+        "--formats",
+        "png",
+        "--no-progress",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     while proc.poll() is None and len(list((out / "points").glob("*.parquet"))) < 2:
         time.sleep(0.01)
@@ -102,8 +130,9 @@ def test_killed_run_keeps_whole_chunks_and_resumes(tmp_path):
 def test_failures_are_recorded_not_raised(tmp_path):
     # r_f = 1.05 is nonphysical (kinetic > static): the sweep refuses the range early
     with pytest.raises(ConfigError, match="r_f"):
-        run_sweep(SweepSpec(**{**SMALL, "name": "r_f", "start": 0.5, "stop": 1.05}), tmp_path / "f",
-                  workers=1, progress=False)
+        run_sweep(
+            SweepSpec(**{**SMALL, "name": "r_f", "start": 0.5, "stop": 1.05}), tmp_path / "f", workers=1, progress=False
+        )
     # a point whose run stops early is kept with its status and reason
     spec = SweepSpec(integrator="henon-rk4", options={"h": 0.02}, **{**SMALL, "count": 2, "window": 5.0})
     frame = run_sweep(spec, tmp_path / "g", workers=1, progress=False)
@@ -123,8 +152,12 @@ def test_a_sweep_without_a_range_is_refused():
     with pytest.raises(ConfigError, match="values of a sweep would all be the same"):
         SweepSpec(**{**SMALL, "start": 0.1, "stop": 0.1})
     assert SweepSpec(**{**SMALL, "start": 0.1, "stop": 0.1, "count": 1}).values.tolist() == [0.1]  # one value
-    for bad, fragment in (({"count": 0}, "count = 0"), ({"count": 2.0}, "count = 2.0"),
-                          ({"start": float("nan")}, "start = nan"), ({"stop": "1"}, "stop = '1'")):
+    for bad, fragment in (
+        ({"count": 0}, "count = 0"),
+        ({"count": 2.0}, "count = 2.0"),
+        ({"start": float("nan")}, "start = nan"),
+        ({"stop": "1"}, "stop = '1'"),
+    ):
         with pytest.raises(ConfigError, match=fragment):
             SweepSpec(**{**SMALL, **bad})
 
@@ -145,8 +178,18 @@ def test_chunk_files_are_written_atomically(tmp_path):
 def test_motion_at_rest_is_recorded_as_its_equilibrium(tmp_path):
     # past the pure-sliding threshold the motion damps out: RK4 settles on the equilibrium and
     # has no more peaks; the value is kept as status "rest" with its final state as one point.
-    spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.21, stop=0.22, count=2,
-                     integrator="henon-rk4", transient=1500.0, record=20, window=200.0)
+    spec = SweepSpec(
+        problem="two-dof",
+        case=1,
+        name="v0",
+        start=0.21,
+        stop=0.22,
+        count=2,
+        integrator="henon-rk4",
+        transient=1500.0,
+        record=20,
+        window=200.0,
+    )
     frame = run_sweep(spec, tmp_path / "rest", workers=1, progress=False)
     assert (frame["status"] == "rest").all() and (frame["n_points"] == 1).all()
     # both blocks slipping backwards (friction +r_f on each): x1 = 2 r_f, x2 = x1 + r_f / kappa

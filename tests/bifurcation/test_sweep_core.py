@@ -24,8 +24,17 @@ STATES = ["x1", "v1", "x2", "v2"]
 
 
 def _spec(**kw) -> SweepSpec:
-    base = dict(problem="two-dof", case=1, name="v0", start=0.1, stop=0.1, count=1, integrator="exact",
-                transient=100.0, record=30)
+    base = dict(
+        problem="two-dof",
+        case=1,
+        name="v0",
+        start=0.1,
+        stop=0.1,
+        count=1,
+        integrator="exact",
+        transient=100.0,
+        record=30,
+    )
     return SweepSpec(**{**base, **kw})
 
 
@@ -53,8 +62,18 @@ def test_peaks_and_mapping_points_are_those_of_simulate():
 
 def test_stroboscopic_states_are_those_of_simulate():
     p = nsbench.get_problem("two-dof", case=2)
-    spec = SweepSpec(problem="two-dof", case=2, name="F", start=5 / 12, stop=5 / 12,
-                     count=1, integrator="exact", section="strobe", transient=100.0, record=20)
+    spec = SweepSpec(
+        problem="two-dof",
+        case=2,
+        name="F",
+        start=5 / 12,
+        stop=5 / 12,
+        count=1,
+        integrator="exact",
+        section="strobe",
+        transient=100.0,
+        record=20,
+    )
     got = compute_point(spec, 0)
     period = 2 * np.pi / p.coefficients.w
     ref = nsbench.simulate(p, "exact", float(got["t"].iloc[-1]) + 1.0, sections=[stroboscopic(p)])
@@ -73,8 +92,18 @@ def test_old_compiled_names_are_aliases(alias, name):
 
 def test_rk4_on_cubic_against_a_finer_step():
     # independent accuracy check: h = 0.02 against h = 0.0025 (order 4: ~4000x smaller error)
-    spec = dict(problem="two-dof", case=3, name="h1", start=0.576, stop=0.576, count=1, integrator="henon-rk4",
-                section="peaks", transient=50.0, record=10)
+    spec = dict(
+        problem="two-dof",
+        case=3,
+        name="h1",
+        start=0.576,
+        stop=0.576,
+        count=1,
+        integrator="henon-rk4",
+        section="peaks",
+        transient=50.0,
+        record=10,
+    )
     coarse = compute_point(SweepSpec(**spec, options={"h": 0.02}), 0)
     fine = compute_point(SweepSpec(**spec, options={"h": 0.0025}), 0)
     assert np.abs(coarse["t"].to_numpy() - fine["t"].to_numpy()).max() < 1e-5
@@ -82,10 +111,20 @@ def test_rk4_on_cubic_against_a_finer_step():
 
 def _three_blocks(case=None, dimensional=False, F: float = 0.3) -> FrictionOscillator:
     """A chain of three blocks (block 1 to the ground, each to the previous), forced on the last."""
-    c = Coefficients(m=(1.0, 0.8, 1.2), c=(0.05, 0.04, 0.06), k=(1.0, 1.3, 0.7), h=(0.0, 0.0, 0.0),
-                     fs=(5 / 6, 0.7, 0.9), fr=(1.0, 0.9, 1.1), F=float(F), w=0.9, v0=1 / 12)
-    return FrictionOscillator(c, name="three-blocks", case=None, dimensional=False, params={"F": float(F)},
-                              parameters={}, scales=Scales())
+    c = Coefficients(
+        m=(1.0, 0.8, 1.2),
+        c=(0.05, 0.04, 0.06),
+        k=(1.0, 1.3, 0.7),
+        h=(0.0, 0.0, 0.0),
+        fs=(5 / 6, 0.7, 0.9),
+        fr=(1.0, 0.9, 1.1),
+        F=float(F),
+        w=0.9,
+        v0=1 / 12,
+    )
+    return FrictionOscillator(
+        c, name="three-blocks", case=None, dimensional=False, params={"F": float(F)}, parameters={}, scales=Scales()
+    )
 
 
 @pytest.fixture
@@ -96,8 +135,18 @@ def three_blocks():
 
 
 def test_a_three_block_problem_sweeps(three_blocks, tmp_path):
-    spec = SweepSpec(problem=three_blocks, case=None, name="F", start=0.2, stop=0.4, count=3,
-                     integrator="exact", section="strobe", transient=60.0, record=5)
+    spec = SweepSpec(
+        problem=three_blocks,
+        case=None,
+        name="F",
+        start=0.2,
+        stop=0.4,
+        count=3,
+        integrator="exact",
+        section="strobe",
+        transient=60.0,
+        record=5,
+    )
     frame = run_sweep(spec, tmp_path / "s", workers=1, progress=False)
     names = ["x1", "v1", "x2", "v2", "x3", "v3"]
     assert list(SweepStore(tmp_path / "s").state_names) == names

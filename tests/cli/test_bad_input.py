@@ -39,10 +39,22 @@ IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
 def _pb(names: list[str]) -> dict:
     """A minimal pytest-benchmark JSON document."""
-    return {"version": "4.0.0", "datetime": "2024-01-01", "machine_info": {}, "commit_info": {},
-            "benchmarks": [{"name": n, "fullname": f"t.py::{n}", "group": None, "extra_info": {},
-                            "stats": {"median": 0.1, "min": 0.09, "max": 0.11, "rounds": 3,
-                                      "data": [0.09, 0.1, 0.11]}} for n in names]}
+    return {
+        "version": "4.0.0",
+        "datetime": "2024-01-01",
+        "machine_info": {},
+        "commit_info": {},
+        "benchmarks": [
+            {
+                "name": n,
+                "fullname": f"t.py::{n}",
+                "group": None,
+                "extra_info": {},
+                "stats": {"median": 0.1, "min": 0.09, "max": 0.11, "rounds": 3, "data": [0.09, 0.1, 0.11]},
+            }
+            for n in names
+        ],
+    }
 
 
 SUITES = {
@@ -68,19 +80,29 @@ SUITES = {
     "only_str": 'integrators = {only = "exact"}\nproblems = [{name = "one-dof"}]\n',
     "grids_int": 'integrators = {grids = 5}\nproblems = [{name = "one-dof"}]\n',
     "grid_options_int": 'integrators = {only = ["scipy-rk45"], grids = {scipy-rk45 = {options = 5}}}\n'
-                        'problems = [{name = "one-dof"}]\n',
+    'problems = [{name = "one-dof"}]\n',
     "exclude_int": 'integrators = {exclude = 5}\nproblems = [{name = "one-dof"}]\n',
     "skip_int": 'integrators = {skip_levels = 5}\nproblems = [{name = "one-dof"}]\n',
     "registered_str": 'integrators = {registered = "yes"}\nproblems = [{name = "one-dof"}]\n',
     "malformed": "problems = [\n",
     "deeply_nested": "problems = " + "[" * 5000 + "]" * 5000 + "\n",  # tomllib recurses: once a RecursionError
     # 1000 x 1000 x 1000 problems: must be refused from the counts, never expanded
-    "huge_grid": 'problems = [{name = "one-dof", params = {c = [' + ",".join(["0.1"] * 1000) + "], h = ["
-                 + ",".join(["1.0"] * 1000) + "], F = [" + ",".join(["0.0"] * 1000) + ']}}]\n'
-                 'integrators = {only = ["exact"]}\n',
+    "huge_grid": 'problems = [{name = "one-dof", params = {c = ['
+    + ",".join(["0.1"] * 1000)
+    + "], h = ["
+    + ",".join(["1.0"] * 1000)
+    + "], F = ["
+    + ",".join(["0.0"] * 1000)
+    + "]}}]\n"
+    'integrators = {only = ["exact"]}\n',
     "huge_option_grid": 'problems = [{name = "one-dof"}]\nintegrators = {only = ["scipy-rk45"], grids = '
-                        '{scipy-rk45 = {grid = {rtol = [' + ",".join(["1e-6"] * 1000) + "], atol = ["
-                        + ",".join(["1e-8"] * 1000) + "], first_step = [" + ",".join(["0.1"] * 1000) + "]}}}}\n",
+    "{scipy-rk45 = {grid = {rtol = ["
+    + ",".join(["1e-6"] * 1000)
+    + "], atol = ["
+    + ",".join(["1e-8"] * 1000)
+    + "], first_step = ["
+    + ",".join(["0.1"] * 1000)
+    + "]}}}}\n",
 }
 
 
@@ -109,10 +131,13 @@ def d(tmp_path_factory):
     (root / "otherdir" / "notes.txt").write_text("another tool's folder")
     (root / "garbage.csv").write_text("a,b\n1,2\n")
     (root / "garbage.parquet").write_text("not parquet")
-    (root / "light.toml").write_text('t_span = [0.0, 1.0]\nrepeats = 1\nproblems = [{name = "one-dof", case = 1}]\n'
-                                     'integrators = {only = ["exact"]}\n')  # the generated sweep's runs
-    (root / "good.toml").write_text('t_span = [0.0, 5.0]\nproblems = [{name = "one-dof", case = 1}]\n'
-                                    'integrators = {only = ["exact"]}\n')
+    (root / "light.toml").write_text(
+        't_span = [0.0, 1.0]\nrepeats = 1\nproblems = [{name = "one-dof", case = 1}]\n'
+        'integrators = {only = ["exact"]}\n'
+    )  # the generated sweep's runs
+    (root / "good.toml").write_text(
+        't_span = [0.0, 5.0]\nproblems = [{name = "one-dof", case = 1}]\nintegrators = {only = ["exact"]}\n'
+    )
     for name, text in SUITES.items():
         if not name.startswith(("malformed", "huge", "deeply")):
             if "t_span" not in text:
@@ -135,14 +160,52 @@ def _free_port() -> int:
 
 
 S = ["simulate", "one-dof", "--t-end", "5"]
-B = ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:2", "--transient", "10", "--record", "4", "--no-progress",
-     "--formats", "png", "--out", "{d}/bif"]
+B = [
+    "bifurcation",
+    "one-dof",
+    "--sweep",
+    "v0=0.5:1.0:2",
+    "--transient",
+    "10",
+    "--record",
+    "4",
+    "--no-progress",
+    "--formats",
+    "png",
+    "--out",
+    "{d}/bif",
+]
 L = ["lyapunov", "two-dof", "--case", "2", "--iterations", "80", "--members", "4", "--transient", "10"]
-P = ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "10", "--case", "1",
-     "--out", "{d}/paper"]
+P = [
+    "paper",
+    "--no-progress",
+    "--points",
+    "2",
+    "--record",
+    "4",
+    "--transient",
+    "10",
+    "--case",
+    "1",
+    "--out",
+    "{d}/paper",
+]
 R = ["compare", "{d}/res1", "{d}/res1"]
-C = ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.16:0.17", "--steps", "2", "--no-progress",
-     "--formats", "png", "--out", "{d}/cont"]
+C = [
+    "continuation",
+    "two-dof",
+    "--case",
+    "1",
+    "--sweep",
+    "v0=0.16:0.17",
+    "--steps",
+    "2",
+    "--no-progress",
+    "--formats",
+    "png",
+    "--out",
+    "{d}/cont",
+]
 
 CASES = [
     # ---- continuation (more in tests/cli/test_continuation.py)
@@ -162,13 +225,27 @@ CASES = [
     ("simulate-atol-inf", S + ["--integrator", "scipy-rk45", "--atol", "inf"], "--atol = inf"),
     ("simulate-h-inf", S + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
     ("simulate-h-zero", S + ["--integrator", "henon-rk4", "--h", "0"], "--h = 0"),
-    ("simulate-option-h-inf", S + ["--integrator", "henon-rk4", "--option", "h=inf"], "--option h=inf: an option value must be a finite number"),
-    ("simulate-option-h-huge", S + ["--integrator", "henon-rk4", "--option", "h=1e300"], "is longer than the whole run"),
+    (
+        "simulate-option-h-inf",
+        S + ["--integrator", "henon-rk4", "--option", "h=inf"],
+        "--option h=inf: an option value must be a finite number",
+    ),
+    (
+        "simulate-option-h-huge",
+        S + ["--integrator", "henon-rk4", "--option", "h=1e300"],
+        "is longer than the whole run",
+    ),
     ("simulate-h-tiny", S + ["--integrator", "henon-rk4", "--h", "1e-18"], "more than the step budget"),
-    ("bifurcation-start-is-stop", ["bifurcation", "one-dof", "--sweep", "v0=0.5:0.5:20", "--out", "{d}/bif-ss"],
-     "START and STOP are equal"),
-    ("bifurcation-option-h-huge", B + ["--integrator", "henon-rk4", "--option", "h=1e300", "--out",
-                                       "{d}/bif-h"], "is longer than the whole run"),
+    (
+        "bifurcation-start-is-stop",
+        ["bifurcation", "one-dof", "--sweep", "v0=0.5:0.5:20", "--out", "{d}/bif-ss"],
+        "START and STOP are equal",
+    ),
+    (
+        "bifurcation-option-h-huge",
+        B + ["--integrator", "henon-rk4", "--option", "h=1e300", "--out", "{d}/bif-h"],
+        "is longer than the whole run",
+    ),
     ("simulate-events-out-under-file", S + ["--events-out", "{d}/afile/x.csv"], "is a file, not a folder"),
     ("simulate-events-out-is-dir", S + ["--events-out", "{d}/emptydir"], "it is a folder"),
     ("simulate-events-out-missing-dir", S + ["--events-out", "{d}/missing/x.csv"], "does not exist"),
@@ -189,12 +266,20 @@ CASES = [
     ("run-out-under-file", ["run", "--out", "{d}/afile/sub"], "is a file, not a folder"),
     ("run-suite-binary", ["run", "--suite", "{d}/bin.bin", "--out", "{d}/runout"], "not UTF-8"),
     # ---- bench: suite files
-    *[(f"bench-suite-{name}", ["bench", f"{{d}}/{name}.toml", "--out", f"{{d}}/bout-{name}", "--no-progress"],
-       None) for name in SUITES],
-    ("bench-suite-problems-int-message", ["bench", "{d}/problems_int.toml", "--out", "{d}/bo"],
-     "suite field 'problems' must be a list of tables (each with a 'name'), got int 5"),
-    ("bench-suite-reference-message", ["bench", "{d}/reference_nope.toml", "--out", "{d}/bo"],
-     "unknown integrator(s) nope; registered:"),
+    *[
+        (f"bench-suite-{name}", ["bench", f"{{d}}/{name}.toml", "--out", f"{{d}}/bout-{name}", "--no-progress"], None)
+        for name in SUITES
+    ],
+    (
+        "bench-suite-problems-int-message",
+        ["bench", "{d}/problems_int.toml", "--out", "{d}/bo"],
+        "suite field 'problems' must be a list of tables (each with a 'name'), got int 5",
+    ),
+    (
+        "bench-suite-reference-message",
+        ["bench", "{d}/reference_nope.toml", "--out", "{d}/bo"],
+        "unknown integrator(s) nope; registered:",
+    ),
     ("bench-suite-huge-grid-message", ["bench", "{d}/huge_grid.toml", "--out", "{d}/bo"], "100000"),
     ("bench-suite-t-span-inf-message", ["bench", "{d}/t_span_inf.toml", "--out", "{d}/bo"], "finite"),
     ("bench-suite-latin1", ["bench", "{d}/latin.toml", "--out", "{d}/bo"], "not UTF-8"),
@@ -228,8 +313,11 @@ CASES = [
     ("history-show-no-store", ["history", "show", "--store", "{d}/missing"], "history store"),
     ("history-add-missing", ["history", "add", "{d}/missing", "--store", "{d}/hist"], "do not exist"),
     ("history-factor-nan", ["history", "show", "--store", "{d}/missing", "--factor", "nan"], "factor = nan"),
-    ("history-run-workers-0", ["history", "run", "--repo", "{d}", "--commits", "a..b", "--store", "{d}/hist",
-                               "--workers", "0"], "--workers = 0"),
+    (
+        "history-run-workers-0",
+        ["history", "run", "--repo", "{d}", "--commits", "a..b", "--store", "{d}/hist", "--workers", "0"],
+        "--workers = 0",
+    ),
     # ---- ingest
     ("ingest-malformed-json", ["ingest", "{d}/bad.json", "--out", "{d}/io"], "is not JSON"),
     ("ingest-json-list", ["ingest", "{d}/list.json", "--out", "{d}/io"], "not a pytest-benchmark file"),
@@ -256,18 +344,38 @@ CASES = [
     ("bifurcation-window-zero", B + ["--window", "0"], "--window = 0"),
     ("bifurcation-workers-inf", B + ["--workers", "inf"], "--workers = inf"),
     ("bifurcation-case-nan", B + ["--case", "nan"], "--case"),
-    ("bifurcation-case-nan-with-section", B + ["--case", "nan", "--section", "peaks",
-                                               "--integrator", "henon-rk4"], "--case"),
+    (
+        "bifurcation-case-nan-with-section",
+        B + ["--case", "nan", "--section", "peaks", "--integrator", "henon-rk4"],
+        "--case",
+    ),
     ("bifurcation-h-inf", B + ["--integrator", "henon-rk4", "--h", "inf"], "--h = inf"),
     ("bifurcation-portrait-nan", B + ["--portrait", "nan"], "--portrait = nan"),
-    ("bifurcation-pair-out-of-range", ["bifurcation", "two-dof", "--sweep", "v0=0.5:1.0:2", "--pair", "1,9",
-                                       "--portrait", "0.7", "--out", "{d}/bif2"], "--pair 1,9"),
+    (
+        "bifurcation-pair-out-of-range",
+        [
+            "bifurcation",
+            "two-dof",
+            "--sweep",
+            "v0=0.5:1.0:2",
+            "--pair",
+            "1,9",
+            "--portrait",
+            "0.7",
+            "--out",
+            "{d}/bif2",
+        ],
+        "--pair 1,9",
+    ),
     ("bifurcation-formats-xyz", B + ["--formats", "xyz"], "--formats"),
     ("bifurcation-out-file", B + ["--out", "{d}/afile"], "it is a file"),
     ("bifurcation-out-under-file", B + ["--out", "{d}/afile/sub"], "is a file, not a folder"),
     ("bifurcation-dask-bad-address", B + ["--dask", "not a url", "--out", "{d}/bif-dask1"], "--dask"),
-    ("bifurcation-dask-closed-port", B + ["--dask", "tcp://127.0.0.1:{port}", "--out", "{d}/bif-dask2"],
-     "is the scheduler running?"),
+    (
+        "bifurcation-dask-closed-port",
+        B + ["--dask", "tcp://127.0.0.1:{port}", "--out", "{d}/bif-dask2"],
+        "is the scheduler running?",
+    ),
     # ---- lyapunov
     ("lyapunov-transient-neg", L + ["--transient", "-1"], "--transient = -1"),
     ("lyapunov-transient-inf", L + ["--transient", "inf"], "--transient = inf"),
@@ -329,14 +437,15 @@ def _last_wins(argv: list[str]) -> list[str]:
     sub = next(a for a in build_parser()._actions if a.dest == "command").choices.get(argv[0] if argv else "")
     if sub is None:
         return argv
-    single = {flag for a in sub._actions if a.nargs is None and type(a).__name__ == "_Once"
-              for flag in a.option_strings}
+    single = {
+        flag for a in sub._actions if a.nargs is None and type(a).__name__ == "_Once" for flag in a.option_strings
+    }
     out: list[str] = []
     for i, token in enumerate(argv):
         if token in single and i + 1 < len(argv):
             for j in range(len(out) - 1):
                 if out[j] == token:
-                    del out[j:j + 2]
+                    del out[j : j + 2]
                     break
         out.append(token)
     return out
@@ -347,38 +456,50 @@ def _argv(template: list[str], d: str) -> list[str]:
     return _last_wins([a.replace("{d}", d).replace("{port}", port) for a in template])
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["bench", "{d}/deeply_nested.toml", "--out", "{d}/deep"], "nested too deeply to be a suite"),
-    (["simulate", "one-dof", "--events-out", ""], "argument --events-out: empty value ''"),
-    (["simulate", "one-dof", "--integrator", "henon-rk4", "--option", "h=inf"],
-     "--option h=inf: an option value must be a finite number"),
-    (["simulate", "one-dof", "--integrator", "ofapi", "--option", "h=inf"], "must be a finite number"),
-    (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e300"], "MAX_SPAN"),
-    (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e7"], "more than the step budget"),
-    (["simulate", "one-dof", "--case", "2", "--integrator", "henon-rk4", "--param", "Omega=1e300"],
-     "fewer than two steps per forcing period"),
-    (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--out", "{d}/A", "--out", "{d}/B"],
-     "argument --out: given twice"),
-    (["simulate", "one-dof", "--h", "0.1", "--option", "h=0.2", "--integrator", "henon-rk4"], "give it once"),
-    (["lyapunov", "two-dof", "--d0", "1e-300"], "--d0 = 1e-300 must be a finite number >= 1e-12"),
-    (["lyapunov", "two-dof", "--member-limit", "1e300"], "MAX_TIME_LIMIT"),
-    (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--transient", "1e300"], "MAX_SPAN"),
-    (["ingest", "{d}/good1.json", "--out", "{d}/loop"], "symbolic link that leads nowhere (a loop)"),
-    (["simulate", "one-dof", "--fresh"], "unrecognized arguments: --fresh"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["bench", "{d}/deeply_nested.toml", "--out", "{d}/deep"], "nested too deeply to be a suite"),
+        (["simulate", "one-dof", "--events-out", ""], "argument --events-out: empty value ''"),
+        (
+            ["simulate", "one-dof", "--integrator", "henon-rk4", "--option", "h=inf"],
+            "--option h=inf: an option value must be a finite number",
+        ),
+        (["simulate", "one-dof", "--integrator", "ofapi", "--option", "h=inf"], "must be a finite number"),
+        (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e300"], "MAX_SPAN"),
+        (["simulate", "one-dof", "--integrator", "henon-rk4", "--t-end", "1e7"], "more than the step budget"),
+        (
+            ["simulate", "one-dof", "--case", "2", "--integrator", "henon-rk4", "--param", "Omega=1e300"],
+            "fewer than two steps per forcing period",
+        ),
+        (
+            ["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--out", "{d}/A", "--out", "{d}/B"],
+            "argument --out: given twice",
+        ),
+        (["simulate", "one-dof", "--h", "0.1", "--option", "h=0.2", "--integrator", "henon-rk4"], "give it once"),
+        (["lyapunov", "two-dof", "--d0", "1e-300"], "--d0 = 1e-300 must be a finite number >= 1e-12"),
+        (["lyapunov", "two-dof", "--member-limit", "1e300"], "MAX_TIME_LIMIT"),
+        (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--transient", "1e300"], "MAX_SPAN"),
+        (["ingest", "{d}/good1.json", "--out", "{d}/loop"], "symbolic link that leads nowhere (a loop)"),
+        (["simulate", "one-dof", "--fresh"], "unrecognized arguments: --fresh"),
+    ],
+)
 def test_the_issues_examples_exit_2_with_one_line(argv, fragment, d, capsys):
     """The invocations of issue 30 that ended in a traceback or succeeded silently."""
     assert main([a.replace("{d}", d) for a in argv]) == 2
     assert fragment in _one_error_line(capsys)
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["simulate", "one-dof", "--param", "law=viscous"], "law = 'viscous' is not a friction law; allowed: coulomb"),
-    (["simulate", "one-dof", "--param", "law=weakening"], "law=weakening needs the parameter(s) delta"),
-    (["simulate", "one-dof", "--case", "leine", "--param", "delta=-1"], "delta = -1 is out of range"),
-    (["simulate", "one-dof", "--case", "leine", "--integrator", "exact"], "weakening friction law"),
-    (["simulate", "two-dof", "--case", "leine"], "unknown case 'leine'"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["simulate", "one-dof", "--param", "law=viscous"], "law = 'viscous' is not a friction law; allowed: coulomb"),
+        (["simulate", "one-dof", "--param", "law=weakening"], "law=weakening needs the parameter(s) delta"),
+        (["simulate", "one-dof", "--case", "leine", "--param", "delta=-1"], "delta = -1 is out of range"),
+        (["simulate", "one-dof", "--case", "leine", "--integrator", "exact"], "weakening friction law"),
+        (["simulate", "two-dof", "--case", "leine"], "unknown case 'leine'"),
+    ],
+)
 def test_a_bad_friction_law_exits_2_with_one_line(argv, fragment, capsys):
     assert main(argv) == 2
     assert fragment in _one_error_line(capsys)
@@ -442,8 +563,7 @@ def test_dask_scheduler_without_workers(d, capsys, monkeypatch):
 
 
 def _subprocess(argv: list[str], **kw) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "nsbench", *argv], capture_output=True, text=True, timeout=120,
-                          **kw)
+    return subprocess.run([sys.executable, "-m", "nsbench", *argv], capture_output=True, text=True, timeout=120, **kw)
 
 
 @pytest.mark.parametrize("address", ["not a url", "tcp://127.0.0.1:{port}"])
@@ -461,8 +581,9 @@ def test_a_closed_stdout_pipe_ends_quietly(argv, d):
     read, write = os.pipe()
     os.close(read)
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "nsbench", *_argv(argv, d)], stdout=write,
-                                stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "nsbench", *_argv(argv, d)], stdout=write, stderr=subprocess.PIPE, text=True
+        )
     finally:
         os.close(write)
     _, err = proc.communicate(timeout=120)
@@ -470,6 +591,7 @@ def test_a_closed_stdout_pipe_ends_quietly(argv, d):
 
 
 # ---------------------------------------------------------------------- hypothesis
+
 
 def _not_a_number(text: str) -> bool:
     try:
@@ -481,12 +603,15 @@ def _not_a_number(text: str) -> bool:
 
 _TEXT = st.text(max_size=12).filter(_not_a_number).filter(lambda t: "\x00" not in t)
 _SPECIAL = st.sampled_from(["nan", "NaN", "-nan", "inf", "+inf", "-inf", "Infinity", "-Infinity", "1e400"])
-_NEGATIVE = st.one_of(st.integers(max_value=-1).map(str),
-                      st.floats(max_value=-1e-9, allow_infinity=False, allow_nan=False).map(repr))
-_FRACTION = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(
-    lambda x: not float(x).is_integer()).map(repr)
-_HUGE = st.one_of(st.integers(min_value=10**12).map(str),
-                  st.floats(min_value=1e12, allow_infinity=False, allow_nan=False).map(repr))
+_NEGATIVE = st.one_of(
+    st.integers(max_value=-1).map(str), st.floats(max_value=-1e-9, allow_infinity=False, allow_nan=False).map(repr)
+)
+_FRACTION = (
+    st.floats(min_value=-1e6, max_value=1e6, allow_nan=False).filter(lambda x: not float(x).is_integer()).map(repr)
+)
+_HUGE = st.one_of(
+    st.integers(min_value=10**12).map(str), st.floats(min_value=1e12, allow_infinity=False, allow_nan=False).map(repr)
+)
 
 #: What makes a value bad for each kind of option (every value these draw is refused).
 BAD = {
@@ -507,19 +632,44 @@ BAD = {
 
 #: Per sub-command: the base argv (valid, and light) and its numeric options with their kind.
 NUMERIC = {
-    "simulate": (S, {"--samples": "count", "--t-end": "finite", "--rtol": "positive", "--atol": "positive",
-                     "--h": "positive"}),
+    "simulate": (
+        S,
+        {"--samples": "count", "--t-end": "finite", "--rtol": "positive", "--atol": "positive", "--h": "positive"},
+    ),
     "run": (["run", "--out", "{d}/hyp-run"], {"--workers": "count"}),
     "bench": (["bench", "{d}/light.toml", "--out", "{d}/hyp-bench"], {"--workers": "count"}),
     "compare": (R, {"--factor": "factor"}),
-    "bifurcation": (B, {"--record": "count", "--workers": "count", "--transient": "nonneg", "--window": "positive",
-                        "--h": "positive", "--portrait": "finite", "--point-limit": "positive",
-                        "--setup-limit": "positive"}),
-    "lyapunov": (L, {"--iterations": "count", "--members": "count", "--seed": "seed", "--workers": "count",
-                     "--transient": "nonneg", "--d0": "d0", "--h": "positive", "--member-limit": "positive"}),
+    "bifurcation": (
+        B,
+        {
+            "--record": "count",
+            "--workers": "count",
+            "--transient": "nonneg",
+            "--window": "positive",
+            "--h": "positive",
+            "--portrait": "finite",
+            "--point-limit": "positive",
+            "--setup-limit": "positive",
+        },
+    ),
+    "lyapunov": (
+        L,
+        {
+            "--iterations": "count",
+            "--members": "count",
+            "--seed": "seed",
+            "--workers": "count",
+            "--transient": "nonneg",
+            "--d0": "d0",
+            "--h": "positive",
+            "--member-limit": "positive",
+        },
+    ),
     "continuation": (C, {"--steps": "count", "--transient": "nonneg", "--origin": "finite"}),
-    "paper": (P, {"--points": "count", "--record": "count", "--workers": "count", "--transient": "nonneg",
-                  "--case": "count"}),
+    "paper": (
+        P,
+        {"--points": "count", "--record": "count", "--workers": "count", "--transient": "nonneg", "--case": "count"},
+    ),
 }
 
 
@@ -553,18 +703,19 @@ def test_bad_numbers_exit_2_with_one_line(command, data, d, capsys):
 
 
 @settings(max_examples=200, deadline=None)
-@given(count=BAD["count"], seed=BAD["seed"], nonneg=BAD["nonneg"], positive=BAD["positive"],
-       finite=BAD["finite"])
+@given(count=BAD["count"], seed=BAD["seed"], nonneg=BAD["nonneg"], positive=BAD["positive"], finite=BAD["finite"])
 def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite):
     """The strategies against the parsers directly: each draw is refused (no value slips through)."""
     from nsbench.cli._common import parse_count, parse_real
     from nsbench.errors import ConfigError
 
-    for call in (lambda: parse_count(count, "--n", low=1, bound="MAX_WORKERS"),
-                 lambda: parse_count(seed, "--seed", low=0, bound="MAX_SEED"),
-                 lambda: parse_real(nonneg, "--t", low=0.0),
-                 lambda: parse_real(positive, "--h", low=0.0, low_open=True),
-                 lambda: parse_real(finite, "--x")):
+    for call in (
+        lambda: parse_count(count, "--n", low=1, bound="MAX_WORKERS"),
+        lambda: parse_count(seed, "--seed", low=0, bound="MAX_SEED"),
+        lambda: parse_real(nonneg, "--t", low=0.0),
+        lambda: parse_real(positive, "--h", low=0.0, low_open=True),
+        lambda: parse_real(finite, "--x"),
+    ):
         with pytest.raises(ConfigError):
             call()
 
@@ -577,10 +728,21 @@ def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite
 # by itself; one whose values are paths must be named in PATHS.
 
 SWEEP_VALUES = {
-    "empty": "", "nan": "nan", "inf": "inf", "-inf": "-inf", "zero": "0", "negative": "-1",
-    "huge": "1e300", "tiny": "1e-300", "text": "abc", "unicode": "\u00fc\u2202",
+    "empty": "",
+    "nan": "nan",
+    "inf": "inf",
+    "-inf": "-inf",
+    "zero": "0",
+    "negative": "-1",
+    "huge": "1e300",
+    "tiny": "1e-300",
+    "text": "abc",
+    "unicode": "\u00fc\u2202",
     # a fresh folder per case ({fresh}: empty; a success may write into it)
-    "folder": "{fresh}", "file": "{fresh}/afile", "missing": "{fresh}/missing/x", "unwritable": "{d}/ro/x",
+    "folder": "{fresh}",
+    "file": "{fresh}/afile",
+    "missing": "{fresh}/missing/x",
+    "unwritable": "{d}/ro/x",
     "loop": "{d}/loop",
 }
 #: A path's value kinds. Numbers and text are file names like any other (the plain name of the
@@ -590,13 +752,24 @@ PATH_KINDS = ("empty", "unicode", "folder", "file", "missing", "unwritable", "lo
 #: Options and positional arguments whose value is a path, and what it names: an output file
 #: ("out-file"), an output folder ("out-dir"), or an input ("in").
 PATHS = {
-    ("simulate", "--events-out"): "out-file", ("simulate", "--trajectory-out"): "out-file",
-    ("simulate", "--plot"): "out-file", ("run", "--out"): "out-dir", ("run", "--suite"): "in",
-    ("bench", "suite"): "in", ("bench", "--out"): "out-dir", ("report", "directory"): "in",
-    ("compare", "a"): "in", ("compare", "b"): "in", ("compare", "--out"): "out-file",
-    ("ingest", "file"): "in", ("ingest", "--out"): "out-dir", ("bifurcation", "--out"): "out-dir",
-    ("continuation", "--out"): "out-dir", ("continuation", "--diagram"): "in",
-    ("lyapunov", "--out"): "out-file", ("paper", "--out"): "out-dir",
+    ("simulate", "--events-out"): "out-file",
+    ("simulate", "--trajectory-out"): "out-file",
+    ("simulate", "--plot"): "out-file",
+    ("run", "--out"): "out-dir",
+    ("run", "--suite"): "in",
+    ("bench", "suite"): "in",
+    ("bench", "--out"): "out-dir",
+    ("report", "directory"): "in",
+    ("compare", "a"): "in",
+    ("compare", "b"): "in",
+    ("compare", "--out"): "out-file",
+    ("ingest", "file"): "in",
+    ("ingest", "--out"): "out-dir",
+    ("bifurcation", "--out"): "out-dir",
+    ("continuation", "--out"): "out-dir",
+    ("continuation", "--diagram"): "in",
+    ("lyapunov", "--out"): "out-file",
+    ("paper", "--out"): "out-dir",
 }
 #: A valid, light command line per sub-command; the swept option replaces its value here
 #: ({fresh}: a new empty folder per case, so that each success writes a folder of its own).
@@ -605,19 +778,64 @@ SWEEP_BASES = {
     "simulate": ["simulate", "one-dof", "--case", "2", "--t-end", "5", "--integrator", "henon-rk4"],
     "check": ["check", "henon-rk4", "--check", "config-round-trip"],
     "run": ["run", "--suite", "{d}/light.toml", "--out", "{fresh}/out", "--workers", "1", "--no-progress"],
-    "bench": ["bench", "{d}/light.toml", "--out", "{fresh}/out", "--workers", "1", "--no-progress",
-              "--no-report"],
+    "bench": ["bench", "{d}/light.toml", "--out", "{fresh}/out", "--workers", "1", "--no-progress", "--no-report"],
     "report": ["report", "{d}/res1"],
     "compare": ["compare", "{d}/res1", "{d}/res1"],
     "ingest": ["ingest", "{d}/good1.json", "--out", "{fresh}/out"],
-    "bifurcation": ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:2", "--transient", "10", "--record", "4",
-                    "--no-progress", "--formats", "png", "--out", "{fresh}/out", "--workers", "1",
-                    "--integrator", "henon-rk4"],
-    "continuation": ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.16:0.17", "--steps", "2",
-                     "--transient", "10", "--no-progress", "--formats", "png", "--out", "{fresh}/out"],
+    "bifurcation": [
+        "bifurcation",
+        "one-dof",
+        "--sweep",
+        "v0=0.5:1.0:2",
+        "--transient",
+        "10",
+        "--record",
+        "4",
+        "--no-progress",
+        "--formats",
+        "png",
+        "--out",
+        "{fresh}/out",
+        "--workers",
+        "1",
+        "--integrator",
+        "henon-rk4",
+    ],
+    "continuation": [
+        "continuation",
+        "two-dof",
+        "--case",
+        "1",
+        "--sweep",
+        "v0=0.16:0.17",
+        "--steps",
+        "2",
+        "--transient",
+        "10",
+        "--no-progress",
+        "--formats",
+        "png",
+        "--out",
+        "{fresh}/out",
+    ],
     "lyapunov": ["lyapunov", "two-dof", "--case", "1", "--iterations", "80", "--members", "4", "--transient", "1"],
-    "paper": ["paper", "--no-progress", "--points", "2", "--record", "4", "--transient", "1", "--case", "1",
-              "--out", "{fresh}/out", "--no-continuation", "--workers", "1"],
+    "paper": [
+        "paper",
+        "--no-progress",
+        "--points",
+        "2",
+        "--record",
+        "4",
+        "--transient",
+        "1",
+        "--case",
+        "1",
+        "--out",
+        "{fresh}/out",
+        "--no-continuation",
+        "--workers",
+        "1",
+    ],
 }
 #: Sub-commands with actions of their own, covered by hand-written cases instead of the generated sweep.
 NESTED = {"history"}
@@ -633,29 +851,45 @@ _SPAN = "a span of zero or 1e-300 time units: a valid, short run"
 _SIZE = "a parameter is checked to be finite and physical, not bounded in size (docs/model.md)"
 #: (sub-command, option) -> {value kind: why it is valid}: exit status 0.
 SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
-    **{(cmd, opt): dict.fromkeys(_NEW_OUT, "a new file of that name, or an existing file replaced")
-       for (cmd, opt), kind in PATHS.items() if kind == "out-file" and opt != "--plot"},  # a plot needs .png etc.
-    **{(cmd, opt): dict.fromkeys(_NEW_DIR, "a new folder (with its parents), or an empty one")
-       for (cmd, opt), kind in PATHS.items() if kind == "out-dir"},
+    **{
+        (cmd, opt): dict.fromkeys(_NEW_OUT, "a new file of that name, or an existing file replaced")
+        for (cmd, opt), kind in PATHS.items()
+        if kind == "out-file" and opt != "--plot"
+    },  # a plot needs .png etc.
+    **{
+        (cmd, opt): dict.fromkeys(_NEW_DIR, "a new folder (with its parents), or an empty one")
+        for (cmd, opt), kind in PATHS.items()
+        if kind == "out-dir"
+    },
     ("simulate", "--param"): dict.fromkeys(("zero", "tiny"), _OMEGA + " (0: a constant force)"),
     ("simulate", "--t-end"): {"tiny": _SPAN},
     ("check", "--option"): dict.fromkeys(("huge", "tiny"), "h > 0; config-round-trip only builds the configuration"),
     ("check", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _OMEGA + "; config-round-trip builds no problem"),
     ("compare", "--factor"): {"huge": "a factor is any finite number > 1"},
     ("bifurcation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
-    ("bifurcation", "--sweep"): {"zero": "v0 from 0 (a belt at rest) to 1: valid values of v0",
-                                 "tiny": "v0 from 1e-300 to 1: valid values of v0",
-                                 "huge": "v0 from 1e300 to 1: " + _SIZE},
+    ("bifurcation", "--sweep"): {
+        "zero": "v0 from 0 (a belt at rest) to 1: valid values of v0",
+        "tiny": "v0 from 1e-300 to 1: valid values of v0",
+        "huge": "v0 from 1e300 to 1: " + _SIZE,
+    },
     ("bifurcation", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
-    ("bifurcation", "--window"): {"tiny": "a recording window of 1e-300: every value is kept with its status "
-                                          "(too few points), the sweep itself completes"},
-    ("bifurcation", "--point-limit"): {"tiny": "every value passes its limit of 1e-300 s: each is kept with status "
-                                               "'time limit', the sweep itself completes"},
-    ("bifurcation", "--setup-limit"): {"tiny": "every set-up passes its limit of 1e-300 s: each value is kept with "
-                                               "status 'time limit', the sweep itself completes"},
+    ("bifurcation", "--window"): {
+        "tiny": "a recording window of 1e-300: every value is kept with its status "
+        "(too few points), the sweep itself completes"
+    },
+    ("bifurcation", "--point-limit"): {
+        "tiny": "every value passes its limit of 1e-300 s: each is kept with status "
+        "'time limit', the sweep itself completes"
+    },
+    ("bifurcation", "--setup-limit"): {
+        "tiny": "every set-up passes its limit of 1e-300 s: each value is kept with "
+        "status 'time limit', the sweep itself completes"
+    },
     ("continuation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
-    ("continuation", "--sweep"): {**dict.fromkeys(("zero", "tiny"), "v0 from 0 or 1e-300 to 0.17: valid values of v0"),
-                                  "huge": "v0 from 1e300 to 0.17: " + _SIZE + "; values without an orbit are a result"},
+    ("continuation", "--sweep"): {
+        **dict.fromkeys(("zero", "tiny"), "v0 from 0 or 1e-300 to 0.17: valid values of v0"),
+        "huge": "v0 from 1e300 to 0.17: " + _SIZE + "; values without an orbit are a result",
+    },
     ("continuation", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
     ("lyapunov", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
     ("lyapunov", "--transient"): dict.fromkeys(("zero", "tiny"), _SPAN),
@@ -699,7 +933,7 @@ def _with_value(command: str, action, value: str) -> list[str]:
         value = ASSIGNMENTS[flag].format(v=value)
     if flag in base and action.nargs != 0:
         i = base.index(flag)
-        del base[i:i + 2]
+        del base[i : i + 2]
     return base + [f"{flag}={value}"]
 
 
@@ -716,8 +950,11 @@ def sweep_cases(command: str) -> list[tuple[str, str, list[str]]]:
 
 def _messages(err: str) -> list[str]:
     """The lines of stderr, but numba's first-compilation notices (nsbench.compiling: a cold cache)."""
-    return [line for line in err.splitlines()
-            if line.strip() and not line.startswith(("nsbench: compiling", "nsbench: compiled"))]
+    return [
+        line
+        for line in err.splitlines()
+        if line.strip() and not line.startswith(("nsbench: compiling", "nsbench: compiled"))
+    ]
 
 
 def _run_in_process(argv: list[str], capsys) -> tuple[int | None, str, str]:
@@ -749,8 +986,10 @@ def test_generated_sweep_every_option_every_value(command, outcome, d, capsys, m
     monkeypatch.chdir(tmp_path)  # new files and folders named by a value land here
     wrong = []
     for i, (name, kind, template) in enumerate(sweep_cases(command)):
-        known = (SUCCESSES.get((command, name), {}).get(kind) is not None
-                 or FAILURES.get((command, name), {}).get(kind) is not None)
+        known = (
+            SUCCESSES.get((command, name), {}).get(kind) is not None
+            or FAILURES.get((command, name), {}).get(kind) is not None
+        )
         if known != (outcome == "documented"):
             continue
         fresh = tmp_path / f"case{i}"
@@ -764,15 +1003,21 @@ def test_generated_sweep_every_option_every_value(command, outcome, d, capsys, m
         failure = FAILURES.get((command, name), {}).get(kind)
         if documented is not None:
             if code != 0 or "Traceback" in err:
-                wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented success ({documented}) "
-                             f"ended with {code}: {err.strip()[-300:]}")
+                wrong.append(
+                    f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented success ({documented}) "
+                    f"ended with {code}: {err.strip()[-300:]}"
+                )
         elif failure is not None:
             if not (code == 1 and len(lines) == 1 and lines[0].startswith("nsbench: ") and "Traceback" not in err):
-                wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented failure ({failure}) "
-                             f"ended with {code}: {err.strip()[-300:]}")
+                wrong.append(
+                    f"{name}={SWEEP_VALUES[kind]!r} ({kind}): documented failure ({failure}) "
+                    f"ended with {code}: {err.strip()[-300:]}"
+                )
         elif not refused:
-            wrong.append(f"{name}={SWEEP_VALUES[kind]!r} ({kind}): exit {code}, stderr {err.strip()[-300:]!r}, "
-                         f"stdout {out.strip()[-200:]!r}")
+            wrong.append(
+                f"{name}={SWEEP_VALUES[kind]!r} ({kind}): exit {code}, stderr {err.strip()[-300:]!r}, "
+                f"stdout {out.strip()[-200:]!r}"
+            )
     assert not wrong, f"{len(wrong)} case(s) of {command}:\n" + "\n".join(wrong)
 
 

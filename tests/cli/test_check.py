@@ -71,10 +71,12 @@ def test_an_option_is_used_by_the_accuracy_checks(capsys):
 
 
 def test_non_finite_and_repeated_options_are_refused(capsys):
-    for argv, fragment in ((["--option", "h=inf"], "--option h=inf: an option value must be a finite number"),
-                           (["--option", "h=nan"], "must be a finite number"),
-                           (["--option", "h=1" + "0" * 400], "must be a finite number"),
-                           (["--option", "h=0.1", "--option", "h=0.2"], "--option h is given twice")):
+    for argv, fragment in (
+        (["--option", "h=inf"], "--option h=inf: an option value must be a finite number"),
+        (["--option", "h=nan"], "must be a finite number"),
+        (["--option", "h=1" + "0" * 400], "must be a finite number"),
+        (["--option", "h=0.1", "--option", "h=0.2"], "--option h is given twice"),
+    ):
         assert main(["check", "henon-rk4", *argv]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and fragment in err, err
@@ -83,8 +85,23 @@ def test_non_finite_and_repeated_options_are_refused(capsys):
 def test_a_named_preset_is_taken_by_param(capsys):
     """``--param case=leine`` (a preset with a name, not a number) reaches the problem; the kit checks
     Leine's belt oscillator as given, and the belt-only checks say why they skip."""
-    assert main(["check", "henon-rk4", "--problem", "one-dof", "--param", "case=leine",
-                 "--check", "event-times", "--check", "stuck-stays-stuck"]) == 0
+    assert (
+        main(
+            [
+                "check",
+                "henon-rk4",
+                "--problem",
+                "one-dof",
+                "--param",
+                "case=leine",
+                "--check",
+                "event-times",
+                "--check",
+                "stuck-stays-stuck",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "on {'name': 'one-dof', 'case': 'leine'}" in out
     assert any(row.split()[:2] == ["event-times", "PASSED"] for row in out.splitlines())

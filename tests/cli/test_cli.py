@@ -13,8 +13,9 @@ from nsbench.cli import main
 
 def test_simulate_writes_the_event_log(tmp_path, capsys):
     out = tmp_path / "ev.csv"
-    code = main(["simulate", "two-dof", "--case", "2", "--integrator", "exact", "--t-end", "300",
-                 "--events-out", str(out)])
+    code = main(
+        ["simulate", "two-dof", "--case", "2", "--integrator", "exact", "--t-end", "300", "--events-out", str(out)]
+    )
     assert code == 0
     ev = pd.read_csv(out)
     assert list(ev.columns) == ["t", "kind", "block", "x1", "v1", "x2", "v2", "mode"]
@@ -25,8 +26,24 @@ def test_simulate_writes_the_event_log(tmp_path, capsys):
 
 def test_simulate_trajectory_and_plot(tmp_path):
     traj, png = tmp_path / "tr.csv", tmp_path / "p.png"
-    code = main(["simulate", "one-dof", "--integrator", "henon-rk4", "--h", "0.02", "--t-end", "40",
-                 "--trajectory-out", str(traj), "--plot", str(png), "--samples", "401"])
+    code = main(
+        [
+            "simulate",
+            "one-dof",
+            "--integrator",
+            "henon-rk4",
+            "--h",
+            "0.02",
+            "--t-end",
+            "40",
+            "--trajectory-out",
+            str(traj),
+            "--plot",
+            str(png),
+            "--samples",
+            "401",
+        ]
+    )
     assert code == 0
     tr = pd.read_csv(traj)
     assert len(tr) == 401 and list(tr.columns) == ["t", "x1", "v1", "phase1"]
@@ -37,8 +54,22 @@ def test_simulate_never_reports_success_over_a_stepped_over_crossing(capsys):
     """dop853 at its loosest level steps over block 1's stick near t = 25.68 on case 3 and the slip after
     it (the relative velocity dips across zero and back inside one step). Without a trajectory asked for,
     the run used to say 'success' with 20 of the 22 events; the samples are always checked now."""
-    code = main(["simulate", "two-dof", "--case", "3", "--integrator", "scipy-dop853", "--rtol", "1e-6",
-                 "--atol", "1e-8", "--t-end", "40"])
+    code = main(
+        [
+            "simulate",
+            "two-dof",
+            "--case",
+            "3",
+            "--integrator",
+            "scipy-dop853",
+            "--rtol",
+            "1e-6",
+            "--atol",
+            "1e-8",
+            "--t-end",
+            "40",
+        ]
+    )
     out, err = capsys.readouterr()
     assert code == 1 and "status      event missed: a guard of mode slip-|slip- was on its wrong side" in out
     assert err.startswith("nsbench: simulate: the run ended at t = ") and "event missed" in err
@@ -57,27 +88,45 @@ def test_simulate_never_reports_success_over_a_stepped_over_crossing(capsys):
 
 def test_simulate_dimensional_units(tmp_path):
     out = tmp_path / "ev.csv"
-    code = main(["simulate", "two-dof", "--case", "1", "--dimensional", "--param", "m1=4",
-                 "--param", "k1=1", "--t-end", "100", "--events-out", str(out)])
+    code = main(
+        [
+            "simulate",
+            "two-dof",
+            "--case",
+            "1",
+            "--dimensional",
+            "--param",
+            "m1=4",
+            "--param",
+            "k1=1",
+            "--t-end",
+            "100",
+            "--events-out",
+            str(out),
+        ]
+    )
     assert code == 0
     ev = pd.read_csv(out)
     assert ev["t"].max() > 50  # seconds, not tau = t / 2
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["simulate", "three-dof"], "unknown problem 'three-dof'"),
-    (["simulate", "two-dof", "--integrator", "rk99"], "unknown integrator 'rk99'"),
-    (["simulate", "two-dof", "--param", "zeta=1"], "unknown parameter 'zeta'"),
-    (["simulate", "two-dof", "--param", "c1=-1"], "c1 = -1 is out of range"),
-    (["simulate", "two-dof", "--param", "c1"], "--param expects NAME=VALUE"),
-    (["simulate", "two-dof", "--param", "v0=abc"], "v0 = 'abc' is not a number"),
-    (["simulate", "two-dof", "--dimensional", "--param", "fs1=3"], "fs1 must be <= static friction"),
-    (["simulate", "two-dof", "--case", "9"], "unknown case '9'"),
-    (["simulate", "two-dof", "--case", "3", "--integrator", "exact"], "linear problems only"),
-    (["simulate", "two-dof", "--integrator", "exact", "--h", "0.1"], "unknown option 'h'"),
-    (["simulate", "two-dof", "--t-end", "-5"], "must be greater than t0"),
-    (["simulate", "two-dof", "--param", "m1=nan", "--dimensional"], "m1 = nan is not allowed"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["simulate", "three-dof"], "unknown problem 'three-dof'"),
+        (["simulate", "two-dof", "--integrator", "rk99"], "unknown integrator 'rk99'"),
+        (["simulate", "two-dof", "--param", "zeta=1"], "unknown parameter 'zeta'"),
+        (["simulate", "two-dof", "--param", "c1=-1"], "c1 = -1 is out of range"),
+        (["simulate", "two-dof", "--param", "c1"], "--param expects NAME=VALUE"),
+        (["simulate", "two-dof", "--param", "v0=abc"], "v0 = 'abc' is not a number"),
+        (["simulate", "two-dof", "--dimensional", "--param", "fs1=3"], "fs1 must be <= static friction"),
+        (["simulate", "two-dof", "--case", "9"], "unknown case '9'"),
+        (["simulate", "two-dof", "--case", "3", "--integrator", "exact"], "linear problems only"),
+        (["simulate", "two-dof", "--integrator", "exact", "--h", "0.1"], "unknown option 'h'"),
+        (["simulate", "two-dof", "--t-end", "-5"], "must be greater than t0"),
+        (["simulate", "two-dof", "--param", "m1=nan", "--dimensional"], "m1 = nan is not allowed"),
+    ],
+)
 def test_bad_input_exits_2_with_one_line(argv, fragment, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -86,8 +135,9 @@ def test_bad_input_exits_2_with_one_line(argv, fragment, capsys):
 
 
 def test_console_script_has_no_traceback_on_bad_input():
-    out = subprocess.run([sys.executable, "-m", "nsbench", "simulate", "two-dof", "--case", "0"],
-                         capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "nsbench", "simulate", "two-dof", "--case", "0"], capture_output=True, text=True
+    )
     assert out.returncode == 2
     assert "Traceback" not in out.stderr and "unknown case" in out.stderr
 

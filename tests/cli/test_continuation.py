@@ -14,8 +14,25 @@ from nsbench.periodic import locate_target
 
 def test_continuation_writes_branch_bifurcations_and_figure(tmp_path, capsys):
     out = tmp_path / "cont"
-    code = main(["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.2:0.28", "--steps", "16", "--origin", "0.16",
-                 "--out", str(out), "--formats", "png", "--no-progress"])
+    code = main(
+        [
+            "continuation",
+            "two-dof",
+            "--case",
+            "1",
+            "--sweep",
+            "v0=0.2:0.28",
+            "--steps",
+            "16",
+            "--origin",
+            "0.16",
+            "--out",
+            str(out),
+            "--formats",
+            "png",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     text = capsys.readouterr().out
     assert "grazing-sliding (sliding)" in text
@@ -39,23 +56,26 @@ def test_continuation_writes_branch_bifurcations_and_figure(tmp_path, capsys):
     assert (gaps["value"] > row["value"]).all() and gaps["reason"].str.contains("steady sliding").all()
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--sweep", "v0=0.1"], "NAME=START:STOP"),
-    (["--sweep", "v0=0.1:0.1"], "two different finite numbers"),
-    (["--sweep", "v0=0.1:nan"], "two different finite numbers"),
-    (["--sweep", "v0=abc:0.2"], "START"),
-    (["--sweep", "v0=0.1:0.2", "--param", "v0=0.3"], "both continued"),
-    (["--sweep", "v0=0.1:0.2", "--steps", "0"], "--steps"),
-    (["--sweep", "v0=0.1:0.2", "--steps", "2.5"], "--steps"),
-    (["--sweep", "v0=0.1:0.2", "--transient", "-1"], "--transient"),
-    (["--sweep", "v0=0.1:0.2", "--integrator", "nope"], "nope"),
-    (["--sweep", "v0=0.1:0.2", "--formats", "bmpx"], "--formats"),
-    (["--sweep", "v0=0.1:0.2", "--section", "strobe"], "harmonic force"),
-    (["--sweep", "bogus=0.1:0.2"], "bogus"),
-    (["--sweep", "v0=-0.1:0.2"], "v0"),
-    (["--sweep", "v0=0.1:0.2", "--diagram", "/nonexistent"], "--diagram"),
-    (["--sweep", "v0=0.1:0.2", "--origin", "inf"], "--origin"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--sweep", "v0=0.1"], "NAME=START:STOP"),
+        (["--sweep", "v0=0.1:0.1"], "two different finite numbers"),
+        (["--sweep", "v0=0.1:nan"], "two different finite numbers"),
+        (["--sweep", "v0=abc:0.2"], "START"),
+        (["--sweep", "v0=0.1:0.2", "--param", "v0=0.3"], "both continued"),
+        (["--sweep", "v0=0.1:0.2", "--steps", "0"], "--steps"),
+        (["--sweep", "v0=0.1:0.2", "--steps", "2.5"], "--steps"),
+        (["--sweep", "v0=0.1:0.2", "--transient", "-1"], "--transient"),
+        (["--sweep", "v0=0.1:0.2", "--integrator", "nope"], "nope"),
+        (["--sweep", "v0=0.1:0.2", "--formats", "bmpx"], "--formats"),
+        (["--sweep", "v0=0.1:0.2", "--section", "strobe"], "harmonic force"),
+        (["--sweep", "bogus=0.1:0.2"], "bogus"),
+        (["--sweep", "v0=-0.1:0.2"], "v0"),
+        (["--sweep", "v0=0.1:0.2", "--diagram", "/nonexistent"], "--diagram"),
+        (["--sweep", "v0=0.1:0.2", "--origin", "inf"], "--origin"),
+    ],
+)
 def test_bad_input_is_one_line(argv, message, capsys, tmp_path):
     code = main(["continuation", "two-dof", "--case", "1", "--out", str(tmp_path / "x"), "--no-progress", *argv])
     err = capsys.readouterr().err

@@ -16,21 +16,34 @@ from nsbench.bifurcation.storage import SweepStore
 
 distributed = pytest.importorskip("distributed")
 
-SWEEP = ["bifurcation", "two-dof", "--case", "1", "--sweep", "v0=0.06:0.2:8", "--transient", "50",
-         "--record", "5", "--formats", "png", "--no-progress"]
+SWEEP = [
+    "bifurcation",
+    "two-dof",
+    "--case",
+    "1",
+    "--sweep",
+    "v0=0.06:0.2:8",
+    "--transient",
+    "50",
+    "--record",
+    "5",
+    "--formats",
+    "png",
+    "--no-progress",
+]
 
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as c:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
         yield c
 
 
 def _nsbench(argv: list[str]) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), *sys.path])}
-    return subprocess.run([sys.executable, "-m", "nsbench", *argv], capture_output=True, text=True,
-                          timeout=900, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "nsbench", *argv], capture_output=True, text=True, timeout=900, env=env
+    )
 
 
 def test_the_command_on_a_dask_cluster_gives_the_points_of_a_local_run(tmp_path, cluster):

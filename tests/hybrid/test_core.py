@@ -32,9 +32,16 @@ def _old(name: str, problem: str, case: int) -> pd.DataFrame:
 
 def _params():
     keys = old_logs()[["integrator", "problem", "case"]].drop_duplicates().itertuples(index=False)
-    return [pytest.param(k.integrator, k.problem, int(k.case), id=f"{k.integrator}-{k.problem}-{k.case}",
-                         marks=[pytest.mark.slow] if k.integrator in SLOW else [])
-            for k in keys]
+    return [
+        pytest.param(
+            k.integrator,
+            k.problem,
+            int(k.case),
+            id=f"{k.integrator}-{k.problem}-{k.case}",
+            marks=[pytest.mark.slow] if k.integrator in SLOW else [],
+        )
+        for k in keys
+    ]
 
 
 @pytest.mark.parametrize("name, problem, case", _params())
@@ -57,10 +64,20 @@ def test_the_core_reproduces_the_old_engine(name, problem, case):
 
 def three_blocks() -> FrictionOscillator:
     """A chain of three blocks (block 1 to the ground, each to the previous), forced on the last."""
-    c = Coefficients(m=(1.0, 0.8, 1.2), c=(0.05, 0.04, 0.06), k=(1.0, 1.3, 0.7), h=(0.0, 0.0, 0.0),
-                     fs=(5 / 6, 0.7, 0.9), fr=(1.0, 0.9, 1.1), F=0.3, w=0.9, v0=1 / 12)
-    return FrictionOscillator(c, name="three-blocks", case=None, dimensional=False, params={}, parameters={},
-                              scales=Scales())
+    c = Coefficients(
+        m=(1.0, 0.8, 1.2),
+        c=(0.05, 0.04, 0.06),
+        k=(1.0, 1.3, 0.7),
+        h=(0.0, 0.0, 0.0),
+        fs=(5 / 6, 0.7, 0.9),
+        fr=(1.0, 0.9, 1.1),
+        F=0.3,
+        w=0.9,
+        v0=1 / 12,
+    )
+    return FrictionOscillator(
+        c, name="three-blocks", case=None, dimensional=False, params={}, parameters={}, scales=Scales()
+    )
 
 
 @pytest.mark.parametrize("name", ["exact", "henon-rk4", "ofapi"])

@@ -30,9 +30,16 @@ def logs() -> pd.DataFrame:
 
 def _keys():
     keys = logs()[["problem", "case", "n", "integrator"]].drop_duplicates().itertuples(index=False)
-    return [pytest.param(k.problem, int(k.case), int(k.n), k.integrator,
-                         id=f"{k.problem}{'-' + str(k.n) if k.problem == 'chain' else ''}-{k.case}-{k.integrator}")
-            for k in keys]
+    return [
+        pytest.param(
+            k.problem,
+            int(k.case),
+            int(k.n),
+            k.integrator,
+            id=f"{k.problem}{'-' + str(k.n) if k.problem == 'chain' else ''}-{k.case}-{k.integrator}",
+        )
+        for k in keys
+    ]
 
 
 @pytest.mark.parametrize("problem, case, n, integrator", _keys())

@@ -119,8 +119,9 @@ def _method(result_of):
 
     class Stub(WholeSystem):
         name = "test-whole"
-        capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
-                                    family="time-stepping")
+        capabilities = Capabilities(
+            event_location="inferred-from-status", order=1, adaptive=False, family="time-stepping"
+        )
 
         def integrate(self, request):
             return result_of(request)

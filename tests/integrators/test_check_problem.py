@@ -9,15 +9,18 @@ from nsbench.integrators import get_integrator
 from nsbench.problems import get_problem
 
 
-@pytest.mark.parametrize("name, options, problem, match", [
-    ("exact", {}, dict(name="two-dof", case=3), "linear problems only"),                 # capabilities
-    ("henon-rk4", {"h": 5.0}, dict(name="two-dof", case=1), "stability limit"),          # its own setup's refusal
-    ("heyoka", {}, dict(name="impact-oscillator"), "friction family"),
-    ("cvode-bdf", {}, dict(name="bouncing-ball"), "friction family"),
-    ("ida", {}, dict(name="bouncing-ball"), "friction family"),
-    # the default refusal names the requirement, nothing of exact's method (exact-mp steps by Taylor series)
-    ("exact-mp", {}, dict(name="henon-heiles"), r"piecewise-linear problems only \(<henon-heiles> is not"),
-])
+@pytest.mark.parametrize(
+    "name, options, problem, match",
+    [
+        ("exact", {}, dict(name="two-dof", case=3), "linear problems only"),  # capabilities
+        ("henon-rk4", {"h": 5.0}, dict(name="two-dof", case=1), "stability limit"),  # its own setup's refusal
+        ("heyoka", {}, dict(name="impact-oscillator"), "friction family"),
+        ("cvode-bdf", {}, dict(name="bouncing-ball"), "friction family"),
+        ("ida", {}, dict(name="bouncing-ball"), "friction family"),
+        # the default refusal names the requirement, nothing of exact's method (exact-mp steps by Taylor series)
+        ("exact-mp", {}, dict(name="henon-heiles"), r"piecewise-linear problems only \(<henon-heiles> is not"),
+    ],
+)
 def test_check_problem_refuses_what_setup_refuses(name, options, problem, match):
     p = get_problem(problem.pop("name"), **problem)
     for method in ("check_problem", "setup"):

@@ -27,8 +27,8 @@ def slip_solution(x, v, s):
         return xe + mp.e ** (-zeta_w * u) * (a * mp.cos(wd * u) + b * mp.sin(wd * u))
 
     def vs(u):
-        return mp.e ** (-zeta_w * u) * ((b * wd - zeta_w * a) * mp.cos(wd * u)
-                                         - (a * wd + zeta_w * b) * mp.sin(wd * u))
+        return mp.e ** (-zeta_w * u) * ((b * wd - zeta_w * a) * mp.cos(wd * u) - (a * wd + zeta_w * b) * mp.sin(wd * u))
+
     return xs, vs
 
 
@@ -80,8 +80,16 @@ def test_exact_one_dof_standard_scenario_against_closed_form():
 
 def test_exact_matches_published_anchor_times():
     # METHODS.md section 8: the prototype's closed-form times, cross-checked in quad precision.
-    anchor = [0.10041995006076142, 12.000125671816313, 16.136116339404921, 19.838895255577611,
-              23.974885923166219, 27.677664839338906, 31.813655506927514, 35.5164344231002]
+    anchor = [
+        0.10041995006076142,
+        12.000125671816313,
+        16.136116339404921,
+        19.838895255577611,
+        23.974885923166219,
+        27.677664839338906,
+        31.813655506927514,
+        35.5164344231002,
+    ]
     res = nsbench.simulate(nsbench.get_problem("one-dof"), "exact", 36.0)
     np.testing.assert_allclose(res.events["t"].to_numpy(), anchor, rtol=0, atol=1e-13)
 
@@ -131,8 +139,9 @@ def test_dense_output_and_sections_are_exact(case2):
     np.testing.assert_allclose(st["t"], 2 * np.pi * np.arange(len(st)), atol=1e-12)
     # strobe states equal the trajectory's dense output at the same times
     again = nsbench.simulate(case2, "exact", 50.0, t_eval=st["t"].to_numpy())
-    np.testing.assert_allclose(again.trajectory[["x1", "v1", "x2", "v2"]].to_numpy(),
-                               st[["x1", "v1", "x2", "v2"]].to_numpy(), atol=1e-14)
+    np.testing.assert_allclose(
+        again.trajectory[["x1", "v1", "x2", "v2"]].to_numpy(), st[["x1", "v1", "x2", "v2"]].to_numpy(), atol=1e-14
+    )
 
 
 def test_forced_flow_keeps_its_phase_far_from_the_origin():
@@ -157,8 +166,11 @@ def test_forced_flow_keeps_its_phase_far_from_the_origin():
     z0 = mp.matrix([*map(mp.mpf, y0), 1, mp.cos(w * mp.mpf(t0)), mp.sin(w * mp.mpf(t0))])
     times = t0 + np.linspace(0.0123, 1.5, 12) * (1 + 1e-9 * np.pi)
     states = closed_form_states(p, mode, t0, y0, times)
-    err = max(abs(float(mp.mpf(states[i, k]) - (mp.expm(m * (mp.mpf(tk) - mp.mpf(t0))) * z0)[i]))
-              for k, tk in enumerate(times) for i in range(4))
+    err = max(
+        abs(float(mp.mpf(states[i, k]) - (mp.expm(m * (mp.mpf(tk) - mp.mpf(t0))) * z0)[i]))
+        for k, tk in enumerate(times)
+        for i in range(4)
+    )
     assert err < 2e-14, err
 
 
@@ -179,8 +191,18 @@ def test_grazing_start_of_a_slip_with_equal_friction_levels():
     # acceleration is zero, so its velocity guard starts with a rate at rounding
     # level. Re-evaluated one at a time, the sampled bracket's end values can
     # change sign; root finding must not raise (found by the property tests).
-    params = dict(c1=0.375, c2=0.375, kappa=1.75, mu=0.7106924674664972, rho2=1.75, rf1=0.875,
-                  rf2=1.75, F=0.375, Omega=2.5, v0=0.5)
+    params = dict(
+        c1=0.375,
+        c2=0.375,
+        kappa=1.75,
+        mu=0.7106924674664972,
+        rho2=1.75,
+        rf1=0.875,
+        rf2=1.75,
+        F=0.375,
+        Omega=2.5,
+        v0=0.5,
+    )
     p = nsbench.get_problem("two-dof", case=2, **params)
     res = nsbench.simulate(p, "exact", 60.0)
     assert res.ok, res.message
@@ -195,8 +217,18 @@ def test_fresh_slip_with_nearly_equal_friction_levels_is_not_a_storm():
     # as a crossing there (two spurious events, then a Zeno storm once event
     # times were compensated); the arc starts exactly at y0 now. Found by the
     # property tests; checked against heyoka-q (quad precision).
-    params = dict(c1=0.25, c2=0.25, kappa=1.75, mu=0.7106924674664972, rho2=1.75, rf1=0.875,
-                  rf2=1.7499999999999998, F=0.25, Omega=2.5, v0=0.1875)
+    params = dict(
+        c1=0.25,
+        c2=0.25,
+        kappa=1.75,
+        mu=0.7106924674664972,
+        rho2=1.75,
+        rf1=0.875,
+        rf2=1.7499999999999998,
+        F=0.25,
+        Omega=2.5,
+        v0=0.1875,
+    )
     p = nsbench.get_problem("two-dof", case=2, **params)
     res = nsbench.simulate(p, "exact", 100.0)
     quad = nsbench.simulate(p, "heyoka-q", 100.0)
@@ -209,14 +241,49 @@ def test_fresh_slip_with_nearly_equal_friction_levels_is_not_a_storm():
 #: ones a rounding-level root led to) that exact-mp in 40 digits does not have: the issue's example
 #: (two-dof case 1, rf2 = rho2) and three of 90 random sets of a reliability study.
 EDGE_SETS = [
-    (1, dict(c1=0.08562076922259682, c2=0.024263702282744205, kappa=0.5501155715614893, mu=0.2237793894083104,
-             rho2=1.6416595028275938, rf1=0.7386570343946989, rf2=1.6416595028275938, v0=0.4253240531032783)),
-    (2, dict(c1=0.02876156021959957, c2=0.07827604679261685, kappa=0.6522816407079473, mu=0.335380001265928,
-             rho2=1.9442968676648418, v0=0.2792053784463052, rf1=0.8256418636523961, rf2=1.9442968676648418,
-             F=0.341072544196698, Omega=1.6454754068180073)),
-    (2, dict(c1=0.08882296412968325, c2=0.09058341532080583, kappa=1.8270135084574928, mu=0.3757408390367709,
-             rho2=1.0646091310668222, v0=0.23906820007540117, rf1=1.0, rf2=0.9479566851329317,
-             F=0.28058949065892486, Omega=0.8828066273900872)),
+    (
+        1,
+        dict(
+            c1=0.08562076922259682,
+            c2=0.024263702282744205,
+            kappa=0.5501155715614893,
+            mu=0.2237793894083104,
+            rho2=1.6416595028275938,
+            rf1=0.7386570343946989,
+            rf2=1.6416595028275938,
+            v0=0.4253240531032783,
+        ),
+    ),
+    (
+        2,
+        dict(
+            c1=0.02876156021959957,
+            c2=0.07827604679261685,
+            kappa=0.6522816407079473,
+            mu=0.335380001265928,
+            rho2=1.9442968676648418,
+            v0=0.2792053784463052,
+            rf1=0.8256418636523961,
+            rf2=1.9442968676648418,
+            F=0.341072544196698,
+            Omega=1.6454754068180073,
+        ),
+    ),
+    (
+        2,
+        dict(
+            c1=0.08882296412968325,
+            c2=0.09058341532080583,
+            kappa=1.8270135084574928,
+            mu=0.3757408390367709,
+            rho2=1.0646091310668222,
+            v0=0.23906820007540117,
+            rf1=1.0,
+            rf2=0.9479566851329317,
+            F=0.28058949065892486,
+            Omega=0.8828066273900872,
+        ),
+    ),
 ]
 
 
@@ -226,8 +293,14 @@ def edge_family(seed: int, count: int) -> list[tuple[int, dict]]:
     out = []
     for i in range(count):
         case = 1 + i % 2
-        p = dict(c1=rng.uniform(0.0, 0.1), c2=rng.uniform(0.0, 0.1), kappa=rng.uniform(0.2, 2.0),
-                 mu=rng.uniform(0.2, 2.0), rho2=rng.uniform(0.5, 2.0), v0=rng.uniform(0.02, 0.5))
+        p = dict(
+            c1=rng.uniform(0.0, 0.1),
+            c2=rng.uniform(0.0, 0.1),
+            kappa=rng.uniform(0.2, 2.0),
+            mu=rng.uniform(0.2, 2.0),
+            rho2=rng.uniform(0.5, 2.0),
+            v0=rng.uniform(0.02, 0.5),
+        )
         p["rf1"] = 1.0 if i % 3 != 1 else rng.uniform(0.4, 0.95)
         p["rf2"] = p["rho2"] if i % 3 != 0 else rng.uniform(0.4, 0.95) * p["rho2"]
         if case == 2:

@@ -61,8 +61,9 @@ def max_abs(times_a, times_b) -> mpmath.mpf:
 
 
 # ---------------------------------------------------------------------- 1. the 32-digit closed form
-@pytest.mark.parametrize("case, model", [(1, "coefficients"), (1, "linear-form"), (2, "coefficients"),
-                                         (2, "linear-form")])
+@pytest.mark.parametrize(
+    "case, model", [(1, "coefficients"), (1, "linear-form"), (2, "coefficients"), (2, "linear-form")]
+)
 def test_matches_the_32_digit_closed_form_over_300(case, model):
     # tests/mp_reference.py: 32-digit arithmetic, times stored with 30 significant digits (rounding
     # <= 5e-30 relative), the modes from problem.linear_form, which is exactly model="linear-form"
@@ -115,8 +116,10 @@ def slip_phase(c, k, m, fs, s, x0, v0):
         return xe + CTX.exp(-a * u) * (amp_c * CTX.cos(wd * u) + amp_s * CTX.sin(wd * u))
 
     def v(u):
-        return CTX.exp(-a * u) * ((amp_s * wd - a * amp_c) * CTX.cos(wd * u)
-                                  - (a * amp_s + amp_c * wd) * CTX.sin(wd * u))
+        return CTX.exp(-a * u) * (
+            (amp_s * wd - a * amp_c) * CTX.cos(wd * u) - (a * amp_s + amp_c * wd) * CTX.sin(wd * u)
+        )
+
     return x, v
 
 
@@ -179,8 +182,7 @@ def test_grazing_crossing_is_found_or_correctly_absent(overshoot):
     integ = ExactMP()
     integ.setup(problem)
     mode = (-1,)
-    arc = integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=5.0,
-                                   guards=problem.guards(mode)))
+    arc = integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=5.0, guards=problem.guards(mode)))
     assert arc.status.ok
     u_max = CTX.findroot(lambda u: CTX.diff(vs, u), CTX.mpf("3.3"))
     if CTX.mpf(overshoot) < 0:
@@ -226,8 +228,13 @@ def test_cubic_problems_are_refused_at_setup():
 # ---------------------------------------------------------------------- the rest of the protocol
 def test_sections_and_trajectory_match_exact():
     problem = nsbench.get_problem("two-dof", case=2)
-    sections = [peaks(problem, 1), peaks(problem, 2), level_crossing(problem, "x2", 1.0),
-                level_crossing(problem, "v1", 0.0, 1), stroboscopic(problem)]
+    sections = [
+        peaks(problem, 1),
+        peaks(problem, 2),
+        level_crossing(problem, "x2", 1.0),
+        level_crossing(problem, "v1", 0.0, 1),
+        stroboscopic(problem),
+    ]
     grid = np.linspace(0.0, 60.0, 601)
     ref = nsbench.simulate(problem, "exact", 60.0, sections=sections, t_eval=grid)
     res = nsbench.simulate(problem, "exact-mp", 60.0, sections=sections, t_eval=grid)

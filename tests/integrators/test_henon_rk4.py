@@ -72,8 +72,14 @@ def test_a_step_that_is_not_finite_is_refused(h):
         nsbench.get_integrator("henon-rk4", h=h)
 
 
-@pytest.mark.parametrize("h, why", [(1e300, "beyond RK4's stability limit"), (2.0, "beyond RK4's stability limit"),
-                                    (1e-18, "too small to move the state")])
+@pytest.mark.parametrize(
+    "h, why",
+    [
+        (1e300, "beyond RK4's stability limit"),
+        (2.0, "beyond RK4's stability limit"),
+        (1e-18, "too small to move the state"),
+    ],
+)
 def test_a_step_rk4_cannot_take_on_the_problem_is_refused(case1, h, why):
     # case 1's fastest rate is the golden ratio 1.618 (kappa = mu = 1): RK4 is stable up to
     # h = 2 sqrt(2) / 1.618 = 1.748; a step of 1e-18 changes nothing (1.6e-18 < eps = 2.2e-16).

@@ -78,8 +78,9 @@ def test_inactive_guards_never_fire(case1):
     y0.flags.writeable = False
     arc = integ.advance(ArcRequest(problem=case1, mode=(-1, -1), t0=0.0, y0=y0, t_end=5.0, guards=()))
     assert arc.fired is None and arc.t == 5.0 and arc.status.ok
-    guarded = integ.advance(ArcRequest(problem=case1, mode=(-1, -1), t0=0.0, y0=y0, t_end=5.0,
-                                       guards=case1.guards((-1, -1))))
+    guarded = integ.advance(
+        ArcRequest(problem=case1, mode=(-1, -1), t0=0.0, y0=y0, t_end=5.0, guards=case1.guards((-1, -1)))
+    )
     assert guarded.fired is not None and guarded.t < 1.0
 
 
@@ -120,8 +121,18 @@ def test_counters_and_options(case1):
 def test_grazing_start_is_not_an_event(name):
     # rf2 = rho2: a fresh slip of block 2 starts with zero acceleration, so its
     # velocity guard dips by rounding right at t0; the arc must end at t > t0 only.
-    params = dict(c1=0.375, c2=0.375, kappa=1.75, mu=0.7106924674664972, rho2=1.75, rf1=0.875,
-                  rf2=1.75, F=0.375, Omega=2.5, v0=0.5)
+    params = dict(
+        c1=0.375,
+        c2=0.375,
+        kappa=1.75,
+        mu=0.7106924674664972,
+        rho2=1.75,
+        rf1=0.875,
+        rf2=1.75,
+        F=0.375,
+        Omega=2.5,
+        v0=0.5,
+    )
     p = nsbench.get_problem("two-dof", case=2, **params)
     res = nsbench.simulate(p, name, 60.0)
     ref = nsbench.simulate(p, "exact", 60.0)
@@ -137,9 +148,18 @@ def test_crossing_inside_the_first_step_of_a_phase(name):
     # long steps, block 2's return to the belt speed at t ~ 10.2986 fell inside the
     # first step of its slip and was missed. Random parameters from a stress run
     # against exact (which agrees with scipy-dop853, cvode-adams and henon-rk4).
-    params = dict(c1=0.3661233074461234, c2=0.2681226586953908, kappa=3.5257387152090716,
-                  mu=0.985959941375206, rho2=1.6801921414092478, rf1=0.3167221697851682,
-                  rf2=1.638393897524099, F=0.5165770924477069, Omega=2.8566479995322, v0=0.1877044922586059)
+    params = dict(
+        c1=0.3661233074461234,
+        c2=0.2681226586953908,
+        kappa=3.5257387152090716,
+        mu=0.985959941375206,
+        rho2=1.6801921414092478,
+        rf1=0.3167221697851682,
+        rf2=1.638393897524099,
+        F=0.5165770924477069,
+        Omega=2.8566479995322,
+        v0=0.1877044922586059,
+    )
     p = nsbench.get_problem("two-dof", case=2, **params)
     res, ref = nsbench.simulate(p, name, 60.0), nsbench.simulate(p, "exact", 60.0)
     assert same_sequence(res.events, ref.events)

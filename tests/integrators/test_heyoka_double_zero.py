@@ -20,8 +20,10 @@ from tests.conftest import max_time_error, precision_bound, same_sequence
 
 T_END = 300.0
 #: fs = fr: every stick-to-slip switch starts its slip at a double zero of the velocity guard
-CASES = {"two-dof case 2, r_f = 1": ("two-dof", {"case": 2, "r_f": 1.0}),
-         "one-dof case 2, r_f = 1": ("one-dof", {"case": 2, "r_f": 1.0})}
+CASES = {
+    "two-dof case 2, r_f = 1": ("two-dof", {"case": 2, "r_f": 1.0}),
+    "one-dof case 2, r_f = 1": ("one-dof", {"case": 2, "r_f": 1.0}),
+}
 HEYOKAS = {"heyoka": np.finfo(float).eps, "heyoka-ld": np.finfo(np.longdouble).eps, "heyoka-q": 1.93e-34}
 
 

@@ -22,11 +22,18 @@ from nsbench.problems.modes import STICK  # noqa: E402
 RNG = np.random.default_rng(11)
 
 
-@pytest.mark.parametrize("name, params", [("two-dof", {"case": 4}), ("two-dof", {"case": 1}),
-                                          ("one-dof", {"case": 2}), ("chain", {"case": 4, "n": 3}),
-                                          ("one-dof", {"case": "leine"}),
-                                          ("two-dof", {"case": 2, "law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}),
-                                          ("chain", {"case": 4, "n": 3, "law": "weakening", "delta": 1.5})])
+@pytest.mark.parametrize(
+    "name, params",
+    [
+        ("two-dof", {"case": 4}),
+        ("two-dof", {"case": 1}),
+        ("one-dof", {"case": 2}),
+        ("chain", {"case": 4, "n": 3}),
+        ("one-dof", {"case": "leine"}),
+        ("two-dof", {"case": 2, "law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}),
+        ("chain", {"case": 4, "n": 3, "law": "weakening", "delta": 1.5}),
+    ],
+)
 def test_heyoka_field_and_guards_are_the_law(name, params):
     problem = nsbench.get_problem(name, **params)
     st = Structure.of(problem, 0)

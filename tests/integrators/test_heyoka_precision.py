@@ -43,7 +43,16 @@ def _solver(coeffs):
     if key in _SOLVERS:
         return _SOLVERS[key]
     (m1, m2), (c1, c2), (k1, k2), (h1, h2), (fs1, fs2), (fr1, fr2), F, w, v0 = (
-        coeffs.m, coeffs.c, coeffs.k, coeffs.h, coeffs.fs, coeffs.fr, coeffs.F, coeffs.w, coeffs.v0)
+        coeffs.m,
+        coeffs.c,
+        coeffs.k,
+        coeffs.h,
+        coeffs.fs,
+        coeffs.fr,
+        coeffs.F,
+        coeffs.w,
+        coeffs.v0,
+    )
     x1, v1, x2, v2, cw, sw = hy.make_vars("x1", "v1", "x2", "v2", "cw", "sw")
     par = hy.par
     sig1, sig2, s1, s2, av1, av2, ar1, ar2 = (par[i] for i in range(8))
@@ -55,25 +64,39 @@ def _solver(coeffs):
     R1 = q(c1) * v1 + q(k1) * x1 + q(h1) * (x1 * x1 * x1) + q(k2) * d + q(h2) * (d * d * d)
     R2 = q(c2) * v2 - q(k2) * d - q(h2) * (d * d * d) - q(F) * cw
     one = q(1.0)
-    sys = [(x1, sig1 * q(v0) + (one - sig1) * v1),
-           (v1, (one - sig1) * (-R1 - q(fs1) * s1) / q(m1)),
-           (x2, sig2 * q(v0) + (one - sig2) * v2),
-           (v2, (one - sig2) * (-R2 - q(fs2) * s2) / q(m2)),
-           (cw, -q(w) * sw), (sw, q(w) * cw)]
-    guards = [av1 * (v1 - q(v0)) + (one - av1), ar1 * (R1 - q(fr1)) + (one - ar1),
-              ar1 * (R1 + q(fr1)) + (one - ar1),
-              av2 * (v2 - q(v0)) + (one - av2), ar2 * (R2 - q(fr2)) + (one - ar2),
-              ar2 * (R2 + q(fr2)) + (one - ar2)]
-    ta = hy.taylor_adaptive(sys, np.array([R128(0.0)] * 6), pars=np.array([R128(0.0)] * 8), fp_type=R128,
-                            t_events=[hy.t_event(g, fp_type=R128) for g in guards],
-                            tol=R128(1e-32), compact_mode=True)
+    sys = [
+        (x1, sig1 * q(v0) + (one - sig1) * v1),
+        (v1, (one - sig1) * (-R1 - q(fs1) * s1) / q(m1)),
+        (x2, sig2 * q(v0) + (one - sig2) * v2),
+        (v2, (one - sig2) * (-R2 - q(fs2) * s2) / q(m2)),
+        (cw, -q(w) * sw),
+        (sw, q(w) * cw),
+    ]
+    guards = [
+        av1 * (v1 - q(v0)) + (one - av1),
+        ar1 * (R1 - q(fr1)) + (one - ar1),
+        ar1 * (R1 + q(fr1)) + (one - ar1),
+        av2 * (v2 - q(v0)) + (one - av2),
+        ar2 * (R2 - q(fr2)) + (one - ar2),
+        ar2 * (R2 + q(fr2)) + (one - ar2),
+    ]
+    ta = hy.taylor_adaptive(
+        sys,
+        np.array([R128(0.0)] * 6),
+        pars=np.array([R128(0.0)] * 8),
+        fp_type=R128,
+        t_events=[hy.t_event(g, fp_type=R128) for g in guards],
+        tol=R128(1e-32),
+        compact_mode=True,
+    )
 
     def restoring(y, i):
         x1_, v1_, x2_, v2_, cw_ = y[0], y[1], y[2], y[3], y[4]
         d_ = x1_ - x2_
         if i == 0:
-            return (R128(c1) * v1_ + R128(k1) * x1_ + R128(h1) * x1_ * x1_ * x1_ + R128(k2) * d_
-                    + R128(h2) * d_ * d_ * d_)
+            return (
+                R128(c1) * v1_ + R128(k1) * x1_ + R128(h1) * x1_ * x1_ * x1_ + R128(k2) * d_ + R128(h2) * d_ * d_ * d_
+            )
         return R128(c2) * v2_ - R128(k2) * d_ - R128(h2) * d_ * d_ * d_ - R128(F) * cw_
 
     _SOLVERS[key] = (ta, restoring, (R128(fr1), R128(fr2)), R128(v0))
@@ -85,7 +108,7 @@ def _event_index(outcome):
     v = int(outcome)
     if v >= 0:
         return v
-    return -v - 1 if v > -2**32 else None
+    return -v - 1 if v > -(2**32) else None
 
 
 def independent_events(problem, t_end: float, round_events: bool = False):
@@ -100,14 +123,24 @@ def independent_events(problem, t_end: float, round_events: bool = False):
     t_stop = R128(t_end)
 
     def set_pars(fresh=()):
-        pars = [sig[0], sig[1], s[0], s[1],
-                0 if (sig[0] or 0 in fresh) else 1, 0 if (sig[1] or 1 in fresh) else 1, sig[0], sig[1]]
+        pars = [
+            sig[0],
+            sig[1],
+            s[0],
+            s[1],
+            0 if (sig[0] or 0 in fresh) else 1,
+            0 if (sig[1] or 1 in fresh) else 1,
+            sig[0],
+            sig[1],
+        ]
         ta.pars[:] = np.array([R128(float(p)) for p in pars])
 
     def first_crossing(i, t_a, t_b):
         """First zero of ``s_i (v_i - v0)`` in ``(t_a, t_b]`` (it starts at 0 and turns positive)."""
+
         def g(t):
             return R128(s[i]) * (ta.update_d_output(t)[2 * i + 1] - v0)
+
         lo, positive = t_a, False
         for k in range(1, 65):
             t = t_a + (t_b - t_a) * R128(k) / R128(64)
@@ -211,8 +244,9 @@ def test_heyoka_q_matches_real128_across_events(sensitive, monkeypatch):
     problem, ref = sensitive
     kept = heyoka_.HeyokaIntegrator._continued
     arcs = []
-    monkeypatch.setattr(heyoka_.HeyokaIntegrator, "_continued",
-                        lambda self, request: arcs.append(kept(self, request)) or arcs[-1])
+    monkeypatch.setattr(
+        heyoka_.HeyokaIntegrator, "_continued", lambda self, request: arcs.append(kept(self, request)) or arcs[-1]
+    )
     res = nsbench.simulate(problem, "heyoka-q", SPAN, options={"tol": 1e-30})
     assert res.ok, res.message
     assert _compare(_nsbench_log(res), ref) <= 4e-16
@@ -235,8 +269,9 @@ def test_heyoka_ld_keeps_long_double_across_events(sensitive, monkeypatch):
 
     problem, ref = sensitive
     kept, states = heyoka_.HeyokaIntegrator._continued, []
-    monkeypatch.setattr(heyoka_.HeyokaIntegrator, "_continued",
-                        lambda self, request: states.append(kept(self, request)) or states[-1])
+    monkeypatch.setattr(
+        heyoka_.HeyokaIntegrator, "_continued", lambda self, request: states.append(kept(self, request)) or states[-1]
+    )
     res = nsbench.simulate(problem, "heyoka-ld", SPAN)
     assert res.ok, res.message
     assert len(states) == len(ref) + 1 and states[0] is None and all(c is not None for c in states[1:])
@@ -256,8 +291,13 @@ def test_heyoka_ld_keeps_long_double_across_events(sensitive, monkeypatch):
     # the last bit of a double at tau ~ 127 (no jump at any event): ulps of long double amplified.
     # For scale: rounding the state to double at every event gives 7.7e-12 here, and a double
     # solution's floor is 2048 times this bound.
-    kappa, note = conditioning(problem, nsbench.get_integrator("reference").config(), 0.0, SPAN,
-                               nsbench.simulate(problem, "reference", SPAN).events)
+    kappa, note = conditioning(
+        problem,
+        nsbench.get_integrator("reference").config(),
+        0.0,
+        SPAN,
+        nsbench.simulate(problem, "reference", SPAN).events,
+    )
     assert np.isfinite(kappa), note
     eps_ld = float(np.finfo(np.longdouble).eps)
     assert _compare(_nsbench_log(res), ref) <= kappa * eps_ld
@@ -292,12 +332,12 @@ def test_a_request_that_does_not_continue_starts_from_its_doubles(sensitive):
     assert first.fired is not None and integ._carry is not None
     y1 = first.y.copy()
     y1[0] += 1e-3
-    assert integ._continued(ArcRequest(problem, mode, first.t, y1, SPAN, problem.guards(mode),
-                                       t0_lo=first.t_lo)) is None
+    assert (
+        integ._continued(ArcRequest(problem, mode, first.t, y1, SPAN, problem.guards(mode), t0_lo=first.t_lo)) is None
+    )
     y2 = first.y.copy()
     y2[1] = problem.coefficients.v0  # a velocity reset by a transition: continues, in real128
-    carried = integ._continued(ArcRequest(problem, mode, first.t, y2, SPAN, problem.guards(mode),
-                                          t0_lo=first.t_lo))
+    carried = integ._continued(ArcRequest(problem, mode, first.t, y2, SPAN, problem.guards(mode), t0_lo=first.t_lo))
     assert carried is not None and carried[1][1] == R128(problem.coefficients.v0)
 
 

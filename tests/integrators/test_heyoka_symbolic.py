@@ -50,8 +50,10 @@ def test_illinois_converges_when_one_end_reaches_the_root_first():
     # puts the left end on the root to rounding while the right end is still 1.4e-6 away, and the old
     # loop stopped there and returned the right end
     t0, v0 = 2.2142719353940254, 1.8143014628436428
+
     def f(t):
         return v0 * (t - t0) - 4.905 * (t - t0) ** 2
+
     a, b = 2.457575937412962, 2.700879939431899
     root = illinois(f, a, f(a), b, f(b))
     exact = t0 + v0 / 4.905

@@ -74,11 +74,16 @@ def test_the_extremes_of_the_cycle(leine):
     np.testing.assert_allclose(x[1::2], X_MIN, rtol=0, atol=4 * np.spacing(1.0))
 
 
-@pytest.mark.parametrize("name, options", [
-    ("heyoka", {"tol": 1e-14}), ("heyoka", {"tol": 1e-10}),
-    ("scipy-dop853", {"rtol": 1e-12, "atol": 1e-14}), ("scipy-dop853", {"rtol": 1e-9, "atol": 1e-11}),
-    ("cvode-bdf", {"rtol": 1e-9, "atol": 1e-11}),
-])
+@pytest.mark.parametrize(
+    "name, options",
+    [
+        ("heyoka", {"tol": 1e-14}),
+        ("heyoka", {"tol": 1e-10}),
+        ("scipy-dop853", {"rtol": 1e-12, "atol": 1e-14}),
+        ("scipy-dop853", {"rtol": 1e-9, "atol": 1e-11}),
+        ("cvode-bdf", {"rtol": 1e-9, "atol": 1e-11}),
+    ],
+)
 def test_integrators_give_the_reference_sequence_within_their_tolerance(leine, reference, kappa, name, options):
     """Each step's relative error is at most the tolerance; amplified by the conditioning and summed over the
     steps (tests/conftest.precision_bound). Seen (kappa = 4.8): heyoka 5.7e-14 and 5.6e-11 against bounds

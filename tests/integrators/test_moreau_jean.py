@@ -89,8 +89,9 @@ def test_phase_averaged_switching_time_error_is_first_order_over_three_halvings(
 def test_smooth_arc_is_second_order_at_theta_half_and_first_order_otherwise():
     assert get_integrator("moreau-jean").smooth_order() == 2
     assert get_integrator("moreau-jean", theta=1.0).smooth_order() == 1
-    results = check_integrator("moreau-jean", checks=["declared-order"], options={"theta": 1.0, "h": 1e-3},
-                               problem="one-dof")
+    results = check_integrator(
+        "moreau-jean", checks=["declared-order"], options={"theta": 1.0, "h": 1e-3}, problem="one-dof"
+    )
     assert results[0].status == "passed", results[0].message
 
 
@@ -127,18 +128,32 @@ def test_a_stuck_block_moves_exactly_with_the_belt():
 
 
 def test_conformance():
-    results = check_integrator("moreau-jean", checks=["protocol", "determinism", "inputs-not-mutated",
-                                                      "switch-convergence", "declared-order", "convergence",
-                                                      "refuses-unsupported", "stuck-stays-stuck",
-                                                      "failure-status", "config-round-trip"])
+    results = check_integrator(
+        "moreau-jean",
+        checks=[
+            "protocol",
+            "determinism",
+            "inputs-not-mutated",
+            "switch-convergence",
+            "declared-order",
+            "convergence",
+            "refuses-unsupported",
+            "stuck-stays-stuck",
+            "failure-status",
+            "config-round-trip",
+        ],
+    )
     failed = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not failed, failed
 
 
-@pytest.mark.parametrize("problem, options, match", [
-    (lambda: get_problem("chain", n=MAX_BLOCKS + 1, h=0.0), {"one_step": "enumeration"}, "enumerates 3\\^n"),
-    (lambda: get_problem("two-dof", case=3), {}, "cubic"),
-])
+@pytest.mark.parametrize(
+    "problem, options, match",
+    [
+        (lambda: get_problem("chain", n=MAX_BLOCKS + 1, h=0.0), {"one_step": "enumeration"}, "enumerates 3\\^n"),
+        (lambda: get_problem("two-dof", case=3), {}, "cubic"),
+    ],
+)
 def test_refuses_what_it_cannot_run(problem, options, match):
     with pytest.raises(UnsupportedProblemError, match=match):
         get_integrator("moreau-jean", **options).setup(problem())
@@ -169,12 +184,17 @@ def test_active_set_gives_the_enumerations_answer(n):
     y0, grid = _pattern_start(n), np.linspace(0.0, 12.0, 121)
     names = list(problem.state_names)
     for theta in (0.5, 1.0):
-        runs = [simulate(problem, "moreau-jean", 12.0, y0=y0, t_eval=grid,
-                         options={"h": 2e-3, "theta": theta, "one_step": m}) for m in ("enumeration", "active-set")]
+        runs = [
+            simulate(
+                problem, "moreau-jean", 12.0, y0=y0, t_eval=grid, options={"h": 2e-3, "theta": theta, "one_step": m}
+            )
+            for m in ("enumeration", "active-set")
+        ]
         assert all(r.ok for r in runs), [r.message for r in runs]
         assert len(runs[0].events) > n  # switches happen: the solvers are exercised
-        assert list(zip(runs[0].events["kind"], runs[0].events["block"])) == \
-            list(zip(runs[1].events["kind"], runs[1].events["block"]))
+        assert list(zip(runs[0].events["kind"], runs[0].events["block"])) == list(
+            zip(runs[1].events["kind"], runs[1].events["block"])
+        )
         gap = np.max(np.abs(runs[0].trajectory[names].to_numpy() - runs[1].trajectory[names].to_numpy()))
         assert gap < 1e-10, (theta, gap)
         assert "active_set_searches" in runs[1].counters.extra and "enumerations" in runs[0].counters.extra
@@ -221,8 +241,7 @@ def test_bad_options_are_refused(options):
 
 def test_whole_steps_fill_the_span_and_the_operators_are_the_chains():
     assert uniform_steps(0.0, 1.0, 0.3) == (4, 0.25)
-    assert np.array_equal(stiffness_matrix([1.0, 2.0, 3.0]),
-                          [[3.0, -2.0, 0.0], [-2.0, 5.0, -3.0], [0.0, -3.0, 3.0]])
+    assert np.array_equal(stiffness_matrix([1.0, 2.0, 3.0]), [[3.0, -2.0, 0.0], [-2.0, 5.0, -3.0], [0.0, -3.0, 3.0]])
 
 
 def test_a_budget_stops_the_run_with_a_status():

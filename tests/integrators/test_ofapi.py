@@ -39,8 +39,7 @@ def pure_mode_run(name: str, mode, t_eval, **options):
     p = nsbench.get_problem("two-dof", case=2)
     integ = get_integrator(name, **options)
     integ.setup(p)
-    req = ArcRequest(problem=p, mode=mode, t0=0.0, y0=SLIP_STATE, t_end=float(t_eval[-1]), guards=(),
-                     t_eval=t_eval)
+    req = ArcRequest(problem=p, mode=mode, t0=0.0, y0=SLIP_STATE, t_end=float(t_eval[-1]), guards=(), t_eval=t_eval)
     arc = integ.advance(req)
     exact = closed_form_states(p, mode, 0.0, SLIP_STATE, t_eval)
     return arc, float(np.abs(arc.y_eval - exact).max())
@@ -50,8 +49,9 @@ def pure_mode_run(name: str, mode, t_eval, **options):
 def test_error_falls_exponentially_with_degree(name):
     # fixed h = 2 (half the fastest period, 3.9), no adaptivity: only N changes
     grid = np.linspace(0.5, 20.0, 40)
-    errors = [pure_mode_run(name, (1, -1), grid, N=N, h=2.0, adaptive=False, tol=1e-15)[1]
-              for N in (4, 6, 8, 10, 12, 14)]
+    errors = [
+        pure_mode_run(name, (1, -1), grid, N=N, h=2.0, adaptive=False, tol=1e-15)[1] for N in (4, 6, 8, 10, 12, 14)
+    ]
     gains = np.array(errors[:-1]) / np.array(errors[1:])
     assert np.all(gains > 30), errors  # at least 1.5 digits per two degrees
     assert errors[-1] < 1e-12 and errors[0] > 1e-3
@@ -62,10 +62,8 @@ def test_feedback_iteration_equals_several_picard_iterations_on_a_linear_problem
     p = nsbench.get_problem("two-dof", case=2)  # linear, forced: J constant per mode
     for mode, h in (((1, -1), 0.7), ((0, 1), 1.3)):
         for jac in ("node", "segment_start"):
-            fed, _, _ = iterate_segment(p, mode, 3.0, SLIP_STATE, h, order=order, jacobian=jac, tol=0.0,
-                                        max_iter=1)
-            picard, _, _ = iterate_segment(p, mode, 3.0, SLIP_STATE, h, order=0, tol=0.0,
-                                           max_iter=mcpi_iterations)
+            fed, _, _ = iterate_segment(p, mode, 3.0, SLIP_STATE, h, order=order, jacobian=jac, tol=0.0, max_iter=1)
+            picard, _, _ = iterate_segment(p, mode, 3.0, SLIP_STATE, h, order=0, tol=0.0, max_iter=mcpi_iterations)
             assert np.abs(fed - picard).max() <= 1e-14
 
 
@@ -114,8 +112,7 @@ def test_tangential_touch_between_nodes_is_found():
             return x0 + damping * v0 + v0 * s - F * np.cos(s) - fr
 
         assert np.all(excess(nodes) < 0)  # no node sees the crossing
-        req = ArcRequest(problem=p, mode=(0,), t0=0.0, y0=np.array([x0, v0]), t_end=6.0,
-                         guards=p.guards((0,)))
+        req = ArcRequest(problem=p, mode=(0,), t0=0.0, y0=np.array([x0, v0]), t_end=6.0, guards=p.guards((0,)))
         integ = get_integrator("ofapi", h=4.0, adaptive=False)
         integ.setup(p)
         arc = integ.advance(req)
@@ -180,19 +177,22 @@ def test_step_budget(case1):
     assert res.counters.nsteps == 25 and res.t_final < 300.0
 
 
-@pytest.mark.parametrize("name, options, message", [
-    ("ofapi", {"order": 3}, "order"),
-    ("ofapi", {"jacobian": "inner"}, "jacobian"),
-    ("ofapi", {"N": 1}, "N"),
-    ("ofapi", {"N": 12.5}, "integer"),
-    ("ofapi", {"h": 0.0}, "h"),
-    ("ofapi", {"tol": -1e-12}, "tol"),
-    ("ofapi", {"adaptive": "yes"}, "adaptive"),
-    ("ofapi", {"h": 1.0, "h_max": 0.5}, "h_max"),
-    ("mcpi", {"order": 1}, "order"),
-    ("mcpi", {"jacobian": "node"}, "unknown option"),
-    ("mcpi", {"max_iter": 0}, "max_iter"),
-])
+@pytest.mark.parametrize(
+    "name, options, message",
+    [
+        ("ofapi", {"order": 3}, "order"),
+        ("ofapi", {"jacobian": "inner"}, "jacobian"),
+        ("ofapi", {"N": 1}, "N"),
+        ("ofapi", {"N": 12.5}, "integer"),
+        ("ofapi", {"h": 0.0}, "h"),
+        ("ofapi", {"tol": -1e-12}, "tol"),
+        ("ofapi", {"adaptive": "yes"}, "adaptive"),
+        ("ofapi", {"h": 1.0, "h_max": 0.5}, "h_max"),
+        ("mcpi", {"order": 1}, "order"),
+        ("mcpi", {"jacobian": "node"}, "unknown option"),
+        ("mcpi", {"max_iter": 0}, "max_iter"),
+    ],
+)
 def test_bad_options_are_config_errors(name, options, message):
     with pytest.raises(ConfigError, match=message):
         get_integrator(name, **options)
@@ -209,8 +209,9 @@ def test_cli_simulate_with_ofapi(tmp_path):
     assert same_sequence(ev, ref) and max_time_error(ev, ref) <= 1e-12
 
 
-@pytest.mark.parametrize("edge", [{"r_f": 1.0}, {"rf1": 1.0}, {"rf2": 1.0, "rho2": 1.0}],
-                         ids=["r_f=1", "rf1=1", "rf2=rho2"])
+@pytest.mark.parametrize(
+    "edge", [{"r_f": 1.0}, {"rf1": 1.0}, {"rf2": 1.0, "rho2": 1.0}], ids=["r_f=1", "rf1=1", "rf2=rho2"]
+)
 @pytest.mark.parametrize("case", [1, 2])
 def test_kinetic_friction_equal_to_static(edge, case):
     """``fs = fr``: a block breaks away with zero acceleration, so its fresh slip guard

@@ -42,8 +42,9 @@ def test_extended_precision_agrees_with_the_cubic_reference(case):
     # is about 2e-15, far below an ulp of t: the same doubles or neighbours (seen: the same doubles).
     ld, ref = two_dof_run("heyoka-ld", case), two_dof_run("reference", case)
     assert same_sequence(ld.events, ref.events)
-    bound = precision_bound(ref.events["t"], conditioning_of("two-dof", case),
-                            float(np.finfo(np.longdouble).eps), ld.counters.nsteps)
+    bound = precision_bound(
+        ref.events["t"], conditioning_of("two-dof", case), float(np.finfo(np.longdouble).eps), ld.counters.nsteps
+    )
     assert max_time_error(ld.events, ref.events) <= bound
 
 

@@ -41,8 +41,7 @@ def test_uncapped_step_misses_forced_stick_guards():
     p = nsbench.get_problem("two-dof", case=2)
     ref = exact_events("two-dof", 2)
     capped = nsbench.simulate(p, "scipy-dop853", 300.0, options={"rtol": 1e-12, "atol": 1e-12})
-    uncapped = nsbench.simulate(p, "scipy-dop853", 300.0,
-                                options={"rtol": 1e-12, "atol": 1e-12, "max_step": np.inf})
+    uncapped = nsbench.simulate(p, "scipy-dop853", 300.0, options={"rtol": 1e-12, "atol": 1e-12, "max_step": np.inf})
     assert same_sequence(capped.events, ref)
     assert not same_sequence(uncapped.events, ref)
 

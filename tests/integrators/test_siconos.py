@@ -31,11 +31,14 @@ def _steps(name, problem, t_end, **options):
 
 
 @needs_siconos
-@pytest.mark.parametrize("problem, t_end, theta", [
-    (lambda: get_problem("block-on-ground"), 40.0, 0.5),
-    (lambda: get_problem("block-on-ground"), 40.0, 1.0),
-    (lambda: get_problem("two-dof", case=1, r_f=1.0), 30.0, 0.5),
-])
+@pytest.mark.parametrize(
+    "problem, t_end, theta",
+    [
+        (lambda: get_problem("block-on-ground"), 40.0, 0.5),
+        (lambda: get_problem("block-on-ground"), 40.0, 1.0),
+        (lambda: get_problem("two-dof", case=1, r_f=1.0), 30.0, 0.5),
+    ],
+)
 def test_the_same_trajectory_as_moreau_jean(problem, t_end, theta):
     p = problem()
     ours = _steps("moreau-jean", p, t_end, h=1e-2, theta=theta)
@@ -89,12 +92,15 @@ def test_the_ball_impacts_converge_to_the_closed_form():
     assert errors[1] < errors[0] / 4
 
 
-@pytest.mark.parametrize("problem, match", [
-    (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
-    (lambda: get_problem("one-dof"), "one friction level"),
-    (lambda: get_problem("two-dof", case=2, r_f=1.0), "harmonic force"),
-    (lambda: get_problem("two-dof", case=3), "cubic"),
-])
+@pytest.mark.parametrize(
+    "problem, match",
+    [
+        (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
+        (lambda: get_problem("one-dof"), "one friction level"),
+        (lambda: get_problem("two-dof", case=2, r_f=1.0), "harmonic force"),
+        (lambda: get_problem("two-dof", case=3), "cubic"),
+    ],
+)
 def test_refuses_what_siconos_cannot_express(problem, match):
     with pytest.raises(UnsupportedProblemError, match=match):
         get_integrator("siconos-moreau-jean").setup(problem())
@@ -117,9 +123,11 @@ def test_an_absent_siconos_is_a_reason(monkeypatch, capsys):
 def test_conformance_on_the_block_on_ground():
     from nsbench.testing import check_integrator
 
-    results = check_integrator("siconos-moreau-jean", problem="block-on-ground",
-                               checks=["protocol", "determinism", "inputs-not-mutated", "failure-status",
-                                       "config-round-trip"])
+    results = check_integrator(
+        "siconos-moreau-jean",
+        problem="block-on-ground",
+        checks=["protocol", "determinism", "inputs-not-mutated", "failure-status", "config-round-trip"],
+    )
     bad = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not bad, bad
 
@@ -185,11 +193,14 @@ def test_event_driven_rest_and_final_state():
     assert run.mode_final == (1,) and np.all(np.abs(run.y_final) < 1e-9)
 
 
-@pytest.mark.parametrize("problem, match", [
-    (lambda: get_problem("block-on-ground"), "NewtonImpactFrictionNSL"),
-    (lambda: get_problem("two-dof", case=1), "Newton's impact law only"),
-    (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
-])
+@pytest.mark.parametrize(
+    "problem, match",
+    [
+        (lambda: get_problem("block-on-ground"), "NewtonImpactFrictionNSL"),
+        (lambda: get_problem("two-dof", case=1), "Newton's impact law only"),
+        (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
+    ],
+)
 def test_event_driven_refuses_what_lsodarosi_cannot_run(problem, match):
     with pytest.raises(UnsupportedProblemError, match=match):
         get_integrator("siconos-event-driven").setup(problem())
@@ -213,9 +224,11 @@ def test_event_driven_conformance_on_the_ball():
     its own impacts); a budget ends it with a status."""
     from nsbench.testing import check_integrator
 
-    results = check_integrator("siconos-event-driven", problem="bouncing-ball",
-                               checks=["protocol", "determinism", "inputs-not-mutated", "failure-status",
-                                       "config-round-trip"])
+    results = check_integrator(
+        "siconos-event-driven",
+        problem="bouncing-ball",
+        checks=["protocol", "determinism", "inputs-not-mutated", "failure-status", "config-round-trip"],
+    )
     bad = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not bad, bad
     res = _steps("siconos-event-driven", get_problem("bouncing-ball"), 6.0)

@@ -60,8 +60,11 @@ def test_smoothing_breaks_away_at_the_kinetic_level():
 
 
 def test_conformance():
-    results = check_integrator("smoothing", checks=["protocol", "determinism", "inputs-not-mutated",
-                                                    "failure-status", "config-round-trip"], problem="one-dof")
+    results = check_integrator(
+        "smoothing",
+        checks=["protocol", "determinism", "inputs-not-mutated", "failure-status", "config-round-trip"],
+        problem="one-dof",
+    )
     failed = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not failed, failed
 
@@ -83,8 +86,10 @@ def test_a_non_coulomb_friction_law_is_refused_at_setup_with_its_name():
     from nsbench.problems import get_problem
 
     integ = registry.load("integrators", "smoothing")()
-    for problem, law in ((get_problem("one-dof", case="leine"), "weakening"),
-                         (get_problem("two-dof", case=2, law="stribeck", fk=0.5, vs=0.2), "stribeck")):
+    for problem, law in (
+        (get_problem("one-dof", case="leine"), "weakening"),
+        (get_problem("two-dof", case=2, law="stribeck", fk=0.5, vs=0.2), "stribeck"),
+    ):
         with pytest.raises(UnsupportedProblemError, match=f"regularises Coulomb's law .* the {law} friction law"):
             integ.setup(problem)
 
@@ -99,8 +104,10 @@ def test_cvode_bdf_integrates_the_same_regularised_ode_as_scipy(eps):
     grid = np.linspace(0.0, 8.0, 161)
     names = list(problem.state_names)
     tight = {"eps": eps, "rtol": 1e-10, "atol": 1e-12}
-    runs = {s: simulate(problem, "smoothing", 8.0, t_eval=grid, options={**tight, "solver": s})
-            for s in ("Radau", "CVODE-BDF")}
+    runs = {
+        s: simulate(problem, "smoothing", 8.0, t_eval=grid, options={**tight, "solver": s})
+        for s in ("Radau", "CVODE-BDF")
+    }
     assert all(r.ok for r in runs.values()), [r.message for r in runs.values()]
     cvode = runs["CVODE-BDF"]
     assert cvode.counters.njev > 0 and cvode.counters.nsteps > 0  # CVODE's own Newton iterations, its own steps

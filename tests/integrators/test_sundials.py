@@ -33,9 +33,12 @@ def test_adams_case_1_at_rtol_1e12_within_1e8():
 
 
 @pytest.mark.parametrize("name", ["cvode-bdf", "ida"])
-@pytest.mark.xfail(reason="BDF's phase error drifts linearly on the unforced cycle: 2.3e-8 (cvode-bdf) and "
-                          "1.5e-8 (ida) by tau = 300 at rtol = 1e-12 (scipy-bdf: 1.8e-8); within 1e-8 from "
-                          "rtol = 1e-13 on", strict=False)
+@pytest.mark.xfail(
+    reason="BDF's phase error drifts linearly on the unforced cycle: 2.3e-8 (cvode-bdf) and "
+    "1.5e-8 (ida) by tau = 300 at rtol = 1e-12 (scipy-bdf: 1.8e-8); within 1e-8 from "
+    "rtol = 1e-13 on",
+    strict=False,
+)
 def test_bdf_case_1_at_rtol_1e12_within_1e8(name):
     _check(name, 1, TIGHT, 1e-8)
 
@@ -82,12 +85,12 @@ def test_plain_cvode_misses_a_force_driven_slip():
 
 def _codes(guards):
     """Kind codes, 0-based blocks and expected signs of guards, as the compiled callbacks take them."""
-    return tuple(np.array(values, dtype=np.int64) for values in
-                 zip(*[(g.code, g.block - 1, g.expected_sign) for g in guards]))
+    return tuple(
+        np.array(values, dtype=np.int64) for values in zip(*[(g.code, g.block - 1, g.expected_sign) for g in guards])
+    )
 
 
-@pytest.mark.parametrize("law", [{}, {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}],
-                         ids=["coulomb", "stribeck"])
+@pytest.mark.parametrize("law", [{}, {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}], ids=["coulomb", "stribeck"])
 def test_cvode_kernels_match_the_problem(law):
     p = nsbench.get_problem("two-dof", case=4, **law)
     pk = p.packed.copy()
@@ -110,15 +113,18 @@ def test_cvode_kernels_match_the_problem(law):
         guards = p.guards(mode)
         kinds, blocks, signs = _codes(guards)
         roots = np.empty(len(guards))
-        sk.cvode_roots(pk, np.array(mode, dtype=np.int64), F, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0),
-                       z, roots)
+        sk.cvode_roots(
+            pk, np.array(mode, dtype=np.int64), F, kinds, blocks, signs, np.zeros((0, 4)), np.zeros(0), z, roots
+        )
         expected = [g.expected_sign * float(g.value(t, y)) for g in guards]
         np.testing.assert_allclose(roots, expected, atol=1e-14)
 
 
-@pytest.mark.parametrize("law", [{}, {"law": "weakening", "delta": 3.0},
-                                 {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}],
-                         ids=["coulomb", "weakening", "stribeck"])
+@pytest.mark.parametrize(
+    "law",
+    [{}, {"law": "weakening", "delta": 3.0}, {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}],
+    ids=["coulomb", "weakening", "stribeck"],
+)
 @pytest.mark.parametrize("mode", [(-1, -1), (0, 1), (1, 0), (0, 0)])
 def test_ida_dae_structure(mode, law):
     # Consistent values at a switch: zero residual; a stuck block's velocity is
@@ -186,8 +192,7 @@ def test_sections_and_trajectory_match_exact(case2):
     ref = nsbench.simulate(case2, "exact", 50.0, t_eval=grid, sections=secs)
     cols = ["t", "x1", "v1", "x2", "v2"]
     for name in SUNDIALS:
-        res = nsbench.simulate(case2, name, 50.0, t_eval=grid, sections=secs,
-                               options={"rtol": 1e-11, "atol": 1e-13})
+        res = nsbench.simulate(case2, name, 50.0, t_eval=grid, sections=secs, options={"rtol": 1e-11, "atol": 1e-13})
         assert len(res.sections) == len(ref.sections) > 5
         np.testing.assert_allclose(res.sections[cols].to_numpy(), ref.sections[cols].to_numpy(), atol=1e-8)
         np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-8)

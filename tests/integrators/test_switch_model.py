@@ -49,9 +49,18 @@ def test_two_dof_case_1_has_exacts_switches():
 
 
 def test_conformance():
-    results = check_integrator("switch-model", checks=["protocol", "determinism", "inputs-not-mutated",
-                                                       "switch-convergence", "failure-status", "config-round-trip"],
-                               problem="one-dof")
+    results = check_integrator(
+        "switch-model",
+        checks=[
+            "protocol",
+            "determinism",
+            "inputs-not-mutated",
+            "switch-convergence",
+            "failure-status",
+            "config-round-trip",
+        ],
+        problem="one-dof",
+    )
     failed = [(r.check, r.message) for r in results if r.status != "passed"]
     assert not failed, failed
 
@@ -70,8 +79,10 @@ def test_a_non_coulomb_friction_law_is_refused_at_setup_with_its_name():
     from nsbench.problems import get_problem
 
     integ = registry.load("integrators", "switch-model")()
-    for problem, law in ((get_problem("one-dof", case="leine"), "weakening"),
-                         (get_problem("two-dof", case=2, law="stribeck", fk=0.5, vs=0.2), "stribeck")):
+    for problem, law in (
+        (get_problem("one-dof", case="leine"), "weakening"),
+        (get_problem("two-dof", case=2, law="stribeck", fk=0.5, vs=0.2), "stribeck"),
+    ):
         with pytest.raises(UnsupportedProblemError, match=f"regularises Coulomb's law .* the {law} friction law"):
             integ.setup(problem)
 

@@ -62,6 +62,7 @@ def test_grazing_value_does_not_depend_on_the_step_size(grazing):
 
 def test_period_doubling_multiplier_is_minus_one_by_finite_differences():
     """Case 2 along v0: a period doubling near 0.362 (the paper's fixed-point bifurcation near 0.35)."""
+
     def problem_at(v0):
         return get_problem("two-dof", case=2, v0=v0)
 
@@ -84,6 +85,7 @@ def test_fold_at_a_branch_end_is_located_from_the_multiplier():
     first failing step says little; the end is found where (1 - mu)^2, linear in the
     parameter, reaches zero. Two step sizes must give the same value.
     """
+
     def problem_at(r_f):
         return get_problem("two-dof", case=1, r_f=r_f)
 

@@ -21,12 +21,15 @@ def _fd(flow, t0, y0, mode, span, free, eps):
     return np.array(cols).T
 
 
-@pytest.mark.parametrize("case, params, tol", [
-    (1, {}, 1e-6),                 # both blocks stick at the start, then every event kind
-    (1, {"v0": 0.17}, 1e-6),
-    (2, {}, 1e-6),                 # forced: time-dependent stick guards
-    (3, {}, 1e-5),                 # cubic springs: variational equations along each arc
-])
+@pytest.mark.parametrize(
+    "case, params, tol",
+    [
+        (1, {}, 1e-6),  # both blocks stick at the start, then every event kind
+        (1, {"v0": 0.17}, 1e-6),
+        (2, {}, 1e-6),  # forced: time-dependent stick guards
+        (3, {}, 1e-5),  # cubic springs: variational equations along each arc
+    ],
+)
 def test_jacobian_matches_finite_differences(case, params, tol):
     problem = get_problem("two-dof", case=case, **params)
     flow = HybridFlow(problem)

@@ -18,10 +18,15 @@ def _continuation(n_branches: int, unstable: bool = True):
     for b in range(1, n_branches + 1):
         for j, value in enumerate((0.1 * b, 0.1 * b + 0.02, 0.1 * b + 0.04)):
             stable = not (unstable and j == 2)
-            rows += [{"branch": str(b), "value": value, "k": k, "stable": stable, "x1": b + 0.1 * k + 0.01 * j}
-                     for k in range(2)]
-    bifs = [SimpleNamespace(value=0.15, category="fixed-point"), SimpleNamespace(value=0.25, category="sliding"),
-            SimpleNamespace(value=0.26, category="none")]
+            rows += [
+                {"branch": str(b), "value": value, "k": k, "stable": stable, "x1": b + 0.1 * k + 0.01 * j}
+                for k in range(2)
+            ]
+    bifs = [
+        SimpleNamespace(value=0.15, category="fixed-point"),
+        SimpleNamespace(value=0.25, category="sliding"),
+        SimpleNamespace(value=0.26, category="none"),
+    ]
     return SimpleNamespace(param="v0", bifurcations=bifs), pd.DataFrame(rows)
 
 
@@ -34,8 +39,15 @@ def test_the_legend_names_each_branch_in_its_colour():
     ax = fig.axes[0]
     legend = ax.get_legend()
     labels = [t.get_text() for t in legend.get_texts()]
-    assert labels == ["branch 1", "branch 2", "branch 3", "stable orbits", "unstable orbits",
-                      "fixed-point bifurcation", "sliding bifurcation"]
+    assert labels == [
+        "branch 1",
+        "branch 2",
+        "branch 3",
+        "stable orbits",
+        "unstable orbits",
+        "fixed-point bifurcation",
+        "sliding bifurcation",
+    ]
     # each branch's curves, solid and dashed, are drawn in the colour its legend entry shows
     curves = [line for line in ax.get_lines() if len(line.get_xdata()) > 1 or line.get_marker() == "."]
     for i, handle in enumerate(legend.legend_handles[:3]):
@@ -54,6 +66,6 @@ def test_many_branches_get_one_entry_saying_how_the_colours_repeat():
     fig = draw(result, points)
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert labels[0].startswith(f"{LEGEND_BRANCHES + 2} branches, one colour each, repeating every ")
-    assert "unstable orbits" not in labels and "stable orbits" in labels   # only the styles drawn
+    assert "unstable orbits" not in labels and "stable orbits" in labels  # only the styles drawn
     assert overlaps(fig) == []
     plt.close(fig)

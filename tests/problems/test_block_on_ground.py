@@ -25,8 +25,7 @@ def test_exact_meets_every_event_and_the_rest_in_closed_form():
     assert abs(res.y_final[0] - x_rest) <= 1e-12 and res.y_final[1] == 0.0 and res.mode_final == (0,)
 
 
-@pytest.mark.parametrize("name, bound", [("ofapi", 1e-10), ("heyoka", 1e-12), ("cvode-bdf", 1e-5),
-                                         ("henon-rk4", 1e-7)])
+@pytest.mark.parametrize("name, bound", [("ofapi", 1e-10), ("heyoka", 1e-12), ("cvode-bdf", 1e-5), ("henon-rk4", 1e-7)])
 def test_other_integrators_reach_the_same_rest(name, bound):
     p = nsbench.get_problem("block-on-ground")
     events, x_rest = closed_form_events(p)

@@ -27,8 +27,7 @@ def test_exact_meets_every_impact_time_and_the_accumulation_time():
     assert abs(ev["t"].iloc[-1] - p.accumulation_time()) <= 1e-12
     # after the rest event the ball lies still, on the ground, to the end of the run
     assert res.mode_final == (1,) and res.y_final.tolist() == [0.0, 0.0]
-    assert list(impacts["v"]) == pytest.approx(math.sqrt(2 * 9.81) * 0.8 ** np.arange(1, len(impacts) + 1),
-                                               rel=1e-13)
+    assert list(impacts["v"]) == pytest.approx(math.sqrt(2 * 9.81) * 0.8 ** np.arange(1, len(impacts) + 1), rel=1e-13)
 
 
 def test_a_thrown_ball_and_another_restitution():
@@ -40,8 +39,10 @@ def test_a_thrown_ball_and_another_restitution():
     assert abs(res.events["t"].iloc[-1] - p.accumulation_time()) <= 1e-12
 
 
-@pytest.mark.parametrize("name, bound", [("ofapi", 1e-12), ("scipy-radau", 1e-10), ("henon-rk4", 1e-5),
-                                         ("heyoka", 1e-12), ("heyoka-q", 1e-12)])
+@pytest.mark.parametrize(
+    "name, bound",
+    [("ofapi", 1e-12), ("scipy-radau", 1e-10), ("henon-rk4", 1e-5), ("heyoka", 1e-12), ("heyoka-q", 1e-12)],
+)
 def test_other_integrators_find_the_same_impacts(name, bound):
     p = nsbench.get_problem("bouncing-ball")
     ref = nsbench.simulate(p, "exact", 10.0).events
@@ -57,10 +58,17 @@ def test_without_the_accumulation_rule_the_impacts_storm():
     assert res.status is nsbench.Status.EVENT_STORM or not res.ok
 
 
-@pytest.mark.parametrize("params, message", [
-    ({"e": 1.0}, "must be < 1"), ({"e": -0.1}, "restitution e must be >= 0"), ({"g": 0}, "gravity g must be > 0"),
-    ({"x0": -1}, "start height x0 must be >= 0"), ({"mass": 1}, "unknown parameter 'mass'"),
-    ({"v0": float("nan")}, "finite")])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"e": 1.0}, "must be < 1"),
+        ({"e": -0.1}, "restitution e must be >= 0"),
+        ({"g": 0}, "gravity g must be > 0"),
+        ({"x0": -1}, "start height x0 must be >= 0"),
+        ({"mass": 1}, "unknown parameter 'mass'"),
+        ({"v0": float("nan")}, "finite"),
+    ],
+)
 def test_bad_parameters_are_refused(params, message):
     with pytest.raises(ConfigError, match=message):
         nsbench.get_problem("bouncing-ball", **params)

@@ -19,8 +19,10 @@ def test_chain_is_registered():
 @pytest.mark.parametrize("case", [1, 2, 3, 4])
 @pytest.mark.parametrize("dimensional", [False, True])
 def test_two_blocks_are_the_two_dof_problem(case, dimensional):
-    chain, two = get_problem("chain", n=2, case=case, dimensional=dimensional), \
-        get_problem("two-dof", case=case, dimensional=dimensional)
+    chain, two = (
+        get_problem("chain", n=2, case=case, dimensional=dimensional),
+        get_problem("two-dof", case=case, dimensional=dimensional),
+    )
     assert chain.coefficients == two.coefficients
     assert chain.scales == two.scales and chain.state_names == two.state_names
 
@@ -28,8 +30,10 @@ def test_two_blocks_are_the_two_dof_problem(case, dimensional):
 @pytest.mark.parametrize("case", [1, 2, 3, 4])
 def test_one_block_is_the_one_dof_problem(case):
     assert get_problem("chain", n=1, case=case).coefficients == get_problem("one-dof", case=case).coefficients
-    assert get_problem("chain", n=1, case=case, dimensional=True).coefficients == \
-        get_problem("one-dof", case=case, dimensional=True).coefficients
+    assert (
+        get_problem("chain", n=1, case=case, dimensional=True).coefficients
+        == get_problem("one-dof", case=case, dimensional=True).coefficients
+    )
 
 
 @pytest.mark.parametrize("case", [1, 2])
@@ -45,8 +49,7 @@ def test_event_logs_equal_to_the_last_bit(case):
 def test_two_dof_overrides_map_to_chain_names():
     """two-dof's c2, kappa, mu, rho2, rf2 are chain's c2, kappa2, mu2, rho2, rf2."""
     two = get_problem("two-dof", case=4, c2=0.1, kappa=2.0, mu=0.5, rho2=1.5, rf1=0.7, rf2=1.2, F=0.3, v0=0.2)
-    chain = get_problem("chain", n=2, case=4, c2=0.1, kappa2=2.0, mu2=0.5, rho2=1.5, rf1=0.7, rf2=1.2,
-                        F=0.3, v0=0.2)
+    chain = get_problem("chain", n=2, case=4, c2=0.1, kappa2=2.0, mu2=0.5, rho2=1.5, rf1=0.7, rf2=1.2, F=0.3, v0=0.2)
     assert chain.coefficients == two.coefficients
     dim_two = get_problem("two-dof", case=2, dimensional=True, m2=2.0, k2=3.0, fs1=1.5, fr2=3.0, w=0.7)
     dim_chain = get_problem("chain", n=2, case=2, dimensional=True, m2=2.0, k2=3.0, fs1=1.5, fr2=3.0, w=0.7)
@@ -78,23 +81,26 @@ def test_problem_config_round_trip():
     assert q.coefficients == p.coefficients and q.n_blocks == 7
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(n=0), r"n = 0 .* integer from 1 to 64"),
-    (dict(n=65), r"n = 65 .* integer from 1 to 64"),
-    (dict(n=2.5), r"n = 2.5 "),
-    (dict(n=True), r"n = True "),
-    (dict(n=3, c5=0.1), r"'c5' names block 5, but the chain has n = 3"),
-    (dict(n=3, kappa1=2.0), r"'kappa1' is 1 by definition"),
-    (dict(n=3, rf2=1.2), r"rf2 = 1.2 is out of range: .* <= rho2 = 1"),
-    (dict(n=3, r_f=1.5), r"r_f = 1.5 is out of range"),
-    (dict(n=3, mu3=-1.0), r"mu3 = -1 is out of range: mass ratio mu3 must be > 0"),
-    (dict(n=3, c=float("nan")), r"c = nan is not allowed"),
-    (dict(n=3, zz=1.0), r"unknown parameter 'zz'; allowed: c, kappa"),
-    (dict(n=3, case=7), r"unknown case 7"),
-    (dict(n=3, dimensional=True, fs2=3.0), r"fs2 = 3 is out of range: kinetic friction fs2 must be <= static"),
-    (dict(n=3, dimensional=True, m2=0.0), r"m2 = 0 is out of range: mass m2 must be > 0"),
-    (dict(n=3, dimensional=True, kappa=2.0), r"unknown parameter 'kappa'"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(n=0), r"n = 0 .* integer from 1 to 64"),
+        (dict(n=65), r"n = 65 .* integer from 1 to 64"),
+        (dict(n=2.5), r"n = 2.5 "),
+        (dict(n=True), r"n = True "),
+        (dict(n=3, c5=0.1), r"'c5' names block 5, but the chain has n = 3"),
+        (dict(n=3, kappa1=2.0), r"'kappa1' is 1 by definition"),
+        (dict(n=3, rf2=1.2), r"rf2 = 1.2 is out of range: .* <= rho2 = 1"),
+        (dict(n=3, r_f=1.5), r"r_f = 1.5 is out of range"),
+        (dict(n=3, mu3=-1.0), r"mu3 = -1 is out of range: mass ratio mu3 must be > 0"),
+        (dict(n=3, c=float("nan")), r"c = nan is not allowed"),
+        (dict(n=3, zz=1.0), r"unknown parameter 'zz'; allowed: c, kappa"),
+        (dict(n=3, case=7), r"unknown case 7"),
+        (dict(n=3, dimensional=True, fs2=3.0), r"fs2 = 3 is out of range: kinetic friction fs2 must be <= static"),
+        (dict(n=3, dimensional=True, m2=0.0), r"m2 = 0 is out of range: mass m2 must be > 0"),
+        (dict(n=3, dimensional=True, kappa=2.0), r"unknown parameter 'kappa'"),
+    ],
+)
 def test_bad_input_names_the_value(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         get_problem("chain", **kwargs)

@@ -12,12 +12,15 @@ GRID = np.linspace(0.0, 60.0, 6001)  # dt = 0.01: Simpson quadrature error ~1e-9
 
 
 @pytest.mark.parametrize("case", [1, 2])
-@pytest.mark.parametrize("name, options, tol", [
-    ("exact", {}, 1e-8),
-    ("scipy-dop853", {"rtol": 1e-11, "atol": 1e-13}, 1e-8),
-    ("henon-rk4", {"h": 0.01}, 1e-7),
-    ("scipy-rk45", {"rtol": 1e-6, "atol": 1e-9}, 1e-4),
-])
+@pytest.mark.parametrize(
+    "name, options, tol",
+    [
+        ("exact", {}, 1e-8),
+        ("scipy-dop853", {"rtol": 1e-11, "atol": 1e-13}, 1e-8),
+        ("henon-rk4", {"h": 0.01}, 1e-7),
+        ("scipy-rk45", {"rtol": 1e-6, "atol": 1e-9}, 1e-4),
+    ],
+)
 def test_energy_balance_along_trajectory(case, name, options, tol):
     p = nsbench.get_problem("two-dof", case=case)
     res = nsbench.simulate(p, name, 60.0, options=options, t_eval=GRID)

@@ -120,5 +120,7 @@ def test_the_jacobian_and_the_guard_rates_are_derivatives_of_the_law(problem):
                 assert np.all(np.abs(jac[:, j] - fd) <= bound), (mode, j, jac[:, j], fd)
             for guard in problem.guards(mode):
                 rate = problem.guard_rate(guard, t, y, f)
-                fd = (problem.guard_value(guard, t + h, y + h * f) - problem.guard_value(guard, t - h, y - h * f)) / (2 * h)
+                fd = (problem.guard_value(guard, t + h, y + h * f) - problem.guard_value(guard, t - h, y - h * f)) / (
+                    2 * h
+                )
                 assert abs(rate - fd) <= 1e-6 * (1.0 + abs(rate) + np.abs(f).max()), (mode, guard, rate, fd)

@@ -37,8 +37,13 @@ def _complex_step(f, y, direction, h=1e-30):
     return np.imag(f(np.asarray(y, dtype=complex) + 1j * h * np.asarray(direction))) / h
 
 
-CASES = [("two-dof", {"case": 4}), ("two-dof", {"case": 2}), ("one-dof", {"case": 4}), ("one-dof", {"case": 1}),
-         ("chain", {"case": 4, "n": 3})]
+CASES = [
+    ("two-dof", {"case": 4}),
+    ("two-dof", {"case": 2}),
+    ("one-dof", {"case": 4}),
+    ("one-dof", {"case": 1}),
+    ("chain", {"case": 4, "n": 3}),
+]
 
 
 @pytest.mark.parametrize("name, params", CASES)
@@ -75,6 +80,7 @@ def test_the_guards_are_those_of_model_md(name, params):
                 assert mode[i] == STICK
             assert g.expected_sign == sign
             assert g.value(t, y) == pytest.approx(want, rel=1e-14, abs=1e-15)
+
             # the rate along dy, the explicit time dependence of the force included
             def guard_at(z, tt=t):
                 rr = problem.restoring_forces(tt, list(z[0::2]), list(z[1::2]), cos=np.cos)

@@ -29,7 +29,7 @@ def _level(law: dict, u, fs):
     if law["law"] == "weakening":
         return fs / (1.0 + law["delta"] * u)
     fk, vs, cv = law["fk"], law["vs"], law.get("cv", 0.0)
-    return fk + (fs - fk) * np.exp(-(u / vs) ** 2) + cv * u
+    return fk + (fs - fk) * np.exp(-((u / vs) ** 2)) + cv * u
 
 
 def _field(problem, law, mode, t, y):
@@ -46,8 +46,11 @@ def _field(problem, law, mode, t, y):
     return np.array(out)
 
 
-LAWS = [{"law": "weakening", "delta": 3.0}, {"law": "stribeck", "fk": 0.4, "vs": 0.3},
-        {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1}]
+LAWS = [
+    {"law": "weakening", "delta": 3.0},
+    {"law": "stribeck", "fk": 0.4, "vs": 0.3},
+    {"law": "stribeck", "fk": 0.5, "vs": 0.2, "cv": 0.1},
+]
 PROBLEMS = [("one-dof", {"case": 1}), ("two-dof", {"case": 4}), ("chain", {"case": 2, "n": 3})]
 
 
@@ -64,8 +67,9 @@ def test_a_law_gives_the_field_and_jacobian_of_its_definition(name, params, law)
             for i, phase in enumerate(mode):
                 if phase != STICK:
                     y[2 * i + 1] = problem.v0 + phase * abs(y[2 * i + 1])
-            np.testing.assert_allclose(problem.rhs(mode, t, y), _field(problem, law, mode, t, y),
-                                       rtol=1e-14, atol=1e-15)
+            np.testing.assert_allclose(
+                problem.rhs(mode, t, y), _field(problem, law, mode, t, y), rtol=1e-14, atol=1e-15
+            )
             jac = problem.jacobian(mode, t, y)
             for j in range(n):
                 e = np.zeros(n)
@@ -81,8 +85,7 @@ def test_the_generic_form_heyoka_uses_is_the_compiled_one(law):
     fields = spec.fields(problem.coefficients.fs)
     fs = problem.coefficients.fs[0]
     for u in (0.0, 1e-9, 0.01, 0.3, 2.0):
-        generic = slip_level(spec.code, u, fs, fields["fk"][0], fields["delta"][0], fields["vs"][0],
-                             fields["cv"][0])
+        generic = slip_level(spec.code, u, fs, fields["fk"][0], fields["delta"][0], fields["vs"][0], fields["cv"][0])
         y = np.array([0.0, problem.v0 - u])  # slip-: u = -(v - v0)
         field = problem.rhs((-1,), 0.0, y)[1]
         assert field == pytest.approx(generic, rel=1e-15, abs=1e-16)
@@ -128,26 +131,30 @@ def test_the_leine_preset():
     assert nsbench.get_problem("one-dof", case="leine", law="coulomb").is_linear
     # rebuilt from its config
     from nsbench.problems import problem_from_config
+
     np.testing.assert_array_equal(problem_from_config(p.config()).packed, p.packed)
 
 
-@pytest.mark.parametrize("params, match", [
-    ({"law": "viscous"}, "law = 'viscous' is not a friction law; allowed: coulomb, weakening, stribeck"),
-    ({"law": 3}, "is not a friction law"),
-    ({"law": "weakening"}, "law=weakening needs the parameter.* delta"),
-    ({"law": "weakening", "delta": -0.1}, "delta = -0.1 is out of range: .* must be >= 0"),
-    ({"law": "weakening", "delta": float("nan")}, "delta = nan is not allowed"),
-    ({"law": "weakening", "delta": "x"}, "delta = 'x' is not a number"),
-    ({"law": "stribeck", "fk": 0.4}, "needs the parameter.* vs"),
-    ({"law": "stribeck", "fk": 0.4, "vs": 0.0}, "vs = 0 is out of range: .* must be > 0"),
-    ({"law": "stribeck", "fk": 0.4, "vs": -1.0}, "vs = -1 is out of range"),
-    ({"law": "stribeck", "fk": 0.9, "vs": 0.3}, "fk = 0.9 is out of range: .* <= the slip level at rest r_f"),
-    ({"law": "stribeck", "fk": -0.1, "vs": 0.3}, "fk = -0.1 is out of range"),
-    ({"law": "stribeck", "fk": 0.4, "vs": 0.3, "cv": float("inf")}, "cv = inf is not allowed"),
-    ({"law": "stribeck", "fk": 0.4, "vs": 0.3, "cv": -1.0}, "cv = -1 is out of range"),
-    ({"delta": 3.0}, "delta belongs to law=weakening, not law=coulomb"),
-    ({"law": "weakening", "delta": 1.0, "vs": 0.3}, "vs belongs to law=stribeck, not law=weakening"),
-])
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"law": "viscous"}, "law = 'viscous' is not a friction law; allowed: coulomb, weakening, stribeck"),
+        ({"law": 3}, "is not a friction law"),
+        ({"law": "weakening"}, "law=weakening needs the parameter.* delta"),
+        ({"law": "weakening", "delta": -0.1}, "delta = -0.1 is out of range: .* must be >= 0"),
+        ({"law": "weakening", "delta": float("nan")}, "delta = nan is not allowed"),
+        ({"law": "weakening", "delta": "x"}, "delta = 'x' is not a number"),
+        ({"law": "stribeck", "fk": 0.4}, "needs the parameter.* vs"),
+        ({"law": "stribeck", "fk": 0.4, "vs": 0.0}, "vs = 0 is out of range: .* must be > 0"),
+        ({"law": "stribeck", "fk": 0.4, "vs": -1.0}, "vs = -1 is out of range"),
+        ({"law": "stribeck", "fk": 0.9, "vs": 0.3}, "fk = 0.9 is out of range: .* <= the slip level at rest r_f"),
+        ({"law": "stribeck", "fk": -0.1, "vs": 0.3}, "fk = -0.1 is out of range"),
+        ({"law": "stribeck", "fk": 0.4, "vs": 0.3, "cv": float("inf")}, "cv = inf is not allowed"),
+        ({"law": "stribeck", "fk": 0.4, "vs": 0.3, "cv": -1.0}, "cv = -1 is out of range"),
+        ({"delta": 3.0}, "delta belongs to law=weakening, not law=coulomb"),
+        ({"law": "weakening", "delta": 1.0, "vs": 0.3}, "vs belongs to law=stribeck, not law=weakening"),
+    ],
+)
 def test_bad_law_parameters_are_refused_by_name(params, match):
     with pytest.raises(ConfigError, match=match):
         nsbench.get_problem("one-dof", **params)

@@ -28,9 +28,12 @@ def test_the_section_equals_heyokas_own_event_detection():
     vx, vy, x, y = hy.make_vars("vx", "vy", "x", "y")
     times = []
     ev = hy.nt_event(x, lambda ta, t, d_sgn: times.append(t), direction=hy.event_direction.positive)
-    ta = hy.taylor_adaptive([(vx, -x - 2.0 * x * y), (vy, y * y - y - x * x), (x, vx), (y, vy)],
-                            [-0.2525875586263492, -0.2178423952983717, 0.0, 0.2587703282931232], tol=1e-15,
-                            nt_events=[ev])
+    ta = hy.taylor_adaptive(
+        [(vx, -x - 2.0 * x * y), (vy, y * y - y - x * x), (x, vx), (y, vy)],
+        [-0.2525875586263492, -0.2178423952983717, 0.0, 0.2587703282931232],
+        tol=1e-15,
+        nt_events=[ev],
+    )
     ta.propagate_until(SPAN)
     p = nsbench.get_problem("henon-heiles")
     res = nsbench.simulate(p, "reference", SPAN)
@@ -51,8 +54,15 @@ def test_the_reference_keeps_the_energy_at_every_event():
     assert (res.events["x"] == 0.0).mean() < 1.0 and np.abs(res.events["x"]).max() <= 1e-16
 
 
-@pytest.mark.parametrize("name, options, bound", [("heyoka", {"tol": 1e-15}, 1e-11), ("ofapi", {}, 1e-9),
-                                                  ("scipy-dop853", {}, 1e-5), ("henon-rk4", {"h": 0.01}, 1e-6)])
+@pytest.mark.parametrize(
+    "name, options, bound",
+    [
+        ("heyoka", {"tol": 1e-15}, 1e-11),
+        ("ofapi", {}, 1e-9),
+        ("scipy-dop853", {}, 1e-5),
+        ("henon-rk4", {"h": 0.01}, 1e-6),
+    ],
+)
 def test_other_integrators_find_the_same_dozens_of_crossings(name, options, bound):
     p = nsbench.get_problem("henon-heiles")
     ref = nsbench.simulate(p, "reference", SPAN).events
@@ -62,8 +72,9 @@ def test_other_integrators_find_the_same_dozens_of_crossings(name, options, boun
     assert np.abs(res.events["t"].to_numpy() - ref["t"].to_numpy()).max() <= bound
 
 
-@pytest.mark.parametrize("params, message", [({"mass": 1}, "unknown parameter 'mass'"),
-                                             ({"y0": float("nan")}, "finite")])
+@pytest.mark.parametrize(
+    "params, message", [({"mass": 1}, "unknown parameter 'mass'"), ({"y0": float("nan")}, "finite")]
+)
 def test_bad_parameters_are_refused(params, message):
     with pytest.raises(ConfigError, match=message):
         nsbench.get_problem("henon-heiles", **params)

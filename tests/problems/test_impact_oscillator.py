@@ -28,8 +28,9 @@ def _free_flight(p, t0, x0, v0):
 
     def v(t):
         s = t - t0
-        return ((1j * w * z * np.exp(1j * w * t)).real
-                + math.exp(-zeta * s) * ((b * wd - zeta * a) * math.cos(wd * s) - (a * wd + zeta * b) * math.sin(wd * s)))
+        return (1j * w * z * np.exp(1j * w * t)).real + math.exp(-zeta * s) * (
+            (b * wd - zeta * a) * math.cos(wd * s) - (a * wd + zeta * b) * math.sin(wd * s)
+        )
 
     return x, v
 
@@ -96,8 +97,7 @@ def test_the_free_periodic_orbit_grazes_the_stop_at_sigma_equal_to_its_amplitude
     a = base.grazing_stop()
     assert a == pytest.approx(1.0 / math.hypot(1 - 0.64, 0.08), rel=1e-15)
     x0, v0 = (float(c) for c in base.free_orbit(0.0))
-    p = nsbench.get_problem("impact-oscillator", zeta=0.05, F=1.0, w=0.8, r=0.8, sigma=a * (1 + offset),
-                            x0=x0, v0=v0)
+    p = nsbench.get_problem("impact-oscillator", zeta=0.05, F=1.0, w=0.8, r=0.8, sigma=a * (1 + offset), x0=x0, v0=v0)
     res = nsbench.simulate(p, "exact", 40.0)
     assert res.ok, res.message
     assert (len(res.events) > 0) is impacts
@@ -110,8 +110,10 @@ def test_the_free_periodic_orbit_grazes_the_stop_at_sigma_equal_to_its_amplitude
         np.testing.assert_allclose(res.y_final, np.array(base.free_orbit(40.0)), atol=1e-12)
 
 
-@pytest.mark.parametrize("name, bound", [("ofapi", 1e-10), ("scipy-radau", 1e-6), ("scipy-dop853", 1e-6),
-                                         ("scipy-lsoda", 1e-6), ("henon-rk4", 1e-4)])
+@pytest.mark.parametrize(
+    "name, bound",
+    [("ofapi", 1e-10), ("scipy-radau", 1e-6), ("scipy-dop853", 1e-6), ("scipy-lsoda", 1e-6), ("henon-rk4", 1e-4)],
+)
 def test_other_integrators_find_the_same_dozens_of_events(name, bound):
     # errors: scipy's rtol 1e-8 and RK4 at h = 0.01 give event times to ~1e-7 and ~1e-5; the Zeno
     # extrapolation from the last intervals keeps that order (it is a smooth function of them)
@@ -124,11 +126,19 @@ def test_other_integrators_find_the_same_dozens_of_events(name, bound):
     assert np.abs(res.events["t"].to_numpy() - ref["t"].to_numpy()).max() <= bound
 
 
-@pytest.mark.parametrize("params, message", [
-    ({"r": 1.5}, "must be <= 1"), ({"r": -0.1}, "restitution r must be >= 0"), ({"w": 0}, "frequency w must be > 0"),
-    ({"zeta": -1}, "damping ratio zeta must be >= 0"), ({"x0": 1.0}, "beyond the stop"),
-    ({"x0": 0.2, "v0": 1.0}, "beyond the stop"), ({"mass": 1}, "unknown parameter 'mass'"),
-    ({"F": float("nan")}, "finite")])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"r": 1.5}, "must be <= 1"),
+        ({"r": -0.1}, "restitution r must be >= 0"),
+        ({"w": 0}, "frequency w must be > 0"),
+        ({"zeta": -1}, "damping ratio zeta must be >= 0"),
+        ({"x0": 1.0}, "beyond the stop"),
+        ({"x0": 0.2, "v0": 1.0}, "beyond the stop"),
+        ({"mass": 1}, "unknown parameter 'mass'"),
+        ({"F": float("nan")}, "finite"),
+    ],
+)
 def test_bad_parameters_are_refused(params, message):
     with pytest.raises(ConfigError, match=message):
         nsbench.get_problem("impact-oscillator", **params)

@@ -91,7 +91,10 @@ def test_linear_form_keeps_the_friction_constant_unrounded():
 def test_guards_have_the_expected_signs(case2):
     guards = case2.guards((-1, STICK))
     assert [(g.block, g.kind, g.expected_sign) for g in guards] == [
-        (1, "velocity", -1), (2, "upper", -1), (2, "lower", +1)]
+        (1, "velocity", -1),
+        (2, "upper", -1),
+        (2, "lower", +1),
+    ]
 
 
 def test_guard_rate_is_the_time_derivative_along_the_flow(problem):

@@ -21,8 +21,9 @@ def test_table3_presets_use_exact_fractions():
     assert v["Omega"] == 1.0 and v["kappa"] == 1.0 and v["mu"] == 1.0
 
 
-@pytest.mark.parametrize("case, linear, forced", [(1, True, False), (2, True, True),
-                                                  (3, False, False), (4, False, True)])
+@pytest.mark.parametrize(
+    "case, linear, forced", [(1, True, False), (2, True, True), (3, False, False), (4, False, True)]
+)
 @pytest.mark.parametrize("name", ["one-dof", "two-dof"])
 def test_cases_switch_cubic_and_force(name, case, linear, forced):
     p = nsbench.get_problem(name, case=case)
@@ -41,10 +42,8 @@ def test_dimensional_table3_matches_dimensionless_preset():
 def test_config1_and_config2_have_the_same_pi_groups():
     # MODEL.md section 2 (the paper's Table 2)
     # (h = F = 0; w only matters with a force, scaled here by the time scale 1 vs 1/3)
-    c1 = dict(m1=2, m2=1, c1=0.03, c2=0.03, k1=2, k2=1, fr1=2.4, fr2=2.4, fs1=2, fs2=2, v0=0.2, h1=0, h2=0, F=0,
-              w=1.0)
-    c2 = dict(m1=2, m2=1, c1=0.09, c2=0.09, k1=18, k2=9, fr1=7.2, fr2=7.2, fs1=6, fs2=6, v0=0.2, h1=0, h2=0, F=0,
-              w=3.0)
+    c1 = dict(m1=2, m2=1, c1=0.03, c2=0.03, k1=2, k2=1, fr1=2.4, fr2=2.4, fs1=2, fs2=2, v0=0.2, h1=0, h2=0, F=0, w=1.0)
+    c2 = dict(m1=2, m2=1, c1=0.09, c2=0.09, k1=18, k2=9, fr1=7.2, fr2=7.2, fs1=6, fs2=6, v0=0.2, h1=0, h2=0, F=0, w=3.0)
     g1, g2 = pi_groups("two-dof", **c1), pi_groups("two-dof", **c2)
     assert g1.keys() == g2.keys()
     for key in g1:
@@ -60,21 +59,24 @@ def test_shorthands_set_the_paper_reduced_parameters():
     assert q.parameters["omega_r"] == pytest.approx(0.25)
 
 
-@pytest.mark.parametrize("kwargs, fragment", [
-    (dict(c1=-0.1), "c1 = -0.1 is out of range: damping c1 must be >= 0"),
-    (dict(kappa=0.0), "kappa = 0 is out of range"),
-    (dict(mu=-1), "mass ratio mu must be > 0"),
-    (dict(rf1=1.2), "rf1 = 1.2 is out of range"),
-    (dict(r_f=1.5), "r_f = 1.5 is out of range"),
-    (dict(rf2=0.9, rho2=0.8), "rf2 = 0.9 is out of range"),
-    (dict(v0=float("nan")), "v0 = nan is not allowed: it must be a finite real number"),
-    (dict(F=float("inf")), "F = inf is not allowed"),
-    (dict(h1=-0.2), "h1 = -0.2 is out of range"),
-    (dict(fs1=2.0), "unknown parameter 'fs1'"),
-    (dict(r_f=0.5, rf1=0.5), "do not also give rf1"),
-    (dict(omega_r=2, kappa=3), "give only one"),
-    (dict(Omega="fast"), "Omega = 'fast' is not a number"),
-])
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(c1=-0.1), "c1 = -0.1 is out of range: damping c1 must be >= 0"),
+        (dict(kappa=0.0), "kappa = 0 is out of range"),
+        (dict(mu=-1), "mass ratio mu must be > 0"),
+        (dict(rf1=1.2), "rf1 = 1.2 is out of range"),
+        (dict(r_f=1.5), "r_f = 1.5 is out of range"),
+        (dict(rf2=0.9, rho2=0.8), "rf2 = 0.9 is out of range"),
+        (dict(v0=float("nan")), "v0 = nan is not allowed: it must be a finite real number"),
+        (dict(F=float("inf")), "F = inf is not allowed"),
+        (dict(h1=-0.2), "h1 = -0.2 is out of range"),
+        (dict(fs1=2.0), "unknown parameter 'fs1'"),
+        (dict(r_f=0.5, rf1=0.5), "do not also give rf1"),
+        (dict(omega_r=2, kappa=3), "give only one"),
+        (dict(Omega="fast"), "Omega = 'fast' is not a number"),
+    ],
+)
 def test_bad_dimensionless_parameters_name_the_parameter(kwargs, fragment):
     with pytest.raises(ValueError, match=".*") as info:
         nsbench.get_problem("two-dof", **kwargs)
@@ -82,16 +84,19 @@ def test_bad_dimensionless_parameters_name_the_parameter(kwargs, fragment):
     assert isinstance(info.value, ConfigError)
 
 
-@pytest.mark.parametrize("kwargs, fragment", [
-    (dict(m1=0.0), "mass m1 must be > 0"),
-    (dict(m2=-1.0), "mass m2 must be > 0"),
-    (dict(k1=0.0), "stiffness k1 must be > 0"),
-    (dict(fs1=3.0), "kinetic friction fs1 must be <= static friction fr1 = 2.4"),
-    (dict(fs2=2.5), "fs2 = 2.5 is out of range"),
-    (dict(fr1=-1.0), "static friction fr1 must be > 0"),
-    (dict(c2=-0.01), "damping c2 must be >= 0"),
-    (dict(kappa=1.0), "unknown parameter 'kappa'"),
-])
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(m1=0.0), "mass m1 must be > 0"),
+        (dict(m2=-1.0), "mass m2 must be > 0"),
+        (dict(k1=0.0), "stiffness k1 must be > 0"),
+        (dict(fs1=3.0), "kinetic friction fs1 must be <= static friction fr1 = 2.4"),
+        (dict(fs2=2.5), "fs2 = 2.5 is out of range"),
+        (dict(fr1=-1.0), "static friction fr1 must be > 0"),
+        (dict(c2=-0.01), "damping c2 must be >= 0"),
+        (dict(kappa=1.0), "unknown parameter 'kappa'"),
+    ],
+)
 def test_bad_dimensional_parameters_name_the_parameter(kwargs, fragment):
     with pytest.raises(ConfigError) as info:
         nsbench.get_problem("two-dof", dimensional=True, **kwargs)
@@ -105,8 +110,11 @@ def test_unknown_case_is_rejected(case):
 
 
 def test_unknown_problem_lists_registered_ones():
-    with pytest.raises(ConfigError, match="registered: block-on-ground, bouncing-ball, chain, henon-heiles, "
-                                          "impact-oscillator, one-dof, relay-feedback, two-dof"):
+    with pytest.raises(
+        ConfigError,
+        match="registered: block-on-ground, bouncing-ball, chain, henon-heiles, "
+        "impact-oscillator, one-dof, relay-feedback, two-dof",
+    ):
         nsbench.get_problem("three-dof")
 
 

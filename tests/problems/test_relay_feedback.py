@@ -87,8 +87,9 @@ def test_the_default_orbit_is_symmetric_and_slides():
     assert np.all(np.abs(slides @ (p.C @ p.A)) < 1.0)
 
 
-@pytest.mark.parametrize("name, bound", [("ofapi", 1e-11), ("scipy-radau", 1e-6), ("scipy-dop853", 1e-6),
-                                         ("henon-rk4", 1e-6)])
+@pytest.mark.parametrize(
+    "name, bound", [("ofapi", 1e-11), ("scipy-radau", 1e-6), ("scipy-dop853", 1e-6), ("henon-rk4", 1e-6)]
+)
 def test_other_integrators_find_the_same_dozens_of_events(name, bound):
     p = nsbench.get_problem("relay-feedback")
     ref = nsbench.simulate(p, "reference", 60.0).events
@@ -99,10 +100,16 @@ def test_other_integrators_find_the_same_dozens_of_events(name, bound):
     assert np.abs(res.events["t"].to_numpy() - ref["t"].to_numpy()).max() <= bound
 
 
-@pytest.mark.parametrize("params, message", [
-    ({"lam": 0}, "real pole lam must be > 0"), ({"omega": -1}, "natural frequency omega must be > 0"),
-    ({"rho": 0}, "zero frequency rho must be > 0"), ({"gain": 1}, "unknown parameter 'gain'"),
-    ({"sigma": float("inf")}, "finite")])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"lam": 0}, "real pole lam must be > 0"),
+        ({"omega": -1}, "natural frequency omega must be > 0"),
+        ({"rho": 0}, "zero frequency rho must be > 0"),
+        ({"gain": 1}, "unknown parameter 'gain'"),
+        ({"sigma": float("inf")}, "finite"),
+    ],
+)
 def test_bad_parameters_are_refused(params, message):
     with pytest.raises(ConfigError, match=message):
         nsbench.get_problem("relay-feedback", **params)

@@ -48,8 +48,11 @@ def test_the_start_state_is_a_parameter_and_the_run_starts_there(name, preset, s
     np.testing.assert_array_equal(np.asarray(res.trajectory[list(p.state_names)].iloc[0]), p.initial_state())
 
 
-@pytest.mark.parametrize("name, preset, start", [s for s in STARTS if s[0] in ("two-dof", "one-dof", "chain")],
-                         ids=["two-dof", "one-dof", "chain"])
+@pytest.mark.parametrize(
+    "name, preset, start",
+    [s for s in STARTS if s[0] in ("two-dof", "one-dof", "chain")],
+    ids=["two-dof", "one-dof", "chain"],
+)
 def test_exact_from_a_moving_start_meets_the_closed_form_in_40_digits(name, preset, start):
     p = nsbench.get_problem(name, **preset, **start)
     got = nsbench.simulate(p, "exact", 50.0).events

@@ -16,8 +16,11 @@ from nsbench.testing import CHECKS, check_integrator, parametrize_with_checks, r
 # siconos-moreau-jean runs only problems with one friction level (fs = fr), never the belt's presets,
 # siconos-event-driven the bouncing ball only, and both only where Siconos is installed: their conformance
 # is tests/integrators/test_siconos.py
-BUILTINS = [e.name for e in registry.entries("integrators")
-            if e.distribution == "nsbench" and e.name not in ("siconos-moreau-jean", "siconos-event-driven")]
+BUILTINS = [
+    e.name
+    for e in registry.entries("integrators")
+    if e.distribution == "nsbench" and e.name not in ("siconos-moreau-jean", "siconos-event-driven")
+]
 
 
 def test_builtins_are_found_through_the_registry():
@@ -54,8 +57,9 @@ def test_builtin_conformance_on_leines_belt_oscillator(integrator, check):
 
 
 def test_a_nonlinear_law_is_checked_as_given_and_a_coulomb_belt_keeps_its_presets():
-    results = {r.check: r for r in check_integrator("exact", ["event-times"], problem={"name": "one-dof",
-                                                                                       "case": "leine"})}
+    results = {
+        r.check: r for r in check_integrator("exact", ["event-times"], problem={"name": "one-dof", "case": "leine"})
+    }
     assert results["event-times"].status == "skipped"
     assert "refused at setup: exact solves piecewise-linear problems only" in results["event-times"].message
     assert "weakening friction law" in results["event-times"].message
@@ -103,8 +107,7 @@ def test_builtin_conformance_on_henon_heiles(integrator, check):
 
 
 def test_a_refusal_at_setup_is_reported_with_its_reason():
-    results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"],
-                                                    problem="impact-oscillator")}
+    results = {r.check: r for r in check_integrator("heyoka", ["protocol", "event-times"], problem="impact-oscillator")}
     assert all(r.status == "skipped" and r.message.startswith("refused at setup: heyoka") for r in results.values())
     ok = {r.check: r for r in check_integrator("exact", ["event-times", "stuck-stays-stuck"], problem="bouncing-ball")}
     assert ok["event-times"].status == "passed"
@@ -122,6 +125,7 @@ def test_kit_problem_family_is_checked_before_any_check():
 
 # ---------------------------------------------------------------------- the kit catches faults
 # Deliberately broken variants of real integrators: each must fail its check.
+
 
 class WrongOrder(HenonRK4):
     name = "test-wrong-order"
@@ -185,14 +189,17 @@ class TransposedEval(ExactIntegrator):
         return arc
 
 
-@pytest.mark.parametrize("broken, check, fragment", [
-    (TransposedEval, "protocol", "transposed? It must be (n_states, n_points) = (4, 2)"),
-    (WrongOrder, "declared-order", "observed order 4"),
-    (MutatesInput, "inputs-not-mutated", "changed request.y0"),
-    (Jitters, "determinism", "differ"),
-    (LateEvents, "event-times", "event times differ"),
-    (Chatters, "stuck-stays-stuck", "slip at 0.5, expected 8.35"),
-])
+@pytest.mark.parametrize(
+    "broken, check, fragment",
+    [
+        (TransposedEval, "protocol", "transposed? It must be (n_states, n_points) = (4, 2)"),
+        (WrongOrder, "declared-order", "observed order 4"),
+        (MutatesInput, "inputs-not-mutated", "changed request.y0"),
+        (Jitters, "determinism", "differ"),
+        (LateEvents, "event-times", "event times differ"),
+        (Chatters, "stuck-stays-stuck", "slip at 0.5, expected 8.35"),
+    ],
+)
 def test_kit_detects_a_broken_integrator(broken, check, fragment):
     (result,) = check_integrator(broken(), [check])
     assert result.status == "failed"
@@ -218,8 +225,12 @@ def test_known_gaps_are_expected_failures_with_their_reason():
 
 
 def test_capabilities_decide_which_checks_apply():
-    results = {r.check: r for r in check_integrator("exact", ["convergence", "declared-order",
-                                                              "cubic-event-times", "refuses-unsupported"])}
+    results = {
+        r.check: r
+        for r in check_integrator(
+            "exact", ["convergence", "declared-order", "cubic-event-times", "refuses-unsupported"]
+        )
+    }
     assert results["convergence"].status == "skipped"
     assert results["declared-order"].status == "skipped"
     assert results["cubic-event-times"].status == "skipped"
@@ -252,9 +263,11 @@ def test_importing_the_kit_loads_no_heavy_backend():
     import subprocess
     import sys
 
-    code = ("import sys, nsbench, nsbench.testing\n"
-            "nsbench.list_integrators()\n"
-            "print(','.join(m for m in ('heyoka', 'sksundae', 'numba', 'matplotlib') if m in sys.modules))\n")
+    code = (
+        "import sys, nsbench, nsbench.testing\n"
+        "nsbench.list_integrators()\n"
+        "print(','.join(m for m in ('heyoka', 'sksundae', 'numba', 'matplotlib') if m in sys.modules))\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
 
@@ -263,6 +276,7 @@ def test_importing_the_kit_loads_no_heavy_backend():
 # RK4's global error grows like h**4: at h = 0.5 (50 times the default step) case 2's event
 # times are off by far more than the kit's 1e-5 (h**4 = 0.06; about 2e-2 measured), while the
 # middle accuracy level (h = 0.0025) is within it. Every check must run the options given.
+
 
 def test_an_option_given_is_used_by_the_accuracy_checks():
     (failed,) = check_integrator("henon-rk4", ["event-times"], options={"h": 0.5})
@@ -289,15 +303,21 @@ def test_the_plan_names_the_middle_level_or_the_options_given():
     middle = levels[len(levels) // 2]["h"]
     assert len(levels) == 4 and middle == 0.0025  # the third of four
     default = plan("henon-rk4", checks=["event-times", "convergence"])
-    assert default == [f"event-times at h={middle:g} (middle accuracy level, 3 of 4)",
-                       "convergence at h = 0.04, 0.01, 0.0025, 0.000625 (the declared accuracy levels)"]
+    assert default == [
+        f"event-times at h={middle:g} (middle accuracy level, 3 of 4)",
+        "convergence at h = 0.04, 0.01, 0.0025, 0.000625 (the declared accuracy levels)",
+    ]
     given = plan("henon-rk4", {"h": 0.01}, checks=["event-times", "declared-order"])
-    assert given == ["event-times at h=0.01 (the options given)",  # the default value, but given
-                     "declared-order at h = 0.04, 0.01, 0.0025 (around the given h)"]
+    assert given == [
+        "event-times at h=0.01 (the options given)",  # the default value, but given
+        "declared-order at h = 0.04, 0.01, 0.0025 (around the given h)",
+    ]
     # another option given: the declared levels, with it on top
     (line,) = plan("ofapi", {"N": 10}, checks=["convergence"])
-    assert line == "convergence at tol = 1e-09, 1e-11, 1e-14 (the declared accuracy levels with the options given), " \
-                   "with N=10"
+    assert (
+        line == "convergence at tol = 1e-09, 1e-11, 1e-14 (the declared accuracy levels with the options given), "
+        "with N=10"
+    )
     # a step near the end of its range: the levels move inwards (cvode's rtol is at most 1e-3)
     (line,) = plan("cvode-bdf", {"rtol": 1e-3}, checks=["convergence"])
     assert line.startswith("convergence at rtol = 0.001, 1e-06, 1e-09 (around the given rtol)")
@@ -307,8 +327,10 @@ def test_stepped_checks_run_around_the_given_step():
     (result,) = check_integrator("henon-rk4", ["convergence"], options={"h": 0.5})
     # the loosest of the three levels around h = 0.5 is h = 2, beyond RK4's stability limit on the belt
     # (2 x 1.618 > 2 sqrt 2): henon-rk4 refuses it at setup, and the failure says which step and why
-    assert result.status == "failed" and "refused a belt preset: henon-rk4: h = 2 is beyond RK4's stability" \
-        in result.message
+    assert (
+        result.status == "failed"
+        and "refused a belt preset: henon-rk4: h = 2 is beyond RK4's stability" in result.message
+    )
 
 
 def test_a_bad_option_is_refused_before_any_check():

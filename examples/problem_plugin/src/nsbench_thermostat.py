@@ -31,11 +31,11 @@ from nsbench.model.layout import Layout
 from nsbench.problems.base import HybridProblem
 
 # ---------------------------------------------------------------------- the vocabulary
-LAYOUT = Layout(tail=("a", "b", "x_lo", "x_hi"))        # the parameter vector, slot by slot
+LAYOUT = Layout(tail=("a", "b", "x_lo", "x_hi"))  # the parameter vector, slot by slot
 A, B, X_LO, X_HI = (LAYOUT.offset(name) for name in LAYOUT.tail)
-COOLING, HEATING = 0, 1                                    # the one entry of the mode vector
-TOO_WARM, TOO_COLD = 0, 1                                  # guard kinds
-OFF, ON = 0, 1                                             # event kinds
+COOLING, HEATING = 0, 1  # the one entry of the mode vector
+TOO_WARM, TOO_COLD = 0, 1  # guard kinds
+OFF, ON = 0, 1  # event kinds
 jit = numba.njit(cache=True, nogil=True)
 
 
@@ -169,6 +169,7 @@ def thermostat(case=None, dimensional=False, **params) -> Thermostat:
     if not 0 < lo < hi:
         raise ConfigError(f"thermostat: x_lo = {lo:g}, x_hi = {hi:g}: the levels must satisfy 0 < x_lo < x_hi")
     if not b / a > hi:
-        raise ConfigError(f"thermostat: parameter b = {b:g} is out of range: the heater must reach x_hi "
-                          f"(b / a > x_hi = {hi:g})")
+        raise ConfigError(
+            f"thermostat: parameter b = {b:g} is out of range: the heater must reach x_hi (b / a > x_hi = {hi:g})"
+        )
     return Thermostat(params, values)

@@ -68,8 +68,13 @@ def _resampled_medians(samples: list[float], rng: np.random.Generator, n: int) -
     return np.median(x[rng.integers(0, x.size, (n, x.size))], axis=1)
 
 
-def class_ratios(samples: dict[str, dict[str, list[float]]], methods, confidence: float = CONFIDENCE,
-                 n_boot: int = BOOTSTRAP, seed: int = 0) -> tuple[dict[str, Interval], dict[str, bool]]:
+def class_ratios(
+    samples: dict[str, dict[str, list[float]]],
+    methods,
+    confidence: float = CONFIDENCE,
+    n_boot: int = BOOTSTRAP,
+    seed: int = 0,
+) -> tuple[dict[str, Interval], dict[str, bool]]:
     """Class cost ratios with bootstrap intervals, and which methods are tied with the one of smallest ratio.
 
     Parameters
@@ -100,8 +105,12 @@ def class_ratios(samples: dict[str, dict[str, list[float]]], methods, confidence
     for m in methods:
         estimate = np.mean([math.log(point[p][m] / min(point[p].values())) for p in problems])
         draws = np.mean([np.log(boot[p][m] / cheapest[p]) for p in problems], axis=0)
-        ratios[m] = Interval(math.exp(estimate), float(np.exp(np.quantile(draws, lo_q))),
-                             float(np.exp(np.quantile(draws, hi_q))), confidence)
+        ratios[m] = Interval(
+            math.exp(estimate),
+            float(np.exp(np.quantile(draws, lo_q))),
+            float(np.exp(np.quantile(draws, hi_q))),
+            confidence,
+        )
     first = min(methods, key=lambda m: (ratios[m].estimate, m))
     tied = {}
     for m in methods:
@@ -138,8 +147,9 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     rows = []
     for klass in sorted((c for c in methods["problem_class"].unique() if c), key=_order):
         group = methods[methods["problem_class"] == klass]
-        problems = [(label, rows_) for label, rows_ in problem_groups(group)
-                    if (rows_["reference_status"] == "ok").any()]
+        problems = [
+            (label, rows_) for label, rows_ in problem_groups(group) if (rows_["reference_status"] == "ok").any()
+        ]
         for target in targets:
             costs: dict[str, dict[str, float]] = {}  # problem -> method -> cheapest reaching time
             samples: dict[str, dict[str, list[float]]] = {}  # ... and that run's timed samples
@@ -153,8 +163,16 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
                 fastest = {name: runs.loc[runs["wall_time"].idxmin()] for name, runs in hit.groupby("integrator")}
                 costs[label] = {name: float(row_["wall_time"]) for name, row_ in fastest.items()}
                 samples[label] = {name: samples_of(row_) for name, row_ in fastest.items()}
-            row = {"class": klass, "problems": ", ".join(graded), "target": f"{target:.0e}", "cheapest": "",
-                   "ratio": "", "runner_up": "", "wins": "", "not_on_every_problem": ""}
+            row = {
+                "class": klass,
+                "problems": ", ".join(graded),
+                "target": f"{target:.0e}",
+                "cheapest": "",
+                "ratio": "",
+                "runner_up": "",
+                "wins": "",
+                "not_on_every_problem": "",
+            }
             rows.append(row)
             if not graded:
                 row["cheapest"] = "not graded at this target"
@@ -171,15 +189,22 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
             first = order[0]
             wins = sum(costs[p][first] == best[p] for p in graded)
             # where another method is cheaper, is the difference within the timing noise (summary.tied_with)?
-            ties = sum(costs[p][first] != best[p] and tied_with(
-                samples[p][min(costs[p], key=costs[p].__getitem__)], samples[p][first], CONFIDENCE) for p in graded)
+            ties = sum(
+                costs[p][first] != best[p]
+                and tied_with(samples[p][min(costs[p], key=costs[p].__getitem__)], samples[p][first], CONFIDENCE)
+                for p in graded
+            )
             won = f"{wins} of {len(graded)}" + (f" (tied on {ties} more)" if ties else "")
             level = [m for m in order if tied[m]]
             runner = order[1] if len(order) > 1 else ""
-            row.update(cheapest=first if len(level) == 1 else "tied: " + ", ".join(level),
-                       ratio=_ratio_text(ratios[first]), wins=won,
-                       runner_up=(f"{runner} ({_ratio_text(ratios[runner])}" + (", tied)" if tied[runner] else ")"))
-                       if runner else "")
+            row.update(
+                cheapest=first if len(level) == 1 else "tied: " + ", ".join(level),
+                ratio=_ratio_text(ratios[first]),
+                wins=won,
+                runner_up=(f"{runner} ({_ratio_text(ratios[runner])}" + (", tied)" if tied[runner] else ")"))
+                if runner
+                else "",
+            )
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
@@ -190,10 +215,12 @@ def class_findings(summary: pd.DataFrame) -> list[str]:
         parts = []
         for _, r in rows.iterrows():
             if r["ratio"] and r["cheapest"].startswith("tied: "):
-                names = r["cheapest"][len("tied: "):]
-                parts.append(f"at {r['target']} no method is distinguishably the cheapest: {names} are tied "
-                             f"(their class cost ratios' intervals overlap; {names.split(', ')[0]} "
-                             f"{r['ratio']}, cheapest on {r['wins']})")
+                names = r["cheapest"][len("tied: ") :]
+                parts.append(
+                    f"at {r['target']} no method is distinguishably the cheapest: {names} are tied "
+                    f"(their class cost ratios' intervals overlap; {names.split(', ')[0]} "
+                    f"{r['ratio']}, cheapest on {r['wins']})"
+                )
             elif r["ratio"]:
                 parts.append(f"at {r['target']} {r['cheapest']} (cost ratio {r['ratio']}, cheapest on {r['wins']})")
             else:
@@ -204,5 +231,11 @@ def class_findings(summary: pd.DataFrame) -> list[str]:
 
 def display(summary: pd.DataFrame) -> pd.DataFrame:
     """The table as the report shows it."""
-    return summary.rename(columns={"ratio": "class cost ratio", "runner_up": "runner-up (ratio)",
-                                   "wins": "cheapest on", "not_on_every_problem": "reaches it on some problems only"})
+    return summary.rename(
+        columns={
+            "ratio": "class cost ratio",
+            "runner_up": "runner-up (ratio)",
+            "wins": "cheapest on",
+            "not_on_every_problem": "reaches it on some problems only",
+        }
+    )

@@ -104,8 +104,15 @@ def _direction(a: np.ndarray, b: np.ndarray, factor: float, alpha: float) -> tup
     return ratio, p, ("slower" if ratio > factor else "faster") if p <= alpha else "noise"
 
 
-def time_verdict(a_times, b_times, factor: float = FACTOR, confidence: float = CONFIDENCE,
-                 cold_first: tuple[bool, bool] = (False, False), a_cpu=(), b_cpu=()) -> TimeVerdict:
+def time_verdict(
+    a_times,
+    b_times,
+    factor: float = FACTOR,
+    confidence: float = CONFIDENCE,
+    cold_first: tuple[bool, bool] = (False, False),
+    a_cpu=(),
+    b_cpu=(),
+) -> TimeVerdict:
     """The :class:`TimeVerdict` of run B's samples against run A's (seconds per run).
 
     The verdict is taken on the CPU clock (``a_cpu``, ``b_cpu``) where both
@@ -169,9 +176,33 @@ def work_verdict(nfev_a, nfev_b, factor: float) -> tuple[float, str]:
 
 
 #: Columns of :func:`compare_frames`.
-COLUMNS = ["problem", "integrator", "options", "level", "status_a", "status_b", "time_a", "time_b", "time_ratio",
-           "time_low", "time_high", "time_p", "cpu_ratio", "time_verdict", "nfev_a", "nfev_b", "nfev_ratio",
-           "nfev_verdict", "err_a", "err_b", "err_ratio", "err_verdict", "flagged", "flags", "case_id"]
+COLUMNS = [
+    "problem",
+    "integrator",
+    "options",
+    "level",
+    "status_a",
+    "status_b",
+    "time_a",
+    "time_b",
+    "time_ratio",
+    "time_low",
+    "time_high",
+    "time_p",
+    "cpu_ratio",
+    "time_verdict",
+    "nfev_a",
+    "nfev_b",
+    "nfev_ratio",
+    "nfev_verdict",
+    "err_a",
+    "err_b",
+    "err_ratio",
+    "err_verdict",
+    "flagged",
+    "flags",
+    "case_id",
+]
 
 
 def _check(factor: float, confidence: float) -> None:
@@ -185,8 +216,9 @@ def _float(value) -> float:
     return float(value) if value is not None and pd.notna(value) else math.nan
 
 
-def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR,
-                   confidence: float = CONFIDENCE) -> pd.DataFrame:
+def compare_frames(
+    a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR, confidence: float = CONFIDENCE
+) -> pd.DataFrame:
     """One row per case present in both runs (matched on ``case_id``), with verdicts and ``flagged``.
 
     Columns: :data:`COLUMNS`. ``time_ratio`` is the Hodges-Lehmann ratio ``B / A``
@@ -201,24 +233,60 @@ def compare_frames(a: pd.DataFrame, b: pd.DataFrame, factor: float = FACTOR,
     for _, r in merged.iterrows():
         cpu_a = r["cpu_times_a"] if "cpu_times_a" in r else ()
         cpu_b = r["cpu_times_b"] if "cpu_times_b" in r else ()
-        t = time_verdict(r["wall_times_a"], r["wall_times_b"], factor, confidence,
-                         (legacy_layout(r, "a"), legacy_layout(r, "b")), cpu_a, cpu_b)
+        t = time_verdict(
+            r["wall_times_a"],
+            r["wall_times_b"],
+            factor,
+            confidence,
+            (legacy_layout(r, "a"), legacy_layout(r, "b")),
+            cpu_a,
+            cpu_b,
+        )
         e_a, e_b = _float(r["switch_err_max_a"]), _float(r["switch_err_max_b"])
         e_ratio, e_verdict = error_verdict(e_a, e_b, factor)
         n_ratio, n_verdict = work_verdict(r["nfev_a"], r["nfev_b"], factor)
         lost = r["status_a"] == Status.SUCCESS and r["status_b"] != Status.SUCCESS
         broke = bool(r["sequence_ok_a"] is True and r["sequence_ok_b"] is False)
-        flags = [name for name, on in (("slower", t.verdict == "slower"), ("more work", n_verdict == "more"),
-                                       ("less accurate", e_verdict == "worse"), ("status", lost),
-                                       ("event sequence", broke)) if on]
-        rows.append({"problem": r["problem_label_a"], "integrator": r["integrator_a"],
-                     "options": r["options_a"], "level": r["level_a"], "status_a": r["status_a"],
-                     "status_b": r["status_b"], "time_a": r["wall_time_a"], "time_b": r["wall_time_b"],
-                     "time_ratio": t.ratio, "time_low": t.low, "time_high": t.high, "time_p": t.p,
-                     "cpu_ratio": t.cpu_ratio, "time_verdict": t.verdict, "nfev_a": r["nfev_a"],
-                     "nfev_b": r["nfev_b"], "nfev_ratio": n_ratio, "nfev_verdict": n_verdict, "err_a": e_a,
-                     "err_b": e_b, "err_ratio": e_ratio, "err_verdict": e_verdict, "flagged": bool(flags),
-                     "flags": ", ".join(flags), "case_id": r["case_id"]})
+        flags = [
+            name
+            for name, on in (
+                ("slower", t.verdict == "slower"),
+                ("more work", n_verdict == "more"),
+                ("less accurate", e_verdict == "worse"),
+                ("status", lost),
+                ("event sequence", broke),
+            )
+            if on
+        ]
+        rows.append(
+            {
+                "problem": r["problem_label_a"],
+                "integrator": r["integrator_a"],
+                "options": r["options_a"],
+                "level": r["level_a"],
+                "status_a": r["status_a"],
+                "status_b": r["status_b"],
+                "time_a": r["wall_time_a"],
+                "time_b": r["wall_time_b"],
+                "time_ratio": t.ratio,
+                "time_low": t.low,
+                "time_high": t.high,
+                "time_p": t.p,
+                "cpu_ratio": t.cpu_ratio,
+                "time_verdict": t.verdict,
+                "nfev_a": r["nfev_a"],
+                "nfev_b": r["nfev_b"],
+                "nfev_ratio": n_ratio,
+                "nfev_verdict": n_verdict,
+                "err_a": e_a,
+                "err_b": e_b,
+                "err_ratio": e_ratio,
+                "err_verdict": e_verdict,
+                "flagged": bool(flags),
+                "flags": ", ".join(flags),
+                "case_id": r["case_id"],
+            }
+        )
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
@@ -250,13 +318,16 @@ def read_results(path: str | Path) -> pd.DataFrame:
         reason = " ".join(str(reason).split())
         raise ConfigError(f"cannot read results from {str(path)!r}: {reason[:200]}") from None
     if len(frame) == 0 or not frame["case_id"].fillna("").astype(str).str.len().gt(0).all():
-        raise ConfigError(f"{str(path)!r} holds no nsbench results (no rows with a case_id): "
-                          "give the output folder of 'nsbench bench', 'run' or 'ingest'")
+        raise ConfigError(
+            f"{str(path)!r} holds no nsbench results (no rows with a case_id): "
+            "give the output folder of 'nsbench bench', 'run' or 'ingest'"
+        )
     return frame
 
 
-def compare(a: str | Path, b: str | Path, factor: float = FACTOR,
-            confidence: float = CONFIDENCE) -> tuple[pd.DataFrame, dict[str, int]]:
+def compare(
+    a: str | Path, b: str | Path, factor: float = FACTOR, confidence: float = CONFIDENCE
+) -> tuple[pd.DataFrame, dict[str, int]]:
     """Compare two stored runs (directories, Parquet or CSV files).
 
     Returns the per-case table (:func:`compare_frames`) and counts: cases in
@@ -266,6 +337,10 @@ def compare(a: str | Path, b: str | Path, factor: float = FACTOR,
     fa, fb = read_results(a), read_results(b)
     table = compare_frames(fa, fb, factor, confidence)
     ids_a, ids_b = set(fa["case_id"]), set(fb["case_id"])
-    counts = {"common": len(ids_a & ids_b), "only_a": len(ids_a - ids_b), "only_b": len(ids_b - ids_a),
-              "flagged": int(table["flagged"].sum())}
+    counts = {
+        "common": len(ids_a & ids_b),
+        "only_a": len(ids_a - ids_b),
+        "only_b": len(ids_b - ids_a),
+        "flagged": int(table["flagged"].sum()),
+    }
     return table, counts

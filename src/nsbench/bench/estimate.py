@@ -75,14 +75,14 @@ class CostTable:
     calibration: float
     machine: str = ""
     measured: str = ""
-    warm_up: dict[str, float] = field(default_factory=dict)    # case label -> its first warm-up
-    run: dict[str, float] = field(default_factory=dict)        # case label -> one later timed sample
+    warm_up: dict[str, float] = field(default_factory=dict)  # case label -> its first warm-up
+    run: dict[str, float] = field(default_factory=dict)  # case label -> one later timed sample
     #: case label -> its first timing task: the calibration run, the first sample, the metrics (a table
     #: measured before samples were calibrated has none: its ``run`` stands for every timing task)
     first: dict[str, float] = field(default_factory=dict)
-    target: dict[str, float] = field(default_factory=dict)     # location label -> the whole location
-    reference: float = 1.5                                      # one reference run
-    report: float = 15.0                                        # writing the report
+    target: dict[str, float] = field(default_factory=dict)  # location label -> the whole location
+    reference: float = 1.5  # one reference run
+    report: float = 15.0  # writing the report
     #: the rest of a run, not in any task: starting workers, the barriers between phases, the
     #: bifurcation targets' references (the measured run's time less its tasks over its workers)
     overhead: float = 0.0
@@ -113,9 +113,11 @@ class CostTable:
         """The median warm-up, first timing task and later timed sample over the table's cases."""
         if not self.run:
             return 1.0, 1.0, 1.0
-        return (statistics.median(self.warm_up.get(k, v) for k, v in self.run.items()),
-                statistics.median(self.first.get(k, v) for k, v in self.run.items()),
-                statistics.median(self.run.values()))
+        return (
+            statistics.median(self.warm_up.get(k, v) for k, v in self.run.items()),
+            statistics.median(self.first.get(k, v) for k, v in self.run.items()),
+            statistics.median(self.run.values()),
+        )
 
 
 def location_label(target: str, integrator: str, options: dict[str, Any]) -> str:
@@ -129,13 +131,13 @@ class Plan:
     """What a run will do and how long it should take (see :func:`plan`)."""
 
     n_cases: int
-    n_runs: int            # timed samples (the warm-ups, calibration runs and references come on top)
+    n_runs: int  # timed samples (the warm-ups, calibration runs and references come on top)
     n_locations: int
-    n_unknown: int         # tasks the cost table does not know (counted as its median)
+    n_unknown: int  # tasks the cost table does not know (counted as its median)
     workers: int
-    seconds: float         # the estimate on this machine now
-    speed: float           # this machine's time for the calibration workload / the table's
-    load: float            # other programs' runnable processes
+    seconds: float  # the estimate on this machine now
+    speed: float  # this machine's time for the calibration workload / the table's
+    load: float  # other programs' runnable processes
     cores: int
     #: case label -> worker seconds of its warm-up and of one timing round, the mean of its rounds
     #: (the table's, or typical ones)
@@ -169,9 +171,17 @@ def _duration(seconds: float) -> str:
     return f"about {seconds / 60:.0f} min" if seconds < 600 else f"about {seconds / 60:.0f} min (long)"
 
 
-def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, workers: int = 1,
-         table: CostTable | None = None, calibration: float | None = None, load: float | None = None,
-         cores: int | None = None, report: bool = True) -> Plan:
+def plan(
+    cases: Iterable,
+    locations: Iterable = (),
+    n_references: int = 0,
+    workers: int = 1,
+    table: CostTable | None = None,
+    calibration: float | None = None,
+    load: float | None = None,
+    cores: int | None = None,
+    report: bool = True,
+) -> Plan:
     """The :class:`Plan` of a run of ``cases`` (suite cases) and ``locations`` (bifurcation-target locations).
 
     ``calibration`` (:func:`calibrate` here), ``load`` and ``cores`` default to
@@ -183,8 +193,17 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
     n_workers = max(1, min(int(workers), cores))
     n_runs = sum(c.repeats for c in cases)
     if table is None:
-        return Plan(len(cases), n_runs, len(locations), len(cases) + len(locations), n_workers, math.inf,
-                    math.nan, math.nan, cores)
+        return Plan(
+            len(cases),
+            n_runs,
+            len(locations),
+            len(cases) + len(locations),
+            n_workers,
+            math.inf,
+            math.nan,
+            math.nan,
+            cores,
+        )
     load = other_load(cores) if load is None else max(0.0, load)
     calibration = calibrate() if calibration is None else calibration
     # The calibration ran beside the other load, on a share of a core; the workers will share the
@@ -205,8 +224,9 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
         # a case whose samples spread gets more of them, one per round, up to max_repeats
         extra += max(0, (getattr(c, "max_repeats", None) or c.repeats) - c.repeats) * later
     known_targets = list(table.target.values())
-    typical_target = (statistics.median(known_targets) if known_targets
-                      else (table.typical()[0] + table.typical()[2]) * 4)
+    typical_target = (
+        statistics.median(known_targets) if known_targets else (table.typical()[0] + table.typical()[2]) * 4
+    )
     target_work = 0.0
     for loc in locations:
         cost = table.target.get(location_label(loc.target.name, loc.integrator, loc.options))
@@ -220,8 +240,9 @@ def plan(cases: Iterable, locations: Iterable = (), n_references: int = 0, worke
     if report:
         seconds += table.report * speed / share_calibration  # one process
     seconds_most = seconds + extra * speed / (n_workers * share_workers)
-    return Plan(len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights,
-                seconds_most)
+    return Plan(
+        len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights, seconds_most
+    )
 
 
 # ---------------------------------------------------------------------- the table, from a finished run
@@ -256,15 +277,17 @@ def measure(out: str | Path, total: float, workers: int = 2, calibration: float 
             targets[location_label(r.target, r.integrator, options)] = float(r.wall_time) + setup
     tasks = tl.loc[tl["kind"] != "start", "seconds"].sum() + sum(targets.values())
     prov = provenance()
-    return CostTable(calibration=calibrate(2.0) if calibration is None else calibration,
-                     machine=f"{prov.get('cpu', '?')}, {prov.get('cpu_count', '?')} cores",
-                     measured=f"{time.strftime('%Y-%m-%d')} at {str(prov.get('git_commit', '?'))[:12]}",
-                     warm_up={k: round(float(v), 4) for k, v in warm.items()},
-                     run={k: round(float(v), 4) for k, v in runs.items()},
-                     first={k: round(float(v), 4) for k, v in first.items()},
-                     target={k: round(v, 3) for k, v in targets.items()},
-                     reference=round(float(refs.median()), 3) if len(refs) else 1.5,
-                     overhead=round(max(0.0, total - tasks / workers), 1))
+    return CostTable(
+        calibration=calibrate(2.0) if calibration is None else calibration,
+        machine=f"{prov.get('cpu', '?')}, {prov.get('cpu_count', '?')} cores",
+        measured=f"{time.strftime('%Y-%m-%d')} at {str(prov.get('git_commit', '?'))[:12]}",
+        warm_up={k: round(float(v), 4) for k, v in warm.items()},
+        run={k: round(float(v), 4) for k, v in runs.items()},
+        first={k: round(float(v), 4) for k, v in first.items()},
+        target={k: round(v, 3) for k, v in targets.items()},
+        reference=round(float(refs.median()), 3) if len(refs) else 1.5,
+        overhead=round(max(0.0, total - tasks / workers), 1),
+    )
 
 
 def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintainer's tool
@@ -272,9 +295,12 @@ def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintain
 
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 2:
-        print("usage: python -m nsbench.bench.estimate OUT SECONDS\n  OUT: the folder of a finished "
-              "'nsbench run --suite full --fresh --workers 2' on an idle machine; SECONDS: its wall time "
-              "without the report", file=sys.stderr)
+        print(
+            "usage: python -m nsbench.bench.estimate OUT SECONDS\n  OUT: the folder of a finished "
+            "'nsbench run --suite full --fresh --workers 2' on an idle machine; SECONDS: its wall time "
+            "without the report",
+            file=sys.stderr,
+        )
         return 2
     from nsbench.bench.report import write_report
     from nsbench.bench.storage import load_results
@@ -285,8 +311,10 @@ def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintain
     table.report = round(time.perf_counter() - tic, 1)
     path = Path(__file__).resolve().parents[1] / "suites" / COSTS_FILE
     path.write_text(table.to_json() + "\n")
-    print(f"{path}: {len(table.run)} cases, {len(table.target)} locations, calibration {table.calibration:.4f} s, "
-          f"overhead {table.overhead} s, report {table.report} s")
+    print(
+        f"{path}: {len(table.run)} cases, {len(table.target)} locations, calibration {table.calibration:.4f} s, "
+        f"overhead {table.overhead} s, report {table.report} s"
+    )
     return 0
 
 

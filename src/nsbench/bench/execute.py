@@ -68,10 +68,14 @@ class TimeLimited(Integrator):
     def advance(self, request: ArcRequest) -> ArcResult:
         if time.perf_counter() > self.deadline:
             self.hit = True
-            return ArcResult(t=request.t0, y=np.array(request.y0), fired=None,
-                             y_eval=np.empty((request.problem.n_states, 0)),
-                             status=Status.BUDGET_EXHAUSTED,
-                             message=f"wall-clock limit of {self.limit:g} s reached at t = {request.t0:.6g}")
+            return ArcResult(
+                t=request.t0,
+                y=np.array(request.y0),
+                fired=None,
+                y_eval=np.empty((request.problem.n_states, 0)),
+                status=Status.BUDGET_EXHAUSTED,
+                message=f"wall-clock limit of {self.limit:g} s reached at t = {request.t0:.6g}",
+            )
         return self.inner.advance(request)
 
 
@@ -90,8 +94,10 @@ def problem_label(config: dict[str, Any]) -> str:
         label += " dimensional"
     params = config.get("params") or {}
     if params:
-        label += " " + " ".join(f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}"  # law=weakening
-                                for k, v in sorted(params.items()))
+        label += " " + " ".join(
+            f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}"  # law=weakening
+            for k, v in sorted(params.items())
+        )
     return label
 
 
@@ -108,17 +114,34 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         config = {"name": case.integrator, "options": dict(case.options)}
     step_value = config["options"].get(step_option) if step_option else None
     row.update(
-        case_id=case.case_id, suite=suite, problem=case.problem["name"], case=case.problem.get("case"),
-        problem_label=problem_label(case.problem), problem_config=_jsonable(case.problem),
-        integrator=case.integrator, family=cls.capabilities.family, integrator_config=_jsonable(config),
-        options=_jsonable(case.options), level=case.level, step_option=step_option or "",
+        case_id=case.case_id,
+        suite=suite,
+        problem=case.problem["name"],
+        case=case.problem.get("case"),
+        problem_label=problem_label(case.problem),
+        problem_config=_jsonable(case.problem),
+        integrator=case.integrator,
+        family=cls.capabilities.family,
+        integrator_config=_jsonable(config),
+        options=_jsonable(case.options),
+        level=case.level,
+        step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
-        t0=case.t0, t_end=case.t_end, message="", wall_times=[], integrator_times=[], cpu_times=[],
+        t0=case.t0,
+        t_end=case.t_end,
+        message="",
+        wall_times=[],
+        integrator_times=[],
+        cpu_times=[],
         n_repeats=0,
-        counters_extra="{}", reference="", reference_config="null", event_t=[], event_err=[], event_cert=[],
+        counters_extra="{}",
+        reference="",
+        reference_config="null",
+        event_t=[],
+        event_err=[],
+        event_cert=[],
     )
     return row
-
 
 
 def _finish(row: dict[str, Any]) -> dict[str, Any]:
@@ -138,8 +161,7 @@ def _quiet(what: str, limit: float | None) -> None:
 
 
 def _error_message(exc: Exception) -> str:
-    return (f"{type(exc).__name__}: {exc} | "
-            + traceback.format_exc(limit=3).strip().splitlines()[-2].strip())
+    return f"{type(exc).__name__}: {exc} | " + traceback.format_exc(limit=3).strip().splitlines()[-2].strip()
 
 
 @dataclass(frozen=True)
@@ -168,8 +190,7 @@ def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
     return problem_from_config(case.problem), (TimeLimited(integ, limit) if limited else integ)
 
 
-def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
-            in_process: bool = False) -> WarmResult:
+def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet, in_process: bool = False) -> WarmResult:
     """Set ``case`` up and run the first :data:`WARMUP_FRACTION` of its span, untimed.
 
     The setup compiles what the integrator compiles (numba kernels into numba's
@@ -189,8 +210,7 @@ def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
         integ.setup(problem)
         setup_time = time.perf_counter() - tic
         stage("warm-up run", case.time_limit)
-        res = simulate(problem, integ, t_end, t0=case.t0, t_eval=grid[grid <= t_end],
-                       max_steps=case.max_steps)
+        res = simulate(problem, integ, t_end, t0=case.t0, t_eval=grid[grid <= t_end], max_steps=case.max_steps)
     except UnsupportedProblemError as exc:
         row.update(status="unsupported", message=str(exc))
         return WarmResult(math.nan, math.nan, _finish(row))
@@ -198,8 +218,9 @@ def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet,
         row.update(status="error", message=_error_message(exc))
         return WarmResult(math.nan, math.nan, _finish(row))
     if isinstance(integ, TimeLimited) and integ.hit:
-        row.update(status="time limit", message=f"{res.message} (warm-up run)", t_final=res.t_final,
-                   setup_time=setup_time)
+        row.update(
+            status="time limit", message=f"{res.message} (warm-up run)", t_final=res.t_final, setup_time=setup_time
+        )
         return WarmResult(setup_time, res.wall_time, _finish(row))
     return WarmResult(setup_time, res.wall_time)
 
@@ -252,9 +273,17 @@ def _sample(problem, integ, case: Case, grid: np.ndarray, loops: int) -> _Sample
     return _Sample(wall / n, cpu / n, inner / n, setup, run)
 
 
-def time_case(case: Case, reference: Reference, suite: str = "suite", stage: StageCallback = _quiet,
-              in_process: bool = False, count: int | None = None, metrics: bool = True,
-              first_run: int = 0, loops: int | None = None) -> dict[str, Any]:
+def time_case(
+    case: Case,
+    reference: Reference,
+    suite: str = "suite",
+    stage: StageCallback = _quiet,
+    in_process: bool = False,
+    count: int | None = None,
+    metrics: bool = True,
+    first_run: int = 0,
+    loops: int | None = None,
+) -> dict[str, Any]:
     """Time ``count`` samples of ``case`` (default ``case.repeats``; after :func:`warm_up` in this process).
 
     Without ``loops`` (the first timing round) a *calibration* run comes first:
@@ -294,8 +323,9 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
             loops = loops_within(loops, call, case.time_limit / 4.0)
             hit = isinstance(integ, TimeLimited) and integ.hit
             if loops == 1 or hit or not first.ok:  # long enough (or failed): it is the first sample
-                samples.append(_Sample(first.wall_time, first.cpu_time, first.integrator_time,
-                                       first.setup_time, first, hit))
+                samples.append(
+                    _Sample(first.wall_time, first.cpu_time, first.integrator_time, first.setup_time, first, hit)
+                )
         while len(samples) < n_samples and not (samples and (samples[-1].hit or not samples[-1].run.ok)):
             k = first_run + len(samples) + 1
             _quiet_heap()  # before the stage: a full collection (0.3-0.45 s idle) is no part of a run's limit
@@ -310,39 +340,66 @@ def time_case(case: Case, reference: Reference, suite: str = "suite", stage: Sta
         row.update(status="time limit", message=last.run.message, t_final=last.run.t_final)
         return _finish(row)
     notes = [lead.message] if lead.message else []
-    notes += [f"timed sample {k + 1} ended with {s.run.status.value}: {s.run.message}"
-              for k, s in enumerate(samples) if s.run.status != lead.status]
+    notes += [
+        f"timed sample {k + 1} ended with {s.run.status.value}: {s.run.message}"
+        for k, s in enumerate(samples)
+        if s.run.status != lead.status
+    ]
     wall = [float(s.wall) for s in samples]
     inner = [float(s.inner) for s in samples]
     cpu = [float(s.cpu) for s in samples]
     counters = lead.counters.as_dict()
     extra = {k: v for k, v in counters.items() if k not in ("nfev", "njev", "nsteps", "n_events")}
-    row.update(status=lead.status.value, message=" | ".join(notes), t_final=lead.t_final,
-               nfev=int(counters["nfev"]), njev=int(counters["njev"]), nsteps=int(counters["nsteps"]),
-               n_events=int(counters["n_events"]), counters_extra=_jsonable(extra),
-               wall_times=wall, n_repeats=len(wall), integrator_times=inner, cpu_times=cpu, loops=int(loops),
-               setup_time_timed=max(float(s.setup) for s in samples), **summarize(wall, inner, cpu))
+    row.update(
+        status=lead.status.value,
+        message=" | ".join(notes),
+        t_final=lead.t_final,
+        nfev=int(counters["nfev"]),
+        njev=int(counters["njev"]),
+        nsteps=int(counters["nsteps"]),
+        n_events=int(counters["n_events"]),
+        counters_extra=_jsonable(extra),
+        wall_times=wall,
+        n_repeats=len(wall),
+        integrator_times=inner,
+        cpu_times=cpu,
+        loops=int(loops),
+        setup_time_timed=max(float(s.setup) for s in samples),
+        **summarize(wall, inner, cpu),
+    )
     if metrics and reference.ok:
         dense = None
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
         belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
-        metrics = case_metrics(reference.events, lead.events, reference.y_dense, dense,
-                               reference.y_final, lead.y_final, times=grid, v_belt=belt, t_end=case.t_end)
+        metrics = case_metrics(
+            reference.events,
+            lead.events,
+            reference.y_dense,
+            dense,
+            reference.y_final,
+            lead.y_final,
+            times=grid,
+            v_belt=belt,
+            t_end=case.t_end,
+        )
         if problem.family == "impact" and hasattr(problem, "energy"):
             from nsbench.bench.metrics import impact_metrics
 
             metrics["penetration"], metrics["energy_err"] = impact_metrics(
-                problem.energy, dense, reference.y_final, lead.y_final if lead.ok else None)
+                problem.energy, dense, reference.y_final, lead.y_final if lead.ok else None
+            )
         if lead.ok and reference.t_dense.size:
             # the order on a smooth arc, apart from the switches: one more short run, untimed
             from nsbench.bench.families import smooth_arc_error
 
-            metrics["arc_err"] = smooth_arc_error(problem, integ, reference.events, reference.t_dense,
-                                                  reference.y_dense, belt)
+            metrics["arc_err"] = smooth_arc_error(
+                problem, integ, reference.events, reference.t_dense, reference.y_dense, belt
+            )
         if metrics.pop("truncated"):
-            row["message"] = (row["message"] + " | " if row["message"] else "") + \
-                "event logs too long: only their starts were aligned"
+            row["message"] = (
+                row["message"] + " | " if row["message"] else ""
+            ) + "event logs too long: only their starts were aligned"
         row.update(metrics)
     return _finish(row)
 
@@ -360,11 +417,16 @@ def merge_runs(row: dict[str, Any], more: dict[str, Any]) -> dict[str, Any]:
         note = f"a later timed sample ended with {more.get('status')}: {more.get('message') or 'no message'}"
         out["message"] = f"{out['message']} | {note}" if out.get("message") else note
         return out
-    joined = {name: [float(w) for w in row.get(name) or []] + [float(w) for w in more.get(name) or []]
-              for name in ("wall_times", "integrator_times", "cpu_times")}
-    out.update(joined, n_repeats=len(joined["wall_times"]),
-               **summarize(joined["wall_times"], joined["integrator_times"], joined["cpu_times"]),
-               setup_time_timed=max(float(row["setup_time_timed"]), float(more["setup_time_timed"])))
+    joined = {
+        name: [float(w) for w in row.get(name) or []] + [float(w) for w in more.get(name) or []]
+        for name in ("wall_times", "integrator_times", "cpu_times")
+    }
+    out.update(
+        joined,
+        n_repeats=len(joined["wall_times"]),
+        **summarize(joined["wall_times"], joined["integrator_times"], joined["cpu_times"]),
+        setup_time_timed=max(float(row["setup_time_timed"]), float(more["setup_time_timed"])),
+    )
     return out
 
 
@@ -385,8 +447,16 @@ def run_case(case: Case, reference: Reference, suite: str = "suite") -> dict[str
         return warm.row
     row = time_case(case, reference, suite, in_process=True)
     while needs_more(row, case.max_repeats or case.repeats):
-        more = time_case(case, reference, suite, in_process=True, count=1, metrics=False,
-                         first_run=int(row["n_repeats"]), loops=int(row["loops"]))
+        more = time_case(
+            case,
+            reference,
+            suite,
+            in_process=True,
+            count=1,
+            metrics=False,
+            first_run=int(row["n_repeats"]),
+            loops=int(row["loops"]),
+        )
         grown = merge_runs(row, more)
         if grown["n_repeats"] == row["n_repeats"]:  # the sample failed: its note is kept, no more
             row = grown

@@ -29,16 +29,18 @@ from nsbench.status import Status
 LADDERS = {"time-stepping": ("h", False), "switch-model": ("eta", False), "smoothing": ("eps", True)}
 FAMILY_ORDER = ("event-driven", "time-stepping", "switch-model", "smoothing")
 
-CAPTION = ("One row per problem and integrator. `ladder`: the option the suite varies and its range; "
-           "`reaches <target>`: the median wall time per run of the cheapest configuration whose switch "
-           "sequence is the reference's with every switching-time error within the target (blank: none "
-           "does); `order (switches)`, `order (states)`: the log-log slope of `switch_err_max` and "
-           "`state_err_l2` along the ladder, over the configurations with the reference's switch sequence "
-           "(against `1/eps` for smoothing); `order (smooth arcs)`: the slope of `arc_err`, the state error "
-           "of a run started on the reference inside its longest slipping arc and stopped before the arc "
-           "ends (no switch), over the successful configurations; `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
-           "reference sticks) at the loosest and the tightest configuration; `sequence ok`: configurations with "
-           "the reference's switch sequence, of all run.")
+CAPTION = (
+    "One row per problem and integrator. `ladder`: the option the suite varies and its range; "
+    "`reaches <target>`: the median wall time per run of the cheapest configuration whose switch "
+    "sequence is the reference's with every switching-time error within the target (blank: none "
+    "does); `order (switches)`, `order (states)`: the log-log slope of `switch_err_max` and "
+    "`state_err_l2` along the ladder, over the configurations with the reference's switch sequence "
+    "(against `1/eps` for smoothing); `order (smooth arcs)`: the slope of `arc_err`, the state error "
+    "of a run started on the reference inside its longest slipping arc and stopped before the arc "
+    "ends (no switch), over the successful configurations; `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
+    "reference sticks) at the loosest and the tightest configuration; `sequence ok`: configurations with "
+    "the reference's switch sequence, of all run."
+)
 
 
 def family_of(row: pd.Series) -> str:
@@ -82,16 +84,22 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
         option, values, sharpens = _ladder(rows, family)
         steps = [1.0 / v if sharpens and v else v for v in values]
         good = (rows["status"] == Status.SUCCESS) & rows["sequence_ok"].fillna(False).astype(bool)
-        row: dict[str, Any] = {"problem": problem, "family": family, "integrator": name,
-                               "ladder": _range(option, values)}
+        row: dict[str, Any] = {
+            "problem": problem,
+            "family": family,
+            "integrator": name,
+            "ladder": _range(option, values),
+        }
         for target in targets:
             ok = rows[reached_mask(rows, target)]
             row[f"reaches {target:g}"] = float(ok["wall_time"].min()) if len(ok) else math.nan
         sel = good.to_numpy()
-        row["order (switches)"] = observed_order([s for s, k in zip(steps, sel) if k],
-                                                 rows["switch_err_max"].to_numpy(dtype=float)[sel])
-        row["order (states)"] = observed_order([s for s, k in zip(steps, sel) if k],
-                                               rows["state_err_l2"].to_numpy(dtype=float)[sel])
+        row["order (switches)"] = observed_order(
+            [s for s, k in zip(steps, sel) if k], rows["switch_err_max"].to_numpy(dtype=float)[sel]
+        )
+        row["order (states)"] = observed_order(
+            [s for s, k in zip(steps, sel) if k], rows["state_err_l2"].to_numpy(dtype=float)[sel]
+        )
         ran = (rows["status"] == Status.SUCCESS).to_numpy()
         arc = rows["arc_err"].to_numpy(dtype=float) if "arc_err" in rows else np.full(len(rows), math.nan)
         row["order (smooth arcs)"] = observed_order([s for s, k in zip(steps, ran) if k], arc[ran])
@@ -103,8 +111,11 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
     table = pd.DataFrame(out)
     if len(table):
         rank = {f: i for i, f in enumerate(FAMILY_ORDER)}
-        table = table.sort_values(["problem", "family"], key=lambda col: col.map(rank).fillna(9)
-                                  if col.name == "family" else col, kind="stable").reset_index(drop=True)
+        table = table.sort_values(
+            ["problem", "family"],
+            key=lambda col: col.map(rank).fillna(9) if col.name == "family" else col,
+            kind="stable",
+        ).reset_index(drop=True)
     return table
 
 
@@ -128,16 +139,21 @@ def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str
             if reached and missed:
                 cost += f" (not {', '.join(missed)})"
             order = r["order (switches)"]
-            order_text = f"switching-time error of order {order:.2f} along {r['ladder']}" if math.isfinite(order) \
+            order_text = (
+                f"switching-time error of order {order:.2f} along {r['ladder']}"
+                if math.isfinite(order)
                 else f"no order measurable along {r['ladder']} (fewer than two configurations with the switch sequence)"
+            )
             arc = r.get("order (smooth arcs)", math.nan)
             if math.isfinite(arc):
                 order_text += f", order {arc:.2f} on a smooth arc"
             creep = ""
             if math.isfinite(r["creep (tightest)"]):
                 creep = f"; creep {r['creep (loosest)']:.2g} to {r['creep (tightest)']:.2g} while the reference sticks"
-            lines.append(f"{problem}, {r['family']} ({r['integrator']}): {cost}; {order_text}{creep}; "
-                         f"switch sequence right in {r['sequence ok']} configurations.")
+            lines.append(
+                f"{problem}, {r['family']} ({r['integrator']}): {cost}; {order_text}{creep}; "
+                f"switch sequence right in {r['sequence ok']} configurations."
+            )
     return lines
 
 
@@ -145,8 +161,9 @@ def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str
 ARC_MARGIN = 0.25
 
 
-def smooth_arc_window(ref_times: np.ndarray, t_dense: np.ndarray, y_dense: np.ndarray,
-                      v_belt: float | None) -> tuple[int, int] | None:
+def smooth_arc_window(
+    ref_times: np.ndarray, t_dense: np.ndarray, y_dense: np.ndarray, v_belt: float | None
+) -> tuple[int, int] | None:
     """Dense indices ``(a, b)`` of the reference's longest smooth arc, its middle half.
 
     The arcs are the spans between consecutive reference events (and the span's ends); on a belt
@@ -171,8 +188,9 @@ def smooth_arc_window(ref_times: np.ndarray, t_dense: np.ndarray, y_dense: np.nd
     return best
 
 
-def smooth_arc_error(problem, integ, ref_events: pd.DataFrame, t_dense: np.ndarray, y_dense: np.ndarray,
-                     v_belt: float | None) -> float:
+def smooth_arc_error(
+    problem, integ, ref_events: pd.DataFrame, t_dense: np.ndarray, y_dense: np.ndarray, v_belt: float | None
+) -> float:
     """``arc_err``: the state error of ``integ`` over a smooth arc, started on the reference.
 
     The run starts at the reference's dense state at ``a`` and stops at ``b``
@@ -182,13 +200,11 @@ def smooth_arc_error(problem, integ, ref_events: pd.DataFrame, t_dense: np.ndarr
     """
     from nsbench.engine import simulate
 
-    window = smooth_arc_window(ref_events["t"].to_numpy() if len(ref_events) else np.empty(0), t_dense, y_dense,
-                               v_belt)
+    window = smooth_arc_window(ref_events["t"].to_numpy() if len(ref_events) else np.empty(0), t_dense, y_dense, v_belt)
     if window is None:
         return math.nan
     a, b = window
-    run = simulate(problem, integ, float(t_dense[b]), t0=float(t_dense[a]), y0=np.array(y_dense[:, a]),
-                   check_points=0)
+    run = simulate(problem, integ, float(t_dense[b]), t0=float(t_dense[a]), y0=np.array(y_dense[:, a]), check_points=0)
     if not run.ok or len(run.events):
         return math.nan
     return float(np.max(np.abs(np.asarray(run.y_final, dtype=float) - y_dense[:, b])))

@@ -28,12 +28,18 @@ _TIME_LABEL = "warm median wall time (whiskers: fastest to slowest timed run)"
 #: Cost axes of the work-precision figures: (column, file tag, axis label, caption words).
 COST_AXES = {
     "wall_time": ("time", "warm wall time (s)", _TIME_LABEL),
-    "integrator_time": ("inttime", "integrator time (s)",
-                        "the time spent inside the integrator's own code (median over the timed runs; "
-                        "nsbench's event handling left out)"),
+    "integrator_time": (
+        "inttime",
+        "integrator time (s)",
+        "the time spent inside the integrator's own code (median over the timed runs; "
+        "nsbench's event handling left out)",
+    ),
     "nfev": ("nfev", "right-hand-side evaluations (nfev)", "nfev"),
-    "nsteps": ("nsteps", "steps or segments (nsteps)",
-               "the integrator's steps (segments for the collocation methods, Taylor steps for heyoka)"),
+    "nsteps": (
+        "nsteps",
+        "steps or segments (nsteps)",
+        "the integrator's steps (segments for the collocation methods, Taylor steps for heyoka)",
+    ),
 }
 
 
@@ -64,15 +70,40 @@ def _pyplot():
 #: Method families and their colour maps: members of a family share a hue, told apart by shade and
 #: marker. A family is what the integrator's capabilities say, never its name: reference-grade
 #: integrators, else its event location (``Capabilities.event_location``), labelled here.
-FAMILIES = (("reference", "Greys"), ("dense output", "Blues"), ("solver root finding", "Greens"),
-            ("Taylor", "Reds"), ("collocation", "Oranges"), ("Henon", "Purples"),
-            ("time-stepping", "YlOrBr"), ("switch-model", "PuRd"), ("smoothing", "BuGn"))
-_EVENT_FAMILIES = {"dense-output-root": "dense output", "solver-rootfinding": "solver root finding",
-                   "taylor-root": "Taylor", "collocation-newton": "collocation", "henon": "Henon"}
+FAMILIES = (
+    ("reference", "Greys"),
+    ("dense output", "Blues"),
+    ("solver root finding", "Greens"),
+    ("Taylor", "Reds"),
+    ("collocation", "Oranges"),
+    ("Henon", "Purples"),
+    ("time-stepping", "YlOrBr"),
+    ("switch-model", "PuRd"),
+    ("smoothing", "BuGn"),
+)
+_EVENT_FAMILIES = {
+    "dense-output-root": "dense output",
+    "solver-rootfinding": "solver root finding",
+    "taylor-root": "Taylor",
+    "collocation-newton": "collocation",
+    "henon": "Henon",
+}
 #: Colours of integrators in no family above (a plug-in's own event location, or one not registered
 #: here): each its own, none of the families' hues.
-_OTHER_COLOURS = ("tab:brown", "tab:pink", "tab:olive", "tab:cyan", "gold", "magenta", "teal", "navy",
-                  "lime", "maroon", "darkkhaki", "slateblue")
+_OTHER_COLOURS = (
+    "tab:brown",
+    "tab:pink",
+    "tab:olive",
+    "tab:cyan",
+    "gold",
+    "magenta",
+    "teal",
+    "navy",
+    "lime",
+    "maroon",
+    "darkkhaki",
+    "slateblue",
+)
 
 
 def family(name: str) -> str:
@@ -117,8 +148,10 @@ def _styles(names: list[str]) -> dict[str, dict]:
                 shade = 0.9 - 0.45 * (i / max(len(group) - 1, 1)) if len(group) > 1 else 0.75
                 styles[n] = {"color": plt.get_cmap(maps[fam])(shade), "marker": _MARKERS[i % len(_MARKERS)]}
             else:  # markers from the end of the list: unlike the families' first members
-                styles[n] = {"color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)],
-                             "marker": _MARKERS[-1 - others % len(_MARKERS)]}
+                styles[n] = {
+                    "color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)],
+                    "marker": _MARKERS[-1 - others % len(_MARKERS)],
+                }
                 others += 1
     return styles
 
@@ -154,8 +187,7 @@ def _whiskers(ax, rows: pd.DataFrame, x: np.ndarray, y: np.ndarray, color) -> No
     known = np.isfinite(low) & np.isfinite(high)
     if known.any():
         xerr = np.vstack([np.maximum(x - low, 0.0), np.maximum(high - x, 0.0)])[:, known]
-        ax.errorbar(x[known], y[known], xerr=xerr, fmt="none", ecolor=color, elinewidth=1.0, capsize=2.5,
-                    alpha=0.8)
+        ax.errorbar(x[known], y[known], xerr=xerr, fmt="none", ecolor=color, elinewidth=1.0, capsize=2.5, alpha=0.8)
 
 
 def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out: Path) -> Figure:
@@ -184,8 +216,11 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
         if cost == "wall_time":
             _whiskers(ax, rows[good], x[good], y[good], st["color"])
         ax.plot(x[good], y[good], "-", marker=st["marker"], color=st["color"], lw=1.0, ms=6, label=name)
-        bound = good & (rows["at_ref_accuracy"].fillna(False).to_numpy(dtype=bool)
-                        if "at_ref_accuracy" in rows else np.zeros(len(rows), bool))
+        bound = good & (
+            rows["at_ref_accuracy"].fillna(False).to_numpy(dtype=bool)
+            if "at_ref_accuracy" in rows
+            else np.zeros(len(rows), bool)
+        )
         if bound.any():
             ax.plot(x[bound], y[bound], "v", color=st["color"], ms=9, ls="none", mfc="white")
         if (~good).any():
@@ -198,11 +233,13 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     ax.set_title(f"{label}: error vs {xlabel.split(' (')[0]}")
     ax.grid(True, which="major", alpha=0.3)
     _legend_outside(ax)
-    caption = (f"Work-precision on {label}: max switching-time error over the matched prefix against "
-               f"{words}; "
-               f"one point per configuration, lines through the runs with the reference's event sequence. "
-               f"Hollow markers: a wrong event sequence (never counted as reaching a target). White "
-               f"triangles: within the reference's certified error, drawn at that error (an upper bound).")
+    caption = (
+        f"Work-precision on {label}: max switching-time error over the matched prefix against "
+        f"{words}; "
+        f"one point per configuration, lines through the runs with the reference's event sequence. "
+        f"Hollow markers: a wrong event sequence (never counted as reaching a target). White "
+        f"triangles: within the reference's certified error, drawn at that error (an upper bound)."
+    )
     if dropped:
         caption += f" {dropped} run(s) that did not succeed (time limit, failure) are not drawn."
     if left_out:
@@ -228,47 +265,57 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
         best = ok.sort_values("level").iloc[-1]
         cert = np.asarray(best["event_cert"] if "event_cert" in best else [], dtype=float)
         if cert.size > band[0].size:
-            band = (np.asarray(best["event_t"], dtype=float)[:cert.size], np.maximum(cert, ERROR_FLOOR))
+            band = (np.asarray(best["event_t"], dtype=float)[: cert.size], np.maximum(cert, ERROR_FLOOR))
         t = np.asarray(best["event_t"], dtype=float)
         err = np.maximum(np.abs(np.asarray(best["event_err"], dtype=float)), ERROR_FLOOR)
         curves.setdefault(family(name), []).append((name, int(best["level"]), t, err))
     order = [f for f, _ in FAMILIES if f in curves] + sorted(f for f in curves if f not in dict(FAMILIES))
     cols = min(3, max(len(order), 1))
     nrows = max(1, math.ceil(len(order) / cols))
-    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 2.9 * nrows), sharex=True, sharey=True,
-                             squeeze=False)
-    for ax in axes.flat[len(order):]:
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 2.9 * nrows), sharex=True, sharey=True, squeeze=False)
+    for ax in axes.flat[len(order) :]:
         ax.set_visible(False)
     for ax, fam in zip(axes.flat, order):
         if band[0].size:
-            ax.fill_between(band[0], ERROR_FLOOR, band[1], color="0.85", step="mid", lw=0,
-                            label="reference's certified error")
+            ax.fill_between(
+                band[0], ERROR_FLOOR, band[1], color="0.85", step="mid", lw=0, label="reference's certified error"
+            )
         for name, level, t, err in curves[fam]:
             st = styles[name]
-            ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5,
-                    label=f"{name} (level {level})")
+            ax.plot(
+                t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5, label=f"{name} (level {level})"
+            )
         ax.set_yscale("log")
         ax.set_title(fam, fontsize=9)
         ax.grid(True, alpha=0.3)
     # one legend for every panel, right of them: a legend inside a small panel covers its curves
     entries: dict[str, object] = {}
-    for ax in axes.flat[:len(order)]:
+    for ax in axes.flat[: len(order)]:
         for handle, name in zip(*ax.get_legend_handles_labels()):
             entries.setdefault(name, handle)
     if entries:
-        fig.legend(list(entries.values()), list(entries), loc="upper left", bbox_to_anchor=(1.0, 0.95), fontsize=7,
-                   frameon=False)
+        fig.legend(
+            list(entries.values()),
+            list(entries),
+            loc="upper left",
+            bbox_to_anchor=(1.0, 0.95),
+            fontsize=7,
+            frameon=False,
+        )
     for ax in axes[-1]:
         ax.set_xlabel("reference switching time")
     for ax in axes[:, 0]:
         ax.set_ylabel("|switching-time error|")
     fig.suptitle(f"{label}: switching-time error along the trajectory")
-    caption = (f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
-               f"successful configuration of each integrator, one panel per method family (the line stops "
-               f"where its event sequence departs from the reference).")
+    caption = (
+        f"Switching-time error of every event of the matched prefix on {label}, for the tightest "
+        f"successful configuration of each integrator, one panel per method family (the line stops "
+        f"where its event sequence departs from the reference)."
+    )
     if band[0].size:
-        caption += (" Grey: the reference's certified error at each event; a difference inside it is not "
-                    "a measured error.")
+        caption += (
+            " Grey: the reference's certified error at each event; a difference inside it is not a measured error."
+        )
     return _save(fig, out, f"event_err_{slug(label)}", f"{label}: error along the trajectory", caption)
 
 
@@ -282,14 +329,23 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
             continue
         st = styles[name]
         # rows ingested from pytest-benchmark may have no accuracy level: plot them in order
-        levels = (rows["level"].astype(float).to_numpy() if rows["level"].notna().all()
-                  else np.arange(len(rows), dtype=float))
+        levels = (
+            rows["level"].astype(float).to_numpy() if rows["level"].notna().all() else np.arange(len(rows), dtype=float)
+        )
         times = rows["wall_time"].to_numpy(dtype=float)
         low, high = rows["wall_time_min"].to_numpy(dtype=float), rows["wall_time_max"].to_numpy(dtype=float)
         known = np.isfinite(low) & np.isfinite(high)
         if known.any():
-            ax.errorbar(levels[known], times[known], yerr=np.vstack([times - low, high - times])[:, known],
-                        fmt="none", ecolor=st["color"], elinewidth=1.0, capsize=2.5, alpha=0.8)
+            ax.errorbar(
+                levels[known],
+                times[known],
+                yerr=np.vstack([times - low, high - times])[:, known],
+                fmt="none",
+                ecolor=st["color"],
+                elinewidth=1.0,
+                capsize=2.5,
+                alpha=0.8,
+            )
         ax.plot(levels, times, "-", marker=st["marker"], color=st["color"], label=name)
     ax.set_yscale("log")
     ax.set_xlabel("configuration (loose to tight)")
@@ -298,14 +354,18 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
     ax.grid(True, alpha=0.3)
     _legend_outside(ax)
     reason = str(group["reference_status"].iloc[0])
-    caption = (f"Cost of each configuration on {label} (median warm wall time; whiskers: fastest to "
-               f"slowest timed run); accuracy is not measured: {reason}.")
+    caption = (
+        f"Cost of each configuration on {label} (median warm wall time; whiskers: fastest to "
+        f"slowest timed run); accuracy is not measured: {reason}."
+    )
     return _save(fig, out, f"cost_{slug(label)}", f"{label}: cost only", caption)
 
 
 #: Cost axes of the runtime-distribution figure: (fixed-target column, axis label).
-ECDF_COSTS = {"wall_time": "warm wall time to reach the target (s)",
-              "nfev": "right-hand-side evaluations to reach the target (nfev)"}
+ECDF_COSTS = {
+    "wall_time": "warm wall time to reach the target (s)",
+    "nfev": "right-hand-side evaluations to reach the target (nfev)",
+}
 
 
 def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure | None:
@@ -334,8 +394,14 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
                 continue
             y = np.arange(1, x.size + 1) / n_pairs
             st = styles[name]
-            ax.step(np.concatenate([x[:1], x]), np.concatenate([[0.0], y]), where="post", color=st["color"],
-                    lw=1.3, label=name)
+            ax.step(
+                np.concatenate([x[:1], x]),
+                np.concatenate([[0.0], y]),
+                where="post",
+                color=st["color"],
+                lw=1.3,
+                label=name,
+            )
             ax.plot(x[-1], y[-1], st["marker"], color=st["color"], ms=5)  # where the curve ends
         ax.set_xscale("log")
         ax.set_xlabel(label)
@@ -348,13 +414,15 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
     fig.suptitle("Runtime distributions over every problem and target")
     fig.tight_layout()
     n_problems, n_targets = pairs["problem_label"].nunique(), pairs["target"].nunique()
-    caption = (f"Runtime distributions (COCO style): for each method under test, the fraction of the {n_pairs} "
-               f"(problem, target) pairs ({n_problems} problems, {n_targets} switching-time error targets, those "
-               "that have a reference and can be graded) that it solves within a given cost, by warm wall time "
-               "(left) and by nfev (right). A pair is solved at the cost of the method's cheapest configuration "
-               "that reaches the target with the reference's event sequence (the fixed-target rule); a curve "
-               "ends (marker) at the share of pairs the method solves at all. Higher and further left is better. "
-               "Methods that count no right-hand-side evaluations (nfev = 0) have no curve on the right.")
+    caption = (
+        f"Runtime distributions (COCO style): for each method under test, the fraction of the {n_pairs} "
+        f"(problem, target) pairs ({n_problems} problems, {n_targets} switching-time error targets, those "
+        "that have a reference and can be graded) that it solves within a given cost, by warm wall time "
+        "(left) and by nfev (right). A pair is solved at the cost of the method's cheapest configuration "
+        "that reaches the target with the reference's event sequence (the fixed-target rule); a curve "
+        "ends (marker) at the share of pairs the method solves at all. Higher and further left is better. "
+        "Methods that count no right-hand-side evaluations (nfev = 0) have no curve on the right."
+    )
     return _save(fig, out, "runtime_distribution", "Runtime distributions", caption)
 
 
@@ -366,8 +434,10 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     for label, group in problem_groups(frame):
         if (group["reference_status"] == "ok").any():
             for cost in COST_AXES:
-                if cost not in ("integrator_time", "nsteps") or \
-                        pd.to_numeric(group.get(cost), errors="coerce").notna().any():
+                if (
+                    cost not in ("integrator_time", "nsteps")
+                    or pd.to_numeric(group.get(cost), errors="coerce").notna().any()
+                ):
                     figures.append(work_precision(group, label, cost, styles, out))
             figures.append(event_error_along(group, label, styles, out))
         else:
@@ -375,8 +445,9 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     return figures
 
 
-def scaling_report_figures(frame: pd.DataFrame, table: pd.DataFrame, summary: pd.DataFrame,
-                           out: str | Path) -> list[Figure]:
+def scaling_report_figures(
+    frame: pd.DataFrame, table: pd.DataFrame, summary: pd.DataFrame, out: str | Path
+) -> list[Figure]:
     """The scaling figures of every family of the report (none when no family varies ``n``)."""
     styles = _styles(sorted(frame["integrator"].unique()))
     figures: list[Figure] = []
@@ -385,8 +456,7 @@ def scaling_report_figures(frame: pd.DataFrame, table: pd.DataFrame, summary: pd
     return figures
 
 
-def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, styles: dict,
-                    out: Path) -> list[Figure]:
+def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, styles: dict, out: Path) -> list[Figure]:
     """The scaling study of one family: cost to reach the target against ``n``, events and set-up against ``n``.
 
     ``table`` and ``summary`` are :func:`nsbench.bench.scaling.scaling_table` and
@@ -406,8 +476,7 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
                 continue
             b = fits.loc[name, f"exponent_{cost}"] if name in fits.index else math.nan
             tag = f"{name} (b = {b:.2f})" if np.isfinite(b) else name
-            ax.plot(group["n"].to_numpy(dtype=float), y, label=tag, linewidth=1.2, markersize=4,
-                    **styles.get(name, {}))
+            ax.plot(group["n"].to_numpy(dtype=float), y, label=tag, linewidth=1.2, markersize=4, **styles.get(name, {}))
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
         ax.set_xlabel("number of blocks n")
@@ -415,13 +484,14 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     if handles:
-        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=4, fontsize=8,
-                   frameon=False)
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=4, fontsize=8, frameon=False)
     fig.suptitle(f"{family}: cost to reach a switching-time error of {SCALING_TARGET:g}")
-    caption = (f"Cost of the cheapest configuration of each integrator that reaches a switching-time error of "
-               f"{SCALING_TARGET:g} on {family}, against the number of blocks n (log-log); b in the legend is "
-               "the fitted growth exponent of cost ~ n^b (per panel in the scaling table). An integrator's line "
-               "ends where it stops reaching the target.")
+    caption = (
+        f"Cost of the cheapest configuration of each integrator that reaches a switching-time error of "
+        f"{SCALING_TARGET:g} on {family}, against the number of blocks n (log-log); b in the legend is "
+        "the fitted growth exponent of cost ~ n^b (per panel in the scaling table). An integrator's line "
+        "ends where it stops reaching the target."
+    )
     figs = [_save(fig, out, f"scaling_cost_{slug(family)}", f"{family}: cost against n", caption)]
 
     fig, (ax_e, ax_s) = plt.subplots(1, 2, figsize=(11, 4.5))
@@ -435,8 +505,9 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
         group = group.sort_values("n")
         y = group["setup_time"].to_numpy(dtype=float)
         if np.isfinite(y).any() and (y > 0).any():
-            ax_s.plot(group["n"].to_numpy(dtype=float), y, label=name, linewidth=1.2, markersize=4,
-                      **styles.get(name, {}))
+            ax_s.plot(
+                group["n"].to_numpy(dtype=float), y, label=name, linewidth=1.2, markersize=4, **styles.get(name, {})
+            )
     ax_s.set_xscale("log", base=2)
     ax_s.set_yscale("log")
     ax_s.set_xlabel("number of blocks n")
@@ -444,10 +515,13 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
     ax_s.grid(True, which="both", alpha=0.3)
     if ax_s.lines:
         ax_s.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    caption = (f"{family}: events per unit time of the reference against n, and each integrator's set-up time "
-               "(compilation and tables, kept out of the timed runs; the largest over its configurations, the "
-               "first of which compiles) against n. heyoka keeps compiled code in an on-disk cache "
-               "(~/.cache/heyoka), so a second run on one machine shows loading, not compiling.")
-    figs.append(_save(fig, out, f"scaling_events_setup_{slug(family)}", f"{family}: events and set-up against n",
-                      caption))
+    caption = (
+        f"{family}: events per unit time of the reference against n, and each integrator's set-up time "
+        "(compilation and tables, kept out of the timed runs; the largest over its configurations, the "
+        "first of which compiles) against n. heyoka keeps compiled code in an on-disk cache "
+        "(~/.cache/heyoka), so a second run on one machine shows loading, not compiling."
+    )
+    figs.append(
+        _save(fig, out, f"scaling_events_setup_{slug(family)}", f"{family}: events and set-up against n", caption)
+    )
     return figs

@@ -46,8 +46,15 @@ from nsbench.bench.compare import CONFIDENCE, FACTOR, compare_frames
 from nsbench.errors import ConfigError
 
 #: Versions that make an environment (nsbench's own is the commit's).
-ENVIRONMENT_KEYS = ("python", "version_numpy", "version_scipy", "version_pandas", "version_heyoka",
-                    "version_scikit-sundae", "version_numba")
+ENVIRONMENT_KEYS = (
+    "python",
+    "version_numpy",
+    "version_scipy",
+    "version_pandas",
+    "version_heyoka",
+    "version_scikit-sundae",
+    "version_numba",
+)
 ENTRY_FILE = "entry.json"
 
 
@@ -111,8 +118,15 @@ def commit_of(repo: str | Path) -> tuple[str, str]:
     return sha + ("+dirty" if dirty else ""), _git(repo, "show", "-s", "--format=%cI", sha)
 
 
-def add(run: str | Path, store: str | Path, *, machine: str | None = None, commit: str | None = None,
-        commit_time: str | None = None, repo: str | Path | None = None) -> Entry:
+def add(
+    run: str | Path,
+    store: str | Path,
+    *,
+    machine: str | None = None,
+    commit: str | None = None,
+    commit_time: str | None = None,
+    repo: str | Path | None = None,
+) -> Entry:
     """Copy a finished run (an ``nsbench run``/``bench`` output folder) into ``store``; its :class:`Entry`.
 
     The commit is ``commit`` if given, else the HEAD of ``repo``, else nsbench's
@@ -128,16 +142,25 @@ def add(run: str | Path, store: str | Path, *, machine: str | None = None, commi
         commit, commit_time = commit_of(repo)
     commit = commit or prov.get("git_commit")
     if not commit:
-        raise ConfigError(f"{str(run)!r} records no git commit (nsbench ran outside a checkout): "
-                          "give --commit SHA or --repo PATH")
+        raise ConfigError(
+            f"{str(run)!r} records no git commit (nsbench ran outside a checkout): give --commit SHA or --repo PATH"
+        )
     environment, versions = environment_of(prov)
     name = _slug(machine or platform.node() or "machine", "machine name")
     added = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
     folder = Path(store) / name / environment / _slug(commit, "commit") / added
     folder.mkdir(parents=True, exist_ok=False)
-    entry = Entry(machine=name, environment=environment, commit=str(commit),
-                  commit_time=commit_time or str(prov.get("date", "")), added=added, path=str(folder),
-                  cpu=str(prov.get("cpu", "")), cores=int(prov.get("cpu_count") or 0), versions=versions)
+    entry = Entry(
+        machine=name,
+        environment=environment,
+        commit=str(commit),
+        commit_time=commit_time or str(prov.get("date", "")),
+        added=added,
+        path=str(folder),
+        cpu=str(prov.get("cpu", "")),
+        cores=int(prov.get("cpu_count") or 0),
+        versions=versions,
+    )
     storage.write_results(frame, folder / "results.parquet", prov)
     (folder / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
     (folder / ENTRY_FILE).write_text(json.dumps({k: v for k, v in asdict(entry).items() if k != "path"}, indent=1))
@@ -167,31 +190,68 @@ def load(entry: Entry) -> pd.DataFrame:
 
 
 #: Columns of :func:`table`.
-TABLE_COLUMNS = ["machine", "environment", "order", "commit", "commit_time", "problem", "integrator", "level",
-                 "options", "status", "wall_time", "wall_spread", "cpu_time", "nfev", "switch_err_max", "case_id"]
+TABLE_COLUMNS = [
+    "machine",
+    "environment",
+    "order",
+    "commit",
+    "commit_time",
+    "problem",
+    "integrator",
+    "level",
+    "options",
+    "status",
+    "wall_time",
+    "wall_spread",
+    "cpu_time",
+    "nfev",
+    "switch_err_max",
+    "case_id",
+]
 
 
-def table(store: str | Path, machine: str | None = None, environment: str | None = None,
-          problem: str | None = None, integrator: str | None = None) -> pd.DataFrame:
+def table(
+    store: str | Path,
+    machine: str | None = None,
+    environment: str | None = None,
+    problem: str | None = None,
+    integrator: str | None = None,
+) -> pd.DataFrame:
     """Long table: each (problem, integrator, level)'s cost and accuracy at each stored run, in commit order."""
     parts = []
     for (mach, env), runs in _loaded(store, machine, environment, problem, integrator).items():
         for order, (entry, rows) in enumerate(runs):
-            parts.append(pd.DataFrame({
-                "machine": mach, "environment": env, "order": order, "commit": entry.short,
-                "commit_time": entry.commit_time, "problem": rows["problem_label"], "integrator": rows["integrator"],
-                "level": rows["level"], "options": rows["options"], "status": rows["status"],
-                "wall_time": rows["wall_time"], "wall_spread": rows["wall_spread"], "cpu_time": rows["cpu_time"],
-                "nfev": rows["nfev"], "switch_err_max": rows["switch_err_max"], "case_id": rows["case_id"]}))
+            parts.append(
+                pd.DataFrame(
+                    {
+                        "machine": mach,
+                        "environment": env,
+                        "order": order,
+                        "commit": entry.short,
+                        "commit_time": entry.commit_time,
+                        "problem": rows["problem_label"],
+                        "integrator": rows["integrator"],
+                        "level": rows["level"],
+                        "options": rows["options"],
+                        "status": rows["status"],
+                        "wall_time": rows["wall_time"],
+                        "wall_spread": rows["wall_spread"],
+                        "cpu_time": rows["cpu_time"],
+                        "nfev": rows["nfev"],
+                        "switch_err_max": rows["switch_err_max"],
+                        "case_id": rows["case_id"],
+                    }
+                )
+            )
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=TABLE_COLUMNS)
 
 
-def _loaded(store: str | Path, machine: str | None, environment: str | None, problem: str | None,
-            integrator: str | None) -> dict[tuple[str, str], list[tuple[Entry, pd.DataFrame]]]:
+def _loaded(
+    store: str | Path, machine: str | None, environment: str | None, problem: str | None, integrator: str | None
+) -> dict[tuple[str, str], list[tuple[Entry, pd.DataFrame]]]:
     """The runs of each (machine, environment) in commit order with their rows, filtered; a filter that
     matches no stored row is refused with the values there are."""
-    series = {key: [(e, load(e)) for e in runs]
-              for key, runs in _series(entries(store, machine, environment)).items()}
+    series = {key: [(e, load(e)) for e in runs] for key, runs in _series(entries(store, machine, environment)).items()}
     frames = [f for runs in series.values() for _, f in runs]
     for column, value, flag in (("problem_label", problem, "--problem"), ("integrator", integrator, "--integrator")):
         if value is None:
@@ -211,14 +271,37 @@ def _series(found: Iterable[Entry]) -> dict[tuple[str, str], list[Entry]]:
 
 
 #: Columns of :func:`steps`.
-STEP_COLUMNS = ["machine", "environment", "order", "commit", "previous", "problem", "integrator", "level",
-                "options", "time_ratio", "time_low", "time_high", "cpu_ratio", "time_verdict", "nfev_ratio",
-                "err_ratio", "flags", "case_id"]
+STEP_COLUMNS = [
+    "machine",
+    "environment",
+    "order",
+    "commit",
+    "previous",
+    "problem",
+    "integrator",
+    "level",
+    "options",
+    "time_ratio",
+    "time_low",
+    "time_high",
+    "cpu_ratio",
+    "time_verdict",
+    "nfev_ratio",
+    "err_ratio",
+    "flags",
+    "case_id",
+]
 
 
-def steps(store: str | Path, machine: str | None = None, environment: str | None = None,
-          problem: str | None = None, integrator: str | None = None, factor: float = FACTOR,
-          confidence: float = CONFIDENCE) -> pd.DataFrame:
+def steps(
+    store: str | Path,
+    machine: str | None = None,
+    environment: str | None = None,
+    problem: str | None = None,
+    integrator: str | None = None,
+    factor: float = FACTOR,
+    confidence: float = CONFIDENCE,
+) -> pd.DataFrame:
     """The flagged changes between consecutive runs of each machine and environment (``compare``'s statistics).
 
     One row per case flagged by :func:`nsbench.bench.compare.compare_frames`
@@ -231,12 +314,28 @@ def steps(store: str | Path, machine: str | None = None, environment: str | None
             if before is not None:
                 diff = compare_frames(before[1], frame, factor, confidence)
                 for r in diff[diff["flagged"]].itertuples():
-                    rows.append({"machine": mach, "environment": env, "order": order, "commit": entry.short,
-                                 "previous": before[0].short, "problem": r.problem, "integrator": r.integrator,
-                                 "level": r.level, "options": r.options, "time_ratio": r.time_ratio,
-                                 "time_low": r.time_low, "time_high": r.time_high, "cpu_ratio": r.cpu_ratio,
-                                 "time_verdict": r.time_verdict, "nfev_ratio": r.nfev_ratio,
-                                 "err_ratio": r.err_ratio, "flags": r.flags, "case_id": r.case_id})
+                    rows.append(
+                        {
+                            "machine": mach,
+                            "environment": env,
+                            "order": order,
+                            "commit": entry.short,
+                            "previous": before[0].short,
+                            "problem": r.problem,
+                            "integrator": r.integrator,
+                            "level": r.level,
+                            "options": r.options,
+                            "time_ratio": r.time_ratio,
+                            "time_low": r.time_low,
+                            "time_high": r.time_high,
+                            "cpu_ratio": r.cpu_ratio,
+                            "time_verdict": r.time_verdict,
+                            "nfev_ratio": r.nfev_ratio,
+                            "err_ratio": r.err_ratio,
+                            "flags": r.flags,
+                            "case_id": r.case_id,
+                        }
+                    )
             before = (entry, frame)
     return pd.DataFrame(rows, columns=STEP_COLUMNS)
 
@@ -259,10 +358,20 @@ def revisions(repo: str | Path, spec: str) -> list[str]:
     return shas
 
 
-def run_commits(repo: str | Path, spec: str, store: str | Path, *, suite: str = "default", src: str | None = None,
-                setup: str | None = None, machine: str | None = None, workers: int | None = None,
-                keep: str | Path | None = None, stream=None,
-                runner: Callable[[list[str], dict[str, str], Path], int] | None = None) -> list[Entry]:
+def run_commits(
+    repo: str | Path,
+    spec: str,
+    store: str | Path,
+    *,
+    suite: str = "default",
+    src: str | None = None,
+    setup: str | None = None,
+    machine: str | None = None,
+    workers: int | None = None,
+    keep: str | Path | None = None,
+    stream=None,
+    runner: Callable[[list[str], dict[str, str], Path], int] | None = None,
+) -> list[Entry]:
     """Run ``suite`` at every commit of ``spec`` in ``repo`` and add each run to ``store``.
 
     Each commit is checked out in a temporary ``git worktree`` (the user's
@@ -293,8 +402,9 @@ def run_commits(repo: str | Path, spec: str, store: str | Path, *, suite: str = 
             try:
                 code = _at_commit(tree, out, suite, src, setup, workers, run)
                 if code not in (0, 1):  # 1: the run finished with failures it records
-                    print(f"nsbench: history: commit {sha[:12]}: the run exited with status {code}; skipped",
-                          file=stream)
+                    print(
+                        f"nsbench: history: commit {sha[:12]}: the run exited with status {code}; skipped", file=stream
+                    )
                     continue
                 when = _git(repo, "show", "-s", "--format=%cI", sha)
                 added.append(add(out, store, machine=machine, commit=sha, commit_time=when))
@@ -303,12 +413,22 @@ def run_commits(repo: str | Path, spec: str, store: str | Path, *, suite: str = 
     return added
 
 
-def _at_commit(tree: Path, out: Path, suite: str, src: str | None, setup: str | None, workers: int | None,
-               run: Callable[[list[str], dict[str, str], Path], int]) -> int:
+def _at_commit(
+    tree: Path,
+    out: Path,
+    suite: str,
+    src: str | None,
+    setup: str | None,
+    workers: int | None,
+    run: Callable[[list[str], dict[str, str], Path], int],
+) -> int:
     source = tree / (src if src is not None else ("src" if (tree / "src").is_dir() else "."))
     if not source.is_dir():
         raise ConfigError(f"--src {src!r} is not a folder of the commit's tree")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(source), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(source), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep),
+    }
     if setup:
         code = run(shlex.split(setup), env, tree)
         if code != 0:
@@ -351,14 +471,28 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
             # an integrator's levels share its colour and marker: the line style tells them apart
             dash = LEVEL_LINES[int(level) % len(LEVEL_LINES)]
             ax_t.plot(g["order"], g["wall_time"], dash, marker=st["marker"], color=st["color"], ms=4, lw=1, label=tag)
-            ax_e.plot(g["order"], np.maximum(g["switch_err_max"].astype(float), ERROR_FLOOR), dash,
-                      marker=st["marker"], color=st["color"], ms=4, lw=1)
+            ax_e.plot(
+                g["order"],
+                np.maximum(g["switch_err_max"].astype(float), ERROR_FLOOR),
+                dash,
+                marker=st["marker"],
+                color=st["color"],
+                ms=4,
+                lw=1,
+            )
             marks = [flags.get((c, o), "") for c, o in zip(g["case_id"], g["order"])]
             cost = g[[("slower" in m or "more work" in m) for m in marks]]
             worse = g[[any(w in m for w in ("less accurate", "event sequence", "status")) for m in marks]]
             ax_t.plot(cost["order"], cost["wall_time"], "o", ms=12, mfc="none", mec="red", mew=1.5)
-            ax_e.plot(worse["order"], np.maximum(worse["switch_err_max"].astype(float), ERROR_FLOOR), "o", ms=12,
-                      mfc="none", mec="red", mew=1.5)
+            ax_e.plot(
+                worse["order"],
+                np.maximum(worse["switch_err_max"].astype(float), ERROR_FLOOR),
+                "o",
+                ms=12,
+                mfc="none",
+                mec="red",
+                mew=1.5,
+            )
         for ax, ylabel in ((ax_t, "median wall time (s)"), (ax_e, "max switching-time error")):
             ax.set_yscale("log")
             ax.set_ylabel(ylabel)
@@ -372,17 +506,25 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
         for handle, text in zip(*ax.get_legend_handles_labels()):
             entries_.setdefault(text, handle)
     if entries_:
-        fig.legend(list(entries_.values()), list(entries_), loc="upper left", bbox_to_anchor=(1.0, 0.98),
-                   fontsize=6, frameon=False, ncol=1 + len(entries_) // 40)
+        fig.legend(
+            list(entries_.values()),
+            list(entries_),
+            loc="upper left",
+            bbox_to_anchor=(1.0, 0.98),
+            fontsize=6,
+            frameon=False,
+            ncol=1 + len(entries_) // 40,
+        )
     fig.suptitle("Cost and accuracy over commits (red circles: a step flagged as by nsbench compare)")
     fig.tight_layout()
-    caption = ("Median warm wall time (left) and max switching-time error (right) of each (problem, integrator, "
-               "level) at each stored run of one machine and environment, oldest commit first; an integrator's levels "
-               "share its colour and marker, level 0 solid, 1 dashed, 2 dotted, 3 dash-dot. A red circle marks a "
-               "step flagged as nsbench compare flags it against the run before: on the left slower (the test on "
-               "the samples and the factor) or more work (nfev), on the right less accurate, a broken event "
-               "sequence or a lost success.")
+    caption = (
+        "Median warm wall time (left) and max switching-time error (right) of each (problem, integrator, "
+        "level) at each stored run of one machine and environment, oldest commit first; an integrator's levels "
+        "share its colour and marker, level 0 solid, 1 dashed, 2 dotted, 3 dash-dot. A red circle marks a "
+        "step flagged as nsbench compare flags it against the run before: on the left slower (the test on "
+        "the samples and the factor) or more work (nfev), on the right less accurate, a broken event "
+        "sequence or a lost success."
+    )
     from nsbench.bench.figures import _save
 
     return _save(fig, Path(out), slug(name), "Cost and accuracy over commits", caption)
-

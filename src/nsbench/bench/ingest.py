@@ -51,8 +51,9 @@ def _check_benchmark(path: str | Path, i: int, bench: Any) -> None:
     if rounds is not None and not (_is_number(rounds) and float(rounds).is_integer() and rounds >= 0):
         raise ConfigError(f"{where}.stats.rounds must be a whole number >= 0, got {_got(rounds)}")
     data = stats.get("data")
-    if data is not None and not (isinstance(data, list) and all(
-            _is_number(t) and math.isfinite(t) and t >= 0 for t in data)):
+    if data is not None and not (
+        isinstance(data, list) and all(_is_number(t) and math.isfinite(t) and t >= 0 for t in data)
+    ):
         raise ConfigError(f"{where}.stats.data must be a list of times (finite, >= 0 seconds), got {_got(data)}")
     for key, value in (bench.get("extra_info") or {}).items():
         if key in COLUMN_NAMES:
@@ -60,11 +61,17 @@ def _check_benchmark(path: str | Path, i: int, bench: Any) -> None:
 
 
 #: Columns that count something (never negative).
-_COUNTS = ("nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix", "n_matched", "n_missed",
-           "n_extra")
+_COUNTS = ("nfev", "njev", "nsteps", "n_events", "n_repeats", "n_ref", "n_prefix", "n_matched", "n_missed", "n_extra")
 #: Columns that are seconds (finite and never negative when given).
-_SECONDS = ("wall_time", "wall_time_min", "wall_time_max", "integrator_time", "setup_time", "setup_time_timed",
-            "warmup_time")
+_SECONDS = (
+    "wall_time",
+    "wall_time_min",
+    "wall_time_max",
+    "integrator_time",
+    "setup_time",
+    "setup_time_timed",
+    "warmup_time",
+)
 #: How a row may end (the engine's statuses and the runner's).
 STATUSES = tuple(s.value for s in Status) + RUNNER_STATUSES
 
@@ -113,11 +120,23 @@ def _row(bench: dict[str, Any]) -> dict[str, Any]:
     median = float(stats.get("median", math.nan))
     low, high = float(stats.get("min", math.nan)), float(stats.get("max", math.nan))
     rounds = int(stats.get("rounds", len(data)) or 0)
-    row.update(wall_time=median, wall_times=[float(t) for t in data], n_repeats=rounds,
-               wall_time_min=low, wall_time_max=high,
-               wall_spread=(high - low) / median if rounds > 1 and median > 0 else math.nan)
-    for key in ("switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
-                "final_state_err", "state_err_l2", "first_divergence_time"):
+    row.update(
+        wall_time=median,
+        wall_times=[float(t) for t in data],
+        n_repeats=rounds,
+        wall_time_min=low,
+        wall_time_max=high,
+        wall_spread=(high - low) / median if rounds > 1 and median > 0 else math.nan,
+    )
+    for key in (
+        "switch_err_max",
+        "switch_err_rms",
+        "switch_err_median",
+        "switch_digits",
+        "final_state_err",
+        "state_err_l2",
+        "first_divergence_time",
+    ):
         if row.get(key) is None and key in row:
             row[key] = math.nan  # JSON null for a non-finite metric
     return row
@@ -137,8 +156,9 @@ def read_benchmark_json(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]
     try:
         data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"{str(path)!r} is not UTF-8 text (a binary file?): byte {raw[exc.start]:#04x} "
-                          f"at offset {exc.start}") from None
+        raise ConfigError(
+            f"{str(path)!r} is not UTF-8 text (a binary file?): byte {raw[exc.start]:#04x} at offset {exc.start}"
+        ) from None
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{str(path)!r} is not JSON: {exc}") from None
     except RecursionError:
@@ -146,20 +166,25 @@ def read_benchmark_json(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]
     if not isinstance(data, dict) or "benchmarks" not in data:
         raise ConfigError(f"{str(path)!r} is not a pytest-benchmark file (no 'benchmarks' list)")
     if not isinstance(data["benchmarks"], list):
-        raise ConfigError(f"{str(path)!r} is not a pytest-benchmark file: 'benchmarks' must be a list, "
-                          f"got {_got(data['benchmarks'])}")
+        raise ConfigError(
+            f"{str(path)!r} is not a pytest-benchmark file: 'benchmarks' must be a list, got {_got(data['benchmarks'])}"
+        )
     if not data["benchmarks"]:
         raise ConfigError(f"{str(path)!r} holds no benchmarks (an empty 'benchmarks' list)")
     for i, bench in enumerate(data["benchmarks"]):
         _check_benchmark(path, i, bench)
-    provenance = {"source": f"pytest-benchmark {data.get('version', '?')}: {p.name}",
-                  "date": data.get("datetime"), "machine_info": data.get("machine_info"),
-                  "commit_info": data.get("commit_info")}
+    provenance = {
+        "source": f"pytest-benchmark {data.get('version', '?')}: {p.name}",
+        "date": data.get("datetime"),
+        "machine_info": data.get("machine_info"),
+        "commit_info": data.get("commit_info"),
+    }
     try:
         frame = storage.to_frame(_row(b) for b in data["benchmarks"])
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ConfigError(f"{str(path)!r}: an extra_info value does not fit the results schema: "
-                          f"{type(exc).__name__}: {exc}") from None
+        raise ConfigError(
+            f"{str(path)!r}: an extra_info value does not fit the results schema: {type(exc).__name__}: {exc}"
+        ) from None
     return frame, provenance
 
 

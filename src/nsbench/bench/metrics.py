@@ -16,7 +16,7 @@ import pandas as pd
 from nsbench.status import Status
 
 #: Relative error floor of a switching time (half an ulp): digits are capped at ~15.95.
-REL_FLOOR = 2.0 ** -53
+REL_FLOOR = 2.0**-53
 #: Longest event logs aligned in full; longer ones (event storms) are truncated.
 MAX_ALIGN = 20_000
 #: Reference events closer than this in time (problem units) form a tie group, whose order is
@@ -40,8 +40,7 @@ def tie_groups(t: np.ndarray, tol: float = TIE_TOL) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(np.diff(t) > tol)]).astype(np.int64)
 
 
-def order_ties_as_reference(reference: pd.DataFrame, events: pd.DataFrame,
-                            tol: float = TIE_TOL) -> pd.DataFrame:
+def order_ties_as_reference(reference: pd.DataFrame, events: pd.DataFrame, tol: float = TIE_TOL) -> pd.DataFrame:
     """``events`` with each tie group of the reference put in the reference's order.
 
     Walking the reference's tie groups (:func:`tie_groups`) from the start, the
@@ -129,7 +128,7 @@ def _label_codes(reference: pd.DataFrame, events: pd.DataFrame) -> tuple[np.ndar
     _, kind_codes = np.unique(kinds, return_inverse=True)
     low = int(blocks.min())
     codes = kind_codes.astype(np.int64) * (int(blocks.max()) - low + 1) + (blocks - low)
-    return codes[:len(reference)], codes[len(reference):]
+    return codes[: len(reference)], codes[len(reference) :]
 
 
 def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
@@ -145,9 +144,18 @@ def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
     n, m = len(ref_codes), len(codes)
     truncated = n > MAX_ALIGN or m > MAX_ALIGN
     if n == m and np.array_equal(ref_codes, codes):
-        return Alignment(n_ref=n, n_events=m, n_prefix=n, n_matched=n, n_missed=0, n_extra=0,
-                         first_divergence_index=-1, first_divergence_time=math.nan, sequence_ok=True,
-                         truncated=truncated)
+        return Alignment(
+            n_ref=n,
+            n_events=m,
+            n_prefix=n,
+            n_matched=n,
+            n_missed=0,
+            n_extra=0,
+            first_divergence_index=-1,
+            first_divergence_time=math.nan,
+            sequence_ok=True,
+            truncated=truncated,
+        )
     from nsbench.bench._alignment import MATCH, SKIP_REFERENCE, diagonal_moves
 
     t_ref = reference["t"].to_numpy(dtype=float)
@@ -161,9 +169,19 @@ def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
     else:  # one log is a prefix of the other (as far as aligned)
         missed = k < n
     when = float(t_ref[k]) if missed else float(t_run[k])
-    return Alignment(n_ref=n, n_events=m, n_prefix=k, n_matched=matched, n_missed=n - matched,
-                     n_extra=m - matched, first_divergence_index=k, first_divergence_time=when,
-                     sequence_ok=False, truncated=truncated, first_divergence="missed" if missed else "extra")
+    return Alignment(
+        n_ref=n,
+        n_events=m,
+        n_prefix=k,
+        n_matched=matched,
+        n_missed=n - matched,
+        n_extra=m - matched,
+        first_divergence_index=k,
+        first_divergence_time=when,
+        sequence_ok=False,
+        truncated=truncated,
+        first_divergence="missed" if missed else "extra",
+    )
 
 
 #: Column of a reference's event log holding each event's certified error bound
@@ -204,7 +222,9 @@ def certainty(reference: pd.DataFrame, n: int | None = None) -> np.ndarray:
     return np.where(np.isfinite(c), c, 0.0)
 
 
-def switching_errors(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int) -> tuple[SwitchingErrors, np.ndarray, np.ndarray]:
+def switching_errors(
+    reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int
+) -> tuple[SwitchingErrors, np.ndarray, np.ndarray]:
     """Errors of the first ``n_prefix`` event times; also the reference times and signed errors.
 
     The signed errors are the measured ``t - t_ref``; the statistics floor each
@@ -221,14 +241,19 @@ def switching_errors(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: in
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(err == 0.0, 0.0, err / np.abs(t_ref))
     worst = max(float(np.max(rel)), REL_FLOOR)
-    stats = SwitchingErrors(err_max=float(err.max()), err_rms=float(np.sqrt(np.mean(err ** 2))),
-                            err_median=float(np.median(err)), digits=float(-math.log10(worst)),
-                            at_reference=at_reference)
+    stats = SwitchingErrors(
+        err_max=float(err.max()),
+        err_rms=float(np.sqrt(np.mean(err**2))),
+        err_median=float(np.median(err)),
+        digits=float(-math.log10(worst)),
+        at_reference=at_reference,
+    )
     return stats, t_ref, dt
 
 
-def state_errors(ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray,
-                 final: np.ndarray) -> tuple[float, float]:
+def state_errors(
+    ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray, final: np.ndarray
+) -> tuple[float, float]:
     """``(final_state_err, state_err_l2)``.
 
     ``final_state_err`` is the max-norm of the state difference at the final time;
@@ -240,7 +265,7 @@ def state_errors(ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray
         return math.nan, math.nan
     final_err = float(np.max(np.abs(np.asarray(final, float) - np.asarray(ref_final, float))))
     diff = dense - ref_dense
-    l2 = float(np.sqrt(np.mean(np.sum(diff ** 2, axis=0))))
+    l2 = float(np.sqrt(np.mean(np.sum(diff**2, axis=0))))
     return final_err, l2
 
 
@@ -276,8 +301,9 @@ class StickCreep:
     drift: float
 
 
-def stick_creep(reference: pd.DataFrame, times: np.ndarray, dense: np.ndarray, v_belt: float,
-                t_end: float) -> StickCreep:
+def stick_creep(
+    reference: pd.DataFrame, times: np.ndarray, dense: np.ndarray, v_belt: float, t_end: float
+) -> StickCreep:
     """:class:`StickCreep` of a run's dense states ``dense`` (shape ``(n_states, n_points)``, states
     ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`).
 
@@ -306,8 +332,9 @@ def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: in
     return float(err.max()) if err.size else math.nan
 
 
-def impact_metrics(energy, dense: np.ndarray | None, ref_final: np.ndarray | None,
-                   final: np.ndarray | None) -> tuple[float, float]:
+def impact_metrics(
+    energy, dense: np.ndarray | None, ref_final: np.ndarray | None, final: np.ndarray | None
+) -> tuple[float, float]:
     """``(penetration, energy_err)`` of an impact problem (one contact at ``x = 0``, the first state).
 
     ``penetration`` is the largest depth below the ground at the dense points,
@@ -319,7 +346,9 @@ def impact_metrics(energy, dense: np.ndarray | None, ref_final: np.ndarray | Non
         pen = float(max(0.0, -float(np.min(np.asarray(dense, dtype=float)[0]))))
     err = math.nan
     if ref_final is not None and final is not None:
-        err = float(abs(float(energy(np.asarray(final, dtype=float))) - float(energy(np.asarray(ref_final, dtype=float)))))
+        err = float(
+            abs(float(energy(np.asarray(final, dtype=float))) - float(energy(np.asarray(ref_final, dtype=float))))
+        )
     return pen, err
 
 
@@ -344,10 +373,17 @@ def reaches(target: float, *, status: str, sequence_ok: bool, err_max: float) ->
     return bool(status == Status.SUCCESS and sequence_ok and math.isfinite(err_max) and err_max <= target)
 
 
-def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.ndarray | None,
-                 dense: np.ndarray | None, ref_final: np.ndarray | None,
-                 final: np.ndarray | None, times: np.ndarray | None = None,
-                 v_belt: float | None = None, t_end: float | None = None) -> dict:
+def case_metrics(
+    reference: pd.DataFrame,
+    events: pd.DataFrame,
+    ref_dense: np.ndarray | None,
+    dense: np.ndarray | None,
+    ref_final: np.ndarray | None,
+    final: np.ndarray | None,
+    times: np.ndarray | None = None,
+    v_belt: float | None = None,
+    t_end: float | None = None,
+) -> dict:
     """Every metric column of a tidy row (see :mod:`nsbench.bench.schema`).
 
     ``times`` (the dense grid), ``v_belt`` and ``t_end`` give the stick creep
@@ -370,10 +406,19 @@ def case_metrics(reference: pd.DataFrame, events: pd.DataFrame, ref_dense: np.nd
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time
-    out.update(switch_err_max=sw.err_max, switch_err_rms=sw.err_rms,
-               switch_err_median=sw.err_median, switch_digits=sw.digits, at_ref_accuracy=sw.at_reference,
-               final_state_err=final_err, state_err_l2=l2, stick_creep=creep.creep, stick_drift=creep.drift,
-               breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
-               event_t=t_ref.tolist(), event_err=dt.tolist(),
-               event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [])
+    out.update(
+        switch_err_max=sw.err_max,
+        switch_err_rms=sw.err_rms,
+        switch_err_median=sw.err_median,
+        switch_digits=sw.digits,
+        at_ref_accuracy=sw.at_reference,
+        final_state_err=final_err,
+        state_err_l2=l2,
+        stick_creep=creep.creep,
+        stick_drift=creep.drift,
+        breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
+        event_t=t_ref.tolist(),
+        event_err=dt.tolist(),
+        event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [],
+    )
     return out

@@ -23,8 +23,9 @@ from nsbench.bench import protocol as msg
 
 def hello(components: dict[str, dict[str, Any]], out: str | Path, provenance: dict[str, Any]) -> msg.Hello:
     """The first message of every worker: this process's path and runtime registrations, where rows go."""
-    return msg.Hello(sys_path=[p for p in sys.path if p], components=pickle.dumps(components), out=str(out),
-                     provenance=provenance)
+    return msg.Hello(
+        sys_path=[p for p in sys.path if p], components=pickle.dumps(components), out=str(out), provenance=provenance
+    )
 
 
 def importable(obj: Any) -> bool:
@@ -65,8 +66,14 @@ class WorkerProcess:
     """One running worker: send it messages, read its messages, end it."""
 
     def __init__(self, first: msg.Hello) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "nsbench.bench.worker"], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, bufsize=0, env=_environment(), close_fds=True)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "nsbench.bench.worker"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            bufsize=0,
+            env=_environment(),
+            close_fds=True,
+        )
         self.send(first)
 
     @property

@@ -19,13 +19,29 @@ from nsbench.bench.reference import Reference, candidates, compute_reference, re
 from nsbench.bench.suite import Case
 
 #: (problem, case) pairs of the benchmark suite: the 1-DOF standard scenario and 2-DOF cases 1-4.
-BENCH_PROBLEMS: tuple[tuple[str, int], ...] = (("one-dof", 1), ("two-dof", 1), ("two-dof", 2),
-                                               ("two-dof", 3), ("two-dof", 4))
+BENCH_PROBLEMS: tuple[tuple[str, int], ...] = (
+    ("one-dof", 1),
+    ("two-dof", 1),
+    ("two-dof", 2),
+    ("two-dof", 3),
+    ("two-dof", 4),
+)
 REFERENCES = ("exact", "reference")
 DENSE_POINTS = 100
 #: Row columns that pytest-benchmark's own statistics provide (see nsbench.bench.ingest).
-_TIMING = ("wall_time", "wall_time_min", "wall_time_max", "wall_spread", "wall_times", "n_repeats",
-           "integrator_time", "integrator_times", "setup_time_timed", "warmup_time", "timestamp")
+_TIMING = (
+    "wall_time",
+    "wall_time_min",
+    "wall_time_max",
+    "wall_spread",
+    "wall_times",
+    "n_repeats",
+    "integrator_time",
+    "integrator_times",
+    "setup_time_timed",
+    "warmup_time",
+    "timestamp",
+)
 
 
 def bench_t_end() -> float:
@@ -92,9 +108,16 @@ def _json_safe(value: Any) -> Any:
     return value.item() if hasattr(value, "item") else str(value)
 
 
-def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], integrator: str,
-               options: dict[str, Any] | None = None, *, t_end: float | None = None,
-               rounds: int = 3) -> dict[str, Any]:
+def bench_case(
+    benchmark,
+    cache: dict[str, Reference],
+    problem: dict[str, Any],
+    integrator: str,
+    options: dict[str, Any] | None = None,
+    *,
+    t_end: float | None = None,
+    rounds: int = 3,
+) -> dict[str, Any]:
     """Time one case with ``benchmark.pedantic`` and put its tidy row in ``benchmark.extra_info``.
 
     The timed call is a whole :func:`nsbench.simulate` (setup included) after one
@@ -116,8 +139,14 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
         first = simulate(prob, integ, t_end, t_eval=grid, max_steps=MAX_STEPS)
     except UnsupportedProblemError as exc:
         pytest.skip(str(exc))
-    benchmark.pedantic(simulate, args=(prob, integ, t_end), kwargs={"t_eval": grid, "max_steps": MAX_STEPS},
-                       rounds=rounds, iterations=1, warmup_rounds=0)
+    benchmark.pedantic(
+        simulate,
+        args=(prob, integ, t_end),
+        kwargs={"t_eval": grid, "max_steps": MAX_STEPS},
+        rounds=rounds,
+        iterations=1,
+        warmup_rounds=0,
+    )
     return record_case(benchmark, cache, problem, integrator, options, first, t_end=t_end, rounds=rounds)
 
 
@@ -125,8 +154,17 @@ def bench_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], 
 MAX_STEPS = 2_000_000
 
 
-def record_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any], integrator: str,
-                options: dict[str, Any] | None, result, *, t_end: float, rounds: int) -> dict[str, Any]:
+def record_case(
+    benchmark,
+    cache: dict[str, Reference],
+    problem: dict[str, Any],
+    integrator: str,
+    options: dict[str, Any] | None,
+    result,
+    *,
+    t_end: float,
+    rounds: int,
+) -> dict[str, Any]:
     """The tidy row of a run a benchmark timed itself, stored in ``benchmark.extra_info`` (and returned).
 
     For benchmark modules that time their own call (:func:`bench_case` is one):
@@ -144,18 +182,39 @@ def record_case(benchmark, cache: dict[str, Reference], problem: dict[str, Any],
 
     t_end = float(t_end)
     options = dict(options or {})
-    case = Case(problem=problem, integrator=integrator, options=options, level=-1, t0=0.0, t_end=t_end,
-                repeats=rounds, time_limit=math.inf, max_steps=MAX_STEPS, dense_points=DENSE_POINTS)
+    case = Case(
+        problem=problem,
+        integrator=integrator,
+        options=options,
+        level=-1,
+        t0=0.0,
+        t_end=t_end,
+        repeats=rounds,
+        time_limit=math.inf,
+        max_steps=MAX_STEPS,
+        dense_points=DENSE_POINTS,
+    )
     ref = get_reference(cache, problem, t_end)
     prob = problem_from_config(problem)
     row = base_row(case, "pytest-benchmark")
     counters = result.counters.as_dict()
-    row.update(status=result.status.value, message=result.message, t_final=result.t_final,
-               nfev=counters["nfev"], njev=counters["njev"], nsteps=counters["nsteps"],
-               n_events=counters["n_events"], setup_time=result.setup_time, **ref.columns())
+    row.update(
+        status=result.status.value,
+        message=result.message,
+        t_final=result.t_final,
+        nfev=counters["nfev"],
+        njev=counters["njev"],
+        nsteps=counters["nsteps"],
+        n_events=counters["n_events"],
+        setup_time=result.setup_time,
+        **ref.columns(),
+    )
     if ref.ok:
-        dense = (result.trajectory[list(prob.state_names)].to_numpy().T
-                 if result.ok and len(result.trajectory) == DENSE_POINTS else None)
+        dense = (
+            result.trajectory[list(prob.state_names)].to_numpy().T
+            if result.ok and len(result.trajectory) == DENSE_POINTS
+            else None
+        )
         metrics = case_metrics(ref.events, result.events, ref.y_dense, dense, ref.y_final, result.y_final)
         metrics.pop("truncated")
         row.update(metrics)

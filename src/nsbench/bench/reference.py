@@ -88,9 +88,13 @@ class Reference:
 
     def columns(self) -> dict[str, Any]:
         """The reference columns of a benchmark row."""
-        return {"reference": self.name or "", "reference_status": self.status,
-                "ref_conditioning": self.conditioning, "ref_double_floor": self.double_floor,
-                "ref_certainty": self.certainty}
+        return {
+            "reference": self.name or "",
+            "reference_status": self.status,
+            "ref_conditioning": self.conditioning,
+            "ref_double_floor": self.double_floor,
+            "ref_certainty": self.certainty,
+        }
 
     @property
     def ok(self) -> bool:
@@ -113,16 +117,26 @@ def candidates(names: tuple[str, ...] | list[str]) -> list[dict[str, Any]]:
     return out
 
 
-def reference_key(problem: dict[str, Any], cands: list[dict[str, Any]], t0: float, t_end: float,
-                  dense_points: int) -> str:
+def reference_key(
+    problem: dict[str, Any], cands: list[dict[str, Any]], t0: float, t_end: float, dense_points: int
+) -> str:
     from nsbench import __version__
 
-    return stable_key({"problem": problem, "candidates": cands, "t": [t0, t_end],
-                       "dense": dense_points, "nsbench": __version__, "certify": list(CERTIFY_CHECKS)})
+    return stable_key(
+        {
+            "problem": problem,
+            "candidates": cands,
+            "t": [t0, t_end],
+            "dense": dense_points,
+            "nsbench": __version__,
+            "certify": list(CERTIFY_CHECKS),
+        }
+    )
 
 
-def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]], t0: float,
-                      t_end: float, dense_points: int) -> Reference:
+def compute_reference(
+    problem_config: dict[str, Any], cands: list[dict[str, Any]], t0: float, t_end: float, dense_points: int
+) -> Reference:
     """Run the first candidate that accepts the problem (worker-side; no caching here)."""
     from nsbench.engine import simulate
     from nsbench.integrators import integrator_from_config
@@ -135,43 +149,71 @@ def compute_reference(problem_config: dict[str, Any], cands: list[dict[str, Any]
     refused = []
     for config in cands:
         try:
-            res = simulate(problem, integrator_from_config(config), t_end, t0=t0, t_eval=grid,
-                           max_steps=10**9)
+            res = simulate(problem, integrator_from_config(config), t_end, t0=t0, t_eval=grid, max_steps=10**9)
         except UnsupportedProblemError:
             refused.append(config["name"])
             continue
         except Exception as exc:  # a broken reference must not end the suite
             status = f"{FAILED}: {config['name']} raised {type(exc).__name__}: {exc}"
-            return Reference(key, config["name"], config, status, empty, grid,
-                             np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan), failed=True)
+            return Reference(
+                key,
+                config["name"],
+                config,
+                status,
+                empty,
+                grid,
+                np.empty((problem.n_states, 0)),
+                np.full(problem.n_states, np.nan),
+                failed=True,
+            )
         if not res.ok:
             status = f"{FAILED}: {config['name']} ended with {res.status.value}: {res.message}"
-            return Reference(key, config["name"], config, status, res.events, grid,
-                             np.empty((problem.n_states, 0)), res.y_final, res.wall_time, failed=True)
+            return Reference(
+                key,
+                config["name"],
+                config,
+                status,
+                res.events,
+                grid,
+                np.empty((problem.n_states, 0)),
+                res.y_final,
+                res.wall_time,
+                failed=True,
+            )
         dense = res.trajectory[list(problem.state_names)].to_numpy().T
         cond, note = conditioning(problem, config, t0, t_end, res.events)
         events = res.events.copy()
-        events[CERTIFIED], certify_note = certified_errors(problem, events, t0, t_end,
-                                                           reference=config["name"])
+        events[CERTIFIED], certify_note = certified_errors(problem, events, t0, t_end, reference=config["name"])
         status = "ok"
         if NOT_CERTIFIED_FROM in certify_note:
             # its independent check logs other events: which one is right is not known here, so
             # grading against it could blame the integrators that agree with the check
-            status = (f"{FAILED}: {config['name']} is not certified ({certify_note}); nothing is graded "
-                      "against it")
-        return Reference(key, config["name"], config, status, events, grid, dense,
-                         res.y_final, res.wall_time + res.setup_time, failed=status != "ok", conditioning=cond,
-                         conditioning_note=note, certify_note=certify_note)
+            status = f"{FAILED}: {config['name']} is not certified ({certify_note}); nothing is graded against it"
+        return Reference(
+            key,
+            config["name"],
+            config,
+            status,
+            events,
+            grid,
+            dense,
+            res.y_final,
+            res.wall_time + res.setup_time,
+            failed=status != "ok",
+            conditioning=cond,
+            conditioning_note=note,
+            certify_note=certify_note,
+        )
     if refused:
         reason = "no reference available: " + ", ".join(f"{n} refused the problem" for n in refused)
     else:
         reason = "no reference available: no candidate is registered"
-    return Reference(key, None, None, reason, empty, grid, np.empty((problem.n_states, 0)),
-                     np.full(problem.n_states, np.nan))
+    return Reference(
+        key, None, None, reason, empty, grid, np.empty((problem.n_states, 0)), np.full(problem.n_states, np.nan)
+    )
 
 
-def conditioning(problem, config: dict[str, Any], t0: float, t_end: float,
-                 events: pd.DataFrame) -> tuple[float, str]:
+def conditioning(problem, config: dict[str, Any], t0: float, t_end: float, events: pd.DataFrame) -> tuple[float, str]:
     """How strongly the case amplifies a change of its start: ``(max |dt_k| / delta, note)``.
 
     The reference integrator runs again from the start with every position
@@ -197,14 +239,17 @@ def conditioning(problem, config: dict[str, Any], t0: float, t_end: float,
         y0 = start.copy()
         y0[0::2] -= PERTURBATION
     try:
-        other = simulate(problem, integrator_from_config(config), t_end, t0=t0, y0=y0, max_steps=10**9,
-                         check_points=0).events
+        other = simulate(
+            problem, integrator_from_config(config), t_end, t0=t0, y0=y0, max_steps=10**9, check_points=0
+        ).events
     except Exception as exc:  # a conditioning that cannot be measured is no reason to lose the reference
         return math.nan, f"not measured: {type(exc).__name__}: {exc}"
     dt, at = compare_logs(events, other)
     if at is not None:
-        return math.inf, (f"a start moved by {PERTURBATION:g} changes the event sequence at t = {at:.6g} "
-                          f"(event {dt.size + 1} of {len(events)})")
+        return math.inf, (
+            f"a start moved by {PERTURBATION:g} changes the event sequence at t = {at:.6g} "
+            f"(event {dt.size + 1} of {len(events)})"
+        )
     return (float(dt.max()) / PERTURBATION if dt.size else 0.0), ""
 
 
@@ -223,8 +268,7 @@ def compare_logs(events: pd.DataFrame, other: pd.DataFrame) -> tuple[np.ndarray,
 
 
 def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
-    return (directory / f"{key}.json", directory / f"{key}.events.parquet",
-            directory / f"{key}.dense.npy")
+    return (directory / f"{key}.json", directory / f"{key}.events.parquet", directory / f"{key}.dense.npy")
 
 
 def _digest(path: Path) -> str:
@@ -241,14 +285,23 @@ def save_reference(directory: str | Path, ref: Reference) -> None:
     meta, events, dense = _paths(d, ref.key)
     ref.events.to_parquet(events, index=False)
     with open(dense, "wb") as fh:
-        np.save(fh, np.vstack([ref.t_dense[None, :], ref.y_dense]) if ref.y_dense.size
-                else ref.t_dense[None, :])
-    data = {"key": ref.key, "name": ref.name, "config": ref.config, "status": ref.status,
-            "y_final": [float(v) for v in ref.y_final], "wall_time": ref.wall_time, "failed": ref.failed,
-            "conditioning": repr(ref.conditioning), "conditioning_note": ref.conditioning_note,
-            "certify_note": ref.certify_note,
-            "sha256": {events.name.removeprefix(ref.key): _digest(events),
-                       dense.name.removeprefix(ref.key): _digest(dense)}}
+        np.save(fh, np.vstack([ref.t_dense[None, :], ref.y_dense]) if ref.y_dense.size else ref.t_dense[None, :])
+    data = {
+        "key": ref.key,
+        "name": ref.name,
+        "config": ref.config,
+        "status": ref.status,
+        "y_final": [float(v) for v in ref.y_final],
+        "wall_time": ref.wall_time,
+        "failed": ref.failed,
+        "conditioning": repr(ref.conditioning),
+        "conditioning_note": ref.conditioning_note,
+        "certify_note": ref.certify_note,
+        "sha256": {
+            events.name.removeprefix(ref.key): _digest(events),
+            dense.name.removeprefix(ref.key): _digest(dense),
+        },
+    }
     write_atomic(meta, json.dumps(data, indent=1))
 
 
@@ -271,21 +324,36 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
         data = json.loads(meta.read_text())
         if not isinstance(data, dict) or data.get("key") != key:
             raise ValueError(f"it holds reference {data.get('key') if isinstance(data, dict) else data!r}")
-        for path, digest in ((events, (data.get("sha256") or {}).get(".events.parquet")),
-                             (dense, (data.get("sha256") or {}).get(".dense.npy"))):
+        for path, digest in (
+            (events, (data.get("sha256") or {}).get(".events.parquet")),
+            (dense, (data.get("sha256") or {}).get(".dense.npy")),
+        ):
             if digest is not None and _digest(path) != digest:
                 raise ValueError(f"{path.name} does not match its checksum")
         table = np.load(dense, allow_pickle=False)
         t_dense, y_dense = table[0], table[1:]
-        ref = Reference(key, data["name"], data["config"], data["status"], pd.read_parquet(events),
-                        t_dense, y_dense, np.array(data["y_final"], dtype=float), float(data["wall_time"]),
-                        bool(data.get("failed", False)), float(data.get("conditioning", "nan")),
-                        str(data.get("conditioning_note", "")), str(data.get("certify_note", "")))
+        ref = Reference(
+            key,
+            data["name"],
+            data["config"],
+            data["status"],
+            pd.read_parquet(events),
+            t_dense,
+            y_dense,
+            np.array(data["y_final"], dtype=float),
+            float(data["wall_time"]),
+            bool(data.get("failed", False)),
+            float(data.get("conditioning", "nan")),
+            str(data.get("conditioning_note", "")),
+            str(data.get("certify_note", "")),
+        )
         if len(ref.events) and not {"t", "kind", "block"} <= set(ref.events.columns):
             raise ValueError("its event table lacks t, kind or block")
     except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError, AttributeError) as exc:
-        print(f"nsbench: warning: cached reference {meta} is damaged ({type(exc).__name__}: {exc}); "
-              "computing it again", file=sys.stderr)
+        print(
+            f"nsbench: warning: cached reference {meta} is damaged ({type(exc).__name__}: {exc}); computing it again",
+            file=sys.stderr,
+        )
         for p in paths:
             p.unlink(missing_ok=True)
         return None
@@ -297,8 +365,10 @@ def load_reference(directory: str | Path, key: str) -> Reference | None:
 #: for linear problems of at most :data:`MP_CHECK_STATES` states: an extended-precision
 #: ``exact``. Otherwise heyoka's Taylor method in quad precision, at a tolerance looser than
 #: ``reference``'s own (so a different step sequence) but far below double rounding.
-CERTIFY_CHECKS: tuple[dict[str, Any], ...] = ({"name": "exact-mp", "options": {"digits": 40}},
-                                             {"name": "heyoka-q", "options": {"tol": 1e-30}})
+CERTIFY_CHECKS: tuple[dict[str, Any], ...] = (
+    {"name": "exact-mp", "options": {"digits": 40}},
+    {"name": "heyoka-q", "options": {"tol": 1e-30}},
+)
 #: ``exact-mp`` runs in Python (mpmath matrices): past this many states (8 blocks) it would cost
 #: minutes per run, and the quad Taylor check takes over.
 MP_CHECK_STATES = 16
@@ -307,8 +377,7 @@ MP_CHECK_STATES = 16
 def _checks_for(problem, reference: str | None = None) -> list[dict[str, Any]]:
     """The checks that may certify ``reference``'s log of ``problem``: never the reference itself."""
     small_linear = problem.is_linear and problem.n_states <= MP_CHECK_STATES
-    return [c for c in CERTIFY_CHECKS
-            if (c["name"] != "exact-mp" or small_linear) and c["name"] != reference]
+    return [c for c in CERTIFY_CHECKS if (c["name"] != "exact-mp" or small_linear) and c["name"] != reference]
 
 
 def _check_name(config: dict[str, Any]) -> str:
@@ -316,8 +385,9 @@ def _check_name(config: dict[str, Any]) -> str:
     return f"{config['name']} {options}".strip()
 
 
-def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
-                     y0=None, reference: str | None = None) -> tuple[np.ndarray, str]:
+def certified_errors(
+    problem, events: pd.DataFrame, t0: float, t_end: float, y0=None, reference: str | None = None
+) -> tuple[np.ndarray, str]:
     """A bound on the error of each event time of ``events``, from an independent check.
 
     The first of :data:`CERTIFY_CHECKS` that accepts the problem (``exact-mp``
@@ -355,8 +425,8 @@ def certified_errors(problem, events: pd.DataFrame, t0: float, t_end: float,
     if other is None:
         return out, f"not certified: {what}"
     dt, at = compare_logs(events, other)
-    t_check = other["t"].to_numpy(dtype=float)[:dt.size]
-    out[:dt.size] = dt + np.spacing(np.abs(t_check))
+    t_check = other["t"].to_numpy(dtype=float)[: dt.size]
+    out[: dt.size] = dt + np.spacing(np.abs(t_check))
     note = f"against {what}"
     if at is not None:
         note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): {NOT_CERTIFIED_FROM}"

@@ -23,15 +23,40 @@ from nsbench.bench import classes, storage
 from nsbench.bench.figures import Figure, _styles, report_figures, runtime_distribution, scaling_report_figures
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
-from nsbench.bench.summary import (compact, conditioning_table, display, findings, problem_summary, reference_costs,
-                                   reference_grade, samples_of, wrong_sequences)
+from nsbench.bench.summary import (
+    compact,
+    conditioning_table,
+    display,
+    findings,
+    problem_summary,
+    reference_costs,
+    reference_grade,
+    samples_of,
+    wrong_sequences,
+)
 from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 from nsbench.status import Status
 
-_RESULT_COLUMNS = ["problem_label", "integrator", "options", "status", "wall_time", "wall_spread",
-                   "integrator_time", "engine_share", "n_repeats", "loops", "nfev", "n_events", "n_missed",
-                   "n_extra", "switch_err_max", "switch_digits", "state_err_l2"]
+_RESULT_COLUMNS = [
+    "problem_label",
+    "integrator",
+    "options",
+    "status",
+    "wall_time",
+    "wall_spread",
+    "integrator_time",
+    "engine_share",
+    "n_repeats",
+    "loops",
+    "nfev",
+    "n_events",
+    "n_missed",
+    "n_extra",
+    "switch_err_max",
+    "switch_digits",
+    "state_err_l2",
+]
 
 
 @dataclass
@@ -78,8 +103,10 @@ def _figure(fig: Figure, heading: bool = True) -> list[Block]:
 def _error_cells(frame: pd.DataFrame) -> list:
     """``switch_err_max`` for reading: a run within the reference's certified error is not given a number."""
     at_ref = frame["at_ref_accuracy"] if "at_ref_accuracy" in frame else pd.Series(False, index=frame.index)
-    return [f"<= {e:.2g} (at reference accuracy)" if flag is True and e == e else e
-            for e, flag in zip(frame["switch_err_max"], at_ref.astype(object))]
+    return [
+        f"<= {e:.2g} (at reference accuracy)" if flag is True and e == e else e
+        for e, flag in zip(frame["switch_err_max"], at_ref.astype(object))
+    ]
 
 
 def options_text(text) -> str:
@@ -115,9 +142,11 @@ def _status_counts(frame: pd.DataFrame) -> pd.DataFrame:
 def _problems_text(frame: pd.DataFrame, prov: dict) -> list[str]:
     suite = prov.get("suite", {})
     span = suite.get("t_span", [frame["t0"].min(), frame["t_end"].max()])
-    lines = [f"Suite `{suite.get('name', frame['suite'].iloc[0])}`: {len(frame)} cases, "
-             f"{frame['problem_label'].nunique()} problems, {frame['integrator'].nunique()} integrators, "
-             f"time span [{span[0]:g}, {span[1]:g}]."]
+    lines = [
+        f"Suite `{suite.get('name', frame['suite'].iloc[0])}`: {len(frame)} cases, "
+        f"{frame['problem_label'].nunique()} problems, {frame['integrator'].nunique()} integrators, "
+        f"time span [{span[0]:g}, {span[1]:g}]."
+    ]
     for label, group in problem_groups(frame):
         known = group[group["reference_status"].fillna("") != ""]  # rows of an old crash may lack it
         first = (known if len(known) else group).iloc[0]
@@ -131,8 +160,10 @@ def run_failures(frame: pd.DataFrame) -> list[str]:
     lines = []
     bad = frame[frame["reference_status"].map(failed_status)]
     for label, group in problem_groups(bad):
-        lines.append(f"The reference of `{label}` could not be computed ({group['reference_status'].iloc[0]}): "
-                     "its cases have no accuracy metrics.")
+        lines.append(
+            f"The reference of `{label}` could not be computed ({group['reference_status'].iloc[0]}): "
+            "its cases have no accuracy metrics."
+        )
     crashed = frame[frame["status"] == Status.CRASHED]
     if len(crashed):
         names = ", ".join(f"`{r.problem_label} {r.integrator}`" for r in crashed.itertuples())
@@ -148,33 +179,45 @@ def _spread_table(frame: pd.DataFrame) -> pd.DataFrame:
     wide = wide_spread(frame)
     table = wide[["problem_label", "integrator", "options", "wall_time", "wall_time_min", "wall_time_max"]]
     table = table.rename(columns={"problem_label": "problem"}).assign(
-        spread=wide["wall_spread"].map(lambda s: f"{100 * s:.0f}%"))
+        spread=wide["wall_spread"].map(lambda s: f"{100 * s:.0f}%")
+    )
     return table.head(SPREAD_ROWS).assign(_more=len(table) - min(len(table), SPREAD_ROWS))
 
 
 def _timing_text(frame: pd.DataFrame) -> str:
     ok = frame[frame["status"] == Status.SUCCESS]
     reps = ok["n_repeats"].dropna()
-    runs = f"{int(reps.min())}" if len(reps) and reps.min() == reps.max() else \
-        (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
+    runs = (
+        f"{int(reps.min())}"
+        if len(reps) and reps.min() == reps.max()
+        else (f"{int(reps.min())}-{int(reps.max())}" if len(reps) else "the")
+    )
     looped = int((pd.to_numeric(ok.get("loops"), errors="coerce") > 1).sum()) if "loops" in ok else 0
-    loops = (f" {looped} case(s) run shorter than the suite's minimum sample time, so each of their samples is "
-             "the mean of a loop of 2, 5, 10, 20, ... back-to-back runs lasting at least that long (the count is "
-             "the column loops)." if looped else "")
-    return (f"Times are medians of {runs} timed samples per case (seconds per run), all after an untimed warm-up "
-            "(setup and compilation apart, never while another case was timed), taken in rounds over all cases so "
-            "that a case's samples are spread over the run and meet the machine's drifting speed instead of one "
-            f"moment of it.{loops} '±' is half the min-max range of the samples relative to the median. An "
-            "interval [a-b] of a time is the distribution-free interval of its median (order statistics; with 5 "
-            "samples the range, 94 %); of a cost ratio, the 95 % Moses interval of the Hodges-Lehmann ratio "
-            "(the median of the ratios of every pair of samples).")
+    loops = (
+        f" {looped} case(s) run shorter than the suite's minimum sample time, so each of their samples is "
+        "the mean of a loop of 2, 5, 10, 20, ... back-to-back runs lasting at least that long (the count is "
+        "the column loops)."
+        if looped
+        else ""
+    )
+    return (
+        f"Times are medians of {runs} timed samples per case (seconds per run), all after an untimed warm-up "
+        "(setup and compilation apart, never while another case was timed), taken in rounds over all cases so "
+        "that a case's samples are spread over the run and meet the machine's drifting speed instead of one "
+        f"moment of it.{loops} '±' is half the min-max range of the samples relative to the median. An "
+        "interval [a-b] of a time is the distribution-free interval of its median (order statistics; with 5 "
+        "samples the range, 94 %); of a cost ratio, the 95 % Moses interval of the Hodges-Lehmann ratio "
+        "(the median of the ratios of every pair of samples)."
+    )
 
 
-SETUP_CAPTION = ("Set-up (compilation of numba kernels and heyoka models, SUNDIALS and other objects) is charged to "
-                 "the integrator, not to an accuracy level: the first case of an integrator that a worker process "
-                 "warms up compiles, and the others find it compiled, so a case's own setup_time only says which "
-                 "case came first. 'first_use' is the largest set-up over the integrator's cases (and the case "
-                 "that paid it), 'later' the median over its other cases. Set-up is never part of a timed sample.")
+SETUP_CAPTION = (
+    "Set-up (compilation of numba kernels and heyoka models, SUNDIALS and other objects) is charged to "
+    "the integrator, not to an accuracy level: the first case of an integrator that a worker process "
+    "warms up compiles, and the others find it compiled, so a case's own setup_time only says which "
+    "case came first. 'first_use' is the largest set-up over the integrator's cases (and the case "
+    "that paid it), 'later' the median over its other cases. Set-up is never part of a timed sample."
+)
 
 
 def with_engine_share(frame: pd.DataFrame) -> pd.DataFrame:
@@ -194,34 +237,44 @@ def engine_share_table(frame: pd.DataFrame) -> pd.DataFrame:
     ok = ok[(ok["status"] == Status.SUCCESS) & ok["engine_share"].notna()]
     if ok.empty:
         return pd.DataFrame(columns=["integrator", "cases", "engine_share_median", "engine_share_max"])
-    table = ok.groupby("integrator").agg(cases=("engine_share", "size"),
-                                         engine_share_median=("engine_share", "median"),
-                                         engine_share_max=("engine_share", "max"))
+    table = ok.groupby("integrator").agg(
+        cases=("engine_share", "size"),
+        engine_share_median=("engine_share", "median"),
+        engine_share_max=("engine_share", "max"),
+    )
     return table.sort_values("engine_share_median", ascending=False).reset_index()
 
 
-ENGINE_CAPTION = ("Ranking and fixed-target times are wall times: the whole run as a user calls it. "
-                  "integrator_time is the part spent inside the integrator's own code (its compiled arc "
-                  "kernel, or its per-arc Python call), measured by the hybrid core's clock; engine_share "
-                  "= 1 - integrator_time / wall_time is nsbench's own part (event handling, records, the "
-                  "per-arc callback). Per integrator, over its successful cases:")
+ENGINE_CAPTION = (
+    "Ranking and fixed-target times are wall times: the whole run as a user calls it. "
+    "integrator_time is the part spent inside the integrator's own code (its compiled arc "
+    "kernel, or its per-arc Python call), measured by the hybrid core's clock; engine_share "
+    "= 1 - integrator_time / wall_time is nsbench's own part (event handling, records, the "
+    "per-arc callback). Per integrator, over its successful cases:"
+)
 
 
-FT_CAPTION = ("Fixed-target cost: for each switching-time error target, the cheapest configuration of each "
-              "integrator that reaches it (median warm wall time ± half its min-max range / nfev); '-' not "
-              "reached (a wrong event sequence never counts), 'no ref' no reference for that problem, "
-              "'unsupported' the integrator refuses the problem, 'not graded' a target below the reference's "
-              "certified error or the problem's double-precision floor, 'ref' the problem's reference itself "
-              "(its cost; its error is 0 by construction).")
-RANK_CAPTION = ("Ranking by time to reach each (problem, target): an integrator's rank there is 1 + the number of "
-                "integrators that reach it distinguishably faster (their timing intervals do not overlap, the rule of "
-                "the answer's ties), so integrators that cannot be told apart share a rank; one that does not reach a "
-                "target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator "
-                "refuses or is the reference of are left out, and reference-grade integrators are not ranked.")
-COMPACT_CAPTION = ("Cheapest method under test reaching a switching-time error of {target} on each problem, or the "
-                   "methods tied for it (median warm wall time per run with the interval of that median), the next "
-                   "fastest and its cost ratio with the ratio's 95 % interval, and how many methods reach the "
-                   "target.")
+FT_CAPTION = (
+    "Fixed-target cost: for each switching-time error target, the cheapest configuration of each "
+    "integrator that reaches it (median warm wall time ± half its min-max range / nfev); '-' not "
+    "reached (a wrong event sequence never counts), 'no ref' no reference for that problem, "
+    "'unsupported' the integrator refuses the problem, 'not graded' a target below the reference's "
+    "certified error or the problem's double-precision floor, 'ref' the problem's reference itself "
+    "(its cost; its error is 0 by construction)."
+)
+RANK_CAPTION = (
+    "Ranking by time to reach each (problem, target): an integrator's rank there is 1 + the number of "
+    "integrators that reach it distinguishably faster (their timing intervals do not overlap, the rule of "
+    "the answer's ties), so integrators that cannot be told apart share a rank; one that does not reach a "
+    "target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator "
+    "refuses or is the reference of are left out, and reference-grade integrators are not ranked."
+)
+COMPACT_CAPTION = (
+    "Cheapest method under test reaching a switching-time error of {target} on each problem, or the "
+    "methods tied for it (median warm wall time per run with the interval of that median), the next "
+    "fastest and its cost ratio with the ratio's 95 % interval, and how many methods reach the "
+    "target."
+)
 
 
 def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
@@ -248,8 +301,9 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     bif_rows = bt.load_rows(d)
     bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
 
-    blocks = _family_blocks(frame, targets) + _answer_blocks(frame, prov, summary, ecdf,
-                                                         classes.class_summary(frame, targets))
+    blocks = _family_blocks(frame, targets) + _answer_blocks(
+        frame, prov, summary, ecdf, classes.class_summary(frame, targets)
+    )
     blocks += _context_blocks(frame, prov)
     if len(scaling):
         blocks += [Block("h2", "Scaling with the number of blocks"), Block("p", SCALING_CAPTION), _table(scaling_fit)]
@@ -258,26 +312,43 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         blocks += [Block("p", SCALING_DETAIL_CAPTION), _table(_scaling_view(scaling))]
     blocks += [Block("h2", "Fixed-target table"), Block("p", FT_CAPTION), _table(wide)]
     blocks += _spread_blocks(frame)
-    blocks += [Block("h2", "Ranking"), Block("p", RANK_CAPTION), _table(rank),
-               Block("h2", "Integrator time and engine share"), Block("p", ENGINE_CAPTION),
-               _table(engine_share_table(frame)),
-               Block("h2", "Set-up per integrator"), Block("p", SETUP_CAPTION), _table(setup_table(frame)),
-               Block("h2", "Figures")]
-    for fig in figures[len(scaling_figs) + (ecdf is not None):]:
+    blocks += [
+        Block("h2", "Ranking"),
+        Block("p", RANK_CAPTION),
+        _table(rank),
+        Block("h2", "Integrator time and engine share"),
+        Block("p", ENGINE_CAPTION),
+        _table(engine_share_table(frame)),
+        Block("h2", "Set-up per integrator"),
+        Block("p", SETUP_CAPTION),
+        _table(setup_table(frame)),
+        Block("h2", "Figures"),
+    ]
+    for fig in figures[len(scaling_figs) + (ecdf is not None) :]:
         blocks += _figure(fig)
     if len(bif_rows):
-        blocks += [Block("h2", "Bifurcation-point error"), Block("p", "Targets and their reference values:"),
-                   _table(bt.reference_table(bif_rows)), Block("p", bt.TABLE_CAPTION), _table(bt.report_table(bif_rows))]
+        blocks += [
+            Block("h2", "Bifurcation-point error"),
+            Block("p", "Targets and their reference values:"),
+            _table(bt.reference_table(bif_rows)),
+            Block("p", bt.TABLE_CAPTION),
+            _table(bt.report_table(bif_rows)),
+        ]
         for fig in bif_figs:
             blocks += _figure(fig)
     failures = frame[frame["status"] != Status.SUCCESS][["problem_label", "integrator", "options", "status", "message"]]
     blocks += [Block("h2", "Statuses"), _table(_status_counts(frame))]
     if len(failures):
         blocks += [Block("p", "Cases that did not succeed:"), _table(failures)]
-    results_view = frame[_RESULT_COLUMNS].assign(switch_err_max=_error_cells(frame)).rename(
-        columns={"problem_label": "problem"})
-    blocks += [Block("h2", "All cases"), _table(results_view), Block("h2", "Provenance"),
-               Block("pre", json.dumps(prov, indent=1, default=str))]
+    results_view = (
+        frame[_RESULT_COLUMNS].assign(switch_err_max=_error_cells(frame)).rename(columns={"problem_label": "problem"})
+    )
+    blocks += [
+        Block("h2", "All cases"),
+        _table(results_view),
+        Block("h2", "Provenance"),
+        Block("pre", json.dumps(prov, indent=1, default=str)),
+    ]
     page = {"title": "nsbench report", "blocks": blocks, "provenance": prov}
     (d / "report.md").write_text(render.page("report.md", **page))
     (d / "index.html").write_text(render.page("report.html", **page))
@@ -298,12 +369,17 @@ def _family_blocks(frame: pd.DataFrame, targets: tuple[float, ...]) -> list[Bloc
     table = families.families_table(frame, targets)
     if not len(table):
         return []
-    return [Block("h2", "The answer per family of methods"), Block("list", items=families.families_answer(table, targets)),
-            Block("p", families.CAPTION), _table(table)]
+    return [
+        Block("h2", "The answer per family of methods"),
+        Block("list", items=families.families_answer(table, targets)),
+        Block("p", families.CAPTION),
+        _table(table),
+    ]
 
 
-def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf: Figure | None,
-                   by_class: pd.DataFrame | None = None) -> list[Block]:
+def _answer_blocks(
+    frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf: Figure | None, by_class: pd.DataFrame | None = None
+) -> list[Block]:
     """The report's opening: the machine's noise, what failed in the run, the answer by problem class when the
     run has more than one class, the answer per problem in words and tables, wrong sequences, references apart,
     the runtime distributions."""
@@ -319,11 +395,18 @@ def _answer_blocks(frame: pd.DataFrame, prov: dict, summary: pd.DataFrame, ecdf:
     wrong, refs = wrong_sequences(frame), reference_costs(frame)
     words = findings(summary, wrong, conditioning_table(frame))
     if by_class is not None and by_class["class"].nunique() > 1:
-        blocks += [Block("h2", "The answer by problem class"),
-                   Block("list", items=classes.class_findings(by_class), css="answer"), Block("p", CLASS_CAPTION),
-                   _table(classes.display(by_class), "summary")]
-    blocks += [Block("h2", "The answer"), Block("list", items=words, css="answer"), Block("p", ANSWER_CAPTION),
-               _table(display(summary), "summary")]
+        blocks += [
+            Block("h2", "The answer by problem class"),
+            Block("list", items=classes.class_findings(by_class), css="answer"),
+            Block("p", CLASS_CAPTION),
+            _table(classes.display(by_class), "summary"),
+        ]
+    blocks += [
+        Block("h2", "The answer"),
+        Block("list", items=words, css="answer"),
+        Block("p", ANSWER_CAPTION),
+        _table(display(summary), "summary"),
+    ]
     if len(wrong):
         blocks += [Block("p", "**Wrong event sequences.** " + WRONG_CAPTION), _table(wrong)]
     if len(refs):
@@ -341,12 +424,16 @@ def _context_blocks(frame: pd.DataFrame, prov: dict) -> list[Block]:
 def _spread_blocks(frame: pd.DataFrame) -> list[Block]:
     spread = _spread_table(frame)
     if not len(spread):
-        return [Block("h2", "Timing spread"),
-                Block("p", f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median).")]
+        return [
+            Block("h2", "Timing spread"),
+            Block("p", f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median)."),
+        ]
     more = int(spread.pop("_more").iloc[0])
-    caption = (f"Cases whose timed samples spread by more than {WIDE_SPREAD:.0%} ((max - min) / median), widest "
-               "first: their times are less certain (a busy machine, or a run that is not repeatable)."
-               + (f" {more} more are not listed (see wall_spread in the results)." if more else ""))
+    caption = (
+        f"Cases whose timed samples spread by more than {WIDE_SPREAD:.0%} ((max - min) / median), widest "
+        "first: their times are less certain (a busy machine, or a run that is not repeatable)."
+        + (f" {more} more are not listed (see wall_spread in the results)." if more else "")
+    )
     return [Block("h2", "Timing spread"), Block("p", caption), _table(spread)]
 
 
@@ -354,53 +441,69 @@ def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataF
     """``table.tex``: one page-sized table per target, then the references, the fixed-target table and the
     ranking; ``\\input`` it after ``\\usepackage{booktabs,longtable,array}``."""
     meta = json.dumps({k: v for k, v in prov.items() if k != "suite"}, default=str)
-    tex = ["% nsbench report tables; needs \\usepackage{booktabs,longtable,array}",
-           f"% provenance: {meta}"]
+    tex = ["% nsbench report tables; needs \\usepackage{booktabs,longtable,array}", f"% provenance: {meta}"]
     for target in summary["target"].unique():
-        tex += [latex_table(compact(summary, target), COMPACT_CAPTION.format(target=target),
-                            f"tab:nsbench-target-{target}"), ""]
+        tex += [
+            latex_table(
+                compact(summary, target), COMPACT_CAPTION.format(target=target), f"tab:nsbench-target-{target}"
+            ),
+            "",
+        ]
     if len(refs):
         tex += [latex_table(refs, REFERENCE_CAPTION, "tab:nsbench-references"), ""]
-    tex += ["% Supplement: every integrator and target.", latex_table(wide, FT_CAPTION, "tab:nsbench-fixed-target"),
-            "", latex_table(rank, RANK_CAPTION, "tab:nsbench-ranking"), ""]
+    tex += [
+        "% Supplement: every integrator and target.",
+        latex_table(wide, FT_CAPTION, "tab:nsbench-fixed-target"),
+        "",
+        latex_table(rank, RANK_CAPTION, "tab:nsbench-ranking"),
+        "",
+    ]
     return "\n".join(tex)
 
 
-CLASS_CAPTION = ("Grouped by the class each problem declares (friction, impact, sliding, smooth). For each target: "
-                 "the method with the smallest class cost ratio, the geometric mean over the class's graded problems "
-                 "of its cost (cheapest configuration reaching the target, median warm wall time) divided by the "
-                 "cheapest method's cost on the same problem (1: the cheapest on every problem), among the methods "
-                 "that reach the target on every graded problem of the class; then how many problems it is the "
-                 "cheapest on (and on how many more its time cannot be told from the cheapest's), the runner-up, and the methods that reach it on some problems only. "
-                 "Each class cost ratio has its 95 % interval (a bootstrap over the timed samples); methods whose "
-                 "ratio to the smallest cannot be told from 1 are tied, and all of them are named. "
-                 "Reference-grade integrators are not ranked. Per-problem answers, with intervals, follow.")
+CLASS_CAPTION = (
+    "Grouped by the class each problem declares (friction, impact, sliding, smooth). For each target: "
+    "the method with the smallest class cost ratio, the geometric mean over the class's graded problems "
+    "of its cost (cheapest configuration reaching the target, median warm wall time) divided by the "
+    "cheapest method's cost on the same problem (1: the cheapest on every problem), among the methods "
+    "that reach the target on every graded problem of the class; then how many problems it is the "
+    "cheapest on (and on how many more its time cannot be told from the cheapest's), the runner-up, and the methods that reach it on some problems only. "
+    "Each class cost ratio has its 95 % interval (a bootstrap over the timed samples); methods whose "
+    "ratio to the smallest cannot be told from 1 are tied, and all of them are named. "
+    "Reference-grade integrators are not ranked. Per-problem answers, with intervals, follow."
+)
 
-ANSWER_CAPTION = ("For each switching-time error target: the cheapest method under test that reaches it (median "
-                  "warm wall time per run, with the interval of that median), every other method's cost as a ratio "
-                  "to the fastest with the ratio's 95 % interval, and the methods that never reach it, with why. "
-                  "Methods whose times cannot be told apart from the fastest one's (the intervals of their medians "
-                  "overlap, or the ratio's interval holds 1) are tied: then the cheapest column names every tied "
-                  "method and 'tied' follows their ratios. A run with a wrong event sequence never reaches a "
-                  "target. A target below what the reference can certify (or double precision can resolve on that "
-                  "problem) is not graded.")
-WRONG_CAPTION = ("Runs that succeeded with a different event sequence from the reference's (events missed / "
-                 "extra, after aligning the sequences): they never reach a target and are never the cheapest.")
-REFERENCE_CAPTION = ("References, shown apart and not ranked: each problem's reference (what the errors above "
-                     "are measured against) and the other reference-grade integrators, with their cost. "
-                     "Certified: the largest bound on the reference's event-time errors, from an independent "
-                     "run at higher precision; no error is reported below it (a run within it is 'at "
-                     "reference accuracy') and no target below it is graded. Conditioning: the largest switching-time change per unit change of the start positions "
-                     "(the reference run again from a start moved by 1e-9); the double floor, that times the "
-                     "unit roundoff, is how far rounding alone moves any double-precision solution's switching "
-                     "times. A problem whose floor exceeds 1e-10 cannot be graded in double over its span.")
+ANSWER_CAPTION = (
+    "For each switching-time error target: the cheapest method under test that reaches it (median "
+    "warm wall time per run, with the interval of that median), every other method's cost as a ratio "
+    "to the fastest with the ratio's 95 % interval, and the methods that never reach it, with why. "
+    "Methods whose times cannot be told apart from the fastest one's (the intervals of their medians "
+    "overlap, or the ratio's interval holds 1) are tied: then the cheapest column names every tied "
+    "method and 'tied' follows their ratios. A run with a wrong event sequence never reaches a "
+    "target. A target below what the reference can certify (or double precision can resolve on that "
+    "problem) is not graded."
+)
+WRONG_CAPTION = (
+    "Runs that succeeded with a different event sequence from the reference's (events missed / "
+    "extra, after aligning the sequences): they never reach a target and are never the cheapest."
+)
+REFERENCE_CAPTION = (
+    "References, shown apart and not ranked: each problem's reference (what the errors above "
+    "are measured against) and the other reference-grade integrators, with their cost. "
+    "Certified: the largest bound on the reference's event-time errors, from an independent "
+    "run at higher precision; no error is reported below it (a run within it is 'at "
+    "reference accuracy') and no target below it is graded. Conditioning: the largest switching-time change per unit change of the start positions "
+    "(the reference run again from a start moved by 1e-9); the double floor, that times the "
+    "unit roundoff, is how far rounding alone moves any double-precision solution's switching "
+    "times. A problem whose floor exceeds 1e-10 cannot be graded in double over its span."
+)
 
 
-SCALING_DETAIL_CAPTION = ("Per integrator and n: the cheapest configuration reaching the target, its costs and "
-                          "set-up time, and why nothing reached it where so.")
+SCALING_DETAIL_CAPTION = (
+    "Per integrator and n: the cheapest configuration reaching the target, its costs and "
+    "set-up time, and why nothing reached it where so."
+)
 
 
 def _scaling_view(scaling: pd.DataFrame) -> pd.DataFrame:
     return scaling.drop(columns=["family"]) if scaling["family"].nunique() == 1 else scaling
-
-

@@ -28,8 +28,15 @@ from nsbench.bench import storage
 from nsbench.bench.execute import run_case
 from nsbench.bench.pool import importable
 from nsbench.progress import Progress
-from nsbench.bench.reference import (Reference, candidates, compute_reference, failed_status, load_reference,
-                                     reference_key, save_reference)
+from nsbench.bench.reference import (
+    Reference,
+    candidates,
+    compute_reference,
+    failed_status,
+    load_reference,
+    reference_key,
+    save_reference,
+)
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
 from nsbench.bench.suite import Case, Suite, load_suite
 from nsbench.status import Status
@@ -82,8 +89,9 @@ class RunSummary:
 
     def problems(self) -> list[str]:
         """One line per failure that makes the run not :attr:`ok`."""
-        lines = [f"the reference of {label} could not be computed: {why}"
-                 for label, why in self.reference_failures.items()]
+        lines = [
+            f"the reference of {label} could not be computed: {why}" for label, why in self.reference_failures.items()
+        ]
         if self.bifurcations is not None and len(self.bifurcations):
             b = self.bifurcations
             bad = b[(b["reference_status"] != "ok") & (b["reference_status"] != "")]
@@ -91,11 +99,15 @@ class RunSummary:
                 lines.append(f"the reference of bifurcation target {name} could not be computed: {why}")
             crashed = b[b["status"] == Status.CRASHED]
             if len(crashed):
-                lines.append(f"{len(crashed)} bifurcation-target location(s) crashed their worker: "
-                             + ", ".join(sorted(crashed["target"] + " " + crashed["integrator"])))
+                lines.append(
+                    f"{len(crashed)} bifurcation-target location(s) crashed their worker: "
+                    + ", ".join(sorted(crashed["target"] + " " + crashed["integrator"]))
+                )
         if not self.crashed.empty:
-            lines.append(f"{len(self.crashed)} case(s) crashed their worker: "
-                         + ", ".join(sorted(self.crashed["problem_label"] + " " + self.crashed["integrator"])))
+            lines.append(
+                f"{len(self.crashed)} case(s) crashed their worker: "
+                + ", ".join(sorted(self.crashed["problem_label"] + " " + self.crashed["integrator"]))
+            )
         return lines
 
 
@@ -104,8 +116,10 @@ def _components(cases: list[Case], suite: Suite) -> tuple[dict[str, dict[str, An
     """Runtime registrations the workers can import, and those of the suite they cannot."""
     from nsbench import registry
 
-    used = {"integrators": {c.integrator for c in cases} | set(suite.reference),
-            "problems": {c.problem["name"] for c in cases}}
+    used = {
+        "integrators": {c.integrator for c in cases} | set(suite.reference),
+        "problems": {c.problem["name"] for c in cases},
+    }
     shareable: dict[str, dict[str, Any]] = {}
     local = []
     for kind, objs in registry.runtime_components().items():
@@ -135,8 +149,7 @@ class _References:
             if cached is not None and not cached.failed:
                 self.known[key] = cached
             else:
-                self.todo[key] = ReferenceTask(key, case.problem, self.cands, case.t0, case.t_end,
-                                               suite.dense_points)
+                self.todo[key] = ReferenceTask(key, case.problem, self.cands, case.t0, case.t_end, suite.dense_points)
 
     def key(self, case: Case) -> str:
         return reference_key(case.problem, self.cands, case.t0, case.t_end, self.suite.dense_points)
@@ -165,14 +178,24 @@ def _warn_other_version(out: Path, prov: dict[str, Any], err: TextIO) -> None:
     keys = ("version_nsbench", "git_commit")
     if old and any(old.get(k) != prov.get(k) for k in keys if old.get(k) is not None):
         was = ", ".join(f"{k} {old.get(k)}" for k in keys if old.get(k) is not None)
-        print(f"nsbench: warning: {out} holds cases of another nsbench ({was}); resuming keeps them: "
-              "use --fresh to compute every case with this one", file=err)
+        print(
+            f"nsbench: warning: {out} holds cases of another nsbench ({was}); resuming keeps them: "
+            "use --fresh to compute every case with this one",
+            file=err,
+        )
 
 
 # ---------------------------------------------------------------------- running
-def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int | None = None,
-              resume: bool = True, progress: bool = True, stream: TextIO | None = None,
-              provenance_extra: dict[str, Any] | None = None) -> RunSummary:
+def run_suite(
+    suite: Suite | str | Path | dict,
+    out: str | Path,
+    *,
+    workers: int | None = None,
+    resume: bool = True,
+    progress: bool = True,
+    stream: TextIO | None = None,
+    provenance_extra: dict[str, Any] | None = None,
+) -> RunSummary:
     """Run every case of ``suite`` that ``out`` does not hold yet, and export the results.
 
     Parameters
@@ -224,8 +247,13 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     # One step per reference, and per case one for its first warm-up and one per timing round,
     # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
     warm_weight, weight, ref_weight = _weights(suite, pending, len(refs.todo), prov["workers"], out, err, progress)
-    bar = Progress(len(refs.todo) * ref_weight + sum(warm_weight(c) + c.repeats * weight(c) for c in pending),
-                   label="cases", stream=err, enabled=progress, weighted=True)
+    bar = Progress(
+        len(refs.todo) * ref_weight + sum(warm_weight(c) + c.repeats * weight(c) for c in pending),
+        label="cases",
+        stream=err,
+        enabled=progress,
+        weighted=True,
+    )
     waiting: dict[str, list[dict[str, Any]]] = {}
 
     def store(row: dict[str, Any], stored: bool = False, steps: int = 1) -> None:
@@ -249,17 +277,27 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
     loads: list[float] = []
     try:
         if local:
-            print(f"nsbench: warning: {', '.join(local)} is defined in __main__, which worker processes "
-                  "cannot import: running every case in this process (no parallelism, time limit checked "
-                  "between arcs only, a crash ends the run); define it in an importable module to use workers",
-                  file=err)
+            print(
+                f"nsbench: warning: {', '.join(local)} is defined in __main__, which worker processes "
+                "cannot import: running every case in this process (no parallelism, time limit checked "
+                "between arcs only, a crash ends the run); define it in an importable module to use workers",
+                file=err,
+            )
             _run_in_process(pending, refs, suite.name, store, reference_done, bar, warm_weight, loads)
         elif pending:
-            scheduler = Scheduler(pending, list(refs.todo.values()), refs.of, reference_done, store,
-                                  _hello(shareable, out, prov), prov["workers"], suite.name,
-                                  on_warm=lambda case: bar.update(warm_weight(case), case.label),
-                                  on_phase=bar.phase,
-                                  on_extra=lambda case: bar.grow(weight(case)))
+            scheduler = Scheduler(
+                pending,
+                list(refs.todo.values()),
+                refs.of,
+                reference_done,
+                store,
+                _hello(shareable, out, prov),
+                prov["workers"],
+                suite.name,
+                on_warm=lambda case: bar.update(warm_weight(case), case.label),
+                on_phase=bar.phase,
+                on_extra=lambda case: bar.grow(weight(case)),
+            )
             timeline = scheduler.timeline
             loads = scheduler.loads
             scheduler.run()
@@ -275,13 +313,33 @@ def run_suite(suite: Suite | str | Path | dict, out: str | Path, *, workers: int
         from nsbench.bench.targets import run_targets
 
         if progress:
-            print(f"nsbench: bifurcation targets: {len(suite.target_list())} target(s), each located by every "
-                  "configuration with its own simulations", file=err, flush=True)
-        bifurcations = run_targets(suite, out, prov, workers=workers, in_process=bool(local),
-                                   components=shareable, resume=resume, stream=err, progress=progress)
-    summary = RunSummary(out=out, n_cases=len(cases), n_resumed=len(cases) - len(pending),
-                         n_computed=len(pending), results=results, in_process=bool(local), timeline=timeline,
-                         bifurcations=bifurcations)
+            print(
+                f"nsbench: bifurcation targets: {len(suite.target_list())} target(s), each located by every "
+                "configuration with its own simulations",
+                file=err,
+                flush=True,
+            )
+        bifurcations = run_targets(
+            suite,
+            out,
+            prov,
+            workers=workers,
+            in_process=bool(local),
+            components=shareable,
+            resume=resume,
+            stream=err,
+            progress=progress,
+        )
+    summary = RunSummary(
+        out=out,
+        n_cases=len(cases),
+        n_resumed=len(cases) - len(pending),
+        n_computed=len(pending),
+        results=results,
+        in_process=bool(local),
+        timeline=timeline,
+        bifurcations=bifurcations,
+    )
     for line in summary.problems():
         print(f"nsbench: warning: {line}", file=err)
     return summary
@@ -291,8 +349,13 @@ def _identity(case: Case) -> dict[str, Any]:
     """The columns of a stored row that say which computation it is (see ``execute.base_row``)."""
     from nsbench.bench.execute import _jsonable
 
-    return {"problem_config": _jsonable(case.problem), "integrator": case.integrator,
-            "options": _jsonable(case.options), "t0": float(case.t0), "t_end": float(case.t_end)}
+    return {
+        "problem_config": _jsonable(case.problem),
+        "integrator": case.integrator,
+        "options": _jsonable(case.options),
+        "t0": float(case.t0),
+        "t_end": float(case.t_end),
+    }
 
 
 def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any]):
@@ -301,8 +364,9 @@ def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any
     return hello(components, out, prov)
 
 
-def _weights(suite: Suite, pending: list[Case], n_references: int, workers: int, out: Path, err: TextIO,
-             announce: bool):
+def _weights(
+    suite: Suite, pending: list[Case], n_references: int, workers: int, out: Path, err: TextIO, announce: bool
+):
     """The weights of the progress bar's steps: ``(warm-up of a case, timed run of a case, reference)``,
     each the expected worker seconds; with ``announce``, say first what the run will do and how long
     it should take (:mod:`nsbench.bench.estimate`)."""
@@ -317,16 +381,19 @@ def _weights(suite: Suite, pending: list[Case], n_references: int, workers: int,
     plan = estimate.plan(pending, todo, n_references, workers, table=table)
     print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
     typical = (table.typical()[0], table.typical()[2]) if table else (1.0, 1.0)
-    return ((lambda case: plan.weights.get(case.label, typical)[0]),
-            (lambda case: plan.weights.get(case.label, typical)[1]), (table.reference if table else 1.0))
+    return (
+        (lambda case: plan.weights.get(case.label, typical)[0]),
+        (lambda case: plan.weights.get(case.label, typical)[1]),
+        (table.reference if table else 1.0),
+    )
 
 
-def _run_in_process(pending: list[Case], refs: _References, suite: str, store, reference_done, bar,
-                    warm_weight, loads: list[float]) -> None:
+def _run_in_process(
+    pending: list[Case], refs: _References, suite: str, store, reference_done, bar, warm_weight, loads: list[float]
+) -> None:
     """The fallback without workers: references, then each case warmed up and timed in turn."""
     for key, task in list(refs.todo.items()):
-        reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end,
-                                              task.dense_points))
+        reference_done(key, compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points))
     for case in pending:
         bar.update(warm_weight(case), case.label)  # its warm-up step
         loads.extend(load_average())
@@ -351,9 +418,12 @@ def timing_provenance(suite: Suite, workers: int, loads: list[float]) -> dict[st
     """
     import statistics
 
-    info: dict[str, Any] = {"samples": suite.repeats, "min_sample_time": suite.min_sample_time,
-                            "workers": workers, "cores": os.cpu_count()}
+    info: dict[str, Any] = {
+        "samples": suite.repeats,
+        "min_sample_time": suite.min_sample_time,
+        "workers": workers,
+        "cores": os.cpu_count(),
+    }
     if loads:
-        info["load"] = {"min": min(loads), "median": statistics.median(loads), "max": max(loads),
-                        "n": len(loads)}
+        info["load"] = {"min": min(loads), "median": statistics.median(loads), "max": max(loads), "n": len(loads)}
     return info

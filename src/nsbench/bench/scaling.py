@@ -27,8 +27,11 @@ SCALING_TARGET = 1e-8
 #: set-up times below this at every n are not fitted (seconds)
 NEGLIGIBLE_SETUP = 0.01
 #: costs whose growth is fitted, with their labels
-COSTS = {"wall_time": "wall time (s, warm median)", "integrator_time": "integrator time (s)",
-         "nfev": "right-hand side evaluations"}
+COSTS = {
+    "wall_time": "wall time (s, warm median)",
+    "integrator_time": "integrator time (s)",
+    "nfev": "right-hand side evaluations",
+}
 
 
 def _family_and_n(config_json: str) -> tuple[str, int | None]:
@@ -59,8 +62,7 @@ def with_family(frame: pd.DataFrame) -> pd.DataFrame:
     if frame.empty or "problem_config" not in frame:
         return frame.assign(family=pd.Series(dtype="string"), n=pd.Series(dtype="Int64"))
     keys = [_family_and_n(str(c)) for c in frame["problem_config"]]
-    return frame.assign(family=[_family_label(k) for k, _ in keys],
-                        n=pd.array([n for _, n in keys], dtype="Int64"))
+    return frame.assign(family=[_family_label(k) for k, _ in keys], n=pd.array([n for _, n in keys], dtype="Int64"))
 
 
 def scaling_families(frame: pd.DataFrame) -> list[str]:
@@ -109,29 +111,57 @@ def scaling_table(frame: pd.DataFrame, target: float = SCALING_TARGET) -> pd.Dat
             span = float(rows["t_end"].iloc[0] - rows["t0"].iloc[0])
             n_ref = rows["n_ref"].dropna()
             row: dict[str, Any] = {
-                "family": family, "integrator": name, "n": int(n), "reached": False, "options": "",
-                "wall_time": math.nan, "wall_spread": math.nan, "integrator_time": math.nan, "nfev": math.nan,
+                "family": family,
+                "integrator": name,
+                "n": int(n),
+                "reached": False,
+                "options": "",
+                "wall_time": math.nan,
+                "wall_spread": math.nan,
+                "integrator_time": math.nan,
+                "nfev": math.nan,
                 # the first configuration run in a worker compiles, the others reuse its code: the largest
                 "setup_time": float(rows["setup_time"].max()) if rows["setup_time"].notna().any() else math.nan,
                 "events_per_time": float(n_ref.iloc[0]) / span if len(n_ref) and span > 0 else math.nan,
-                "why": ""}
+                "why": "",
+            }
             is_reference = (rows["reference"] == name).all()
             ok = rows[reached_mask(rows, target)] if not is_reference else rows[rows["status"] == Status.SUCCESS]
             if len(ok) and ok["wall_time"].notna().any():
                 best = ok.loc[ok["wall_time"].idxmin()]
-                row.update(reached=True, options=best["options"], wall_time=float(best["wall_time"]),
-                           wall_spread=float(best["wall_spread"]) if pd.notna(best["wall_spread"]) else math.nan,
-                           integrator_time=float(best["integrator_time"]) if pd.notna(best["integrator_time"])
-                           else math.nan, nfev=float(best["nfev"]) if pd.notna(best["nfev"]) else math.nan)
+                row.update(
+                    reached=True,
+                    options=best["options"],
+                    wall_time=float(best["wall_time"]),
+                    wall_spread=float(best["wall_spread"]) if pd.notna(best["wall_spread"]) else math.nan,
+                    integrator_time=float(best["integrator_time"]) if pd.notna(best["integrator_time"]) else math.nan,
+                    nfev=float(best["nfev"]) if pd.notna(best["nfev"]) else math.nan,
+                )
                 if is_reference:
                     # the reference run compiled it before its cases ran: their set-up is a cache load
-                    row.update(why="the reference (its set-up, done by the reference run, is not shown)",
-                               setup_time=math.nan)
+                    row.update(
+                        why="the reference (its set-up, done by the reference run, is not shown)", setup_time=math.nan
+                    )
             else:
                 row["why"] = _why_not(rows, target)
             out.append(row)
-    return pd.DataFrame(out, columns=["family", "integrator", "n", "reached", "options", "wall_time", "wall_spread",
-                                      "integrator_time", "nfev", "setup_time", "events_per_time", "why"])
+    return pd.DataFrame(
+        out,
+        columns=[
+            "family",
+            "integrator",
+            "n",
+            "reached",
+            "options",
+            "wall_time",
+            "wall_spread",
+            "integrator_time",
+            "nfev",
+            "setup_time",
+            "events_per_time",
+            "why",
+        ],
+    )
 
 
 def growth_exponent(n: np.ndarray, cost: np.ndarray) -> float:
@@ -166,15 +196,31 @@ def scaling_summary(table: pd.DataFrame) -> pd.DataFrame:
             row[f"exponent_{cost}"] = growth_exponent(hit["n"].to_numpy(), hit[cost].to_numpy())
         setup = group["setup_time"].to_numpy(dtype=float)
         # set-up under NEGLIGIBLE_SETUP is process noise (a worker's first import), not a trend
-        row["exponent_setup_time"] = growth_exponent(group["n"].to_numpy(),
-                                                     np.where(setup >= NEGLIGIBLE_SETUP, setup, np.nan))
-        row.update(largest_n_reached=int(hit["n"].max()) if len(hit) else pd.NA, n_reached=len(hit),
-                   n_tried=len(group), first_n_not_reached=int(miss["n"].min()) if len(miss) else pd.NA,
-                   why=str(miss.iloc[0]["why"]) if len(miss) else "")
+        row["exponent_setup_time"] = growth_exponent(
+            group["n"].to_numpy(), np.where(setup >= NEGLIGIBLE_SETUP, setup, np.nan)
+        )
+        row.update(
+            largest_n_reached=int(hit["n"].max()) if len(hit) else pd.NA,
+            n_reached=len(hit),
+            n_tried=len(group),
+            first_n_not_reached=int(miss["n"].min()) if len(miss) else pd.NA,
+            why=str(miss.iloc[0]["why"]) if len(miss) else "",
+        )
         rows.append(row)
-    out = pd.DataFrame(rows, columns=["family", "integrator", *(f"exponent_{c}" for c in COSTS),
-                                      "exponent_setup_time", "largest_n_reached", "n_reached", "n_tried",
-                                      "first_n_not_reached", "why"])
+    out = pd.DataFrame(
+        rows,
+        columns=[
+            "family",
+            "integrator",
+            *(f"exponent_{c}" for c in COSTS),
+            "exponent_setup_time",
+            "largest_n_reached",
+            "n_reached",
+            "n_tried",
+            "first_n_not_reached",
+            "why",
+        ],
+    )
     return out.sort_values(["family", "exponent_wall_time"], na_position="last", kind="stable").reset_index(drop=True)
 
 
@@ -184,4 +230,5 @@ SCALING_CAPTION = (
     "switching time within the target); exponent_* is the least-squares slope b of cost ~ n^b on log-log "
     "axes over the n it reaches (NaN with fewer than 3 of them); setup (compilation) is fitted over the "
     "n where it exceeds 10 ms (3 of them at least). largest_n_reached is where it still reaches the target; first_n_not_reached and why say where "
-    "and how it stops being usable (time limit, wrong event sequence, error above the target).")
+    "and how it stops being usable (time limit, wrong event sequence, error above the target)."
+)

@@ -166,12 +166,20 @@ class Scheduler:
         Suite name stored in the rows.
     """
 
-    def __init__(self, cases: list[Case], references: list[ReferenceTask],
-                 reference_of: Callable[[Case], Reference], on_reference: Callable[[str, Reference], None],
-                 on_row: Callable[..., None], hello: msg.Hello, workers: int,
-                 suite: str = "suite", on_warm: Callable[[Case], None] | None = None,
-                 on_phase: Callable[[str], None] | None = None,
-                 on_extra: Callable[[Case], None] | None = None) -> None:
+    def __init__(
+        self,
+        cases: list[Case],
+        references: list[ReferenceTask],
+        reference_of: Callable[[Case], Reference],
+        on_reference: Callable[[str, Reference], None],
+        on_row: Callable[..., None],
+        hello: msg.Hello,
+        workers: int,
+        suite: str = "suite",
+        on_warm: Callable[[Case], None] | None = None,
+        on_phase: Callable[[str], None] | None = None,
+        on_extra: Callable[[Case], None] | None = None,
+    ) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
         self.ref_queue = deque(references)
         self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
@@ -192,10 +200,13 @@ class Scheduler:
     def run(self) -> None:
         """Run everything; on any exception (Ctrl-C included) keep what finished, end the workers."""
         n_refs = len(self.ref_queue)
-        self.on_phase(f"preparing: {n_refs} reference run(s), then a warm-up of each of {len(self.cases)} case(s) "
-                      "(set-up and compilation, a short untimed run)" if n_refs else
-                      f"preparing: a warm-up of each of {len(self.cases)} case(s) (set-up and compilation, a short "
-                      "untimed run)")
+        self.on_phase(
+            f"preparing: {n_refs} reference run(s), then a warm-up of each of {len(self.cases)} case(s) "
+            "(set-up and compilation, a short untimed run)"
+            if n_refs
+            else f"preparing: a warm-up of each of {len(self.cases)} case(s) (set-up and compilation, a short "
+            "untimed run)"
+        )
         try:
             while not self._finished():
                 self._dispatch()
@@ -231,8 +242,13 @@ class Scheduler:
         if not self.timing:
             if self.ref_queue:
                 ref = self.ref_queue.popleft()
-                return self._send(slot, "reference", ref, msg.ComputeReference(
-                    0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points), ref.key)
+                return self._send(
+                    slot,
+                    "reference",
+                    ref,
+                    msg.ComputeReference(0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points),
+                    ref.key,
+                )
             while self.queue:
                 state = self.cases[self.queue.popleft()]
                 if not state.done:
@@ -245,13 +261,23 @@ class Scheduler:
             # rounds started by the case furthest behind: no case starts round k + 1 before every case has
             # started round k (a slow round in flight would otherwise let the others run two rounds ahead)
             floor = min((s.rounds + self._in_flight(s.case.case_id) for s in pending), default=0)
-            free = [s for s in pending if s.case.case_id in slot.warm and not self._in_flight(s.case.case_id)
-                    and s.rounds <= floor]
+            free = [
+                s
+                for s in pending
+                if s.case.case_id in slot.warm and not self._in_flight(s.case.case_id) and s.rounds <= floor
+            ]
             if free:
                 # earliest round first (runs interleaved in time), then longest first: the best balance
                 state = max(free, key=lambda s: (-s.rounds, s.order))
-                message = msg.TimeCase(0, state.case, self.suite, self.reference_of(state.case), state.warm,
-                                       round=state.rounds, loops=state.loops)
+                message = msg.TimeCase(
+                    0,
+                    state.case,
+                    self.suite,
+                    self.reference_of(state.case),
+                    state.warm,
+                    round=state.rounds,
+                    loops=state.loops,
+                )
                 self._sample_load()
                 return self._send(slot, "time", state, message, state.case.label)
             return
@@ -275,27 +301,37 @@ class Scheduler:
         """Cases ``slot`` must still warm up: warm elsewhere, not done, not sticky to another home."""
         if self.queue and not self.timing:
             return []  # first every case gets a home
-        return [s for s in self.cases.values()
-                if not s.done and s.warm is not None and s.case.case_id not in slot.warm
-                and (not s.sticky or s.home == slot.index) and not self._in_flight(s.case.case_id, slot)]
+        return [
+            s
+            for s in self.cases.values()
+            if not s.done
+            and s.warm is not None
+            and s.case.case_id not in slot.warm
+            and (not s.sticky or s.home == slot.index)
+            and not self._in_flight(s.case.case_id, slot)
+        ]
 
     def _prepared(self) -> bool:
         """The barrier: references and first warm-ups done, every worker idle and warm."""
-        return (self._refs_pending == 0 and not self.queue
-                and all(s.idle and not self._needs(s) for s in self.slots))
+        return self._refs_pending == 0 and not self.queue and all(s.idle and not self._needs(s) for s in self.slots)
 
     def _holding(self) -> bool:
         """Timing must pause: a worker is dead, starting, warming up, or not warm for its cases."""
-        return any(not s.alive or not s.ready or (s.task is not None and s.task[1] != "time")
-                   or self._needs(s) for s in self.slots)
+        return any(
+            not s.alive or not s.ready or (s.task is not None and s.task[1] != "time") or self._needs(s)
+            for s in self.slots
+        )
 
     def _quiet(self) -> bool:
         return not any(s.task is not None and s.task[1] == "time" for s in self.slots)
 
     def _in_flight(self, case_id: str, on: _Slot | None = None) -> bool:
         """Whether ``case_id`` is being warmed up or timed (on ``on`` only, if given)."""
-        return any(s.task is not None and s.task[1] in ("warm-up", "time")
-                   and s.task[2].case.case_id == case_id for s in self.slots if on is None or s is on)
+        return any(
+            s.task is not None and s.task[1] in ("warm-up", "time") and s.task[2].case.case_id == case_id
+            for s in self.slots
+            if on is None or s is on
+        )
 
     # ------------------------------------------------------------------ sending
     def _start(self, slot: _Slot) -> None:
@@ -351,8 +387,10 @@ class Scheduler:
             slot.ready, slot.failed_starts = True, 0
             self._close_record(slot, "ready")
         elif isinstance(message, msg.InitFailed):
-            raise ConfigError("a worker process cannot load the components registered in this process: "
-                              f"{message.error}; register components defined in an importable module")
+            raise ConfigError(
+                "a worker process cannot load the components registered in this process: "
+                f"{message.error}; register components defined in an importable module"
+            )
         elif isinstance(message, msg.Stage):
             slot.stage, slot.limit = message.what, message.limit
             slot.deadline = math.inf if message.limit is None else time.monotonic() + message.limit
@@ -416,8 +454,11 @@ class Scheduler:
     def _time_out(self, slot: _Slot) -> None:
         limit, stage = slot.limit, slot.stage
         slot.worker.kill()
-        self._lose(slot, "time limit", f"wall-clock limit of {limit:g} s per run reached in the {stage}; "
-                                       "the worker process was stopped")
+        self._lose(
+            slot,
+            "time limit",
+            f"wall-clock limit of {limit:g} s per run reached in the {stage}; the worker process was stopped",
+        )
 
     def _lost(self, slot: _Slot) -> None:
         reason = slot.worker.exit_reason()
@@ -448,8 +489,11 @@ class Scheduler:
             return
         if state.row is not None:  # a later timing round was lost: the earlier rounds stand
             state.done = True
-            self.on_row(merge_runs(state.row, {"status": status, "message": message}), stored=False,
-                        steps=max(0, state.case.repeats - state.rounds))
+            self.on_row(
+                merge_runs(state.row, {"status": status, "message": message}),
+                stored=False,
+                steps=max(0, state.case.repeats - state.rounds),
+            )
             return
         if state.warm is None:  # its first warm-up ended here
             self.on_warm(state.case)
@@ -490,5 +534,14 @@ def _failed_reference(task: ReferenceTask, reason: str) -> Reference:
     import pandas as pd
 
     grid = np.linspace(task.t0, task.t_end, task.dense_points)
-    return Reference(task.key, None, None, f"{FAILED}: {reason}", pd.DataFrame(columns=["t", "kind", "block"]),
-                     grid, np.empty((0, 0)), np.empty(0), failed=True)
+    return Reference(
+        task.key,
+        None,
+        None,
+        f"{FAILED}: {reason}",
+        pd.DataFrame(columns=["t", "kind", "block"]),
+        grid,
+        np.empty((0, 0)),
+        np.empty(0),
+        failed=True,
+    )

@@ -58,7 +58,7 @@ def u_distribution(n: int, m: int) -> tuple[float, ...]:
         up = m + i
         for u in range(degree, up - 1, -1):  # times (1 - q^(m+i))
             coeff[u] -= coeff[u - up]
-        for u in range(i, degree + 1):        # divided by (1 - q^i): a running sum with stride i
+        for u in range(i, degree + 1):  # divided by (1 - q^i): a running sum with stride i
             coeff[u] += coeff[u - i]
     total = math.comb(n + m, n)
     return tuple(c / total for c in coeff)

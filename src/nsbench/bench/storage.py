@@ -34,10 +34,25 @@ from nsbench.status import Status
 PROVENANCE_KEY = b"nsbench.provenance"
 #: What nsbench writes in an output directory (the runner, ingest, the report), and the folders
 #: whose every entry it writes: none of them may be a symbolic link (:func:`check_no_links`).
-WRITTEN = ("cases", "references", "results.parquet", "results.csv", "provenance.json", "timeline.csv",
-           "report.md", "index.html", "table.tex", "figures", "scaling.csv", "scaling_summary.csv",
-           "bifurcation_targets", "bifurcation_references", "bifurcation_targets.parquet",
-           "bifurcation_targets.csv", "*.tmp")
+WRITTEN = (
+    "cases",
+    "references",
+    "results.parquet",
+    "results.csv",
+    "provenance.json",
+    "timeline.csv",
+    "report.md",
+    "index.html",
+    "table.tex",
+    "figures",
+    "scaling.csv",
+    "scaling_summary.csv",
+    "bifurcation_targets",
+    "bifurcation_references",
+    "bifurcation_targets.parquet",
+    "bifurcation_targets.csv",
+    "*.tmp",
+)
 WRITTEN_FOLDERS = ("cases", "references", "figures", "bifurcation_targets", "bifurcation_references")
 
 
@@ -46,14 +61,53 @@ def check_no_links(out: str | Path) -> None:
     refuse_links(out, WRITTEN, WRITTEN_FOLDERS)
 
 
-_INT = ("case", "level", "nfev", "njev", "nsteps", "n_events", "n_repeats", "loops", "n_ref", "n_prefix",
-        "n_matched", "n_missed", "n_extra", "first_divergence_index")
-_FLOAT = ("step_value", "t0", "t_end", "t_final", "wall_time", "wall_time_min", "wall_time_max",
-          "wall_spread", "integrator_time", "cpu_time", "setup_time", "setup_time_timed", "warmup_time",
-          "first_divergence_time",
-          "switch_err_max", "switch_err_rms", "switch_err_median", "switch_digits",
-          "final_state_err", "state_err_l2", "stick_creep", "stick_drift", "breakaway_err_max", "arc_err", "penetration", "energy_err",
-          "ref_conditioning", "ref_double_floor", "ref_certainty")
+_INT = (
+    "case",
+    "level",
+    "nfev",
+    "njev",
+    "nsteps",
+    "n_events",
+    "n_repeats",
+    "loops",
+    "n_ref",
+    "n_prefix",
+    "n_matched",
+    "n_missed",
+    "n_extra",
+    "first_divergence_index",
+)
+_FLOAT = (
+    "step_value",
+    "t0",
+    "t_end",
+    "t_final",
+    "wall_time",
+    "wall_time_min",
+    "wall_time_max",
+    "wall_spread",
+    "integrator_time",
+    "cpu_time",
+    "setup_time",
+    "setup_time_timed",
+    "warmup_time",
+    "first_divergence_time",
+    "switch_err_max",
+    "switch_err_rms",
+    "switch_err_median",
+    "switch_digits",
+    "final_state_err",
+    "state_err_l2",
+    "stick_creep",
+    "stick_drift",
+    "breakaway_err_max",
+    "arc_err",
+    "penetration",
+    "energy_err",
+    "ref_conditioning",
+    "ref_double_floor",
+    "ref_certainty",
+)
 _BOOL = ("sequence_ok", "at_ref_accuracy")
 #: The integer, float and boolean columns of the schema (the others are text or lists).
 INT_COLUMNS, FLOAT_COLUMNS, BOOL_COLUMNS = _INT, _FLOAT, _BOOL
@@ -151,8 +205,10 @@ def file_name(text: Any, what: str) -> str:
     """
     text = str(text)
     if not _CASE_ID.fullmatch(text) or ".." in text:
-        raise ConfigError(f"{what} {text!r} cannot name a file: it must be 1-128 characters of letters, "
-                          "digits and _ . + = -, start with a letter or digit, and not contain '..'")
+        raise ConfigError(
+            f"{what} {text!r} cannot name a file: it must be 1-128 characters of letters, "
+            "digits and _ . + = -, start with a letter or digit, and not contain '..'"
+        )
     return text
 
 
@@ -170,12 +226,17 @@ def clear_cases(out: str | Path) -> None:
         return
     if not cases.is_dir():
         raise ConfigError(f"{str(cases)!r} is not a folder: {str(out)!r} is not an nsbench results folder")
-    foreign = [p.name for p in sorted(cases.iterdir())
-               if not (p.name.endswith(".parquet.tmp") or (p.name.endswith(".parquet") and nsbench_wrote(p)))]
+    foreign = [
+        p.name
+        for p in sorted(cases.iterdir())
+        if not (p.name.endswith(".parquet.tmp") or (p.name.endswith(".parquet") and nsbench_wrote(p)))
+    ]
     if foreign:
-        raise ConfigError(f"{str(out)!r} does not look like an nsbench results folder ({str(cases)!r} holds "
-                          f"{foreign[0]!r}, which nsbench did not write); refusing to clear it: choose another "
-                          "--out")
+        raise ConfigError(
+            f"{str(out)!r} does not look like an nsbench results folder ({str(cases)!r} holds "
+            f"{foreign[0]!r}, which nsbench did not write); refusing to clear it: choose another "
+            "--out"
+        )
     for p in cases.iterdir():
         p.unlink()
     cases.rmdir()
@@ -239,8 +300,12 @@ def read_case(path: str | Path) -> pd.DataFrame:
     return frame
 
 
-def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = STALE_AFTER,
-                    expect: dict[str, dict[str, Any]] | None = None) -> list[Path]:
+def discard_damaged(
+    out: str | Path,
+    stream: Any = None,
+    stale_after: float = STALE_AFTER,
+    expect: dict[str, dict[str, Any]] | None = None,
+) -> list[Path]:
     """Before a resumed run: delete damaged case files (their cases run again) and stale temporary files.
 
     Each damaged file is named in one warning line on ``stream``; a damaged
@@ -266,13 +331,23 @@ def discard_damaged(out: str | Path, stream: Any = None, stale_after: float = ST
                 raise DamagedFile(f"it holds another computation than its case id says ({differ[0]} differs)")
         except DamagedFile as exc:
             if not nsbench_wrote(f):  # someone else's file: never deleted, and not read as a result
-                raise ConfigError(f"{f} is not an nsbench case file ({exc}) and nsbench did not write it; move "
-                                  f"it out of {cases} or choose another --out") from None
+                raise ConfigError(
+                    f"{f} is not an nsbench case file ({exc}) and nsbench did not write it; move "
+                    f"it out of {cases} or choose another --out"
+                ) from None
             print(f"nsbench: warning: {f} is damaged ({exc}); its case runs again", file=stream or sys.stderr)
             f.unlink(missing_ok=True)
             bad.append(f)
-    remove_stale_temporaries(((o, "results.*.tmp"), (o, "provenance.json.tmp"), (o, "timeline.csv.tmp"),
-                              (cases, "*.parquet.tmp"), (o / "references", "*.json.tmp")), stale_after)
+    remove_stale_temporaries(
+        (
+            (o, "results.*.tmp"),
+            (o, "provenance.json.tmp"),
+            (o, "timeline.csv.tmp"),
+            (cases, "*.parquet.tmp"),
+            (o / "references", "*.json.tmp"),
+        ),
+        stale_after,
+    )
     return bad
 
 
@@ -331,8 +406,9 @@ def load_results(path: str | Path) -> pd.DataFrame:
         if files:
             frame = to_frame(row for f in files for row in _checked(f).to_dict("records"))
             frame = frame.sort_values(["integrator", "level"], kind="stable", ignore_index=True)
-            return frame.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable",
-                                     ignore_index=True)
+            return frame.sort_values(
+                "problem_label", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True
+            )
         if (p / "results.parquet").exists():
             return load_results(p / "results.parquet")
         raise ConfigError(f"{str(path)!r} holds no results (no cases/*.parquet or results.parquet)")
@@ -363,8 +439,9 @@ def _checked(path: Path) -> pd.DataFrame:
     try:
         return read_case(path)
     except DamagedFile as exc:
-        raise ConfigError(f"{path} is damaged ({exc}); rerun into this folder (without --fresh) to compute "
-                          "its case again") from None
+        raise ConfigError(
+            f"{path} is damaged ({exc}); rerun into this folder (without --fresh) to compute its case again"
+        ) from None
 
 
 def write_results(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
@@ -385,8 +462,11 @@ def write_csv(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> No
     import hashlib
 
     body = frame.to_csv(index=False, float_format="%.17g")
-    head = "".join(f"# {key}: {json.dumps(value, default=str)}\n" for key, value in provenance.items()
-                   if key not in (CSV_ROWS, CSV_SHA256))
+    head = "".join(
+        f"# {key}: {json.dumps(value, default=str)}\n"
+        for key, value in provenance.items()
+        if key not in (CSV_ROWS, CSV_SHA256)
+    )
     head += f"# {CSV_ROWS}: {len(frame)}\n# {CSV_SHA256}: {json.dumps(hashlib.sha256(body.encode()).hexdigest())}\n"
     write_atomic(path, head + body)
 
@@ -463,8 +543,9 @@ def write_timeline(out: str | Path, records: Iterable[Any]) -> Path:
     ``records`` are :class:`nsbench.bench.scheduler.TaskRecord`; the file shows
     the phases (no warm-up overlaps a timed case) and where a worker was lost.
     """
-    frame = pd.DataFrame([vars(r) for r in records],
-                         columns=["slot", "pid", "kind", "label", "start", "end", "outcome"])
+    frame = pd.DataFrame(
+        [vars(r) for r in records], columns=["slot", "pid", "kind", "label", "start", "end", "outcome"]
+    )
     if len(frame):
         t0 = frame["start"].min()
         frame["start"], frame["end"] = frame["start"] - t0, frame["end"] - t0

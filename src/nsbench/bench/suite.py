@@ -21,9 +21,23 @@ from typing import Any
 from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_REPEATS, MIN_SAMPLE_TIME
 from nsbench.errors import ConfigError
 
-_SUITE_KEYS = {"name", "t_span", "repeats", "max_repeats", "min_sample_time", "repeat_budget", "time_limit",
-               "setup_limit", "max_steps",
-               "dense_points", "targets", "reference", "problems", "integrators", "bifurcation_targets"}
+_SUITE_KEYS = {
+    "name",
+    "t_span",
+    "repeats",
+    "max_repeats",
+    "min_sample_time",
+    "repeat_budget",
+    "time_limit",
+    "setup_limit",
+    "max_steps",
+    "dense_points",
+    "targets",
+    "reference",
+    "problems",
+    "integrators",
+    "bifurcation_targets",
+}
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional", "t_span"}
 _INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
 
@@ -70,14 +84,20 @@ class Case:
     @property
     def case_id(self) -> str:
         """Stable id of what is computed (not of how often it is timed)."""
-        return stable_key({"problem": self.problem, "integrator": self.integrator,
-                           "options": self.options, "t": [self.t0, self.t_end],
-                           "dense": self.dense_points, "max_steps": self.max_steps})
+        return stable_key(
+            {
+                "problem": self.problem,
+                "integrator": self.integrator,
+                "options": self.options,
+                "t": [self.t0, self.t_end],
+                "dense": self.dense_points,
+                "max_steps": self.max_steps,
+            }
+        )
 
     @property
     def label(self) -> str:
-        opts = ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                        for k, v in self.options.items())
+        opts = ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.options.items())
         case = self.problem.get("case")
         return f"{self.problem['name']}/{case} {self.integrator}[{opts}]"
 
@@ -129,12 +149,17 @@ def _check_problem(p: Any, i: int) -> None:
         _field(case_ok(p["case"]), f"{where}.case", "a case number (1..4) or name", p["case"])
     if "cases" in p:
         cases = p["cases"]
-        _field(case_ok(cases) or (isinstance(cases, list) and cases and all(case_ok(c) for c in cases)),
-               f"{where}.cases", "a non-empty list of case numbers", cases)
+        _field(
+            case_ok(cases) or (isinstance(cases, list) and cases and all(case_ok(c) for c in cases)),
+            f"{where}.cases",
+            "a non-empty list of case numbers",
+            cases,
+        )
     if "params" in p:
         params = p["params"]
-        _field(isinstance(params, dict), f"{where}.params", "a table of parameter = number (or list of numbers)",
-               params)
+        _field(
+            isinstance(params, dict), f"{where}.params", "a table of parameter = number (or list of numbers)", params
+        )
         for key, value in params.items():
             ok = _is_number(value) or (isinstance(value, list) and all(_is_number(v) for v in value))
             ok = ok or (key == "law" and isinstance(value, str))  # the friction law is a name
@@ -149,12 +174,10 @@ def _check_problem(p: Any, i: int) -> None:
 
 def _check_integrators(spec: Any) -> None:
     """Types of the ``[integrators]`` table."""
-    _field(isinstance(spec, dict), "integrators", "a table (registered, only, exclude, grids, skip_levels)",
-           spec)
+    _field(isinstance(spec, dict), "integrators", "a table (registered, only, exclude, grids, skip_levels)", spec)
     _unknown(set(spec), _INTEGRATOR_KEYS, "integrators")
     if "registered" in spec:
-        _field(isinstance(spec["registered"], bool), "integrators.registered", "true or false",
-               spec["registered"])
+        _field(isinstance(spec["registered"], bool), "integrators.registered", "true or false", spec["registered"])
     for key in ("only", "exclude"):
         if key in spec:
             _field(_is_str_list(spec[key]), f"integrators.{key}", "a list of integrator names", spec[key])
@@ -165,25 +188,36 @@ def _check_integrators(spec: Any) -> None:
         _field(isinstance(grid, dict), where, "a table with 'options' or 'grid'", grid)
         _unknown(set(grid), {"options", "grid", "fixed"}, where)
         if "options" in grid:
-            _field(isinstance(grid["options"], list) and all(isinstance(o, dict) for o in grid["options"]),
-                   f"{where}.options", "a list of option tables", grid["options"])
+            _field(
+                isinstance(grid["options"], list) and all(isinstance(o, dict) for o in grid["options"]),
+                f"{where}.options",
+                "a list of option tables",
+                grid["options"],
+            )
         if "grid" in grid:
-            _field(isinstance(grid["grid"], dict), f"{where}.grid", "a table of option = value or list of values",
-                   grid["grid"])
+            _field(
+                isinstance(grid["grid"], dict),
+                f"{where}.grid",
+                "a table of option = value or list of values",
+                grid["grid"],
+            )
             for key, values in grid["grid"].items():
                 _field(not isinstance(values, list) or values, f"{where}.grid.{key}", "a non-empty list", values)
         if "fixed" in grid:
             _field(isinstance(grid["fixed"], dict), f"{where}.fixed", "a table of option = value", grid["fixed"])
     skips = spec.get("skip_levels", {})
-    _field(isinstance(skips, dict), "integrators.skip_levels", "a table of integrator name = {levels, reason}",
-           skips)
+    _field(isinstance(skips, dict), "integrators.skip_levels", "a table of integrator name = {levels, reason}", skips)
     for name, skip in skips.items():
         where = f"integrators.skip_levels.{name}"
         _field(isinstance(skip, dict), where, "a table with 'levels' (and 'reason')", skip)
         _unknown(set(skip), {"levels", "reason"}, where)
         levels = skip.get("levels", [])
-        _field(isinstance(levels, list) and all(isinstance(v, int) and not isinstance(v, bool) for v in levels),
-               f"{where}.levels", "a list of level indices", levels)
+        _field(
+            isinstance(levels, list) and all(isinstance(v, int) and not isinstance(v, bool) for v in levels),
+            f"{where}.levels",
+            "a list of level indices",
+            levels,
+        )
         if "reason" in skip:
             _field(isinstance(skip["reason"], str), f"{where}.reason", "a string", skip["reason"])
 
@@ -279,20 +313,26 @@ class Suite:
         self.targets = tuple(sorted(_number_list(self.targets, "targets"), reverse=True))
         if any(t <= 0 for t in self.targets):
             raise ConfigError(f"targets = {list(self.targets)} must be positive")
-        for key, low, high, bound in (("repeats", 1, MAX_REPEATS, "MAX_REPEATS"),
-                                      ("max_steps", 1, MAX_STEPS, "MAX_STEPS"),
-                                      ("dense_points", 2, MAX_DENSE_POINTS, "MAX_DENSE_POINTS")):
+        for key, low, high, bound in (
+            ("repeats", 1, MAX_REPEATS, "MAX_REPEATS"),
+            ("max_steps", 1, MAX_STEPS, "MAX_STEPS"),
+            ("dense_points", 2, MAX_DENSE_POINTS, "MAX_DENSE_POINTS"),
+        ):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-                raise ConfigError(f"{key} = {value!r} must be an integer >= {low} and <= {high} "
-                                  f"(the bound is nsbench.bench.suite.{bound})")
+                raise ConfigError(
+                    f"{key} = {value!r} must be an integer >= {low} and <= {high} "
+                    f"(the bound is nsbench.bench.suite.{bound})"
+                )
         self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
         if self.max_repeats is None:
             self.max_repeats = min(2 * self.repeats, MAX_REPEATS)
         value = self.max_repeats
         if isinstance(value, bool) or not isinstance(value, int) or not self.repeats <= value <= MAX_REPEATS:
-            raise ConfigError(f"max_repeats = {value!r} must be an integer >= repeats ({self.repeats}) and <= "
-                              f"{MAX_REPEATS} (the bound is nsbench.bench.suite.MAX_REPEATS)")
+            raise ConfigError(
+                f"max_repeats = {value!r} must be an integer >= repeats ({self.repeats}) and <= "
+                f"{MAX_REPEATS} (the bound is nsbench.bench.suite.MAX_REPEATS)"
+            )
         for key in ("repeat_budget", "time_limit", "setup_limit"):
             value = getattr(self, key)
             if key == "repeat_budget" and value is None:
@@ -301,15 +341,20 @@ class Suite:
                 raise ConfigError(f"{key} = {value!r} must be a positive, finite number of seconds")
         value = self.min_sample_time
         if not _is_number(value) or not 0 <= value < self.time_limit:
-            raise ConfigError(f"min_sample_time = {value!r} must be a number of seconds >= 0 and below time_limit "
-                              f"= {self.time_limit:g} (a timed sample loops runs shorter than it)")
+            raise ConfigError(
+                f"min_sample_time = {value!r} must be a number of seconds >= 0 and below time_limit "
+                f"= {self.time_limit:g} (a timed sample loops runs shorter than it)"
+            )
         if isinstance(self.reference, str):
             self.reference = (self.reference,)
-        _field(_is_str_list(self.reference) and len(self.reference) > 0, "reference",
-               "a list of registered integrator names", self.reference)
+        _field(
+            _is_str_list(self.reference) and len(self.reference) > 0,
+            "reference",
+            "a list of registered integrator names",
+            self.reference,
+        )
         self.reference = tuple(self.reference)
-        _field(isinstance(self.problems, list), "problems", "a list of tables (each with a 'name')",
-               self.problems)
+        _field(isinstance(self.problems, list), "problems", "a list of tables (each with a 'name')", self.problems)
         if not self.problems:
             raise ConfigError("a suite needs at least one entry in problems")
         for i, p in enumerate(self.problems):
@@ -333,8 +378,10 @@ class Suite:
         registered = list_integrators()
         unknown = [n for n in self.reference if canonical_name(n) not in registered]
         if unknown:
-            raise ConfigError(f"suite field 'reference': unknown integrator(s) {', '.join(unknown)}; "
-                              f"registered: {', '.join(registered)}")
+            raise ConfigError(
+                f"suite field 'reference': unknown integrator(s) {', '.join(unknown)}; "
+                f"registered: {', '.join(registered)}"
+            )
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -366,8 +413,10 @@ class Suite:
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise ConfigError(f"suite file {str(path)!r} is not UTF-8 text (a binary file?): byte "
-                              f"{raw[exc.start]:#04x} at offset {exc.start}") from None
+            raise ConfigError(
+                f"suite file {str(path)!r} is not UTF-8 text (a binary file?): byte "
+                f"{raw[exc.start]:#04x} at offset {exc.start}"
+            ) from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -378,8 +427,7 @@ class Suite:
 
     def to_dict(self) -> dict[str, Any]:
         out = {k: v for k, v in asdict(self).items() if not k.startswith("_")}
-        out["t_span"], out["targets"], out["reference"] = (
-            list(self.t_span), list(self.targets), list(self.reference))
+        out["t_span"], out["targets"], out["reference"] = (list(self.t_span), list(self.targets), list(self.reference))
         return out
 
     # ------------------------------------------------------------------ size
@@ -424,14 +472,18 @@ class Suite:
         """
         n_problems = self.n_problems()
         if n_problems > MAX_CASES:
-            raise ConfigError(f"the suite has {n_problems} problems (cases x parameter grids), more than the "
-                              f"{MAX_CASES} cases a suite may have (nsbench.bench.suite.MAX_CASES); "
-                              "split it into several suites")
+            raise ConfigError(
+                f"the suite has {n_problems} problems (cases x parameter grids), more than the "
+                f"{MAX_CASES} cases a suite may have (nsbench.bench.suite.MAX_CASES); "
+                "split it into several suites"
+            )
         n = self.n_cases()
         if n > MAX_CASES:
-            raise ConfigError(f"the suite expands to {n} cases ({n_problems} problems x {n // max(n_problems, 1)} "
-                              f"integrator settings), more than the {MAX_CASES} allowed "
-                              "(nsbench.bench.suite.MAX_CASES); split it into several suites")
+            raise ConfigError(
+                f"the suite expands to {n} cases ({n_problems} problems x {n // max(n_problems, 1)} "
+                f"integrator settings), more than the {MAX_CASES} allowed "
+                "(nsbench.bench.suite.MAX_CASES); split it into several suites"
+            )
 
     # ------------------------------------------------------------------ expansion
     def problem_configs(self) -> list[dict[str, Any]]:
@@ -458,8 +510,12 @@ class Suite:
                     raise ConfigError(f"problem {p['name']!r}: params.{key} is an empty list")
             for case in cases:
                 for combo in itertools.product(*(params[k] for k in grid)):
-                    config = {"name": p["name"], "case": case, "dimensional": bool(p.get("dimensional", False)),
-                              "params": {**params, **dict(zip(grid, combo))}}
+                    config = {
+                        "name": p["name"],
+                        "case": case,
+                        "dimensional": bool(p.get("dimensional", False)),
+                        "params": {**params, **dict(zip(grid, combo))},
+                    }
                     out.append((problem_from_config(config).config(), span))  # validates early
         return out
 
@@ -540,26 +596,40 @@ class Suite:
         for problem, (t0, t_end) in problems:
             for name, sets in plan:
                 for level, options in sets:
-                    out.append(Case(problem=problem, integrator=name, options=options, level=level,
-                                    t0=t0, t_end=t_end, repeats=self.repeats,
-                                    time_limit=float(self.time_limit), max_steps=self.max_steps,
-                                    dense_points=self.dense_points,
-                                    min_sample_time=float(self.min_sample_time), max_repeats=self.max_repeats,
-                                    setup_limit=float(self.setup_limit)))
+                    out.append(
+                        Case(
+                            problem=problem,
+                            integrator=name,
+                            options=options,
+                            level=level,
+                            t0=t0,
+                            t_end=t_end,
+                            repeats=self.repeats,
+                            time_limit=float(self.time_limit),
+                            max_steps=self.max_steps,
+                            dense_points=self.dense_points,
+                            min_sample_time=float(self.min_sample_time),
+                            max_repeats=self.max_repeats,
+                            setup_limit=float(self.setup_limit),
+                        )
+                    )
         return out
 
 
 def packaged_suites() -> list[str]:
     """Names of the suites shipped with nsbench (``nsbench/suites/*.toml``)."""
-    return sorted(f.name.removesuffix(".toml") for f in resources.files("nsbench.suites").iterdir()
-                  if f.name.endswith(".toml"))
+    return sorted(
+        f.name.removesuffix(".toml") for f in resources.files("nsbench.suites").iterdir() if f.name.endswith(".toml")
+    )
 
 
 def packaged_suite(name: str) -> Suite:
     """A suite shipped with nsbench by name: ``'default'`` (``nsbench run``), ``'chain-scaling'``, ..."""
     if name not in packaged_suites():
-        raise ConfigError(f"no packaged suite {name!r}; packaged: {', '.join(packaged_suites())} "
-                          "(or give the path of a suite TOML file)")
+        raise ConfigError(
+            f"no packaged suite {name!r}; packaged: {', '.join(packaged_suites())} "
+            "(or give the path of a suite TOML file)"
+        )
     text = resources.files("nsbench.suites").joinpath(f"{name}.toml").read_text()
     return Suite.from_dict(tomllib.loads(text))
 
@@ -578,6 +648,7 @@ def load_suite(source: str | Path | dict[str, Any] | Suite) -> Suite:
     if not Path(source).exists() and str(source) in packaged_suites():
         return packaged_suite(str(source))
     if not Path(source).exists() and not str(source).endswith(".toml"):
-        raise ConfigError(f"suite {str(source)!r} is neither a file nor a packaged suite; packaged: "
-                          f"{', '.join(packaged_suites())}")
+        raise ConfigError(
+            f"suite {str(source)!r} is neither a file nor a packaged suite; packaged: {', '.join(packaged_suites())}"
+        )
     return Suite.from_toml(source)

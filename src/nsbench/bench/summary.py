@@ -108,9 +108,21 @@ def problem_summary(frame: pd.DataFrame, targets, confidence: float = CONFIDENCE
             continue
         limit, why = grading_floor(group[group["reference_status"] == "ok"])
         for target in targets:
-            row = {"problem": label, "target": f"{target:.0e}", "cheapest": "", "time": "", "others": "",
-                   "not_reached": "", "wall_time": math.nan, "runner_up": "", "ratio": math.nan,
-                   "ratio_low": math.nan, "ratio_high": math.nan, "tied": "", "reached": ""}
+            row = {
+                "problem": label,
+                "target": f"{target:.0e}",
+                "cheapest": "",
+                "time": "",
+                "others": "",
+                "not_reached": "",
+                "wall_time": math.nan,
+                "runner_up": "",
+                "ratio": math.nan,
+                "ratio_low": math.nan,
+                "ratio_high": math.nan,
+                "tied": "",
+                "reached": "",
+            }
             rows.append(row)
             if target < limit:  # no method can be told right from wrong at this target
                 row.update(not_reached=f"not graded at this target: {why}", reached="not graded")
@@ -124,35 +136,64 @@ def problem_summary(frame: pd.DataFrame, targets, confidence: float = CONFIDENCE
                 elif not (runs["status"] == Status.UNSUPPORTED).all():
                     missed[name] = _why_not(runs, target)
             order = sorted(best, key=lambda n: float(np.median(best[n])))
-            row.update(not_reached="; ".join(f"{n} ({why})" for n, why in missed.items()),
-                       reached=f"{len(best)} of {len(best) + len(missed)}")
+            row.update(
+                not_reached="; ".join(f"{n} ({why})" for n, why in missed.items()),
+                reached=f"{len(best)} of {len(best) + len(missed)}",
+            )
             if not order:
                 continue
             first = order[0]
             fast = best[first]
             ties = [first] + [n for n in order[1:] if tied_with(fast, best[n], confidence)]
             ratios = [(n, ratio_interval(fast, best[n], confidence), n in ties) for n in order[1:]]
-            row.update(cheapest=first if len(ties) == 1 else "tied: " + ", ".join(ties),
-                       time=interval_text(median_interval(fast, confidence), " s"),
-                       wall_time=float(np.median(fast)), tied=", ".join(ties) if len(ties) > 1 else "",
-                       others=_others(ratios))
+            row.update(
+                cheapest=first if len(ties) == 1 else "tied: " + ", ".join(ties),
+                time=interval_text(median_interval(fast, confidence), " s"),
+                wall_time=float(np.median(fast)),
+                tied=", ".join(ties) if len(ties) > 1 else "",
+                others=_others(ratios),
+            )
             if ratios:
                 name, est, _ = ratios[0]
                 row.update(runner_up=name, ratio=est.estimate, ratio_low=est.low, ratio_high=est.high)
-    return pd.DataFrame(rows, columns=["problem", "target", "cheapest", "time", "others", "not_reached",
-                                       "wall_time", "runner_up", "ratio", "ratio_low", "ratio_high", "tied",
-                                       "reached"])
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "problem",
+            "target",
+            "cheapest",
+            "time",
+            "others",
+            "not_reached",
+            "wall_time",
+            "runner_up",
+            "ratio",
+            "ratio_low",
+            "ratio_high",
+            "tied",
+            "reached",
+        ],
+    )
 
 
 def compact(summary: pd.DataFrame, target: str) -> pd.DataFrame:
     """One row per problem at one target (a table that fits a page): cheapest (or tied), its time, the
     next fastest and the cost ratio with its interval."""
     rows = summary[summary["target"] == target]
-    ratio = [interval_text(Interval(r, lo, hi, 1.0 if lo == lo else 0.0), "x") if r == r else ""
-             for r, lo, hi in zip(rows["ratio"], rows["ratio_low"], rows["ratio_high"])]
-    return pd.DataFrame({"problem": rows["problem"], "cheapest": rows["cheapest"], "time": rows["time"],
-                         "next": rows["runner_up"], "ratio": ratio,
-                         "reach it": rows["reached"]}).reset_index(drop=True)
+    ratio = [
+        interval_text(Interval(r, lo, hi, 1.0 if lo == lo else 0.0), "x") if r == r else ""
+        for r, lo, hi in zip(rows["ratio"], rows["ratio_low"], rows["ratio_high"])
+    ]
+    return pd.DataFrame(
+        {
+            "problem": rows["problem"],
+            "cheapest": rows["cheapest"],
+            "time": rows["time"],
+            "next": rows["runner_up"],
+            "ratio": ratio,
+            "reach it": rows["reached"],
+        }
+    ).reset_index(drop=True)
 
 
 #: Cost ratios listed by name in a summary cell; the rest are counted with their largest ratio.
@@ -172,18 +213,26 @@ def _others(ratios: list[tuple[str, Interval, bool]]) -> str:
 def display(summary: pd.DataFrame) -> pd.DataFrame:
     """The summary table as shown in a report."""
     return summary[["problem", "target", "cheapest", "time", "others", "not_reached"]].rename(
-        columns={"time": "its time [interval]", "others": "others: cost ratio to the fastest [interval]",
-                 "not_reached": "never reach the target (why)"})
+        columns={
+            "time": "its time [interval]",
+            "others": "others: cost ratio to the fastest [interval]",
+            "not_reached": "never reach the target (why)",
+        }
+    )
 
 
 def wrong_sequences(frame: pd.DataFrame) -> pd.DataFrame:
     """Successful runs whose event sequence differs from the reference's: missed and extra events."""
     methods, _ = split_references(frame)
-    bad = methods[(methods["status"] == Status.SUCCESS) & (methods["reference_status"] == "ok")
-                  & ~methods["sequence_ok"].fillna(False).astype(bool)]
+    bad = methods[
+        (methods["status"] == Status.SUCCESS)
+        & (methods["reference_status"] == "ok")
+        & ~methods["sequence_ok"].fillna(False).astype(bool)
+    ]
     table = bad.assign(missed_extra=[f"{_int(m)} / {_int(x)}" for m, x in zip(bad["n_missed"], bad["n_extra"])])
     table = table[["problem_label", "integrator", "options", "missed_extra", "n_ref"]].rename(
-        columns={"problem_label": "problem", "missed_extra": "events missed / extra", "n_ref": "reference events"})
+        columns={"problem_label": "problem", "missed_extra": "events missed / extra", "n_ref": "reference events"}
+    )
     return table.sort_values("problem", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
 
 
@@ -195,14 +244,20 @@ def reference_costs(frame: pd.DataFrame) -> pd.DataFrame:
     for (label, name), runs in refs.groupby(["problem_label", "integrator"], sort=False):
         b = runs.loc[runs["wall_time"].idxmin()] if runs["wall_time"].notna().any() else runs.iloc[0]
         role = "the reference" if name == b["reference"] else "reference-grade"
-        rows.append({"problem": label, "integrator": name, "role": role,
-                     "time": _time(float(b["wall_time"]), float(b["wall_spread"])
-                                   if pd.notna(b["wall_spread"]) else math.nan)})
+        rows.append(
+            {
+                "problem": label,
+                "integrator": name,
+                "role": role,
+                "time": _time(
+                    float(b["wall_time"]), float(b["wall_spread"]) if pd.notna(b["wall_spread"]) else math.nan
+                ),
+            }
+        )
     table = pd.DataFrame(rows, columns=["problem", "integrator", "role", "time"])
     cond = conditioning_table(frame)
     if len(cond):
-        table = table.merge(cond[["problem", "certified", "conditioning", "double floor"]], on="problem",
-                            how="left")
+        table = table.merge(cond[["problem", "certified", "conditioning", "double floor"]], on="problem", how="left")
     return table.sort_values("problem", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
 
 
@@ -226,20 +281,26 @@ def conditioning_table(frame: pd.DataFrame) -> pd.DataFrame:
         if cond != cond and certainty != certainty:
             continue
         floor = cond * float(np.finfo(float).eps)
-        rows.append({"problem": label,
-                     "certified": "-" if certainty != certainty else (
-                         "not over the span" if math.isinf(certainty) else f"{certainty:.2g}"),
-                     "conditioning": "-" if cond != cond else ("sequence changes" if math.isinf(cond)
-                                                               else f"{cond:.3g}"),
-                     "double floor": "-" if not math.isfinite(floor) else f"{floor:.2g}",
-                     "certainty": certainty, "floor": floor,
-                     "gradable": bool(not floor > DOUBLE_GRADABLE and not certainty > DOUBLE_GRADABLE)})
+        rows.append(
+            {
+                "problem": label,
+                "certified": "-"
+                if certainty != certainty
+                else ("not over the span" if math.isinf(certainty) else f"{certainty:.2g}"),
+                "conditioning": "-" if cond != cond else ("sequence changes" if math.isinf(cond) else f"{cond:.3g}"),
+                "double floor": "-" if not math.isfinite(floor) else f"{floor:.2g}",
+                "certainty": certainty,
+                "floor": floor,
+                "gradable": bool(not floor > DOUBLE_GRADABLE and not certainty > DOUBLE_GRADABLE),
+            }
+        )
     return pd.DataFrame(rows, columns=columns)
 
 
 def _int(value) -> str:
-    return "?" if value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value)) \
-        else str(int(value))
+    return (
+        "?" if value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value)) else str(int(value))
+    )
 
 
 def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | None = None) -> list[str]:
@@ -247,35 +308,49 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
     from nsbench.bench.reference import DOUBLE_GRADABLE
 
     out = []
-    for r in (cond[~cond["gradable"]].itertuples() if cond is not None and len(cond) else ()):
+    for r in cond[~cond["gradable"]].itertuples() if cond is not None and len(cond) else ():
         if r.certainty > DOUBLE_GRADABLE:
-            where = ("its reference is not certified over the whole span (an independent check's event "
-                     "sequence differs)" if math.isinf(r.certainty)
-                     else f"its reference's event times are certified to {r.certainty:.1g} only")
+            where = (
+                "its reference is not certified over the whole span (an independent check's event sequence differs)"
+                if math.isinf(r.certainty)
+                else f"its reference's event times are certified to {r.certainty:.1g} only"
+            )
             out.append(f"{r.problem} is not graded below that: {where}.")
         if not r.floor > DOUBLE_GRADABLE:
             continue
         if math.isinf(r.floor):
-            out.append(f"{r.problem} cannot be graded in double precision: moving its start by 1e-9 changes "
-                       "its event sequence, so rounding alone makes any double-precision solution differ from "
-                       "the reference by more than the targets.")
+            out.append(
+                f"{r.problem} cannot be graded in double precision: moving its start by 1e-9 changes "
+                "its event sequence, so rounding alone makes any double-precision solution differ from "
+                "the reference by more than the targets."
+            )
         else:
-            out.append(f"{r.problem} amplifies a change of its start {r.conditioning}-fold in its switching "
-                       f"times: rounding alone leaves any double-precision solution uncertain by about "
-                       f"{r.floor:.1g}, so smaller errors there are not measurable.")
+            out.append(
+                f"{r.problem} amplifies a change of its start {r.conditioning}-fold in its switching "
+                f"times: rounding alone leaves any double-precision solution uncertain by about "
+                f"{r.floor:.1g}, so smaller errors there are not measurable."
+            )
     problems = summary["problem"].nunique()
     for target, rows in summary.groupby("target", sort=False):
         ungraded = int(rows["reached"].eq("not graded").sum())
-        not_graded = f"{ungraded} problem(s) cannot be graded at it (the reference's certainty or double " \
-                     "rounding is coarser)" if ungraded else ""
+        not_graded = (
+            f"{ungraded} problem(s) cannot be graded at it (the reference's certainty or double rounding is coarser)"
+            if ungraded
+            else ""
+        )
         won = rows[rows["cheapest"] != ""]
         if won.empty:
             if ungraded == len(rows):
-                out.append(f"No problem can be graded at a switching-time error of {target}: "
-                           "the references' certainty or double rounding is coarser.")
+                out.append(
+                    f"No problem can be graded at a switching-time error of {target}: "
+                    "the references' certainty or double rounding is coarser."
+                )
             else:
-                out.append(f"No method under test reaches a switching-time error of {target} on any problem"
-                           + (f"; {not_graded}" if ungraded else "") + ".")
+                out.append(
+                    f"No method under test reaches a switching-time error of {target} on any problem"
+                    + (f"; {not_graded}" if ungraded else "")
+                    + "."
+                )
             continue
         single = won[won["tied"] == ""]
         parts = []
@@ -286,25 +361,31 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
             ratio, lows = mine["ratio"].dropna(), mine["ratio_low"].dropna()
             margin = ""
             if len(ratio):
-                span = (f"{ratio.min():.2g} to {ratio.max():.2g} times" if len(ratio) > 1
-                        else f"{ratio.iloc[0]:.2g} times")
+                span = (
+                    f"{ratio.min():.2g} to {ratio.max():.2g} times" if len(ratio) > 1 else f"{ratio.iloc[0]:.2g} times"
+                )
                 margin = f"; the next method costs {span} as much"
                 if len(lows):
                     margin += f" (the 95 % intervals of these ratios start at {lows.min():.2g} or above)"
-            text = (f"At a switching-time error of {target}, {lead} is the cheapest method on {n} of "
-                    f"{len(rows)} problems{margin}")
+            text = (
+                f"At a switching-time error of {target}, {lead} is the cheapest method on {n} of "
+                f"{len(rows)} problems{margin}"
+            )
             others = [f"{name} on {int(k)}" for name, k in wins.iloc[1:].items()]
             if others:
                 text += f" ({', '.join(others)} elsewhere)"
             parts.append(text)
         else:
-            parts.append(f"At a switching-time error of {target}, no method is distinguishably the cheapest "
-                         "on any problem")
+            parts.append(
+                f"At a switching-time error of {target}, no method is distinguishably the cheapest on any problem"
+            )
         tied = won[won["tied"] != ""]
         if len(tied):
             listed = "; ".join(f"{_and(r.tied.split(', '))} on {r.problem}" for r in tied.itertuples())
-            parts.append(f"on {len(tied)} problem(s) the cheapest cannot be told apart (their timing intervals "
-                         f"overlap), so they are tied: {listed}")
+            parts.append(
+                f"on {len(tied)} problem(s) the cheapest cannot be told apart (their timing intervals "
+                f"overlap), so they are tied: {listed}"
+            )
         text = "; ".join(parts)
         unreached = rows["cheapest"].eq("").sum() - ungraded
         if unreached:
@@ -314,8 +395,10 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
         out.append(text + ".")
     if len(wrong):
         names = sorted(set(wrong["integrator"]))
-        out.append(f"{len(wrong)} run(s) end with a wrong event sequence (missed or extra events), by "
-                   f"{', '.join(names)}: they count as not reaching any target.")
+        out.append(
+            f"{len(wrong)} run(s) end with a wrong event sequence (missed or extra events), by "
+            f"{', '.join(names)}: they count as not reaching any target."
+        )
     elif problems:
         out.append("Every successful run of a method under test has the reference's event sequence.")
     return out

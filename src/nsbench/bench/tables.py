@@ -25,8 +25,9 @@ DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
 
 def natural_key(label: str) -> tuple:
     """Sort key reading the numbers inside a label as numbers (``n=2`` before ``n=16``)."""
-    return tuple((0, int(part), "") if part.isdigit() else (1, 0, part)
-                 for part in re.split(r"(\d+)", str(label)) if part)
+    return tuple(
+        (0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", str(label)) if part
+    )
 
 
 def problem_groups(frame: pd.DataFrame):
@@ -37,11 +38,19 @@ def problem_groups(frame: pd.DataFrame):
 
 def reached_mask(frame: pd.DataFrame, target: float) -> pd.Series:
     """Which rows reach ``target`` (success, exact event sequence, max error <= target)."""
-    return pd.Series([
-        reaches(target, status=str(s), sequence_ok=bool(ok) if ok is not pd.NA else False,
-                err_max=float(e) if pd.notna(e) else math.nan)
-        for s, ok, e in zip(frame["status"], frame["sequence_ok"], frame["switch_err_max"])
-    ], index=frame.index, dtype=bool)
+    return pd.Series(
+        [
+            reaches(
+                target,
+                status=str(s),
+                sequence_ok=bool(ok) if ok is not pd.NA else False,
+                err_max=float(e) if pd.notna(e) else math.nan,
+            )
+            for s, ok, e in zip(frame["status"], frame["sequence_ok"], frame["switch_err_max"])
+        ],
+        index=frame.index,
+        dtype=bool,
+    )
 
 
 def first_known(rows: pd.DataFrame, column: str) -> float:
@@ -63,12 +72,18 @@ def grading_floor(rows: pd.DataFrame) -> tuple[float, str]:
     limit, why = 0.0, ""
     if cert == cert and cert > limit:
         limit = cert
-        why = ("the reference is not certified over the whole span" if math.isinf(cert)
-               else f"the reference is certified to {cert:.1e} only")
+        why = (
+            "the reference is not certified over the whole span"
+            if math.isinf(cert)
+            else f"the reference is certified to {cert:.1e} only"
+        )
     if floor == floor and floor > limit:
         limit = floor
-        why = ("a change of the start by 1e-9 changes the event sequence" if math.isinf(floor)
-               else f"rounding alone moves any double-precision solution's switching times by {floor:.1e}")
+        why = (
+            "a change of the start by 1e-9 changes the event sequence"
+            if math.isinf(floor)
+            else f"rounding alone moves any double-precision solution's switching times by {floor:.1e}"
+        )
     return limit, why
 
 
@@ -91,9 +106,18 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     for (label, name), group in frame.groupby(["problem_label", "integrator"], sort=True):
         has_ref = bool((group["reference_status"] == "ok").any())
         for target in targets:
-            row = {"problem_label": label, "integrator": name, "target": float(target),
-                   "outcome": "no reference", "wall_time": math.nan, "wall_spread": math.nan, "nfev": pd.NA,
-                   "options": "", "level": pd.NA, "case_id": ""}
+            row = {
+                "problem_label": label,
+                "integrator": name,
+                "target": float(target),
+                "outcome": "no reference",
+                "wall_time": math.nan,
+                "wall_spread": math.nan,
+                "nfev": pd.NA,
+                "options": "",
+                "level": pd.NA,
+                "case_id": "",
+            }
             if (group["status"] == Status.UNSUPPORTED).all():
                 row["outcome"] = "unsupported"
             elif has_ref and (group["reference"] == name).all():
@@ -112,16 +136,34 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 else:
                     row["outcome"] = "not reached"
             rows.append(row)
-    table = pd.DataFrame(rows, columns=["problem_label", "integrator", "target", "outcome", "wall_time",
-                                        "wall_spread", "nfev", "options", "level", "case_id"])
-    return table.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable",
-                             ignore_index=True)
+    table = pd.DataFrame(
+        rows,
+        columns=[
+            "problem_label",
+            "integrator",
+            "target",
+            "outcome",
+            "wall_time",
+            "wall_spread",
+            "nfev",
+            "options",
+            "level",
+            "case_id",
+        ],
+    )
+    return table.sort_values("problem_label", key=lambda s: s.map(natural_key), kind="stable", ignore_index=True)
 
 
 def _cost(best: pd.Series) -> dict:
     spread = best["wall_spread"] if "wall_spread" in best and pd.notna(best["wall_spread"]) else math.nan
-    return {"wall_time": float(best["wall_time"]), "wall_spread": float(spread), "nfev": best["nfev"],
-            "options": best["options"], "level": best["level"], "case_id": best["case_id"]}
+    return {
+        "wall_time": float(best["wall_time"]),
+        "wall_spread": float(spread),
+        "nfev": best["nfev"],
+        "options": best["options"],
+        "level": best["level"],
+        "case_id": best["case_id"],
+    }
 
 
 def _time(row: pd.Series) -> str:
@@ -135,8 +177,7 @@ def _cell(row: pd.Series) -> str:
         return f"{_time(row)} / {int(row['nfev'])}"
     if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
         return f"ref ({_time(row)} / {int(row['nfev'])})"
-    return {"no reference": "no ref", "unsupported": "unsupported",
-            "not graded": "not graded"}.get(row["outcome"], "-")
+    return {"no reference": "no ref", "unsupported": "unsupported", "not graded": "not graded"}.get(row["outcome"], "-")
 
 
 def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
@@ -144,16 +185,16 @@ def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
     if long.empty:
         return pd.DataFrame(columns=["problem", "integrator"])
     cells = long.assign(cell=long.apply(_cell, axis=1), col=long["target"].map(lambda t: f"{t:.0e}"))
-    wide = cells.pivot_table(index=["problem_label", "integrator"], columns="col", values="cell",
-                             aggfunc="first", sort=False)
+    wide = cells.pivot_table(
+        index=["problem_label", "integrator"], columns="col", values="cell", aggfunc="first", sort=False
+    )
     order = [f"{t:.0e}" for t in sorted(long["target"].unique(), reverse=True)]
     wide = wide[order].reset_index().rename(columns={"problem_label": "problem"})
     wide.columns.name = None
     return wide
 
 
-def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None,
-                confidence: float) -> pd.Series:
+def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None, confidence: float) -> pd.Series:
     """Ranks within one (problem, target): 1 + the reaching methods distinguishably faster; last if not reached.
 
     Without ``samples`` (tables built from medians alone) a method's rank is
@@ -175,8 +216,9 @@ def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | No
     return out
 
 
-def ranking(long: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None = None,
-            confidence: float = 0.95) -> pd.DataFrame:
+def ranking(
+    long: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None = None, confidence: float = 0.95
+) -> pd.DataFrame:
     """Rank integrators by time to reach each (problem, target) that has a reference.
 
     In each (problem, target) an integrator that reaches it gets rank 1 + the
@@ -192,18 +234,31 @@ def ranking(long: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None = 
     """
     scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference", "not graded"])]
     if scored.empty:
-        return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted",
-                                     "geo_mean_time"])
+        return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted", "geo_mean_time"])
     ranks = []
     for _, group in scored.groupby(["problem_label", "target"]):
         r = _pair_ranks(group, samples, confidence)
-        ranks.append(pd.DataFrame({"integrator": group["integrator"], "r": r,
-                                   "hit": group["outcome"] == "reached", "t": group["wall_time"]}))
+        ranks.append(
+            pd.DataFrame(
+                {
+                    "integrator": group["integrator"],
+                    "r": r,
+                    "hit": group["outcome"] == "reached",
+                    "t": group["wall_time"],
+                }
+            )
+        )
     all_ranks = pd.concat(ranks)
-    table = all_ranks.groupby("integrator").agg(
-        mean_rank=("r", "mean"), reached=("hit", "sum"), attempted=("hit", "size"),
-        geo_mean_time=("t", lambda s: float(np.exp(np.log(s.dropna()).mean())) if s.notna().any() else math.nan),
-    ).reset_index()
+    table = (
+        all_ranks.groupby("integrator")
+        .agg(
+            mean_rank=("r", "mean"),
+            reached=("hit", "sum"),
+            attempted=("hit", "size"),
+            geo_mean_time=("t", lambda s: float(np.exp(np.log(s.dropna()).mean())) if s.notna().any() else math.nan),
+        )
+        .reset_index()
+    )
     table = table.sort_values(["mean_rank", "reached"], ascending=[True, False], kind="stable")
     key = list(zip(table["mean_rank"].round(12), -table["reached"]))
     table.insert(0, "rank", [1 + sum(k < mine for k in key) for mine in key])

@@ -58,8 +58,21 @@ from nsbench.errors import ConfigError
 from nsbench.status import Status
 
 #: Keys of one ``[[bifurcation_targets]]`` table.
-TARGET_KEYS = {"name", "problem", "case", "params", "dimensional", "param", "origin", "bracket", "kind",
-               "periods", "max_probes", "xtol", "exclude"}
+TARGET_KEYS = {
+    "name",
+    "problem",
+    "case",
+    "params",
+    "dimensional",
+    "param",
+    "origin",
+    "bracket",
+    "kind",
+    "periods",
+    "max_probes",
+    "xtol",
+    "exclude",
+}
 #: Defaults of the location settings (per target in the TOML).
 DEFAULT_PERIODS = 8
 DEFAULT_MAX_PROBES = 40
@@ -102,8 +115,12 @@ class BifurcationTarget:
 
     def config_at(self, value: float) -> dict[str, Any]:
         """The problem config (``problem_from_config``) with ``param = value``."""
-        return {"name": self.problem, "case": self.case, "dimensional": self.dimensional,
-                "params": {**self.params, self.param: float(value)}}
+        return {
+            "name": self.problem,
+            "case": self.case,
+            "dimensional": self.dimensional,
+            "params": {**self.params, self.param: float(value)},
+        }
 
     def problem_at(self, value: float):
         from nsbench.problems import problem_from_config
@@ -131,8 +148,9 @@ class BifurcationTarget:
     def label(self) -> str:
         from nsbench.bench.execute import problem_label
 
-        return problem_label({"name": self.problem, "case": self.case, "dimensional": self.dimensional,
-                              "params": self.params})
+        return problem_label(
+            {"name": self.problem, "case": self.case, "dimensional": self.dimensional, "params": self.params}
+        )
 
 
 def _bad(where: str, text: str) -> ConfigError:
@@ -163,8 +181,10 @@ def parse_target(spec: Any, i: int) -> BifurcationTarget:
         raise ConfigError(f"{where}: unknown key(s) {', '.join(bad)}; allowed: {', '.join(sorted(TARGET_KEYS))}")
     missing = [k for k in ("name", "problem", "param", "origin", "bracket") if k not in spec]
     if missing:
-        raise ConfigError(f"{where}: missing key(s) {', '.join(missing)} (a target needs name, problem, param, "
-                          "origin and bracket = [low, high])")
+        raise ConfigError(
+            f"{where}: missing key(s) {', '.join(missing)} (a target needs name, problem, param, "
+            "origin and bracket = [low, high])"
+        )
     for key in ("name", "problem", "param"):
         if not isinstance(spec[key], str) or not spec[key]:
             raise _bad(f"{where}.{key}", f"must be a non-empty string, got {_got(spec[key])}")
@@ -178,8 +198,10 @@ def parse_target(spec: Any, i: int) -> BifurcationTarget:
     if not low < high:
         raise ConfigError(f"{where}: bracket [{low:g}, {high:g}] must have low < high")
     if low <= origin <= high:
-        raise ConfigError(f"{where}: origin {origin:g} lies in the bracket [{low:g}, {high:g}]; the origin is "
-                          "where the orbit is found from rest, outside the bracket (on its near side)")
+        raise ConfigError(
+            f"{where}: origin {origin:g} lies in the bracket [{low:g}, {high:g}]; the origin is "
+            "where the orbit is found from rest, outside the bracket (on its near side)"
+        )
     params = spec.get("params", {})
     if not isinstance(params, dict) or not all(isinstance(k, str) and _number(v) for k, v in params.items()):
         raise _bad(f"{where}.params", f"must be a table of parameter = number, got {_got(params)}")
@@ -211,10 +233,22 @@ def parse_target(spec: Any, i: int) -> BifurcationTarget:
     unknown = [x for x in exclude if canonical_name(x) not in list_integrators()]
     if unknown:
         raise ConfigError(f"{where}: exclude names unknown integrator(s) {', '.join(unknown)}")
-    target = BifurcationTarget(exclude=tuple(canonical_name(x) for x in exclude), name=spec["name"], problem=spec["problem"], case=case, param=spec["param"],
-                               origin=origin, low=low, high=high, params={k: float(v) for k, v in params.items()},
-                               dimensional=dimensional, kind=kind, periods=periods, max_probes=max_probes,
-                               xtol=float(xtol))
+    target = BifurcationTarget(
+        exclude=tuple(canonical_name(x) for x in exclude),
+        name=spec["name"],
+        problem=spec["problem"],
+        case=case,
+        param=spec["param"],
+        origin=origin,
+        low=low,
+        high=high,
+        params={k: float(v) for k, v in params.items()},
+        dimensional=dimensional,
+        kind=kind,
+        periods=periods,
+        max_probes=max_probes,
+        xtol=float(xtol),
+    )
     # the problem, case and parameter must exist: build the problem at both ends and at the origin
     for value in (origin, low, high):
         try:
@@ -225,8 +259,9 @@ def parse_target(spec: Any, i: int) -> BifurcationTarget:
             raise ConfigError(f"{where}: problem {spec['problem']!r} at {spec['param']} = {value:g}: {exc}") from None
     names = set(getattr(problem.coefficients, "__dataclass_fields__", {}) or ())
     if names and target.param not in names and target.param not in ("r_f", "omega_r", "inv_omega_r"):
-        raise ConfigError(f"{where}: {target.problem!r} has no parameter {target.param!r}; "
-                          f"parameters: {', '.join(sorted(names))}")
+        raise ConfigError(
+            f"{where}: {target.problem!r} has no parameter {target.param!r}; parameters: {', '.join(sorted(names))}"
+        )
     return target
 
 
@@ -283,18 +318,34 @@ def compute_target_reference(target: BifurcationTarget) -> TargetReference:
 
     tic = time.perf_counter()
     try:
-        bif, orbit = locate_target(target.problem_at, target.param, origin=target.origin, low=target.low,
-                                   high=target.high, kind=target.kind, xtol=REFERENCE_XTOL)
+        bif, orbit = locate_target(
+            target.problem_at,
+            target.param,
+            origin=target.origin,
+            low=target.low,
+            high=target.high,
+            kind=target.kind,
+            xtol=REFERENCE_XTOL,
+        )
     except Exception as exc:  # noqa: BLE001 - a reference that cannot be computed is a status
-        return TargetReference(target.key, f"failed: {type(exc).__name__}: {exc}",
-                               seconds=time.perf_counter() - tic)
+        return TargetReference(target.key, f"failed: {type(exc).__name__}: {exc}", seconds=time.perf_counter() - tic)
     value = float(getattr(orbit.problem.coefficients, target.param, math.nan))
     return TargetReference(
-        key=target.key, status="ok", value=float(bif.value), kind=bif.kind, category=bif.category,
-        detail=bif.detail, orbit_value=value, t0=float(orbit.t0), y0=tuple(float(v) for v in orbit.y0),
-        mode0=tuple(int(m) for m in orbit.mode0), period=float(orbit.period),
-        pattern=tuple(canonical_pattern(tuple(orbit.pattern))), max_multiplier=float(orbit.max_multiplier),
-        seconds=time.perf_counter() - tic)
+        key=target.key,
+        status="ok",
+        value=float(bif.value),
+        kind=bif.kind,
+        category=bif.category,
+        detail=bif.detail,
+        orbit_value=value,
+        t0=float(orbit.t0),
+        y0=tuple(float(v) for v in orbit.y0),
+        mode0=tuple(int(m) for m in orbit.mode0),
+        period=float(orbit.period),
+        pattern=tuple(canonical_pattern(tuple(orbit.pattern))),
+        max_multiplier=float(orbit.max_multiplier),
+        seconds=time.perf_counter() - tic,
+    )
 
 
 def reference_job(target: dict[str, Any], *, stage: Callable = None, emit: Callable = None) -> dict[str, Any]:
@@ -345,7 +396,7 @@ def near_side(names: list[str], pattern: tuple[str, ...], periods: int = WINDOW_
     n = len(pattern)
     if n == 0 or len(names) < periods * n:
         return False
-    tail = names[-periods * n:]
+    tail = names[-periods * n :]
     first = tuple(tail[:n])
     return canonical_pattern(first) == tuple(pattern) and all(tail[k] == tail[k % n] for k in range(len(tail)))
 
@@ -382,9 +433,17 @@ class ProbeFailed(Exception):
         self.status, self.message = status, message
 
 
-def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str, options: dict[str, Any],
-                *, max_steps: int = 2_000_000, stage: Callable[[str, float | None], None] | None = None,
-                time_limit: float | None = None, setup_limit: float | None = None) -> dict[str, Any]:
+def locate_with(
+    target: BifurcationTarget,
+    ref: TargetReference,
+    integrator: str,
+    options: dict[str, Any],
+    *,
+    max_steps: int = 2_000_000,
+    stage: Callable[[str, float | None], None] | None = None,
+    time_limit: float | None = None,
+    setup_limit: float | None = None,
+) -> dict[str, Any]:
     """Bisection for ``target`` with the flow of ``integrator(**options)``; the row's result columns.
 
     Never raises for the integrator's sake: a refusal is ``unsupported``, a
@@ -395,9 +454,20 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
     from nsbench.errors import UnsupportedProblemError
     from nsbench.integrators import get_integrator
 
-    out: dict[str, Any] = dict(n_probes=0, integrator_time=0.0, wall_time=0.0, setup_time=0.0, nfev=0, nsteps=0,
-                               bifurcation_value=math.nan, bifurcation_error=math.nan, bracket_width=math.nan,
-                               bracket_low_found=math.nan, bracket_high_found=math.nan, message="")
+    out: dict[str, Any] = dict(
+        n_probes=0,
+        integrator_time=0.0,
+        wall_time=0.0,
+        setup_time=0.0,
+        nfev=0,
+        nsteps=0,
+        bifurcation_value=math.nan,
+        bifurcation_error=math.nan,
+        bracket_width=math.nan,
+        bracket_low_found=math.nan,
+        bracket_high_found=math.nan,
+        message="",
+    )
     pattern = tuple(ref.pattern)
     start = (ref.t0, np.array(ref.y0, dtype=float), tuple(ref.mode0))
     near_value = target.low if target.near_is_low else target.high
@@ -417,8 +487,9 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
             stage(f"probe {k} at {target.param} = {value:.12g}", time_limit)
         t0, y0, mode0 = frm
         span = target.periods * ref.period
-        res = simulate(problem, integ, t0 + span, t0=t0, y0=_start_state(problem, y0, mode0), max_steps=max_steps,
-                   check_points=0)
+        res = simulate(
+            problem, integ, t0 + span, t0=t0, y0=_start_state(problem, y0, mode0), max_steps=max_steps, check_points=0
+        )
         out["n_probes"] = k
         out["wall_time"] += float(res.wall_time)
         out["setup_time"] += float(res.setup_time)
@@ -428,25 +499,42 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
         out["nfev"] += int(counters.get("nfev", 0))
         out["nsteps"] += int(counters.get("nsteps", 0))
         if not res.ok:
-            raise ProbeFailed(res.status.value, f"probe {k} at {target.param} = {value:.12g}: "
-                              f"{res.status.value}: {res.message}")
+            raise ProbeFailed(
+                res.status.value, f"probe {k} at {target.param} = {value:.12g}: {res.status.value}: {res.message}"
+            )
         names = event_names(res.events)
-        return _Probe(value, near_side(names, pattern), float(res.t_final), np.array(res.y_final, dtype=float),
-                      tuple(int(m) for m in res.mode_final), len(names))
+        return _Probe(
+            value,
+            near_side(names, pattern),
+            float(res.t_final),
+            np.array(res.y_final, dtype=float),
+            tuple(int(m) for m in res.mode_final),
+            len(names),
+        )
 
     try:
         if not ref.ok:
             return {**out, "status": "no reference", "message": f"the target's reference failed: {ref.status}"}
         near = probe(near_value, start)
         if not near.near:
-            return {**out, "status": "no bracket", "message": (
-                f"at the near end {target.param} = {near_value:g} the last {WINDOW_PERIODS} periods do not repeat "
-                f"the reference pattern {' '.join(pattern)} ({near.n_events} events)")}
+            return {
+                **out,
+                "status": "no bracket",
+                "message": (
+                    f"at the near end {target.param} = {near_value:g} the last {WINDOW_PERIODS} periods do not repeat "
+                    f"the reference pattern {' '.join(pattern)} ({near.n_events} events)"
+                ),
+            }
         far = probe(far_value, start)
         if far.near:
-            return {**out, "status": "no bracket", "message": (
-                f"at the far end {target.param} = {far_value:g} the motion still repeats the near-side pattern "
-                f"{' '.join(pattern)}: no change of the pattern in the bracket")}
+            return {
+                **out,
+                "status": "no bracket",
+                "message": (
+                    f"at the far end {target.param} = {far_value:g} the motion still repeats the near-side pattern "
+                    f"{' '.join(pattern)}: no change of the pattern in the bracket"
+                ),
+            }
         a, b = near.value, far.value  # a: near side (with its end state), b: far side
         last_near = near
 
@@ -455,6 +543,7 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
             if abs(value - last_near.value) < abs(value - ref.orbit_value):
                 return last_near.t_end, last_near.y_end, last_near.mode_end
             return start
+
         while abs(b - a) > target.xtol and out["n_probes"] < target.max_probes:
             mid = 0.5 * (a + b)
             if mid in (a, b):  # the bracket is as narrow as doubles allow
@@ -467,19 +556,32 @@ def locate_with(target: BifurcationTarget, ref: TargetReference, integrator: str
         value = 0.5 * (a + b)
         width = abs(b - a)
         status = STATUS_OK if width <= target.xtol or 0.5 * (a + b) in (a, b) else "probe budget"
-        out.update(bifurcation_value=value, bifurcation_error=abs(value - ref.value), bracket_width=width,
-                   bracket_low_found=min(a, b), bracket_high_found=max(a, b), status=status)
+        out.update(
+            bifurcation_value=value,
+            bifurcation_error=abs(value - ref.value),
+            bracket_width=width,
+            bracket_low_found=min(a, b),
+            bracket_high_found=max(a, b),
+            status=status,
+        )
         if status != STATUS_OK:
-            out["message"] = (f"probe budget of {target.max_probes} used with the bracket still {width:.3g} wide "
-                              f"(xtol {target.xtol:g})")
+            out["message"] = (
+                f"probe budget of {target.max_probes} used with the bracket still {width:.3g} wide "
+                f"(xtol {target.xtol:g})"
+            )
         return out
     except ProbeFailed as exc:
         return {**out, "status": exc.status, "message": exc.message}
     except UnsupportedProblemError as exc:
         return {**out, "status": "unsupported", "message": str(exc)}
     except Exception as exc:  # noqa: BLE001 - a row, never a lost run
-        return {**out, "status": "error", "message": (f"{type(exc).__name__}: {exc} | "
-                                                      + traceback.format_exc(limit=3).strip().splitlines()[-2].strip())}
+        return {
+            **out,
+            "status": "error",
+            "message": (
+                f"{type(exc).__name__}: {exc} | " + traceback.format_exc(limit=3).strip().splitlines()[-2].strip()
+            ),
+        }
 
 
 # ---------------------------------------------------------------------- rows
@@ -501,8 +603,11 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("level", "index of the option set, loose to tight"),
     ("step_option", "name of the integrator's step/tolerance option"),
     ("step_value", "value of that option"),
-    ("status", "success, probe budget, no bracket, no reference, unsupported, error, time limit, crashed, "
-               "or the status of the probe simulation that failed"),
+    (
+        "status",
+        "success, probe budget, no bracket, no reference, unsupported, error, time limit, crashed, "
+        "or the status of the probe simulation that failed",
+    ),
     ("message", "why, when not success"),
     ("bifurcation_value", "the integrator's bifurcation: midpoint of its final bracket"),
     ("bifurcation_error", "|bifurcation_value - reference_value|"),
@@ -522,8 +627,20 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("timestamp", "UTC time the row finished"),
 )
 COLUMN_NAMES = tuple(c for c, _ in COLUMNS)
-_FLOATS = ("bracket_low", "bracket_high", "origin", "step_value", "bifurcation_value", "bifurcation_error",
-           "bracket_width", "xtol", "integrator_time", "wall_time", "setup_time", "reference_value")
+_FLOATS = (
+    "bracket_low",
+    "bracket_high",
+    "origin",
+    "step_value",
+    "bifurcation_value",
+    "bifurcation_error",
+    "bracket_width",
+    "xtol",
+    "integrator_time",
+    "wall_time",
+    "setup_time",
+    "reference_value",
+)
 _INTS = ("level", "n_probes", "periods", "nfev", "nsteps")
 #: Folder of the rows and the names of the exports in an output directory.
 ROWS_DIR = "bifurcation_targets"
@@ -544,8 +661,9 @@ class Location:
         from nsbench.bench.suite import stable_key
 
         target = {k: v for k, v in self.target.as_dict().items() if k != "exclude"}
-        return stable_key({"target": {**target, "ref_xtol": REFERENCE_XTOL},
-                           "integrator": self.integrator, "options": self.options})
+        return stable_key(
+            {"target": {**target, "ref_xtol": REFERENCE_XTOL}, "integrator": self.integrator, "options": self.options}
+        )
 
 
 def base_row(loc: Location, suite: str, ref: TargetReference | None) -> dict[str, Any]:
@@ -560,15 +678,34 @@ def base_row(loc: Location, suite: str, ref: TargetReference | None) -> dict[str
         config = {"name": loc.integrator, "options": dict(loc.options)}
     step = config["options"].get(step_option) if step_option else None
     row: dict[str, Any] = {c: None for c in COLUMN_NAMES}
-    row.update(row_id=loc.row_id, suite=suite, target=t.name, problem=t.problem, case=str(t.case),
-               problem_label=t.label(), param=t.param, bracket_low=t.low, bracket_high=t.high, origin=t.origin,
-               integrator=loc.integrator, integrator_config=_jsonable(config), options=_jsonable(loc.options),
-               level=loc.level, step_option=step_option or "",
-               step_value=float(step) if isinstance(step, (int, float)) else math.nan,
-               periods=t.periods, xtol=t.xtol, message="")
+    row.update(
+        row_id=loc.row_id,
+        suite=suite,
+        target=t.name,
+        problem=t.problem,
+        case=str(t.case),
+        problem_label=t.label(),
+        param=t.param,
+        bracket_low=t.low,
+        bracket_high=t.high,
+        origin=t.origin,
+        integrator=loc.integrator,
+        integrator_config=_jsonable(config),
+        options=_jsonable(loc.options),
+        level=loc.level,
+        step_option=step_option or "",
+        step_value=float(step) if isinstance(step, (int, float)) else math.nan,
+        periods=t.periods,
+        xtol=t.xtol,
+        message="",
+    )
     if ref is not None:
-        row.update(reference_value=ref.value, reference_kind=ref.kind, reference_pattern=" ".join(ref.pattern),
-                   reference_status=ref.status)
+        row.update(
+            reference_value=ref.value,
+            reference_kind=ref.kind,
+            reference_pattern=" ".join(ref.pattern),
+            reference_status=ref.status,
+        )
     return row
 
 
@@ -577,22 +714,55 @@ def finish(row: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def compute_row(loc: Location, ref: TargetReference, suite: str = "suite", *, max_steps: int = 2_000_000,
-                stage: Callable | None = None, time_limit: float | None = None,
-                setup_limit: float | None = None) -> dict[str, Any]:
+def compute_row(
+    loc: Location,
+    ref: TargetReference,
+    suite: str = "suite",
+    *,
+    max_steps: int = 2_000_000,
+    stage: Callable | None = None,
+    time_limit: float | None = None,
+    setup_limit: float | None = None,
+) -> dict[str, Any]:
     """The row of ``loc``: :func:`locate_with` and the identity columns; never raises for the integrator."""
     row = base_row(loc, suite, ref)
-    row.update(locate_with(loc.target, ref, loc.integrator, loc.options, max_steps=max_steps, stage=stage,
-                           time_limit=time_limit, setup_limit=setup_limit))
+    row.update(
+        locate_with(
+            loc.target,
+            ref,
+            loc.integrator,
+            loc.options,
+            max_steps=max_steps,
+            stage=stage,
+            time_limit=time_limit,
+            setup_limit=setup_limit,
+        )
+    )
     return finish(row)
 
 
-def location_job(loc: Location, ref: dict[str, Any], suite: str, max_steps: int, time_limit: float,
-                 setup_limit: float | None = None, *, stage: Callable = None, emit: Callable = None) -> dict[str, Any]:
+def location_job(
+    loc: Location,
+    ref: dict[str, Any],
+    suite: str,
+    max_steps: int,
+    time_limit: float,
+    setup_limit: float | None = None,
+    *,
+    stage: Callable = None,
+    emit: Callable = None,
+) -> dict[str, Any]:
     """A :mod:`nsbench.jobs` job: the row of ``loc``, each probe a stage limited to ``time_limit`` seconds
     (the integrator's setup to ``setup_limit``)."""
-    return compute_row(loc, TargetReference.from_dict(ref), suite, max_steps=max_steps, stage=stage,
-                       time_limit=time_limit, setup_limit=setup_limit)
+    return compute_row(
+        loc,
+        TargetReference.from_dict(ref),
+        suite,
+        max_steps=max_steps,
+        stage=stage,
+        time_limit=time_limit,
+        setup_limit=setup_limit,
+    )
 
 
 def to_frame(rows) -> pd.DataFrame:
@@ -689,13 +859,27 @@ def locations(suite) -> list[Location]:
     from nsbench.bench.summary import reference_grade
 
     plan = [(name, suite.option_sets(name)) for name in suite.integrator_names() if not reference_grade(name)]
-    return [Location(t, name, options, level) for t in suite.target_list() for name, sets in plan
-            if name not in t.exclude for level, options in sets]
+    return [
+        Location(t, name, options, level)
+        for t in suite.target_list()
+        for name, sets in plan
+        if name not in t.exclude
+        for level, options in sets
+    ]
 
 
-def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: int = 1, in_process: bool = False,
-                components: dict[str, dict[str, Any]] | None = None, resume: bool = True,
-                stream: TextIO | None = None, progress: bool = True) -> pd.DataFrame:
+def run_targets(
+    suite,
+    out: str | Path,
+    provenance: dict[str, Any],
+    *,
+    workers: int = 1,
+    in_process: bool = False,
+    components: dict[str, dict[str, Any]] | None = None,
+    resume: bool = True,
+    stream: TextIO | None = None,
+    progress: bool = True,
+) -> pd.DataFrame:
     """The runner's last phase: every missing bifurcation-target row of ``suite``, stored as it finishes.
 
     References first (cached per target in ``OUT/bifurcation_references``), then
@@ -730,8 +914,13 @@ def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: 
             todo[key] = loc.target
     weight = _location_weights(pending)
     ref_weight = statistics.median(weight.values()) if weight else 1.0
-    bar = Progress(len(todo) * ref_weight + sum(weight.values()), label="bifurcation targets", stream=err,
-                   enabled=progress and bool(pending), weighted=True)
+    bar = Progress(
+        len(todo) * ref_weight + sum(weight.values()),
+        label="bifurcation targets",
+        stream=err,
+        enabled=progress and bool(pending),
+        weighted=True,
+    )
     suite_name = suite.name
 
     def got_reference(key: str, ref: TargetReference) -> None:
@@ -739,8 +928,11 @@ def run_targets(suite, out: str | Path, provenance: dict[str, Any], *, workers: 
         if ref.ok:
             save_target_reference(o, ref)
         else:
-            print(f"nsbench: warning: the reference of bifurcation target {todo[key].name!r} could not be "
-                  f"computed: {ref.status}", file=err)
+            print(
+                f"nsbench: warning: the reference of bifurcation target {todo[key].name!r} could not be "
+                f"computed: {ref.status}",
+                file=err,
+            )
         bar.update(ref_weight, f"reference {todo[key].name}")
 
     def got_row(row: dict[str, Any]) -> None:
@@ -768,12 +960,12 @@ def _location_weights(pending: list[Location]) -> dict[str, float]:
     table = CostTable.packaged()
     known = table.target if table is not None else {}
     typical = statistics.median(known.values()) if known else 1.0
-    return {loc.row_id: known.get(location_label(loc.target.name, loc.integrator, loc.options), typical)
-            for loc in pending}
+    return {
+        loc.row_id: known.get(location_label(loc.target.name, loc.integrator, loc.options), typical) for loc in pending
+    }
 
 
-def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending, refs, got_reference,
-                got_row) -> None:
+def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending, refs, got_reference, got_row) -> None:
     from nsbench.bench import pool as wp
     from nsbench.jobs import Job, JobPool
 
@@ -793,9 +985,20 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
         by_id = {loc.row_id: loc for loc in pending}
         for loc in pending:
             ref = refs[loc.target.key]
-            jobs.submit(Job(loc.row_id, "nsbench.bench.targets:location_job",
-                            (loc, ref.as_dict(), suite.name, suite.max_steps, float(suite.time_limit),
-                             float(suite.setup_limit))))
+            jobs.submit(
+                Job(
+                    loc.row_id,
+                    "nsbench.bench.targets:location_job",
+                    (
+                        loc,
+                        ref.as_dict(),
+                        suite.name,
+                        suite.max_steps,
+                        float(suite.time_limit),
+                        float(suite.setup_limit),
+                    ),
+                )
+            )
         for o in jobs.outcomes():
             if not o.final:
                 continue
@@ -810,12 +1013,14 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
 
 
 # ---------------------------------------------------------------------- report
-TABLE_CAPTION = ("Bifurcation-point error: each integrator configuration locates the target's bifurcation "
-                 "with its own flow (bisection on the event pattern of its own simulations, started on the "
-                 "periodic orbit; the two ends of the bracket probed first), against the value located on the "
-                 "reference flow by continuation (nsbench.periodic.locate_target). cost: the integrator's own "
-                 "time summed over the probes (setup apart); wall: the probes' whole runs. An error at the "
-                 "size of xtol (1e-10) is the bisection's resolution, not the integrator's.")
+TABLE_CAPTION = (
+    "Bifurcation-point error: each integrator configuration locates the target's bifurcation "
+    "with its own flow (bisection on the event pattern of its own simulations, started on the "
+    "periodic orbit; the two ends of the bracket probed first), against the value located on the "
+    "reference flow by continuation (nsbench.periodic.locate_target). cost: the integrator's own "
+    "time summed over the probes (setup apart); wall: the probes' whole runs. An error at the "
+    "size of xtol (1e-10) is the bisection's resolution, not the integrator's."
+)
 
 
 def report_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -825,8 +1030,21 @@ def report_table(rows: pd.DataFrame) -> pd.DataFrame:
     if rows.empty:
         return pd.DataFrame()
     view = rows.assign(options=rows["options"].map(options_text))
-    view = view[["target", "integrator", "level", "options", "status", "bifurcation_value", "bifurcation_error",
-                 "n_probes", "integrator_time", "wall_time", "message"]]
+    view = view[
+        [
+            "target",
+            "integrator",
+            "level",
+            "options",
+            "status",
+            "bifurcation_value",
+            "bifurcation_error",
+            "n_probes",
+            "integrator_time",
+            "wall_time",
+            "message",
+        ]
+    ]
     view = view.rename(columns={"integrator_time": "cost (s)", "wall_time": "wall (s)", "n_probes": "probes"})
     view["bifurcation_value"] = view["bifurcation_value"].map(lambda v: "" if v != v else f"{v:.12g}")
     return view.reset_index(drop=True)
@@ -837,8 +1055,20 @@ def reference_table(rows: pd.DataFrame) -> pd.DataFrame:
     if rows.empty:
         return pd.DataFrame()
     first = rows.groupby("target", sort=False).first().reset_index()
-    out = first[["target", "problem_label", "param", "bracket_low", "bracket_high", "origin", "reference_value",
-                 "reference_kind", "reference_pattern", "reference_status"]].copy()
+    out = first[
+        [
+            "target",
+            "problem_label",
+            "param",
+            "bracket_low",
+            "bracket_high",
+            "origin",
+            "reference_value",
+            "reference_kind",
+            "reference_pattern",
+            "reference_status",
+        ]
+    ].copy()
     out["reference_value"] = out["reference_value"].map(lambda v: "" if v != v else f"{v:.12g}")
     return out
 
@@ -872,13 +1102,16 @@ def report_figures(rows: pd.DataFrame, out: str | Path) -> list:
         ax.grid(True, which="major", alpha=0.3)
         _legend_outside(ax)
         dropped = len(group) - len(ok)
-        caption = (f"Bifurcation target {target} ({group['param'].iloc[0]} in [{group['bracket_low'].iloc[0]:g}, "
-                   f"{group['bracket_high'].iloc[0]:g}]): the error of the bifurcation value each configuration "
-                   "locates with its own flow against the integrator's time summed over its probes, one marker "
-                   "per configuration, lines through an integrator's levels (loose to tight); colours by method "
-                   "family as in the other figures. The dotted line is the bisection tolerance.")
+        caption = (
+            f"Bifurcation target {target} ({group['param'].iloc[0]} in [{group['bracket_low'].iloc[0]:g}, "
+            f"{group['bracket_high'].iloc[0]:g}]): the error of the bifurcation value each configuration "
+            "locates with its own flow against the integrator's time summed over its probes, one marker "
+            "per configuration, lines through an integrator's levels (loose to tight); colours by method "
+            "family as in the other figures. The dotted line is the bisection tolerance."
+        )
         if dropped:
             caption += f" {dropped} configuration(s) without a located value (see the table) are not drawn."
-        figures.append(_save(fig, Path(out), f"bif_{slug(target)}", f"{target}: bifurcation-point error vs cost",
-                             caption))
+        figures.append(
+            _save(fig, Path(out), f"bif_{slug(target)}", f"{target}: bifurcation-point error vs cost", caption)
+        )
     return figures

@@ -53,7 +53,6 @@ def loops_for(run_seconds: float, min_sample_time: float) -> int:
     return min(loops, MAX_LOOPS)
 
 
-
 def loops_within(loops: int, call_seconds: float, budget: float) -> int:
     """``loops`` lowered to the largest of 1, 2, 5, 10, ... whose whole calls fit in ``budget`` seconds.
 
@@ -69,6 +68,7 @@ def loops_within(loops: int, call_seconds: float, budget: float) -> int:
         step = int(round(step * (2, 2.5, 2)[k % 3]))
         k += 1
     return best
+
 
 def needs_more(row: dict, max_repeats: int) -> bool:
     """Whether a successful case, timed on its planned samples, should get one more.
@@ -93,8 +93,9 @@ def _median(values: list[float]) -> float:
     return float(statistics.median(finite)) if finite else math.nan
 
 
-def summarize(wall_times: Iterable[float], integrator_times: Iterable[float] = (),
-              cpu_times: Iterable[float] = ()) -> dict[str, float]:
+def summarize(
+    wall_times: Iterable[float], integrator_times: Iterable[float] = (), cpu_times: Iterable[float] = ()
+) -> dict[str, float]:
     """The timing columns of a row from its timed samples (seconds per run of each sample).
 
     Returns
@@ -109,12 +110,24 @@ def summarize(wall_times: Iterable[float], integrator_times: Iterable[float] = (
     cpu = _median([float(t) for t in cpu_times])
     if not times:
         nan = math.nan
-        return {"wall_time": nan, "wall_time_min": nan, "wall_time_max": nan, "wall_spread": nan,
-                "integrator_time": inner, "cpu_time": cpu}
+        return {
+            "wall_time": nan,
+            "wall_time_min": nan,
+            "wall_time_max": nan,
+            "wall_spread": nan,
+            "integrator_time": inner,
+            "cpu_time": cpu,
+        }
     med, low, high = float(statistics.median(times)), min(times), max(times)
     spread = (high - low) / med if len(times) > 1 and med > 0 else math.nan
-    return {"wall_time": med, "wall_time_min": low, "wall_time_max": high, "wall_spread": spread,
-            "integrator_time": inner, "cpu_time": cpu}
+    return {
+        "wall_time": med,
+        "wall_time_min": low,
+        "wall_time_max": high,
+        "wall_spread": spread,
+        "integrator_time": inner,
+        "cpu_time": cpu,
+    }
 
 
 def spread_label(spread: float) -> str:
@@ -154,9 +167,11 @@ def noise_line(frame: pd.DataFrame, provenance: dict | None = None) -> str:
     spreads = pd.to_numeric(ok.get("wall_spread", pd.Series(dtype=float)), errors="coerce").dropna()
     if len(spreads):
         wide = int((spreads > WIDE_SPREAD).sum())
-        parts.append(f"a case's timed samples spread by {100 * spreads.median():.0f} % (median over "
-                     f"{len(spreads)} cases of (max - min) / median; {wide} spread by more than "
-                     f"{WIDE_SPREAD:.0%})")
+        parts.append(
+            f"a case's timed samples spread by {100 * spreads.median():.0f} % (median over "
+            f"{len(spreads)} cases of (max - min) / median; {wide} spread by more than "
+            f"{WIDE_SPREAD:.0%})"
+        )
     if not parts:
         return ""
     return "How noisy the machine was: " + "; ".join(parts) + "."
@@ -180,8 +195,14 @@ def setup_table(frame: pd.DataFrame) -> pd.DataFrame:
         times = group["setup_time"].astype(float)
         top = times.idxmax()
         rest = times.drop(top)
-        rows.append({"integrator": name, "first_use": float(times.max()),
-                     "on": f"{group.loc[top, 'problem_label']} level {group.loc[top, 'level']}",
-                     "later": float(rest.median()) if len(rest) else math.nan, "cases": len(group)})
+        rows.append(
+            {
+                "integrator": name,
+                "first_use": float(times.max()),
+                "on": f"{group.loc[top, 'problem_label']} level {group.loc[top, 'level']}",
+                "later": float(rest.median()) if len(rest) else math.nan,
+                "cases": len(group),
+            }
+        )
     table = pd.DataFrame(rows, columns=columns)
     return table.sort_values("first_use", ascending=False, kind="stable", ignore_index=True)

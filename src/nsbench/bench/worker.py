@@ -95,8 +95,16 @@ def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
         return target(*task.args, stage=stage, emit=lambda item: _send(out, msg.Partial(task.task, item)))
     if isinstance(task, msg.TimeCase):
         if task.round > 0:  # timings only: the runner joins them to the stored row
-            return time_case(task.case, task.reference, task.suite, stage, count=task.runs, metrics=False,
-                             first_run=task.round, loops=task.loops)
+            return time_case(
+                task.case,
+                task.reference,
+                task.suite,
+                stage,
+                count=task.runs,
+                metrics=False,
+                first_run=task.round,
+                loops=task.loops,
+            )
         row = complete_row(time_case(task.case, task.reference, task.suite, stage, count=task.runs), task.warm)
         stage("storing the row", None)  # raises ParentGone if the parent died meanwhile: then no row
         storage.append_row(hello.out, row, hello.provenance)  # here, not in the busy parent

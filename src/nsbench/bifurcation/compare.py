@@ -43,7 +43,7 @@ def agreement(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
         for name in names[1:]:
             other = frames[name]
             opts = other[other["index"] == index]
-            ok = (rpts["status"].iloc[0] in OK_STATUSES and len(opts) and opts["status"].iloc[0] in OK_STATUSES)
+            ok = rpts["status"].iloc[0] in OK_STATUSES and len(opts) and opts["status"].iloc[0] in OK_STATUSES
             row[name] = hausdorff(rpts[cols].to_numpy(float), opts[cols].to_numpy(float)) if ok else np.nan
         rows.append(row)
     return pd.DataFrame(rows)
@@ -54,11 +54,18 @@ def costs(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = None
     rows = []
     for name, frame in frames.items():
         pts = frame.groupby("index").first()
-        rows.append(dict(integrator=name, values=len(pts), failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
-                         point_wall_time_s=float(pts["wall_time"].sum()),
-                         run_wall_time_s=(walls or {}).get(name, np.nan),
-                         nfev=int(pts["nfev"].sum()), nsteps=int(pts["nsteps"].sum()),
-                         n_events=int(pts["n_events"].sum())))
+        rows.append(
+            dict(
+                integrator=name,
+                values=len(pts),
+                failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
+                point_wall_time_s=float(pts["wall_time"].sum()),
+                run_wall_time_s=(walls or {}).get(name, np.nan),
+                nfev=int(pts["nfev"].sum()),
+                nsteps=int(pts["nsteps"].sum()),
+                n_events=int(pts["n_events"].sum()),
+            )
+        )
     return pd.DataFrame(rows)
 
 
@@ -66,18 +73,31 @@ def report(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = Non
     """Markdown: cost table and agreement summary (median, max and share of values below 1e-6)."""
     names = list(frames)
     agree = agreement(frames)
-    lines = [f"# Sweep across integrators (reference: {names[0]})", "", "## Cost of each diagram", "",
-             _table(costs(frames, walls)), "", "## Agreement with the reference",
-             "", "Symmetric Hausdorff distance between the section-point sets (block positions), per parameter "
-             "value.", ""]
+    lines = [
+        f"# Sweep across integrators (reference: {names[0]})",
+        "",
+        "## Cost of each diagram",
+        "",
+        _table(costs(frames, walls)),
+        "",
+        "## Agreement with the reference",
+        "",
+        "Symmetric Hausdorff distance between the section-point sets (block positions), per parameter value.",
+        "",
+    ]
     rows = []
     for name in names[1:]:
         d = agree[name].to_numpy(float)
         good = d[~np.isnan(d)]
-        rows.append(dict(integrator=name, compared=len(good),
-                         median=float(np.median(good)) if len(good) else np.nan,
-                         max=float(good.max()) if len(good) else np.nan,
-                         share_below_1e_6=float((good < 1e-6).mean()) if len(good) else np.nan))
+        rows.append(
+            dict(
+                integrator=name,
+                compared=len(good),
+                median=float(np.median(good)) if len(good) else np.nan,
+                max=float(good.max()) if len(good) else np.nan,
+                share_below_1e_6=float((good < 1e-6).mean()) if len(good) else np.nan,
+            )
+        )
     lines.append(_table(pd.DataFrame(rows)) if rows else "(one integrator only)")
     return "\n".join(lines) + "\n"
 

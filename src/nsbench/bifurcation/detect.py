@@ -89,9 +89,16 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
                 feats = values[starts[part][:, None] + np.arange(m)]  # (values, points, features)
                 period[part], distinct[part] = _period_and_distinct(feats, tol)
     n = first["n_points"].to_numpy(dtype=np.int64)
-    out = pd.DataFrame({"index": idx[starts].astype(np.int64), "value": first["value"].to_numpy(dtype=float),
-                        "status": first["status"].to_numpy(), "n_points": n, "period": period,
-                        "n_distinct": distinct})
+    out = pd.DataFrame(
+        {
+            "index": idx[starts].astype(np.int64),
+            "value": first["value"].to_numpy(dtype=float),
+            "status": first["status"].to_numpy(),
+            "n_points": n,
+            "period": period,
+            "n_distinct": distinct,
+        }
+    )
     sticks = {b: first[f"sticks{b}"].to_numpy(dtype=np.int64) for b in blocks}
     with np.errstate(divide="ignore", invalid="ignore"):
         cycles = n / period
@@ -128,8 +135,7 @@ def _period_and_distinct(feats: np.ndarray, tol: float) -> tuple[np.ndarray, np.
         same = np.all((np.abs(feats[:, p:] - feats[:, :-p]) <= limit) | unused, axis=(1, 2))
         period[(period == 0) & same] = p
     # close[i, j, k]: points j and k of value i within the tolerance; greedy representatives in order
-    close = np.all((np.abs(feats[:, :, None, :] - feats[:, None, :, :]) <= limit[..., None]) | unused[:, None],
-                   axis=3)
+    close = np.all((np.abs(feats[:, :, None, :] - feats[:, None, :, :]) <= limit[..., None]) | unused[:, None], axis=3)
     rep = np.zeros((n_values, m), dtype=bool)
     for j in range(m):
         rep[:, j] = ~np.any(close[:, j, :j] & rep[:, :j], axis=1)
@@ -153,6 +159,7 @@ def _changes(a: pd.Series, b: pd.Series) -> list[tuple[str, str]]:
     if a["period"] != b["period"]:
         out.append(("period", f"period {_p(a['period'])} -> {_p(b['period'])}"))
     elif a["period"] > 0 and any(a[f"sticks{k}_per_cycle"] != b[f"sticks{k}_per_cycle"] for k in blocks):
+
         def per_cycle(row: pd.Series) -> str:
             return "(" + ", ".join(f"{row[f'sticks{k}_per_cycle']:g}" for k in blocks) + ")"
 
@@ -176,8 +183,16 @@ def candidates(features: pd.DataFrame) -> pd.DataFrame:
         if a["status"] not in OK_STATUSES or b["status"] not in OK_STATUSES:
             continue
         for kind, text in _changes(a, b):
-            rows.append(dict(kind=kind, description=text, left=a["value"], right=b["value"],
-                             value=0.5 * (a["value"] + b["value"]), width=b["value"] - a["value"]))
+            rows.append(
+                dict(
+                    kind=kind,
+                    description=text,
+                    left=a["value"],
+                    right=b["value"],
+                    value=0.5 * (a["value"] + b["value"]),
+                    width=b["value"] - a["value"],
+                )
+            )
     return pd.DataFrame(rows, columns=["kind", "description", "left", "right", "value", "width"])
 
 
@@ -214,8 +229,16 @@ def _signature(spec: SweepSpec, value: float, integ, tol: float) -> pd.Series:
     return classify(compute_point(one, 0, integ), tol).iloc[0]
 
 
-def refine(spec: SweepSpec, left: float, right: float, kind: str, xtol: float | None = None,
-           tol: float = 1e-6, max_iter: int = 40, before=None) -> Refined:
+def refine(
+    spec: SweepSpec,
+    left: float,
+    right: float,
+    kind: str,
+    xtol: float | None = None,
+    tol: float = 1e-6,
+    max_iter: int = 40,
+    before=None,
+) -> Refined:
     """Narrow a candidate between ``left`` and ``right`` by bisection on the same change ``kind``.
 
     The midpoint's features are computed with the sweep's settings; the half

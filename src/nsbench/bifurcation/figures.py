@@ -37,15 +37,20 @@ def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100
     out = []
     for fmt in formats:
         path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
-        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None,
-                    bbox_inches="tight")
+        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches="tight")
         out.append(path)
     plt.close(fig)
     return out
 
 
-def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: pd.DataFrame | None = None,
-            formats: Sequence[str] = FORMATS, variables: Sequence[str] | None = None) -> list[Path]:
+def diagram(
+    frame: pd.DataFrame,
+    base: str | Path,
+    title: str = "",
+    candidates: pd.DataFrame | None = None,
+    formats: Sequence[str] = FORMATS,
+    variables: Sequence[str] | None = None,
+) -> list[Path]:
     """Bifurcation diagram: section-point coordinates against the swept parameter.
 
     ``variables`` default to the block positions ``x1 .. xn`` (one panel each).
@@ -59,8 +64,7 @@ def diagram(frame: pd.DataFrame, base: str | Path, title: str = "", candidates: 
 
         variables = [f"x{k}" for k in range(1, n_blocks_of(frame) + 1)]
     variables = [v for v in variables if v in frame and frame[v].notna().any()] or ["x1"]
-    fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True, squeeze=False)
     name = frame["param"].iloc[0] if len(frame) else "parameter"
     from nsbench.bifurcation.sweep import OK_STATUSES
 
@@ -113,13 +117,21 @@ def _point_image(ax, x: np.ndarray, y: np.ndarray) -> None:
     keep = np.isfinite(x) & np.isfinite(y)
     counts, _, _ = np.histogram2d(y[keep], x[keep], bins=(height, width), range=((y0, y1), (x0, x1)))
     rgba = np.zeros((height, width, 4))
-    rgba[..., 3] = 1.0 - 0.15 ** counts  # one point: 0.85 opaque; two or more: nearly black
-    ax.imshow(rgba, extent=(x0, x1, y0, y1), origin="lower", aspect="auto", interpolation="nearest",
-              zorder=1.5, rasterized=True)
+    rgba[..., 3] = 1.0 - 0.15**counts  # one point: 0.85 opaque; two or more: nearly black
+    ax.imshow(
+        rgba,
+        extent=(x0, x1, y0, y1),
+        origin="lower",
+        aspect="auto",
+        interpolation="nearest",
+        zorder=1.5,
+        rasterized=True,
+    )
 
 
-def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS,
-          phase_time: float | None = None) -> list[Path]:
+def locus(
+    run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS, phase_time: float | None = None
+) -> list[Path]:
     """Locus of sticking phase over sliding regions I, II, III for the run's pair of blocks
     (the first blue, the second red; default blocks 1 and 2).
 
@@ -156,13 +168,11 @@ def locus(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMA
     # block 1 wider and underneath: where both stick (slope-1 lines) both colours show
     for block, colour, lw in ((a, BLUE, 3.2), (b, RED, 1.3)):
         for j, seg in enumerate(run.sticking_segments(block)):
-            ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=lw,
-                    label=f"block {block} sticks" if j == 0 else None)
+            ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=lw, label=f"block {block} sticks" if j == 0 else None)
     mp = run.mapping_points
     if len(mp):
         ax.plot(mp[f"x{a}"], mp[f"x{b}"], "o", ms=3, color="k", label="mapping points")
-    ax.text(0.02, 0.97, "I: blue band, II: red band, III: overlap", transform=ax.transAxes,
-            fontsize=7, va="top")
+    ax.text(0.02, 0.97, "I: blue band, II: red band, III: overlap", transform=ax.transAxes, fontsize=7, va="top")
     ax.set_xlabel(f"x{a}")
     ax.set_ylabel(f"x{b}")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the phase plane
@@ -178,8 +188,7 @@ def portrait(run, base: str | Path, title: str = "", formats: Sequence[str] = FO
     traj = run.trajectory
     blocks = run.pair if run.problem.n_blocks >= 2 else (1,)  # the locus's pair of a longer chain
     nb = len(blocks)
-    fig, axes = plt.subplots(1, 1 + nb, figsize=(4.0 * (1 + nb), 3.2),
-                             gridspec_kw={"width_ratios": [1.6] + [1.0] * nb})
+    fig, axes = plt.subplots(1, 1 + nb, figsize=(4.0 * (1 + nb), 3.2), gridspec_kw={"width_ratios": [1.6] + [1.0] * nb})
     ax = axes[0]
     for j, (i, colour) in enumerate(zip(blocks, (BLUE, RED)), start=1):
         ax.plot(traj["t"], traj[f"x{i}"], color=colour, lw=0.7, label=f"x{i}")

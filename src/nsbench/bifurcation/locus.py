@@ -50,9 +50,16 @@ class LocusRun:
         return out
 
 
-def locus_run(problem, integrator: str | None = None, transient: float = 1500.0, duration: float = 200.0,
-              samples_per_unit: float = 20.0, options: dict | None = None, value: float | None = None,
-              pair: tuple[int, int] = (1, 2)) -> LocusRun:
+def locus_run(
+    problem,
+    integrator: str | None = None,
+    transient: float = 1500.0,
+    duration: float = 200.0,
+    samples_per_unit: float = 20.0,
+    options: dict | None = None,
+    value: float | None = None,
+    pair: tuple[int, int] = (1, 2),
+) -> LocusRun:
     """Integrate from rest; sample the trajectory densely over ``[transient, transient + duration]``.
 
     ``integrator`` defaults to ``exact`` for linear problems and ``henon-rk4``
@@ -73,8 +80,14 @@ def locus_run(problem, integrator: str | None = None, transient: float = 1500.0,
     return LocusRun(problem, value, res.trajectory, ev, transient, t_end, res.integrator["name"], (a, b))
 
 
-def region_masks(problem, t: float, xa: np.ndarray, xb: np.ndarray, pair: tuple[int, int] = (1, 2),
-                 others: dict[int, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def region_masks(
+    problem,
+    t: float,
+    xa: np.ndarray,
+    xb: np.ndarray,
+    pair: tuple[int, int] = (1, 2),
+    others: dict[int, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Boolean grids of the sliding regions of the pair's blocks at time ``t`` over the mesh ``(xa, xb)``.
 
     ``others`` gives the positions of the remaining blocks (needed with more than two).

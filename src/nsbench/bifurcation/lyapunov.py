@@ -182,18 +182,25 @@ class LyapunovResult:
                 why.append("no attractor holds a clear majority of the members")
             verdict = "NOT converged: " + "; ".join(why)
         if self.outliers:
-            verdict += (f"; over {self.n_kept} members: {len(self.outliers)} other(s) ended on another "
-                        "attractor, set apart: " + ", ".join(f"member {i} {self.members[i]:+.4f}"
-                                                             for i in self.outliers)
-                        + f"; mean over all members {self.exponent_all:+.5f}")
-        spread = (f"members {np.nanmin(self.members):+.4f} .. {np.nanmax(self.members):+.4f}"
-                  if np.isfinite(self.members).any() else "no member finished")
-        return (f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, standard error "
-                f"{self.standard_error:.2g}, {100 * self.confidence:g}% CI [{self.ci_low:+.5f}, "
-                f"{self.ci_high:+.5f}]; {self.exponent_per_time:+.5f} per unit time (standard error "
-                f"{self.standard_error_per_time:.2g}) ({verdict}; {self.n_members} members x "
-                f"{self.iterations_per_member} iterations, {spread}, seed {self.seed}, "
-                f"mean return time {self.mean_return_time:.4g}, block mismatches {self.block_mismatches})")
+            verdict += (
+                f"; over {self.n_kept} members: {len(self.outliers)} other(s) ended on another "
+                "attractor, set apart: "
+                + ", ".join(f"member {i} {self.members[i]:+.4f}" for i in self.outliers)
+                + f"; mean over all members {self.exponent_all:+.5f}"
+            )
+        spread = (
+            f"members {np.nanmin(self.members):+.4f} .. {np.nanmax(self.members):+.4f}"
+            if np.isfinite(self.members).any()
+            else "no member finished"
+        )
+        return (
+            f"largest Lyapunov exponent {self.exponent:+.5f} per mapping point, standard error "
+            f"{self.standard_error:.2g}, {100 * self.confidence:g}% CI [{self.ci_low:+.5f}, "
+            f"{self.ci_high:+.5f}]; {self.exponent_per_time:+.5f} per unit time (standard error "
+            f"{self.standard_error_per_time:.2g}) ({verdict}; {self.n_members} members x "
+            f"{self.iterations_per_member} iterations, {spread}, seed {self.seed}, "
+            f"mean return time {self.mean_return_time:.4g}, block mismatches {self.block_mismatches})"
+        )
 
 
 @dataclass
@@ -209,6 +216,7 @@ class _Member:
 
 # -- one step of the return map ------------------------------------------------------------------
 
+
 def _mapping_point(integ, problem, t, y, mode, t_rec, window):
     """First mapping point at or after ``t_rec`` of the motion from ``(t, y)``.
 
@@ -220,8 +228,9 @@ def _mapping_point(integ, problem, t, y, mode, t_rec, window):
     from nsbench.hybrid.run import run_hybrid
     from nsbench.problems.modes import EVENT_KINDS
 
-    raw = run_hybrid(problem, integ, t_rec + window, t0=t, y0=y, mode=mode, record_from=t_rec,
-                     stop_kind="slip", stop_count=1)
+    raw = run_hybrid(
+        problem, integ, t_rec + window, t0=t, y0=y, mode=mode, record_from=t_rec, stop_kind="slip", stop_count=1
+    )
     slips = np.flatnonzero(raw.records.ev_kind[: raw.n_events] == EVENT_KINDS.index("slip"))
     if not raw.stopped or slips.size == 0:
         return None, raw.status.value if raw.status.ok else f"{raw.status.value}: {raw.message}"
@@ -230,6 +239,7 @@ def _mapping_point(integ, problem, t, y, mode, t_rec, window):
 
 
 # -- one member ----------------------------------------------------------------------------------
+
 
 def _free_direction(vec, y, problem, forced):
     """``vec`` with the pinned coordinates zeroed, normalised; None if nothing is left."""
@@ -269,9 +279,14 @@ def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, 
             break
         ref, status = _mapping_point(integ, problem, ref[0], ref[1], ref[2], ref[0], window)
     if ref is None:
-        return _Member(np.empty(0), np.empty(0), 0.0, 0,
-                       f"no mapping point within {window:g} after the transient ({status}): "
-                       "the motion has no slip events (pure sliding or permanent sticking)")
+        return _Member(
+            np.empty(0),
+            np.empty(0),
+            0.0,
+            0,
+            f"no mapping point within {window:g} after the transient ({status}): "
+            "the motion has no slip events (pure sliding or permanent sticking)",
+        )
     u = _free_direction(rng.normal(size=n + 1), ref[1], problem, forced)
     logs, times, mismatches = [], [], 0
     t_first = ref[0]
@@ -284,11 +299,17 @@ def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, 
         pert_y = y + d0 * u[:n]
         pert_t = t + d0 * u[n] / w if forced else t
         nxt, status = _mapping_point(integ, problem, t, y, mode, t, window)
-        pnx, pstatus = (None, "") if nxt is None else _mapping_point(integ, problem, pert_t, pert_y,
-                                                                      mode.copy(), pert_t, window)
+        pnx, pstatus = (
+            (None, "") if nxt is None else _mapping_point(integ, problem, pert_t, pert_y, mode.copy(), pert_t, window)
+        )
         if nxt is None or pnx is None:
-            return _Member(np.array(logs), np.array(times), t_first, mismatches,
-                           f"no next mapping point within {window:g} ({status if nxt is None else pstatus})")
+            return _Member(
+                np.array(logs),
+                np.array(times),
+                t_first,
+                mismatches,
+                f"no next mapping point within {window:g} ({status if nxt is None else pstatus})",
+            )
         mismatches += int(nxt[3] != pnx[3])
         diff = np.append(pnx[1] - nxt[1], w * (pnx[0] - nxt[0]))
         d = math.sqrt(float(diff @ diff))
@@ -309,8 +330,18 @@ MEMBER_LIMIT = 1800.0
 _WORKER_STATE: dict = {}
 
 
-def member_job(problem, integrator: str, options: dict, index: int, seed_seq: np.random.SeedSequence,
-               params: dict, limit: float | None, *, stage, emit) -> _Member:
+def member_job(
+    problem,
+    integrator: str,
+    options: dict,
+    index: int,
+    seed_seq: np.random.SeedSequence,
+    params: dict,
+    limit: float | None,
+    *,
+    stage,
+    emit,
+) -> _Member:
     """Member ``index`` in a supervised worker (:mod:`nsbench.jobs`), the integrator set up once per worker."""
     from nsbench.integrators import get_integrator
 
@@ -347,11 +378,25 @@ def _run_members(integ, problem, integrator, options, seeds, params, workers, li
 
 # -- public entry point --------------------------------------------------------------------------
 
-def largest_exponent(problem, integrator: str | None = None, *, options: dict | None = None,
-                     transient: float = 1000.0, iterations: int = 10000, members: int = 32,
-                     d0: float = 1e-8, window: float = 2000.0, seed: int = 0, spread: float = 1e-3,
-                     align: int = 10, tol: float = 0.01, confidence: float = 0.95,
-                     workers: int = 1, member_limit: float | None = MEMBER_LIMIT) -> LyapunovResult:
+
+def largest_exponent(
+    problem,
+    integrator: str | None = None,
+    *,
+    options: dict | None = None,
+    transient: float = 1000.0,
+    iterations: int = 10000,
+    members: int = 32,
+    d0: float = 1e-8,
+    window: float = 2000.0,
+    seed: int = 0,
+    spread: float = 1e-3,
+    align: int = 10,
+    tol: float = 0.01,
+    confidence: float = 0.95,
+    workers: int = 1,
+    member_limit: float | None = MEMBER_LIMIT,
+) -> LyapunovResult:
     """Ensemble Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
 
     Parameters
@@ -421,8 +466,7 @@ def largest_exponent(problem, integrator: str | None = None, *, options: dict | 
         check_in_caller(integ, problem)
     members, per_member = int(members), int(iterations // members)
     seeds = np.random.SeedSequence(int(seed)).spawn(members)
-    params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread,
-                  align=int(align))
+    params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread, align=int(align))
     runs = _run_members(integ, problem, integrator, dict(options or {}), seeds, params, workers, member_limit)
     return _result(runs, per_member, int(seed), tol, confidence)
 
@@ -433,11 +477,14 @@ def _is_int(x) -> bool:
 
 def _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed) -> None:
     if not _is_int(members) or members < 4:
-        raise ConfigError(f"members = {members!r} must be an integer of at least 4 "
-                          "(the standard error comes from their spread)")
+        raise ConfigError(
+            f"members = {members!r} must be an integer of at least 4 (the standard error comes from their spread)"
+        )
     if not _is_int(iterations) or iterations // members < 20:
-        raise ConfigError(f"iterations = {iterations!r} must be an integer of at least 20 per member "
-                          f"({20 * members} for {members} members)")
+        raise ConfigError(
+            f"iterations = {iterations!r} must be an integer of at least 20 per member "
+            f"({20 * members} for {members} members)"
+        )
     if not (0.0 < d0 < 1e-2):
         raise ConfigError(f"d0 = {d0!r} must be in (0, 0.01)")
     if not (transient >= 0.0 and math.isfinite(transient)):
@@ -459,6 +506,7 @@ def _check(iterations, members, d0, transient, window, spread, align, tol, confi
 
 
 # -- statistics ----------------------------------------------------------------------------------
+
 
 def _block_error(logs: np.ndarray) -> float:
     """Standard error of the mean of one correlated series from ``N_BLOCKS`` block means."""
@@ -543,18 +591,32 @@ def _result(runs: list[_Member], per_member: int, seed: int, tol: float, confide
     half = float(student.ppf(0.5 + confidence / 2, n_kept - 1)) * se if n_kept >= 2 else np.nan
     logs = np.full((len(runs), per_member), np.nan)
     for row, r in zip(logs, runs):
-        row[:len(r.logs)] = r.logs
+        row[: len(r.logs)] = r.logs
     n_done = sum(len(r.logs) for r in runs)
     total_time = float(sum(r.times[-1] - r.t_first for r in runs if len(r.times)))
     failed = [f"member {i}: {r.message}" for i, r in enumerate(runs) if r.message]
     return LyapunovResult(
-        exponent=mean, standard_error=se, exponent_all=mean_all, standard_error_all=se_all,
-        ci_low=mean - half, ci_high=mean + half, confidence=confidence,
-        exponent_per_time=mean_t, standard_error_per_time=se_t, members=lam, members_per_time=per_time,
+        exponent=mean,
+        standard_error=se,
+        exponent_all=mean_all,
+        standard_error_all=se_all,
+        ci_low=mean - half,
+        ci_high=mean + half,
+        confidence=confidence,
+        exponent_per_time=mean_t,
+        standard_error_per_time=se_t,
+        members=lam,
+        members_per_time=per_time,
         member_errors=np.array([_block_error(r.logs) if k else np.nan for r, k in zip(runs, ok)]),
-        converged=bool(not failed and precise and _holds_majority(n_kept, int(ok.sum()))), precise=precise,
+        converged=bool(not failed and precise and _holds_majority(n_kept, int(ok.sum()))),
+        precise=precise,
         outliers=outliers,
-        iterations=n_done, iterations_per_member=per_member,
+        iterations=n_done,
+        iterations_per_member=per_member,
         mean_return_time=total_time / n_done if n_done else np.nan,
-        block_mismatches=sum(r.mismatches for r in runs), seed=seed,
-        status=(Status.ERROR if failed else Status.SUCCESS).value, message="; ".join(failed), logs=logs)
+        block_mismatches=sum(r.mismatches for r in runs),
+        seed=seed,
+        status=(Status.ERROR if failed else Status.SUCCESS).value,
+        message="; ".join(failed),
+        logs=logs,
+    )

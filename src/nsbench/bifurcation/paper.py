@@ -43,8 +43,14 @@ SWEEPS: tuple[PaperSweep, ...] = (
     *(PaperSweep(1, n, a, b) for n, a, b, _ in _COMMON),
     PaperSweep(2, "v0", 0.04, 0.6, "range not stated in the paper; chosen to cover 0.35 and 0.43"),
     *(PaperSweep(2, n, a, b) for n, a, b, _ in _COMMON),
-    PaperSweep(2, "inv_omega_r", 1.0, 10.0, "mapping points (slip events), which the paper's statement is about",
-               section="mapping"),
+    PaperSweep(
+        2,
+        "inv_omega_r",
+        1.0,
+        10.0,
+        "mapping points (slip events), which the paper's statement is about",
+        section="mapping",
+    ),
     PaperSweep(2, "F", 0.02, 0.8, "range not stated in the paper"),
     PaperSweep(2, "F", 0.12, 0.16, "zoom on the sliding bifurcation and border-collision the paper names"),
     PaperSweep(2, "Omega", 0.05, 2.5, "the paper starts at 0; the stroboscopic section needs Omega > 0"),
@@ -59,8 +65,17 @@ SWEEPS: tuple[PaperSweep, ...] = (
 
 # parameter values the paper discusses: locus of sticking phase and portraits drawn there
 LOCUS_VALUES: tuple[tuple[int, str, float], ...] = (
-    (1, "v0", 1 / 12), (2, "v0", 0.35), (2, "v0", 0.43), (2, "inv_omega_r", 5.0), (2, "F", 0.135),
-    (2, "F", 0.1355), (2, "F", 0.1417), (3, "h1", 1.34), (4, "v0", 0.45), (4, "F", 0.38), (4, "F", 0.61),
+    (1, "v0", 1 / 12),
+    (2, "v0", 0.35),
+    (2, "v0", 0.43),
+    (2, "inv_omega_r", 5.0),
+    (2, "F", 0.135),
+    (2, "F", 0.1355),
+    (2, "F", 0.1417),
+    (3, "h1", 1.34),
+    (4, "v0", 0.45),
+    (4, "F", 0.38),
+    (4, "F", 0.61),
 )
 
 
@@ -77,12 +92,23 @@ def _slug(s: PaperSweep) -> str:
 def _spec(s: PaperSweep, points: int, transient: float, record: int) -> SweepSpec:
     integrator = "exact" if s.case in (1, 2) else "henon-rk4"
     section = s.section or ("strobe" if s.case in (2, 4) else "peaks")
-    return SweepSpec(problem="two-dof", case=s.case, name=s.name, start=s.start, stop=s.stop, count=points,
-                     integrator=integrator, section=section, transient=transient, record=record)
+    return SweepSpec(
+        problem="two-dof",
+        case=s.case,
+        name=s.name,
+        start=s.start,
+        stop=s.stop,
+        count=points,
+        integrator=integrator,
+        section=section,
+        transient=transient,
+        record=record,
+    )
 
 
-def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame],
-                 specs: dict[str, SweepSpec] | None = None) -> pd.DataFrame:
+def match_claims(
+    claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame], specs: dict[str, SweepSpec] | None = None
+) -> pd.DataFrame:
     """For each stated bifurcation: the nearest candidate of the matching kind, and of any kind.
 
     With ``specs`` (sweep slug -> spec), the matched candidate of the same kind
@@ -93,8 +119,13 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
         stated = 0.5 * (c.low + c.high)
         cands = [f for (case, name), f in found.items() if case == c.case and name == c.sweep]
         cands = pd.concat(cands, ignore_index=True) if cands else pd.DataFrame(columns=["kind", "value"])
-        row = dict(case=c.case, sweep=c.sweep, paper_kind=c.kind,
-                   paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}", statement=c.statement)
+        row = dict(
+            case=c.case,
+            sweep=c.sweep,
+            paper_kind=c.kind,
+            paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}",
+            statement=c.statement,
+        )
         same = cands[cands["kind"] == KIND_MATCH.get(c.kind, c.kind)]
         row["candidates_on_sweep"] = len(cands)
         for label, pool in (("", same), ("any_", cands)):
@@ -109,8 +140,7 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
                 row[f"{label}found_kind"] = pool["kind"].iloc[j] + ": " + pool["description"].iloc[j]
                 if label == "" and specs is not None:
                     cand = pool.iloc[j]
-                    r = detect.refine(specs[cand["slug"]], float(cand["left"]), float(cand["right"]),
-                                      str(cand["kind"]))
+                    r = detect.refine(specs[cand["slug"]], float(cand["left"]), float(cand["right"]), str(cand["kind"]))
                     row["refined"] = r.value
                     row["refined_difference"] = 0.0 if c.low <= r.value <= c.high else r.value - stated
             else:
@@ -126,9 +156,18 @@ def match_claims(claims: pd.DataFrame, found: dict[tuple[int, str], pd.DataFrame
     return pd.DataFrame(rows)
 
 
-def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient: float = 1000.0,
-              record: int = 64, workers: int | None = None, only_case: int | None = None,
-              progress: bool = True, log=print, continuation: bool = True) -> Path:
+def run_paper(
+    out: str | Path = "reports/paper",
+    *,
+    points: int = 400,
+    transient: float = 1000.0,
+    record: int = 64,
+    workers: int | None = None,
+    only_case: int | None = None,
+    progress: bool = True,
+    log=print,
+    continuation: bool = True,
+) -> Path:
     """Regenerate every paper sweep, the locus figures and the report; return the Markdown path."""
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
@@ -152,19 +191,30 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient
         cands["slug"] = _slug(s)
         specs[_slug(s)] = spec
         found.setdefault((s.case, s.name), []).append(cands)
-        title = (f"case {s.case}: {s.name} in [{s.start:g}, {s.stop:g}], {spec.integrator}, {spec.section}, "
-                 f"{points} values, transient {transient:g}, {record} points each")
-        figures.diagram(frame, out / "figures" / f"diagram-{_slug(s)}", title=title, candidates=cands,
-                        formats=("png",))
+        title = (
+            f"case {s.case}: {s.name} in [{s.start:g}, {s.stop:g}], {spec.integrator}, {spec.section}, "
+            f"{points} values, transient {transient:g}, {record} points each"
+        )
+        figures.diagram(frame, out / "figures" / f"diagram-{_slug(s)}", title=title, candidates=cands, formats=("png",))
         pts = frame.groupby("index").first()
-        summary.append(dict(case=s.case, sweep=s.name, range=f"{s.start:g}..{s.stop:g}", integrator=spec.integrator,
-                            section=spec.section, values=len(pts),
-                            failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
-                            candidates=len(cands), pure_sliding_values=int(feats["pure_sliding"].sum()),
-                            aperiodic_values=int((feats["period"] == 0).sum()),
-                            # per-value compute time summed (stable when a run resumes)
-                            point_seconds=round(float(pts["wall_time"].sum()), 1),
-                            note=s.note, slug=_slug(s)))
+        summary.append(
+            dict(
+                case=s.case,
+                sweep=s.name,
+                range=f"{s.start:g}..{s.stop:g}",
+                integrator=spec.integrator,
+                section=spec.section,
+                values=len(pts),
+                failed=int((~pts["status"].isin(OK_STATUSES)).sum()),
+                candidates=len(cands),
+                pure_sliding_values=int(feats["pure_sliding"].sum()),
+                aperiodic_values=int((feats["period"] == 0).sum()),
+                # per-value compute time summed (stable when a run resumes)
+                point_seconds=round(float(pts["wall_time"].sum()), 1),
+                note=s.note,
+                slug=_slug(s),
+            )
+        )
         log(f"case {s.case} {s.name}: {len(pts)} values, {len(cands)} candidates, {wall:.1f} s")
     for case, name, value in LOCUS_VALUES:
         if only_case is not None and case != only_case:
@@ -191,8 +241,9 @@ def run_paper(out: str | Path = "reports/paper", *, points: int = 400, transient
     total = time.perf_counter() - tic_all
     md = markdown_report(sweeps, table, found_frames, points, transient, record, total, continued)
     (out / "README.md").write_text(md)
-    (out / "index.html").write_text(html_report(sweeps, table, found_frames, points, transient, record, total,
-                                                continued))
+    (out / "index.html").write_text(
+        html_report(sweeps, table, found_frames, points, transient, record, total, continued)
+    )
     log(f"report -> {out / 'README.md'} and {out / 'index.html'} ({total:.0f} s)")
     return out / "README.md"
 
@@ -204,7 +255,12 @@ def _locus(case: int, name: str, value: float, transient: float, out: Path) -> N
     problem = get_problem("two-dof", case=case, **{name: value})
     run = locus_run(problem, transient=transient, duration=120.0, value=value)
     tag = f"case{case}-{name}-{value:.6g}"
-    figures.locus(run, out / "figures" / f"locus-{tag}", title=f"case {case}, {name} = {value:.6g}: "
-                  "locus of sticking phase", formats=("png",))
-    figures.portrait(run, out / "figures" / f"portrait-{tag}", title=f"case {case}, {name} = {value:.6g}",
-                     formats=("png",))
+    figures.locus(
+        run,
+        out / "figures" / f"locus-{tag}",
+        title=f"case {case}, {name} = {value:.6g}: locus of sticking phase",
+        formats=("png",),
+    )
+    figures.portrait(
+        run, out / "figures" / f"portrait-{tag}", title=f"case {case}, {name} = {value:.6g}", formats=("png",)
+    )

@@ -19,13 +19,33 @@ import pandas as pd
 
 #: half-width of the window around a stated value, as a fraction of the sweep's range
 WINDOW = 0.05
-COLUMNS = ["case", "sweep", "paper_kind", "paper_value", "continued_value", "difference", "continued_kind",
-           "continued_category", "same_category", "window", "branches", "located", "seconds", "detail"]
+COLUMNS = [
+    "case",
+    "sweep",
+    "paper_kind",
+    "paper_value",
+    "continued_value",
+    "difference",
+    "continued_kind",
+    "continued_category",
+    "same_category",
+    "window",
+    "branches",
+    "located",
+    "seconds",
+    "detail",
+]
 
 
-def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[float, float]], *,
-                    steps: int = 60, transient: float = 1000.0, cubic: bool = False,
-                    log: Callable[[str], None] = print) -> pd.DataFrame:
+def continue_claims(
+    claims: pd.DataFrame,
+    ranges: dict[tuple[int, str], tuple[float, float]],
+    *,
+    steps: int = 60,
+    transient: float = 1000.0,
+    cubic: bool = False,
+    log: Callable[[str], None] = print,
+) -> pd.DataFrame:
     """One row per stated bifurcation: the nearest located bifurcation of any kind in its window.
 
     ``ranges`` maps ``(case, sweep)`` to the paper sweep's range (for the window width).
@@ -47,13 +67,20 @@ def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[fl
         def problem_at(value, case=c.case, name=c.sweep):
             return get_problem("two-dof", case=case, **{name: float(value)})
 
-        row = dict(case=c.case, sweep=c.sweep, paper_kind=c.kind,
-                   paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}",
-                   window=f"{start:.4g}..{stop:.4g}")
+        row = dict(
+            case=c.case,
+            sweep=c.sweep,
+            paper_kind=c.kind,
+            paper_value=f"{c.low:g}" if c.low == c.high else f"{c.low:g}-{c.high:g}",
+            window=f"{start:.4g}..{stop:.4g}",
+        )
         if not cubic and not problem_at(start).is_linear:
-            row.update(located=0, branches=0,
-                       detail=f"not continued here (cubic springs, slow); run: nsbench continuation two-dof "
-                              f"--case {c.case} --sweep {c.sweep}={start:.4g}:{stop:.4g}")
+            row.update(
+                located=0,
+                branches=0,
+                detail=f"not continued here (cubic springs, slow); run: nsbench continuation two-dof "
+                f"--case {c.case} --sweep {c.sweep}={start:.4g}:{stop:.4g}",
+            )
             rows.append(row)
             continue
         tic = time.perf_counter()
@@ -71,16 +98,24 @@ def continue_claims(claims: pd.DataFrame, ranges: dict[tuple[int, str], tuple[fl
             values = np.array([b.value for b in bifs])
             outside = np.maximum(np.maximum(c.low - values, values - c.high), 0.0)
             b = bifs[int(np.lexsort((np.abs(values - stated), outside))[0])]
-            row.update(continued_value=b.value, difference=0.0 if c.low <= b.value <= c.high else b.value - stated,
-                       continued_kind=b.kind, continued_category=b.category,
-                       same_category=b.category == c.kind, detail=b.detail)
+            row.update(
+                continued_value=b.value,
+                difference=0.0 if c.low <= b.value <= c.high else b.value - stated,
+                continued_kind=b.kind,
+                continued_category=b.category,
+                same_category=b.category == c.kind,
+                detail=b.detail,
+            )
         else:
             why = "; ".join(sorted({g[1].split(":")[0] for g in result.gaps}))[:200]
-            row["detail"] = ("no bifurcation located in the window" + (f" (values without an orbit: {why})"
-                                                                       if result.gaps else ""))
-        log(f"case {c.case} {c.sweep} ({row['paper_value']}): "
+            row["detail"] = "no bifurcation located in the window" + (
+                f" (values without an orbit: {why})" if result.gaps else ""
+            )
+        log(
+            f"case {c.case} {c.sweep} ({row['paper_value']}): "
             + (f"{row['continued_kind']} at {row['continued_value']:.10g}" if bifs else row["detail"])
-            + f" [{row.get('seconds', 0):.0f} s]")
+            + f" [{row.get('seconds', 0):.0f} s]"
+        )
         rows.append(row)
     frame = pd.DataFrame(rows)
     for col in COLUMNS:

@@ -10,9 +10,22 @@ import pandas as pd
 
 from nsbench.bifurcation.compare import _table
 
-TABLE_COLUMNS = ["case", "sweep", "paper_kind", "paper_value", "found", "difference", "refined",
-                 "refined_difference", "found_kind", "any_found", "any_difference", "any_found_kind",
-                 "candidates_on_sweep", "statement"]
+TABLE_COLUMNS = [
+    "case",
+    "sweep",
+    "paper_kind",
+    "paper_value",
+    "found",
+    "difference",
+    "refined",
+    "refined_difference",
+    "found_kind",
+    "any_found",
+    "any_difference",
+    "any_found_kind",
+    "candidates_on_sweep",
+    "statement",
+]
 
 
 def _intro(points, transient, record, total) -> list[str]:
@@ -57,20 +70,30 @@ CONTINUATION_TEXT = (
     "mechanism; the row gives the one nearest the stated value. `same_category` says whether its category "
     "(`sliding`, `border-collision`, `fixed-point`) is the one the paper names; where it is not, the paper's "
     "name and the located mechanism differ (the paper names kinds from diagrams, continuation from the "
-    "degenerate event on the orbit).")
+    "degenerate event on the orbit)."
+)
 
 
 def _continued_lines(continued) -> list[str]:
     if continued is None:
         return []
     differ = continued[continued["same_category"] == False]  # noqa: E712 - NaN rows are neither
-    lines = ["## Bifurcations named in the paper, located by continuation", "", CONTINUATION_TEXT, "",
-             _table(continued.drop(columns=["detail"])), ""]
+    lines = [
+        "## Bifurcations named in the paper, located by continuation",
+        "",
+        CONTINUATION_TEXT,
+        "",
+        _table(continued.drop(columns=["detail"])),
+        "",
+    ]
     if len(differ):
         lines += ["Where the located kind differs from the paper's:", ""]
-        lines += [f"- case {r.case}, {r.sweep} ({r.paper_value}): the paper names a {r.paper_kind} bifurcation; "
-                  f"continuation locates a {r.continued_kind} ({r.continued_category}) at {r.continued_value:.10g}: "
-                  f"{r.detail}" for r in differ.itertuples()]
+        lines += [
+            f"- case {r.case}, {r.sweep} ({r.paper_value}): the paper names a {r.paper_kind} bifurcation; "
+            f"continuation locates a {r.continued_kind} ({r.continued_category}) at {r.continued_value:.10g}: "
+            f"{r.detail}"
+            for r in differ.itertuples()
+        ]
         lines.append("")
     return lines
 
@@ -78,38 +101,58 @@ def _continued_lines(continued) -> list[str]:
 def markdown_report(sweeps, table, found, points, transient, record, total, continued=None) -> str:
     lines = ["# The paper's bifurcation diagrams, reproduced by nsbench", ""]
     lines += _intro(points, transient, record, total)
-    lines += ["## Bifurcations named in the paper: stated value and what nsbench finds", "",
-              "`found` is the nearest candidate of the matching kind (sliding, period for fixed-point, "
-              "event-pattern for border-collision) on the same sweep; `difference` is found minus the "
-              "stated value (0 when inside a stated interval); `refined` is that candidate narrowed by "
-              "bisection to 1e-4 of the sweep range; the `any_` columns use candidates of any kind. "
-              "`candidates_on_sweep` says how dense the candidates are: on a sweep with many, a close "
-              "`any_` match can be chance.",
-              "", _table(table[TABLE_COLUMNS]), ""]
+    lines += [
+        "## Bifurcations named in the paper: stated value and what nsbench finds",
+        "",
+        "`found` is the nearest candidate of the matching kind (sliding, period for fixed-point, "
+        "event-pattern for border-collision) on the same sweep; `difference` is found minus the "
+        "stated value (0 when inside a stated interval); `refined` is that candidate narrowed by "
+        "bisection to 1e-4 of the sweep range; the `any_` columns use candidates of any kind. "
+        "`candidates_on_sweep` says how dense the candidates are: on a sweep with many, a close "
+        "`any_` match can be chance.",
+        "",
+        _table(table[TABLE_COLUMNS]),
+        "",
+    ]
     lines += ["## Case 1 (not named in the paper): candidate bifurcation points found", ""]
     for (case, name), cands in found.items():
         if case != 1:
             continue
-        lines.append(f"**{name}**: " + (", ".join(f"{r.value:.4g} ({r.kind}: {r.description})"
-                                                   for r in cands.itertuples()) or "none") + "")
+        lines.append(
+            f"**{name}**: "
+            + (", ".join(f"{r.value:.4g} ({r.kind}: {r.description})" for r in cands.itertuples()) or "none")
+            + ""
+        )
         lines.append("")
     lines += _continued_lines(continued)
     lines += ["## Sweeps", "", _table(sweeps.drop(columns=["slug"])), ""]
     for r in sweeps.itertuples():
-        lines += [f"### Case {r.case}, {r.sweep} in {r.range} ({r.section})", "",
-                  f"![case {r.case} {r.sweep}](figures/diagram-{r.slug}.png)", "",
-                  f"Candidates: [candidates/{r.slug}.csv](candidates/{r.slug}.csv)" + (f". {r.note}" if r.note else ""),
-                  ""]
-    lines += ["## Locus of sticking phase at the values the paper discusses", "",
-              "Block 1 sticking in blue, block 2 in red, mapping points black; sliding region I is the "
-              "blue band, II the red band (drawn at the stroboscopic phase when forced), III their overlap.", ""]
+        lines += [
+            f"### Case {r.case}, {r.sweep} in {r.range} ({r.section})",
+            "",
+            f"![case {r.case} {r.sweep}](figures/diagram-{r.slug}.png)",
+            "",
+            f"Candidates: [candidates/{r.slug}.csv](candidates/{r.slug}.csv)" + (f". {r.note}" if r.note else ""),
+            "",
+        ]
+    lines += [
+        "## Locus of sticking phase at the values the paper discusses",
+        "",
+        "Block 1 sticking in blue, block 2 in red, mapping points black; sliding region I is the "
+        "blue band, II the red band (drawn at the stroboscopic phase when forced), III their overlap.",
+        "",
+    ]
     from nsbench.bifurcation.paper import LOCUS_VALUES
 
     for case, name, value in LOCUS_VALUES:
         tag = f"case{case}-{name}-{value:.6g}"
         if (case, name) in found:
-            lines += [f"**Case {case}, {name} = {value:.6g}**", "",
-                      f"![locus](figures/locus-{tag}.png) ![portrait](figures/portrait-{tag}.png)", ""]
+            lines += [
+                f"**Case {case}, {name} = {value:.6g}**",
+                "",
+                f"![locus](figures/locus-{tag}.png) ![portrait](figures/portrait-{tag}.png)",
+                "",
+            ]
     return "\n".join(lines) + "\n"
 
 
@@ -120,31 +163,42 @@ def _html_table(frame: pd.DataFrame) -> str:
 
 
 def html_report(sweeps, table, found, points, transient, record, total, continued=None) -> str:
-    parts = ["<!doctype html><html><head><meta charset='utf-8'><title>nsbench: the paper reproduced</title>",
-             "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
-             "font-size:12px}td,th{border:1px solid #ccc;padding:2px 5px}img{max-width:100%}</style></head><body>",
-             "<h1>The paper's bifurcation diagrams, reproduced by nsbench</h1>"]
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>nsbench: the paper reproduced</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
+        "font-size:12px}td,th{border:1px solid #ccc;padding:2px 5px}img{max-width:100%}</style></head><body>",
+        "<h1>The paper's bifurcation diagrams, reproduced by nsbench</h1>",
+    ]
     parts += [f"<p>{html.escape(p)}</p>" for p in _intro(points, transient, record, total) if p]
-    parts += ["<h2>Bifurcations named in the paper: stated value and what nsbench finds</h2>",
-              _html_table(table[TABLE_COLUMNS])]
+    parts += [
+        "<h2>Bifurcations named in the paper: stated value and what nsbench finds</h2>",
+        _html_table(table[TABLE_COLUMNS]),
+    ]
     if continued is not None:
-        parts += ["<h2>Bifurcations named in the paper, located by continuation</h2>",
-                  f"<p>{html.escape(CONTINUATION_TEXT)}</p>", _html_table(continued)]
+        parts += [
+            "<h2>Bifurcations named in the paper, located by continuation</h2>",
+            f"<p>{html.escape(CONTINUATION_TEXT)}</p>",
+            _html_table(continued),
+        ]
     parts.append("<h2>Case 1: candidate bifurcation points found</h2>")
     for (case, name), cands in found.items():
         if case == 1:
             parts.append(f"<h3>{html.escape(name)}</h3>" + _html_table(cands[["value", "kind", "description"]]))
     parts += ["<h2>Sweeps</h2>", _html_table(sweeps.drop(columns=["slug"]))]
     for r in sweeps.itertuples():
-        parts.append(f"<h3>Case {r.case}, {html.escape(r.sweep)} in {r.range}</h3>"
-                     f"<img src='figures/diagram-{r.slug}.png'><p>{html.escape(r.note)}</p>")
+        parts.append(
+            f"<h3>Case {r.case}, {html.escape(r.sweep)} in {r.range}</h3>"
+            f"<img src='figures/diagram-{r.slug}.png'><p>{html.escape(r.note)}</p>"
+        )
     parts.append("<h2>Locus of sticking phase</h2>")
     from nsbench.bifurcation.paper import LOCUS_VALUES
 
     for case, name, value in LOCUS_VALUES:
         tag = f"case{case}-{name}-{value:.6g}"
         if (case, name) in found:
-            parts.append(f"<h3>Case {case}, {html.escape(name)} = {value:.6g}</h3>"
-                         f"<img src='figures/locus-{tag}.png' width='45%'><img src='figures/portrait-{tag}.png'>")
+            parts.append(
+                f"<h3>Case {case}, {html.escape(name)} = {value:.6g}</h3>"
+                f"<img src='figures/locus-{tag}.png' width='45%'><img src='figures/portrait-{tag}.png'>"
+            )
     parts.append("</body></html>")
     return "\n".join(parts)

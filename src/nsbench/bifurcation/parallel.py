@@ -40,6 +40,7 @@ SETUP_STAGE = "integrator set-up"
 #: Ends the message of every value failed by its integrator's set-up.
 SETUP_FAILED = "the integrator could not be set up; no value was run"
 
+
 def compute_chunk(spec_dict: dict, indices: list[int]) -> pd.DataFrame:
     """Rows of several parameter values (the unit of work sent to a worker)."""
     from nsbench.integrators import get_integrator
@@ -55,17 +56,26 @@ def chunks(indices: list[int], workers: int, size: int | None = None) -> list[li
         return []
     if size is None:
         size = max(1, min(16, math.ceil(len(indices) / (6 * max(workers, 1)))))
-    return [indices[i:i + size] for i in range(0, len(indices), size)]
+    return [indices[i : i + size] for i in range(0, len(indices), size)]
 
 
 def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
-def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,
-              dask: str | object | None = None, progress: bool = True, chunk_size: int | None = None,
-              limit: int | None = None, point_limit: float | None = POINT_LIMIT,
-              setup_limit: float | None = SETUP_LIMIT, fresh: bool = False) -> pd.DataFrame:
+def run_sweep(
+    spec: SweepSpec,
+    out: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    dask: str | object | None = None,
+    progress: bool = True,
+    chunk_size: int | None = None,
+    limit: int | None = None,
+    point_limit: float | None = POINT_LIMIT,
+    setup_limit: float | None = SETUP_LIMIT,
+    fresh: bool = False,
+) -> pd.DataFrame:
     """Compute every missing value of ``spec`` into the store at ``out``; return all rows.
 
     Parameters
@@ -130,9 +140,15 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     return store.load()
 
 
-def supervise(pool: Any, spec: SweepSpec, parts: list[list[int]], point_limit: float | None,
-              setup_limit: float | None, write: Callable[[pd.DataFrame], Any],
-              advance: Callable[[int], Any] = lambda n: None) -> None:
+def supervise(
+    pool: Any,
+    spec: SweepSpec,
+    parts: list[list[int]],
+    point_limit: float | None,
+    setup_limit: float | None,
+    write: Callable[[pd.DataFrame], Any],
+    advance: Callable[[int], Any] = lambda n: None,
+) -> None:
     """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
 
     ``write`` receives the rows of each chunk as it ends (and, after an
@@ -190,8 +206,15 @@ def supervise(pool: Any, spec: SweepSpec, parts: list[list[int]], point_limit: f
 _WARM: dict[str, Any] = {}
 
 
-def sweep_job(spec_dict: dict, indices: list[int], point_limit: float | None, setup_limit: float | None, *,
-              stage: Callable[[str, float | None], None], emit: Callable[[Any], None]) -> int:
+def sweep_job(
+    spec_dict: dict,
+    indices: list[int],
+    point_limit: float | None,
+    setup_limit: float | None,
+    *,
+    stage: Callable[[str, float | None], None],
+    emit: Callable[[Any], None],
+) -> int:
     """A chunk of values in a supervised worker (:mod:`nsbench.jobs`): each value's rows emitted at once.
 
     The integrator's set-up (construction, ``setup``, loading or compiling the
@@ -234,30 +257,56 @@ def _set_up(spec: SweepSpec, value: float, setup_limit: float | None, stage: Cal
     return integ
 
 
-def refine_job(spec_dict: dict, left: float, right: float, kind: str, point_limit: float | None,
-               setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
-               emit: Callable[[Any], None]) -> dict:
+def refine_job(
+    spec_dict: dict,
+    left: float,
+    right: float,
+    kind: str,
+    point_limit: float | None,
+    setup_limit: float | None = SETUP_LIMIT,
+    *,
+    stage: Callable[[str, float | None], None],
+    emit: Callable[[Any], None],
+) -> dict:
     """:func:`nsbench.bifurcation.detect.refine` in a supervised worker, each value under ``point_limit``."""
     from nsbench.bifurcation.detect import refine
 
     spec = SweepSpec.from_dict(spec_dict)
     _set_up(spec, left, setup_limit, stage)  # compiled code loaded in this process: not a value's time
-    found = refine(spec, left, right, kind,
-                   before=lambda v: stage(f"refining a {kind} change at {spec.name} = {v:.10g}", point_limit))
+    found = refine(
+        spec,
+        left,
+        right,
+        kind,
+        before=lambda v: stage(f"refining a {kind} change at {spec.name} = {v:.10g}", point_limit),
+    )
     return {"left": found.left, "right": found.right, "value": found.value}
 
 
-def locus_job(spec_dict: dict, value: float, pair: tuple[int, int], point_limit: float | None,
-              setup_limit: float | None = SETUP_LIMIT, *, stage: Callable[[str, float | None], None],
-              emit: Callable[[Any], None]) -> Any:
+def locus_job(
+    spec_dict: dict,
+    value: float,
+    pair: tuple[int, int],
+    point_limit: float | None,
+    setup_limit: float | None = SETUP_LIMIT,
+    *,
+    stage: Callable[[str, float | None], None],
+    emit: Callable[[Any], None],
+) -> Any:
     """The locus-of-sticking run of a portrait (:func:`nsbench.bifurcation.locus.locus_run`), supervised."""
     from nsbench.bifurcation.locus import locus_run
 
     spec = SweepSpec.from_dict(spec_dict)
     integ = _set_up(spec, value, setup_limit, stage)
     stage(f"the locus run at {spec.name} = {value:.10g}", point_limit)
-    return locus_run(spec.problem_at(value), integ, transient=spec.transient,
-                     duration=min(300.0, spec.record_window), value=value, pair=pair)
+    return locus_run(
+        spec.problem_at(value),
+        integ,
+        transient=spec.transient,
+        duration=min(300.0, spec.record_window),
+        value=value,
+        pair=pair,
+    )
 
 
 def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
@@ -284,8 +333,15 @@ def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
 NO_WORKER_LIMIT = 60.0
 
 
-def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: Progress, dask,
-              point_limit: float | None, setup_limit: float | None) -> None:
+def _run_dask(
+    spec: SweepSpec,
+    parts: list[list[int]],
+    store: SweepStore,
+    bar: Progress,
+    dask,
+    point_limit: float | None,
+    setup_limit: float | None,
+) -> None:
     import time
 
     from distributed import Client, wait
@@ -300,8 +356,10 @@ def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: P
     components = pickle.dumps(shareable(registry.runtime_components()))
     futures: list = []
     try:
-        futures = [client.submit(dask_chunk, spec.to_dict(), part, point_limit, setup_limit, components,
-                                 pure=False) for part in parts]
+        futures = [
+            client.submit(dask_chunk, spec.to_dict(), part, point_limit, setup_limit, components, pure=False)
+            for part in parts
+        ]
         part_of = {f.key: p for f, p in zip(futures, parts)}
         pending, alone_since = set(futures), None
         with client.as_current():  # distributed.wait() uses the current client, and ours may not be the default
@@ -321,8 +379,12 @@ def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: P
                 if failed_setup is not None and pending:  # every other chunk would fail the same way
                     client.cancel(list(pending))
                     indices = [i for f in pending for i in part_of[f.key]]
-                    store.write(pd.concat([failure_rows(spec, i, failed_setup["status"], failed_setup["message"])
-                                           for i in indices], ignore_index=True))
+                    store.write(
+                        pd.concat(
+                            [failure_rows(spec, i, failed_setup["status"], failed_setup["message"]) for i in indices],
+                            ignore_index=True,
+                        )
+                    )
                     bar.update(len(indices))
                     pending = set()
                 # a cluster whose last worker is gone would leave the futures waiting forever
@@ -331,9 +393,11 @@ def _run_dask(spec: SweepSpec, parts: list[list[int]], store: SweepStore, bar: P
                 elif alone_since is None:
                     alone_since = time.monotonic()
                 elif time.monotonic() - alone_since > NO_WORKER_LIMIT:
-                    raise NsbenchError(f"the Dask cluster at {client.scheduler.address} has had no worker for "
-                                       f"{NO_WORKER_LIMIT:g} s with {len(pending)} chunk(s) pending; the "
-                                       "finished values are stored: rerun to compute the rest")
+                    raise NsbenchError(
+                        f"the Dask cluster at {client.scheduler.address} has had no worker for "
+                        f"{NO_WORKER_LIMIT:g} s with {len(pending)} chunk(s) pending; the "
+                        "finished values are stored: rerun to compute the rest"
+                    )
     except BaseException:
         client.cancel(futures)
         raise
@@ -356,8 +420,9 @@ def _dask_rows(spec: SweepSpec, future: Any, indices: list[int]) -> pd.DataFrame
 _DASK_POOLS = threading.local()
 
 
-def dask_chunk(spec_dict: dict, indices: list[int], point_limit: float | None, setup_limit: float | None,
-               components: bytes = b"") -> pd.DataFrame:
+def dask_chunk(
+    spec_dict: dict, indices: list[int], point_limit: float | None, setup_limit: float | None, components: bytes = b""
+) -> pd.DataFrame:
     """The rows of a chunk, computed on a Dask worker in a supervised process of its own.
 
     A value that hangs or kills its process costs that value (a ``time limit``

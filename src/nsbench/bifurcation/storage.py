@@ -62,19 +62,24 @@ class SweepStore:
                 meta = _read_meta(meta_path)
             except _Damaged as exc:
                 if spec is None:
-                    raise ConfigError(f"{meta_path} is damaged ({exc}); rerun the sweep into {self.directory} "
-                                      "to rebuild it") from None
+                    raise ConfigError(
+                        f"{meta_path} is damaged ({exc}); rerun the sweep into {self.directory} to rebuild it"
+                    ) from None
                 import sys
 
-                print(f"nsbench: warning: {meta_path} is damaged ({exc}); it is written again for this sweep, "
-                      "and only stored values that prove to be of this sweep are kept", file=sys.stderr)
+                print(
+                    f"nsbench: warning: {meta_path} is damaged ({exc}); it is written again for this sweep, "
+                    "and only stored values that prove to be of this sweep are kept",
+                    file=sys.stderr,
+                )
         if meta is not None:
             stored = SweepSpec.from_dict(meta["spec"])
             self._columns: tuple[str, ...] | None = tuple(meta.get("columns", ())) or None
             if spec is not None and _canonical(stored) != _canonical(spec):
                 raise ConfigError(
                     f"{self.directory} holds a different sweep ({_describe(stored)}); "
-                    f"use another --out for {_describe(spec)}")
+                    f"use another --out for {_describe(spec)}"
+                )
             self.spec = stored
             self.meta = meta
         else:
@@ -84,8 +89,12 @@ class SweepStore:
 
             self.spec = spec
             self._columns = spec.columns
-            self.meta = {"spec": spec.to_dict(), "spec_key": spec_key(spec), "columns": list(self._columns),
-                         "provenance": provenance()}
+            self.meta = {
+                "spec": spec.to_dict(),
+                "spec_key": spec_key(spec),
+                "columns": list(self._columns),
+                "provenance": provenance(),
+            }
             self.points_dir.mkdir(parents=True, exist_ok=True)
             write_atomic(meta_path, json.dumps(self.meta, indent=2, default=str))
         self.points_dir.mkdir(parents=True, exist_ok=True)
@@ -105,7 +114,7 @@ class SweepStore:
     def state_names(self) -> tuple[str, ...]:
         """``x1, v1, ..., xn, vn`` of the swept problem."""
         cols = self.columns
-        return tuple(cols[cols.index("t") + 1: cols.index("event_block")])
+        return tuple(cols[cols.index("t") + 1 : cols.index("event_block")])
 
     def write(self, frame: pd.DataFrame) -> Path:
         """Store the rows of some finished parameter values (one chunk file, named by what it holds)."""
@@ -154,8 +163,9 @@ class SweepStore:
 
         _, bad = self.check()
         for f, reason in bad:
-            print(f"nsbench: warning: {f} is damaged ({reason}); its values are computed again",
-                  file=stream or sys.stderr)
+            print(
+                f"nsbench: warning: {f} is damaged ({reason}); its values are computed again", file=stream or sys.stderr
+            )
             f.unlink(missing_ok=True)
         remove_stale_temporaries([(self.points_dir, "chunk-*.tmp")], stale_after)
         return [f for f, _ in bad]
@@ -170,8 +180,9 @@ class SweepStore:
         if bad:
             f, reason = bad[0]
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
-            raise ConfigError(f"{f} is damaged ({reason}){more}; rerun the sweep into {self.directory} "
-                              "to compute its values again")
+            raise ConfigError(
+                f"{f} is damaged ({reason}){more}; rerun the sweep into {self.directory} to compute its values again"
+            )
         if not good:
             return _typed_empty(self.columns)
         frame = pd.concat([rows for _, rows in good], ignore_index=True)
@@ -225,8 +236,10 @@ class _Damaged(Exception):
     """A chunk file that cannot be used (the message says why)."""
 
 
-_CHUNK = re.compile(r"chunk-(?P<first>\d+)(?:-(?P<last>\d+)-n(?P<rows>\d+)-(?P<sha>[0-9a-f]{16})"
-                    r"(?:-s(?P<spec>[0-9a-f]{16}))?)?(?:-[0-9a-f]{8})?\.(?:csv|parquet)")
+_CHUNK = re.compile(
+    r"chunk-(?P<first>\d+)(?:-(?P<last>\d+)-n(?P<rows>\d+)-(?P<sha>[0-9a-f]{16})"
+    r"(?:-s(?P<spec>[0-9a-f]{16}))?)?(?:-[0-9a-f]{8})?\.(?:csv|parquet)"
+)
 
 #: The Arrow type of each kind of column (strings read back as either string type).
 _ARROW_KINDS = {"int": ("int64",), "float": ("double",), "text": ("string", "large_string")}
@@ -273,8 +286,12 @@ def _read_csv(data: bytes, kinds: dict[str, str]) -> pd.DataFrame:
     """A chunk of a store written as CSV (before Parquet), with the types the rows were computed with."""
     numeric = [c for c, kind in kinds.items() if kind != "text"]
     try:  # text stays text ('' is an empty message); an empty number is a missing one (NaN)
-        frame = pd.read_csv(io.BytesIO(data), dtype={c: str for c, k in kinds.items() if k == "text"},
-                            keep_default_na=False, na_values={c: [""] for c in numeric})
+        frame = pd.read_csv(
+            io.BytesIO(data),
+            dtype={c: str for c, k in kinds.items() if k == "text"},
+            keep_default_na=False,
+            na_values={c: [""] for c in numeric},
+        )
     except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
         raise _Damaged(f"not a readable CSV table: {exc}") from None
     if list(frame.columns) != list(kinds):
@@ -311,8 +328,9 @@ def _check_values(frame: pd.DataFrame, spec: SweepSpec) -> None:
         raise _Damaged(f"value {idx[starts[j]]} has {counts[j]} rows where n_points says {n[j]}")
     want = spec.values[idx[starts]]
     first = value[starts]
-    value_bad = (np.logical_or.reduceat(value != np.repeat(first, counts), starts)
-                 | ~(np.abs(first - want) <= 1e-12 * np.maximum(1.0, np.abs(want))))
+    value_bad = np.logical_or.reduceat(value != np.repeat(first, counts), starts) | ~(
+        np.abs(first - want) <= 1e-12 * np.maximum(1.0, np.abs(want))
+    )
     if value_bad.any():
         j = int(np.flatnonzero(value_bad)[0])
         raise _Damaged(f"value {idx[starts[j]]} is not {spec.name} = {want[j]:.17g}")
@@ -350,8 +368,10 @@ def clear_sweep(directory: str | os.PathLike) -> None:
     try:
         json.loads(meta.read_text())["spec"]
     except (OSError, ValueError, KeyError, TypeError):
-        raise ConfigError(f"{str(d)!r} is not an nsbench sweep folder (no readable meta.json); refusing to "
-                          "clear it: choose another --out") from None
+        raise ConfigError(
+            f"{str(d)!r} is not an nsbench sweep folder (no readable meta.json); refusing to "
+            "clear it: choose another --out"
+        ) from None
     points = d / "points"
     foreign = [p.name for p in points.iterdir() if not p.name.startswith("chunk-")] if points.is_dir() else []
     if foreign:
@@ -379,14 +399,11 @@ def _canonical(spec: SweepSpec) -> str:
     from nsbench.integrators import canonical_name
 
     # an alias (exact-jit) names the same integrator: a store that recorded it resumes
-    return json.dumps({**spec.to_dict(), "integrator": canonical_name(spec.integrator)}, sort_keys=True,
-                      default=str)
+    return json.dumps({**spec.to_dict(), "integrator": canonical_name(spec.integrator)}, sort_keys=True, default=str)
 
 
 def _describe(spec: SweepSpec) -> str:
-    return (f"{spec.problem} case {spec.case}, {spec.name} = {spec.start:g}:{spec.stop:g}:{spec.count}, "
-            f"{spec.integrator}, {spec.section}")
-
-
-
-
+    return (
+        f"{spec.problem} case {spec.case}, {spec.name} = {spec.start:g}:{spec.stop:g}:{spec.count}, "
+        f"{spec.integrator}, {spec.section}"
+    )

@@ -46,16 +46,34 @@ def column_kinds(columns: tuple[str, ...]) -> dict[str, str]:
     """``'text'``, ``'int'`` or ``'float'`` for each column of a sweep table (what a store keeps)."""
     ints = {"index", "k", "n_points", "event_block", "n_events", "nfev", "nsteps"}
     counts = tuple(name for _, name in EVENT_COUNTS)
-    return {c: "text" if c in TEXT_COLUMNS else
-            "int" if c in ints or (c.startswith(counts) and c.rstrip("0123456789") in counts) else "float"
-            for c in columns}
+    return {
+        c: "text"
+        if c in TEXT_COLUMNS
+        else "int"
+        if c in ints or (c.startswith(counts) and c.rstrip("0123456789") in counts)
+        else "float"
+        for c in columns
+    }
 
 
 def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
     """The tidy columns of a sweep of a problem with these state names."""
     n_blocks = len(state_names) // 2
-    return ("param", "value", "index", "section", "k", "t", *state_names, "event_block", "status",
-            "message", "n_points", *counter_columns(n_blocks), "wall_time")
+    return (
+        "param",
+        "value",
+        "index",
+        "section",
+        "k",
+        "t",
+        *state_names,
+        "event_block",
+        "status",
+        "message",
+        "n_points",
+        *counter_columns(n_blocks),
+        "wall_time",
+    )
 
 
 def parse_sweep(text: str) -> tuple[str, float, float, int]:
@@ -66,6 +84,7 @@ def parse_sweep(text: str) -> tuple[str, float, float, int]:
     naming the bad part and what is allowed.
     """
     from nsbench.bifurcation import MAX_SWEEP_POINTS as max_count
+
     name, sep, rng = text.partition("=")
     parts = [p.strip() for p in rng.split(":")]
     if not sep or not name.strip() or len(parts) != 3:
@@ -77,16 +96,17 @@ def parse_sweep(text: str) -> tuple[str, float, float, int]:
     if not (math.isfinite(start) and math.isfinite(stop)):
         raise ConfigError(f"--sweep {text!r}: START and STOP must be finite")
     if start == stop:
-        raise ConfigError(f"--sweep {text!r}: START and STOP are equal; a sweep needs a range of values "
-                          "(for one value, use nsbench simulate)")
+        raise ConfigError(
+            f"--sweep {text!r}: START and STOP are equal; a sweep needs a range of values "
+            "(for one value, use nsbench simulate)"
+        )
     allowed = f"a whole number between 1 and {max_count}"
     try:
         count = float(parts[2])
     except ValueError:
         raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]!r} is not a number; expected {allowed}") from None
     if not (math.isfinite(count) and count.is_integer() and 1 <= count <= max_count):
-        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]} must be {allowed} "
-                          "(split a longer sweep into several)")
+        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]} must be {allowed} (split a longer sweep into several)")
     return name.strip(), start, stop, int(count)
 
 
@@ -137,8 +157,10 @@ class SweepSpec:
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ConfigError(f"{key} = {value!r} must be a finite number")
         if self.start == self.stop and count > 1:
-            raise ConfigError(f"start = stop = {self.start!r}: {count} values of a sweep would all be the same; "
-                              "give a range, or count = 1")
+            raise ConfigError(
+                f"start = stop = {self.start!r}: {count} values of a sweep would all be the same; "
+                "give a range, or count = 1"
+            )
         if self.section not in SECTIONS:
             raise ConfigError(f"section {self.section!r} is not allowed; choose one of {', '.join(SECTIONS)}")
         if not (math.isfinite(self.transient) and self.transient >= 0):
@@ -189,11 +211,13 @@ class SweepSpec:
             # the forcing period must exist everywhere; F may be 0 at one end of an F sweep
             for v, problem in zip((self.start, self.stop), ends):
                 if problem.forcing_frequency <= 0:
-                    raise ConfigError(f"section strobe needs Omega > 0; at {self.name} = {v:g} "
-                                      f"Omega = {problem.forcing_frequency:g}")
+                    raise ConfigError(
+                        f"section strobe needs Omega > 0; at {self.name} = {v:g} Omega = {problem.forcing_frequency:g}"
+                    )
             if not any(p.is_forced for p in ends):
-                raise ConfigError("section strobe needs a harmonic force (F > 0) in the sweep; "
-                                  "use peaks, stick or mapping")
+                raise ConfigError(
+                    "section strobe needs a harmonic force (F > 0) in the sweep; use peaks, stick or mapping"
+                )
         problem = ends[0]
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
         check_in_caller(get_integrator(self.integrator, **self.options), problem)
@@ -228,16 +252,30 @@ def strobe_times(problem, transient: float, record: int) -> np.ndarray:
     return period * np.arange(k0, k0 + record)
 
 
-def _rows(spec: SweepSpec, names: tuple[str, ...], index: int, value: float, t, y, blocks, status: str,
-          message: str, counters: dict[str, int], wall: float) -> pd.DataFrame:
+def _rows(
+    spec: SweepSpec,
+    names: tuple[str, ...],
+    index: int,
+    value: float,
+    t,
+    y,
+    blocks,
+    status: str,
+    message: str,
+    counters: dict[str, int],
+    wall: float,
+) -> pd.DataFrame:
     n = len(t)
     rows = max(n, 1)
     states = np.full((rows, len(names)), np.nan)
     if n:
         states[:n] = y
     data: dict[str, Any] = {
-        "param": [spec.name] * rows, "value": np.full(rows, float(value)), "index": np.full(rows, int(index)),
-        "section": [spec.section] * rows, "k": np.arange(n) if n else np.array([-1]),
+        "param": [spec.name] * rows,
+        "value": np.full(rows, float(value)),
+        "index": np.full(rows, int(index)),
+        "section": [spec.section] * rows,
+        "k": np.arange(n) if n else np.array([-1]),
         "t": np.asarray(t, dtype=float) if n else np.array([np.nan]),
     }
     for j, col in enumerate(names):
@@ -255,8 +293,7 @@ def _rows(spec: SweepSpec, names: tuple[str, ...], index: int, value: float, t, 
 def failure_rows(spec: SweepSpec, index: int, status: str, message: str, wall: float = math.nan) -> pd.DataFrame:
     """The one row of a value that gave no points: its ``status`` (``failure``, ``time limit``,
     ``crashed``) and the reason."""
-    return _rows(spec, spec.state_names, index, float(spec.values[index]), [], None, [], status, message, {},
-                 wall)
+    return _rows(spec, spec.state_names, index, float(spec.values[index]), [], None, [], status, message, {}, wall)
 
 
 def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
@@ -272,19 +309,22 @@ def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
         t, y, blocks, status, message, counters = _point(spec, problem, integ)
     except (NsbenchError, ArithmeticError, ValueError, RuntimeError) as exc:
         return failure_rows(spec, index, Status.ERROR.value, f"{type(exc).__name__}: {exc}", time.perf_counter() - tic)
-    return _rows(spec, names, index, value, t, y, blocks, status, message, counters,
-                 time.perf_counter() - tic)
+    return _rows(spec, names, index, value, t, y, blocks, status, message, counters, time.perf_counter() - tic)
 
 
 def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
     if status != Status.SUCCESS:
         return status, f"stopped at t = {t_last:.6g}"
     if n_found < spec.record and rest:
-        return Status.REST.value, (f"at rest (sliding equilibrium) by t = {t_last:.6g} after {n_found} "
-                        f"{spec.section} points; the final state is recorded")
+        return Status.REST.value, (
+            f"at rest (sliding equilibrium) by t = {t_last:.6g} after {n_found} "
+            f"{spec.section} points; the final state is recorded"
+        )
     if n_found < spec.record:
-        return Status.INCOMPLETE.value, (f"{n_found} of {spec.record} {spec.section} points by t = {t_last:.6g} "
-                              f"(window {spec.record_window:g} after the transient)")
+        return Status.INCOMPLETE.value, (
+            f"{n_found} of {spec.record} {spec.section} points by t = {t_last:.6g} "
+            f"(window {spec.record_window:g} after the transient)"
+        )
     return Status.SUCCESS.value, ""
 
 
@@ -305,13 +345,17 @@ def _point(spec: SweepSpec, problem, integ):
         kwargs = dict(t_eval=times)
     else:
         kwargs = dict(stop_kind="stick" if spec.section == "stick" else "slip", stop_count=spec.record)
-    raw = run_hybrid(problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000,
-                     max_events=5_000_000, **kwargs)
+    raw = run_hybrid(
+        problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000, **kwargs
+    )
     rec = raw.records
     kinds = rec.ev_kind[: raw.n_events]
     blocks_ev = rec.ev_block[: raw.n_events]
-    counters: dict[str, int] = {"n_events": raw.n_events_total, "nfev": raw.counters.nfev,
-                                "nsteps": raw.counters.nsteps}
+    counters: dict[str, int] = {
+        "n_events": raw.n_events_total,
+        "nfev": raw.counters.nfev,
+        "nsteps": raw.counters.nsteps,
+    }
     for code, (_, name) in enumerate(EVENT_COUNTS):
         for b in range(1, problem.n_blocks + 1):
             counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b)))
@@ -325,8 +369,7 @@ def _point(spec: SweepSpec, problem, integ):
         pick = np.flatnonzero(kinds == want)[: spec.record]
         t, y, blocks = rec.ev_t[pick], rec.ev_y[pick], blocks_ev[pick]
     moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, problem.n_blocks + 1))
-    rest = (len(t) < spec.record and raw.status.ok and moved == 0
-            and float(np.max(np.abs(raw.y[1::2]))) <= REST_SPEED)
+    rest = len(t) < spec.record and raw.status.ok and moved == 0 and float(np.max(np.abs(raw.y[1::2]))) <= REST_SPEED
     status, message = _finish(spec, len(t), raw.status.value, raw.t, rest)
     if raw.status.ok is False:
         message = f"{message}: {raw.message}" if raw.message else message

@@ -14,8 +14,21 @@ from typing import NoReturn, Sequence
 from nsbench.errors import NsbenchError
 
 # Sub-command modules; each defines ``add_parser(subparsers)`` and ``main(args) -> int``.
-COMMANDS = ("listing", "simulate", "check", "run", "bench", "report", "compare", "history", "ingest",
-            "bifurcation", "continuation", "lyapunov", "paper")
+COMMANDS = (
+    "listing",
+    "simulate",
+    "check",
+    "run",
+    "bench",
+    "report",
+    "compare",
+    "history",
+    "ingest",
+    "bifurcation",
+    "continuation",
+    "lyapunov",
+    "paper",
+)
 
 
 class UsageError(NsbenchError):

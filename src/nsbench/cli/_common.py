@@ -127,8 +127,16 @@ def parse_count(text: str, what: str, *, low: int = 1, high: int | None = None, 
     return value
 
 
-def parse_real(text: str, what: str, *, low: float | None = None, low_open: bool = False,
-               high: float | None = None, high_open: bool = False, bound: str | None = None) -> float:
+def parse_real(
+    text: str,
+    what: str,
+    *,
+    low: float | None = None,
+    low_open: bool = False,
+    high: float | None = None,
+    high_open: bool = False,
+    bound: str | None = None,
+) -> float:
     """A finite number, optionally bounded below and above.
 
     Parameters
@@ -208,8 +216,9 @@ def _is_loop(link: Path) -> bool:
     return False
 
 
-def check_fixed_step(integrator: "Integrator", problem: "FrictionOscillator", span: float, what: str,
-                     max_steps: int, given: bool = False) -> None:
+def check_fixed_step(
+    integrator: "Integrator", problem: "FrictionOscillator", span: float, what: str, max_steps: int, given: bool = False
+) -> None:
     """Refuse a fixed step that cannot run ``problem`` over ``span``.
 
     A fixed-step integrator takes ``span / h`` steps: beyond ``max_steps`` the run
@@ -231,14 +240,18 @@ def check_fixed_step(integrator: "Integrator", problem: "FrictionOscillator", sp
     step = float(step)
     label = f"{type(integrator).name}'s {name} = {step:g}"
     if span > 0 and not span / step <= max_steps:
-        raise ConfigError(f"{what} with {label} needs {span / step:.3g} steps, more than the step budget of "
-                          f"{max_steps}: raise {name} or shorten the span")
+        raise ConfigError(
+            f"{what} with {label} needs {span / step:.3g} steps, more than the step budget of "
+            f"{max_steps}: raise {name} or shorten the span"
+        )
     if given and span > 0 and step > span:
         raise ConfigError(f"{label} is longer than the whole run ({what}): give {name} < {span:g}")
     w = float(problem.forcing_frequency)
     if problem.is_forced and not w * step < math.pi:
-        raise ConfigError(f"{label} takes fewer than two steps per forcing period (2 pi / w = {2 * math.pi / w:.3g}): "
-                          f"the force is not resolved; lower {name} below {math.pi / w:.3g}")
+        raise ConfigError(
+            f"{label} takes fewer than two steps per forcing period (2 pi / w = {2 * math.pi / w:.3g}): "
+            f"the force is not resolved; lower {name} below {math.pi / w:.3g}"
+        )
 
 
 def check_output_file(path: str, flag: str) -> Path:
@@ -394,12 +407,18 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     """PROBLEM, --case, --param, --dimensional."""
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. one-dof or two-dof")
     p.add_argument("--case", default=None, help="preset 1..4 (default 1); one-dof also 'leine'")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="parameter override (repeatable); dimensionless names unless --dimensional; "
-                        "law=coulomb|weakening|stribeck picks the friction law")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="parameter override (repeatable); dimensionless names unless --dimensional; "
+        "law=coulomb|weakening|stribeck picks the friction law",
+    )
     p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
-    p.add_argument("--dimensional", action="store_true",
-                   help="parameters, integration and outputs in dimensional units")
+    p.add_argument(
+        "--dimensional", action="store_true", help="parameters, integration and outputs in dimensional units"
+    )
 
 
 def shared_params(args: argparse.Namespace) -> dict[str, Any]:

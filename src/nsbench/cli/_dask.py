@@ -98,30 +98,39 @@ def connect(address: str, *, connect_timeout: float | None = None, worker_timeou
                     except (TimeoutError, socket.timeout):
                         greeting = b""
                     if not greeting:
-                        raise ConfigError(f"--dask {address}: the server there does not answer like a Dask "
-                                          f"scheduler (no handshake within {connect_timeout:g} s)")
+                        raise ConfigError(
+                            f"--dask {address}: the server there does not answer like a Dask "
+                            f"scheduler (no handshake within {connect_timeout:g} s)"
+                        )
         except socket.gaierror as exc:
             raise ConfigError(f"--dask {address}: host {host!r} not found ({exc.strerror})") from None
         except (TimeoutError, socket.timeout):
-            raise ConfigError(f"--dask {address}: no answer within {connect_timeout:g} s "
-                              "(is the scheduler running, and the port open?)") from None
+            raise ConfigError(
+                f"--dask {address}: no answer within {connect_timeout:g} s "
+                "(is the scheduler running, and the port open?)"
+            ) from None
         except OSError as exc:
-            raise ConfigError(f"--dask {address}: cannot connect ({exc.strerror or exc}); "
-                              "is the scheduler running?") from None
+            raise ConfigError(
+                f"--dask {address}: cannot connect ({exc.strerror or exc}); is the scheduler running?"
+            ) from None
     try:
         client = Client(address, timeout=connect_timeout, set_as_default=False)
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
         _discard_half_built_client(exc)
         reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise ConfigError(f"--dask {address}: cannot connect to a Dask scheduler within {connect_timeout:g} s "
-                          f"({reason})") from None
+        raise ConfigError(
+            f"--dask {address}: cannot connect to a Dask scheduler within {connect_timeout:g} s ({reason})"
+        ) from None
     try:
         client.wait_for_workers(1, timeout=worker_timeout)
     except (OSError, TimeoutError) as exc:
         client.close()
         if isinstance(exc, TimeoutError):
-            raise ConfigError(f"--dask {address}: the scheduler has no workers (none joined within "
-                              f"{worker_timeout:g} s); start one with 'dask worker {address}'") from None
-        raise ConfigError(f"--dask {address}: lost the scheduler while waiting for workers "
-                          f"({exc.strerror or exc})") from None
+            raise ConfigError(
+                f"--dask {address}: the scheduler has no workers (none joined within "
+                f"{worker_timeout:g} s); start one with 'dask worker {address}'"
+            ) from None
+        raise ConfigError(
+            f"--dask {address}: lost the scheduler while waiting for workers ({exc.strerror or exc})"
+        ) from None
     return client

@@ -14,10 +14,14 @@ def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="run a benchmark suite (TOML) into an output directory")
     p.add_argument("suite", metavar="SUITE.toml", help="suite file, or 'default' for the packaged suite")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
-    p.add_argument("--workers", default=None,
-                   help="worker processes (default: all cores; 1: one worker, still a child process)")
-    p.add_argument("--fresh", action="store_true",
-                   help="discard the cases already stored in DIR (default: resume, computing only missing cases)")
+    p.add_argument(
+        "--workers", default=None, help="worker processes (default: all cores; 1: one worker, still a child process)"
+    )
+    p.add_argument(
+        "--fresh",
+        action="store_true",
+        help="discard the cases already stored in DIR (default: resume, computing only missing cases)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-report", action="store_true", help="do not write the report afterwards")
     p.set_defaults(handler=main)
@@ -42,8 +46,10 @@ def run_and_report(suite, out: str, workers: str | int | None, resume: bool, pro
     suite.check_size()  # a grid of 10^9 cases is refused here, not expanded
     summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress)
     counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
-    print(f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "
-          + ", ".join(f"{k}: {v}" for k, v in counts.items()))
+    print(
+        f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "
+        + ", ".join(f"{k}: {v}" for k, v in counts.items())
+    )
     print(f"results -> {summary.out / 'results.parquet'} (and results.csv)")
     if report and len(summary.results):
         from nsbench.bench.report import write_report
@@ -75,5 +81,4 @@ def answer(out, results) -> list[str]:
 
 
 def main(args: argparse.Namespace) -> int:
-    return run_and_report(args.suite, args.out, args.workers, not args.fresh, not args.no_progress,
-                          not args.no_report)
+    return run_and_report(args.suite, args.out, args.workers, not args.fresh, not args.no_progress, not args.no_report)

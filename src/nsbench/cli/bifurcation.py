@@ -7,8 +7,15 @@ import math
 import time
 from pathlib import Path
 
-from nsbench.cli._common import (check_fixed_step, check_output_dir, parse_count, parse_number, parse_options,
-                                 parse_real, shared_params)
+from nsbench.cli._common import (
+    check_fixed_step,
+    check_output_dir,
+    parse_count,
+    parse_number,
+    parse_options,
+    parse_real,
+    shared_params,
+)
 from nsbench.cli._dask import connect as connect_dask
 from nsbench.errors import ConfigError
 
@@ -23,42 +30,82 @@ def add_parser(sub) -> None:
     p = sub.add_parser("bifurcation", help="sweep one parameter and draw the bifurcation diagram")
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
     p.add_argument("--case", default="1", help="preset 1..4 (default 1)")
-    p.add_argument("--sweep", required=True, metavar="NAME=START:STOP:COUNT",
-                   help="swept dimensionless parameter (v0, omega_r, inv_omega_r, r_f, F, Omega, h1, ...)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="fixed parameter override (repeatable)")
+    p.add_argument(
+        "--sweep",
+        required=True,
+        metavar="NAME=START:STOP:COUNT",
+        help="swept dimensionless parameter (v0, omega_r, inv_omega_r, r_f, F, Omega, h1, ...)",
+    )
+    p.add_argument(
+        "--param", action="append", default=[], metavar="NAME=VALUE", help="fixed parameter override (repeatable)"
+    )
     p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
-    p.add_argument("--integrator", action="append", default=[], metavar="NAME",
-                   help="registered integrator; repeat to compare several (default: exact for "
-                        "linear problems, henon-rk4 otherwise)")
+    p.add_argument(
+        "--integrator",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="registered integrator; repeat to compare several (default: exact for "
+        "linear problems, henon-rk4 otherwise)",
+    )
     p.add_argument("--h", default=None, help="step size of fixed-step integrators")
-    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
-                   help="integrator option (repeatable; applies to every integrator that has it)")
-    p.add_argument("--section", default=None, choices=("peaks", "strobe", "stick", "mapping"),
-                   help="recorded points (default: strobe if forced, else peaks)")
+    p.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="integrator option (repeatable; applies to every integrator that has it)",
+    )
+    p.add_argument(
+        "--section",
+        default=None,
+        choices=("peaks", "strobe", "stick", "mapping"),
+        help="recorded points (default: strobe if forced, else peaks)",
+    )
     p.add_argument("--transient", default="1500", help="time integrated before recording (default 1500)")
     p.add_argument("--record", default="100", help="section points recorded per value (default 100)")
-    p.add_argument("--window", default=None, help="longest recording time after the transient "
-                                                  "(default 40 * record + 400)")
+    p.add_argument(
+        "--window", default=None, help="longest recording time after the transient (default 40 * record + 400)"
+    )
     grp = p.add_mutually_exclusive_group()
     grp.add_argument("--workers", default=None, help="local processes (default: all cores)")
     grp.add_argument("--dask", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--out", default=None, help="results folder (default bifurcation/<problem>[-n<N>]-case<C>-<NAME>)")
-    p.add_argument("--fresh", action="store_true",
-                   help="discard the sweep stored in --out (default: resume, computing only missing values)")
+    p.add_argument(
+        "--fresh",
+        action="store_true",
+        help="discard the sweep stored in --out (default: resume, computing only missing values)",
+    )
     p.add_argument("--refine", action="store_true", help="refine candidate bifurcation points by bisection")
-    p.add_argument("--portrait", action="append", default=[], metavar="VALUE",
-                   help="also draw the locus of sticking phase and phase portraits at this value (repeatable)")
-    p.add_argument("--pair", default="1,2", metavar="A,B",
-                   help="the two blocks whose positions the locus and portraits show (default 1,2)")
+    p.add_argument(
+        "--portrait",
+        action="append",
+        default=[],
+        metavar="VALUE",
+        help="also draw the locus of sticking phase and phase portraits at this value (repeatable)",
+    )
+    p.add_argument(
+        "--pair",
+        default="1,2",
+        metavar="A,B",
+        help="the two blocks whose positions the locus and portraits show (default 1,2)",
+    )
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
-    p.add_argument("--point-limit", default="600", metavar="SECONDS",
-                   help="hard limit of one parameter value, on local workers and on Dask: past it the worker "
-                        "is ended and the value stored with status 'time limit' (default 600)")
-    p.add_argument("--setup-limit", default="1800", metavar="SECONDS",
-                   help="hard limit of the integrator's set-up in each worker (construction, setup, compiling "
-                        "or loading its compiled code): past it every value not computed yet is stored with "
-                        "status 'time limit' (default 1800)")
+    p.add_argument(
+        "--point-limit",
+        default="600",
+        metavar="SECONDS",
+        help="hard limit of one parameter value, on local workers and on Dask: past it the worker "
+        "is ended and the value stored with status 'time limit' (default 600)",
+    )
+    p.add_argument(
+        "--setup-limit",
+        default="1800",
+        metavar="SECONDS",
+        help="hard limit of the integrator's set-up in each worker (construction, setup, compiling "
+        "or loading its compiled code): past it every value not computed yet is stored with "
+        "status 'time limit' (default 1800)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
 
@@ -70,14 +117,28 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     params = shared_params(args)
     if name == "n":
         raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
-    window = parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN") if args.window is not None else None
+    window = (
+        parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
+        if args.window is not None
+        else None
+    )
     record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
-    section = args.section or default_section(problem_probe(name, start, params),
-                                              problem_probe(name, stop, params))
-    return SweepSpec(problem=args.problem, case=int(parse_number(args.case, "--case")), name=name,
-                     start=start, stop=stop, count=count, integrator=integrator, options=options,
-                     section=section, transient=parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN"),
-                     record=record, window=window, params=params)
+    section = args.section or default_section(problem_probe(name, start, params), problem_probe(name, stop, params))
+    return SweepSpec(
+        problem=args.problem,
+        case=int(parse_number(args.case, "--case")),
+        name=name,
+        start=start,
+        stop=stop,
+        count=count,
+        integrator=integrator,
+        options=options,
+        section=section,
+        transient=parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN"),
+        record=record,
+        window=window,
+        params=params,
+    )
 
 
 def _probe(problem: str, case: str):
@@ -85,6 +146,7 @@ def _probe(problem: str, case: str):
 
     def build(name, value, params):
         return get_problem(problem, case=case, **{**params, name: value})
+
     return build
 
 
@@ -125,8 +187,14 @@ def main(args: argparse.Namespace) -> int:
         integ = get_integrator(spec.integrator, **spec.options)
         span = spec.transient + spec.record_window
         for value in (spec.start, spec.stop):
-            check_fixed_step(integ, spec.problem_at(value), span, f"a value's run over {span:g} (transient and window)",
-                             SWEEP_MAX_STEPS, given=type(integ).capabilities.step_option in spec.options)
+            check_fixed_step(
+                integ,
+                spec.problem_at(value),
+                span,
+                f"a value's run over {span:g} (transient and window)",
+                SWEEP_MAX_STEPS,
+                given=type(integ).capabilities.step_option in spec.options,
+            )
     pair = _pair(args.pair)
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
@@ -157,8 +225,16 @@ def main(args: argparse.Namespace) -> int:
         tic = time.perf_counter()
         point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
         setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-        frame = run_sweep(spec, out, workers=workers, dask=dask, progress=not args.no_progress, fresh=args.fresh,
-                          point_limit=point_limit, setup_limit=setup_limit)
+        frame = run_sweep(
+            spec,
+            out,
+            workers=workers,
+            dask=dask,
+            progress=not args.no_progress,
+            fresh=args.fresh,
+            point_limit=point_limit,
+            setup_limit=setup_limit,
+        )
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
@@ -179,16 +255,20 @@ def main(args: argparse.Namespace) -> int:
         feats.to_csv(out / "features.csv", index=False)
         cands.to_csv(out / "candidates.csv", index=False)
         summary = points_summary(frame)
-        title = (f"{spec.problem} case {spec.case}: {spec.name} sweep, {spec.integrator}, "
-                 f"{spec.section}, transient {spec.transient:g}, {spec.record} points")
+        title = (
+            f"{spec.problem} case {spec.case}: {spec.name} sweep, {spec.integrator}, "
+            f"{spec.section}, transient {spec.transient:g}, {spec.record} points"
+        )
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
         for value in portraits:
             _portrait(spec, value, out, formats, pair, point_limit, local_workers, setup_limit)
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
-        print(f"{spec.integrator}: {len(summary)} values ({n_bad} failed or incomplete) in {walls[spec.integrator]:.1f} s "
-              f"-> {out}")
+        print(
+            f"{spec.integrator}: {len(summary)} values ({n_bad} failed or incomplete) in {walls[spec.integrator]:.1f} s "
+            f"-> {out}"
+        )
         print(f"  diagram -> {written[0]}")
         if len(cands):
             print(f"  candidate bifurcation points ({len(cands)}):")
@@ -242,8 +322,16 @@ def _pair(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
-def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1, 2),
-              point_limit: float | None = None, workers: int = 1, setup_limit: float | None = None) -> None:
+def _portrait(
+    spec,
+    value: float,
+    out: Path,
+    formats,
+    pair: tuple[int, int] = (1, 2),
+    point_limit: float | None = None,
+    workers: int = 1,
+    setup_limit: float | None = None,
+) -> None:
     from nsbench.bifurcation import figures
     from nsbench.bifurcation.parallel import supervised
 
@@ -251,12 +339,14 @@ def _portrait(spec, value: float, out: Path, formats, pair: tuple[int, int] = (1
     # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
     from nsbench.jobs import SETUP_LIMIT
 
-    run, why = supervised("locus_job", (spec.to_dict(), value, pair, point_limit,
-                                        SETUP_LIMIT if setup_limit is None else setup_limit), workers)
+    run, why = supervised(
+        "locus_job",
+        (spec.to_dict(), value, pair, point_limit, SETUP_LIMIT if setup_limit is None else setup_limit),
+        workers,
+    )
     if run is None:
         print(f"  locus and portrait at {tag} failed: {why}")
         return
     figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
-    figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}",
-                     formats=formats)
+    figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}", formats=formats)
     print(f"  locus and portrait at {tag} -> {out}")

@@ -10,15 +10,24 @@ from nsbench.cli._common import parse_options, shared_params
 def add_parser(sub) -> None:
     p = sub.add_parser("check", help="run the conformance kit on a registered integrator")
     p.add_argument("integrator", metavar="INTEGRATOR", help="registered integrator (built-in or plug-in)")
-    p.add_argument("--check", action="append", default=None, metavar="NAME",
-                   help="run only this check (repeatable); default: all")
-    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
-                   help="integrator option (repeatable)")
-    p.add_argument("--problem", default="two-dof", metavar="PROBLEM",
-                   help="registered problem the checks run on (default two-dof): the belt oscillators by their presets 1-4, any other as given")
+    p.add_argument(
+        "--check", action="append", default=None, metavar="NAME", help="run only this check (repeatable); default: all"
+    )
+    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", help="integrator option (repeatable)")
+    p.add_argument(
+        "--problem",
+        default="two-dof",
+        metavar="PROBLEM",
+        help="registered problem the checks run on (default two-dof): the belt oscillators by their presets 1-4, any other as given",
+    )
     p.add_argument("--n", default=None, help="number of blocks of a chain problem")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="parameter shared by every case of the problem (repeatable)")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="parameter shared by every case of the problem (repeatable)",
+    )
     p.set_defaults(handler=main)
 
 

@@ -10,11 +10,13 @@ def add_parser(sub) -> None:
     p = sub.add_parser("compare", help="compare two result directories (or Parquet/CSV files)")
     p.add_argument("a", metavar="A", help="baseline results")
     p.add_argument("b", metavar="B", help="new results")
-    p.add_argument("--factor", default="1.5",
-                   help="smallest ratio that counts as a change (default 1.5)")
-    p.add_argument("--confidence", default="0.99",
-                   help="confidence of a flagged time change: the one-sided Mann-Whitney test on the two runs' "
-                        "samples at 1 - confidence (default 0.99)")
+    p.add_argument("--factor", default="1.5", help="smallest ratio that counts as a change (default 1.5)")
+    p.add_argument(
+        "--confidence",
+        default="0.99",
+        help="confidence of a flagged time change: the one-sided Mann-Whitney test on the two runs' "
+        "samples at 1 - confidence (default 0.99)",
+    )
     p.add_argument("--all", action="store_true", help="list every common case, not only the changes")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="write the full comparison table")
     p.set_defaults(handler=main)
@@ -32,19 +34,43 @@ def main(args: argparse.Namespace) -> int:
         check_output_file(args.out, "--out")
     table, counts = compare(args.a, args.b, factor, confidence)
     if counts["common"] == 0:
-        raise ConfigError(f"no common cases: {args.a} and {args.b} share no case id ({counts['only_a']} cases "
-                          f"only in A, {counts['only_b']} only in B); compare runs of the same suite")
-    print(f"{counts['common']} common cases ({counts['only_a']} only in A, {counts['only_b']} only in B); "
-          f"factor {factor:g}, confidence {confidence:g}; {counts['flagged']} flagged")
+        raise ConfigError(
+            f"no common cases: {args.a} and {args.b} share no case id ({counts['only_a']} cases "
+            f"only in A, {counts['only_b']} only in B); compare runs of the same suite"
+        )
+    print(
+        f"{counts['common']} common cases ({counts['only_a']} only in A, {counts['only_b']} only in B); "
+        f"factor {factor:g}, confidence {confidence:g}; {counts['flagged']} flagged"
+    )
     quiet = ("same", "n/a")
-    changed = (table["flagged"] | ~table["time_verdict"].isin(quiet) | ~table["err_verdict"].isin(quiet)
-               | ~table["nfev_verdict"].isin(quiet))
+    changed = (
+        table["flagged"]
+        | ~table["time_verdict"].isin(quiet)
+        | ~table["err_verdict"].isin(quiet)
+        | ~table["nfev_verdict"].isin(quiet)
+    )
     view = table if args.all else table[changed]
     if len(view):
-        view = view.assign(time_interval=[f"[{lo:.3g}, {hi:.3g}]" if lo == lo else ""
-                                          for lo, hi in zip(view["time_low"], view["time_high"])])
-        cols = ["problem", "integrator", "options", "time_ratio", "time_interval", "time_p", "cpu_ratio",
-                "time_verdict", "nfev_ratio", "err_ratio", "err_verdict", "status_b", "flags"]
+        view = view.assign(
+            time_interval=[
+                f"[{lo:.3g}, {hi:.3g}]" if lo == lo else "" for lo, hi in zip(view["time_low"], view["time_high"])
+            ]
+        )
+        cols = [
+            "problem",
+            "integrator",
+            "options",
+            "time_ratio",
+            "time_interval",
+            "time_p",
+            "cpu_ratio",
+            "time_verdict",
+            "nfev_ratio",
+            "err_ratio",
+            "err_verdict",
+            "status_b",
+            "flags",
+        ]
         print(markdown_table(view[cols]))
     if args.out:
         table.to_csv(args.out, index=False)

@@ -7,7 +7,7 @@ import math
 import time
 from pathlib import Path
 
-from nsbench.cli._common import (check_output_dir, parse_count, parse_number, parse_real, shared_params)
+from nsbench.cli._common import check_output_dir, parse_count, parse_number, parse_real, shared_params
 from nsbench.errors import ConfigError, NsbenchError
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
@@ -17,25 +17,49 @@ def add_parser(sub) -> None:
     p = sub.add_parser("continuation", help="follow periodic orbits in one parameter; locate their bifurcations")
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
     p.add_argument("--case", default="1", help="preset 1..4 (default 1)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="fixed parameter override (repeatable)")
+    p.add_argument(
+        "--param", action="append", default=[], metavar="NAME=VALUE", help="fixed parameter override (repeatable)"
+    )
     p.add_argument("--n", default=None, help="number of blocks of a chain problem (same as --param n=N)")
-    p.add_argument("--sweep", required=True, metavar="NAME=START:STOP",
-                   help="continued dimensionless parameter and its range (v0, inv_omega_r, r_f, F, ...)")
-    p.add_argument("--steps", default="200", help="continuation steps over the range at the largest step "
-                                                  "size (default 200; halved where needed)")
-    p.add_argument("--section", default=None, choices=SECTIONS,
-                   help="section points drawn and stored (default: strobe if forced, else peaks)")
-    p.add_argument("--integrator", default=None,
-                   help="integrator of the flow (default: exact for linear problems, heyoka otherwise)")
-    p.add_argument("--transient", default="1500",
-                   help="time integrated from rest before the first orbit is sought (default 1500)")
-    p.add_argument("--origin", default=None, metavar="VALUE",
-                   help="find the first orbit from rest at this value and continue it to START (for an orbit "
-                        "that coexists with another attractor at START)")
+    p.add_argument(
+        "--sweep",
+        required=True,
+        metavar="NAME=START:STOP",
+        help="continued dimensionless parameter and its range (v0, inv_omega_r, r_f, F, ...)",
+    )
+    p.add_argument(
+        "--steps",
+        default="200",
+        help="continuation steps over the range at the largest step size (default 200; halved where needed)",
+    )
+    p.add_argument(
+        "--section",
+        default=None,
+        choices=SECTIONS,
+        help="section points drawn and stored (default: strobe if forced, else peaks)",
+    )
+    p.add_argument(
+        "--integrator",
+        default=None,
+        help="integrator of the flow (default: exact for linear problems, heyoka otherwise)",
+    )
+    p.add_argument(
+        "--transient", default="1500", help="time integrated from rest before the first orbit is sought (default 1500)"
+    )
+    p.add_argument(
+        "--origin",
+        default=None,
+        metavar="VALUE",
+        help="find the first orbit from rest at this value and continue it to START (for an orbit "
+        "that coexists with another attractor at START)",
+    )
     p.add_argument("--no-doubling", action="store_true", help="do not follow period-doubled branches")
-    p.add_argument("--diagram", default=None, metavar="DIR",
-                   help="a brute-force sweep folder (from nsbench bifurcation) to draw beneath the branches")
+    p.add_argument(
+        "--diagram",
+        default=None,
+        metavar="DIR",
+        help="a brute-force sweep folder (from nsbench bifurcation) to draw beneath the branches",
+    )
     p.add_argument("--out", default=None, help="results folder (default continuation/<problem>-case<C>-<NAME>)")
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -111,29 +135,57 @@ def main(args: argparse.Namespace) -> int:
     tic = time.perf_counter()
     with bar:
         try:
-            result = trace(problem_at, name, start, stop, steps=steps,
-                           transient=transient, doubling=0 if args.no_doubling else 2, on_step=on_step,
-                           origin=origin, flow=flow)
+            result = trace(
+                problem_at,
+                name,
+                start,
+                stop,
+                steps=steps,
+                transient=transient,
+                doubling=0 if args.no_doubling else 2,
+                on_step=on_step,
+                origin=origin,
+                flow=flow,
+            )
         except ArithmeticError as exc:  # the flow from rest stopped (a budget) before any orbit was sought
             if isinstance(exc, NsbenchError):
                 raise
-            raise ConfigError(f"no periodic orbit could be sought: {exc} (is --transient {transient:g} "
-                              "longer than the flow's event budget allows?)") from None
+            raise ConfigError(
+                f"no periodic orbit could be sought: {exc} (is --transient {transient:g} "
+                "longer than the flow's event budget allows?)"
+            ) from None
     seconds = time.perf_counter() - tic
     points = points_frame(flow, result, problem_at, section)
-    meta = {"problem": args.problem, "case": case, "params": params, "param": name, "origin": origin, "start": start,
-            "stop": stop, "steps": steps, "section": section, "transient": transient,
-            "integrator": flow.integrator_name, "newton_tolerance": 1e-11, "bisection_tolerance": 1e-11,
-            "seconds": seconds, "provenance": provenance()}
+    meta = {
+        "problem": args.problem,
+        "case": case,
+        "params": params,
+        "param": name,
+        "origin": origin,
+        "start": start,
+        "stop": stop,
+        "steps": steps,
+        "section": section,
+        "transient": transient,
+        "integrator": flow.integrator_name,
+        "newton_tolerance": 1e-11,
+        "bisection_tolerance": 1e-11,
+        "seconds": seconds,
+        "provenance": provenance(),
+    }
     paths = write(out, result, points, meta)
     title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {flow.integrator_name})"
     written = figure(result, points, out / "branches", diagram=diagram, title=title, formats=formats)
     n_steps = sum(len(b.values) for b in result.branches)
-    print(f"{len(result.branches)} branch(es), {n_steps} orbits, {len(result.gaps)} value(s) without a periodic "
-          f"orbit, in {seconds:.1f} s -> {out}")
+    print(
+        f"{len(result.branches)} branch(es), {n_steps} orbits, {len(result.gaps)} value(s) without a periodic "
+        f"orbit, in {seconds:.1f} s -> {out}"
+    )
     for br in result.branches:
-        print(f"  branch {br.label}: {name} {br.values[0]:.10g} .. {br.values[-1]:.10g}, {len(br.values)} steps; "
-              f"{br.end_reason}")
+        print(
+            f"  branch {br.label}: {name} {br.values[0]:.10g} .. {br.values[-1]:.10g}, {len(br.values)} steps; "
+            f"{br.end_reason}"
+        )
     bifs = [b for b in result.bifurcations if b.category != "none"]
     print(f"  bifurcations ({len(bifs)}; event-order swaps are in {paths['bifurcations'].name} only):")
     for b in bifs:

@@ -21,8 +21,11 @@ def add_parser(sub) -> None:
     a = actions.add_parser("add", help="copy a finished run into a history store")
     a.add_argument("run", metavar="RUN", help="output folder of 'nsbench run' or 'nsbench bench'")
     _store(a)
-    a.add_argument("--commit", default=None, help="the commit the run measured (default: --repo's HEAD, else "
-                                                  "nsbench's commit in the run's provenance)")
+    a.add_argument(
+        "--commit",
+        default=None,
+        help="the commit the run measured (default: --repo's HEAD, else nsbench's commit in the run's provenance)",
+    )
     a.add_argument("--repo", default=None, help="git checkout of the package under study (its HEAD is the commit)")
     a.add_argument("--machine", default=None, help="machine name (default: this host's name)")
     a.set_defaults(handler=add)
@@ -41,14 +44,24 @@ def add_parser(sub) -> None:
 
     r = actions.add_parser("run", help="run a suite at every commit of a range and add each run to the store")
     r.add_argument("--repo", required=True, help="git repository of the package under study")
-    r.add_argument("--commits", required=True, metavar="A..B",
-                   help="a range A..B (B's ancestors that are not A's, oldest first) or SHA,SHA,...")
+    r.add_argument(
+        "--commits",
+        required=True,
+        metavar="A..B",
+        help="a range A..B (B's ancestors that are not A's, oldest first) or SHA,SHA,...",
+    )
     _store(r)
     r.add_argument("--suite", default="default", help="packaged suite name or suite TOML (default: default)")
-    r.add_argument("--src", default=None, help="folder of the commit's tree put first on PYTHONPATH "
-                                              "(default: src if it exists, else the tree's root)")
-    r.add_argument("--setup", default=None, help="command run in each commit's tree first, e.g. "
-                                                "'pip install --no-deps .' for compiled packages")
+    r.add_argument(
+        "--src",
+        default=None,
+        help="folder of the commit's tree put first on PYTHONPATH (default: src if it exists, else the tree's root)",
+    )
+    r.add_argument(
+        "--setup",
+        default=None,
+        help="command run in each commit's tree first, e.g. 'pip install --no-deps .' for compiled packages",
+    )
     r.add_argument("--machine", default=None, help="machine name (default: this host's name)")
     r.add_argument("--workers", default=None, help="processes per run (default: all cores)")
     r.add_argument("--keep", default=None, help="keep each run's folder here, as <keep>/<commit>")
@@ -65,8 +78,10 @@ def add(args: argparse.Namespace) -> int:
 
     check_output_dir(args.store, "--store")
     entry = history.add(args.run, args.store, machine=args.machine, commit=args.commit, repo=args.repo)
-    print(f"added {args.run} as machine {entry.machine}, environment {entry.environment}, commit {entry.short} "
-          f"-> {entry.path}")
+    print(
+        f"added {args.run} as machine {entry.machine}, environment {entry.environment}, commit {entry.short} "
+        f"-> {entry.path}"
+    )
     return 0
 
 
@@ -92,21 +107,47 @@ def show(args: argparse.Namespace) -> int:
         check_output_dir(args.out, "--out")
     found = history.entries(args.store, args.machine, args.environment)
     if not found:
-        raise ConfigError(f"history store {args.store!r} holds no run"
-                          + (" of that machine and environment" if args.machine or args.environment else ""))
-    listing = [{"machine": e.machine, "environment": e.environment, "commit": e.short, "commit time": e.commit_time,
-                "added": e.added, "cpu": e.cpu} for e in found]
+        raise ConfigError(
+            f"history store {args.store!r} holds no run"
+            + (" of that machine and environment" if args.machine or args.environment else "")
+        )
+    listing = [
+        {
+            "machine": e.machine,
+            "environment": e.environment,
+            "commit": e.short,
+            "commit time": e.commit_time,
+            "added": e.added,
+            "cpu": e.cpu,
+        }
+        for e in found
+    ]
     import pandas as pd
 
     print(markdown_table(pd.DataFrame(listing)))
-    filters = dict(machine=args.machine, environment=args.environment, problem=args.problem,
-                   integrator=args.integrator)
+    filters = dict(machine=args.machine, environment=args.environment, problem=args.problem, integrator=args.integrator)
     tab = history.table(args.store, **filters)
     flagged = history.steps(args.store, factor=factor, confidence=confidence, **filters)
     print(f"\n{len(flagged)} flagged step(s) (factor {factor:g}, confidence {confidence:g})")
     if len(flagged):
-        print(markdown_table(flagged[["commit", "previous", "problem", "integrator", "options", "time_ratio",
-                                      "cpu_ratio", "nfev_ratio", "err_ratio", "flags"]]))
+        print(
+            markdown_table(
+                flagged[
+                    [
+                        "commit",
+                        "previous",
+                        "problem",
+                        "integrator",
+                        "options",
+                        "time_ratio",
+                        "cpu_ratio",
+                        "nfev_ratio",
+                        "err_ratio",
+                        "flags",
+                    ]
+                ]
+            )
+        )
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
@@ -132,7 +173,16 @@ def run(args: argparse.Namespace) -> int:
     if args.keep:
         check_output_dir(args.keep, "--keep")
     workers = parse_count(str(args.workers), "--workers", low=1, bound="MAX_WORKERS") if args.workers else None
-    added = history.run_commits(args.repo, args.commits, args.store, suite=args.suite, src=args.src,
-                                setup=args.setup, machine=args.machine, workers=workers, keep=args.keep)
+    added = history.run_commits(
+        args.repo,
+        args.commits,
+        args.store,
+        suite=args.suite,
+        src=args.src,
+        setup=args.setup,
+        machine=args.machine,
+        workers=workers,
+        keep=args.keep,
+    )
     print(f"{len(added)} run(s) added to {args.store}: " + ", ".join(e.short for e in added))
     return 0 if added else 1

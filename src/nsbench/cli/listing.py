@@ -48,8 +48,10 @@ def main(args: argparse.Namespace) -> int:
             if kind == "integrators":
                 caps = obj.capabilities
                 order = caps.order if caps.order is not None else "-"
-                tags = (f"family={caps.family}, events={caps.event_location}, order={order}, {stepping(caps)}, "
-                        f"{caps.precision}")
+                tags = (
+                    f"family={caps.family}, events={caps.event_location}, order={order}, {stepping(caps)}, "
+                    f"{caps.precision}"
+                )
                 if not caps.supports_nonlinear:
                     tags += ", linear problems only"
                 if caps.reference_grade:

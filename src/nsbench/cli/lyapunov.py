@@ -5,30 +5,51 @@ from __future__ import annotations
 import argparse
 import sys
 
-from nsbench.cli._common import (MIN_D0, add_problem_arguments, check_fixed_step, check_output_file, parse_count,
-                                 parse_real, problem_from_args)
+from nsbench.cli._common import (
+    MIN_D0,
+    add_problem_arguments,
+    check_fixed_step,
+    check_output_file,
+    parse_count,
+    parse_real,
+    problem_from_args,
+)
 from nsbench.status import Status
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("lyapunov", help="largest Lyapunov exponent of the mapping points (ensemble of Benettin runs)")
     add_problem_arguments(p)
-    p.add_argument("--integrator", default=None,
-                   help="registered integrator (default: exact for linear problems, henon-rk4 otherwise)")
+    p.add_argument(
+        "--integrator",
+        default=None,
+        help="registered integrator (default: exact for linear problems, henon-rk4 otherwise)",
+    )
     p.add_argument("--h", default=None, help="step size of henon-rk4")
-    p.add_argument("--transient", default="1000",
-                   help="time each member runs before its first mapping point used (default 1000)")
-    p.add_argument("--iterations", default="10000",
-                   help="return-map iterations in all, split evenly over the members (default 10000)")
-    p.add_argument("--members", default="32",
-                   help="independent estimates from perturbed starts; their spread gives the "
-                        "standard error (default 32, at least 4)")
+    p.add_argument(
+        "--transient", default="1000", help="time each member runs before its first mapping point used (default 1000)"
+    )
+    p.add_argument(
+        "--iterations",
+        default="10000",
+        help="return-map iterations in all, split evenly over the members (default 10000)",
+    )
+    p.add_argument(
+        "--members",
+        default="32",
+        help="independent estimates from perturbed starts; their spread gives the "
+        "standard error (default 32, at least 4)",
+    )
     p.add_argument("--d0", default="1e-8", help="renormalised separation (default 1e-8; from 1e-12 to 0.01)")
     p.add_argument("--seed", default="0", help="seed of the start perturbations and directions (default 0)")
     p.add_argument("--workers", default="1", help="processes running members at once (default 1)")
-    p.add_argument("--member-limit", default="1800", metavar="SECONDS",
-                   help="hard limit of one member's run: past it its worker is ended and the member "
-                        "counts as failed (default 1800, compilation included)")
+    p.add_argument(
+        "--member-limit",
+        default="1800",
+        metavar="SECONDS",
+        help="hard limit of one member's run: past it its worker is ended and the member "
+        "counts as failed (default 1800, compilation included)",
+    )
     p.add_argument("--out", default=None, metavar="FILE.csv", help="write log(d/d0) per member and iteration")
     p.set_defaults(handler=main)
 
@@ -54,14 +75,18 @@ def main(args: argparse.Namespace) -> int:
     # the transient is one run with the core's default step budget (5_000_000 steps); the whole run is
     # longer (mapping points after it), so the step is not compared with the transient itself
     check_fixed_step(get_integrator(name, **options), problem, transient, f"--transient {transient:g}", 5_000_000)
-    res = largest_exponent(problem, name, options=options,
-                           transient=transient,
-                           iterations=iterations,
-                           members=members,
-                           d0=d0,
-                           seed=seed,
-                           workers=workers,
-                           member_limit=member_limit)
+    res = largest_exponent(
+        problem,
+        name,
+        options=options,
+        transient=transient,
+        iterations=iterations,
+        members=members,
+        d0=d0,
+        seed=seed,
+        workers=workers,
+        member_limit=member_limit,
+    )
     print(f"{problem!r} with {name}")
     print(res.summary())
     if res.message:
@@ -71,9 +96,13 @@ def main(args: argparse.Namespace) -> int:
         import pandas as pd
 
         members, per = res.logs.shape
-        pd.DataFrame({"member": np.repeat(np.arange(members), per),
-                      "iteration": np.tile(np.arange(1, per + 1), members),
-                      "log_growth": res.logs.ravel()}).to_csv(args.out, index=False)
+        pd.DataFrame(
+            {
+                "member": np.repeat(np.arange(members), per),
+                "iteration": np.tile(np.arange(1, per + 1), members),
+                "log_growth": res.logs.ravel(),
+            }
+        ).to_csv(args.out, index=False)
         print(f"log growth per member and iteration -> {args.out}")
     if res.status != Status.SUCCESS:  # the members' reasons are printed above; one line on stderr says so
         failed = res.message.count("member ") or "some"

@@ -16,8 +16,11 @@ def add_parser(sub) -> None:
     p.add_argument("--workers", default=None, help="local processes (default: all cores)")
     p.add_argument("--case", default=None, help="only this case (1..4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.add_argument("--no-continuation", action="store_true",
-                   help="skip locating the named bifurcations by continuation of periodic orbits")
+    p.add_argument(
+        "--no-continuation",
+        action="store_true",
+        help="skip locating the named bifurcations by continuation of periodic orbits",
+    )
     p.set_defaults(handler=main)
 
 
@@ -30,7 +33,14 @@ def main(args: argparse.Namespace) -> int:
     case = parse_count(args.case, "--case", low=1, high=4) if args.case is not None else None
     workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     check_output_dir(args.out, "--out")
-    run_paper(args.out, points=points, transient=transient, record=record,
-              workers=workers, only_case=case, progress=not args.no_progress,
-              continuation=not args.no_continuation)
+    run_paper(
+        args.out,
+        points=points,
+        transient=transient,
+        record=record,
+        workers=workers,
+        only_case=case,
+        progress=not args.no_progress,
+        continuation=not args.no_continuation,
+    )
     return 0

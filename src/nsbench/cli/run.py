@@ -14,14 +14,24 @@ import argparse
 
 def add_parser(sub) -> None:
     p = sub.add_parser("run", help="run the default benchmark suite and write reports/latest (the main job)")
-    p.add_argument("--out", default=None,
-                   help="output directory (default reports/latest; reports/<suite> for another packaged suite)")
-    p.add_argument("--suite", default="default", metavar="SUITE",
-                   help="a packaged suite by name (default; full: every level of every integrator; "
-                        "chain-scaling; families: one method per family of methods) or a suite TOML file")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output directory (default reports/latest; reports/<suite> for another packaged suite)",
+    )
+    p.add_argument(
+        "--suite",
+        default="default",
+        metavar="SUITE",
+        help="a packaged suite by name (default; full: every level of every integrator; "
+        "chain-scaling; families: one method per family of methods) or a suite TOML file",
+    )
     p.add_argument("--workers", default=None, help="processes (default: all cores)")
-    p.add_argument("--fresh", action="store_true",
-                   help="discard the cases already stored in --out (default: resume, computing only missing cases)")
+    p.add_argument(
+        "--fresh",
+        action="store_true",
+        help="discard the cases already stored in --out (default: resume, computing only missing cases)",
+    )
     p.add_argument("--resume", action="store_true", help=argparse.SUPPRESS)  # the default now; kept for scripts
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)

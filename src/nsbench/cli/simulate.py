@@ -8,8 +8,16 @@ from pathlib import Path
 
 import numpy as np
 
-from nsbench.cli._common import (add_problem_arguments, check_figure_path, check_output_file,
-                                 check_fixed_step, parse_count, parse_options, parse_real, problem_from_args)
+from nsbench.cli._common import (
+    add_problem_arguments,
+    check_figure_path,
+    check_output_file,
+    check_fixed_step,
+    parse_count,
+    parse_options,
+    parse_real,
+    problem_from_args,
+)
 from nsbench.errors import ConfigError
 
 
@@ -20,18 +28,25 @@ MAX_STEPS = 5_000_000
 def add_parser(sub) -> None:
     p = sub.add_parser("simulate", help="integrate one problem with one integrator through every event")
     add_problem_arguments(p)
-    p.add_argument("--integrator", default=None,
-                   help="registered integrator (default: exact for linear problems, scipy-dop853 otherwise); "
-                        "with 'reference' the log's certified error is printed and written as a column")
+    p.add_argument(
+        "--integrator",
+        default=None,
+        help="registered integrator (default: exact for linear problems, scipy-dop853 otherwise); "
+        "with 'reference' the log's certified error is printed and written as a column",
+    )
     p.add_argument("--rtol", default=None, help="relative tolerance (adaptive integrators)")
     p.add_argument("--atol", default=None, help="absolute tolerance (adaptive integrators)")
     p.add_argument("--h", default=None, help="step size (fixed-step integrators)")
-    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
-                   help="any other integrator option (repeatable)")
+    p.add_argument(
+        "--option", action="append", default=[], metavar="NAME=VALUE", help="any other integrator option (repeatable)"
+    )
     p.add_argument("--t-end", default="300", help="end time in the problem's units (default 300)")
-    p.add_argument("--samples", default="3001",
-                   help="evenly spaced times of the trajectory (--trajectory-out/--plot) and, always, of the "
-                        "check for crossings stepped over (default 3001)")
+    p.add_argument(
+        "--samples",
+        default="3001",
+        help="evenly spaced times of the trajectory (--trajectory-out/--plot) and, always, of the "
+        "check for crossings stepped over (default 3001)",
+    )
     p.add_argument("--events-out", default=None, metavar="FILE.csv", help="write the event log")
     p.add_argument("--trajectory-out", default=None, metavar="FILE.csv", help="write the trajectory")
     p.add_argument("--plot", default=None, metavar="FILE.png", help="plot time series and phase plane")
@@ -60,8 +75,14 @@ def main(args: argparse.Namespace) -> int:
     from nsbench.integrators import get_integrator
 
     integrator = get_integrator(name, **options)  # an unknown option or a bad value: one line now
-    check_fixed_step(integrator, problem, t_end, f"--t-end {t_end:g}", MAX_STEPS,
-                     given=type(integrator).capabilities.step_option in options)
+    check_fixed_step(
+        integrator,
+        problem,
+        t_end,
+        f"--t-end {t_end:g}",
+        MAX_STEPS,
+        given=type(integrator).capabilities.step_option in options,
+    )
     want_traj = bool(args.trajectory_out or args.plot)
     grid = np.linspace(0.0, t_end, samples) if want_traj and t_end > 0 else None
     # the samples are also where the core checks each guard's sign (a crossing pair inside one step ends
@@ -70,8 +91,11 @@ def main(args: argparse.Namespace) -> int:
     result = simulate(problem, integrator, t_end, t_eval=grid, max_steps=MAX_STEPS, check_points=checks)
     print(result.summary())
     if not result.ok:  # the reason is in the summary; one line on stderr says the run fell short
-        print(f"nsbench: simulate: the run ended at t = {result.t_final:g} of {t_end:g}: {result.status.value}"
-              + (f": {result.message}" if result.message else ""), file=sys.stderr)
+        print(
+            f"nsbench: simulate: the run ended at t = {result.t_final:g} of {t_end:g}: {result.status.value}"
+            + (f": {result.message}" if result.message else ""),
+            file=sys.stderr,
+        )
     if name == "reference" and result.ok and len(result.events):
         # the reference's log says how far it can be trusted: an independent quad-precision check
         from nsbench.bench.reference import certified_errors

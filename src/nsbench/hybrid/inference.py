@@ -117,8 +117,9 @@ def _pass_through(problem, t: np.ndarray, y: np.ndarray, m: np.ndarray) -> None:
             m[k, i] = m[k + 1, i]
 
 
-def _impact_events(problem, t: np.ndarray, y: np.ndarray, modes: np.ndarray | None,
-                   impulses: np.ndarray | None) -> InferredEvents:
+def _impact_events(
+    problem, t: np.ndarray, y: np.ndarray, modes: np.ndarray | None, impulses: np.ndarray | None
+) -> InferredEvents:
     """Rule 5 (impact problems, one contact: the bouncing ball): see the module docstring."""
     k = len(t)
     m = np.zeros((k, 1), np.int64) if modes is None else np.asarray(modes, dtype=np.int64)
@@ -137,13 +138,24 @@ def _impact_events(problem, t: np.ndarray, y: np.ndarray, modes: np.ndarray | No
             out_y.append(np.array([0.0, y[j, 1]]))
             out_m.append(m[j].copy())
     n = len(out_t)
-    return InferredEvents(t=np.array(out_t, dtype=float), kind=np.array(out_k, dtype=np.int64),
-                          block=np.zeros(n, np.int64), y=np.array(out_y, dtype=float).reshape(-1, 2),
-                          mode=np.array(out_m, dtype=np.int64).reshape(-1, 1), start_mode=m[0].copy())
+    return InferredEvents(
+        t=np.array(out_t, dtype=float),
+        kind=np.array(out_k, dtype=np.int64),
+        block=np.zeros(n, np.int64),
+        y=np.array(out_y, dtype=float).reshape(-1, 2),
+        mode=np.array(out_m, dtype=np.int64).reshape(-1, 1),
+        start_mode=m[0].copy(),
+    )
 
 
-def infer_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: np.ndarray | None,
-                 band: float = 0.0, impulses: np.ndarray | None = None) -> InferredEvents:
+def infer_events(
+    problem: "HybridProblem",
+    t: np.ndarray,
+    y: np.ndarray,
+    modes: np.ndarray | None,
+    band: float = 0.0,
+    impulses: np.ndarray | None = None,
+) -> InferredEvents:
     """The events of the discrete trajectory ``(t, y)`` by the rule of this module's docstring.
 
     Parameters
@@ -216,10 +228,14 @@ def infer_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: 
             out_y.append(ye)
             out_m.append(running.copy())
     n, ms = y.shape[1], m.shape[1]
-    return InferredEvents(t=np.array(out_t, dtype=float), kind=np.array(out_k, dtype=np.int64),
-                          block=np.array(out_b, dtype=np.int64),
-                          y=np.array(out_y, dtype=float).reshape(-1, n),
-                          mode=np.array(out_m, dtype=np.int64).reshape(-1, ms), start_mode=m[0].copy())
+    return InferredEvents(
+        t=np.array(out_t, dtype=float),
+        kind=np.array(out_k, dtype=np.int64),
+        block=np.array(out_b, dtype=np.int64),
+        y=np.array(out_y, dtype=float).reshape(-1, n),
+        mode=np.array(out_m, dtype=np.int64).reshape(-1, ms),
+        start_mode=m[0].copy(),
+    )
 
 
 def section_hits(sections: Sequence["StateSection"], t: np.ndarray, y: np.ndarray):
@@ -236,9 +252,17 @@ def section_hits(sections: Sequence["StateSection"], t: np.ndarray, y: np.ndarra
     return sorted(hits, key=lambda h: h[1])
 
 
-def run_whole(problem: "HybridProblem", integ: "WholeSystem", t_end: float, *, t0: float = 0.0,
-              y0: np.ndarray | None = None, sections: Sequence["StateSection"] = (),
-              t_eval: np.ndarray | None = None, max_steps: int = 5_000_000) -> "RawRun":
+def run_whole(
+    problem: "HybridProblem",
+    integ: "WholeSystem",
+    t_end: float,
+    *,
+    t0: float = 0.0,
+    y0: np.ndarray | None = None,
+    sections: Sequence["StateSection"] = (),
+    t_eval: np.ndarray | None = None,
+    max_steps: int = 5_000_000,
+) -> "RawRun":
     """Run a whole-system method and record its inferred events, section hits and states as a :class:`RawRun`.
 
     The states at ``t_eval`` come from the method's own dense output if it gives
@@ -253,8 +277,9 @@ def run_whole(problem: "HybridProblem", integ: "WholeSystem", t_end: float, *, t
     y_in = np.ascontiguousarray(y, dtype=float).copy()
     y_in.flags.writeable = False
     grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
-    request = SystemRequest(problem=problem, t0=float(t0), y0=y_in, t_end=float(t_end), max_steps=int(max_steps),
-                            t_eval=grid)
+    request = SystemRequest(
+        problem=problem, t0=float(t0), y0=y_in, t_end=float(t_end), max_steps=int(max_steps), t_eval=grid
+    )
     tic = time.perf_counter()
     try:
         res = integ.integrate(request)
@@ -265,9 +290,24 @@ def run_whole(problem: "HybridProblem", integ: "WholeSystem", t_end: float, *, t
     rec = Records(n, problem.mode_size, grid)
     start = problem.initial_mode(float(t0), y)
     if broken:
-        return RawRun(status=Status.INTEGRATOR_FAILURE, message=broken, t=float(t0), t_lo=0.0, y=y.copy(),
-                      mode=start, records=rec, n_events=0, n_hits=0, n_dense=0, n_events_total=0,
-                      counters=Counters(), integrator_time=seconds, stopped=False, t0=float(t0), start_mode=start)
+        return RawRun(
+            status=Status.INTEGRATOR_FAILURE,
+            message=broken,
+            t=float(t0),
+            t_lo=0.0,
+            y=y.copy(),
+            mode=start,
+            records=rec,
+            n_events=0,
+            n_hits=0,
+            n_dense=0,
+            n_events_total=0,
+            counters=Counters(),
+            integrator_time=seconds,
+            stopped=False,
+            t0=float(t0),
+            start_mode=start,
+        )
     t = np.asarray(res.t, dtype=float)
     ys = np.asarray(res.y, dtype=float)
     if not np.all(np.isfinite(ys)):
@@ -303,9 +343,21 @@ def run_whole(problem: "HybridProblem", integ: "WholeSystem", t_end: float, *, t
     final_mode = tuple(int(v) for v in (ev.mode[-1] if k else ev.start_mode))
     if status is Status.BUDGET_EXHAUSTED and not message:
         message = f"{max_steps} steps used by t = {t[-1]:.6g}"
-    return RawRun(status=status, message=message, t=float(t[-1]), t_lo=0.0, y=ys[-1].copy(), mode=final_mode,
-                  records=rec, n_events=k, n_hits=len(hits), n_dense=n_dense, n_events_total=k,
-                  counters=counters, integrator_time=seconds, stopped=False, t0=float(t0),
-                  start_mode=tuple(int(v) for v in ev.start_mode))
-
-
+    return RawRun(
+        status=status,
+        message=message,
+        t=float(t[-1]),
+        t_lo=0.0,
+        y=ys[-1].copy(),
+        mode=final_mode,
+        records=rec,
+        n_events=k,
+        n_hits=len(hits),
+        n_dense=n_dense,
+        n_events_total=k,
+        counters=counters,
+        integrator_time=seconds,
+        stopped=False,
+        t0=float(t0),
+        start_mode=tuple(int(v) for v in ev.start_mode),
+    )

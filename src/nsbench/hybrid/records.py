@@ -20,8 +20,9 @@ def event_frame(problem, rec: Records, n_events: int) -> pd.DataFrame:
     ev = rec.events
     frame = pd.DataFrame(ev.y[:k], columns=list(problem.state_names))
     frame.insert(0, "t", ev.t[:k].copy())
-    frame.insert(1, "kind", np.asarray(problem.event_kinds, dtype=object)[ev.kind[:k]] if k else
-                 np.empty(0, dtype=object))
+    frame.insert(
+        1, "kind", np.asarray(problem.event_kinds, dtype=object)[ev.kind[:k]] if k else np.empty(0, dtype=object)
+    )
     frame.insert(2, "block", (ev.index[:k] + 1).astype("int64"))
     cache: dict[bytes, str] = {}
     texts = []

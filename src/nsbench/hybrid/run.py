@@ -32,10 +32,15 @@ if TYPE_CHECKING:  # pragma: no cover
 _PY_FAILURE = abi.K_FAIL + 100  # an arc computed in Python failed (its message is kept in Python)
 
 #: The status of each outcome code of the compiled loop.
-RUN_STATUS = {abi.RUN_SUCCESS: Status.SUCCESS, abi.RUN_STEP_BUDGET: Status.BUDGET_EXHAUSTED,
-              abi.RUN_EVENT_BUDGET: Status.BUDGET_EXHAUSTED, abi.RUN_STORM: Status.EVENT_STORM,
-              abi.RUN_NONFINITE: Status.INTEGRATOR_FAILURE, abi.RUN_FAILURE: Status.INTEGRATOR_FAILURE,
-              abi.RUN_MISSED: Status.EVENT_MISSED}
+RUN_STATUS = {
+    abi.RUN_SUCCESS: Status.SUCCESS,
+    abi.RUN_STEP_BUDGET: Status.BUDGET_EXHAUSTED,
+    abi.RUN_EVENT_BUDGET: Status.BUDGET_EXHAUSTED,
+    abi.RUN_STORM: Status.EVENT_STORM,
+    abi.RUN_NONFINITE: Status.INTEGRATOR_FAILURE,
+    abi.RUN_FAILURE: Status.INTEGRATOR_FAILURE,
+    abi.RUN_MISSED: Status.EVENT_MISSED,
+}
 
 
 @dataclass
@@ -71,13 +76,28 @@ def _no_kernel() -> tuple[np.ndarray, abi.KernelData, np.ndarray]:
     return _NO_KERNEL["k"]
 
 
-def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t0: float = 0.0,
-               t0_lo: float = 0.0, y0: np.ndarray | None = None, mode: Sequence[int] | None = None,
-               sections: Sequence["StateSection"] = (), t_eval: np.ndarray | None = None,
-               hit_from: float = -math.inf, hit_stop: int = -1, record_from: float = -math.inf,
-               stop_kind: str | None = None, stop_count: int = 0, max_steps: int = 5_000_000,
-               max_events: int = 1_000_000, zeno_events: int = 64, zeno_span: float = 1e-9,
-               accumulation: int = 8) -> RawRun:
+def run_hybrid(
+    problem: "HybridProblem",
+    integ: "Integrator",
+    t_end: float,
+    *,
+    t0: float = 0.0,
+    t0_lo: float = 0.0,
+    y0: np.ndarray | None = None,
+    mode: Sequence[int] | None = None,
+    sections: Sequence["StateSection"] = (),
+    t_eval: np.ndarray | None = None,
+    hit_from: float = -math.inf,
+    hit_stop: int = -1,
+    record_from: float = -math.inf,
+    stop_kind: str | None = None,
+    stop_count: int = 0,
+    max_steps: int = 5_000_000,
+    max_events: int = 1_000_000,
+    zeno_events: int = 64,
+    zeno_span: float = 1e-9,
+    accumulation: int = 8,
+) -> RawRun:
     """Run ``problem`` with the (set-up) integrator ``integ`` from ``t0`` to ``t_end`` through every event.
 
     Parameters
@@ -105,9 +125,11 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     if family != "event-driven":
         from nsbench.errors import ConfigError
 
-        raise ConfigError(f"{integ.name} is a whole-system method ({family}): the hybrid core runs event-driven "
-                          "integrators only; nsbench.simulate runs it (sweeps, Lyapunov exponents and periodic "
-                          "orbits need an event-driven integrator)")
+        raise ConfigError(
+            f"{integ.name} is a whole-system method ({family}): the hybrid core runs event-driven "
+            "integrators only; nsbench.simulate runs it (sweeps, Lyapunov exponents and periodic "
+            "orbits need an event-driven integrator)"
+        )
     n = problem.n_states
     prob = problem.data
     kernel = integ.kernel(problem)
@@ -126,15 +148,34 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     sec = section_bundle(sections, n, hit_from, hit_stop)
     rec = Records(n, problem.mode_size, grid)
     g = max(problem.max_guards, 1)
-    st = abi.RunState(y=y, mode=mode_arr, fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
-                      gk=np.zeros(g, np.int64), gi=np.zeros(g, np.int64), gs=np.zeros(g, np.int64),
-                      ring=np.full(max(int(zeno_events), 1), -np.inf), acc=np.zeros(max(int(accumulation), 0) + 1),
-                      sf=np.zeros(abi.N_SF), si=np.zeros(abi.N_SI, np.int64), cnt=np.zeros(abi.N_COUNTERS, np.int64),
-                      y_arc=np.empty(n), dy=np.empty(n), iw=np.zeros(abi.N_COUNTERS + 2, np.int64))
+    st = abi.RunState(
+        y=y,
+        mode=mode_arr,
+        fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
+        gk=np.zeros(g, np.int64),
+        gi=np.zeros(g, np.int64),
+        gs=np.zeros(g, np.int64),
+        ring=np.full(max(int(zeno_events), 1), -np.inf),
+        acc=np.zeros(max(int(accumulation), 0) + 1),
+        sf=np.zeros(abi.N_SF),
+        si=np.zeros(abi.N_SI, np.int64),
+        cnt=np.zeros(abi.N_COUNTERS, np.int64),
+        y_arc=np.empty(n),
+        dy=np.empty(n),
+        iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
+    )
     st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
     kind_code = -1 if stop_kind is None else problem.event_kinds.index(stop_kind)
-    lim = abi.RunLimits(float(t_end), int(max_steps), int(max_events), float(zeno_span), float(record_from),
-                        int(kind_code), int(stop_count), int(accumulation))
+    lim = abi.RunLimits(
+        float(t_end),
+        int(max_steps),
+        int(max_events),
+        float(zeno_span),
+        float(record_from),
+        int(kind_code),
+        int(stop_count),
+        int(accumulation),
+    )
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
     py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop))
@@ -158,8 +199,9 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
             py.arc(rec, st)
     status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
     cnt, si = st.cnt, st.si
-    counters = Counters(nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]),
-                        n_events=int(si[abi.SI_EVENTS]))
+    counters = Counters(
+        nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]), n_events=int(si[abi.SI_EVENTS])
+    )
     if kernel is not None:
         for k, name in enumerate(kernel.counters):
             counters.extra[name] = int(cnt[abi.X0 + k])
@@ -169,12 +211,25 @@ def run_hybrid(problem: "HybridProblem", integ: "Integrator", t_end: float, *, t
     else:
         counters.extra.update(py.extra)
         integ_time = py.seconds
-    return RawRun(status=status, message=message, t=float(st.sf[abi.SF_T]), t_lo=float(st.sf[abi.SF_TLO]),
-                  y=y.copy(), mode=tuple(int(v) for v in mode_arr), records=rec,
-                  n_events=int(si[abi.SI_RECORDED]), n_hits=int(si[abi.SI_NHITS]),
-                  n_dense=int(si[abi.SI_IEVAL]), n_events_total=int(si[abi.SI_EVENTS]),
-                  counters=counters, integrator_time=float(integ_time), stopped=bool(si[abi.SI_STOPPED]),
-                  t0=float(t0), start_mode=start_mode, prepare_time=prepare_time)
+    return RawRun(
+        status=status,
+        message=message,
+        t=float(st.sf[abi.SF_T]),
+        t_lo=float(st.sf[abi.SF_TLO]),
+        y=y.copy(),
+        mode=tuple(int(v) for v in mode_arr),
+        records=rec,
+        n_events=int(si[abi.SI_RECORDED]),
+        n_hits=int(si[abi.SI_NHITS]),
+        n_dense=int(si[abi.SI_IEVAL]),
+        n_events_total=int(si[abi.SI_EVENTS]),
+        counters=counters,
+        integrator_time=float(integ_time),
+        stopped=bool(si[abi.SI_STOPPED]),
+        t0=float(t0),
+        start_mode=start_mode,
+        prepare_time=prepare_time,
+    )
 
 
 def _entry_point(dispatcher: Any, args: tuple) -> Any:
@@ -215,12 +270,15 @@ def _storm_detail(problem, rec: Records, si, span: float, zeno_events: int) -> s
     if m == 0:
         return ""
     counts: dict[tuple[int, int], int] = {}
-    for b, kind in zip(rec.events.index[k - m:k], rec.events.kind[k - m:k]):
+    for b, kind in zip(rec.events.index[k - m : k], rec.events.kind[k - m : k]):
         counts[(int(b) + 1, int(kind))] = counts.get((int(b) + 1, int(kind)), 0) + 1
     top = sorted(counts.items(), key=lambda item: -item[1])[:4]
     chatter = ", ".join(f"{n} {problem.event_kinds[kind]} of block {b}" for (b, kind), n in top)
-    where = ("all at one instant: a numerical storm (the rules cycle at a degenerate point)" if span == 0.0
-             else "spread over time: an accumulation of events, possibly genuine (compare with the reference)")
+    where = (
+        "all at one instant: a numerical storm (the rules cycle at a degenerate point)"
+        if span == 0.0
+        else "spread over time: an accumulation of events, possibly genuine (compare with the reference)"
+    )
     return f"; chattering: {chatter}; {where}"
 
 
@@ -238,12 +296,16 @@ def _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec: R
         return status, f"event budget of {max_events} events reached at t = {t:.17g}"
     if run_status == abi.RUN_STORM:
         span = t - float(np.min(st.ring))
-        return status, (f"{zeno_events + 1} events within {span:.3g} time units ending at t = {t:.17g} "
-                        f"(mode {mode})" + _storm_detail(problem, rec, si, span, zeno_events))
+        return status, (
+            f"{zeno_events + 1} events within {span:.3g} time units ending at t = {t:.17g} "
+            f"(mode {mode})" + _storm_detail(problem, rec, si, span, zeno_events)
+        )
     if run_status == abi.RUN_MISSED:
-        return status, (f"a guard of mode {mode} was on its wrong side at t = {t:.17g} and back on its own side "
-                        "later in the same arc: the integrator stepped over a crossing (tighten its tolerance "
-                        "or step)")
+        return status, (
+            f"a guard of mode {mode} was on its wrong side at t = {t:.17g} and back on its own side "
+            "later in the same arc: the integrator stepped over a crossing (tighten its tolerance "
+            "or step)"
+        )
     if run_status == abi.RUN_NONFINITE:
         return status, py.message or f"non-finite state after t = {t:.6g}"
     if detail == _PY_FAILURE or kernel is None or kernel.failure is None:
@@ -295,9 +357,18 @@ class _PythonArcs:
         y_in = y.copy()
         y_in.flags.writeable = False
         i_eval = int(si[abi.SI_IEVAL])
-        request = self._request(problem=problem, mode=mode, t0=t, y0=y_in, t_end=self.t_end, guards=guards,
-                             sections=self.sections, t_eval=self.t_eval[i_eval:],
-                             max_steps=self.max_steps - int(cnt[abi.NSTEPS]), t0_lo=t_lo)
+        request = self._request(
+            problem=problem,
+            mode=mode,
+            t0=t,
+            y0=y_in,
+            t_end=self.t_end,
+            guards=guards,
+            sections=self.sections,
+            t_eval=self.t_eval[i_eval:],
+            max_steps=self.max_steps - int(cnt[abi.NSTEPS]),
+            t0_lo=t_lo,
+        )
         tic = time.perf_counter()
         try:
             res = integ.advance(request)
@@ -323,15 +394,23 @@ class _PythonArcs:
         if y_eval.size == 0:
             y_eval = self._no_states
         if y_eval.ndim != 2 or y_eval.shape[0] != n:
-            return self._fail(si, _PY_FAILURE, (
-                f"{integ.name} returned y_eval of shape {y_eval.shape}; the protocol wants "
-                f"(n_states, n_points) = ({n}, {expected})"))
+            return self._fail(
+                si,
+                _PY_FAILURE,
+                (
+                    f"{integ.name} returned y_eval of shape {y_eval.shape}; the protocol wants "
+                    f"(n_states, n_points) = ({n}, {expected})"
+                ),
+            )
         if res.status.ok and y_eval.shape[1] != expected:
-            return self._fail(si, _PY_FAILURE, (
-                f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"))
+            return self._fail(
+                si,
+                _PY_FAILURE,
+                (f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"),
+            )
         k = min(y_eval.shape[1], expected)
         if k:
-            rec.dense.y[i_eval:i_eval + k] = y_eval[:, :k].T
+            rec.dense.y[i_eval : i_eval + k] = y_eval[:, :k].T
             si[abi.SI_IEVAL] = i_eval + k
         stop_hit = None
         for hit in res.section_hits:
@@ -359,8 +438,9 @@ class _PythonArcs:
             self.message = f"non-finite state at t = {t1}"
             return self._done(si, abi.K_NONFINITE)
         if t1 < t or t1 > self.t_end:
-            return self._fail(si, _PY_FAILURE, (
-                f"{integ.name} stopped at t = {t1!r} outside the arc [{t!r}, {self.t_end!r}]"))
+            return self._fail(
+                si, _PY_FAILURE, (f"{integ.name} stopped at t = {t1!r} outside the arc [{t!r}, {self.t_end!r}]")
+            )
         if res.fired is None and t1 < self.t_end:
             return self._fail(si, _PY_FAILURE, f"{integ.name} stopped at t = {t1!r} < t_end without an event")
         if res.fired is not None and not 0 <= int(res.fired) < len(guards):

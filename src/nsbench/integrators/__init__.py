@@ -22,8 +22,18 @@ from nsbench.integrators.base import (
 )
 
 __all__ = [
-    "Integrator", "CompiledArcs", "Capabilities", "Option", "ArcRequest", "ArcResult", "SectionHit",
-    "get_integrator", "integrator_class", "integrator_from_config", "list_integrators", "ALIASES",
+    "Integrator",
+    "CompiledArcs",
+    "Capabilities",
+    "Option",
+    "ArcRequest",
+    "ArcResult",
+    "SectionHit",
+    "get_integrator",
+    "integrator_class",
+    "integrator_from_config",
+    "list_integrators",
+    "ALIASES",
     "canonical_name",
 ]
 

@@ -104,8 +104,7 @@ def operators(N: int) -> ChebyshevOperators:
     A = values_to_coefficients(N)
     E = chebyshev_basis(tau, N + 1) @ integrate_coefficients(N) @ A
     E[0, :] = 0.0  # the integral from -1 to -1, exactly
-    ops = ChebyshevOperators(N=N, nodes=tau, to_coefficients=A, integration=E,
-                             weights=barycentric_weights(N))
+    ops = ChebyshevOperators(N=N, nodes=tau, to_coefficients=A, integration=E, weights=barycentric_weights(N))
     for array in (ops.nodes, ops.to_coefficients, ops.integration, ops.weights):
         array.flags.writeable = False
     return ops

@@ -107,7 +107,7 @@ def exp(xh, xl):
     k = math.floor(xh / LN2_HI + 0.5)
     ph, pl = mul_d(LN2_HI, LN2_LO, -k)
     rh, rl = add(xh, xl, ph, pl)
-    rh, rl = rh * 2.0 ** -8, rl * 2.0 ** -8
+    rh, rl = rh * 2.0**-8, rl * 2.0**-8
     # sum_{j>=1} r^j / j!  (|r| < 2^-9: 11 terms reach 2^-104)
     th, tl = rh, rl
     sh, sl = rh, rl
@@ -120,7 +120,7 @@ def exp(xh, xl):
         qh, ql = mul(sh, sl, sh, sl)
         sh, sl = add(2.0 * sh, 2.0 * sl, qh, ql)
     eh, el = add_d(sh, sl, 1.0)
-    scale = 2.0 ** k
+    scale = 2.0**k
     return eh * scale, el * scale
 
 

@@ -364,13 +364,19 @@ def _first_zero(cx, j, a, b, fa, pa, fb, pb, m, tol):
     depth = stack.shape[0] - n  # the last n rows hold the polish's scratch
     E = wc[nq + C_E]
     sgn = wv[V_SG, j]
-    min_width = (b - a) * 2.0 ** -26
+    min_width = (b - a) * 2.0**-26
     stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3], stack[0, 4], stack[0, 5] = a, b, fa, pa, fb, pb
     top = 1
     while top > 0:
         top -= 1
-        a, b, fa, pa, fb, pb = (stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3],
-                                stack[top, 4], stack[top, 5])
+        a, b, fa, pa, fb, pb = (
+            stack[top, 0],
+            stack[top, 1],
+            stack[top, 2],
+            stack[top, 3],
+            stack[top, 4],
+            stack[top, 5],
+        )
         h = b - a
         if fb <= 0.0 and pa + pb + m * h < 0.0:
             return _root(cx, j, a, b, fa, fb)  # g' < 0 throughout: the only zero
@@ -388,10 +394,22 @@ def _first_zero(cx, j, a, b, fa, pa, fb, pb, m, tol):
         fm, pm = sgn * gv, sgn * gr
         if fm > 0.0:  # the right half waits below the left half
             stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3], stack[top, 4], stack[top, 5] = (
-                mid, b, fm, pm, fb, pb)
+                mid,
+                b,
+                fm,
+                pm,
+                fb,
+                pb,
+            )
             top += 1
         stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3], stack[top, 4], stack[top, 5] = (
-            a, mid, fa, pa, fm, pm)
+            a,
+            mid,
+            fa,
+            pa,
+            fm,
+            pm,
+        )
         top += 1
     return np.nan
 
@@ -467,7 +485,7 @@ def _augmented_state(tf, wm, mi, off, n3, z0, s, out):
     while norm > 0.5:
         norm *= 0.5
         squarings += 1
-    scale = s / 2.0 ** squarings
+    scale = s / 2.0**squarings
     e, term, tmp = wm[0], wm[1], wm[2]
     for a in range(n3):
         for b in range(n3):
@@ -550,8 +568,18 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
     scan step as a fraction of the mode's fastest time scale, and :data:`O_MAX_SCAN`, its
     largest value.
     """
-    keys, slots, ti, tf, tc, scal, wr, wc, wv, wm = (kd.u1, kd.i1, kd.i2, kd.f2a, kd.c2a, kd.f1a, kd.f2b, kd.c2b,
-                                                     kd.f2c, kd.f3a)
+    keys, slots, ti, tf, tc, scal, wr, wc, wv, wm = (
+        kd.u1,
+        kd.i1,
+        kd.i2,
+        kd.f2a,
+        kd.c2a,
+        kd.f1a,
+        kd.f2b,
+        kd.c2b,
+        kd.f2c,
+        kd.f3a,
+    )
     mode, gs, ng = arc.mode, arc.guard_sign, arc.n_guards
     t0, t0_lo, y0, t_end, max_steps = arc.t0, arc.t0_lo, arc.y0, arc.t_end, arc.max_steps
     sc, sl, sd, hit_from, hit_stop = sec.coeffs, sec.levels, sec.directions, sec.hit_from, sec.hit_stop
@@ -776,8 +804,16 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
         # Newton on the guard in double-double, then the state there (see _exact_polish)
         _exps(tf, tc, mi, ns, w, s_stop, E, wv[V_MS])
         rate = _value_rate(wr, wc, tf, tc, mi, fired, ns, w, s_stop, E)[1]
-        delta = polish_event(ArcMode(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w),
-                             t0, t0_lo, y0, s_stop, fired, rate, ybuf)
+        delta = polish_event(
+            ArcMode(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w),
+            t0,
+            t0_lo,
+            y0,
+            s_stop,
+            fired,
+            rate,
+            ybuf,
+        )
         if abs(delta) <= 1e-9 * max(1.0, s_stop):
             zs = wv[V_ZS, :n]
             rhs(prob, mode, t0 + s_stop, ybuf, zs)  # dy/dt at the event, for the first-order shift
@@ -798,4 +834,3 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
             return K_NONFINITE, t_stop, t_lo, -1
     _dense(cx, y0, t_eval, y_eval, si, t0, t0_lo, t_stop, ybuf)
     return status, t_stop, t_lo, fired
-

@@ -116,12 +116,17 @@ def empty_tables(capacity: int, n: int, m: int, g: int, sections: int = SECTION_
     scal = np.zeros(5)
     scal[S_N], scal[S_M], scal[S_G] = n, m, g
     return Tables(
-        keys=np.zeros(2 * capacity, np.uint64), slots=np.full(2 * capacity, -1, np.int64),
+        keys=np.zeros(2 * capacity, np.uint64),
+        slots=np.full(2 * capacity, -1, np.int64),
         ti=np.zeros((capacity, I_MODE + m + 2 * n), np.int64),
-        tf=np.zeros((capacity, f_offsets(n, g)[-1])), tc=np.zeros((capacity, c_offsets(n)[-1]), np.complex128),
-        scal=scal, wr=np.zeros((nq, 4 + (n + 3) + n)),
-        wc=np.zeros((nq + N_C + n, n + 1), np.complex128), wv=np.zeros((N_V + STACK + n, width)),
-        wm=np.zeros((3, n + 3, n + 3)))
+        tf=np.zeros((capacity, f_offsets(n, g)[-1])),
+        tc=np.zeros((capacity, c_offsets(n)[-1]), np.complex128),
+        scal=scal,
+        wr=np.zeros((nq, 4 + (n + 3) + n)),
+        wc=np.zeros((nq + N_C + n, n + 1), np.complex128),
+        wv=np.zeros((N_V + STACK + n, width)),
+        wm=np.zeros((3, n + 3, n + 3)),
+    )
 
 
 def with_sections(t: Tables, sections: int) -> Tables:
@@ -135,5 +140,17 @@ def with_sections(t: Tables, sections: int) -> Tables:
 
 def kernel_data(t: Tables) -> KernelData:
     """The tables as the core hands them to the kernel (``exact_arc`` names the fields back)."""
-    return KernelData(u1=t.keys, i1=t.slots, i2=t.ti, f1a=t.scal, f1b=np.zeros(0), f2a=t.tf, f2b=t.wr, f2c=t.wv,
-                      f3a=t.wm, f3b=np.zeros((0, 0, 0)), c2a=t.tc, c2b=t.wc)
+    return KernelData(
+        u1=t.keys,
+        i1=t.slots,
+        i2=t.ti,
+        f1a=t.scal,
+        f1b=np.zeros(0),
+        f2a=t.tf,
+        f2b=t.wr,
+        f2c=t.wv,
+        f3a=t.wm,
+        f3b=np.zeros((0, 0, 0)),
+        c2a=t.tc,
+        c2b=t.wc,
+    )

@@ -186,9 +186,18 @@ def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
     c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, c_end = c_offsets(n)
     o_slip, o_stuck = i_slip(m), i_stuck(m, n)
     q = f_q + fired * n3
-    yh, yl, rh, rl, p0, p0_lo, dh, dl, scr = (wv[V_YH], wv[V_YL], wv[V_RH], wv[V_RL], wv[V_P0], wv[V_P0L],
-                                              wv[V_DH], wv[V_DL], wv[V_SCR])
-    wp = wv[N_V + STACK:]
+    yh, yl, rh, rl, p0, p0_lo, dh, dl, scr = (
+        wv[V_YH],
+        wv[V_YL],
+        wv[V_RH],
+        wv[V_RL],
+        wv[V_P0],
+        wv[V_P0L],
+        wv[V_DH],
+        wv[V_DL],
+        wv[V_SCR],
+    )
+    wp = wv[N_V + STACK :]
     c0, res = wc[nqr + C_C0], wc[nqr + C_RES]
     # the stuck states move at their constant rate (a block with the belt): y0 + b s, exactly in double-double
     for r in range(nst):

@@ -131,7 +131,7 @@ def _bisect(p, mode, sf, sign, t, y, fy, t1, start, out, work):
 
     Returns ``(found, t_hit, n_substeps)``; the state at ``t_hit`` goes into ``out``.
     """
-    ys = work[7, :y.shape[0]]
+    ys = work[7, : y.shape[0]]
     lo = t
     hi = -1.0
     positive_seen = not start
@@ -283,8 +283,7 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
             phi1[q] = p1
             psi1[q] = d1
             end_crossed = p1 <= 0.0
-            crossed = end_crossed or ((phi[q] > 0.0 or start)
-                                      and _dips(phi[q], p1, hk_ * psi[q], hk_ * d1, start))
+            crossed = end_crossed or ((phi[q] > 0.0 or start) and _dips(phi[q], p1, hk_ * psi[q], hk_ * d1, start))
             if not crossed:
                 continue
             ok = False
@@ -295,8 +294,9 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                 ok, t_hit = _henon(p, mode, Surface(0, q, kinds, blocks, sc, dummy_l), t, t1, t1, y1, ystar, work)
             if not ok:
                 cnt[BISECTIONS] += 1
-                ok, t_hit, n_sub = _bisect(p, mode, Surface(0, q, kinds, blocks, sc, dummy_l), signs[q],
-                                           t, y, fy, t1, start, ystar, work)
+                ok, t_hit, n_sub = _bisect(
+                    p, mode, Surface(0, q, kinds, blocks, sc, dummy_l), signs[q], t, y, fy, t1, start, ystar, work
+                )
                 cnt[NFEV] += 3 * n_sub
             if ok and t_hit < best_t:  # earliest; the lowest index on a tie
                 best_t = t_hit
@@ -324,8 +324,9 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                     if not ok:
                         cnt[BISECTIONS] += 1
                         sgn = 1.0 if sec_v[k] > 0.0 else -1.0
-                        ok, t_hit, n_sub = _bisect(p, mode, Surface(1, k, kinds, blocks, sc, sl), sgn,
-                                                   t, y, fy, tb, False, ystar, work)
+                        ok, t_hit, n_sub = _bisect(
+                            p, mode, Surface(1, k, kinds, blocks, sc, sl), sgn, t, y, fy, tb, False, ystar, work
+                        )
                         cnt[NFEV] += 3 * n_sub
                 if ok and t_hit >= hit_from:
                     if si[SI_NHITS] >= hits.t.shape[0]:
@@ -360,4 +361,3 @@ def henon_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
             break
     copy_into(y_out, y)
     return status, t, 0.0, fired
-

@@ -55,8 +55,7 @@ SECTION_ACTIVE, SECTION_LEVEL, SECTION_COEFFS = 0, 1, 2
 COEFFICIENTS = LAYOUT
 
 #: Floating-point types by the precision names of :class:`Capabilities`.
-FP_TYPES: dict[str, Any] = {"double": float, "long double": np.longdouble,
-                            "quad": getattr(hy, "real128", None)}
+FP_TYPES: dict[str, Any] = {"double": float, "long double": np.longdouble, "quad": getattr(hy, "real128", None)}
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,9 @@ class Structure:
 
     def section_offset(self, slot: int) -> int:
         """After the guards' flags and signs (two entries per guard kind and block)."""
-        return self.guard_offset + GUARD_RECORD * len(GUARD_SLOT) * self.n_blocks + slot * (SECTION_COEFFS + self.n_mech)
+        return (
+            self.guard_offset + GUARD_RECORD * len(GUARD_SLOT) * self.n_blocks + slot * (SECTION_COEFFS + self.n_mech)
+        )
 
     def coefficient(self, name: str, block: int = 0) -> int:
         """Index of a coefficient (of ``block``, 0-based, for the per-block ones) in the runtime parameters."""
@@ -111,7 +112,7 @@ class Structure:
 def coefficient_values(problem: "FrictionOscillator") -> list[float]:
     """The first parameters: the problem's coefficients, in the order of the friction law's layout
     (:data:`COEFFICIENTS`, without the block count)."""
-    return [float(v) for v in problem.packed[LAYOUT.head_size:]]
+    return [float(v) for v in problem.packed[LAYOUT.head_size :]]
 
 
 class SectionLog:
@@ -131,8 +132,9 @@ def _system(st: Structure):
     mech = hy.make_vars(*[f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v")])
     x, v = mech[0::2], mech[1::2]
     par = hy.par
-    m, c, k, h, fs, fr, fk, delta, vs, cv = ([par[st.coefficient(name, i)] for i in range(nb)]
-                                             for name in LAYOUT.fields)
+    m, c, k, h, fs, fr, fk, delta, vs, cv = (
+        [par[st.coefficient(name, i)] for i in range(nb)] for name in LAYOUT.fields
+    )
     F, w, v0 = (par[st.coefficient(name)] for name in ("F", "w", "v0"))
     sigma = [par[st.mode_offset + i] for i in range(nb)]
     sign = [par[st.mode_offset + nb + i] for i in range(nb)]
@@ -187,8 +189,9 @@ _CACHE: dict[tuple, tuple[Any, float]] = {}
 _LOCK = threading.Lock()
 
 
-def compiled(st: Structure, precision: str, tol: float | None, high_accuracy: bool,
-             compact_mode: bool) -> tuple[Any, float]:
+def compiled(
+    st: Structure, precision: str, tol: float | None, high_accuracy: bool, compact_mode: bool
+) -> tuple[Any, float]:
     """A fresh copy of the compiled integrator for ``st`` and the seconds its compilation took.
 
     Compilations are cached per process; a cache hit costs a copy (about a
@@ -208,9 +211,15 @@ def compiled(st: Structure, precision: str, tol: float | None, high_accuracy: bo
             nt_events = [hy.nt_event(e, SectionLog(q), fp_type=fp) for q, e in enumerate(sections)]
             kwargs = {} if tol is None else {"tol": fp(tol)}
             ta = hy.taylor_adaptive(
-                sys, np.zeros(st.n_states, dtype=fp), pars=np.zeros(st.n_pars, dtype=fp),
-                fp_type=fp, t_events=t_events, nt_events=nt_events,
-                high_accuracy=high_accuracy, compact_mode=compact_mode, **kwargs,
+                sys,
+                np.zeros(st.n_states, dtype=fp),
+                pars=np.zeros(st.n_pars, dtype=fp),
+                fp_type=fp,
+                t_events=t_events,
+                nt_events=nt_events,
+                high_accuracy=high_accuracy,
+                compact_mode=compact_mode,
+                **kwargs,
             )
             hit = _CACHE[key] = (ta, time.perf_counter() - tic)
             return copy.deepcopy(ta), hit[1]

@@ -36,8 +36,9 @@ def supports(problem) -> bool:
     return callable(getattr(problem, "symbolic_field", None)) and callable(getattr(problem, "symbolic_guard", None))
 
 
-def compiled(problem, mode: tuple[int, ...], precision: str, tol: float | None, high_accuracy: bool,
-             compact_mode: bool) -> tuple[Any, float]:
+def compiled(
+    problem, mode: tuple[int, ...], precision: str, tol: float | None, high_accuracy: bool, compact_mode: bool
+) -> tuple[Any, float]:
     """A fresh copy of the integrator of ``mode`` and the seconds its compilation took (0 on a cache hit)."""
     key = (problem.name, problem.packed.tobytes(), tuple(mode), precision, tol, high_accuracy, compact_mode)
     with _LOCK:
@@ -48,13 +49,25 @@ def compiled(problem, mode: tuple[int, ...], precision: str, tol: float | None, 
             y = hy.make_vars(*problem.state_names)
             field = problem.symbolic_field(mode, hy.time, y)
             neg = hy.event_direction.negative
-            events = [hy.t_event(float(g.expected_sign) * problem.symbolic_guard(mode, g.code, g.block - 1,
-                                                                                  hy.time, y),
-                                 direction=neg, cooldown=fp(0.0), fp_type=fp)
-                      for g in problem.guards(tuple(mode))]
+            events = [
+                hy.t_event(
+                    float(g.expected_sign) * problem.symbolic_guard(mode, g.code, g.block - 1, hy.time, y),
+                    direction=neg,
+                    cooldown=fp(0.0),
+                    fp_type=fp,
+                )
+                for g in problem.guards(tuple(mode))
+            ]
             kwargs = {} if tol is None else {"tol": fp(tol)}
-            ta = hy.taylor_adaptive(list(zip(y, field)), np.zeros(len(y), dtype=fp), fp_type=fp, t_events=events,
-                                    high_accuracy=high_accuracy, compact_mode=compact_mode, **kwargs)
+            ta = hy.taylor_adaptive(
+                list(zip(y, field)),
+                np.zeros(len(y), dtype=fp),
+                fp_type=fp,
+                t_events=events,
+                high_accuracy=high_accuracy,
+                compact_mode=compact_mode,
+                **kwargs,
+            )
             hit = _CACHE[key] = (ta, time.perf_counter() - tic)
             return copy.deepcopy(ta), hit[1]
     return copy.deepcopy(hit[0]), 0.0

@@ -67,6 +67,7 @@ class Trajectory(NamedTuple):
     MODES: np.ndarray
     counters: np.ndarray  # one-step problems solved, steps that needed the enumeration, candidate solves
 
+
 #: Outcome codes of :func:`mj_run`.
 OK, BUDGET, NO_STATUS, NOT_CONVERGED = 0, 1, 2, 3
 #: One-step solvers (:attr:`StepData.method`).
@@ -76,6 +77,8 @@ ENUMERATION, ACTIVE_SET = 0, 1
 def active_set_cap(n: int) -> int:
     """The iteration cap of the active-set solver on ``n`` blocks: a run whose step needs more ends with a failure."""
     return 4 * n + 20
+
+
 #: Relative slack of the static-friction test (rounding of the solve, about 1e3 ulps).
 STATIC_SLACK = 1e-13
 
@@ -241,7 +244,7 @@ def mj_run(d, t0, y0, mode0, n_steps, out):
     for i in range(n):
         MODES[0, i] = status[i]
     last = n - 1
-    n_codes = 0 if active else 3 ** n
+    n_codes = 0 if active else 3**n
     a1 = h * theta * (1.0 - theta)
     for k in range(n_steps):
         t = t0 + k * h
@@ -319,8 +322,8 @@ def operators(m, c, K, h: float, theta: float, inverses: bool = True):
     W = np.diag(m) + h * theta * np.diag(c) + h * h * theta * theta * K
     if not inverses:
         return W, np.zeros((1, 1, 1))
-    winv = np.zeros((2 ** n, n, n))
-    for mask in range(1, 2 ** n):
+    winv = np.zeros((2**n, n, n))
+    for mask in range(1, 2**n):
         idx = [i for i in range(n) if mask >> i & 1]
         winv[mask][np.ix_(idx, idx)] = np.linalg.inv(W[np.ix_(idx, idx)])
     return W, winv

@@ -61,12 +61,16 @@ def _trailing(A, D, scale):
     return out / scale
 
 
-def scratch(n_nodes: int, n_states: int, n_sections: int, n_guards: int = 0) -> tuple[np.ndarray, np.ndarray,
-                                                                                       np.ndarray]:
+def scratch(
+    n_nodes: int, n_states: int, n_sections: int, n_guards: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The kernel's scratch: node arrays, node Jacobians, vectors (``kd.f3a, f3b, f2c``)."""
     rows = max(n_states, n_sections, n_nodes, 1)
-    return (np.zeros((6, n_nodes, n_states)), np.zeros((n_nodes, n_states, n_states)),
-            np.zeros((8 + 2 * max(n_states, n_guards), max(rows, n_nodes))))
+    return (
+        np.zeros((6, n_nodes, n_states)),
+        np.zeros((n_nodes, n_states, n_states)),
+        np.zeros((8 + 2 * max(n_states, n_guards), max(rows, n_nodes))),
+    )
 
 
 @hot
@@ -101,13 +105,20 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
     nq = ng
     ns = sl.shape[0]
     D, X, G, P, Y, Z = nodal[0], nodal[1], nodal[2], nodal[3], nodal[4], nodal[5]
-    base, comp, dstop, ystop, ybuf, dybuf, g0 = vec[0, :n], vec[1, :n], vec[2, :n], vec[3, :n], vec[4, :n], \
-        vec[5, :n], vec[6, :n]
+    base, comp, dstop, ystop, ybuf, dybuf, g0 = (
+        vec[0, :n],
+        vec[1, :n],
+        vec[2, :n],
+        vec[3, :n],
+        vec[4, :n],
+        vec[5, :n],
+        vec[6, :n],
+    )
     copy_into(base, y0)  # segment start state, rounded ...
     for i in range(n):
         comp[i] = 0.0  # ... and what the rounding dropped
-    phi = vec[8:8 + nq, :m]
-    dphi = vec[8 + nq:8 + 2 * nq, :m]
+    phi = vec[8 : 8 + nq, :m]
+    dphi = vec[8 + nq : 8 + 2 * nq, :m]
     sec_prev = vec[7, :ns]
     for s in range(ns):
         sec_prev[s] = linear_section_value(sc[s], sl[s], base)
@@ -142,8 +153,9 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                 G[j, i] = g0[i]
         for i in range(n):
             D[0, i] = 0.0
-        code, its, nf, nj = picard_iterations(p, mode, t_a, base, w, nodes, E, Nodal(D, X, G, J, P, Y, Z),
-                                              Iteration(order, jac_node, tol, max_iter))
+        code, its, nf, nj = picard_iterations(
+            p, mode, t_a, base, w, nodes, E, Nodal(D, X, G, J, P, Y, Z), Iteration(order, jac_node, tol, max_iter)
+        )
         steps += 1
         cnt[NSTEPS] += 1
         cnt[ITERATIONS] += its
@@ -191,8 +203,20 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
         for j in range(1, m):
             for q in range(nq):
                 tg = Target(kinds[q], blocks[q], float(signs[q]), sc, sl)
-                found, tau, nf = first_zero(p, mode, tg, seg, nodes[j - 1], nodes[j], phi[q, j - 1], phi[q, j],
-                                            dphi[q, j - 1], dphi[q, j], ybuf, dybuf)
+                found, tau, nf = first_zero(
+                    p,
+                    mode,
+                    tg,
+                    seg,
+                    nodes[j - 1],
+                    nodes[j],
+                    phi[q, j - 1],
+                    phi[q, j],
+                    dphi[q, j - 1],
+                    dphi[q, j],
+                    ybuf,
+                    dybuf,
+                )
                 cnt[NFEV] += nf
                 if found and tau < best_tau:  # earliest; the lowest index on a tie
                     best_tau = tau
@@ -224,8 +248,18 @@ def picard_arc(kd, fo, p, arc, sec, hits, dense, si, y_out, cnt):
                     tau = b
                     if after != 0.0:
                         sgn = 1.0 if before > 0.0 else -1.0
-                        tau, nf = root(p, mode, Target(SECTION, s, sgn, sc, sl), seg, nodes[j - 1], b,
-                                       sgn * before, sgn * after, ybuf, dybuf)
+                        tau, nf = root(
+                            p,
+                            mode,
+                            Target(SECTION, s, sgn, sc, sl),
+                            seg,
+                            nodes[j - 1],
+                            b,
+                            sgn * before,
+                            sgn * after,
+                            ybuf,
+                            dybuf,
+                        )
                         cnt[NFEV] += nf
                     t_hit = t0 + (s_a + w * (tau + 1.0))
                     if t_hit >= hit_from:

@@ -58,7 +58,7 @@ def main() -> int:
     nsds.insertDynamicalSystem(ds)
     inters = []
     for i in range(n):  # one relay per block (RelayNSL takes scalar bounds)
-        rel = sk.FirstOrderLinearTIR(Cy[i:i + 1].copy(), B[:, i:i + 1].copy())
+        rel = sk.FirstOrderLinearTIR(Cy[i : i + 1].copy(), B[:, i : i + 1].copy())
         rel.setePtr(np.array([-v0]))
         inter = sk.Interaction(sk.RelayNSL(1, -float(fr[i]), float(fr[i])), rel)
         nsds.link(inter, ds)
@@ -77,8 +77,8 @@ def main() -> int:
         z[k] = np.array(ds.x())
         lam[k] = [float(np.array(inter.lambda_(0)).reshape(-1)[0]) for inter in inters]
         sim.nextStep()
-    np.save(req["out"] + ".z.npy", z[:k + 1])
-    np.save(req["out"] + ".lambda.npy", lam[:k + 1])
+    np.save(req["out"] + ".z.npy", z[: k + 1])
+    np.save(req["out"] + ".lambda.npy", lam[: k + 1])
     print(json.dumps({"ok": True, "steps": k, "version": getattr(siconos, "__version__", "?")}))
     return 0
 
@@ -118,8 +118,8 @@ def ball_moreau_jean(req, sk):
         z[k] = (ds.q()[0], ds.velocity()[0])
         imp[k, 0] = float(np.array(inter.lambda_(1)).reshape(-1)[0])
         sim.nextStep()
-    np.save(req["out"] + ".z.npy", z[:k + 1])
-    np.save(req["out"] + ".lambda.npy", imp[:k + 1])
+    np.save(req["out"] + ".z.npy", z[: k + 1])
+    np.save(req["out"] + ".lambda.npy", imp[: k + 1])
     print(json.dumps({"ok": True, "steps": k}))
     return 0
 
@@ -146,8 +146,13 @@ def ball_event_driven(req, sk):
         impact = sim.eventsManager().nextEvent().getType() == 2  # a non-smooth event
         sim.processEvents()
         k += 1
-        row = (sim.startingTime(), ds.q()[0], ds.velocity()[0], float(ds.p(1)[0]) if impact else 0.0,
-               1.0 if len(sim.indexSet(2).interactions()) else 0.0)
+        row = (
+            sim.startingTime(),
+            ds.q()[0],
+            ds.velocity()[0],
+            float(ds.p(1)[0]) if impact else 0.0,
+            1.0 if len(sim.indexSet(2).interactions()) else 0.0,
+        )
         if row[0] == rows[-1][0]:
             row = row[:3] + (max(row[3], rows[-1][3]),) + row[4:]
             rows[-1] = row

@@ -65,7 +65,7 @@ class InterpolatedOutput:
         root that ends the arc), used only by the fallback.
         """
         stop = int(np.searchsorted(self.t_eval, t, side="right"))
-        for te in self.t_eval[self.done:stop]:
+        for te in self.t_eval[self.done : stop]:
             got = self.solver.step(float(te), method="normal")
             if got.status < 0 or got.status == ROOT_RETURN:  # te left the last step's window
                 self.fallbacks += 1

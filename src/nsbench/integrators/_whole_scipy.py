@@ -19,8 +19,17 @@ from nsbench.status import Status
 SOLVERS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 
 
-def run_scipy(request: SystemRequest, fun: Callable, jac: Callable | None, method: str, rtol: float, atol: float,
-              refine: int, modes_of: Callable | None = None, max_step: float = np.inf) -> SystemResult:
+def run_scipy(
+    request: SystemRequest,
+    fun: Callable,
+    jac: Callable | None,
+    method: str,
+    rtol: float,
+    atol: float,
+    refine: int,
+    modes_of: Callable | None = None,
+    max_step: float = np.inf,
+) -> SystemResult:
     """Step ``y' = fun(t, y)`` over the request's span with scipy's ``method``.
 
     ``modes_of(t, y)`` gives the mode of each returned point (``y`` one row per
@@ -83,6 +92,14 @@ def run_scipy(request: SystemRequest, fun: Callable, jac: Callable | None, metho
     if status.ok:
         t[-1] = request.t_end
     modes = None if modes_of is None else modes_of(t, y)
-    return SystemResult(t=t, y=y, modes=modes, y_eval=y_eval if status.ok else None,
-                        nfev=int(getattr(solver, "nfev", calls["fun"])), njev=int(getattr(solver, "njev", calls["jac"])),
-                        nsteps=steps, status=status, message=message)
+    return SystemResult(
+        t=t,
+        y=y,
+        modes=modes,
+        y_eval=y_eval if status.ok else None,
+        nfev=int(getattr(solver, "nfev", calls["fun"])),
+        njev=int(getattr(solver, "njev", calls["jac"])),
+        nsteps=steps,
+        status=status,
+        message=message,
+    )

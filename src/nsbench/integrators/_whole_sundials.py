@@ -24,8 +24,16 @@ from nsbench.status import Status
 CVODE_METHODS = {"CVODE-BDF": "BDF", "CVODE-Adams": "Adams"}
 
 
-def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, method: str, rtol: float, atol: float,
-              refine: int, modes_of: Callable | None = None) -> SystemResult:
+def run_cvode(
+    request: SystemRequest,
+    fun: Callable,
+    jac: Callable | None,
+    method: str,
+    rtol: float,
+    atol: float,
+    refine: int,
+    modes_of: Callable | None = None,
+) -> SystemResult:
     """Step ``y' = fun(t, y)`` over the request's span with CVODE's ``method`` (``'BDF'`` or ``'Adams'``).
 
     ``jac(t, y)`` is the analytic Jacobian (dense); ``None`` lets CVODE form it by
@@ -39,8 +47,9 @@ def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, metho
     def jacfn(t, y, yp, jj):
         jj[:, :] = jac(t, y)
 
-    solver = CVODE(rhsfn, method=method, jacfn=None if jac is None else jacfn, rtol=rtol, atol=atol,
-                   max_num_steps=10**9)
+    solver = CVODE(
+        rhsfn, method=method, jacfn=None if jac is None else jacfn, rtol=rtol, atol=atol, max_num_steps=10**9
+    )
     y0 = np.array(request.y0, dtype=float)
     t_end = float(request.t_end)
     ts, ys = [float(request.t0)], [y0.copy()]
@@ -61,8 +70,10 @@ def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, metho
                 break
             res = solver.step(t_end, method="onestep", tstop=t_end)
             if res.status < 0:
-                status, message = Status.INTEGRATOR_FAILURE, f"CVODE {method} failed at t = {float(res.t):.6g}: " \
-                                                             f"{res.message}"
+                status, message = (
+                    Status.INTEGRATOR_FAILURE,
+                    f"CVODE {method} failed at t = {float(res.t):.6g}: {res.message}",
+                )
                 break
             steps += 1
             t_old, t = t, float(res.t)
@@ -100,5 +111,14 @@ def run_cvode(request: SystemRequest, fun: Callable, jac: Callable | None, metho
         times[-1] = t_end
         y_eval[j:] = y[-1]  # requested times at t_end that rounding left after the last step
     modes = None if modes_of is None else modes_of(times, y)
-    return SystemResult(t=times, y=y, modes=modes, y_eval=y_eval if status.ok else None, nfev=nfev, njev=njev,
-                        nsteps=steps, status=status, message=message)
+    return SystemResult(
+        t=times,
+        y=y,
+        modes=modes,
+        y_eval=y_eval if status.ok else None,
+        nfev=nfev,
+        njev=njev,
+        nsteps=steps,
+        status=status,
+        message=message,
+    )

@@ -431,17 +431,31 @@ def kernel_advance(integ: CompiledArcs, request: ArcRequest) -> ArcResult:
     kernel = integ.compiled_kernel(problem)
     guards = problem.guards(tuple(int(v) for v in request.mode))
     given = tuple(request.guards)
-    if given and [(g.kind, g.block, g.expected_sign) for g in given] != \
-            [(g.kind, g.block, g.expected_sign) for g in guards]:
-        raise ConfigError(f"{integ.name}: a compiled kernel takes all the guards of the mode in the order of "
-                          f"problem.guards(mode) (or none), not {list(given)}")
+    if given and [(g.kind, g.block, g.expected_sign) for g in given] != [
+        (g.kind, g.block, g.expected_sign) for g in guards
+    ]:
+        raise ConfigError(
+            f"{integ.name}: a compiled kernel takes all the guards of the mode in the order of "
+            f"problem.guards(mode) (or none), not {list(given)}"
+        )
     size = max(problem.max_guards, 1)
     gk, gi, gs = (np.zeros(size, np.int64) for _ in range(3))
     for q, g in enumerate(guards):
         gk[q], gi[q], gs[q] = g.code, g.block - 1, g.expected_sign
-    out = one_arc(kernel, problem.data, request.mode, (gk, gi, gs), len(guards) if given else 0,
-                  request.t0, request.t0_lo, request.y0, request.t_end, request.max_steps, request.sections,
-                  request.t_eval)
+    out = one_arc(
+        kernel,
+        problem.data,
+        request.mode,
+        (gk, gi, gs),
+        len(guards) if given else 0,
+        request.t0,
+        request.t0_lo,
+        request.y0,
+        request.t_end,
+        request.max_steps,
+        request.sections,
+        request.t_eval,
+    )
     message, code = "", Status.SUCCESS
     if out.status == abi.K_BUDGET:
         code, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {out.t:.6g}"
@@ -452,7 +466,17 @@ def kernel_advance(integ: CompiledArcs, request: ArcRequest) -> ArcResult:
         message = kernel.failure(out.status, out.t) if kernel.failure else f"failure code {out.status}"
     hits = [SectionHit(k, t, y) for k, t, y in out.hits]
     extra: dict[str, float] = {name: int(out.counters[abi.X0 + k]) for k, name in enumerate(kernel.counters)}
-    return ArcResult(t=out.t, y=out.y, fired=None if out.fired < 0 else out.fired, y_eval=out.y_eval,
-                     section_hits=hits, nfev=int(out.counters[abi.NFEV]), njev=int(out.counters[abi.NJEV]),
-                     nsteps=int(out.counters[abi.NSTEPS]), extra=extra, status=code, message=message,
-                     t_lo=out.t_lo)
+    return ArcResult(
+        t=out.t,
+        y=out.y,
+        fired=None if out.fired < 0 else out.fired,
+        y_eval=out.y_eval,
+        section_hits=hits,
+        nfev=int(out.counters[abi.NFEV]),
+        njev=int(out.counters[abi.NJEV]),
+        nsteps=int(out.counters[abi.NSTEPS]),
+        extra=extra,
+        status=code,
+        message=message,
+        t_lo=out.t_lo,
+    )

@@ -50,10 +50,11 @@ def pair_weights(lam: np.ndarray, vec: np.ndarray, vinv: np.ndarray) -> np.ndarr
             if d == c or d in used:
                 continue
             scale = max(1.0, abs(lam[c]))
-            if (abs(lam[d] - np.conj(lam[c])) <= 1e-12 * scale
-                    and np.allclose(vec[:, d], np.conj(vec[:, c]), rtol=0, atol=1e-13)
-                    and np.allclose(vinv[d], np.conj(vinv[c]), rtol=0,
-                                    atol=1e-13 * max(1.0, np.abs(vinv).max()))):
+            if (
+                abs(lam[d] - np.conj(lam[c])) <= 1e-12 * scale
+                and np.allclose(vec[:, d], np.conj(vec[:, c]), rtol=0, atol=1e-13)
+                and np.allclose(vinv[d], np.conj(vinv[c]), rtol=0, atol=1e-13 * max(1.0, np.abs(vinv).max()))
+            ):
                 w[c], w[d] = 2.0, 0.0
                 used.update((c, d))
                 break
@@ -117,7 +118,7 @@ class ModeTables:
             getattr(new, name)[: self.n_modes] = getattr(old, name)[: self.n_modes]
         new.scal[:] = old.scal
         for s in range(self.n_modes):
-            insert_mode(new.keys, new.slots, new.ti, old.ti[s, I_MODE:I_MODE + m].copy(), s)
+            insert_mode(new.keys, new.slots, new.ti, old.ti[s, I_MODE : I_MODE + m].copy(), s)
         self.data = new
 
     def _fill(self, s: int, mode: tuple[int, ...]) -> None:
@@ -144,8 +145,8 @@ class ModeTables:
         stuck = still
         ns, nst = len(slip), len(stuck)
         o_slip, o_stuck = lay.i_slip(m), lay.i_stuck(m, n)
-        ti[o_slip:o_slip + ns], ti[o_stuck:o_stuck + nst] = slip, stuck
-        tf[f_b0k:f_b0k + nst] = b0[stuck]
+        ti[o_slip : o_slip + ns], ti[o_stuck : o_stuck + nst] = slip, stuck
+        tf[f_b0k : f_b0k + nst] = b0[stuck]
         rates = [w if forced else 0.0]
         defective = False
         polished = ns == 0  # every state stuck: nothing to refine, the polish is exact
@@ -153,7 +154,7 @@ class ModeTables:
         def put(off: int, block: np.ndarray, target=tf) -> None:  # an ns x nc block at row stride n
             rows, cols = block.shape
             for r in range(rows):
-                target[off + r * n: off + r * n + cols] = block[r]
+                target[off + r * n : off + r * n + cols] = block[r]
 
         if ns:
             a_ss = np.ascontiguousarray(a[np.ix_(slip, slip)])
@@ -170,36 +171,36 @@ class ModeTables:
             if not defective:
                 vinv = np.linalg.inv(vec)
                 ainv = np.linalg.inv(a_ss)
-                tc[c_lam:c_lam + ns] = lam
+                tc[c_lam : c_lam + ns] = lam
                 put(c_vec, vec, tc)
                 put(c_vinv, vinv, tc)
-                tf[f_cw:f_cw + ns] = pair_weights(lam, vec, vinv)
+                tf[f_cw : f_cw + ns] = pair_weights(lam, vec, vinv)
                 put(f_ainv, ainv)
                 put(f_ass, a_ss)
                 if nst:
                     put(f_ask, a_sk)
-                tf[f_b0s:f_b0s + ns] = b0[slip]
+                tf[f_b0s : f_b0s + ns] = b0[slip]
                 # slope of the particular solution, from the stuck blocks moving at v0
                 drive = a_sk @ b0[stuck] if nst else np.zeros(ns)
                 p1 = -ainv @ drive
-                tf[f_p1:f_p1 + ns] = p1
+                tf[f_p1 : f_p1 + ns] = p1
                 harmonic = bc[slip] - 1j * bs[slip]
                 z = np.linalg.solve(1j * w * np.eye(ns) - a_ss, harmonic) if forced else np.zeros(ns, complex)
-                tc[c_z:c_z + ns] = z
+                tc[c_z : c_z + ns] = z
                 if ns <= polish.MAX_POLISH:
                     lam_lo = np.zeros(ns, np.complex128)
                     vec_lo = np.zeros((ns, ns), np.complex128)
                     polish.refine_eigenpairs(a_ss, lam.copy(), np.ascontiguousarray(vec), lam_lo, vec_lo)
-                    tc[c_lamlo:c_lamlo + ns] = lam_lo
+                    tc[c_lamlo : c_lamlo + ns] = lam_lo
                     put(c_veclo, vec_lo, tc)
                     bh, bl = polish.product_dd(a_sk, np.asarray(b0[stuck], float), -1.0)
                     p1_lo = np.zeros(ns)
                     polish.refine_linear(a_ss, ainv, bh, bl, p1.copy(), p1_lo, np.zeros(ns))
-                    tf[f_p1lo:f_p1lo + ns] = p1_lo
+                    tf[f_p1lo : f_p1lo + ns] = p1_lo
                     if forced:
                         z_lo = np.zeros(ns, np.complex128)
                         polish.refine_harmonic(a_ss, w, z.copy(), np.asarray(harmonic, np.complex128), z_lo)
-                        tc[c_zlo:c_zlo + ns] = z_lo
+                        tc[c_zlo : c_zlo + ns] = z_lo
                     polished = True
         ti[lay.I_NS], ti[lay.I_NST], ti[lay.I_DEFECTIVE] = ns, nst, int(defective)
         ti[lay.I_POLISH] = int(polished and not defective)
@@ -207,9 +208,9 @@ class ModeTables:
         aug = np.zeros((n3, n3))
         aug[:n, :n], aug[:n, n], aug[:n, n + 1], aug[:n, n + 2] = a, b0, bc, bs
         aug[n + 1, n + 2], aug[n + 2, n + 1] = -w, w
-        tf[f_aug:f_aug + n3 * n3] = aug.ravel()
+        tf[f_aug : f_aug + n3 * n3] = aug.ravel()
         for q, guard in enumerate(p.guards(tuple(int(v) for v in mode))):
-            tf[f_q + q * n3: f_q + (q + 1) * n3] = p.guard_row(mode, guard.code, guard.block - 1)
+            tf[f_q + q * n3 : f_q + (q + 1) * n3] = p.guard_row(mode, guard.code, guard.block - 1)
 
 
 def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:
@@ -219,8 +220,17 @@ def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:
     times = np.asarray(times, dtype=float)
     integ = ExactIntegrator()
     integ.setup(problem)
-    arc = integ.advance(ArcRequest(problem=problem, mode=tuple(mode), t0=float(t0), y0=np.asarray(y0, float),
-                                   t_end=float(times.max()), guards=(), t_eval=times))
+    arc = integ.advance(
+        ArcRequest(
+            problem=problem,
+            mode=tuple(mode),
+            t0=float(t0),
+            y0=np.asarray(y0, float),
+            t_end=float(times.max()),
+            guards=(),
+            t_eval=times,
+        )
+    )
     return arc.y_eval
 
 
@@ -229,12 +239,19 @@ class ExactIntegrator(CompiledArcs):
 
     name = "exact"
     capabilities = Capabilities(
-        event_location="exact-root", order=None, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=False, precision="double", step_option=None, reference_grade=True,
+        event_location="exact-root",
+        order=None,
+        adaptive=False,
+        needs_jacobian=False,
+        supports_nonlinear=False,
+        precision="double",
+        step_option=None,
+        reference_grade=True,
     )
     options = {
-        "scan": Option(0.25, float, lower=0.0, upper=4.0,
-                       doc="scan step as a fraction of the shortest time scale of the mode"),
+        "scan": Option(
+            0.25, float, lower=0.0, upper=4.0, doc="scan step as a fraction of the shortest time scale of the mode"
+        ),
         "max_scan": Option(1.0, float, lower=0.0, doc="longest scan step (time units)"),
     }
     counter_names = ("roots", "expm_fallback_arcs", "polished_events")
@@ -245,7 +262,12 @@ class ExactIntegrator(CompiledArcs):
         from nsbench.model.kernel import ArcKernel, arc_table
 
         tables = ModeTables(problem)
-        return ArcKernel(arc_table(exact_arc, problem), kernel_data(tables.data),
-                         np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
-                         prepare_mode=lambda mode: kernel_data(tables.add(mode)),
-                         prepare_run=lambda k: kernel_data(tables.ensure_sections(k)), name=self.name)
+        return ArcKernel(
+            arc_table(exact_arc, problem),
+            kernel_data(tables.data),
+            np.array([float(self.settings[name]) for name in OPTIONS]),
+            self.counter_names,
+            prepare_mode=lambda mode: kernel_data(tables.add(mode)),
+            prepare_run=lambda k: kernel_data(tables.ensure_sections(k)),
+            name=self.name,
+        )

@@ -162,7 +162,7 @@ def _hermite_clear(fa: float, pa: float, fb: float, pb: float, w: float, b4: flo
             split = min(inside, key=lambda t: _bernstein(c0, c1, c2, c3, t)[-1])
     elif qa == 0.0 and qb != 0.0 and 0.0 < -d0 / qb < 1.0:
         split = -d0 / qb
-    err = w ** 4 * b4 / 384.0
+    err = w**4 * b4 / 384.0
     scale = fa + fb + (abs(pa) + abs(pb)) * w + err
     return min(c0, c3, *_bernstein(c0, c1, c2, c3, split)) - err > _MARGIN * scale
 
@@ -573,7 +573,7 @@ class _ModeFlow:
         # the truncated series' second derivative on a step, per unit of ||q D||_1 ||z||_D
         j = self.terms
         log_rho = math.log(max(self.rho, 1e-300))
-        self.tail2 = 2.0 * self.norm ** 2 * math.exp((j - 1) * log_rho - math.lgamma(j))
+        self.tail2 = 2.0 * self.norm**2 * math.exp((j - 1) * log_rho - math.lgamma(j))
         self.phi = self._propagator()
         self._rows: dict[Any, _Row] = {}
         self.matvecs = 0
@@ -676,17 +676,34 @@ class ExactMP(Integrator):
 
     name = "exact-mp"
     capabilities = Capabilities(
-        event_location="taylor-bound-root", order=None, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=False, precision="mp", step_option=None, reference_grade=True,
+        event_location="taylor-bound-root",
+        order=None,
+        adaptive=False,
+        needs_jacobian=False,
+        supports_nonlinear=False,
+        precision="mp",
+        step_option=None,
+        reference_grade=True,
     )
     options = {
-        "digits": Option(40, int, lower=20, lower_inclusive=True, upper=200,
-                         doc="decimal digits of time, state and arithmetic (mpmath dps)"),
-        "model": Option("coefficients", str, choices=tuple(MODELS),
-                        doc="the modes from the problem's coefficients in mp ('coefficients'), or the "
-                            "doubles of problem.linear_form and guard_row taken exactly ('linear-form', "
-                            "what exact solves)"),
+        "digits": Option(
+            40,
+            int,
+            lower=20,
+            lower_inclusive=True,
+            upper=200,
+            doc="decimal digits of time, state and arithmetic (mpmath dps)",
+        ),
+        "model": Option(
+            "coefficients",
+            str,
+            choices=tuple(MODELS),
+            doc="the modes from the problem's coefficients in mp ('coefficients'), or the "
+            "doubles of problem.linear_form and guard_row taken exactly ('linear-form', "
+            "what exact solves)",
+        ),
     }
+
     def setup(self, problem: FrictionOscillator) -> None:
         """Refuse non-linear problems (the base class); a fresh mp context, mode cache and carry for ``problem``.
 
@@ -718,8 +735,11 @@ class ExactMP(Integrator):
             return None
         t, t_lo, y_out, time_mp, z = carry
         if not _friction(request.problem):  # only a transition that left the state alone is continued
-            same = (float(request.t0) == t and float(request.t0_lo) == t_lo
-                    and np.array_equal(np.asarray(request.y0, dtype=float), y_out))
+            same = (
+                float(request.t0) == t
+                and float(request.t0_lo) == t_lo
+                and np.array_equal(np.asarray(request.y0, dtype=float), y_out)
+            )
             return (time_mp, list(z)) if same else None
         reset = reset_velocities(request, t, t_lo, y_out)
         if reset is None:
@@ -742,8 +762,9 @@ class ExactMP(Integrator):
     def _flow(self, mode: Mode) -> _ModeFlow:
         flow = self._flows.get(tuple(mode))
         if flow is None:
-            flow = self._flows[tuple(mode)] = _ModeFlow(self._ctx, self._model.matrix(mode), self._model.n,
-                                                        int(self.settings["digits"]))
+            flow = self._flows[tuple(mode)] = _ModeFlow(
+                self._ctx, self._model.matrix(mode), self._model.n, int(self.settings["digits"])
+            )
         return flow
 
     def _rows(self, request: ArcRequest, flow: _ModeFlow):
@@ -771,9 +792,14 @@ class ExactMP(Integrator):
         except (ArithmeticError, ValueError) as exc:  # a numerical failure is a status, not an exception
             self._carry = None
             n = problem.n_states
-            return ArcResult(t=float(request.t0), y=np.array(request.y0, dtype=float), fired=None,
-                             y_eval=np.empty((n, 0)), status=Status.INTEGRATOR_FAILURE,
-                             message=f"{self.name}: {type(exc).__name__}: {exc}")
+            return ArcResult(
+                t=float(request.t0),
+                y=np.array(request.y0, dtype=float),
+                fired=None,
+                y_eval=np.empty((n, 0)),
+                status=Status.INTEGRATOR_FAILURE,
+                message=f"{self.name}: {type(exc).__name__}: {exc}",
+            )
 
 
 class _Arc:
@@ -789,8 +815,9 @@ class _Arc:
         self.guards, self.sections = integ._rows(request, flow)
         self.span = ctx.mpf(float(request.t_end)) - self.t0
         scale = max(1.0, abs(float(self.t0)) + abs(float(request.t_end)))
-        self.search = _Search(ctx, min_width=flow.h * ctx.ldexp(1, -(ctx.prec // 2)),
-                              tol=ctx.mpf(16.0 * scale) * ctx.eps)
+        self.search = _Search(
+            ctx, min_width=flow.h * ctx.ldexp(1, -(ctx.prec // 2)), tol=ctx.mpf(16.0 * scale) * ctx.eps
+        )
         self.noise = 2.0 ** (8 - ctx.prec)  # relative rounding level of an mp guard value
         t_eval = np.asarray(request.t_eval, dtype=float)
         self.t_eval = t_eval
@@ -844,8 +871,7 @@ class _Arc:
         flow, search = self.flow, self.search
         if va != 0 and at_end and (vb > 0) == (va > 0):
             sgn = 1.0 if va > 0 else -1.0
-            if self._excluded(row, zn, float(end), sgn * float(va), sgn * float(ra), sgn * float(vb),
-                              sgn * float(rb)):
+            if self._excluded(row, zn, float(end), sgn * float(va), sgn * float(ra), sgn * float(vb), sgn * float(rb)):
                 return []
         self.careful += 1
         poly = flow.poly(row, z_a, 1, zn)
@@ -952,5 +978,17 @@ class _Arc:
         nfev, self.flow.matvecs = self.flow.matvecs, 0
         # nfev counts mp matrix-vector products (flow or field of the augmented system), said here too
         extra = {"careful_steps": self.careful, "roots": self.search.roots, "mp_matvecs": nfev}
-        return ArcResult(t=t, y=y, fired=fired, y_eval=y_eval, section_hits=self.hits, nfev=nfev, njev=0,
-                         nsteps=steps, extra=extra, status=status, message=message, t_lo=t_lo)
+        return ArcResult(
+            t=t,
+            y=y,
+            fired=fired,
+            y_eval=y_eval,
+            section_hits=self.hits,
+            nfev=nfev,
+            njev=0,
+            nsteps=steps,
+            extra=extra,
+            status=status,
+            message=message,
+            t_lo=t_lo,
+        )

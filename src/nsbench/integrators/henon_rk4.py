@@ -51,8 +51,13 @@ class HenonRK4(CompiledArcs):
 
     name = "henon-rk4"
     capabilities = Capabilities(
-        event_location="henon", order=4, adaptive=False, needs_jacobian=False,
-        supports_nonlinear=True, precision="double", step_option="h",
+        event_location="henon",
+        order=4,
+        adaptive=False,
+        needs_jacobian=False,
+        supports_nonlinear=True,
+        precision="double",
+        step_option="h",
     )
     options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
     accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025}, {"h": 0.000625})
@@ -76,12 +81,14 @@ class HenonRK4(CompiledArcs):
         if h * rate > STABILITY_LIMIT:
             raise UnsupportedProblemError(
                 f"{self.name}: h = {h:g} is beyond RK4's stability limit on this problem (h times its fastest "
-                f"rate {rate:.4g} is {h * rate:.3g} > {STABILITY_LIMIT:.3f}); use h <= {STABILITY_LIMIT / rate:.3g}")
+                f"rate {rate:.4g} is {h * rate:.3g} > {STABILITY_LIMIT:.3f}); use h <= {STABILITY_LIMIT / rate:.3g}"
+            )
         if h * rate < RESOLUTION_LIMIT:
             raise UnsupportedProblemError(
                 f"{self.name}: h = {h:g} is too small to move the state in double precision (h times the "
                 f"problem's fastest rate {rate:.4g} is {h * rate:.3g} < {RESOLUTION_LIMIT:.3g}); use "
-                f"h >= {RESOLUTION_LIMIT / rate:.3g}")
+                f"h >= {RESOLUTION_LIMIT / rate:.3g}"
+            )
         super().setup(problem)
 
     def build_kernel(self, problem):
@@ -90,9 +97,13 @@ class HenonRK4(CompiledArcs):
         from nsbench.model.kernel import ArcKernel, arc_table
 
         n, g = problem.n_states, problem.max_guards
-        kernel = ArcKernel(arc_table(henon_arc, problem), kernel_data(f2a=scratch(n, 2, g)),
-                           np.array([float(self.settings[name]) for name in OPTIONS]), self.counter_names,
-                           name=self.name)
+        kernel = ArcKernel(
+            arc_table(henon_arc, problem),
+            kernel_data(f2a=scratch(n, 2, g)),
+            np.array([float(self.settings[name]) for name in OPTIONS]),
+            self.counter_names,
+            name=self.name,
+        )
 
         def prepare_run(n_sections: int):
             if kernel.data.f2a.shape[1] < n_sections:

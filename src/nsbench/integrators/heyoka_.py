@@ -53,9 +53,15 @@ _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see 
 
 
 def _caps(precision: str) -> Capabilities:
-    return Capabilities(event_location="taylor-root", order=None, adaptive=True,
-                        needs_jacobian=False, supports_nonlinear=True, precision=precision,
-                        step_option="tol")
+    return Capabilities(
+        event_location="taylor-root",
+        order=None,
+        adaptive=True,
+        needs_jacobian=False,
+        supports_nonlinear=True,
+        precision=precision,
+        step_option="tol",
+    )
 
 
 class HeyokaIntegrator(Integrator):
@@ -68,11 +74,16 @@ class HeyokaIntegrator(Integrator):
     #: the guard off (heyoka alone: tests show what it then does).
     fresh_steps: ClassVar[int] = 8
     options = {
-        "tol": Option(None, float, lower=0.0, upper=1e-2, nullable=True,
-                      doc="Taylor tolerance (relative and absolute); None: the precision's epsilon"),
+        "tol": Option(
+            None,
+            float,
+            lower=0.0,
+            upper=1e-2,
+            nullable=True,
+            doc="Taylor tolerance (relative and absolute); None: the precision's epsilon",
+        ),
         "high_accuracy": Option(False, bool, doc="heyoka's compensated summation for long runs"),
-        "compact_mode": Option(None, bool, nullable=True,
-                               doc="compile in compact mode; None: only for quad precision"),
+        "compact_mode": Option(None, bool, nullable=True, doc="compile in compact mode; None: only for quad precision"),
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
@@ -87,7 +98,8 @@ class HeyokaIntegrator(Integrator):
         if self._written_symbolically(problem) and not symbolic.supports(problem):
             raise UnsupportedProblemError(
                 f"{self.name} builds heyoka's expressions of the friction family's field; {problem!r} is of the "
-                f"{problem.family or 'other'!r} family, which has no heyoka form")
+                f"{problem.family or 'other'!r} family, which has no heyoka form"
+            )
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
@@ -122,8 +134,7 @@ class HeyokaIntegrator(Integrator):
         if compact is None:
             compact = self.precision == "quad"
         st = model.Structure.of(self._problem, max(n_sections, _SECTION_SLOTS))
-        ta, seconds = model.compiled(st, self.precision, self.settings["tol"],
-                                     self.settings["high_accuracy"], compact)
+        ta, seconds = model.compiled(st, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
         self.compile_time += seconds  # setup's share lands in setup_time; later ones in extra
         self._compiled_in_advance = getattr(self, "_compiled_in_advance", 0.0) + seconds
         self._models[st.n_sections] = (st, ta)
@@ -154,8 +165,14 @@ class HeyokaIntegrator(Integrator):
         self._carry = None
         if fired is None:  # the arc ended at t_end: the next request starts afresh
             return
-        self._carry = (request.problem, t_stop, t_lo, np.array(y_out, dtype=float, copy=True), dtime,
-                       np.array(y_fp, copy=True))
+        self._carry = (
+            request.problem,
+            t_stop,
+            t_lo,
+            np.array(y_out, dtype=float, copy=True),
+            dtime,
+            np.array(y_fp, copy=True),
+        )
 
     def _pars(self, st: model.Structure, request: ArcRequest) -> np.ndarray:
         """The runtime parameters of an arc (coefficients, mode, guards, sections) in our precision.
@@ -182,7 +199,7 @@ class HeyokaIntegrator(Integrator):
             off = st.section_offset(q)
             pars[off + model.SECTION_ACTIVE], pars[off + model.SECTION_LEVEL] = 1.0, sec.level
             coeffs = off + model.SECTION_COEFFS
-            pars[coeffs: coeffs + st.n_mech] = sec.coeffs
+            pars[coeffs : coeffs + st.n_mech] = sec.coeffs
         cached = self._pars_cache[key] = pars.astype(self._fp)
         return cached
 
@@ -222,8 +239,14 @@ class HeyokaIntegrator(Integrator):
             compact = self.settings["compact_mode"]
             if compact is None:
                 compact = self.precision == "quad"
-            ta, seconds = symbolic.compiled(self._problem, tuple(mode), self.precision, self.settings["tol"],
-                                            self.settings["high_accuracy"], compact)
+            ta, seconds = symbolic.compiled(
+                self._problem,
+                tuple(mode),
+                self.precision,
+                self.settings["tol"],
+                self.settings["high_accuracy"],
+                compact,
+            )
             self.compile_time += seconds
             self._compiled_in_advance += seconds
             self._mode_tas[tuple(mode)] = ta
@@ -233,22 +256,37 @@ class HeyokaIntegrator(Integrator):
         """One arc of a symbolically written problem (see the module docstring)."""
         problem, fp, n = request.problem, self._fp, request.problem.n_states
         if request.sections:
-            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
-                             y_eval=np.empty((n, 0)), status=Status.INTEGRATOR_FAILURE,
-                             message=f"{self.name}: state sections are not supported on {problem.name}")
+            return ArcResult(
+                t=request.t0,
+                y=np.array(request.y0, dtype=float),
+                fired=None,
+                y_eval=np.empty((n, 0)),
+                status=Status.INTEGRATOR_FAILURE,
+                message=f"{self.name}: state sections are not supported on {problem.name}",
+            )
         ta = self._mode_ta(request.mode)
         carry, self._carry = self._carry, None
-        same = (carry is not None and carry[0] is problem and float(request.t0) == carry[1]
-                and float(request.t0_lo) == carry[2] and np.array_equal(np.asarray(request.y0, float), carry[3]))
+        same = (
+            carry is not None
+            and carry[0] is problem
+            and float(request.t0) == carry[1]
+            and float(request.t0_lo) == carry[2]
+            and np.array_equal(np.asarray(request.y0, float), carry[3])
+        )
         if same and self.precision != "double":
             ta.dtime, ta.state[:] = carry[4], carry[5]
         else:
             ta.dtime = (fp(request.t0), fp(request.t0_lo))
             ta.state[:] = np.asarray(request.y0, dtype=float).astype(fp)
         if request.max_steps <= 0:
-            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
-                             y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
-                             message=f"step budget exhausted at t = {request.t0:.6g}")
+            return ArcResult(
+                t=request.t0,
+                y=np.array(request.y0, dtype=float),
+                fired=None,
+                y_eval=np.empty((n, 0)),
+                status=Status.BUDGET_EXHAUSTED,
+                message=f"step budget exhausted at t = {request.t0:.6g}",
+            )
         taylor = model.hy.taylor_outcome
         t_start, nsteps, hit, rows = ta.time, 0, None, []
         fresh = self._fresh_guards(request)
@@ -256,7 +294,7 @@ class HeyokaIntegrator(Integrator):
         if fresh:  # heyoka looks for no root of an event that is zero where a step starts: one step alone
             outcome, _ = ta.step(fp(request.t_end) - t_start)
             nsteps = 1
-            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
                 if fp(float(te)) > ta.time:
                     break
                 rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
@@ -269,7 +307,8 @@ class HeyokaIntegrator(Integrator):
                 outcome = taylor.step_limit
             else:
                 outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0)
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0
+                )
                 nsteps += int(taken)
         if hit is not None:
             hi, lo, y_fp, fired, status, message = hit[0], fp(0.0), hit[2], hit[1], Status.SUCCESS, ""
@@ -293,7 +332,7 @@ class HeyokaIntegrator(Integrator):
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
         rows = rows[:n_eval]
         if len(rows) < n_eval and c_out is not None:
-            times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
+            times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))
         y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
@@ -303,8 +342,19 @@ class HeyokaIntegrator(Integrator):
         extra = {"taylor_coefficients": nsteps * int(ta.order)}
         if self._compiled_in_advance:
             extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
-        return ArcResult(t=t_stop, y=y_out, fired=fired, y_eval=y_eval, nfev=nsteps, njev=0, nsteps=nsteps,
-                         extra=extra, status=status, message=message, t_lo=t_lo)
+        return ArcResult(
+            t=t_stop,
+            y=y_out,
+            fired=fired,
+            y_eval=y_eval,
+            nfev=nsteps,
+            njev=0,
+            nsteps=nsteps,
+            extra=extra,
+            status=status,
+            message=message,
+            t_lo=t_lo,
+        )
 
     def advance(self, request: ArcRequest) -> ArcResult:
         problem = request.problem
@@ -318,9 +368,14 @@ class HeyokaIntegrator(Integrator):
         t0 = self._load(st, ta, request, carried)
         fp, n = self._fp, problem.n_states
         if request.max_steps <= 0:
-            return ArcResult(t=request.t0, y=np.array(request.y0, dtype=float), fired=None,
-                             y_eval=np.empty((n, 0)), status=Status.BUDGET_EXHAUSTED,
-                             message=f"step budget exhausted at t = {request.t0:.6g}")
+            return ArcResult(
+                t=request.t0,
+                y=np.array(request.y0, dtype=float),
+                fired=None,
+                y_eval=np.empty((n, 0)),
+                status=Status.BUDGET_EXHAUSTED,
+                message=f"step budget exhausted at t = {request.t0:.6g}",
+            )
         outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request)
         if fresh_hit is not None:  # a fresh guard crossed inside the first step
             hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
@@ -337,16 +392,27 @@ class HeyokaIntegrator(Integrator):
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
         rows = first_rows[:n_eval]
         if len(rows) < n_eval and c_out is not None:
-            times = np.asarray(request.t_eval[len(rows):n_eval], dtype=float).astype(fp)
+            times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
         y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
         y_out = np.asarray(y_fp[:n]).astype(float)
         if self.precision != "double" and status.ok:
             self._keep(request, fired, t_stop, t_lo, y_out, (hi, lo), y_fp)
-        return ArcResult(t=t_stop, y=y_out, fired=fired, y_eval=y_eval,
-                         section_hits=model.section_hits(ta, request, t0, hi), nfev=nsteps, njev=0,
-                         nsteps=nsteps, extra=extra, status=status, message=message, t_lo=t_lo)
+        return ArcResult(
+            t=t_stop,
+            y=y_out,
+            fired=fired,
+            y_eval=y_eval,
+            section_hits=model.section_hits(ta, request, t0, hi),
+            nfev=nsteps,
+            njev=0,
+            nsteps=nsteps,
+            extra=extra,
+            status=status,
+            message=message,
+            t_lo=t_lo,
+        )
 
     def _propagate(self, st, ta, request: ArcRequest):
         """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
@@ -360,8 +426,8 @@ class HeyokaIntegrator(Integrator):
                 outcome = model.hy.taylor_outcome.step_limit
             else:
                 outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps,
-                    c_output=request.t_eval.size > 0)
+                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0
+                )
                 nsteps += int(taken)
         return outcome, fresh_hit, c_out, nsteps, first_rows
 
@@ -381,8 +447,11 @@ class HeyokaIntegrator(Integrator):
         if 0 <= event < len(ta.t_events):
             fired = model.guard_index(request, event)
             if fired is None:
-                return None, Status.INTEGRATOR_FAILURE, (
-                    f"event {event} of an inactive phase fired at t = {t_stop:.17g}")
+                return (
+                    None,
+                    Status.INTEGRATOR_FAILURE,
+                    (f"event {event} of an inactive phase fired at t = {t_stop:.17g}"),
+                )
             return fired, Status.SUCCESS, ""
         return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
 
@@ -432,7 +501,7 @@ class HeyokaIntegrator(Integrator):
             outcome, _ = ta.step(fp(request.t_end) - t_start)
             steps += 1
             t_end = ta.time
-            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")):]:
+            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
                 if fp(float(te)) > t_end:
                     break
                 dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
@@ -506,4 +575,3 @@ class HeyokaQuad(HeyokaIntegrator):
     precision = "quad"
     capabilities = _caps("quad")
     accuracy_levels = ({"tol": 1e-10}, {"tol": 1e-20}, {"tol": 1e-30})
-

@@ -61,23 +61,38 @@ class MoreauJean(WholeSystem):
     """Moreau-Jean time-stepping: theta-method, fixed step h, friction impulses by enumeration or active set."""
 
     name = "moreau-jean"
-    capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
-                                supports_nonlinear=False, step_option="h", family="time-stepping")
+    capabilities = Capabilities(
+        event_location="inferred-from-status",
+        order=1,
+        adaptive=False,
+        supports_nonlinear=False,
+        step_option="h",
+        family="time-stepping",
+    )
     options = {
         "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
-        "theta": Option(0.5, float, lower=0.0, upper=1.0,
-                        doc="theta of the theta-method (1/2: trapezoidal on smooth arcs, 1: implicit Euler)"),
-        "one_step": Option("auto", str, choices=ONE_STEP,
-                           doc="solver of the one-step friction problem: enumeration of the statuses (chains up to "
-                               f"{MAX_BLOCKS} blocks), active-set iteration (any chain), or auto (the first where "
-                               "it applies)"),
+        "theta": Option(
+            0.5,
+            float,
+            lower=0.0,
+            upper=1.0,
+            doc="theta of the theta-method (1/2: trapezoidal on smooth arcs, 1: implicit Euler)",
+        ),
+        "one_step": Option(
+            "auto",
+            str,
+            choices=ONE_STEP,
+            doc="solver of the one-step friction problem: enumeration of the statuses (chains up to "
+            f"{MAX_BLOCKS} blocks), active-set iteration (any chain), or auto (the first where "
+            "it applies)",
+        ),
     }
     accuracy_levels = ({"h": 1e-2}, {"h": 1e-3}, {"h": 1e-4})
     known_gaps = {
         "event-times": "first order in h: switching times within 1e-5 of exact on case 2 need h ~ 1e-6 "
-                       "(millions of steps per unit time); the bench measures how the error falls with h",
+        "(millions of steps per unit time); the bench measures how the error falls with h",
         "energy-balance": "time-stepping dissipates at switches (the impulse acts over a whole step): the energy "
-                          "balance closes to O(h), not to 1e-6",
+        "balance closes to O(h), not to 1e-6",
     }
 
     #: The friction family, and the bouncing ball (Newton's impact law at the velocity level).
@@ -87,8 +102,10 @@ class MoreauJean(WholeSystem):
         if self.settings["theta"] < 0.5:
             from nsbench.errors import ConfigError
 
-            raise ConfigError(f"{self.name}: option theta = {self.settings['theta']!r} must be >= 0.5 "
-                              "(below 1/2 the theta-method is unstable on the undamped springs)")
+            raise ConfigError(
+                f"{self.name}: option theta = {self.settings['theta']!r} must be >= 0.5 "
+                "(below 1/2 the theta-method is unstable on the undamped springs)"
+            )
 
     def smooth_order(self) -> int:
         return 2 if self.settings["theta"] == 0.5 else 1
@@ -96,19 +113,24 @@ class MoreauJean(WholeSystem):
     def setup(self, problem) -> None:
         super().setup(problem)
         if problem.family == "impact" and problem.name != "bouncing-ball":
-            raise UnsupportedProblemError(f"{self.name}: of the impact problems it knows the bouncing ball only, "
-                                          f"not {problem.name}")
+            raise UnsupportedProblemError(
+                f"{self.name}: of the impact problems it knows the bouncing ball only, not {problem.name}"
+            )
         nb = getattr(problem, "n_blocks", 0)
         if nb > MAX_BLOCKS and self.settings["one_step"] == "enumeration":
             raise UnsupportedProblemError(
                 f"{self.name}: one_step = 'enumeration' enumerates 3^n statuses, for chains of at most "
-                f"{MAX_BLOCKS} blocks; {problem.name} has {nb} (one_step = 'active-set' or 'auto' runs it)")
+                f"{MAX_BLOCKS} blocks; {problem.name} has {nb} (one_step = 'active-set' or 'auto' runs it)"
+            )
         from nsbench.integrators import _moreau_jean_kernel as kern
 
         self._kern = kern
         # compile (or load) and run a few steps, untimed
-        self.integrate(SystemRequest(problem=problem, t0=0.0, y0=problem.initial_state(),
-                                     t_end=4 * self.settings["h"], max_steps=10))
+        self.integrate(
+            SystemRequest(
+                problem=problem, t0=0.0, y0=problem.initial_state(), t_end=4 * self.settings["h"], max_steps=10
+            )
+        )
 
     def _data(self, problem, h: float):
         key = (id(problem), h)
@@ -118,13 +140,26 @@ class MoreauJean(WholeSystem):
             m, cc, k = (np.array(a, dtype=float) for a in (c.m, c.c, c.k))
             K = stiffness_matrix(k)
             method = self._method(len(m))
-            W, winv = self._kern.operators(m, cc, K, h, self.settings["theta"],
-                                           inverses=method == self._kern.ENUMERATION)
+            W, winv = self._kern.operators(
+                m, cc, K, h, self.settings["theta"], inverses=method == self._kern.ENUMERATION
+            )
             cache.clear()
-            cache[key] = self._kern.StepData(W, winv, m, cc, K, np.array(c.fs, dtype=float),
-                                             np.array(c.fr, dtype=float), float(c.F), float(c.w), float(c.v0),
-                                             float(self.settings["theta"]), float(h), method,
-                                             self._kern.active_set_cap(len(m)))
+            cache[key] = self._kern.StepData(
+                W,
+                winv,
+                m,
+                cc,
+                K,
+                np.array(c.fs, dtype=float),
+                np.array(c.fr, dtype=float),
+                float(c.F),
+                float(c.w),
+                float(c.v0),
+                float(self.settings["theta"]),
+                float(h),
+                method,
+                self._kern.active_set_cap(len(m)),
+            )
         return cache[key]
 
     def _method(self, n_blocks: int) -> int:
@@ -141,16 +176,38 @@ class MoreauJean(WholeSystem):
         Y = np.empty((n_run + 1, 2))
         modes = np.zeros((n_run + 1, 1), np.int64)
         P = np.zeros(n_run + 1)
-        self._kern.mj_ball(float(problem.g), float(problem.e), float(self.settings["theta"]), h, float(request.t0),
-                           float(request.y0[0]), float(request.y0[1]), n_run, T, Y, modes, P)
+        self._kern.mj_ball(
+            float(problem.g),
+            float(problem.e),
+            float(self.settings["theta"]),
+            h,
+            float(request.t0),
+            float(request.y0[0]),
+            float(request.y0[1]),
+            n_run,
+            T,
+            Y,
+            modes,
+            P,
+        )
         status, message = Status.SUCCESS, ""
         if budget:
-            status, message = Status.BUDGET_EXHAUSTED, (f"{n_steps} steps of h = {h:.3g} needed, budget "
-                                                        f"{request.max_steps}; stopped at t = {T[-1]:.6g}")
+            status, message = (
+                Status.BUDGET_EXHAUSTED,
+                (f"{n_steps} steps of h = {h:.3g} needed, budget {request.max_steps}; stopped at t = {T[-1]:.6g}"),
+            )
         else:
             T[-1] = request.t_end
-        return SystemResult(t=T, y=Y, modes=modes, impulses=P.reshape(-1, 1), nsteps=n_run,
-                            extra={"impulse_steps": int(np.count_nonzero(P))}, status=status, message=message)
+        return SystemResult(
+            t=T,
+            y=Y,
+            modes=modes,
+            impulses=P.reshape(-1, 1),
+            nsteps=n_run,
+            extra={"impulse_steps": int(np.count_nonzero(P))},
+            status=status,
+            message=message,
+        )
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
@@ -185,18 +242,34 @@ class MoreauJean(WholeSystem):
             message = f"no consistent stick/slip status at step {done} (t = {T[done]:.6g})"
         elif code == self._kern.NOT_CONVERGED:
             status = Status.INTEGRATOR_FAILURE
-            message = (f"the active-set solver found no consistent stick/slip status within "
-                       f"{self._kern.active_set_cap(nb)} solves at step {done} (t = {T[done]:.6g})")
+            message = (
+                f"the active-set solver found no consistent stick/slip status within "
+                f"{self._kern.active_set_cap(nb)} solves at step {done} (t = {T[done]:.6g})"
+            )
         elif budget:
-            status, message = Status.BUDGET_EXHAUSTED, (f"{n_steps} steps of h = {h:.3g} needed, budget "
-                                                        f"{request.max_steps}; stopped at t = {T[done]:.6g}")
+            status, message = (
+                Status.BUDGET_EXHAUSTED,
+                (f"{n_steps} steps of h = {h:.3g} needed, budget {request.max_steps}; stopped at t = {T[done]:.6g}"),
+            )
         if done == n_steps and status.ok:
             T[done] = request.t_end  # the last step ends exactly at t_end (t0 + n h may round off it)
         kern = self._kern
         # the second slot counts the steps whose first candidate failed: searched by enumeration or by the
         # active set, whichever the run used
         searched = "enumerations" if data.method == kern.ENUMERATION else "active_set_searches"
-        extra = {"one_step_problems": int(counters[kern.ONE_STEP_PROBLEMS]), searched: int(counters[kern.ENUMERATIONS]),
-                 "candidate_solves": int(counters[kern.CANDIDATE_SOLVES])}
-        return SystemResult(t=T[:done + 1], y=Y[:done + 1], modes=modes[:done + 1], nfev=0, njev=0, nsteps=int(done),
-                            extra=extra, status=status, message=message)
+        extra = {
+            "one_step_problems": int(counters[kern.ONE_STEP_PROBLEMS]),
+            searched: int(counters[kern.ENUMERATIONS]),
+            "candidate_solves": int(counters[kern.CANDIDATE_SOLVES]),
+        }
+        return SystemResult(
+            t=T[: done + 1],
+            y=Y[: done + 1],
+            modes=modes[: done + 1],
+            nfev=0,
+            njev=0,
+            nsteps=int(done),
+            extra=extra,
+            status=status,
+            message=message,
+        )

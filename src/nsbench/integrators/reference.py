@@ -32,8 +32,13 @@ class Reference(Integrator):
 
     name = "reference"
     capabilities = Capabilities(
-        event_location="exact-root or taylor-root", order=None, adaptive=True,
-        needs_jacobian=False, supports_nonlinear=True, precision="quad", step_option=None,
+        event_location="exact-root or taylor-root",
+        order=None,
+        adaptive=True,
+        needs_jacobian=False,
+        supports_nonlinear=True,
+        precision="quad",
+        step_option=None,
         reference_grade=True,
     )
     options: dict = {}

@@ -59,8 +59,9 @@ class _StepCounter:
         return 1.0
 
 
-def _guard_event(guard, mode: np.ndarray, terminal: bool, direction: float, t0: float = np.nan,
-                 y0: np.ndarray | None = None):
+def _guard_event(
+    guard, mode: np.ndarray, terminal: bool, direction: float, t0: float = np.nan, y0: np.ndarray | None = None
+):
     """A guard as a scipy event function, evaluated by the problem's compiled law.
 
     If the guard is exactly 0 at ``(t0, y0)`` it is returned divided by ``t - t0``
@@ -85,6 +86,7 @@ def _guard_event(guard, mode: np.ndarray, terminal: bool, direction: float, t0: 
             value = start_rate if t == t0 else guard_value(p, mode, kind, index, t, y) / (t - t0)
             return value if value != 0.0 else on_surface
     else:
+
         def event(t: float, y: np.ndarray) -> float:
             return guard_value(p, mode, kind, index, t, y)
 
@@ -107,8 +109,13 @@ def _section_event(section, direction: float):
 _TOLERANCES = {
     "rtol": Option(1e-8, float, lower=0.0, upper=1.0, doc="relative tolerance"),
     "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
-    "max_step": Option(None, float, lower=0.0, nullable=True,
-                       doc="largest step (time units); None: 1/16 of the forcing period if forced"),
+    "max_step": Option(
+        None,
+        float,
+        lower=0.0,
+        nullable=True,
+        doc="largest step (time units); None: 1/16 of the forcing period if forced",
+    ),
 }
 
 
@@ -127,8 +134,9 @@ class ScipyIntegrator(Integrator):
         law, p = problem.law, problem.data.p
         m = problem.mode_array(mode)
         y0 = np.array(request.y0, dtype=float)
-        guard_events = [_guard_event(g, m, True, -float(g.expected_sign), float(request.t0), y0)
-                        for g in request.guards]
+        guard_events = [
+            _guard_event(g, m, True, -float(g.expected_sign), float(request.t0), y0) for g in request.guards
+        ]
         section_events = [_section_event(s, float(s.direction)) for s in request.sections]
         dense = request.t_eval.size > 0
         max_step = opts["max_step"]
@@ -147,6 +155,7 @@ class ScipyIntegrator(Integrator):
 
         kwargs = {}
         if self.implicit:
+
             def jac(t, y):
                 out = np.empty((n, n))
                 jacobian(p, m, t, y, out)
@@ -155,24 +164,39 @@ class ScipyIntegrator(Integrator):
             kwargs["jac"] = jac
         try:
             sol = solve_ivp(
-                fun, (request.t0, request.t_end),
-                np.array(request.y0, dtype=float), method=self.method,
-                rtol=opts["rtol"], atol=opts["atol"], max_step=max_step,
-                events=[*guard_events, *section_events, counter], dense_output=dense, **kwargs,
+                fun,
+                (request.t0, request.t_end),
+                np.array(request.y0, dtype=float),
+                method=self.method,
+                rtol=opts["rtol"],
+                atol=opts["atol"],
+                max_step=max_step,
+                events=[*guard_events, *section_events, counter],
+                dense_output=dense,
+                **kwargs,
             )
         except _BudgetExhausted as stop:
             return ArcResult(
-                t=stop.t, y=stop.y, fired=None, y_eval=np.empty((problem.n_states, 0)),
-                nsteps=counter.calls - 1, status=Status.BUDGET_EXHAUSTED,
+                t=stop.t,
+                y=stop.y,
+                fired=None,
+                y_eval=np.empty((problem.n_states, 0)),
+                nsteps=counter.calls - 1,
+                status=Status.BUDGET_EXHAUSTED,
                 message=f"step budget exhausted at t = {stop.t:.6g}",
             )
         nsteps = max(len(sol.t) - 1, 0)
-        counts = dict(nfev=int(sol.nfev), njev=int(sol.njev), nsteps=nsteps,
-                      extra={"nlu": int(sol.nlu)})
+        counts = dict(nfev=int(sol.nfev), njev=int(sol.njev), nsteps=nsteps, extra={"nlu": int(sol.nlu)})
         if sol.status == -1:
-            return ArcResult(t=float(sol.t[-1]), y=sol.y[:, -1].copy(), fired=None,
-                             y_eval=np.empty((problem.n_states, 0)),
-                             status=Status.INTEGRATOR_FAILURE, message=sol.message, **counts)
+            return ArcResult(
+                t=float(sol.t[-1]),
+                y=sol.y[:, -1].copy(),
+                fired=None,
+                y_eval=np.empty((problem.n_states, 0)),
+                status=Status.INTEGRATOR_FAILURE,
+                message=sol.message,
+                **counts,
+            )
         fired = None
         t_stop, y_stop = float(sol.t[-1]), sol.y[:, -1].copy()
         if sol.status == 1:
@@ -200,9 +224,15 @@ class ScipyIntegrator(Integrator):
 
 
 def _caps(order: int | None, implicit: bool) -> Capabilities:
-    return Capabilities(event_location="dense-output-root", order=order, adaptive=True,
-                        needs_jacobian=implicit, supports_nonlinear=True, precision="double",
-                        step_option="rtol")
+    return Capabilities(
+        event_location="dense-output-root",
+        order=order,
+        adaptive=True,
+        needs_jacobian=implicit,
+        supports_nonlinear=True,
+        precision="double",
+        step_option="rtol",
+    )
 
 
 class ScipyRK45(ScipyIntegrator):

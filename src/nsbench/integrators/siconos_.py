@@ -59,11 +59,17 @@ def unavailable_reason() -> str | None:
             _PROBE[exe] = f"no interpreter {exe} (set NSBENCH_SICONOS_PYTHON)"
         else:
             try:
-                out = subprocess.run([exe, str(WORKER)], input=json.dumps({"probe": True}), capture_output=True,
-                                     text=True, timeout=120)
-                _PROBE[exe] = None if out.returncode == 0 else (
-                    f"Siconos is not importable by {exe} (apt-get install python3-siconos): "
-                    + (out.stderr.strip().splitlines() or ["no message"])[-1])
+                out = subprocess.run(
+                    [exe, str(WORKER)], input=json.dumps({"probe": True}), capture_output=True, text=True, timeout=120
+                )
+                _PROBE[exe] = (
+                    None
+                    if out.returncode == 0
+                    else (
+                        f"Siconos is not importable by {exe} (apt-get install python3-siconos): "
+                        + (out.stderr.strip().splitlines() or ["no message"])[-1]
+                    )
+                )
             except (OSError, subprocess.TimeoutExpired) as exc:
                 _PROBE[exe] = f"{exe} could not be run: {exc}"
     return _PROBE[exe]
@@ -73,8 +79,13 @@ def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray
     """Run one request in Siconos's interpreter: its two ``.npy`` arrays and its JSON line, or why it failed."""
     with tempfile.TemporaryDirectory(prefix="nsbench-siconos-") as tmp:
         out = str(Path(tmp) / "run")
-        run = subprocess.run([siconos_python(), str(worker)], input=json.dumps({**req, "out": out}),
-                             capture_output=True, text=True, timeout=3600)
+        run = subprocess.run(
+            [siconos_python(), str(worker)],
+            input=json.dumps({**req, "out": out}),
+            capture_output=True,
+            text=True,
+            timeout=3600,
+        )
         if run.returncode != 0:
             tail = (run.stderr.strip().splitlines() or ["no message"])[-1]
             return f"Siconos failed: {tail}"
@@ -84,16 +95,26 @@ def run_worker(req: dict, worker: Path = WORKER) -> tuple[np.ndarray, np.ndarray
 
 def failed(request: SystemRequest, message: str) -> SystemResult:
     """A run that Siconos's process ended with an error: the start state only, and the message."""
-    return SystemResult(t=np.array([request.t0]), y=np.array(request.y0, dtype=float).reshape(1, -1),
-                        status=Status.INTEGRATOR_FAILURE, message=message)
+    return SystemResult(
+        t=np.array([request.t0]),
+        y=np.array(request.y0, dtype=float).reshape(1, -1),
+        status=Status.INTEGRATOR_FAILURE,
+        message=message,
+    )
 
 
 class SiconosMoreauJean(WholeSystem):
     """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
     name = "siconos-moreau-jean"
-    capabilities = Capabilities(event_location="inferred-from-status", order=1, adaptive=False,
-                                supports_nonlinear=False, step_option="h", family="time-stepping")
+    capabilities = Capabilities(
+        event_location="inferred-from-status",
+        order=1,
+        adaptive=False,
+        supports_nonlinear=False,
+        step_option="h",
+        family="time-stepping",
+    )
     options = {
         "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
         "theta": Option(0.5, float, lower=0.5, lower_inclusive=True, upper=1.0, doc="theta of the scheme"),
@@ -119,8 +140,10 @@ class SiconosMoreauJean(WholeSystem):
         super().setup(problem)
         if problem.family == "impact":
             if problem.name != "bouncing-ball":
-                raise UnsupportedProblemError(f"{self.name}: of the impact problems it runs the bouncing ball only, "
-                                              f"not {problem.name} (its contact moves with a driven table)")
+                raise UnsupportedProblemError(
+                    f"{self.name}: of the impact problems it runs the bouncing ball only, "
+                    f"not {problem.name} (its contact moves with a driven table)"
+                )
             reason = unavailable_reason()
             if reason:
                 raise UnsupportedProblemError(f"{self.name}: {reason}")
@@ -129,10 +152,13 @@ class SiconosMoreauJean(WholeSystem):
         if any(abs(a - b) > 1e-15 * max(abs(b), 1.0) for a, b in zip(c.fs, c.fr)):
             raise UnsupportedProblemError(
                 f"{self.name}: Siconos's relay has one friction level; {problem.name} has kinetic friction "
-                f"{list(c.fs)} below its static limit {list(c.fr)} (use moreau-jean, or r_f = 1)")
+                f"{list(c.fs)} below its static limit {list(c.fr)} (use moreau-jean, or r_f = 1)"
+            )
         if c.F != 0.0:
-            raise UnsupportedProblemError(f"{self.name}: the harmonic force (F = {c.F:g}) needs a compiled Siconos "
-                                          "plug-in; unforced problems only")
+            raise UnsupportedProblemError(
+                f"{self.name}: the harmonic force (F = {c.F:g}) needs a compiled Siconos "
+                "plug-in; unforced problems only"
+            )
         reason = unavailable_reason()
         if reason:
             raise UnsupportedProblemError(f"{self.name}: {reason}")
@@ -140,9 +166,18 @@ class SiconosMoreauJean(WholeSystem):
     def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
         """Siconos's bouncing ball (``MoreauJeanOSI``, an LCP per step); the impulses go to the event inference."""
         problem = request.problem
-        arrays = run_worker({"model": "ball", "g": float(problem.g), "e": float(problem.e),
-                             "theta": float(self.settings["theta"]), "h": h, "n_steps": n_run,
-                             "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
+        arrays = run_worker(
+            {
+                "model": "ball",
+                "g": float(problem.g),
+                "e": float(problem.e),
+                "theta": float(self.settings["theta"]),
+                "h": h,
+                "n_steps": n_run,
+                "t0": float(request.t0),
+                "y0": [float(v) for v in request.y0],
+            }
+        )
         if isinstance(arrays, str):
             return failed(request, arrays)
         z, imp, _ = arrays
@@ -169,9 +204,20 @@ class SiconosMoreauJean(WholeSystem):
         if problem.family == "impact":
             return self._ball(request, n_steps, n_run, h, budget)
         c = problem.coefficients
-        arrays = run_worker({"m": list(c.m), "C": np.diag(c.c).tolist(), "K": stiffness_matrix(c.k).tolist(),
-                             "fr": list(c.fr), "v0": float(c.v0), "theta": float(self.settings["theta"]), "h": h,
-                             "n_steps": n_run, "t0": float(request.t0), "y0": [float(v) for v in request.y0]})
+        arrays = run_worker(
+            {
+                "m": list(c.m),
+                "C": np.diag(c.c).tolist(),
+                "K": stiffness_matrix(c.k).tolist(),
+                "fr": list(c.fr),
+                "v0": float(c.v0),
+                "theta": float(self.settings["theta"]),
+                "h": h,
+                "n_steps": n_run,
+                "t0": float(request.t0),
+                "y0": [float(v) for v in request.y0],
+            }
+        )
         if isinstance(arrays, str):
             return failed(request, arrays)
         z, lam, _ = arrays
@@ -216,15 +262,27 @@ class SiconosEventDriven(WholeSystem):
     """
 
     name = "siconos-event-driven"
-    capabilities = Capabilities(event_location="lsodar-root", order=None, adaptive=True,
-                                supports_nonlinear=False, step_option=None, family="event-driven")
+    capabilities = Capabilities(
+        event_location="lsodar-root",
+        order=None,
+        adaptive=True,
+        supports_nonlinear=False,
+        step_option=None,
+        family="event-driven",
+    )
     options = {
-        "h": Option(1e-3, float, lower=0.0, doc="output grid of Siconos's time discretisation (LSODAR picks its "
-                                                "own steps between the events)"),
+        "h": Option(
+            1e-3,
+            float,
+            lower=0.0,
+            doc="output grid of Siconos's time discretisation (LSODAR picks its own steps between the events)",
+        ),
     }
     accuracy_levels = ()  # LSODAR's tolerances are fixed (see the class docstring): it runs at its defaults
-    known_gaps = {"event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
-                                 "extrapolates the accumulation after ten: the sequences differ in length"}
+    known_gaps = {
+        "event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
+        "extrapolates the accumulation after ten: the sequences differ in length"
+    }
     INFERABLE = ("friction", "impact")
 
     @classmethod
@@ -235,20 +293,34 @@ class SiconosEventDriven(WholeSystem):
     def setup(self, problem) -> None:
         super().setup(problem)
         if problem.name != "bouncing-ball":
-            why = ("Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
-                   "std::exception on the block on the ground)" if problem.family == "friction" else
-                   "its contact moves with a driven table")
-            raise UnsupportedProblemError(f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "
-                                          "siconos-moreau-jean runs the friction problems with one friction level")
+            why = (
+                "Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
+                "std::exception on the block on the ground)"
+                if problem.family == "friction"
+                else "its contact moves with a driven table"
+            )
+            raise UnsupportedProblemError(
+                f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "
+                "siconos-moreau-jean runs the friction problems with one friction level"
+            )
         reason = unavailable_reason()
         if reason:
             raise UnsupportedProblemError(f"{self.name}: {reason}")
 
     def integrate(self, request: SystemRequest) -> SystemResult:
         problem = request.problem
-        arrays = run_worker({"model": "ball-event-driven", "g": float(problem.g), "e": float(problem.e),
-                             "h": float(self.settings["h"]), "t0": float(request.t0), "t_end": float(request.t_end),
-                             "max_events": int(request.max_steps), "y0": [float(v) for v in request.y0]})
+        arrays = run_worker(
+            {
+                "model": "ball-event-driven",
+                "g": float(problem.g),
+                "e": float(problem.e),
+                "h": float(self.settings["h"]),
+                "t0": float(request.t0),
+                "t_end": float(request.t_end),
+                "max_events": int(request.max_steps),
+                "y0": [float(v) for v in request.y0],
+            }
+        )
         if isinstance(arrays, str):
             return failed(request, arrays)
         rows, marks, info = arrays
@@ -256,7 +328,16 @@ class SiconosEventDriven(WholeSystem):
         rows, marks = rows[keep], marks[keep]
         status, message = Status.SUCCESS, ""
         if not info.get("done", False):
-            status, message = Status.BUDGET_EXHAUSTED, (f"{info.get('events')} events, budget {request.max_steps}; "
-                                                        f"stopped at t = {rows[-1, 0]:.6g}")
-        return SystemResult(t=rows[:, 0], y=rows[:, 1:], modes=marks[:, 1:].astype(np.int64),
-                            impulses=marks[:, :1], nsteps=int(info.get("events", 0)), status=status, message=message)
+            status, message = (
+                Status.BUDGET_EXHAUSTED,
+                (f"{info.get('events')} events, budget {request.max_steps}; stopped at t = {rows[-1, 0]:.6g}"),
+            )
+        return SystemResult(
+            t=rows[:, 0],
+            y=rows[:, 1:],
+            modes=marks[:, 1:].astype(np.int64),
+            impulses=marks[:, :1],
+            nsteps=int(info.get("events", 0)),
+            status=status,
+            message=message,
+        )

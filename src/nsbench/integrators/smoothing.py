@@ -47,30 +47,48 @@ class Smoothing(WholeSystem):
 
     name = "smoothing"
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
-    capabilities = Capabilities(event_location="inferred-from-band", order=None, adaptive=True,
-                                needs_jacobian=True, step_option="rtol", family="smoothing")
+    capabilities = Capabilities(
+        event_location="inferred-from-band",
+        order=None,
+        adaptive=True,
+        needs_jacobian=True,
+        step_option="rtol",
+        family="smoothing",
+    )
     options = {
         "eps": Option(1e3, float, lower=0.0, doc="sharpness of the regularisation (inverse velocity units)"),
         "law": Option("arctan", str, choices=LAWS, doc="the smooth sign: (2/pi) arctan or tanh"),
-        "solver": Option("Radau", str, choices=("Radau", "BDF", "CVODE-BDF"),
-                         doc="the stiff solver: scipy Radau or BDF, or SUNDIALS CVODE BDF (scikit-sundae)"),
+        "solver": Option(
+            "Radau",
+            str,
+            choices=("Radau", "BDF", "CVODE-BDF"),
+            doc="the stiff solver: scipy Radau or BDF, or SUNDIALS CVODE BDF (scikit-sundae)",
+        ),
         "rtol": Option(1e-8, float, lower=0.0, upper=0.1, doc="relative tolerance"),
         "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
-        "band": Option(None, float, lower=0.0, nullable=True,
-                       doc="stick band |v - v_belt| <= band for the event inference (default 10/eps)"),
+        "band": Option(
+            None,
+            float,
+            lower=0.0,
+            nullable=True,
+            doc="stick band |v - v_belt| <= band for the event inference (default 10/eps)",
+        ),
     }
-    accuracy_levels = ({"eps": 1e2, "rtol": 1e-6, "atol": 1e-8}, {"eps": 1e3, "rtol": 1e-8, "atol": 1e-10},
-                       {"eps": 1e4, "rtol": 1e-10, "atol": 1e-12})
+    accuracy_levels = (
+        {"eps": 1e2, "rtol": 1e-6, "atol": 1e-8},
+        {"eps": 1e3, "rtol": 1e-8, "atol": 1e-10},
+        {"eps": 1e4, "rtol": 1e-10, "atol": 1e-12},
+    )
     known_gaps = {
         "event-times": "smoothing has no stiction: a block breaks away where its load reaches fs, not fr, and "
-                       "creeps while stuck; its switching-time error is what the families suite measures",
+        "creeps while stuck; its switching-time error is what the families suite measures",
         "stuck-stays-stuck": "a regularised block creeps (|v - v_belt| ~ 1/eps) instead of moving with the belt",
         "energy-balance": "the work of the regularised friction is not the Coulomb friction's of the phases",
         "cubic-event-times": "as event-times: no stiction",
         "switch-convergence": "without stiction it never has the stick-slip cycle of case 1 (fr > fs): no level "
-                              "has exact's switch sequence",
+        "has exact's switch sequence",
         "convergence": "on a slipping arc the regularised force misses fs by about 2 fs / (pi eps |u|): at "
-                       "eps = 1e4 the arc's error stays near 1e-3, above the check's 1e-5",
+        "eps = 1e4 the arc's error stays near 1e-3, above the check's 1e-5",
     }
 
     def stick_band(self, problem) -> float:

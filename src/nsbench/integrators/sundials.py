@@ -61,7 +61,8 @@ class SundialsIntegrator(Integrator):
             raise UnsupportedProblemError(
                 f"{self.name} integrates the friction family's formulation (the forcing as states; for ida the "
                 f"friction forces as algebraic variables); {problem!r} is of the {problem.family or 'other'!r} "
-                "family")
+                "family"
+            )
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
@@ -78,9 +79,14 @@ class SundialsIntegrator(Integrator):
     def _common_options(self, n_events: int, directions: list[int], eventsfn) -> dict[str, Any]:
         eventsfn.terminal = [False] * n_events  # the loop below decides what stops an arc
         eventsfn.direction = directions
-        opts = dict(rtol=self.settings["rtol"], atol=self.settings["atol"],
-                    max_step=self.settings["max_step"] or 0.0, max_num_steps=10**9,
-                    eventsfn=eventsfn if n_events else None, num_events=n_events)
+        opts = dict(
+            rtol=self.settings["rtol"],
+            atol=self.settings["atol"],
+            max_step=self.settings["max_step"] or 0.0,
+            max_num_steps=10**9,
+            eventsfn=eventsfn if n_events else None,
+            num_events=n_events,
+        )
         return opts
 
     def _solver(self, request: ArcRequest):
@@ -149,10 +155,17 @@ class SundialsIntegrator(Integrator):
         except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
             status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {exc}"
         return ArcResult(
-            t=t, y=np.array(y[:n], dtype=float), fired=fired, y_eval=dense.states(), section_hits=hits,
-            nfev=nfev, njev=njev, nsteps=steps,
+            t=t,
+            y=np.array(y[:n], dtype=float),
+            fired=fired,
+            y_eval=dense.states(),
+            section_hits=hits,
+            nfev=nfev,
+            njev=njev,
+            nsteps=steps,
             extra={"root_returns": roots, "dense_fallbacks": dense.fallbacks},
-            status=status, message=message,
+            status=status,
+            message=message,
         )
 
 
@@ -176,8 +189,7 @@ class CvodeIntegrator(SundialsIntegrator):
         mode, codes = np.ones(problem.n_blocks, dtype=np.int64), np.zeros(1, dtype=np.int64)
         sk.cvode_rhs(self._p0, mode, 1.0, 1.0, y, out)
         sk.cvode_jacobian(self._p0, mode, 1.0, 1.0, y, np.zeros((n, n)))
-        sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y,
-                       np.zeros(2))
+        sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
         self._first_arc(problem)
 
     def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
@@ -192,8 +204,7 @@ class CvodeIntegrator(SundialsIntegrator):
             sk.cvode_jacobian(p0, arc.mode, F, w, y, jj)
 
         def eventsfn(t, y, events):
-            sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y,
-                           events)
+            sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
 
         opts = self._common_options(n_events, directions, eventsfn)
         return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
@@ -210,9 +221,15 @@ class CvodeBDF(CvodeIntegrator):
 
     name = "cvode-bdf"
     method = "BDF"
-    capabilities = Capabilities(event_location="solver-rootfinding", order=None, adaptive=True,
-                                needs_jacobian=True, supports_nonlinear=True, precision="double",
-                                step_option="rtol")
+    capabilities = Capabilities(
+        event_location="solver-rootfinding",
+        order=None,
+        adaptive=True,
+        needs_jacobian=True,
+        supports_nonlinear=True,
+        precision="double",
+        step_option="rtol",
+    )
 
 
 class CvodeAdams(CvodeIntegrator):
@@ -227,9 +244,15 @@ class Ida(SundialsIntegrator):
     """SUNDIALS IDA on the DAE with friction forces as algebraic variables (BDF 1-5)."""
 
     name = "ida"
-    capabilities = Capabilities(event_location="solver-rootfinding", order=None, adaptive=True,
-                                needs_jacobian=True, supports_nonlinear=True, precision="double",
-                                step_option="rtol")
+    capabilities = Capabilities(
+        event_location="solver-rootfinding",
+        order=None,
+        adaptive=True,
+        needs_jacobian=True,
+        supports_nonlinear=True,
+        precision="double",
+        step_option="rtol",
+    )
 
     def setup(self, problem) -> None:
         super().setup(problem)
@@ -271,6 +294,7 @@ class Ida(SundialsIntegrator):
         return super()._solver(request)
 
     def _start(self, solver, request: ArcRequest):
-        y0, yp0 = sk.consistent_start(self._p, np.asarray(request.mode, dtype=np.int64),
-                                      float(request.t0), np.asarray(request.y0, dtype=float))
+        y0, yp0 = sk.consistent_start(
+            self._p, np.asarray(request.mode, dtype=np.int64), float(request.t0), np.asarray(request.y0, dtype=float)
+        )
         return solver.init_step(float(request.t0), y0, yp0)

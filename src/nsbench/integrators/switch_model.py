@@ -37,20 +37,28 @@ class SwitchModel(WholeSystem):
 
     name = "switch-model"
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
-    capabilities = Capabilities(event_location="inferred-from-status", order=None, adaptive=True,
-                                step_option="rtol", family="switch-model")
+    capabilities = Capabilities(
+        event_location="inferred-from-status", order=None, adaptive=True, step_option="rtol", family="switch-model"
+    )
     options = {
         "eta": Option(1e-4, float, lower=0.0, doc="half-width of the stick band (velocity units)"),
-        "solver": Option("RK45", str, choices=("RK45", "DOP853", "Radau", "BDF", "CVODE-BDF", "CVODE-Adams"),
-                         doc="the ODE solver: scipy's, or SUNDIALS CVODE (scikit-sundae)"),
+        "solver": Option(
+            "RK45",
+            str,
+            choices=("RK45", "DOP853", "Radau", "BDF", "CVODE-BDF", "CVODE-Adams"),
+            doc="the ODE solver: scipy's, or SUNDIALS CVODE (scikit-sundae)",
+        ),
         "rtol": Option(1e-8, float, lower=0.0, upper=0.1, doc="relative tolerance"),
         "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
     }
-    accuracy_levels = ({"eta": 1e-3, "rtol": 1e-6, "atol": 1e-8}, {"eta": 1e-4, "rtol": 1e-8, "atol": 1e-10},
-                       {"eta": 1e-5, "rtol": 1e-10, "atol": 1e-12})
+    accuracy_levels = (
+        {"eta": 1e-3, "rtol": 1e-6, "atol": 1e-8},
+        {"eta": 1e-4, "rtol": 1e-8, "atol": 1e-10},
+        {"eta": 1e-5, "rtol": 1e-10, "atol": 1e-12},
+    )
     known_gaps = {
         "event-times": "switches are placed on the band's edges and the discontinuous field is stepped over by "
-                       "error control: switching times within 1e-5 need eta and rtol far below the defaults",
+        "error control: switching times within 1e-5 need eta and rtol far below the defaults",
         "energy-balance": "the phases of the band are not the model's: the balance closes to O(eta)",
         "cubic-event-times": "as event-times",
     }
@@ -99,8 +107,9 @@ class SwitchModel(WholeSystem):
         if s["solver"].startswith("CVODE"):
             from nsbench.integrators._whole_sundials import CVODE_METHODS, run_cvode
 
-            return run_cvode(request, fun, None, CVODE_METHODS[s["solver"]], s["rtol"], s["atol"], refine=4,
-                             modes_of=modes_of)
+            return run_cvode(
+                request, fun, None, CVODE_METHODS[s["solver"]], s["rtol"], s["atol"], refine=4, modes_of=modes_of
+            )
         from nsbench.integrators._whole_scipy import run_scipy
 
         return run_scipy(request, fun, None, s["solver"], s["rtol"], s["atol"], refine=4, modes_of=modes_of)

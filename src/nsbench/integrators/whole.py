@@ -136,12 +136,14 @@ class WholeSystem(Integrator):
         if problem.family not in self.INFERABLE:
             raise UnsupportedProblemError(
                 f"{self.name}: nsbench infers the events of whole-system methods on the "
-                f"{', '.join(self.INFERABLE)} family only; {problem.name} is of the {problem.family or '?'} family")
+                f"{', '.join(self.INFERABLE)} family only; {problem.name} is of the {problem.family or '?'} family"
+            )
         law = getattr(problem, "law_spec", None)
         if self.COULOMB_ONLY and law is not None and not law.is_coulomb:
             raise UnsupportedProblemError(
                 f"{self.name} regularises Coulomb's law (a constant slip force fs); {problem.name} has the "
-                f"{law.name} friction law")
+                f"{law.name} friction law"
+            )
 
     def integrate(self, request: SystemRequest) -> SystemResult:  # pragma: no cover - abstract
         """Advance the whole system over ``[request.t0, request.t_end]``; see :class:`SystemResult`."""
@@ -161,8 +163,10 @@ class WholeSystem(Integrator):
         return type(self).capabilities.order
 
     def advance(self, request: "ArcRequest") -> "ArcResult":
-        raise ConfigError(f"{self.name} is a whole-system method ({type(self).capabilities.family}): it has no "
-                          "frozen-mode arcs; run it with nsbench.simulate")
+        raise ConfigError(
+            f"{self.name} is a whole-system method ({type(self).capabilities.family}): it has no "
+            "frozen-mode arcs; run it with nsbench.simulate"
+        )
 
 
 def is_whole_system(integ: Integrator) -> bool:

@@ -56,14 +56,14 @@ B1 = types.Array(types.boolean, 1, "C")
 class Arc(NamedTuple):
     """One arc: integrate ``mode`` from ``(t0 + t0_lo, y0)`` to the first zero of a guard, or ``t_end``."""
 
-    mode: np.ndarray         # int64, the mode vector
-    guard_kind: np.ndarray   # int64, the guards of the mode (first n_guards entries)
+    mode: np.ndarray  # int64, the mode vector
+    guard_kind: np.ndarray  # int64, the guards of the mode (first n_guards entries)
     guard_index: np.ndarray  # int64
-    guard_sign: np.ndarray   # int64, the sign each guard keeps inside the mode
+    guard_sign: np.ndarray  # int64, the sign each guard keeps inside the mode
     n_guards: int
     t0: float
     t0_lo: float
-    y0: np.ndarray           # float64
+    y0: np.ndarray  # float64
     t_end: float
     max_steps: int
 
@@ -71,19 +71,19 @@ class Arc(NamedTuple):
 class Sections(NamedTuple):
     """Linear state sections ``coeffs . y = level`` crossed in ``direction`` (-1, 0, +1); which hits to keep."""
 
-    coeffs: np.ndarray      # float64 (n_sections, n_states)
-    levels: np.ndarray      # float64
+    coeffs: np.ndarray  # float64 (n_sections, n_states)
+    levels: np.ndarray  # float64
     directions: np.ndarray  # int64
-    hit_from: float         # hits at t >= hit_from are kept
-    hit_stop: int           # the run stops at the hit_stop-th kept hit (-1: never)
+    hit_from: float  # hits at t >= hit_from are kept
+    hit_stop: int  # the run stops at the hit_stop-th kept hit (-1: never)
 
 
 class Hits(NamedTuple):
     """Buffer of section hits: section index, time, state."""
 
     index: np.ndarray  # int64
-    t: np.ndarray      # float64
-    y: np.ndarray      # float64 (capacity, n_states)
+    t: np.ndarray  # float64
+    y: np.ndarray  # float64 (capacity, n_states)
 
 
 class Dense(NamedTuple):
@@ -96,20 +96,20 @@ class Dense(NamedTuple):
 class Events(NamedTuple):
     """Buffer of events: time, event kind code, 0-based index of the guard's element, state and mode after."""
 
-    t: np.ndarray      # float64
-    kind: np.ndarray   # int64
+    t: np.ndarray  # float64
+    kind: np.ndarray  # int64
     index: np.ndarray  # int64
-    y: np.ndarray      # float64 (capacity, n_states)
-    mode: np.ndarray   # int64 (capacity, mode size)
+    y: np.ndarray  # float64 (capacity, n_states)
+    mode: np.ndarray  # int64 (capacity, mode size)
 
 
 class KernelData(NamedTuple):
     """The data of an arc kernel, in fields every kernel shares (so the core calls any kernel through one
     signature). A kernel names its views of these in its own module; unused fields hold empty arrays."""
 
-    u1: np.ndarray   # uint64 1-d
-    i1: np.ndarray   # int64 1-d
-    i2: np.ndarray   # int64 2-d
+    u1: np.ndarray  # uint64 1-d
+    i1: np.ndarray  # int64 1-d
+    i2: np.ndarray  # int64 2-d
     f1a: np.ndarray  # float64 1-d
     f1b: np.ndarray  # float64 1-d
     f2a: np.ndarray  # float64 2-d
@@ -123,10 +123,20 @@ class KernelData(NamedTuple):
 
 def kernel_data(**fields: np.ndarray) -> KernelData:
     """A :class:`KernelData` with the given fields, every other one empty (C-contiguous, right dtype and rank)."""
-    empty = {"u1": np.zeros(0, np.uint64), "i1": np.zeros(0, np.int64), "i2": np.zeros((0, 0), np.int64),
-             "f1a": np.zeros(0), "f1b": np.zeros(0), "f2a": np.zeros((0, 0)), "f2b": np.zeros((0, 0)),
-             "f2c": np.zeros((0, 0)), "f3a": np.zeros((0, 0, 0)), "f3b": np.zeros((0, 0, 0)),
-             "c2a": np.zeros((0, 0), np.complex128), "c2b": np.zeros((0, 0), np.complex128)}
+    empty = {
+        "u1": np.zeros(0, np.uint64),
+        "i1": np.zeros(0, np.int64),
+        "i2": np.zeros((0, 0), np.int64),
+        "f1a": np.zeros(0),
+        "f1b": np.zeros(0),
+        "f2a": np.zeros((0, 0)),
+        "f2b": np.zeros((0, 0)),
+        "f2c": np.zeros((0, 0)),
+        "f3a": np.zeros((0, 0, 0)),
+        "f3b": np.zeros((0, 0, 0)),
+        "c2a": np.zeros((0, 0), np.complex128),
+        "c2b": np.zeros((0, 0), np.complex128),
+    }
     unknown = set(fields) - set(empty)
     if unknown:
         raise TypeError(f"KernelData has no field(s) {sorted(unknown)}")
@@ -145,30 +155,30 @@ class RunLimits(NamedTuple):
     t_end: float
     max_steps: int
     max_events: int
-    zeno_span: float     # zeno ring size + 1 events within this span: an event storm
-    record_from: float   # events at t >= record_from are stored
-    stop_kind: int       # the run stops after stop_count stored events of this kind (-1: none)
+    zeno_span: float  # zeno ring size + 1 events within this span: an event storm
+    record_from: float  # events at t >= record_from are stored
+    stop_kind: int  # the run stops after stop_count stored events of this kind (-1: none)
     stop_count: int
-    accumulation: int    # intervals of a geometric accumulation before it is extrapolated (0: never)
+    accumulation: int  # intervals of a geometric accumulation before it is extrapolated (0: never)
 
 
 class RunState(NamedTuple):
     """Everything the loop keeps between calls, so a run stops and resumes at any arc boundary."""
 
-    y: np.ndarray      # float64 state
-    mode: np.ndarray   # int64 mode vector
+    y: np.ndarray  # float64 state
+    mode: np.ndarray  # int64 mode vector
     fresh: np.ndarray  # bool, per element index: its guard starts on its surface by construction
-    gk: np.ndarray     # int64 guards of the current mode: kind,
-    gi: np.ndarray     # element index,
-    gs: np.ndarray     # expected sign
-    ring: np.ndarray   # float64, times of the last events (storms)
-    acc: np.ndarray    # float64, times of the current streak of events of one guard (a ring; accumulations)
-    sf: np.ndarray     # float64 slots SF_*
-    si: np.ndarray     # int64 slots SI_*
-    cnt: np.ndarray    # int64 counters
+    gk: np.ndarray  # int64 guards of the current mode: kind,
+    gi: np.ndarray  # element index,
+    gs: np.ndarray  # expected sign
+    ring: np.ndarray  # float64, times of the last events (storms)
+    acc: np.ndarray  # float64, times of the current streak of events of one guard (a ring; accumulations)
+    sf: np.ndarray  # float64 slots SF_*
+    si: np.ndarray  # int64 slots SI_*
+    cnt: np.ndarray  # int64 counters
     y_arc: np.ndarray  # float64, where the last arc stopped
-    dy: np.ndarray     # float64 scratch: a state's derivative
-    iw: np.ndarray     # int64 scratch: counters saved before an arc, then two slots for the clock
+    dy: np.ndarray  # float64 scratch: a state's derivative
+    iw: np.ndarray  # int64 scratch: counters saved before an arc, then two slots for the clock
 
 
 def _type_of(example) -> types.Type:
@@ -179,17 +189,21 @@ def _z(dtype, ndim: int) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype)
 
 
-ARC = _type_of(Arc(_z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), 0, 0.0, 0.0,
-                   _z(np.float64, 1), 0.0, 0))
+ARC = _type_of(
+    Arc(_z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), _z(np.int64, 1), 0, 0.0, 0.0, _z(np.float64, 1), 0.0, 0)
+)
 SECTIONS = _type_of(Sections(_z(np.float64, 2), _z(np.float64, 1), _z(np.int64, 1), 0.0, 0))
 HITS = _type_of(Hits(_z(np.int64, 1), _z(np.float64, 1), _z(np.float64, 2)))
 DENSE = _type_of(Dense(_z(np.float64, 1), _z(np.float64, 2)))
 KERNEL_DATA = _type_of(kernel_data())
 
+
 def arc_signature(problem_data: types.Type):
     """The signature an arc kernel is compiled for, for problems whose data have this (numba) type."""
     return types.Tuple([types.int64, types.float64, types.float64, types.int64])(
-        KERNEL_DATA, F1, problem_data, ARC, SECTIONS, HITS, DENSE, I1, F1, I1)
+        KERNEL_DATA, F1, problem_data, ARC, SECTIONS, HITS, DENSE, I1, F1, I1
+    )
+
 
 # ---------------------------------------------------------------------- codes and slots
 # kernel statuses
@@ -204,22 +218,22 @@ N_EXTRA = 4
 N_COUNTERS = 3 + N_EXTRA
 
 # slots of the loop's integer state ``si``
-SI_EVENTS = 0       # events applied in the whole run
-SI_RECORDED = 1     # events stored in the event buffers
-SI_RING = 2         # events pushed into the storm ring
-SI_STOP_SEEN = 3    # events of the stop kind at t >= record_from
-SI_NHITS = 4        # section hits stored
-SI_IEVAL = 5        # dense states filled
-SI_PHASE = 6        # where the loop resumes
-SI_STATUS = 7       # outcome of the run (RUN_* codes)
-SI_DETAIL = 8       # kernel failure code, or the index of the fired guard after an arc
-SI_NG = 9           # number of guards of the current mode
-SI_CLOCK = 10       # nanoseconds spent inside arc kernels
-SI_STOPPED = 11     # 1 when a stop rule (hits or events) ended the run
+SI_EVENTS = 0  # events applied in the whole run
+SI_RECORDED = 1  # events stored in the event buffers
+SI_RING = 2  # events pushed into the storm ring
+SI_STOP_SEEN = 3  # events of the stop kind at t >= record_from
+SI_NHITS = 4  # section hits stored
+SI_IEVAL = 5  # dense states filled
+SI_PHASE = 6  # where the loop resumes
+SI_STATUS = 7  # outcome of the run (RUN_* codes)
+SI_DETAIL = 8  # kernel failure code, or the index of the fired guard after an arc
+SI_NG = 9  # number of guards of the current mode
+SI_CLOCK = 10  # nanoseconds spent inside arc kernels
+SI_STOPPED = 11  # 1 when a stop rule (hits or events) ended the run
 SI_ARC_STATUS = 12  # status of an arc computed in Python (the loop's callback path)
-SI_ACC_KEY = 13     # the guard and event kind of the current streak of events (accumulations)
-SI_ACC_N = 14       # the streak's length
-SI_ARC_IEVAL = 15   # the first dense state of the current arc (checked for missed events)
+SI_ACC_KEY = 13  # the guard and event kind of the current streak of events (accumulations)
+SI_ACC_N = 14  # the streak's length
+SI_ARC_IEVAL = 15  # the first dense state of the current arc (checked for missed events)
 N_SI = 16
 
 # slots of the loop's float state ``sf``

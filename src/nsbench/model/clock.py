@@ -39,12 +39,14 @@ def _clock_gettime(typingctx, clock, buf):
 
 
 if AVAILABLE:
+
     @hot
     def monotonic_ns(buf):
         """Nanoseconds of the monotonic clock (the origin is arbitrary); ``buf``: two int64 of scratch."""
         _clock_gettime(np.int32(_CLOCK), buf)  # struct timespec {tv_sec, tv_nsec} on 64-bit platforms
         return buf[0] * 1_000_000_000 + buf[1]
 else:  # pragma: no cover - Windows
+
     @hot
     def monotonic_ns(buf):
         return 0

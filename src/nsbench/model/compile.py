@@ -29,8 +29,11 @@ importlib.import_module("nsbench.compiling").announce()
 
 #: ``from nsbench.x import a, b``, ``from nsbench.x import (a,\n b)`` or ``import nsbench.x``; the names of
 #: the unparenthesised form stay on their line (``\s`` there would swallow the next import statement).
-_IMPORTS = re.compile(r"^[ \t]*(?:from[ \t]+(nsbench[\w.]*)[ \t]+import[ \t]+(?:\(([\w\s,]*)\)?|([\w \t,]*))"
-                      r"|import[ \t]+(nsbench[\w.]*))", re.MULTILINE)
+_IMPORTS = re.compile(
+    r"^[ \t]*(?:from[ \t]+(nsbench[\w.]*)[ \t]+import[ \t]+(?:\(([\w\s,]*)\)?|([\w \t,]*))"
+    r"|import[ \t]+(nsbench[\w.]*))",
+    re.MULTILINE,
+)
 
 
 def drop_stale_numba_caches() -> None:
@@ -43,8 +46,10 @@ def drop_stale_numba_caches() -> None:
     caches, the others keep them.
     """
     root = Path(__file__).resolve().parents[1]
-    paths = {".".join(("nsbench",) + p.relative_to(root).with_suffix("").parts).removesuffix(".__init__"): p
-             for p in root.rglob("*.py")}
+    paths = {
+        ".".join(("nsbench",) + p.relative_to(root).with_suffix("").parts).removesuffix(".__init__"): p
+        for p in root.rglob("*.py")
+    }
     texts = {name: path.read_text(encoding="utf-8", errors="ignore") for name, path in paths.items()}
 
     def imports(name: str) -> set[str]:

@@ -39,8 +39,10 @@ def _check_numba() -> None:
     model = default_manager.lookup(types.FunctionType(types.void()))
     names = tuple(getattr(model, "_fields", ()))
     if names != _MEMBERS:
-        raise ImportError(f"nsbench needs numba >= 0.61 (first-class functions with a direct entry); "
-                          f"numba {numba.__version__} is installed")
+        raise ImportError(
+            f"nsbench needs numba >= 0.61 (first-class functions with a direct entry); "
+            f"numba {numba.__version__} is installed"
+        )
 
 
 _check_numba()
@@ -64,8 +66,9 @@ def addresses(dispatcher: Any, signature: Any) -> tuple[int, int]:
     except Exception as exc:  # numba's typing errors: say which function and which signature
         name = getattr(dispatcher, "__qualname__", repr(dispatcher))
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ConfigError(f"{dispatcher.py_func.__module__}.{name} does not compile for the signature "
-                          f"{signature}: {first}") from None
+        raise ConfigError(
+            f"{dispatcher.py_func.__module__}.{name} does not compile for the signature {signature}: {first}"
+        ) from None
 
 
 def caller(signature) -> Callable:
@@ -88,12 +91,15 @@ def caller(signature) -> Callable:
 
         def codegen(context, builder, sig, llargs):
             address, packed = llargs
-            values = [context.cast(builder, builder.extract_value(packed, i), given, wanted)
-                      for i, (given, wanted) in enumerate(zip(args.types, signature.args))]
+            values = [
+                context.cast(builder, builder.extract_value(packed, i), given, wanted)
+                for i, (given, wanted) in enumerate(zip(args.types, signature.args))
+            ]
             fnty = context.call_conv.get_function_type(signature.return_type, signature.args)
             fptr = builder.inttoptr(address, fnty.as_pointer())
-            status, result = context.call_conv.call_function(builder, fptr, signature.return_type,
-                                                             signature.args, values)
+            status, result = context.call_conv.call_function(
+                builder, fptr, signature.return_type, signature.args, values
+            )
             with cgutils.if_unlikely(builder, status.is_error):
                 context.call_conv.return_status_propagate(builder, status)
             return result

@@ -90,14 +90,25 @@ class ArcOutcome:
     t_lo: float
     fired: int
     y: np.ndarray
-    y_eval: np.ndarray                      # (n_states, n_points)
+    y_eval: np.ndarray  # (n_states, n_points)
     hits: list[tuple[int, float, np.ndarray]]
-    counters: np.ndarray                    # the kernel's counter slots
+    counters: np.ndarray  # the kernel's counter slots
 
 
-def one_arc(kernel: ArcKernel, prob, mode, guards: tuple[np.ndarray, np.ndarray, np.ndarray],
-            n_guards: int, t0: float, t0_lo: float, y0, t_end: float, max_steps: int, sections,
-            t_eval: np.ndarray) -> ArcOutcome:
+def one_arc(
+    kernel: ArcKernel,
+    prob,
+    mode,
+    guards: tuple[np.ndarray, np.ndarray, np.ndarray],
+    n_guards: int,
+    t0: float,
+    t0_lo: float,
+    y0,
+    t_end: float,
+    max_steps: int,
+    sections,
+    t_eval: np.ndarray,
+) -> ArcOutcome:
     """One arc of ``kernel`` (growing the hit buffer and building mode data as it asks), from Python."""
     from nsbench.model.loop import call_arc
 
@@ -111,13 +122,13 @@ def one_arc(kernel: ArcKernel, prob, mode, guards: tuple[np.ndarray, np.ndarray,
     y_out = np.empty(n)
     kd = kernel.data_for(len(sections))
     gk, gi, gs = (np.ascontiguousarray(g, dtype=np.int64) for g in guards)
-    arc = abi.Arc(mode, gk, gi, gs, int(n_guards), float(t0), float(t0_lo), y0, float(t_end),
-                  int(min(max_steps, 2**62)))
+    arc = abi.Arc(
+        mode, gk, gi, gs, int(n_guards), float(t0), float(t0_lo), y0, float(t_end), int(min(max_steps, 2**62))
+    )
     while True:
         si = np.zeros(abi.N_SI, np.int64)
         cnt = np.zeros(abi.N_COUNTERS, np.int64)
-        status, t, t_lo, fired = call_arc(kernel.table, kd, kernel.options, prob, arc, sec, hits, dense, si, y_out,
-                                          cnt)
+        status, t, t_lo, fired = call_arc(kernel.table, kd, kernel.options, prob, arc, sec, hits, dense, si, y_out, cnt)
         if status == abi.K_HIT_FULL:
             size = 2 * hits.t.shape[0]
             hits = abi.Hits(np.empty(size, np.int64), np.empty(size), np.empty((size, n)))
@@ -126,5 +137,13 @@ def one_arc(kernel: ArcKernel, prob, mode, guards: tuple[np.ndarray, np.ndarray,
         else:
             break
     found = [(int(hits.index[j]), float(hits.t[j]), hits.y[j].copy()) for j in range(int(si[abi.SI_NHITS]))]
-    return ArcOutcome(int(status), float(t), float(t_lo), int(fired), y_out.copy(),
-                      dense.y[: int(si[abi.SI_IEVAL])].T.copy(), found, cnt)
+    return ArcOutcome(
+        int(status),
+        float(t),
+        float(t_lo),
+        int(fired),
+        y_out.copy(),
+        dense.y[: int(si[abi.SI_IEVAL])].T.copy(),
+        found,
+        cnt,
+    )

@@ -67,7 +67,7 @@ class Layout:
             if len(seq) != n:
                 raise ValueError(f"field {name!r} has {len(seq)} values, not {n}")
             start = self.offset(name, n, 0) if n else 0
-            out[start:start + n] = np.asarray(seq, dtype=float)
+            out[start : start + n] = np.asarray(seq, dtype=float)
         return out
 
     def unpack(self, vector: np.ndarray, n: int = 0) -> dict[str, Any]:
@@ -76,5 +76,5 @@ class Layout:
         out: dict[str, Any] = {name: float(v[self.offset(name, n)]) for name in self.head + self.tail}
         for name in self.fields:
             start = len(self.head) + self.fields.index(name) * n
-            out[name] = tuple(float(x) for x in v[start:start + n])
+            out[name] = tuple(float(x) for x in v[start : start + n])
         return out

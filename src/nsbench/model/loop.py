@@ -93,7 +93,8 @@ def arc_at(address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
 def _arc_at(address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
     call = _arc_caller(prob)
     return lambda address, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt: call(
-        address, (kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt))
+        address, (kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt)
+    )
 
 
 @hot
@@ -150,7 +151,7 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
     """
     si, sf, cnt = st.si, st.sf, st.cnt
     saved = st.iw[: cnt.shape[0]]
-    clock = st.iw[cnt.shape[0]:]
+    clock = st.iw[cnt.shape[0] :]
     room = st.ring.shape[0] + EXTRA_EVENTS
     if si[SI_PHASE] == P_INIT:
         # At t0 the state may sit on a surface: the rule that follows a transition.
@@ -186,8 +187,9 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
             copy_into(saved, cnt)
             n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
             tic = monotonic_ns(clock)
-            arc = Arc(st.mode, st.gk, st.gi, st.gs, ng, sf[SF_T], sf[SF_TLO], st.y, lim.t_end,
-                      lim.max_steps - cnt[NSTEPS])
+            arc = Arc(
+                st.mode, st.gk, st.gi, st.gs, ng, sf[SF_T], sf[SF_TLO], st.y, lim.t_end, lim.max_steps - cnt[NSTEPS]
+            )
             status, t1, t_lo1, fired = call_arc(kernel, kd, fo, prob, arc, sec, hits, dense, si, st.y_arc, cnt)
             si[SI_CLOCK] += monotonic_ns(clock) - tic
             if status == K_HIT_FULL or status == K_NEED_MODE:

@@ -81,11 +81,15 @@ class Records:
     row per requested time.
     """
 
-    def __init__(self, n_states: int, mode_size: int, t_eval: np.ndarray, events: int = 256,
-                 hits: int = 64) -> None:
+    def __init__(self, n_states: int, mode_size: int, t_eval: np.ndarray, events: int = 256, hits: int = 64) -> None:
         self.n, self.mode_size = n_states, mode_size
-        self.events = Events(np.empty(events), np.empty(events, np.int64), np.empty(events, np.int64),
-                             np.empty((events, n_states)), np.empty((events, mode_size), np.int64))
+        self.events = Events(
+            np.empty(events),
+            np.empty(events, np.int64),
+            np.empty(events, np.int64),
+            np.empty((events, n_states)),
+            np.empty((events, mode_size), np.int64),
+        )
         self.hits = Hits(np.empty(hits, np.int64), np.empty(hits), np.empty((hits, n_states)))
         self.dense = Dense(np.ascontiguousarray(t_eval, dtype=float), np.empty((len(t_eval), n_states)))
 

@@ -14,6 +14,24 @@ from nsbench.periodic.continuation import Branch, Continuation, continue_orbit, 
 from nsbench.periodic.flow import HybridFlow, Pass, saltation
 from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, canonical_pattern, find_orbit, guess, shoot
 
-__all__ = ["Bifurcation", "Branch", "Continuation", "HybridFlow", "Pass", "PeriodicOrbit", "ShootingError",
-           "canonical_pattern", "classify", "continue_orbit", "double", "find_orbit", "guess", "locate",
-           "locate_target", "saltation", "shoot", "survey", "trace"]
+__all__ = [
+    "Bifurcation",
+    "Branch",
+    "Continuation",
+    "HybridFlow",
+    "Pass",
+    "PeriodicOrbit",
+    "ShootingError",
+    "canonical_pattern",
+    "classify",
+    "continue_orbit",
+    "double",
+    "find_orbit",
+    "guess",
+    "locate",
+    "locate_target",
+    "saltation",
+    "shoot",
+    "survey",
+    "trace",
+]

@@ -72,10 +72,17 @@ class Bifurcation:
 
 
 #: The paper's category of each kind (see the module docstring).
-CATEGORY = {"grazing-sliding": "sliding", "crossing-sliding": "border-collision",
-            "multi-sliding": "border-collision", "period-doubling": "fixed-point", "fold": "fixed-point",
-            "torus": "fixed-point", "event-order": "none", "unknown": "border-collision",
-            "unclassified": "unknown"}
+CATEGORY = {
+    "grazing-sliding": "sliding",
+    "crossing-sliding": "border-collision",
+    "multi-sliding": "border-collision",
+    "period-doubling": "fixed-point",
+    "fold": "fixed-point",
+    "torus": "fixed-point",
+    "event-order": "none",
+    "unknown": "border-collision",
+    "unclassified": "unknown",
+}
 #: A degenerate quantity larger than this (relative to its scale) does not name a bifurcation.
 UNCLEAR = 1e-3
 
@@ -97,8 +104,16 @@ def _reanchored(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit:
     return restart(flow, orbit, *anchor(flow, orbit))
 
 
-def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a: PeriodicOrbit, b: float,
-           orbit_b: PeriodicOrbit | None, xtol: float = 1e-11) -> tuple[Bifurcation, PeriodicOrbit, PeriodicOrbit | None]:
+def locate(
+    flow: HybridFlow,
+    problem_at: Callable,
+    param: str,
+    a: float,
+    orbit_a: PeriodicOrbit,
+    b: float,
+    orbit_b: PeriodicOrbit | None,
+    xtol: float = 1e-11,
+) -> tuple[Bifurcation, PeriodicOrbit, PeriodicOrbit | None]:
     """Bisect ``[a, b]`` where the orbit's signature changes; classify the change.
 
     ``orbit_b`` is ``None`` where the branch ends (no orbit of ``orbit_a``'s kind at ``b``).
@@ -129,11 +144,18 @@ def locate(flow: HybridFlow, problem_at: Callable, param: str, a: float, orbit_a
             a = b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
-    bif = Bifurcation(param, value, kind, category, detail, abs(b - a),
-                      left.pattern_text() if left is not None else "",
-                      right.pattern_text() if right is not None else "",
-                      format_multipliers(left.multipliers) if left is not None else "",
-                      format_multipliers(right.multipliers) if right is not None else "")
+    bif = Bifurcation(
+        param,
+        value,
+        kind,
+        category,
+        detail,
+        abs(b - a),
+        left.pattern_text() if left is not None else "",
+        right.pattern_text() if right is not None else "",
+        format_multipliers(left.multipliers) if left is not None else "",
+        format_multipliers(right.multipliers) if right is not None else "",
+    )
     return bif, orbit_a, orbit_b
 
 
@@ -206,8 +228,16 @@ def _dip(flow: HybridFlow, g, t0: float, y0, mode, lo: float, hi: float, xatol: 
     return float(res.fun), float(res.x)
 
 
-def refine_end(flow: HybridFlow, problem_at: Callable, value: float, orbit: PeriodicOrbit, key: tuple,
-               toward: float, xtol: float = 1e-12, max_iter: int = 40) -> tuple[float, PeriodicOrbit]:
+def refine_end(
+    flow: HybridFlow,
+    problem_at: Callable,
+    value: float,
+    orbit: PeriodicOrbit,
+    key: tuple,
+    toward: float,
+    xtol: float = 1e-12,
+    max_iter: int = 40,
+) -> tuple[float, PeriodicOrbit]:
     """Where the degenerate quantity ``key`` of the orbit reaches zero, by secant steps on the near side.
 
     Newton's region of convergence shrinks near a grazing, so the first failing
@@ -283,27 +313,61 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
     for v, g, fam, t, key in dips:
         rel = abs(v) / (value_scale[fam] or 1.0)
         if g.kind == "velocity":
-            out.append((rel, "grazing-sliding", f"a slip arc of block {g.block} comes within {abs(v):.3g} of the "
-                        f"belt speed without reaching it ({g.name} has an interior extremum at t = {t:.10g})", key))
+            out.append(
+                (
+                    rel,
+                    "grazing-sliding",
+                    f"a slip arc of block {g.block} comes within {abs(v):.3g} of the "
+                    f"belt speed without reaching it ({g.name} has an interior extremum at t = {t:.10g})",
+                    key,
+                )
+            )
         else:
-            out.append((rel, "multi-sliding", f"a sticking arc of block {g.block} comes within {abs(v):.3g} of its "
-                        f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})", key))
+            out.append(
+                (
+                    rel,
+                    "multi-sliding",
+                    f"a sticking arc of block {g.block} comes within {abs(v):.3g} of its "
+                    f"static limit without reaching it ({g.name} has an interior extremum at t = {t:.10g})",
+                    key,
+                )
+            )
     for index, e in enumerate(orbit.events):
         rate = _event_rate(problem, e)
         rel = rate / (rate_scale.get(_family(e.guard)) or 1.0)
         if e.guard.kind == "velocity":
-            out.append((rel, "grazing-sliding", f"block {e.block}'s velocity reaches the belt speed with slope "
-                        f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})", ("rate", index)))
+            out.append(
+                (
+                    rel,
+                    "grazing-sliding",
+                    f"block {e.block}'s velocity reaches the belt speed with slope "
+                    f"{rate:.3g} at a {e.kind} event (t = {e.t:.10g})",
+                    ("rate", index),
+                )
+            )
         else:
-            out.append((rel, "multi-sliding", f"block {e.block}'s sticking phase reaches its static limit with "
-                        f"slope {rate:.3g} at a slip event (t = {e.t:.10g})", ("rate", index)))
+            out.append(
+                (
+                    rel,
+                    "multi-sliding",
+                    f"block {e.block}'s sticking phase reaches its static limit with "
+                    f"slope {rate:.3g} at a slip event (t = {e.t:.10g})",
+                    ("rate", index),
+                )
+            )
         if e.kind in ("stick", "reverse"):
             fr = problem.coefficients.fr[e.block - 1]
             margin = _margin(problem, e)
-            out.append((abs(margin) / fr, "crossing-sliding",
-                        f"block {e.block} reaches the belt speed with fr - |R| = {margin:.3g} at a {e.kind} "
-                        f"event (t = {e.t:.10g}): the locus of sticking phase starts on the boundary of its "
-                        "sliding region", ("margin", index)))
+            out.append(
+                (
+                    abs(margin) / fr,
+                    "crossing-sliding",
+                    f"block {e.block} reaches the belt speed with fr - |R| = {margin:.3g} at a {e.kind} "
+                    f"event (t = {e.t:.10g}): the locus of sticking phase starts on the boundary of its "
+                    "sliding region",
+                    ("margin", index),
+                )
+            )
     return sorted(out, key=lambda c: c[0])
 
 
@@ -345,15 +409,20 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
             kind = "period-doubling"
         else:
             kind = "fold"
-        detail = (f"multiplier {format_multipliers(np.array([z]))} crosses the unit circle "
-                  f"(unstable multipliers {near.unstable_count} -> {far.unstable_count}; "
-                  f"{format_multipliers(lost)} -> {format_multipliers(other)})")
+        detail = (
+            f"multiplier {format_multipliers(np.array([z]))} crosses the unit circle "
+            f"(unstable multipliers {near.unstable_count} -> {far.unstable_count}; "
+            f"{format_multipliers(lost)} -> {format_multipliers(other)})"
+        )
         return kind, "fixed-point", detail
     if far is not None and Counter(far.pattern) == Counter(near.pattern):
         gaps = [_closest_events(o) for o in (near, far)]
         gap, text = min(gaps, key=lambda g: g[0])
-        return ("event-order", CATEGORY["event-order"],
-                f"{text}; the same events in another order, the orbit passes through continuously")
+        return (
+            "event-order",
+            CATEGORY["event-order"],
+            f"{text}; the same events in another order, the orbit passes through continuously",
+        )
     candidates = []
     for orbit in (near, far):
         if orbit is not None:
@@ -365,12 +434,23 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
     if far is None and near.multipliers.size:
         z = near.multipliers[np.argmin(np.abs(near.multipliers - 1.0))]
         if abs(z - 1.0) < 1e-2 and (rel > UNCLEAR or abs(z - 1.0) < rel):
-            return "fold", CATEGORY["fold"], (f"multiplier {format_multipliers(np.array([z]))} approaches +1 "
-                                              "where the branch ends (a turning point of the branch)")
+            return (
+                "fold",
+                CATEGORY["fold"],
+                (
+                    f"multiplier {format_multipliers(np.array([z]))} approaches +1 "
+                    "where the branch ends (a turning point of the branch)"
+                ),
+            )
     if rel > UNCLEAR:
-        return "unclassified", CATEGORY["unclassified"], (
-            f"no event or arc of the orbits at the bracket is degenerate (the closest: {text}, relative size "
-            f"{rel:.2g}); the value is where Newton stops converging, not a located tangency")
+        return (
+            "unclassified",
+            CATEGORY["unclassified"],
+            (
+                f"no event or arc of the orbits at the bracket is degenerate (the closest: {text}, relative size "
+                f"{rel:.2g}); the value is where Newton stops converging, not a located tangency"
+            ),
+        )
     if far is None:
         return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]; the branch ends (no orbit of this kind beyond)"
     a, b = _stick_counts(near, nb), _stick_counts(far, nb)

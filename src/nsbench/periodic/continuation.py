@@ -49,13 +49,23 @@ class Branch:
         """One row per step: value, period, stability, multipliers, pattern, start point."""
         rows = []
         for value, o in zip(self.values, self.orbits):
-            row = {"branch": self.label, "param": self.param, "value": value, "period": o.period,
-                   "forcing_periods": o.forcing_periods if o.forced else np.nan,
-                   "stable": o.stable, "max_multiplier": o.max_multiplier,
-                   "unstable_multipliers": o.unstable_count,
-                   "multipliers": format_multipliers(o.multipliers), "pattern": o.pattern_text(),
-                   "events_per_period": len(o.events), "t0": o.t0, "mode0": " ".join(map(str, o.mode0)),
-                   "residual": o.residual, "newton_iterations": o.iterations}
+            row = {
+                "branch": self.label,
+                "param": self.param,
+                "value": value,
+                "period": o.period,
+                "forcing_periods": o.forcing_periods if o.forced else np.nan,
+                "stable": o.stable,
+                "max_multiplier": o.max_multiplier,
+                "unstable_multipliers": o.unstable_count,
+                "multipliers": format_multipliers(o.multipliers),
+                "pattern": o.pattern_text(),
+                "events_per_period": len(o.events),
+                "t0": o.t0,
+                "mode0": " ".join(map(str, o.mode0)),
+                "residual": o.residual,
+                "newton_iterations": o.iterations,
+            }
             for name, v in zip(o.problem.state_names, o.y0):
                 row[f"{name}_0"] = v
             rows.append(row)
@@ -68,10 +78,21 @@ class Branch:
         return frame
 
 
-def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], param: str, orbit: PeriodicOrbit,
-                   start: float, stop: float, *, steps: int = 200, max_steps: int | None = None,
-                   xtol: float = 1e-11, locate_bifurcations: bool = True,
-                   on_step: Callable[[float], None] | None = None, label: str = "1") -> Branch:
+def continue_orbit(
+    flow: HybridFlow,
+    problem_at: Callable[[float], object],
+    param: str,
+    orbit: PeriodicOrbit,
+    start: float,
+    stop: float,
+    *,
+    steps: int = 200,
+    max_steps: int | None = None,
+    xtol: float = 1e-11,
+    locate_bifurcations: bool = True,
+    on_step: Callable[[float], None] | None = None,
+    label: str = "1",
+) -> Branch:
     """Follow ``orbit`` (converged at ``start``) in ``param`` up to ``stop``.
 
     Parameters
@@ -96,7 +117,7 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
     max_steps = 4 * int(steps) if max_steps is None else int(max_steps)
     direction = 1.0 if stop > start else -1.0
     h_max = abs(stop - start) / steps
-    h_min = h_max / 2 ** MAX_HALVINGS
+    h_min = h_max / 2**MAX_HALVINGS
     branch = Branch(param, [float(start)], [orbit], label=label)
     value, h = float(start), h_max
     for _ in range(max_steps):
@@ -110,8 +131,9 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
         new = _step(flow, orbit)
         if new is None:
             if h / 2 < h_min:
-                branch.end_reason = (f"no orbit of pattern [{orbit.pattern_brief()}] beyond {param} = {value:.10g} "
-                                     f"(step {h:.2g} failed)")
+                branch.end_reason = (
+                    f"no orbit of pattern [{orbit.pattern_brief()}] beyond {param} = {value:.10g} (step {h:.2g} failed)"
+                )
                 if locate_bifurcations:
                     bif, near, _ = locate(flow, problem_at, param, value, orbit, target, None, xtol)
                     branch.bifurcations.append(bif)
@@ -125,8 +147,9 @@ def continue_orbit(flow: HybridFlow, problem_at: Callable[[float], object], para
             branch.bifurcations.append(bif)
             branch.near_orbits.append(near)
             if far is None:  # the orbit ends; Newton found another one beyond: a new branch
-                branch.end_reason = (f"the orbit of pattern [{orbit.pattern_brief()}] ends at {param} = "
-                                     f"{bif.value:.12g} ({bif.kind})")
+                branch.end_reason = (
+                    f"the orbit of pattern [{orbit.pattern_brief()}] ends at {param} = {bif.value:.12g} ({bif.kind})"
+                )
                 break
             flow.rebind(problem_at(target))
 
@@ -146,8 +169,14 @@ def _step(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
     return None if new is None else _reanchored(flow, new)
 
 
-def double(flow: HybridFlow, problem_at: Callable[[float], object], bif: Bifurcation, orbit: PeriodicOrbit,
-           past: float, eps: float | None = None) -> PeriodicOrbit | None:
+def double(
+    flow: HybridFlow,
+    problem_at: Callable[[float], object],
+    bif: Bifurcation,
+    orbit: PeriodicOrbit,
+    past: float,
+    eps: float | None = None,
+) -> PeriodicOrbit | None:
     """The period-doubled orbit just past a period doubling at ``past``, or ``None`` if none is found.
 
     The start guess is the single orbit's start point moved along the eigenvector of
@@ -197,10 +226,22 @@ class Continuation:
         return pd.concat(frames, ignore_index=True).sort_values("value", kind="stable", ignore_index=True)
 
 
-def trace(problem_at: Callable[[float], object], param: str, start: float, stop: float, *, steps: int = 200,
-          integrator: str | None = None, transient: float = 1500.0, xtol: float = 1e-11,
-          doubling: int = 2, max_branches: int = 50, on_step: Callable[[float], None] | None = None,
-          origin: float | None = None, flow: HybridFlow | None = None) -> Continuation:
+def trace(
+    problem_at: Callable[[float], object],
+    param: str,
+    start: float,
+    stop: float,
+    *,
+    steps: int = 200,
+    integrator: str | None = None,
+    transient: float = 1500.0,
+    xtol: float = 1e-11,
+    doubling: int = 2,
+    max_branches: int = 50,
+    on_step: Callable[[float], None] | None = None,
+    origin: float | None = None,
+    flow: HybridFlow | None = None,
+) -> Continuation:
     """Periodic orbits over ``[start, stop]``: the attractor reached from rest at ``start``, continued;
     where a branch ends, the attractor the motion settles on just beyond, continued; and so on.
 
@@ -233,17 +274,28 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
     first: PeriodicOrbit | None = None
     if origin is not None and origin != start:
         flow.rebind(problem_at(origin))
-        lead = continue_orbit(flow, problem_at, param, find_orbit(flow, transient=transient), origin, start,
-                              steps=max(1, int(round(abs(start - origin) / h_max))), locate_bifurcations=False)
+        lead = continue_orbit(
+            flow,
+            problem_at,
+            param,
+            find_orbit(flow, transient=transient),
+            origin,
+            start,
+            steps=max(1, int(round(abs(start - origin) / h_max))),
+            locate_bifurcations=False,
+        )
         if lead.values[-1] != start:
-            raise ShootingError(f"the orbit from rest at {param} = {origin:g} does not reach {start:g}: "
-                                f"{lead.end_reason}")
+            raise ShootingError(
+                f"the orbit from rest at {param} = {origin:g} does not reach {start:g}: {lead.end_reason}"
+            )
         first = lead.orbits[-1]
     while direction * (stop - value) > 1e-12 * max(1.0, abs(stop)) and len(result.branches) < max_branches:
         flow.rebind(problem_at(value))
         try:
             kwargs = {} if seed is None else {"t0": seed[0], "y0": seed[1]}
-            orbit, first = (first, None) if first is not None else (find_orbit(flow, transient=transient, **kwargs), None)
+            orbit, first = (
+                (first, None) if first is not None else (find_orbit(flow, transient=transient, **kwargs), None)
+            )
         except ShootingError as exc:
             result.gaps.append((value, str(exc)))
             value, seed = value + direction * h_max, None
@@ -251,8 +303,18 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
                 on_step(value)
             continue
         share = max(1, int(round(abs(stop - value) / h_max)))
-        branch = continue_orbit(flow, problem_at, param, orbit, value, stop, steps=share, xtol=xtol,
-                                on_step=on_step, label=str(len(result.branches) + 1))
+        branch = continue_orbit(
+            flow,
+            problem_at,
+            param,
+            orbit,
+            value,
+            stop,
+            steps=share,
+            xtol=xtol,
+            on_step=on_step,
+            label=str(len(result.branches) + 1),
+        )
         result.branches.append(branch)
         if doubling:
             _switch(flow, problem_at, branch, stop, result, h_max, xtol, doubling)
@@ -261,14 +323,18 @@ def trace(problem_at: Callable[[float], object], param: str, start: float, stop:
             break
         end = branch.bifurcations[-1].value if branch.bifurcations else last
         # settle just past the end, starting on the last orbit: the attractor the motion jumps to
-        value = max(end + direction * h_max / 64, last + direction * h_max / 64) if direction > 0 else \
-            min(end + direction * h_max / 64, last + direction * h_max / 64)
+        value = (
+            max(end + direction * h_max / 64, last + direction * h_max / 64)
+            if direction > 0
+            else min(end + direction * h_max / 64, last + direction * h_max / 64)
+        )
         seed = (branch.orbits[-1].t0, branch.orbits[-1].y0)
     return result
 
 
-def _switch(flow, problem_at, branch: Branch, stop: float, result: Continuation, h_max: float, xtol: float,
-            depth: int) -> None:
+def _switch(
+    flow, problem_at, branch: Branch, stop: float, result: Continuation, h_max: float, xtol: float, depth: int
+) -> None:
     """Follow the doubled orbit from every period doubling of ``branch`` (``depth`` levels deep)."""
     direction = 1.0 if stop > branch.values[0] else -1.0
     for bif in list(branch.bifurcations):
@@ -281,16 +347,35 @@ def _switch(flow, problem_at, branch: Branch, stop: float, result: Continuation,
         if new is None:
             continue
         share = max(1, int(round(abs(stop - past) / h_max)))
-        sub = continue_orbit(flow, problem_at, branch.param, new, past, stop, steps=share, xtol=xtol,
-                             label=f"{branch.label}.{len(result.branches) + 1}")
+        sub = continue_orbit(
+            flow,
+            problem_at,
+            branch.param,
+            new,
+            past,
+            stop,
+            steps=share,
+            xtol=xtol,
+            label=f"{branch.label}.{len(result.branches) + 1}",
+        )
         result.branches.append(sub)
         if depth > 1:
             _switch(flow, problem_at, sub, stop, result, h_max, xtol, depth - 1)
 
 
-def locate_target(problem_at: Callable[[float], object], param: str, origin: float, low: float, high: float, *,
-                  kind: str | None = None, steps: int = 200, integrator: str | None = None,
-                  transient: float = 1500.0, xtol: float = 1e-11) -> tuple[Bifurcation, PeriodicOrbit]:
+def locate_target(
+    problem_at: Callable[[float], object],
+    param: str,
+    origin: float,
+    low: float,
+    high: float,
+    *,
+    kind: str | None = None,
+    steps: int = 200,
+    integrator: str | None = None,
+    transient: float = 1500.0,
+    xtol: float = 1e-11,
+) -> tuple[Bifurcation, PeriodicOrbit]:
     """The first bifurcation in ``[low, high]`` of the orbit reached from rest at ``origin``.
 
     The orbit is continued from ``origin`` into the bracket (towards ``high`` if
@@ -314,5 +399,7 @@ def locate_target(problem_at: Callable[[float], object], param: str, origin: flo
     for bif, near in sorted(zip(branch.bifurcations, branch.near_orbits), key=lambda b: abs(b[0].value - origin)):
         if low <= bif.value <= high and (kind is None or bif.kind == kind):
             return bif, near
-    raise ConfigError(f"no {kind or 'bifurcation'} of the orbit from {param} = {origin:g} in [{low:g}, {high:g}] "
-                      f"({branch.end_reason})")
+    raise ConfigError(
+        f"no {kind or 'bifurcation'} of the orbit from {param} = {origin:g} in [{low:g}, {high:g}] "
+        f"({branch.end_reason})"
+    )

@@ -151,8 +151,16 @@ class HybridFlow:
         from nsbench.hybrid.run import run_hybrid
         from nsbench.problems.modes import EVENT_KINDS
 
-        raw = run_hybrid(self.problem, self.integ, t0 + span, t0=t0, y0=np.asarray(y0, dtype=float),
-                         mode=mode0, max_events=max_events, max_steps=50_000_000)
+        raw = run_hybrid(
+            self.problem,
+            self.integ,
+            t0 + span,
+            t0=t0,
+            y0=np.asarray(y0, dtype=float),
+            mode=mode0,
+            max_events=max_events,
+            max_steps=50_000_000,
+        )
         if not raw.status.ok:
             raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
         rec = raw.records
@@ -160,20 +168,40 @@ class HybridFlow:
         before = tuple(int(m) for m in mode0)
         for k in range(raw.n_events):
             after = tuple(int(m) for m in rec.ev_mode[k])
-            kind, block, t, y = EVENT_KINDS[int(rec.ev_kind[k])], int(rec.ev_block[k]), float(rec.ev_t[k]), rec.ev_y[k].copy()
+            kind, block, t, y = (
+                EVENT_KINDS[int(rec.ev_kind[k])],
+                int(rec.ev_block[k]),
+                float(rec.ev_t[k]),
+                rec.ev_y[k].copy(),
+            )
             guard = guard_of(kind, block, self.problem, t, y, before)
             events.append(Crossing(t, kind, block, y, before, after, guard))
             before = after
-        return Pass(float(t0), np.asarray(y0, dtype=float).copy(), tuple(int(m) for m in mode0), float(span),
-                    raw.y.copy(), raw.mode, tuple(events))
+        return Pass(
+            float(t0),
+            np.asarray(y0, dtype=float).copy(),
+            tuple(int(m) for m in mode0),
+            float(span),
+            raw.y.copy(),
+            raw.mode,
+            tuple(events),
+        )
 
     def states(self, t0: float, y0: np.ndarray, mode0: Mode, times: np.ndarray) -> np.ndarray:
         """States at the sorted ``times`` (all ``> t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
         from nsbench.hybrid.run import run_hybrid
 
         times = np.ascontiguousarray(times, dtype=float)
-        raw = run_hybrid(self.problem, self.integ, float(times[-1]), t0=t0, y0=np.asarray(y0, dtype=float),
-                         mode=mode0, t_eval=times, max_steps=50_000_000)
+        raw = run_hybrid(
+            self.problem,
+            self.integ,
+            float(times[-1]),
+            t0=t0,
+            y0=np.asarray(y0, dtype=float),
+            mode=mode0,
+            t_eval=times,
+            max_steps=50_000_000,
+        )
         if not raw.status.ok or raw.n_dense < times.size:
             raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
         return raw.records.y_eval[: times.size].copy()
@@ -191,8 +219,9 @@ class HybridFlow:
             if modal is None:
                 a, *_ = self.problem.linear_form(mode)
                 lam, vec = np.linalg.eig(a)
-                modal = self._expm[mode] = (a, lam, vec, np.linalg.inv(vec)) if np.linalg.cond(vec) < 1e6 \
-                    else (a, None, None, None)
+                modal = self._expm[mode] = (
+                    (a, lam, vec, np.linalg.inv(vec)) if np.linalg.cond(vec) < 1e6 else (a, None, None, None)
+                )
             a, lam, vec, inv = modal
             if lam is None:
                 return scipy.linalg.expm(a * dt)
@@ -248,6 +277,14 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
         return flow.states(orbit.t0, orbit.y0, orbit.mode0, times) if times.size else np.empty((0, problem.n_states))
     if section != "peaks":
         raise ConfigError(f"section {section!r} is not allowed; choose one of peaks, strobe, stick, mapping")
-    raw = run_hybrid(problem, flow.integ, orbit.t0 + orbit.period, t0=orbit.t0, y0=orbit.y0, mode=orbit.mode0,
-                     sections=[peaks(problem)], max_steps=50_000_000)
+    raw = run_hybrid(
+        problem,
+        flow.integ,
+        orbit.t0 + orbit.period,
+        t0=orbit.t0,
+        y0=orbit.y0,
+        mode=orbit.mode0,
+        sections=[peaks(problem)],
+        max_steps=50_000_000,
+    )
     return raw.records.hy[: raw.n_hits].copy()

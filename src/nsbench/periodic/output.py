@@ -33,8 +33,15 @@ def points_frame(flow: HybridFlow, result: Continuation, problem_at, section: st
             flow.rebind(problem_at(value))
             pts = section_points(flow, orbit, section)
             for k, y in enumerate(pts):
-                rows.append({"branch": br.label, "value": value, "k": k, "stable": orbit.stable,
-                             **dict(zip(orbit.problem.state_names, y))})
+                rows.append(
+                    {
+                        "branch": br.label,
+                        "value": value,
+                        "k": k,
+                        "stable": orbit.stable,
+                        **dict(zip(orbit.problem.state_names, y)),
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -42,10 +49,19 @@ def write(out: str | Path, result: Continuation, points: pd.DataFrame, meta: dic
     """Write the tables and ``meta.json`` into ``out``; return their paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = {"branch": out / "branch.csv", "points": out / "points.csv",
-             "bifurcations": out / "bifurcations.csv", "gaps": out / "gaps.csv", "meta": out / "meta.json"}
-    tables = {"branch": result.frame(), "points": points, "bifurcations": result.bifurcation_frame(),
-              "gaps": pd.DataFrame(result.gaps, columns=["value", "reason"])}
+    paths = {
+        "branch": out / "branch.csv",
+        "points": out / "points.csv",
+        "bifurcations": out / "bifurcations.csv",
+        "gaps": out / "gaps.csv",
+        "meta": out / "meta.json",
+    }
+    tables = {
+        "branch": result.frame(),
+        "points": points,
+        "bifurcations": result.bifurcation_frame(),
+        "gaps": pd.DataFrame(result.gaps, columns=["value", "reason"]),
+    }
     for key, frame in tables.items():
         write_atomic(paths[key], frame.to_csv(index=False, float_format="%.17g").encode())
     write_atomic(paths["meta"], json.dumps(meta, indent=2, default=str).encode())
@@ -59,34 +75,52 @@ def summary(result: Continuation, meta: dict[str, Any]) -> str:
     from nsbench.bifurcation.compare import _table
 
     p = meta.get("provenance", {})
-    lines = [f"# Periodic orbits of {meta['problem']} case {meta['case']} along {result.param}", "",
-             f"Range {result.start:g}..{result.stop:g} ({meta['steps']} steps at the largest step size), flow "
-             f"`{meta['integrator']}`, section `{meta['section']}`, fixed parameters {meta['params'] or 'none'}"
-             + (f", first orbit from rest at {meta['origin']:g}" if meta.get("origin") is not None else "")
-             + f". Computed in {meta['seconds']:.0f} s with nsbench {p.get('version_nsbench', '?')} (commit {p.get('git_commit', '?')}) on "
-               f"{p.get('cpu', '?')} ({p.get('cpu_count', '?')} cores).", "",
-             "![branches](branches.png)", "", "## Bifurcations", ""]
+    lines = [
+        f"# Periodic orbits of {meta['problem']} case {meta['case']} along {result.param}",
+        "",
+        f"Range {result.start:g}..{result.stop:g} ({meta['steps']} steps at the largest step size), flow "
+        f"`{meta['integrator']}`, section `{meta['section']}`, fixed parameters {meta['params'] or 'none'}"
+        + (f", first orbit from rest at {meta['origin']:g}" if meta.get("origin") is not None else "")
+        + f". Computed in {meta['seconds']:.0f} s with nsbench {p.get('version_nsbench', '?')} (commit {p.get('git_commit', '?')}) on "
+        f"{p.get('cpu', '?')} ({p.get('cpu_count', '?')} cores).",
+        "",
+        "![branches](branches.png)",
+        "",
+        "## Bifurcations",
+        "",
+    ]
     bifs = [b for b in result.bifurcations if b.category != "none"]
     swaps = len(result.bifurcations) - len(bifs)
     if bifs:
-        frame = pd.DataFrame([{"value": f"{b.value:.12g}", "kind": b.kind, "category": b.category,
-                               "detail": b.detail} for b in bifs])
+        frame = pd.DataFrame(
+            [{"value": f"{b.value:.12g}", "kind": b.kind, "category": b.category, "detail": b.detail} for b in bifs]
+        )
         lines += [_table(frame), ""]
     else:
         lines += ["None located in the range.", ""]
     if swaps:
-        lines += [f"{swaps} event-order swap(s) (two events coincide; not bifurcations) are in "
-                  "`bifurcations.csv`.", ""]
+        lines += [f"{swaps} event-order swap(s) (two events coincide; not bifurcations) are in `bifurcations.csv`.", ""]
     lines += ["## Branches", ""]
-    rows = [{"branch": br.label, "from": f"{br.values[0]:.10g}", "to": f"{br.values[-1]:.10g}",
-             "steps": len(br.values), "events per period": len(br.orbits[0].events),
-             "stable": "all" if all(o.stable for o in br.orbits) else
-             ("none" if not any(o.stable for o in br.orbits) else "partly"),
-             "end": br.end_reason} for br in result.branches]
+    rows = [
+        {
+            "branch": br.label,
+            "from": f"{br.values[0]:.10g}",
+            "to": f"{br.values[-1]:.10g}",
+            "steps": len(br.values),
+            "events per period": len(br.orbits[0].events),
+            "stable": "all"
+            if all(o.stable for o in br.orbits)
+            else ("none" if not any(o.stable for o in br.orbits) else "partly"),
+            "end": br.end_reason,
+        }
+        for br in result.branches
+    ]
     lines += [_table(pd.DataFrame(rows)) if rows else "No periodic orbit found.", ""]
     if result.gaps:
-        lines += [f"{len(result.gaps)} value(s) without a periodic orbit (steady sliding or aperiodic motion): "
-                  "`gaps.csv`.", ""]
+        lines += [
+            f"{len(result.gaps)} value(s) without a periodic orbit (steady sliding or aperiodic motion): `gaps.csv`.",
+            "",
+        ]
     return "\n".join(lines)
 
 
@@ -96,17 +130,30 @@ CATEGORY_COLOURS = {"fixed-point": "tab:red", "sliding": "tab:purple", "border-c
 LEGEND_BRANCHES = 10
 
 
-def figure(result: Continuation, points: pd.DataFrame, base: str | Path, *, variable: str = "x1",
-           diagram: pd.DataFrame | None = None, title: str = "",
-           formats: Sequence[str] = ("png", "svg", "pdf")) -> list[Path]:
+def figure(
+    result: Continuation,
+    points: pd.DataFrame,
+    base: str | Path,
+    *,
+    variable: str = "x1",
+    diagram: pd.DataFrame | None = None,
+    title: str = "",
+    formats: Sequence[str] = ("png", "svg", "pdf"),
+) -> list[Path]:
     """Section points of every branch against the parameter; stable solid, unstable dashed (:func:`draw`)."""
     from nsbench.bifurcation.figures import save
 
     return save(draw(result, points, variable=variable, diagram=diagram, title=title), base, formats)
 
 
-def draw(result: Continuation, points: pd.DataFrame, *, variable: str = "x1",
-         diagram: pd.DataFrame | None = None, title: str = ""):
+def draw(
+    result: Continuation,
+    points: pd.DataFrame,
+    *,
+    variable: str = "x1",
+    diagram: pd.DataFrame | None = None,
+    title: str = "",
+):
     """The figure of :func:`figure`, not saved: each branch in its own colour (stable parts solid,
     unstable dashed), the located bifurcations as vertical lines coloured by category.
 
@@ -132,8 +179,10 @@ def draw(result: Continuation, points: pd.DataFrame, *, variable: str = "x1",
     branches = list(points.groupby("branch", sort=False)) if len(points) else []
     for i, (label, grp) in enumerate(branches):
         colour = colours[i % len(colours)]
-        per_value = [(v, g[variable].sort_values().to_numpy(), bool(g["stable"].iloc[0]))
-                     for v, g in grp.groupby("value", sort=True)]
+        per_value = [
+            (v, g[variable].sort_values().to_numpy(), bool(g["stable"].iloc[0]))
+            for v, g in grp.groupby("value", sort=True)
+        ]
         run: list = []
         for item in per_value + [(None, np.empty(0), None)]:
             if run and (item[0] is None or len(item[1]) != len(run[-1][1]) or item[2] != run[-1][2]):
@@ -142,19 +191,40 @@ def draw(result: Continuation, points: pd.DataFrame, *, variable: str = "x1",
                 stable = bool(run[0][2])
                 styles.add(stable)
                 for k in range(ys.shape[1]):
-                    ax.plot(xs, ys[:, k], "-" if stable else "--", color=colour, lw=1.2,
-                            marker="." if len(xs) == 1 else None)
+                    ax.plot(
+                        xs,
+                        ys[:, k],
+                        "-" if stable else "--",
+                        color=colour,
+                        lw=1.2,
+                        marker="." if len(xs) == 1 else None,
+                    )
                 run = []
             if item[0] is not None:
                 run.append(item)
         if len(branches) <= LEGEND_BRANCHES:
             handles.append(Line2D([], [], color=colour, lw=2.0, label=f"branch {label}"))
     if len(branches) > LEGEND_BRANCHES:
-        handles.append(Line2D([], [], color=colours[0], lw=2.0,
-                              label=f"{len(branches)} branches, one colour each, repeating every "
-                                    f"{len(colours)} (table Branches)"))
-    handles += [Line2D([], [], color="k", ls="-" if stable else "--", lw=1.2,
-                       label="stable orbits" if stable else "unstable orbits") for stable in sorted(styles, reverse=True)]
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=colours[0],
+                lw=2.0,
+                label=f"{len(branches)} branches, one colour each, repeating every {len(colours)} (table Branches)",
+            )
+        )
+    handles += [
+        Line2D(
+            [],
+            [],
+            color="k",
+            ls="-" if stable else "--",
+            lw=1.2,
+            label="stable orbits" if stable else "unstable orbits",
+        )
+        for stable in sorted(styles, reverse=True)
+    ]
     drawn: dict[str, str] = {}
     for b in result.bifurcations:
         if b.category == "none":

@@ -134,14 +134,23 @@ def multipliers(monodromy: np.ndarray, forced: bool, normal: np.ndarray | None =
         f_end = m @ n  # the flow direction is carried to itself on a periodic orbit; m n = n up to rounding
         proj = np.eye(len(n)) - np.outer(f_end, n) / float(n @ f_end)
         q, _ = np.linalg.qr(np.column_stack([n, np.eye(len(n))]))
-        basis = q[:, 1:len(n)]
+        basis = q[:, 1 : len(n)]
         m = basis.T @ proj @ m @ basis
     mu = np.linalg.eigvals(m) if m.size else np.empty(0, complex)
     return mu[np.argsort(-np.abs(mu), kind="stable")]
 
 
-def shoot(flow: HybridFlow, t0: float, y0, mode0: Mode, period: float, *, forced: bool | None = None,
-          tol: float = 1e-11, max_iter: int = 25) -> PeriodicOrbit:
+def shoot(
+    flow: HybridFlow,
+    t0: float,
+    y0,
+    mode0: Mode,
+    period: float,
+    *,
+    forced: bool | None = None,
+    tol: float = 1e-11,
+    max_iter: int = 25,
+) -> PeriodicOrbit:
     """Newton's method for a periodic orbit through (near) ``y0`` at ``t0`` with period (near) ``period``.
 
     Parameters
@@ -221,8 +230,7 @@ def shoot(flow: HybridFlow, t0: float, y0, mode0: Mode, period: float, *, forced
             if shorter is not None:  # converged to a repetition of a shorter orbit: solve that one
                 return shoot(flow, t0, y, mode0, shorter, forced=forced, tol=tol, max_iter=max_iter)
             return _orbit(flow, t0, y, mode0, T, forced, p, free, float(np.max(np.abs(r))), it)
-    raise ShootingError(f"Newton did not converge in {max_iter} iterations "
-                        f"(residual {float(np.max(np.abs(r))):.3g})")
+    raise ShootingError(f"Newton did not converge in {max_iter} iterations (residual {float(np.max(np.abs(r))):.3g})")
 
 
 def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> float | None:
@@ -236,8 +244,12 @@ def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> f
         q = n // d
         if forced and abs(T / d / tf - round(T / d / tf)) > 1e-9:
             continue
-        if all(ev[k].kind == ev[k + q].kind and ev[k].block == ev[k + q].block
-               and float(np.max(np.abs(ev[k].y - ev[k + q].y))) <= 1e-8 * scale for k in range(n - q)):
+        if all(
+            ev[k].kind == ev[k + q].kind
+            and ev[k].block == ev[k + q].block
+            and float(np.max(np.abs(ev[k].y - ev[k + q].y))) <= 1e-8 * scale
+            for k in range(n - q)
+        ):
             return T / d
     return None
 
@@ -248,8 +260,21 @@ def _orbit(flow, t0, y, mode0, T, forced, p: Pass, free, res, it) -> PeriodicOrb
     jac = flow.jacobian(p)[np.ix_(free, free)]
     normal = None if forced else _phase_normal(flow, t0, y, mode0, free)
     mu = multipliers(jac, forced, normal)
-    return PeriodicOrbit(flow.problem, float(t0), y.copy(), mode0, float(T), forced, p.events,
-                         canonical_pattern(p.pattern), jac, mu, res, it, free)
+    return PeriodicOrbit(
+        flow.problem,
+        float(t0),
+        y.copy(),
+        mode0,
+        float(T),
+        forced,
+        p.events,
+        canonical_pattern(p.pattern),
+        jac,
+        mu,
+        res,
+        it,
+        free,
+    )
 
 
 def restart(flow: HybridFlow, orbit: PeriodicOrbit, t0: float, y0: np.ndarray, mode0: Mode) -> PeriodicOrbit:
@@ -260,8 +285,9 @@ def restart(flow: HybridFlow, orbit: PeriodicOrbit, t0: float, y0: np.ndarray, m
     res = float(np.max(np.abs((p.y - np.asarray(y0))[free])))
     if res > 1e-8 * scale:  # pragma: no cover - a point of a converged orbit returns to itself
         return shoot(flow, t0, y0, mode0, orbit.period, forced=orbit.forced)
-    return _orbit(flow, t0, np.asarray(y0, dtype=float), mode0, orbit.period, orbit.forced, p, free, res,
-                  orbit.iterations)
+    return _orbit(
+        flow, t0, np.asarray(y0, dtype=float), mode0, orbit.period, orbit.forced, p, free, res, orbit.iterations
+    )
 
 
 def anchor(flow: HybridFlow, orbit: PeriodicOrbit) -> tuple[float, np.ndarray, Mode]:
@@ -312,14 +338,26 @@ def _recurrence(events: tuple[Crossing, ...], tol: float) -> int:
     """Smallest ``q`` such that the last events repeat every ``q`` (kind, block and state within ``tol``)."""
     n = len(events)
     for q in range(1, n // 3 + 1):
-        if all(events[k].kind == events[k + q].kind and events[k].block == events[k + q].block
-               and float(np.max(np.abs(events[k].y - events[k + q].y))) <= tol for k in range(n - 2 * q, n - q)):
+        if all(
+            events[k].kind == events[k + q].kind
+            and events[k].block == events[k + q].block
+            and float(np.max(np.abs(events[k].y - events[k + q].y))) <= tol
+            for k in range(n - 2 * q, n - q)
+        ):
             return q
     return 0
 
 
-def guess(flow: HybridFlow, *, transient: float = 1500.0, window: float = 1000.0, y0=None, t0: float = 0.0,
-          max_periods: int = 64, tol: float = 1e-6) -> tuple[float, np.ndarray, Mode, float]:
+def guess(
+    flow: HybridFlow,
+    *,
+    transient: float = 1500.0,
+    window: float = 1000.0,
+    y0=None,
+    t0: float = 0.0,
+    max_periods: int = 64,
+    tol: float = 1e-6,
+) -> tuple[float, np.ndarray, Mode, float]:
     """A start guess ``(t, y, mode, period)`` for :func:`shoot` from a simulation.
 
     Integrates from ``y0`` (default: rest at the origin) through ``transient``.
@@ -348,17 +386,23 @@ def guess(flow: HybridFlow, *, transient: float = 1500.0, window: float = 1000.0
             if float(np.max(np.abs(cur - start.y))) <= tol and cur_mode == start.mode:
                 whole = flow.run(t, start.y, start.mode, k * tf)
                 return (*_anchor(flow, t, start.y, start.mode, k * tf, whole.events), k * tf)
-        raise ShootingError(f"the stroboscopic point does not repeat within {max_periods} forcing periods "
-                            f"(tolerance {tol:g}): aperiodic, or a longer period")
+        raise ShootingError(
+            f"the stroboscopic point does not repeat within {max_periods} forcing periods "
+            f"(tolerance {tol:g}): aperiodic, or a longer period"
+        )
     first = flow.run(t0, y, mode, transient)
     seen = flow.run(t0 + transient, first.y, first.mode, window)
     if not seen.events:
-        raise ShootingError(f"no event between t = {t0 + transient:g} and {t0 + transient + window:g}: "
-                            "the motion settles to steady sliding, which has no periodic orbit to shoot")
+        raise ShootingError(
+            f"no event between t = {t0 + transient:g} and {t0 + transient + window:g}: "
+            "the motion settles to steady sliding, which has no periodic orbit to shoot"
+        )
     q = _recurrence(seen.events, tol)
     if q == 0:
-        raise ShootingError(f"the {len(seen.events)} events after the transient do not repeat (tolerance {tol:g}): "
-                            "aperiodic, or a period longer than a third of the window")
+        raise ShootingError(
+            f"the {len(seen.events)} events after the transient do not repeat (tolerance {tol:g}): "
+            "aperiodic, or a period longer than a third of the window"
+        )
     last = seen.events[-1]
     begin = seen.events[-1 - q]
     period = last.t - begin.t

@@ -26,14 +26,26 @@ from nsbench.problems.oscillator import FrictionOscillator
 from nsbench.problems.parameters import Coefficients, Scales
 
 __all__ = [
-    "FrictionOscillator", "Guard", "Mode", "Transition", "Coefficients", "Scales",
-    "STICK", "SLIP_POS", "SLIP_NEG", "PHASE_NAMES", "mode_name",
-    "get_problem", "problem_from_config", "list_problems",
+    "FrictionOscillator",
+    "Guard",
+    "Mode",
+    "Transition",
+    "Coefficients",
+    "Scales",
+    "STICK",
+    "SLIP_POS",
+    "SLIP_NEG",
+    "PHASE_NAMES",
+    "mode_name",
+    "get_problem",
+    "problem_from_config",
+    "list_problems",
 ]
 
 
-def get_problem(name: str, case: int | str | None = None, dimensional: bool = False,
-                **params: float) -> FrictionOscillator:
+def get_problem(
+    name: str, case: int | str | None = None, dimensional: bool = False, **params: float
+) -> FrictionOscillator:
     """Build a registered problem by name.
 
     Parameters
@@ -64,13 +76,18 @@ def problem_from_config(config: dict[str, Any]) -> FrictionOscillator:
     """
     unknown = sorted(set(config) - {"name", "case", "dimensional", "params"})
     if unknown:
-        raise ConfigError(f"problem config has unknown key(s) {', '.join(map(repr, unknown))}; allowed: "
-                          f"'name', 'case', 'dimensional', 'params' (parameters such as {unknown[0]!r} go "
-                          f"under 'params'): got {config!r}")
+        raise ConfigError(
+            f"problem config has unknown key(s) {', '.join(map(repr, unknown))}; allowed: "
+            f"'name', 'case', 'dimensional', 'params' (parameters such as {unknown[0]!r} go "
+            f"under 'params'): got {config!r}"
+        )
     try:
-        return get_problem(config["name"], case=config.get("case"),
-                           dimensional=bool(config.get("dimensional", False)),
-                           **dict(config.get("params", {})))
+        return get_problem(
+            config["name"],
+            case=config.get("case"),
+            dimensional=bool(config.get("dimensional", False)),
+            **dict(config.get("params", {})),
+        )
     except KeyError as exc:
         raise ConfigError(f"problem config needs the key {exc.args[0]!r}: got {config!r}") from None
 

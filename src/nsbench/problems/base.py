@@ -130,8 +130,9 @@ class HybridProblem:
     state_names: tuple[str, ...]
     packed: np.ndarray
 
-    def _given(self, name: str, params: dict[str, Any], parameters: dict[str, float],
-               state_names: tuple[str, ...]) -> None:
+    def _given(
+        self, name: str, params: dict[str, Any], parameters: dict[str, float], state_names: tuple[str, ...]
+    ) -> None:
         """Keep what every problem without presets or units holds: its name, the user's overrides, every
         value by name, and its states' names."""
         self.name, self.case, self.dimensional = name, None, False
@@ -250,8 +251,10 @@ class HybridProblem:
         if cached is None:
             g = [np.zeros(self.max_guards, np.int64) for _ in range(3)]
             ng = self.law.guards_of(self.data.p, self.mode_array(mode), *g)
-            cached = cache[mode] = tuple(Guard(self, int(g[1][q]) + 1, self.guard_kinds[int(g[0][q])],
-                                               int(g[2][q]), tuple(int(v) for v in mode)) for q in range(ng))
+            cached = cache[mode] = tuple(
+                Guard(self, int(g[1][q]) + 1, self.guard_kinds[int(g[0][q])], int(g[2][q]), tuple(int(v) for v in mode))
+                for q in range(ng)
+            )
         return cached
 
     def _guard_mode(self, guard: Guard) -> np.ndarray:
@@ -295,7 +298,6 @@ class HybridProblem:
         case = f", case={self.case}" if self.case is not None else ""
         extra = f", params={self.params}" if self.params else ""
         return f"<{self.name}{case}{extra}>"
-
 
 
 class NamedModes:

@@ -27,8 +27,13 @@ from nsbench.problems.parameters import Bound, Coefficients, check_friction_orde
 NAME = "block-on-ground"
 DEFAULTS = {"m": 1.0, "c": 0.0, "k": 1.0, "fs": 1.0, "fr": 1.0}
 START = {"x1_0": 12.0, "v1_0": 6.0}
-BOUNDS = {"m": Bound(0.0, False, "mass m"), "c": Bound(0.0, True, "damping c"), "k": Bound(0.0, False, "stiffness k"),
-          "fs": Bound(0.0, True, "kinetic friction fs"), "fr": Bound(0.0, False, "static friction fr")}
+BOUNDS = {
+    "m": Bound(0.0, False, "mass m"),
+    "c": Bound(0.0, True, "damping c"),
+    "k": Bound(0.0, False, "stiffness k"),
+    "fs": Bound(0.0, True, "kinetic friction fs"),
+    "fr": Bound(0.0, False, "static friction fr"),
+}
 
 
 def block_on_ground(case: int | str | None = None, dimensional: bool = True, **params: Any) -> FrictionOscillator:
@@ -51,12 +56,21 @@ def block_on_ground(case: int | str | None = None, dimensional: bool = True, **p
     v = {**DEFAULTS, **check_values(NAME, rest, tuple(DEFAULTS), BOUNDS)}
     check_friction_order(NAME, "fs", v["fs"], "fr", v["fr"])
     y0 = np.array([start.get("x1_0", START["x1_0"]), start.get("v1_0", START["v1_0"])])
-    coeffs = Coefficients(m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(0.0,), fs=(v["fs"],), fr=(v["fr"],),
-                          F=0.0, w=0.0, v0=0.0)
+    coeffs = Coefficients(
+        m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(0.0,), fs=(v["fs"],), fr=(v["fr"],), F=0.0, w=0.0, v0=0.0
+    )
     check_against_blocks(NAME, law, coeffs.fs)
-    return FrictionOscillator(coeffs, name=NAME, case=None, dimensional=True, params=dict(params),
-                              parameters={**v, **law.parameters(), "x1_0": float(y0[0]), "v1_0": float(y0[1])},
-                              scales=scales_of(v["m"], v["k"], v["fr"]), y0=y0, law=law)
+    return FrictionOscillator(
+        coeffs,
+        name=NAME,
+        case=None,
+        dimensional=True,
+        params=dict(params),
+        parameters={**v, **law.parameters(), "x1_0": float(y0[0]), "v1_0": float(y0[1])},
+        scales=scales_of(v["m"], v["k"], v["fr"]),
+        y0=y0,
+        law=law,
+    )
 
 
 def closed_form_events(problem: FrictionOscillator) -> tuple[list[tuple[float, str]], float]:
@@ -68,8 +82,7 @@ def closed_form_events(problem: FrictionOscillator) -> tuple[list[tuple[float, s
     """
     c = problem.coefficients
     if c.c[0] != 0.0 or c.v0 != 0.0 or c.F != 0.0 or not problem.law_spec.is_coulomb:
-        raise ValueError("the closed form is for the undamped, unforced block on fixed ground with Coulomb "
-                         "friction")
+        raise ValueError("the closed form is for the undamped, unforced block on fixed ground with Coulomb friction")
     m, k, fs, fr = c.m[0], c.k[0], c.fs[0], c.fr[0]
     omega = math.sqrt(k / m)
     x, v = (float(a) for a in problem.initial_state())

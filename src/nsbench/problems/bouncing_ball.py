@@ -27,8 +27,12 @@ from nsbench.problems.parameters import Bound, check_values
 
 NAME = "bouncing-ball"
 DEFAULTS = {"g": 9.81, "e": 0.8, "x0": 1.0, "v0": 0.0}
-BOUNDS = {"g": Bound(0.0, False, "gravity g"), "e": Bound(0.0, True, "restitution e"),
-          "x0": Bound(0.0, True, "start height x0"), "v0": Bound(-math.inf, False, "start velocity v0")}
+BOUNDS = {
+    "g": Bound(0.0, False, "gravity g"),
+    "e": Bound(0.0, True, "restitution e"),
+    "x0": Bound(0.0, True, "start height x0"),
+    "v0": Bound(-math.inf, False, "start velocity v0"),
+}
 
 
 class BouncingBall(NamedModes, HybridProblem):
@@ -124,6 +128,8 @@ def bouncing_ball(case: int | str | None = None, dimensional: bool = False, **pa
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
     values = {**DEFAULTS, **given}
     if values["e"] >= 1.0:
-        raise ConfigError(f"{NAME}: parameter e = {values['e']:g} is out of range: restitution e must be < 1 "
-                          "(e = 1 never comes to rest)")
+        raise ConfigError(
+            f"{NAME}: parameter e = {values['e']:g} is out of range: restitution e must be < 1 "
+            "(e = 1 never comes to rest)"
+        )
     return BouncingBall(params, values)

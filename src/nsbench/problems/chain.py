@@ -41,19 +41,28 @@ PER_BLOCK_DIMENSIONAL = ("m", "c", "k", "h", "fs", "fr")
 FIXED_BY_SCALES = ("kappa1", "mu1", "rho1")
 
 # Table 3 of the paper for every block (MODEL.md sections 3 and 7)
-TABLE3_DIMENSIONLESS = dict(c=0.05, kappa=1.0, mu=1.0, h=0.576, rho=1.0, r_f=5.0 / 6.0,
-                            F=5.0 / 12.0, Omega=1.0, v0=1.0 / 12.0)
+TABLE3_DIMENSIONLESS = dict(
+    c=0.05, kappa=1.0, mu=1.0, h=0.576, rho=1.0, r_f=5.0 / 6.0, F=5.0 / 12.0, Omega=1.0, v0=1.0 / 12.0
+)
 TABLE3_DIMENSIONAL = dict(m=1.0, c=0.05, k=1.0, h=0.1, fs=2.0, fr=2.4, F=1.0, w=1.0, v0=0.2)
 
 #: allowed range of every stem: (lower, inclusive, meaning)
 _STEM_BOUNDS = {
-    "m": (0.0, False, "mass"), "k": (0.0, False, "stiffness"), "c": (0.0, True, "damping"),
-    "h": (0.0, True, "cubic stiffness (hardening only)"), "fs": (0.0, True, "kinetic friction"),
-    "fr": (0.0, False, "static friction"), "kappa": (0.0, False, "stiffness ratio"),
-    "mu": (0.0, False, "mass ratio"), "rho": (0.0, False, "static friction ratio"),
-    "rf": (0.0, True, "slip friction level"), "r_f": (0.0, True, "slip friction level r_f"),
-    "F": (0.0, True, "harmonic force amplitude"), "w": (0.0, True, "forcing frequency"),
-    "Omega": (0.0, True, "forcing frequency Omega"), "v0": (0.0, True, "belt speed"),
+    "m": (0.0, False, "mass"),
+    "k": (0.0, False, "stiffness"),
+    "c": (0.0, True, "damping"),
+    "h": (0.0, True, "cubic stiffness (hardening only)"),
+    "fs": (0.0, True, "kinetic friction"),
+    "fr": (0.0, False, "static friction"),
+    "kappa": (0.0, False, "stiffness ratio"),
+    "mu": (0.0, False, "mass ratio"),
+    "rho": (0.0, False, "static friction ratio"),
+    "rf": (0.0, True, "slip friction level"),
+    "r_f": (0.0, True, "slip friction level r_f"),
+    "F": (0.0, True, "harmonic force amplitude"),
+    "w": (0.0, True, "forcing frequency"),
+    "Omega": (0.0, True, "forcing frequency Omega"),
+    "v0": (0.0, True, "belt speed"),
 }
 _PER_BLOCK = re.compile(r"^([a-z]+?)(\d+)$")
 #: per-block stem -> the uniform name it overrides
@@ -72,18 +81,20 @@ def check_n(n: Any) -> int:
     elif isinstance(n, str) and n.strip().isdigit():
         value = int(n)
     if value is None or not 1 <= value <= MAX_BLOCKS:
-        raise ConfigError(f"{NAME}: parameter n = {n!r} is not allowed: the number of blocks must be "
-                          f"an integer from 1 to {MAX_BLOCKS}")
+        raise ConfigError(
+            f"{NAME}: parameter n = {n!r} is not allowed: the number of blocks must be "
+            f"an integer from 1 to {MAX_BLOCKS}"
+        )
     return value
 
 
-def _split_names(params: dict[str, Any], n: int, uniform: tuple[str, ...], stems: tuple[str, ...],
-                 dimensional: bool) -> tuple[dict[str, Any], dict[int, dict[str, Any]]]:
+def _split_names(
+    params: dict[str, Any], n: int, uniform: tuple[str, ...], stems: tuple[str, ...], dimensional: bool
+) -> tuple[dict[str, Any], dict[int, dict[str, Any]]]:
     """Uniform values and per-block overrides (block index from 1), with clear errors for bad names."""
     uniform_values: dict[str, Any] = {}
     per_block: dict[int, dict[str, Any]] = {}
-    allowed = (f"{', '.join(uniform)}; per block {', '.join(s + 'I' for s in stems)} "
-               f"with I = 1..{n}")
+    allowed = f"{', '.join(uniform)}; per block {', '.join(s + 'I' for s in stems)} with I = 1..{n}"
     for name, value in params.items():
         if name in uniform:
             uniform_values[name] = value
@@ -92,11 +103,14 @@ def _split_names(params: dict[str, Any], n: int, uniform: tuple[str, ...], stems
         if match and match.group(1) in stems:
             block = int(match.group(2))
             if not 1 <= block <= n:
-                raise ConfigError(f"{NAME}: parameter {name!r} names block {block}, but the chain has "
-                                  f"n = {n} blocks (1..{n})")
+                raise ConfigError(
+                    f"{NAME}: parameter {name!r} names block {block}, but the chain has n = {n} blocks (1..{n})"
+                )
             if not dimensional and name in FIXED_BY_SCALES:
-                raise ConfigError(f"{NAME}: parameter {name!r} is 1 by definition (block 1 sets the "
-                                  "scales of the dimensionless form); change the other blocks instead")
+                raise ConfigError(
+                    f"{NAME}: parameter {name!r} is 1 by definition (block 1 sets the "
+                    "scales of the dimensionless form); change the other blocks instead"
+                )
             per_block.setdefault(block, {})[match.group(1)] = value
             continue
         raise ConfigError(f"{NAME}: unknown parameter {name!r}; allowed: {allowed}")
@@ -114,8 +128,9 @@ def _bounds(names: list[str]) -> dict[str, Bound]:
     return out
 
 
-def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEFAULT_BLOCKS,
-          **params: float) -> FrictionOscillator:
+def chain(
+    case: int | str | None = None, dimensional: bool = False, n: Any = DEFAULT_BLOCKS, **params: float
+) -> FrictionOscillator:
     """Build the N-block friction chain from a case preset and parameter overrides.
 
     Parameters
@@ -190,9 +205,9 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
                 raise ConfigError(
                     f"{NAME}: parameter {name} = {rf[i - 1]:g} is out of range: the slip friction level "
                     f"rf{i} = fs{i}/fr1 must be <= rho{i} = {rho[i - 1]:g} (kinetic friction cannot "
-                    "exceed static)")
-        coeffs = Coefficients(m=m, c=c, k=k, h=h, fs=rf, fr=rho, F=base["F"], w=base["Omega"],
-                              v0=base["v0"])
+                    "exceed static)"
+                )
+        coeffs = Coefficients(m=m, c=c, k=k, h=h, fs=rf, fr=rho, F=base["F"], w=base["Omega"], v0=base["v0"])
         scales = Scales()
     parameters: dict[str, float] = {"n": nb, **base}
     for i in blocks:
@@ -203,6 +218,14 @@ def chain(case: int | str | None = None, dimensional: bool = False, n: Any = DEF
             else:
                 parameters[f"{stem}{i}"] = per_block(stem, i)
     check_against_blocks(NAME, law, coeffs.fs, "fs" if dimensional else "rf")
-    return FrictionOscillator(coeffs, name=NAME, case=case_n, dimensional=dimensional,
-                              params=user, parameters={**parameters, **law.parameters(), **start}, scales=scales,
-                              y0=y0, law=law)
+    return FrictionOscillator(
+        coeffs,
+        name=NAME,
+        case=case_n,
+        dimensional=dimensional,
+        params=user,
+        parameters={**parameters, **law.parameters(), **start},
+        scales=scales,
+        y0=y0,
+        law=law,
+    )

@@ -85,8 +85,9 @@ class FrictionLaw:
 COULOMB_LAW = FrictionLaw()
 
 
-def slip_level(code: int, u: Any, fs: Any, fk: Any, delta: Any, vs: Any, cv: Any,
-               exp: Callable[[Any], Any] = math.exp) -> Any:
+def slip_level(
+    code: int, u: Any, fs: Any, fk: Any, delta: Any, vs: Any, cv: Any, exp: Callable[[Any], Any] = math.exp
+) -> Any:
     """``S(u)`` of the law ``code`` in any arithmetic (floats, numpy, heyoka expressions)."""
     if code == COULOMB:
         return fs
@@ -122,27 +123,35 @@ def split_law(problem: str, params: Mapping[str, Any]) -> tuple[dict[str, Any], 
     raw_name = params.get("law", "coulomb")
     name = raw_name.strip().lower() if isinstance(raw_name, str) else raw_name
     if name not in LAW_NAMES:
-        raise ConfigError(f"{problem}: parameter law = {raw_name!r} is not a friction law; allowed: "
-                          f"{', '.join(LAW_NAMES)}")
+        raise ConfigError(
+            f"{problem}: parameter law = {raw_name!r} is not a friction law; allowed: {', '.join(LAW_NAMES)}"
+        )
     takes = LAW_PARAMETERS[name]
     given = {k: params[k] for k in ALL_PARAMETERS[1:] if k in params}
     for key in given:
         if key not in takes:
             users = [law for law, names in LAW_PARAMETERS.items() if key in names]
-            raise ConfigError(f"{problem}: parameter {key} belongs to law={users[0]}, not law={name} "
-                              f"(law={name} takes {', '.join(takes) or 'no parameters'})")
+            raise ConfigError(
+                f"{problem}: parameter {key} belongs to law={users[0]}, not law={name} "
+                f"(law={name} takes {', '.join(takes) or 'no parameters'})"
+            )
     missing = [k for k in takes if k not in given and k not in OPTIONAL]
     if missing:
         raise ConfigError(f"{problem}: law={name} needs the parameter(s) {', '.join(missing)}")
     values = {k: _number(problem, k, v) for k, v in given.items()}
-    bounds = {"delta": (0.0, True, "the weakening rate delta"), "fk": (0.0, True, "the high-speed level fk"),
-              "vs": (0.0, False, "the Stribeck speed vs"), "cv": (0.0, True, "the viscous coefficient cv")}
+    bounds = {
+        "delta": (0.0, True, "the weakening rate delta"),
+        "fk": (0.0, True, "the high-speed level fk"),
+        "vs": (0.0, False, "the Stribeck speed vs"),
+        "cv": (0.0, True, "the viscous coefficient cv"),
+    }
     for key, value in values.items():
         lower, inclusive, meaning = bounds[key]
         if value < lower or (value == lower and not inclusive):
             op = ">=" if inclusive else ">"
-            raise ConfigError(f"{problem}: parameter {key} = {value:g} is out of range: {meaning} must be "
-                              f"{op} {lower:g}")
+            raise ConfigError(
+                f"{problem}: parameter {key} = {value:g} is out of range: {meaning} must be {op} {lower:g}"
+            )
     if name == "coulomb":
         return rest, COULOMB_LAW
     if name == "weakening":
@@ -157,5 +166,7 @@ def check_against_blocks(problem: str, law: FrictionLaw, fs: Sequence[float], fs
     for i, level in enumerate(fs):
         if law.fk > level:
             which = fs_name if len(fs) == 1 else f"{fs_name} of block {i + 1}"
-            raise ConfigError(f"{problem}: parameter fk = {law.fk:g} is out of range: the high-speed level fk "
-                              f"must be <= the slip level at rest {which} = {level:g}")
+            raise ConfigError(
+                f"{problem}: parameter fk = {law.fk:g} is out of range: the high-speed level fk "
+                f"must be <= the slip level at rest {which} = {level:g}"
+            )

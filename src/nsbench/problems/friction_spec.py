@@ -13,8 +13,9 @@ from nsbench.model.layout import Layout
 #: block (to the ground for block 1), cubic coefficient, kinetic and static friction, the friction law's
 #: parameters (high-speed level ``fk``, weakening ``delta``, Stribeck speed ``vs``, viscous ``cv``), then
 #: the force, the belt speed and the friction law's code.
-LAYOUT = Layout(head=("n_blocks",), fields=("m", "c", "k", "h", "fs", "fr", "fk", "delta", "vs", "cv"),
-                tail=("F", "w", "v0", "law"))
+LAYOUT = Layout(
+    head=("n_blocks",), fields=("m", "c", "k", "h", "fs", "fr", "fk", "delta", "vs", "cv"), tail=("F", "w", "v0", "law")
+)
 N_BLOCKS = LAYOUT.offset("n_blocks")
 M, C, K, H, FS, FR = (LAYOUT.field(name) for name in ("m", "c", "k", "h", "fs", "fr"))
 FK, DELTA, VS, CV = (LAYOUT.field(name) for name in ("fk", "delta", "vs", "cv"))

@@ -78,7 +78,7 @@ class HenonHeiles(NamedModes, HybridProblem):
     def energy(self, y):
         """The Hamiltonian, conserved along every orbit."""
         x, yy, px, py = (np.asarray(v, dtype=float) for v in np.asarray(y, dtype=float))
-        return 0.5 * (px * px + py * py) + 0.5 * (x * x + yy * yy) + self.coupling * (x * x * yy - yy ** 3 / 3.0)
+        return 0.5 * (px * px + py * py) + 0.5 * (x * x + yy * yy) + self.coupling * (x * x * yy - yy**3 / 3.0)
 
 
 def henon_heiles(case: int | str | None = None, dimensional: bool = False, **params: Any) -> HenonHeiles:

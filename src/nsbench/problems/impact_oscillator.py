@@ -30,10 +30,15 @@ from nsbench.problems.parameters import Bound, check_values
 NAME = "impact-oscillator"
 DEFAULTS = {"zeta": 0.1, "F": 1.0, "w": 0.4, "sigma": 0.2, "r": 0.6, "x0": 0.0, "v0": 0.0}
 _ANY = -math.inf
-BOUNDS = {"zeta": Bound(0.0, True, "damping ratio zeta"), "F": Bound(_ANY, False, "forcing amplitude F"),
-          "w": Bound(0.0, False, "forcing frequency w"), "sigma": Bound(_ANY, False, "stop position sigma"),
-          "r": Bound(0.0, True, "restitution r"), "x0": Bound(_ANY, False, "start position x0"),
-          "v0": Bound(_ANY, False, "start velocity v0")}
+BOUNDS = {
+    "zeta": Bound(0.0, True, "damping ratio zeta"),
+    "F": Bound(_ANY, False, "forcing amplitude F"),
+    "w": Bound(0.0, False, "forcing frequency w"),
+    "sigma": Bound(_ANY, False, "stop position sigma"),
+    "r": Bound(0.0, True, "restitution r"),
+    "x0": Bound(_ANY, False, "start position x0"),
+    "v0": Bound(_ANY, False, "start velocity v0"),
+}
 
 
 class ImpactOscillator(NamedModes, HybridProblem):
@@ -87,7 +92,7 @@ class ImpactOscillator(NamedModes, HybridProblem):
     # ------------------------------------------------------------------ what is known exactly
     def free_amplitude(self) -> float:
         """``A``: the amplitude of the periodic motion that never reaches the stop (``zeta > 0`` or ``w != 1``)."""
-        return abs(self.F) / math.hypot(1.0 - self.w ** 2, 2.0 * self.zeta * self.w)
+        return abs(self.F) / math.hypot(1.0 - self.w**2, 2.0 * self.zeta * self.w)
 
     def grazing_stop(self) -> float:
         """The stop position ``sigma`` at which the non-impacting periodic orbit grazes the stop (``= A``)."""
@@ -96,7 +101,7 @@ class ImpactOscillator(NamedModes, HybridProblem):
     def free_orbit(self, t) -> tuple[np.ndarray, np.ndarray]:
         """``(x, v)`` of the non-impacting periodic orbit at times ``t`` (closed form)."""
         t = np.asarray(t, dtype=float)
-        z = self.F / complex(1.0 - self.w ** 2, 2.0 * self.zeta * self.w)  # x_p = Re(z e^{i w t})
+        z = self.F / complex(1.0 - self.w**2, 2.0 * self.zeta * self.w)  # x_p = Re(z e^{i w t})
         e = np.exp(1j * self.w * t)
         return (z * e).real, (1j * self.w * z * e).real
 
@@ -121,9 +126,13 @@ def impact_oscillator(case: int | str | None = None, dimensional: bool = False, 
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
     v = {**DEFAULTS, **given}
     if v["r"] > 1.0:
-        raise ConfigError(f"{NAME}: parameter r = {v['r']:g} is out of range: restitution r must be <= 1 "
-                          "(an impact cannot add energy)")
+        raise ConfigError(
+            f"{NAME}: parameter r = {v['r']:g} is out of range: restitution r must be <= 1 "
+            "(an impact cannot add energy)"
+        )
     if v["x0"] > v["sigma"] or (v["x0"] == v["sigma"] and v["v0"] > 0.0):
-        raise ConfigError(f"{NAME}: start x0 = {v['x0']:g}, v0 = {v['v0']:g} is beyond the stop sigma = "
-                          f"{v['sigma']:g}: the mass must start at x0 < sigma, or on the stop with v0 <= 0")
+        raise ConfigError(
+            f"{NAME}: start x0 = {v['x0']:g}, v0 = {v['v0']:g} is beyond the stop sigma = "
+            f"{v['sigma']:g}: the mass must start at x0 < sigma, or on the stop with v0 <= 0"
+        )
     return ImpactOscillator(params, v)

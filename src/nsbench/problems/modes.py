@@ -14,8 +14,19 @@ from nsbench.problems.friction_spec import EVENT_KINDS, GUARD_KINDS, SLIP_NEG, S
 
 PHASE_NAMES = {STICK: "stick", SLIP_POS: "slip+", SLIP_NEG: "slip-"}
 
-__all__ = ["STICK", "SLIP_POS", "SLIP_NEG", "PHASE_NAMES", "EVENT_KINDS", "GUARD_KINDS", "Guard", "Mode",
-           "Transition", "mode_name", "all_modes"]
+__all__ = [
+    "STICK",
+    "SLIP_POS",
+    "SLIP_NEG",
+    "PHASE_NAMES",
+    "EVENT_KINDS",
+    "GUARD_KINDS",
+    "Guard",
+    "Mode",
+    "Transition",
+    "mode_name",
+    "all_modes",
+]
 
 
 def mode_name(mode: Mode) -> str:

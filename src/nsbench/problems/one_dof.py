@@ -82,8 +82,15 @@ def one_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         v.update(given)
         check_friction_order(NAME, "fs", v["fs"], "fr", v["fr"])
         coeffs = Coefficients(
-            m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(v["h"],), fs=(v["fs"],), fr=(v["fr"],),
-            F=v["F"], w=v["w"], v0=v["v0"],
+            m=(v["m"],),
+            c=(v["c"],),
+            k=(v["k"],),
+            h=(v["h"],),
+            fs=(v["fs"],),
+            fr=(v["fr"],),
+            F=v["F"],
+            w=v["w"],
+            v0=v["v0"],
         )
         scales = scales_of(v["m"], v["k"], v["fr"])
     else:
@@ -95,12 +102,26 @@ def one_dof(case: int | str | None = None, dimensional: bool = False, **params: 
                 "r_f = fs/fr must be <= 1 (kinetic friction cannot exceed static)"
             )
         coeffs = Coefficients(
-            m=(1.0,), c=(v["c"],), k=(1.0,), h=(v["h"],), fs=(v["r_f"],), fr=(1.0,),
-            F=v["F"], w=v["Omega"], v0=v["v0"],
+            m=(1.0,),
+            c=(v["c"],),
+            k=(1.0,),
+            h=(v["h"],),
+            fs=(v["r_f"],),
+            fr=(1.0,),
+            F=v["F"],
+            w=v["Omega"],
+            v0=v["v0"],
         )
         scales = Scales()
     check_against_blocks(NAME, law, coeffs.fs, "fs" if dimensional else "r_f")
     return FrictionOscillator(
-        coeffs, name=NAME, case=case_n, dimensional=dimensional,
-        params=user, parameters={**dict(v), **law.parameters(), **start}, scales=scales, y0=y0, law=law,
+        coeffs,
+        name=NAME,
+        case=case_n,
+        dimensional=dimensional,
+        params=user,
+        parameters={**dict(v), **law.parameters(), **start},
+        scales=scales,
+        y0=y0,
+        law=law,
     )

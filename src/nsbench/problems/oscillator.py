@@ -30,8 +30,9 @@ def start_names(n_blocks: int) -> tuple[str, ...]:
     return tuple(f"{q}{i}_0" for i in range(1, n_blocks + 1) for q in ("x", "v"))
 
 
-def split_start(problem: str, params: Mapping[str, Any], n_blocks: int) -> tuple[dict[str, Any], np.ndarray,
-                                                                                dict[str, float]]:
+def split_start(
+    problem: str, params: Mapping[str, Any], n_blocks: int
+) -> tuple[dict[str, Any], np.ndarray, dict[str, float]]:
     """``(the other parameters, the start state, the start parameters given)``; the start state is rest
     at the origin where not given. Refuses a non-finite or non-numeric start value by name."""
     names = start_names(n_blocks)
@@ -47,13 +48,13 @@ def split_start(problem: str, params: Mapping[str, Any], n_blocks: int) -> tuple
         except (TypeError, ValueError):
             raise ConfigError(f"{problem}: parameter {name} = {raw!r} is not a number") from None
         if not np.isfinite(value):
-            raise ConfigError(f"{problem}: parameter {name} = {raw!r} is not allowed: the start state must "
-                              "be finite")
+            raise ConfigError(f"{problem}: parameter {name} = {raw!r} is not allowed: the start state must be finite")
         y0[j] = given[name] = value
     bad = [k for k in rest if k.endswith("_0") and k[:1] in "xv"]
     if bad:
-        raise ConfigError(f"{problem}: unknown parameter {bad[0]!r}; the start state of {n_blocks} block(s) "
-                          f"is {', '.join(names)}")
+        raise ConfigError(
+            f"{problem}: unknown parameter {bad[0]!r}; the start state of {n_blocks} block(s) is {', '.join(names)}"
+        )
     return rest, y0, given
 
 
@@ -121,9 +122,23 @@ class FrictionOscillator(HybridProblem):
         self._y0 = np.zeros(2 * nb) if y0 is None else np.array(y0, dtype=float)
         self.law_spec = law
         c = coefficients
-        self.packed = spec.LAYOUT.pack({"n_blocks": nb, "m": c.m, "c": c.c, "k": c.k, "h": c.h, "fs": c.fs,
-                                       "fr": c.fr, **law.fields(c.fs), "F": c.F, "w": c.w, "v0": c.v0,
-                                       "law": law.code}, nb)
+        self.packed = spec.LAYOUT.pack(
+            {
+                "n_blocks": nb,
+                "m": c.m,
+                "c": c.c,
+                "k": c.k,
+                "h": c.h,
+                "fs": c.fs,
+                "fr": c.fr,
+                **law.fields(c.fs),
+                "F": c.F,
+                "w": c.w,
+                "v0": c.v0,
+                "law": law.code,
+            },
+            nb,
+        )
 
     # ------------------------------------------------------------------ identity
     @property
@@ -145,8 +160,7 @@ class FrictionOscillator(HybridProblem):
         if not self.coefficients.is_linear:
             reasons.append("cubic springs")
         if not self.law_spec.is_coulomb:
-            reasons.append(f"the {self.law_spec.name} friction law (a slip force that varies with the slip "
-                           "speed)")
+            reasons.append(f"the {self.law_spec.name} friction law (a slip force that varies with the slip speed)")
         return " and ".join(reasons)
 
     @property
@@ -204,8 +218,9 @@ class FrictionOscillator(HybridProblem):
             out.append(s)
         return out
 
-    def restoring_forces(self, t: Any, x: Sequence[Any], v: Sequence[Any],
-                         cos: Callable[[Any], Any] = np.cos) -> list[Any]:
+    def restoring_forces(
+        self, t: Any, x: Sequence[Any], v: Sequence[Any], cos: Callable[[Any], Any] = np.cos
+    ) -> list[Any]:
         """``R_i`` of MODEL.md: every force on block i except friction, moved left.
 
         Generic over the arithmetic of ``x``, ``v`` and ``t`` (see :meth:`link_forces`);
@@ -324,8 +339,9 @@ class FrictionOscillator(HybridProblem):
                 out.append(-c.fs[i] * p + 0.0 * r[i])
             else:
                 f = law.fields(c.fs)
-                level = slip_level(law.code, p * (v[i] - c.v0), c.fs[i], f["fk"][i], f["delta"][i], f["vs"][i],
-                                   f["cv"][i], exp=np.exp)
+                level = slip_level(
+                    law.code, p * (v[i] - c.v0), c.fs[i], f["fk"][i], f["delta"][i], f["vs"][i], f["cv"][i], exp=np.exp
+                )
                 out.append(-level * p + 0.0 * r[i])
         return out
 

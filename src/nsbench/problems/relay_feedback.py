@@ -27,20 +27,29 @@ from nsbench.problems.parameters import Bound, check_values
 
 NAME = "relay-feedback"
 _ANY = -np.inf
-DEFAULTS = {"zeta": 0.05, "omega": 2.0, "lam": 0.02, "sigma": 2.0, "rho": 1.0,
-            "x1_0": 1.0, "x2_0": 0.0, "x3_0": 0.0}
-BOUNDS = {"zeta": Bound(0.0, False, "damping ratio zeta"), "omega": Bound(0.0, False, "natural frequency omega"),
-          "lam": Bound(0.0, False, "real pole lam"), "sigma": Bound(_ANY, False, "zero damping sigma"),
-          "rho": Bound(0.0, False, "zero frequency rho"), "x1_0": Bound(_ANY, False, "start x1_0"),
-          "x2_0": Bound(_ANY, False, "start x2_0"), "x3_0": Bound(_ANY, False, "start x3_0")}
+DEFAULTS = {"zeta": 0.05, "omega": 2.0, "lam": 0.02, "sigma": 2.0, "rho": 1.0, "x1_0": 1.0, "x2_0": 0.0, "x3_0": 0.0}
+BOUNDS = {
+    "zeta": Bound(0.0, False, "damping ratio zeta"),
+    "omega": Bound(0.0, False, "natural frequency omega"),
+    "lam": Bound(0.0, False, "real pole lam"),
+    "sigma": Bound(_ANY, False, "zero damping sigma"),
+    "rho": Bound(0.0, False, "zero frequency rho"),
+    "x1_0": Bound(_ANY, False, "start x1_0"),
+    "x2_0": Bound(_ANY, False, "start x2_0"),
+    "x3_0": Bound(_ANY, False, "start x3_0"),
+}
 
 
 def plant(zeta: float, omega: float, lam: float, sigma: float, rho: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, C)`` of the plant in di Bernardo, Johansson and Vasca's form (module docstring)."""
-    a = np.array([[-(2 * zeta * omega + lam), 1.0, 0.0],
-                  [-(2 * zeta * omega * lam + omega ** 2), 0.0, 1.0],
-                  [-lam * omega ** 2, 0.0, 0.0]])
-    return a, np.array([1.0, -2.0 * sigma * rho, rho ** 2]), np.array([1.0, 0.0, 0.0])
+    a = np.array(
+        [
+            [-(2 * zeta * omega + lam), 1.0, 0.0],
+            [-(2 * zeta * omega * lam + omega**2), 0.0, 1.0],
+            [-lam * omega**2, 0.0, 0.0],
+        ]
+    )
+    return a, np.array([1.0, -2.0 * sigma * rho, rho**2]), np.array([1.0, 0.0, 0.0])
 
 
 class RelayFeedback(NamedModes, HybridProblem):

@@ -31,15 +31,11 @@ def _resolve_shorthands(given: dict[str, float]) -> dict[str, float]:
     if "r_f" in out:
         clash = [n for n in ("rf1", "rf2") if n in out]
         if clash:
-            raise ConfigError(
-                f"{NAME}: parameter r_f sets rf1 and rf2 together; do not also give {', '.join(clash)}"
-            )
+            raise ConfigError(f"{NAME}: parameter r_f sets rf1 and rf2 together; do not also give {', '.join(clash)}")
         out["rf1"] = out["rf2"] = out.pop("r_f")
     ratio_names = [n for n in ("omega_r", "inv_omega_r", "kappa") if n in out]
     if len(ratio_names) > 1:
-        raise ConfigError(
-            f"{NAME}: parameters {' and '.join(ratio_names)} all set the stiffness ratio; give only one"
-        )
+        raise ConfigError(f"{NAME}: parameters {' and '.join(ratio_names)} all set the stiffness ratio; give only one")
     if "inv_omega_r" in out:
         out["omega_r"] = 1.0 / out.pop("inv_omega_r")
     if "omega_r" in out:
@@ -84,9 +80,15 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         check_friction_order(NAME, "fs1", v["fs1"], "fr1", v["fr1"])
         check_friction_order(NAME, "fs2", v["fs2"], "fr2", v["fr2"])
         coeffs = Coefficients(
-            m=(v["m1"], v["m2"]), c=(v["c1"], v["c2"]), k=(v["k1"], v["k2"]),
-            h=(v["h1"], v["h2"]), fs=(v["fs1"], v["fs2"]), fr=(v["fr1"], v["fr2"]),
-            F=v["F"], w=v["w"], v0=v["v0"],
+            m=(v["m1"], v["m2"]),
+            c=(v["c1"], v["c2"]),
+            k=(v["k1"], v["k2"]),
+            h=(v["h1"], v["h2"]),
+            fs=(v["fs1"], v["fs2"]),
+            fr=(v["fr1"], v["fr2"]),
+            F=v["F"],
+            w=v["w"],
+            v0=v["v0"],
         )
         scales = scales_of(v["m1"], v["k1"], v["fr1"])
         parameters = v
@@ -107,9 +109,15 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
                 f"level rf2 = fs2/fr1 must be <= rho2 = {v['rho2']:g} (kinetic friction cannot exceed static)"
             )
         coeffs = Coefficients(
-            m=(1.0, v["mu"]), c=(v["c1"], v["c2"]), k=(1.0, v["kappa"]),
-            h=(v["h1"], v["h2"]), fs=(v["rf1"], v["rf2"]), fr=(1.0, v["rho2"]),
-            F=v["F"], w=v["Omega"], v0=v["v0"],
+            m=(1.0, v["mu"]),
+            c=(v["c1"], v["c2"]),
+            k=(1.0, v["kappa"]),
+            h=(v["h1"], v["h2"]),
+            fs=(v["rf1"], v["rf2"]),
+            fr=(1.0, v["rho2"]),
+            F=v["F"],
+            w=v["Omega"],
+            v0=v["v0"],
         )
         scales = Scales()
         parameters = dict(v)
@@ -119,6 +127,13 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
             parameters["r_f"] = v["rf1"]
     check_against_blocks(NAME, law, coeffs.fs, "fs" if dimensional else "rf")
     return FrictionOscillator(
-        coeffs, name=NAME, case=case_n, dimensional=dimensional,
-        params=user, parameters={**parameters, **law.parameters(), **start}, scales=scales, y0=y0, law=law,
+        coeffs,
+        name=NAME,
+        case=case_n,
+        dimensional=dimensional,
+        params=user,
+        parameters={**parameters, **law.parameters(), **start},
+        scales=scales,
+        y0=y0,
+        law=law,
     )

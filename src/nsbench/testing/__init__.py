@@ -68,8 +68,16 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
 
 from __future__ import annotations
 
-from nsbench.testing._checks import (CHECKS, ENERGY_BOUND, EVENT_BOUND, Check, checking_on, checking_with,
-                                     configured, step_levels)
+from nsbench.testing._checks import (
+    CHECKS,
+    ENERGY_BOUND,
+    EVENT_BOUND,
+    Check,
+    checking_on,
+    checking_with,
+    configured,
+    step_levels,
+)
 from nsbench.testing._kit import (
     CheckResult,
     as_integrator,
@@ -80,6 +88,20 @@ from nsbench.testing._kit import (
     run_check,
 )
 
-__all__ = ["CHECKS", "Check", "CheckResult", "check_integrator", "parametrize_with_checks",
-           "run_check", "as_integrator", "checking_on", "checking_with", "configure", "configured", "plan",
-           "step_levels", "EVENT_BOUND", "ENERGY_BOUND"]
+__all__ = [
+    "CHECKS",
+    "Check",
+    "CheckResult",
+    "check_integrator",
+    "parametrize_with_checks",
+    "run_check",
+    "as_integrator",
+    "checking_on",
+    "checking_with",
+    "configure",
+    "configured",
+    "plan",
+    "step_levels",
+    "EVENT_BOUND",
+    "ENERGY_BOUND",
+]

@@ -49,8 +49,7 @@ STEPPED = ("declared-order", "convergence")
 
 #: The problem the checks run on: a registry name and its parameters (``case`` is each
 #: check's own on the belt oscillators). Set for a run by :func:`checking_on`.
-FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_family",
-                                                            default=("two-dof", {}))
+FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_family", default=("two-dof", {}))
 #: The options the user gave for this run of the kit (:func:`given_options`): every check
 #: runs with them. Set for a run by :func:`checking_with`.
 GIVEN: ContextVar[dict[str, Any]] = ContextVar("nsbench_check_given", default={})
@@ -184,9 +183,11 @@ def describe(integ: Integrator) -> str:
     """The options of ``integ`` that were given or differ from its defaults, as ``'h=0.5, N=10'``
     (``'defaults'`` if none)."""
     cls, given = type(integ), GIVEN.get()
-    parts = [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}"
-             for k, v in integ.settings.items()
-             if k in given or (k in cls.options and v != cls.options[k].default)]
+    parts = [
+        f"{k}={v:g}" if isinstance(v, float) else f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}"
+        for k, v in integ.settings.items()
+        if k in given or (k in cls.options and v != cls.options[k].default)
+    ]
     return ", ".join(parts) or "defaults"
 
 
@@ -219,8 +220,9 @@ def _compare_events(events, reference, bound: float, what: str, ran_with: str) -
     want = list(zip(reference["kind"], reference["block"]))
     if got != want:
         first = next((i for i, (a, b) in enumerate(zip(got, want)) if a != b), min(len(got), len(want)))
-        raise AssertionError(f"at {ran_with}: event sequence differs from {what} at event {first}: "
-                             f"{len(got)} events against {len(want)}")
+        raise AssertionError(
+            f"at {ran_with}: event sequence differs from {what} at event {first}: {len(got)} events against {len(want)}"
+        )
     err = float(np.max(np.abs(events["t"].to_numpy() - reference["t"].to_numpy()))) if got else 0.0
     assert err <= bound, f"at {ran_with}: event times differ from {what} by {err:.3g} > {bound:g}"
     return err
@@ -279,32 +281,47 @@ def _check_one_arc(integ, problem) -> None:
     """One arc through ``advance`` keeps the protocol."""
     mode = problem.initial_mode(0.0, problem.initial_state())
     t_eval = np.array([0.01, 0.02, 5.0])
-    arc = integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=problem.initial_state(),
-                                   t_end=5.0, guards=problem.guards(mode), t_eval=t_eval))
+    arc = integ.advance(
+        ArcRequest(
+            problem=problem,
+            mode=mode,
+            t0=0.0,
+            y0=problem.initial_state(),
+            t_end=5.0,
+            guards=problem.guards(mode),
+            t_eval=t_eval,
+        )
+    )
     assert isinstance(arc, ArcResult), f"advance returned {type(arc).__name__}, not ArcResult"
     assert isinstance(arc.status, Status) and arc.status.ok, f"first arc failed: {arc.message}"
     assert 0.0 < arc.t <= 5.0 and np.shape(arc.y) == (problem.n_states,), "bad stop time or state shape"
     if on_presets():
-        assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), \
+        assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), (
             "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
+        )
     else:
         assert arc.fired is None or 0 <= arc.fired < len(problem.guards(mode)), f"fired = {arc.fired}: no such guard"
     expected = int(np.searchsorted(t_eval, arc.t, side="right"))
     shape = np.shape(arc.y_eval)
     assert shape != (expected, problem.n_states) or expected == problem.n_states, (
         f"y_eval has shape {shape}: transposed? It must be (n_states, n_points) = "
-        f"({problem.n_states}, {expected}), one column per time of t_eval <= t")
+        f"({problem.n_states}, {expected}), one column per time of t_eval <= t"
+    )
     assert shape == (problem.n_states, expected), (
         f"y_eval has shape {shape}, expected (n_states, n_points) = ({problem.n_states}, {expected}): "
-        f"one column per time of t_eval <= t = {arc.t:.6g}")
+        f"one column per time of t_eval <= t = {arc.t:.6g}"
+    )
 
 
 def check_determinism(integ: Integrator) -> None:
     """The same run twice (same instance, then a fresh copy) gives identical events and counters."""
     problem = _problem(2)
     span = _span(problem, 20.0)
-    runs = [_simulate(integ, problem, span), _simulate(integ, problem, span),
-            _simulate(type(integ).from_config(integ.config()), problem, span)]
+    runs = [
+        _simulate(integ, problem, span),
+        _simulate(integ, problem, span),
+        _simulate(type(integ).from_config(integ.config()), problem, span),
+    ]
     for other in runs[1:]:
         assert other.events.equals(runs[0].events), "event logs differ between identical runs"
         assert other.counters.as_dict() == runs[0].counters.as_dict(), "counters differ between identical runs"
@@ -328,8 +345,11 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
         assert np.array_equal(t_eval, saved[1]), "integrate changed request.t_eval"
         return
     mode = problem.initial_mode(0.0, y0)
-    integ.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0 * scale,
-                             guards=problem.guards(mode), t_eval=t_eval))
+    integ.advance(
+        ArcRequest(
+            problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0 * scale, guards=problem.guards(mode), t_eval=t_eval
+        )
+    )
     assert np.array_equal(y0, saved[0]), "advance changed request.y0"
     assert np.array_equal(t_eval, saved[1]), "advance changed request.t_eval"
 
@@ -365,14 +385,16 @@ def _smooth_error(integ: Integrator) -> float:
     exact.setup(problem)
     if is_whole_system(integ):  # the whole system over the arc: no switch may be inferred on it
         res = _simulate(integ, problem, 4.0, y0=y0)
-        assert res.ok and len(res.events) == 0, \
+        assert res.ok and len(res.events) == 0, (
             f"at {describe(integ)}: smooth arc did not stay smooth: {res.message or list(res.events['kind'])}"
+        )
         return float(np.max(np.abs(res.y_final - exact.advance(request).y)))
     integ.setup(problem)
     arc = integ.advance(request)
-    assert arc.status.ok and arc.fired is None and arc.t == 4.0, \
-        f"at {describe(integ)}: smooth arc did not reach its end: " \
+    assert arc.status.ok and arc.fired is None and arc.t == 4.0, (
+        f"at {describe(integ)}: smooth arc did not reach its end: "
         f"{arc.message or f'guard {arc.fired} fired at {arc.t}'}"
+    )
     return float(np.max(np.abs(arc.y - exact.advance(request).y)))
 
 
@@ -382,15 +404,15 @@ def _first_arc_error(integ: Integrator) -> float:
     y0 = problem.initial_state()
     mode = problem.initial_mode(0.0, y0)
     span = SPAN * problem.time_scale
-    first = ref.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=span,
-                                   guards=problem.guards(mode)))
+    first = ref.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=span, guards=problem.guards(mode)))
     t_end = span if first.fired is None else 0.5 * first.t
     request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=t_end, guards=problem.guards(mode))
     integ.setup(problem)
     arc = integ.advance(request)
-    assert arc.status.ok and arc.fired is None and arc.t == t_end, \
-        f"at {describe(integ)}: smooth arc did not reach its end: " \
+    assert arc.status.ok and arc.fired is None and arc.t == t_end, (
+        f"at {describe(integ)}: smooth arc did not reach its end: "
         f"{arc.message or f'guard {arc.fired} fired at {arc.t}'}"
+    )
     return float(np.max(np.abs(arc.y - ref.advance(request).y)))
 
 
@@ -408,12 +430,16 @@ def _around(integ: Integrator, value: float) -> list[dict[str, Any]]:
             return False
         return True
 
-    for candidates in ([value * factor, value, value / factor], [value, value / factor, value / factor ** 2],
-                       [value * factor ** 2, value * factor, value]):
+    for candidates in (
+        [value * factor, value, value / factor],
+        [value, value / factor, value / factor**2],
+        [value * factor**2, value * factor, value],
+    ):
         if all(allowed(v) for v in candidates):
             return [{name: v} for v in candidates]
-    raise ConfigError(f"{cls.name}: no three values of {name} a factor {factor:g} apart around {value:g} "
-                      "fit the option's range")
+    raise ConfigError(
+        f"{cls.name}: no three values of {name} a factor {factor:g} apart around {value:g} fit the option's range"
+    )
 
 
 def step_levels(integ: Integrator) -> tuple[list[dict[str, Any]], str]:
@@ -450,14 +476,18 @@ def check_declared_order(integ: Integrator) -> None:
         errors.append(_smooth_error(type(integ)(**{**integ.settings, **level})))
         steps.append(float(level[name]))
     floor = 1e-12
-    orders = [math.log(errors[i] / errors[i + 1]) / math.log(steps[i] / steps[i + 1])
-              for i in range(len(errors) - 1) if errors[i + 1] > floor]
+    orders = [
+        math.log(errors[i] / errors[i + 1]) / math.log(steps[i] / steps[i + 1])
+        for i in range(len(errors) - 1)
+        if errors[i + 1] > floor
+    ]
     if not orders:
         assert max(errors) <= floor, f"at {ran_with}: errors {errors} do not decrease"
         return  # already at rounding level at every step: accurate beyond measurement
     declared = integ.smooth_order() if is_whole_system(integ) else caps.order
-    assert abs(orders[-1] - declared) <= 0.6, \
+    assert abs(orders[-1] - declared) <= 0.6, (
         f"at {ran_with}: observed order {orders[-1]:.2f} (errors {errors}) against declared {declared}"
+    )
 
 
 def check_convergence(integ: Integrator) -> None:
@@ -466,8 +496,9 @@ def check_convergence(integ: Integrator) -> None:
     errors = [_smooth_error(type(integ)(**{**integ.settings, **lv})) for lv in levels]
     for a, b in zip(errors, errors[1:]):
         assert b <= max(a, 1e-12) * 1.5, f"at {ran_with}: errors {errors} grow as the step option tightens"
-    assert errors[-1] < CONVERGED_BOUND, \
+    assert errors[-1] < CONVERGED_BOUND, (
         f"at {ran_with}: tightest level still has error {errors[-1]:.3g} >= {CONVERGED_BOUND:g}"
+    )
 
 
 def check_event_times(integ: Integrator) -> None:
@@ -521,16 +552,17 @@ def check_stuck_block_stays_stuck(integ: Integrator) -> None:
     res = _simulate(run, problem, 10.0, y0=y0, t_eval=grid)
     assert res.ok, f"at {ran_with}: {res.message}"
     ev = res.events
-    assert len(ev) >= 1 and (ev["kind"].iloc[0], ev["block"].iloc[0]) == ("slip", 1), \
+    assert len(ev) >= 1 and (ev["kind"].iloc[0], ev["block"].iloc[0]) == ("slip", 1), (
         f"at {ran_with}: expected block 1 to slip first, got {list(zip(ev['kind'], ev['block']))[:3]}"
+    )
     t_slip = (1.0 - problem.coefficients.c[0] * v0 - 0.3) / v0  # R1 is linear in t while stuck
-    assert abs(ev["t"].iloc[0] - t_slip) < SLIP_BOUND, \
+    assert abs(ev["t"].iloc[0] - t_slip) < SLIP_BOUND, (
         f"at {ran_with}: slip at {ev['t'].iloc[0]:.9g}, expected {t_slip:.9g}"
+    )
     tr = res.trajectory
     blocks = range(1, problem.n_blocks + 1)
     assert all((tr[f"phase{b}"] == 0).all() for b in blocks), f"at {ran_with}: a stuck block left stick before t = 8"
-    drift = max(max(np.abs(tr[f"v{b}"] - v0).max() for b in blocks),
-                np.abs(tr["x1"] - (0.3 + v0 * tr["t"])).max())
+    drift = max(max(np.abs(tr[f"v{b}"] - v0).max() for b in blocks), np.abs(tr["x1"] - (0.3 + v0 * tr["t"])).max())
     assert drift <= DRIFT_BOUND, f"at {ran_with}: stuck blocks drift by {drift:.3g} from the belt"
 
 
@@ -591,8 +623,9 @@ def check_switch_convergence(integ: Integrator) -> None:
         same = list(zip(res.events["kind"], res.events["block"])) == list(zip(ref["kind"], ref["block"]))
         errors.append(float(np.max(np.abs(res.events["t"].to_numpy() - ref["t"].to_numpy()))) if same else math.inf)
     assert math.isfinite(errors[1]), f"at the tightest level {levels[-1]}: event sequence differs from exact"
-    assert errors[1] < errors[0], \
+    assert errors[1] < errors[0], (
         f"switching-time error {errors[1]:.3g} at {levels[-1]} is not below {errors[0]:.3g} at {levels[0]}"
+    )
 
 
 @dataclass(frozen=True)
@@ -629,19 +662,38 @@ CHECKS: tuple[Check, ...] = (
     Check("protocol", check_protocol_and_counters),
     Check("determinism", check_determinism),
     Check("inputs-not-mutated", check_inputs_not_mutated),
-    Check("switch-convergence", check_switch_convergence,
-          _needs(lambda c: c.family != "event-driven", "event-driven: its event location is checked by event-times"),
-          belt=True),
-    Check("declared-order", check_declared_order,
-          _needs(lambda c: c.order is not None and c.step_option is not None and not c.adaptive,
-                 "no fixed order with a step-size option declared")),
-    Check("convergence", check_convergence,
-          _needs(lambda c: c.step_option is not None, "no step or tolerance option declared")),
+    Check(
+        "switch-convergence",
+        check_switch_convergence,
+        _needs(lambda c: c.family != "event-driven", "event-driven: its event location is checked by event-times"),
+        belt=True,
+    ),
+    Check(
+        "declared-order",
+        check_declared_order,
+        _needs(
+            lambda c: c.order is not None and c.step_option is not None and not c.adaptive,
+            "no fixed order with a step-size option declared",
+        ),
+    ),
+    Check(
+        "convergence",
+        check_convergence,
+        _needs(lambda c: c.step_option is not None, "no step or tolerance option declared"),
+    ),
     Check("event-times", check_event_times),
-    Check("cubic-event-times", check_cubic_event_times,
-          _needs(lambda c: c.supports_nonlinear, "linear problems only"), belt=True),
-    Check("refuses-unsupported", check_refuses_unsupported_problems,
-          _needs(lambda c: not c.supports_nonlinear, "supports cubic springs"), belt=True),
+    Check(
+        "cubic-event-times",
+        check_cubic_event_times,
+        _needs(lambda c: c.supports_nonlinear, "linear problems only"),
+        belt=True,
+    ),
+    Check(
+        "refuses-unsupported",
+        check_refuses_unsupported_problems,
+        _needs(lambda c: not c.supports_nonlinear, "supports cubic springs"),
+        belt=True,
+    ),
     Check("stuck-stays-stuck", check_stuck_block_stays_stuck, belt=True),
     Check("energy-balance", check_energy_balance, belt=True),
     Check("failure-status", check_failure_is_a_status),

@@ -12,9 +12,20 @@ from typing import Any, Iterable, Sequence
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import Integrator
-from nsbench.testing._checks import (CHECKS, ONE_CONFIGURATION, STEPPED, Check, CheckSkipped, checking_on,
-                                     checking_with, configured, given_options, on_presets, problem_family,
-                                     step_levels)
+from nsbench.testing._checks import (
+    CHECKS,
+    ONE_CONFIGURATION,
+    STEPPED,
+    Check,
+    CheckSkipped,
+    checking_on,
+    checking_with,
+    configured,
+    given_options,
+    on_presets,
+    problem_family,
+    step_levels,
+)
 
 PASSED, FAILED, SKIPPED, XFAIL, XPASS = "passed", "failed", "skipped", "xfail", "xpass"
 
@@ -86,8 +97,12 @@ def configure(obj: Any, options: dict[str, Any] | None = None) -> tuple[Integrat
     return integ, given
 
 
-def plan(obj: Any, options: dict[str, Any] | None = None, checks: Sequence[str] | None = None,
-         problem: str | dict[str, Any] | None = None) -> list[str]:
+def plan(
+    obj: Any,
+    options: dict[str, Any] | None = None,
+    checks: Sequence[str] | None = None,
+    problem: str | dict[str, Any] | None = None,
+) -> list[str]:
     """What the accuracy checks will run, one line each: the configuration of the single-configuration
     checks and the levels of the stepped ones (of ``checks``, default all, that apply to the integrator
     on ``problem``)."""
@@ -105,8 +120,9 @@ def plan(obj: Any, options: dict[str, Any] | None = None, checks: Sequence[str] 
     return lines
 
 
-def run_check(integ: Integrator, check: Check, problem: str | dict[str, Any] | None = None,
-              options: dict[str, Any] | None = None) -> CheckResult:
+def run_check(
+    integ: Integrator, check: Check, problem: str | dict[str, Any] | None = None, options: dict[str, Any] | None = None
+) -> CheckResult:
     """Run one check on a fresh copy of ``integ`` and classify the outcome.
 
     ``problem`` is the problem family of the checks (default the 2-DOF
@@ -131,16 +147,18 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
         return CheckResult(cls.name, check.name, SKIPPED, str(exc), time.perf_counter() - tic)
     except UnsupportedProblemError as exc:
         if on_presets():  # every integrator runs the belt's linear presets
-            return CheckResult(cls.name, check.name, FAILED, f"refused a belt preset: {exc}",
-                               time.perf_counter() - tic)
+            return CheckResult(cls.name, check.name, FAILED, f"refused a belt preset: {exc}", time.perf_counter() - tic)
         # an integrator that cannot run this problem says so at setup: reported, not a failure
         return CheckResult(cls.name, check.name, SKIPPED, f"refused at setup: {exc}", time.perf_counter() - tic)
     except Exception as exc:  # a failing check, whatever the integrator raised
         seconds = time.perf_counter() - tic
         if gap is not None:
             return CheckResult(cls.name, check.name, XFAIL, f"known gap: {gap}", seconds)
-        detail = str(exc) if isinstance(exc, AssertionError) else \
-            f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"
+        detail = (
+            str(exc)
+            if isinstance(exc, AssertionError)
+            else f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"
+        )
         return CheckResult(cls.name, check.name, FAILED, detail, seconds)
     seconds = time.perf_counter() - tic
     if gap is not None:
@@ -148,10 +166,14 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
     return CheckResult(cls.name, check.name, PASSED, check.doc, seconds)
 
 
-def check_integrator(obj: Any, checks: Sequence[str] | None = None, *,
-                     raise_on_failure: bool = False,
-                     problem: str | dict[str, Any] | None = None,
-                     options: dict[str, Any] | None = None) -> list[CheckResult]:
+def check_integrator(
+    obj: Any,
+    checks: Sequence[str] | None = None,
+    *,
+    raise_on_failure: bool = False,
+    problem: str | dict[str, Any] | None = None,
+    options: dict[str, Any] | None = None,
+) -> list[CheckResult]:
     """Run the conformance kit on one integrator.
 
     Parameters
@@ -232,8 +254,9 @@ def parametrize_with_checks(integrators: Iterable[Any], problem: str | dict[str,
                 marks.append(pytest.mark.skip(reason=reason))
             elif check.name in gaps:
                 marks.append(pytest.mark.xfail(reason=gaps[check.name], strict=False))
-            params.append(pytest.param(integ, _Runner(check, family), id=f"{cls.name}-{check.name}{suffix}",
-                                       marks=marks))
+            params.append(
+                pytest.param(integ, _Runner(check, family), id=f"{cls.name}-{check.name}{suffix}", marks=marks)
+            )
     return pytest.mark.parametrize("integrator, check", params)
 
 

@@ -31,9 +31,15 @@ class HeunBisection(Integrator):
     """Heun's method (order 2) at a fixed step ``h``; guard crossings located by bisection."""
 
     name = "heun-bisect"
-    capabilities = Capabilities(event_location="bisection", order=2, adaptive=False,
-                                needs_jacobian=False, supports_nonlinear=True,
-                                precision="double", step_option="h")
+    capabilities = Capabilities(
+        event_location="bisection",
+        order=2,
+        adaptive=False,
+        needs_jacobian=False,
+        supports_nonlinear=True,
+        precision="double",
+        step_option="h",
+    )
     options = {"h": Option(0.001, float, lower=0.0, doc="step size (time units)")}
     accuracy_levels = ({"h": 0.004}, {"h": 0.001}, {"h": 0.00025})
 
@@ -53,16 +59,35 @@ class HeunBisection(Integrator):
         n_steps = max(1, math.ceil((t_end - t0) / h - 1e-9))
         while steps < n_steps:
             if steps >= request.max_steps:
-                return self._result(t, y, None, dense, n, hits, steps, counts,
-                                    Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}")
+                return self._result(
+                    t,
+                    y,
+                    None,
+                    dense,
+                    n,
+                    hits,
+                    steps,
+                    counts,
+                    Status.BUDGET_EXHAUSTED,
+                    f"step budget exhausted at t = {t:.6g}",
+                )
             t1 = t_end if steps + 1 == n_steps else t0 + (steps + 1) * h
             y1 = heun_step(f, t, y, t1 - t, fy)
             steps += 1
             if not np.all(np.isfinite(y1)):
-                return self._result(t, y, None, dense, n, hits, steps, counts,
-                                    Status.INTEGRATOR_FAILURE, f"non-finite state after t = {t:.6g}")
-            crossed = [(q, g) for q, g in enumerate(request.guards)
-                       if g.expected_sign * float(g.value(t1, y1)) <= 0.0]
+                return self._result(
+                    t,
+                    y,
+                    None,
+                    dense,
+                    n,
+                    hits,
+                    steps,
+                    counts,
+                    Status.INTEGRATOR_FAILURE,
+                    f"non-finite state after t = {t:.6g}",
+                )
+            crossed = [(q, g) for q, g in enumerate(request.guards) if g.expected_sign * float(g.value(t1, y1)) <= 0.0]
             t_stop, fired, y_stop = t1, None, y1
             for q, g in crossed:  # earliest crossing; ties go to the lowest index
                 signed = lambda tt, yy, g=g: g.expected_sign * float(g.value(tt, yy))  # noqa: E731
@@ -99,8 +124,11 @@ class HeunBisection(Integrator):
             vb = float(sec.value(tb, yb))
             if sec.crossed(values[k], vb):
                 sign = 1.0 if values[k] > 0 else -1.0
-                th, yh = (tb, yb) if vb == 0.0 else self._bisect(
-                    f, ta, ya, fa, tb, lambda tt, yy: sign * float(sec.value(tt, yy)), counts)
+                th, yh = (
+                    (tb, yb)
+                    if vb == 0.0
+                    else self._bisect(f, ta, ya, fa, tb, lambda tt, yy: sign * float(sec.value(tt, yy)), counts)
+                )
                 hits.append(SectionHit(k, th, np.array(yh)))
             values[k] = vb
 
@@ -118,8 +146,15 @@ class HeunBisection(Integrator):
 
     @staticmethod
     def _result(t, y, fired, dense, n, hits, steps, counts, status, message) -> ArcResult:
-        return ArcResult(t=float(t), y=np.array(y, dtype=float), fired=fired,
-                         y_eval=np.hstack(dense) if dense else np.empty((n, 0)),
-                         section_hits=sorted(hits, key=lambda hit: hit.t), nfev=counts["nfev"],
-                         nsteps=steps, extra={"bisections": counts["bisections"]},
-                         status=status, message=message)
+        return ArcResult(
+            t=float(t),
+            y=np.array(y, dtype=float),
+            fired=fired,
+            y_eval=np.hstack(dense) if dense else np.empty((n, 0)),
+            section_hits=sorted(hits, key=lambda hit: hit.t),
+            nfev=counts["nfev"],
+            nsteps=steps,
+            extra={"bisections": counts["bisections"]},
+            status=status,
+            message=message,
+        )

@@ -103,6 +103,23 @@ def failed(request: SystemRequest, message: str) -> SystemResult:
     )
 
 
+def _step_times(request: SystemRequest, h: float, done: int, n_steps: int) -> np.ndarray:
+    """The times of a fixed-step run's ``done`` steps; a whole run ends exactly at ``t_end``."""
+    t = request.t0 + h * np.arange(done + 1)
+    if done == n_steps:
+        t[-1] = request.t_end  # t0 + n h may round off it
+    return t
+
+
+def _ending(request: SystemRequest, n_steps: int, done: int, budget: bool) -> tuple[Status, str]:
+    """The status of a fixed-step run: cut by the step budget, stopped early by Siconos, or whole."""
+    if budget:
+        return Status.BUDGET_EXHAUSTED, f"{n_steps} steps needed, budget {request.max_steps}"
+    if done < n_steps:
+        return Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
+    return Status.SUCCESS, ""
+
+
 class SiconosMoreauJean(WholeSystem):
     """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
@@ -182,18 +199,12 @@ class SiconosMoreauJean(WholeSystem):
             return failed(request, arrays)
         z, imp, _ = arrays
         done = z.shape[0] - 1
-        t = request.t0 + h * np.arange(done + 1)
-        if done == n_steps:
-            t[-1] = request.t_end
+        t = _step_times(request, h, done, n_steps)
         # moreau-jean's resting label (its kernel mj_ball): from the first step whose impulse is positive
         # while the speed it reverses, e |v_k|, is at most one step's gain under gravity, g h
         resting = (imp[1:, 0] > 0.0) & (problem.e * np.abs(z[:-1, 1]) <= problem.g * h)
         modes = np.concatenate([[0], np.maximum.accumulate(resting.astype(np.int64))]).reshape(-1, 1)
-        status, message = Status.SUCCESS, ""
-        if budget:
-            status, message = Status.BUDGET_EXHAUSTED, f"{n_steps} steps needed, budget {request.max_steps}"
-        elif done < n_steps:
-            status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
+        status, message = _ending(request, n_steps, done, budget)
         return SystemResult(t=t, y=z, modes=modes, impulses=imp, nsteps=done, status=status, message=message)
 
     def integrate(self, request: SystemRequest) -> SystemResult:
@@ -222,18 +233,12 @@ class SiconosMoreauJean(WholeSystem):
             return failed(request, arrays)
         z, lam, _ = arrays
         done = z.shape[0] - 1
-        t = request.t0 + h * np.arange(done + 1)
-        if done == n_steps:
-            t[-1] = request.t_end
+        t = _step_times(request, h, done, n_steps)
         fr = np.array(c.fr, dtype=float)
         stuck = np.abs(lam) < fr * (1.0 - 1e-9)
         modes = np.where(stuck, 0, -np.sign(lam)).astype(np.int64)
         modes[0] = problem.initial_mode(request.t0, request.y0)
-        status, message = Status.SUCCESS, ""
-        if budget:
-            status, message = Status.BUDGET_EXHAUSTED, f"{n_steps} steps needed, budget {request.max_steps}"
-        elif done < n_steps:
-            status, message = Status.INTEGRATOR_FAILURE, f"Siconos stopped after {done} of {n_steps} steps"
+        status, message = _ending(request, n_steps, done, budget)
         return SystemResult(t=t, y=z, modes=modes, nsteps=done, status=status, message=message)
 
 

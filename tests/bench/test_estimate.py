@@ -51,9 +51,10 @@ def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers(
     # a machine twice as slow, then the cores shared with two busy programs
     slow = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.04, load=0.0, cores=2)
     assert slow.seconds == pytest.approx(2 * p.seconds)
-    busy = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02 * 1.5, load=2.0, cores=2)
-    # calibrated beside them (3 processes on 2 cores: 1.5x); the workers then get half a core each,
-    # and the one process that writes the report (and starts the workers) two thirds of one
+    busy = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02, load=2.0, cores=2)
+    # the calibration's best repeat runs at the core's own speed beside two busy programs; the workers
+    # then get half a core each, and the one process that writes the report (and starts the workers)
+    # two thirds of one
     assert busy.speed == pytest.approx(1.0) and "load 2.0 on 2 cores" in busy.statement()
     assert busy.seconds == pytest.approx(work + 1.5 * (4.0 + 10.0))
 

@@ -206,11 +206,14 @@ def plan(
         )
     load = other_load(cores) if load is None else max(0.0, load)
     calibration = calibrate() if calibration is None else calibration
-    # The calibration ran beside the other load, on a share of a core; the workers will share the
-    # cores with it too. Scale the table by the machine's own speed, then by the workers' share.
-    share_calibration = min(1.0, cores / (load + 1.0))
+    # The calibration is the best of many 30 ms repeats: one of them runs within a scheduler time
+    # slice even beside other programs, so it measures the core's own speed, not the share the load
+    # leaves (measured on 2 cores kept busy by two loops, load 2.2: the best repeat took the idle
+    # time). Scale the table by that speed, then by the share of the cores that the workers (or the
+    # one process that starts them and writes the report) will get beside the load.
+    share_one = min(1.0, cores / (load + 1.0))
     share_workers = min(1.0, cores / (load + n_workers))
-    speed = calibration * share_calibration / table.calibration
+    speed = calibration / table.calibration
     unknown, weights, work, extra = 0, {}, 0.0, 0.0
     for c in cases:
         costs = table.costs(c.label)
@@ -236,9 +239,9 @@ def plan(
         target_work += cost
     work += n_references * table.reference
     seconds = (work + target_work) * speed / (n_workers * share_workers)
-    seconds += table.overhead * speed / share_calibration
+    seconds += table.overhead * speed / share_one
     if report:
-        seconds += table.report * speed / share_calibration  # one process
+        seconds += table.report * speed / share_one  # one process
     seconds_most = seconds + extra * speed / (n_workers * share_workers)
     return Plan(
         len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights, seconds_most

@@ -225,3 +225,13 @@ def test_the_double_floor_also_limits_grading(frame):
     limit, why = grading_floor(frame)
     assert limit == 3.6e-10 and "rounding alone" in why
     assert problem_summary(frame, (1e-9, 1e-10))["reached"].tolist() == ["2 of 5", "not graded"]
+
+
+def test_one_margin_is_said_once_not_as_a_range_from_itself(frame):
+    # the same methods on two problems: the cheapest wins both by the same ratio, said once ("3 times",
+    # not "3 to 3 times")
+    other = frame.assign(problem_label="one-dof/1", case_id=[f"q{i}" for i in range(len(frame))])
+    both = to_frame([*frame.to_dict("records"), *other.to_dict("records")])
+    words = " ".join(findings(problem_summary(both, (1e-9,)), wrong_sequences(both)))
+    assert "a is the cheapest method on 2 of 2 problems; the next method costs 3 times as much" in words
+    assert "3 to 3" not in words

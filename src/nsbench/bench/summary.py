@@ -361,9 +361,8 @@ def findings(summary: pd.DataFrame, wrong: pd.DataFrame, cond: pd.DataFrame | No
             ratio, lows = mine["ratio"].dropna(), mine["ratio_low"].dropna()
             margin = ""
             if len(ratio):
-                span = (
-                    f"{ratio.min():.2g} to {ratio.max():.2g} times" if len(ratio) > 1 else f"{ratio.iloc[0]:.2g} times"
-                )
+                low, high = f"{ratio.min():.2g}", f"{ratio.max():.2g}"
+                span = f"{low} to {high} times" if low != high else f"{low} times"  # not "1.2 to 1.2"
                 margin = f"; the next method costs {span} as much"
                 if len(lows):
                     margin += f" (the 95 % intervals of these ratios start at {lows.min():.2g} or above)"

@@ -1,7 +1,5 @@
 """``python -m nsbench`` runs the command line."""
 
-import sys
+from nsbench.cli import console
 
-from nsbench.cli import main
-
-sys.exit(main())
+console()

@@ -121,6 +121,22 @@ class JobPool:
     def submit(self, job: Job) -> None:
         self._queue.append(job)
 
+    def start(self) -> bool:
+        """Start every worker process now, before any job (they import nsbench meanwhile).
+
+        Returns whether any was started (``False``: all were running already). A
+        command that starts its workers first overlaps their start with its own
+        preparation; :meth:`outcomes` then reads their ``Ready`` as usual.
+        """
+        started = False
+        for slot in self._slots:
+            if slot.worker is None:
+                slot.worker, slot.ready = wp.WorkerProcess(self._hello), False
+                slot.stage, slot.limit = "worker start", START_LIMIT
+                slot.deadline = time.monotonic() + START_LIMIT
+                started = True
+        return started
+
     def drop_queued(self) -> list[Job]:
         """Remove the jobs not started yet from the queue and return them (they will not run)."""
         jobs = list(self._queue)
@@ -133,9 +149,12 @@ class JobPool:
         The pool stays usable: the next :meth:`submit` starts new workers.
         """
         self._queue.clear()
+        idle = [s.worker for s in self._slots if s.worker is not None and s.job is None and s.ready]
+        for worker in idle:  # every idle worker asked first, so that they end together
+            worker.ask_to_stop()
         for slot in self._slots:
             if slot.worker is not None:
-                if slot.job is None and slot.ready:
+                if slot.worker in idle:
                     slot.worker.stop(timeout=2.0)
                 else:
                     slot.worker.kill()

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from nsbench.problems.base import Mode
 from nsbench.status import Status
@@ -27,6 +26,8 @@ from nsbench.status import Status
 __all__ = ["Status", "Counters", "SimulationResult", "event_columns"]
 
 if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
     from nsbench.problems.oscillator import FrictionOscillator
 
 

@@ -74,6 +74,7 @@ class WorkerProcess:
             env=_environment(),
             close_fds=True,
         )
+        self._asked = False  # a Stop sent
         self.send(first)
 
     @property
@@ -106,10 +107,19 @@ class WorkerProcess:
         self.proc.wait()
         self._close()
 
+    def ask_to_stop(self) -> None:
+        """Ask the worker to exit, without waiting (:meth:`stop` then waits)."""
+        if not self._asked:
+            self._asked = True
+            try:
+                self.send(msg.Stop())
+            except (BrokenPipeError, OSError):
+                pass
+
     def stop(self, timeout: float = 10.0) -> None:
         """Ask the worker to exit; end it if it does not within ``timeout`` seconds."""
         try:
-            self.send(msg.Stop())
+            self.ask_to_stop()
             self.proc.wait(timeout)
         except (BrokenPipeError, OSError, subprocess.TimeoutExpired):
             pass

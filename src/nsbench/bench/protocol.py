@@ -18,11 +18,12 @@ import os
 import pickle
 import struct
 from dataclasses import dataclass
-from typing import Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
-from nsbench.bench.execute import WarmResult
-from nsbench.bench.reference import Reference
-from nsbench.bench.suite import Case
+if TYPE_CHECKING:  # a worker of a sweep never imports the suite runner's modules (pandas, ...)
+    from nsbench.bench.execute import WarmResult
+    from nsbench.bench.reference import Reference
+    from nsbench.bench.suite import Case
 
 _HEADER = struct.Struct(">Q")
 

@@ -216,6 +216,9 @@ class Scheduler:
             self._drain()
             self._end_all()
             raise
+        for slot in self.slots:  # every worker asked first, so that they end together
+            if slot.worker is not None:
+                slot.worker.ask_to_stop()
         for slot in self.slots:
             if slot.worker is not None:
                 slot.worker.stop()

@@ -23,15 +23,23 @@ import os
 import pickle
 import threading
 from dataclasses import replace
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-import pandas as pd
-
-from nsbench.bifurcation.storage import SweepStore
-from nsbench.bifurcation.sweep import SweepSpec, compute_point, failure_rows
+from nsbench.bifurcation.sweep import (
+    SweepSpec,
+    failure_columns,
+    first_index,
+    point_columns,
+    rows_frame,
+)
 from nsbench.jobs import SETUP_LIMIT
 from nsbench.progress import Progress
 from nsbench.status import Status
+
+if TYPE_CHECKING:  # pandas and the store are the calling process's: a worker never imports them
+    import pandas as pd
+
+    from nsbench.bifurcation.storage import SweepStore
 
 #: Default hard limit of one parameter value (seconds): generous, a hung integrator is what it stops.
 POINT_LIMIT = 600.0
@@ -47,7 +55,7 @@ def compute_chunk(spec_dict: dict, indices: list[int]) -> pd.DataFrame:
 
     spec = SweepSpec.from_dict(spec_dict)
     integ = get_integrator(spec.integrator, **spec.options)
-    return pd.concat([compute_point(spec, i, integ) for i in indices], ignore_index=True)
+    return rows_frame([point_columns(spec, i, integ) for i in indices])
 
 
 def chunks(indices: list[int], workers: int, size: int | None = None) -> list[list[int]]:
@@ -96,6 +104,7 @@ def run_sweep(
         Discard what ``out`` holds first (it must be a sweep folder); by default
         a rerun resumes, computing only the missing values.
     """
+    from nsbench.bifurcation.storage import SweepStore
     from nsbench.jobs import check_limit
 
     check_limit("point_limit", point_limit)
@@ -162,7 +171,7 @@ def supervise(
 
     spec_dict = spec.to_dict()
     left: dict[int, list[int]] = {}  # job -> its values not yet received, in computing order
-    got: dict[int, list[pd.DataFrame]] = {}  # job -> rows received, written when it ends
+    got: dict[int, list] = {}  # job -> the columns of each value received, written as one table when it ends
 
     def submit(indices: list[int]) -> None:
         key = len(left)
@@ -175,7 +184,7 @@ def supervise(
         for o in pool.outcomes():
             if o.kind == "partial":
                 got[o.key].append(o.value)
-                left[o.key].remove(int(o.value["index"].iloc[0]))
+                left[o.key].remove(first_index(o.value))
                 advance(1)
                 continue
             rest, rows = left[o.key], got.pop(o.key)
@@ -183,7 +192,7 @@ def supervise(
             if o.kind != "done" and rest:
                 status = {"failed": Status.ERROR.value}.get(o.kind, o.kind)  # "time limit", "crashed": Status values
                 if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
-                    rows.append(failure_rows(spec, rest[0], status, o.reason))
+                    rows.append(failure_columns(spec, rest[0], status, o.reason))
                     advance(1)
                     if rest[1:]:
                         submit(rest[1:])
@@ -192,14 +201,14 @@ def supervise(
                         rest += left.pop(job.key)
                         got.pop(job.key)
                     reason = f"{o.reason} ({SETUP_FAILED})"
-                    rows += [failure_rows(spec, i, status, reason) for i in rest]
+                    rows += [failure_columns(spec, i, status, reason) for i in rest]
                     advance(len(rest))
             if rows:
-                write(pd.concat(rows, ignore_index=True))
+                write(rows_frame(rows))
     finally:  # an interrupted run keeps every value received
         for rows in got.values():
             if rows:
-                write(pd.concat(rows, ignore_index=True))
+                write(rows_frame(rows))
 
 
 #: Per worker process: the integrator of the last sweep, set up and run once (compiled code loaded).
@@ -236,11 +245,11 @@ def sweep_job(
             integ.setup(problem)
             warm_up(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
             stage(f"{label}, a first short run", point_limit)
-            compute_point(replace(spec, transient=0.0, record=1, window=None), i, integ)  # first use
+            point_columns(replace(spec, transient=0.0, record=1, window=None), i, integ)  # first use
             _WARM.clear()
             _WARM[key] = integ
         stage(label, point_limit)
-        emit(compute_point(spec, i, integ))
+        emit(point_columns(spec, i, integ))
     return len(indices)
 
 
@@ -380,9 +389,8 @@ def _run_dask(
                     client.cancel(list(pending))
                     indices = [i for f in pending for i in part_of[f.key]]
                     store.write(
-                        pd.concat(
-                            [failure_rows(spec, i, failed_setup["status"], failed_setup["message"]) for i in indices],
-                            ignore_index=True,
+                        rows_frame(
+                            [failure_columns(spec, i, failed_setup["status"], failed_setup["message"]) for i in indices]
                         )
                     )
                     bar.update(len(indices))
@@ -413,7 +421,7 @@ def _dask_rows(spec: SweepSpec, future: Any, indices: list[int]) -> pd.DataFrame
         return future.result()
     except Exception as exc:  # noqa: BLE001 - KilledWorker, a worker without nsbench...: the values' result
         reason = f"the Dask task failed: {type(exc).__name__}: {' '.join(str(exc).split())}"
-        return pd.concat([failure_rows(spec, i, Status.ERROR.value, reason) for i in indices], ignore_index=True)
+        return rows_frame([failure_columns(spec, i, Status.ERROR.value, reason) for i in indices])
 
 
 #: Per thread of a Dask worker: its supervised process pool (a pool serves one caller at a time).
@@ -454,4 +462,4 @@ def dask_chunk(
     except BaseException:
         pool.close()  # the next chunk on this thread starts a fresh process
         raise
-    return pd.concat(rows, ignore_index=True).sort_values(["index", "k"], kind="stable", ignore_index=True)
+    return rows_frame(rows).sort_values(["index", "k"], kind="stable", ignore_index=True)

@@ -15,10 +15,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 from nsbench.errors import ConfigError, NsbenchError
 from nsbench.status import Status
@@ -252,7 +254,13 @@ def strobe_times(problem, transient: float, record: int) -> np.ndarray:
     return period * np.arange(k0, k0 + record)
 
 
-def _rows(
+#: The rows of one or more parameter values as columns (name -> array or list), before they
+#: become a table: a worker sends this, and the caller makes one table per chunk (a pandas
+#: table per value cost more than many values' integration).
+Columns = dict[str, Any]
+
+
+def _columns(
     spec: SweepSpec,
     names: tuple[str, ...],
     index: int,
@@ -264,52 +272,93 @@ def _rows(
     message: str,
     counters: dict[str, int],
     wall: float,
-) -> pd.DataFrame:
+) -> Columns:
     n = len(t)
     rows = max(n, 1)
     states = np.full((rows, len(names)), np.nan)
     if n:
         states[:n] = y
-    data: dict[str, Any] = {
+    data: Columns = {
         "param": [spec.name] * rows,
         "value": np.full(rows, float(value)),
-        "index": np.full(rows, int(index)),
+        "index": np.full(rows, int(index), np.int64),
         "section": [spec.section] * rows,
-        "k": np.arange(n) if n else np.array([-1]),
+        "k": np.arange(n, dtype=np.int64) if n else np.array([-1], np.int64),
         "t": np.asarray(t, dtype=float) if n else np.array([np.nan]),
     }
     for j, col in enumerate(names):
-        data[col] = states[:, j]
-    data["event_block"] = np.asarray(blocks, dtype=np.int64) if n else np.array([0])
+        data[col] = states[:, j].copy()
+    data["event_block"] = np.asarray(blocks, dtype=np.int64) if n else np.array([0], np.int64)
     data["status"] = [status] * rows
     data["message"] = [message] * rows
-    data["n_points"] = np.full(rows, n)
+    data["n_points"] = np.full(rows, n, np.int64)
     for col in counter_columns(len(names) // 2):
-        data[col] = np.full(rows, int(counters.get(col, 0)))
+        data[col] = np.full(rows, int(counters.get(col, 0)), np.int64)
     data["wall_time"] = np.full(rows, wall)
+    return data
+
+
+def rows_frame(parts: "list[Columns | pd.DataFrame]") -> pd.DataFrame:
+    """One table of the rows of several values (columns from :func:`point_columns`, or tables)."""
+    import pandas as pd
+
+    if not parts:
+        raise ValueError("no rows to join")
+    if not any(isinstance(p, dict) for p in parts):
+        return pd.concat(parts, ignore_index=True)
+    cols = [p if isinstance(p, dict) else {c: p[c].to_numpy() for c in p.columns} for p in parts]
+    data: dict[str, Any] = {}
+    for c in cols[0]:
+        first = cols[0][c]
+        if isinstance(first, list):
+            data[c] = [v for part in cols for v in part[c]]
+        else:
+            data[c] = np.concatenate([np.asarray(part[c]) for part in cols])
     return pd.DataFrame(data)
+
+
+def first_index(part: "Columns | pd.DataFrame") -> int:
+    """The value index of rows from :func:`point_columns` or :func:`compute_point`."""
+    return int(part["index"][0]) if isinstance(part, dict) else int(part["index"].iloc[0])
 
 
 def failure_rows(spec: SweepSpec, index: int, status: str, message: str, wall: float = math.nan) -> pd.DataFrame:
     """The one row of a value that gave no points: its ``status`` (``failure``, ``time limit``,
     ``crashed``) and the reason."""
-    return _rows(spec, spec.state_names, index, float(spec.values[index]), [], None, [], status, message, {}, wall)
+    import pandas as pd
+
+    return pd.DataFrame(failure_columns(spec, index, status, message, wall))
+
+
+def failure_columns(spec: SweepSpec, index: int, status: str, message: str, wall: float = math.nan) -> Columns:
+    """:func:`failure_rows` as columns."""
+    return _columns(spec, spec.state_names, index, float(spec.values[index]), [], None, [], status, message, {}, wall)
 
 
 def compute_point(spec: SweepSpec, index: int, integrator=None) -> pd.DataFrame:
     """Rows of one parameter value. Failures become a row with their status and reason."""
+    import pandas as pd
+
+    return pd.DataFrame(point_columns(spec, index, integrator))
+
+
+def point_columns(spec: SweepSpec, index: int, integrator=None, problem=None) -> Columns:
+    """:func:`compute_point` as columns (what a sweep's worker sends); ``problem``: the problem
+    at this value if the caller has built it."""
     from nsbench.integrators import get_integrator
 
     value = float(spec.values[index])
     tic = time.perf_counter()
-    names = spec.state_names
     try:
-        problem = spec.problem_at(value)
+        problem = spec.problem_at(value) if problem is None else problem
+        names = problem.state_names
         integ = integrator if integrator is not None else get_integrator(spec.integrator, **spec.options)
         t, y, blocks, status, message, counters = _point(spec, problem, integ)
     except (NsbenchError, ArithmeticError, ValueError, RuntimeError) as exc:
-        return failure_rows(spec, index, Status.ERROR.value, f"{type(exc).__name__}: {exc}", time.perf_counter() - tic)
-    return _rows(spec, names, index, value, t, y, blocks, status, message, counters, time.perf_counter() - tic)
+        return failure_columns(
+            spec, index, Status.ERROR.value, f"{type(exc).__name__}: {exc}", time.perf_counter() - tic
+        )
+    return _columns(spec, names, index, value, t, y, blocks, status, message, counters, time.perf_counter() - tic)
 
 
 def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:

@@ -172,5 +172,34 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def console() -> None:
+    """The ``nsbench`` console script: :func:`main`, then a quick exit.
+
+    Once the command has ended, its output flushed and the exit handlers run (kept
+    worker pools ended), nothing is left to do but the interpreter's tear-down of
+    every module and of the compiled code: about half a second that a user would
+    wait for. It is skipped, unless a thread of the command (a Dask client's, say) is
+    still running and must be let finish.
+    """
+    import atexit
+    import threading
+
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
+        sys.exit(code)
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    console()

@@ -151,6 +151,32 @@ def _probe(problem: str, case: str):
 
 
 def main(args: argparse.Namespace) -> int:
+    _check_numbers(args)  # every number and count before any problem is built or value computed
+    workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
+    pool = _start_workers(workers) if args.dask is None else None
+    try:
+        return _main(args, workers)
+    except BaseException:
+        if pool is not None:  # started for this command, which failed: they are not kept
+            from nsbench.jobs import drop_shared
+
+            drop_shared(pool)
+        raise
+
+
+def _start_workers(workers: int | None):
+    """The local worker processes of the sweep, started now: they import nsbench and load the
+    compiled core while this process prepares (about a second of a short sweep's wall time).
+    Returns the pool if this call started them, ``None`` if they were running (kept from an
+    earlier sweep of this process)."""
+    from nsbench.bifurcation.parallel import default_workers
+    from nsbench.jobs import shared_pool
+
+    pool = shared_pool(workers or default_workers())
+    return pool if pool.start() else None
+
+
+def _main(args: argparse.Namespace, workers: int | None) -> int:
     from nsbench.bifurcation import detect, figures
     from nsbench.bifurcation.parallel import run_sweep, supervised
     from nsbench.bifurcation.storage import SweepStore, points_summary
@@ -158,8 +184,6 @@ def main(args: argparse.Namespace) -> int:
 
     probe = _probe(args.problem, args.case)
     names = args.integrator or [None]
-    _check_numbers(args)  # every number and count before any problem is built or value computed
-    workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     bad = [f for f in formats if f not in figures.FORMATS]
     if bad:

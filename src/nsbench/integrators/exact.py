@@ -24,6 +24,8 @@ undamped resonance).
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,6 +61,71 @@ def pair_weights(lam: np.ndarray, vec: np.ndarray, vinv: np.ndarray) -> np.ndarr
                 used.update((c, d))
                 break
     return w
+
+
+@dataclass(frozen=True)
+class ModalForm:
+    """The modal form of a slipping sub-system ``u' = A u`` (what depends on ``A`` alone).
+
+    ``defective`` (a singular, defective or, under forcing at ``w``, resonant
+    system) means the other fields are not used: the kernel takes the matrix
+    exponential of the augmented system instead.
+    """
+
+    lam: np.ndarray
+    vec: np.ndarray
+    defective: bool
+    vinv: np.ndarray | None = None
+    ainv: np.ndarray | None = None
+    weights: np.ndarray | None = None
+    lam_lo: np.ndarray | None = None
+    vec_lo: np.ndarray | None = None
+
+
+#: Modal forms by the bytes of ``A`` (and the forcing frequency), most recent last. A sweep over
+#: a parameter that ``A`` does not hold (a belt speed, a force) meets the same few sub-systems at
+#: every value: their eigen-decompositions and polish are computed once per process. The key is
+#: the exact bytes, so a hit returns what the computation would (it is deterministic).
+_MODAL: OrderedDict[tuple, ModalForm] = OrderedDict()
+MODAL_CACHE_SIZE = 256
+
+
+def modal_form(a_ss: np.ndarray, w: float | None) -> ModalForm:
+    """The (cached) :class:`ModalForm` of ``a_ss``; ``w``: the forcing frequency, or ``None`` unforced."""
+    key = (a_ss.shape, a_ss.tobytes(), w)
+    found = _MODAL.get(key)
+    if found is not None:
+        _MODAL.move_to_end(key)
+        return found
+    found = _modal_form(a_ss, w)
+    _MODAL[key] = found
+    if len(_MODAL) > MODAL_CACHE_SIZE:
+        _MODAL.popitem(last=False)
+    return found
+
+
+def _modal_form(a_ss: np.ndarray, w: float | None) -> ModalForm:
+    from nsbench.integrators import _exact_polish as polish
+
+    ns = a_ss.shape[0]
+    lam, vec = np.linalg.eig(a_ss)
+    cond = np.linalg.cond(vec)
+    # a singular system (a free body: x'' = const) has polynomial terms the modal form lacks
+    singular = not np.abs(lam).min() > 1e-12 * max(1.0, np.abs(lam).max())
+    defective = singular or not (math.isfinite(cond) and cond < MAX_CONDITION)
+    if w is not None and not defective:
+        shifted = 1j * w * np.eye(ns) - a_ss
+        defective = not np.linalg.cond(shifted) < 1e8  # undamped resonance
+    if defective:
+        return ModalForm(lam, vec, True)
+    vinv = np.linalg.inv(vec)
+    ainv = np.linalg.inv(a_ss)
+    lam_lo = vec_lo = None
+    if ns <= polish.MAX_POLISH:
+        lam_lo = np.zeros(ns, np.complex128)
+        vec_lo = np.zeros((ns, ns), np.complex128)
+        polish.refine_eigenpairs(a_ss, lam.copy(), np.ascontiguousarray(vec), lam_lo, vec_lo)
+    return ModalForm(lam, vec, False, vinv, ainv, pair_weights(lam, vec, vinv), lam_lo, vec_lo)
 
 
 class ModeTables:
@@ -159,22 +226,17 @@ class ModeTables:
         if ns:
             a_ss = np.ascontiguousarray(a[np.ix_(slip, slip)])
             a_sk = a[np.ix_(slip, stuck)]
-            lam, vec = np.linalg.eig(a_ss)
+            modal = modal_form(a_ss, w if forced else None)
+            lam, vec = modal.lam, modal.vec
             rates.extend(np.abs(lam))
-            cond = np.linalg.cond(vec)
-            # a singular system (a free body: x'' = const) has polynomial terms the modal form lacks
-            singular = not np.abs(lam).min() > 1e-12 * max(1.0, np.abs(lam).max())
-            defective = singular or not (math.isfinite(cond) and cond < MAX_CONDITION)
-            if forced and not defective:
-                shifted = 1j * w * np.eye(ns) - a_ss
-                defective = not np.linalg.cond(shifted) < 1e8  # undamped resonance
+            defective = modal.defective
             if not defective:
-                vinv = np.linalg.inv(vec)
-                ainv = np.linalg.inv(a_ss)
+                vinv, ainv = modal.vinv, modal.ainv
+                assert vinv is not None and ainv is not None  # set whenever the form is not defective
                 tc[c_lam : c_lam + ns] = lam
                 put(c_vec, vec, tc)
                 put(c_vinv, vinv, tc)
-                tf[f_cw : f_cw + ns] = pair_weights(lam, vec, vinv)
+                tf[f_cw : f_cw + ns] = modal.weights
                 put(f_ainv, ainv)
                 put(f_ass, a_ss)
                 if nst:
@@ -188,11 +250,9 @@ class ModeTables:
                 z = np.linalg.solve(1j * w * np.eye(ns) - a_ss, harmonic) if forced else np.zeros(ns, complex)
                 tc[c_z : c_z + ns] = z
                 if ns <= polish.MAX_POLISH:
-                    lam_lo = np.zeros(ns, np.complex128)
-                    vec_lo = np.zeros((ns, ns), np.complex128)
-                    polish.refine_eigenpairs(a_ss, lam.copy(), np.ascontiguousarray(vec), lam_lo, vec_lo)
-                    tc[c_lamlo : c_lamlo + ns] = lam_lo
-                    put(c_veclo, vec_lo, tc)
+                    assert modal.vec_lo is not None
+                    tc[c_lamlo : c_lamlo + ns] = modal.lam_lo
+                    put(c_veclo, modal.vec_lo, tc)
                     bh, bl = polish.product_dd(a_sk, np.asarray(b0[stuck], float), -1.0)
                     p1_lo = np.zeros(ns)
                     polish.refine_linear(a_ss, ainv, bh, bl, p1.copy(), p1_lo, np.zeros(ns))
@@ -209,8 +269,11 @@ class ModeTables:
         aug[:n, :n], aug[:n, n], aug[:n, n + 1], aug[:n, n + 2] = a, b0, bc, bs
         aug[n + 1, n + 2], aug[n + 2, n + 1] = -w, w
         tf[f_aug : f_aug + n3 * n3] = aug.ravel()
-        for q, guard in enumerate(p.guards(tuple(int(v) for v in mode))):
-            tf[f_q + q * n3 : f_q + (q + 1) * n3] = p.guard_row(mode, guard.code, guard.block - 1)
+        # the guards in the law's order, read as (kind, block) arrays: no Guard objects are needed here
+        kind, block = np.zeros(max(g, 1), np.int64), np.zeros(max(g, 1), np.int64)
+        n_guards = p.law.guards_of(p.data.p, np.asarray(mode, np.int64), kind, block, np.zeros(max(g, 1), np.int64))
+        for q in range(n_guards):
+            tf[f_q + q * n3 : f_q + (q + 1) * n3] = p.guard_row(mode, int(kind[q]), int(block[q]))
 
 
 def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:

@@ -9,7 +9,11 @@ Speed is recorded, never asserted: ``nsbench_baseline.record(...)`` stores a
 benchmark's figures in ``extra_info``, compares its primary figure with the
 measured baseline ``benchmarks/baseline.json`` (``baseline_ratio`` = this run /
 baseline, so above 1 is slower) and prints one line per benchmark at the end of
-the session. Environment variables:
+the session. The compared figure is always a ratio measured in the same run, so
+that a baseline holds on a machine of another speed: a benchmark's own ratio (to
+another integrator timed in the session, a wall time over its workers' time), or
+an absolute time divided by a calibration workload timed beside it
+(``<figure>_per_calibration``, with ``calibration_s``). Environment variables:
 
 ``NSBENCH_BENCH_MAX_RATIO=R``
     opt-in gate: a benchmark whose ratio to the baseline exceeds ``R`` fails.
@@ -85,6 +89,15 @@ def _finite(value: Any) -> Any:
     return value.item() if hasattr(value, "item") else value
 
 
+#: Seconds spent timing the calibration workload beside each absolute figure (the best of its repeats).
+CALIBRATION_S = 0.3
+
+
+def is_seconds(figure: str) -> bool:
+    """Whether ``figure`` is an absolute time (seconds, or nanoseconds per step), not a ratio."""
+    return figure == "seconds" or figure.endswith("_s") or figure.endswith("_ns_per_step")
+
+
 def entry_key(nodeid: str, config: dict[str, Any]) -> str:
     """Baseline key: the test id and the size of the run (figures of other sizes do not compare)."""
     return nodeid + " | " + ",".join(f"{k}={config[k]}" for k in sorted(config))
@@ -138,6 +151,15 @@ class Baseline:
             entry for this test at this size).
         """
         figures = {k: _finite(v) for k, v in figures.items()}
+        if is_seconds(primary) and figures.get(primary) is not None:
+            # an absolute time says little on another machine: compare it as a ratio to a fixed
+            # workload timed now, in this run (nsbench.bench.estimate.calibrate, as `nsbench run` does)
+            from nsbench.bench.estimate import calibrate
+
+            cal = calibrate(CALIBRATION_S)
+            figures["calibration_s"] = cal
+            primary = f"{primary}_per_calibration"
+            figures[primary] = figures[primary.removesuffix("_per_calibration")] / cal
         key = entry_key(request.node.nodeid, config)
         base = (self.entries.get(key) or {}).get("figures", {}).get(primary)
         value = figures.get(primary)

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nsbench.errors import NsbenchError
-from nsbench.periodic.flow import Crossing, HybridFlow, Pass, free_components
+from nsbench.periodic.flow import Crossing, HybridFlow, Pass, free_components, is_friction
 from nsbench.problems.modes import Mode
 
 
@@ -177,9 +177,10 @@ def shoot(
     mode0 = tuple(int(m) for m in mode0)
     free = free_components(problem, mode0)
     y = np.array(y0, dtype=float)
-    for i, phase in enumerate(mode0):
-        if phase == 0:
-            y[2 * i + 1] = problem.v0
+    if is_friction(problem):
+        for i, phase in enumerate(mode0):
+            if phase == 0:
+                y[2 * i + 1] = problem.v0
     y_ref = y.copy()
     normal = _phase_normal(flow, t0, y_ref, mode0, free)
     T = float(period)

@@ -175,7 +175,8 @@ def main(args: argparse.Namespace) -> int:
     }
     paths = write(out, result, points, meta)
     title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {flow.integrator_name})"
-    written = figure(result, points, out / "branches", diagram=diagram, title=title, formats=formats)
+    variable = ends[0].state_names[0]  # x1 of the friction problems and the relay, x of the impact oscillator
+    written = figure(result, points, out / "branches", variable=variable, diagram=diagram, title=title, formats=formats)
     n_steps = sum(len(b.values) for b in result.branches)
     print(
         f"{len(result.branches)} branch(es), {n_steps} orbits, {len(result.gaps)} value(s) without a periodic "

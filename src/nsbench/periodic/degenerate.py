@@ -190,7 +190,14 @@ def survey(problem, orbit, samples: int = 65) -> list[tuple[float, str, str, tup
                 else f"the {e.kind} event at t = {e.t:.10g} starts with the {g.name} guard at {value:.3g}"
             )
             out.append(
-                (abs(value), g.kind, KIND.get((fam, g.kind), "unknown"), text, ("out", index, g.kind), "rate" if on else "value")
+                (
+                    abs(value),
+                    g.kind,
+                    KIND.get((fam, g.kind), "unknown"),
+                    text,
+                    ("out", index, g.kind),
+                    "rate" if on else "value",
+                )
             )
     ranked = []
     for item in out:

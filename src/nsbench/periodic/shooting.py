@@ -228,6 +228,8 @@ def shoot(
         done = float(np.max(np.abs(lam * step))) <= tol * scale and float(np.max(np.abs(r))) <= 10 * tol * scale
         if done:
             shorter = _shorter_period(flow.problem, p, T, forced, scale)
+            if shorter is None and forced and not p.events:
+                shorter = _shorter_eventless(flow, t0, y, mode0, T, scale)
             if shorter is not None:  # converged to a repetition of a shorter orbit: solve that one
                 return shoot(flow, t0, y, mode0, shorter, forced=forced, tol=tol, max_iter=max_iter)
             return _orbit(flow, t0, y, mode0, T, forced, p, free, float(np.max(np.abs(r))), it)
@@ -253,6 +255,16 @@ def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> f
         ):
             return T / d
     return None
+
+
+def _shorter_eventless(flow: HybridFlow, t0: float, y: np.ndarray, mode0: Mode, T: float, scale: float):
+    """One forcing period, if a forced orbit without events (nothing for :func:`_shorter_period` to
+    compare) already returns to its start after it."""
+    tf = 2.0 * math.pi / flow.problem.forcing_frequency
+    if T < 1.5 * tf:
+        return None
+    p = flow.run(t0, y, mode0, tf)
+    return tf if not p.events and float(np.max(np.abs(p.y - y))) <= 1e-8 * scale else None
 
 
 def _orbit(flow, t0, y, mode0, T, forced, p: Pass, free, res, it) -> PeriodicOrbit:

@@ -129,3 +129,23 @@ def test_smooth_nonlinear_problem_is_refused(name):
 
     with pytest.raises(ConfigError, match="piecewise-linear"):
         HybridFlow(get_problem(name))
+
+
+def test_the_command_line_continues_both_problems(tmp_path, capsys):
+    import pandas as pd
+
+    from nsbench.cli import main
+
+    impact = ["--param", "zeta=0.05", "--param", "w=2", "--param", "r=0.8", "--sweep", "sigma=0.3:0.36"]
+    runs = {  # short ranges across each bifurcation (A = 0.3326, lam* = 0.04869)
+        "impact-oscillator": [*impact, "--steps", "6", "--no-doubling"],
+        "relay-feedback": ["--sweep", "lam=0.052:0.046", "--steps", "3", "--transient", "300"],
+    }
+    for problem, args in runs.items():
+        out = tmp_path / problem
+        code = main(["continuation", problem, *args, "--out", str(out), "--formats", "png", "--no-progress"])
+        assert code == 0 and (out / "branches.png").is_file()
+        bifs = pd.read_csv(out / "bifurcations.csv")
+        assert {"grazing": "impact-oscillator", "crossing-sliding": "relay-feedback"}.keys() & set(bifs["kind"])
+    text = capsys.readouterr().out
+    assert "grazing (grazing)" in text and "crossing-sliding (sliding)" in text

@@ -132,14 +132,13 @@ def measure(problem, orbit, key: tuple) -> float:
 def survey(problem, orbit, samples: int = 65) -> list[tuple[float, str, str, tuple]]:
     """Every near-degenerate quantity of ``orbit`` as ``(relative size, kind, text, key)``, smallest first.
 
-    Sizes are relative to the largest ``|value|`` and ``|rate|`` of the same guard kind sampled
-    along the whole orbit (an impact speed against the largest speed, ``sigma - max x``
-    against the largest gap).
+    Sizes are relative to the largest ``|value|`` (a dip, a sliding entry's margin) or ``|rate|``
+    (an event's rate, a departure's slope) of the same guard kind sampled along the whole orbit:
+    an impact speed against the largest speed, ``sigma - max x`` against the largest gap.
     """
     fam = problem.family
-    value_scale: dict[str, float] = {}
-    rate_scale: dict[str, float] = {}
-    out = []
+    scales: dict[tuple[str, str], float] = {}  # (guard kind, "value" or "rate") -> largest size
+    found = []  # (size, guard kind, "value" or "rate", bifurcation kind, text, key)
     for arc, (t0, y0, mode, dt) in enumerate(_arcs(orbit)):
         if dt <= 0:
             continue
@@ -149,37 +148,22 @@ def survey(problem, orbit, samples: int = 65) -> list[tuple[float, str, str, tup
         f = problem.rhs(mode, t0 + s, ys)
         for g in problem.guards(mode):
             q = np.asarray(problem.guard_row(mode, g.code, g.block - 1), dtype=float)
-            vals = g.expected_sign * (q @ z)
-            rates = np.asarray(g.rate(t0 + s, ys, f), dtype=float)
-            value_scale[g.kind] = max(value_scale.get(g.kind, 0.0), float(np.max(np.abs(vals))))
-            rate_scale[g.kind] = max(rate_scale.get(g.kind, 0.0), float(np.max(np.abs(rates))))
-            found = _dip(problem, orbit, arc, g.kind, g.block, samples)
-            if found is not None:
-                low, t = found
+            for what, size in (("value", np.abs(q @ z)), ("rate", np.abs(g.rate(t0 + s, ys, f)))):
+                scales[g.kind, what] = max(scales.get((g.kind, what), 0.0), float(np.max(size)))
+            dip = _dip(problem, orbit, arc, g.kind, g.block, samples)
+            if dip is not None:
+                low, t = dip
                 kind = DIP_KIND.get((fam, g.kind), KIND.get((fam, g.kind), "unknown"))
-                out.append(
-                    (
-                        low,
-                        g.kind,
-                        kind,
-                        f"the {g.name} guard comes within {abs(low):.3g} of zero inside an arc "
-                        f"(interior extremum at t = {t:.10g}) without reaching it",
-                        ("dip", arc, g.kind, g.block),
-                    )
+                text = (
+                    f"the {g.name} guard comes within {abs(low):.3g} of zero inside an arc "
+                    f"(interior extremum at t = {t:.10g}) without reaching it"
                 )
+                found.append((low, g.kind, "value", kind, text, ("dip", arc, g.kind, g.block)))
     for index, e in enumerate(orbit.events):
         rate = abs(_rate(problem, e.guard, e.mode_before, e.t, _before(problem, e)))
         what = "impact speed" if e.kind == "impact" else "slope"
-        out.append(
-            (
-                rate,
-                e.guard.kind,
-                KIND.get((fam, e.guard.kind), "unknown"),
-                f"{e.guard.name} reaches zero with {what} {rate:.3g} at a {e.kind} event (t = {e.t:.10g})",
-                ("rate", index),
-                "rate",
-            )
-        )
+        text = f"{e.guard.name} reaches zero with {what} {rate:.3g} at a {e.kind} event (t = {e.t:.10g})"
+        found.append((rate, e.guard.kind, "rate", KIND.get((fam, e.guard.kind), "unknown"), text, ("rate", index)))
         for g in problem.guards(e.mode_after):
             if e.mode_after == e.mode_before and g.kind == e.guard.kind:
                 continue  # the same guard again (an impact): its speed is measured above
@@ -189,20 +173,10 @@ def survey(problem, orbit, samples: int = 65) -> list[tuple[float, str, str, tup
                 if on
                 else f"the {e.kind} event at t = {e.t:.10g} starts with the {g.name} guard at {value:.3g}"
             )
-            out.append(
-                (
-                    abs(value),
-                    g.kind,
-                    KIND.get((fam, g.kind), "unknown"),
-                    text,
-                    ("out", index, g.kind),
-                    "rate" if on else "value",
-                )
-            )
+            kind = KIND.get((fam, g.kind), "unknown")
+            found.append((value, g.kind, "rate" if on else "value", kind, text, ("out", index, g.kind)))
     ranked = []
-    for item in out:
-        size, gkind, kind, text, key = item[:5]
-        scale = (rate_scale if (len(item) > 5 and item[5] == "rate") else value_scale).get(gkind) or 1.0
-        rel = abs(size) / scale
+    for size, gkind, what, kind, text, key in found:
+        rel = abs(size) / (scales.get((gkind, what)) or 1.0)
         ranked.append((rel, kind, f"{text} [relative size {rel:.2g}]", key))
     return sorted(ranked, key=lambda c: c[0])

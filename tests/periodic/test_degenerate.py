@@ -123,8 +123,8 @@ def test_relay_sliding_bifurcation_by_continuation_matches_the_closed_form():
     assert branch.orbits[-1].pattern == ("exit1", "slide1", "exit1", "slide1")
 
 
-@pytest.mark.parametrize("name", ["henon-heiles"])
-def test_smooth_nonlinear_problem_is_refused(name):
+@pytest.mark.parametrize("name", ["henon-heiles", "bouncing-ball"])
+def test_a_problem_without_event_linearisation_is_refused(name):
     from nsbench.errors import ConfigError
 
     with pytest.raises(ConfigError, match="piecewise-linear"):

@@ -144,9 +144,9 @@ def locate(
             value, orbit_a = refine_end(flow, problem_at, a, orbit_a, key, far_end)
             a = b = value
             if not is_friction(orbit_a.problem) and key[0] != "multiplier":
-                # Newton stops short of the zero (an impact at a speed of 1e-8 penetrates the stop by
-                # less than the rounding of x): the zero is extrapolated along the smooth, near-linear
-                # quantity from the last two converged orbits; the bracket is the extrapolated distance.
+                # Newton stops short of the zero (an impact's saltation grows like one over its speed,
+                # and the shooting Jacobian's condition with it): the zero is extrapolated along the
+                # smooth, near-linear quantity; the bracket is the extrapolated distance.
                 value, a = extrapolate_end(flow, problem_at, orbit_a, key, value)
                 b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
@@ -290,8 +290,8 @@ def extrapolate_end(flow: HybridFlow, problem_at: Callable, orbit: PeriodicOrbit
     The second point lies back by ``1e-4 max(|value|, 1e-3)``, halved until an orbit of the same
     signature converges there: Newton's reach ends where the shooting Jacobian's condition (an
     impact's saltation grows like one over its speed) eats the tolerance, so the second point
-    must stay clear of it; the quantity is near linear there, so the secant is near exact. ``(value, value)`` if no
-    second orbit is found or the zero is not ahead.
+    must stay clear of it; the quantity is near linear there, so the secant is near exact.
+    ``(value, value)`` if no second orbit is found or the zero is not ahead.
     """
     f1 = measure(flow, orbit, key)
     if f1 == 0.0:

@@ -79,8 +79,7 @@ def _arcs(orbit):
 
 
 def _before(problem, e) -> np.ndarray:
-    hook = getattr(problem, "event_linearisation", None)
-    found = hook(e.kind, e.t, e.y) if hook is not None else (e.y, None)
+    found = problem.event_linearisation(e.kind, e.t, e.y)
     return np.asarray(e.y if found is None else found[0], dtype=float)
 
 

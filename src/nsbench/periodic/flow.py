@@ -137,21 +137,17 @@ def event_saltation(
 
     The problem gives the state just before the event and ``R_y`` through
     ``problem.event_linearisation(kind, t, y_after)`` (the impact oscillator: ``v- = -v+ / r``,
-    ``R_y = diag(1, -r)``); without it the reset is the identity (the relay). A ``None`` from it
+    ``R_y = diag(1, -r)``; the relay: the state and the identity). A ``None`` from it
     means the event forgets every perturbation (a mass that sticks on the stop: its state there
     and its release time do not depend on where it came from), so ``S = 0``. The guard's gradient
     is read from :meth:`guard_row` (piecewise-linear problems).
     """
     n = problem.n_states
     y_after = np.asarray(y_after, dtype=float)
-    hook = getattr(problem, "event_linearisation", None)
-    if hook is None:
-        y_before, reset = y_after, np.eye(n)
-    else:
-        found = hook(kind, t, y_after)
-        if found is None:
-            return np.zeros((n, n))
-        y_before, reset = found
+    found = problem.event_linearisation(kind, t, y_after)
+    if found is None:
+        return np.zeros((n, n))
+    y_before, reset = found
     f_minus = np.asarray(problem.rhs(mode_before, t, y_before), dtype=float)
     f_plus = np.asarray(problem.rhs(mode_after, t, y_after), dtype=float)
     grad = np.asarray(problem.guard_row(mode_before, guard.code, guard.block - 1), dtype=float)[:n]
@@ -177,10 +173,11 @@ class HybridFlow:
         from nsbench.hybrid.run import warm_up
         from nsbench.integrators import get_integrator
 
-        if not (is_friction(problem) or problem.is_linear):
+        if not (is_friction(problem) or (problem.is_linear and hasattr(problem, "event_linearisation"))):
             raise ConfigError(
                 f"{problem.name}: periodic orbits are computed for the friction oscillators and the "
-                "piecewise-linear problems (impact-oscillator, relay-feedback); this problem is neither"
+                "piecewise-linear problems whose events say how they map perturbations "
+                "(impact-oscillator, relay-feedback); this problem is neither"
             )
         if integrator is None:
             integrator, default = LINEAR_FLOW if problem.is_linear else NONLINEAR_FLOW

@@ -115,6 +115,11 @@ class RelayFeedback(NamedModes, HybridProblem):
         u = 1.0 if m == spec.UP else -1.0
         return self.A.copy(), u * self.B, np.zeros(3), np.zeros(3)
 
+    def event_linearisation(self, kind: str, t: float, y_after) -> tuple[np.ndarray, np.ndarray]:
+        """``(y_before, R_y)`` of an event (for saltation matrices, :mod:`nsbench.periodic.flow`):
+        a crossing, a sliding entry or exit changes the mode, never the state."""
+        return np.array(y_after, dtype=float), np.eye(3)
+
     # ------------------------------------------------------------------ a form for symbolic integrators
     #: The modes a symbolic integrator prepares at set-up.
     symbolic_modes = ((spec.UP,), (spec.DOWN,), (spec.SLIDE,))

@@ -62,7 +62,7 @@ def test_impacting_orbit_from_simulation_grazes_at_the_closed_form_value():
     # Newton stops short of the graze (an impact's saltation grows like 1/speed); the end is the
     # secant zero of the impact speed, linear in sigma there, from that distance (bif.bracket):
     # its error is the speed's departure from linearity over the secant, a few per cent of it.
-    assert 0.0 < bif.bracket < 1e-8
+    assert bif.bracket < 1e-8
     assert abs(bif.value - a) <= 0.1 * bif.bracket + XTOL
     # speeds fall to zero towards the graze along the stable part of the branch
     speeds = [abs(o.events[0].y[1]) for o in branch.orbits if o.pattern == ("impact1",)]

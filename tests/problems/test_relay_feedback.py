@@ -166,3 +166,32 @@ def test_the_bench_certifies_the_closed_form_reference_per_event():
     ref = compute_reference(p.config(), candidates(["exact", "reference"]), 0.0, 60.0, 10)
     assert ref.ok and ref.name == "exact" and "exact-mp" in ref.certify_note
     assert set(ref.events["kind"]) == {"cross", "slide", "exit"} and ref.certainty <= 1e-13
+
+
+@pytest.mark.parametrize(
+    ("case", "several"),
+    [("siconos-sliding", False), ("siconos-multisliding", True), ("piiroinen-kuznetsov", None)],
+)
+def test_published_cases_settle_on_the_orbits_their_sources_describe(case, several):
+    """Siconos labels its sets 'limit cycles with sliding' and 'multi-sliding periods'; Piiroinen and
+    Kuznetsov's set carries no label here. Each settles on a symmetric periodic orbit that slides."""
+    from nsbench.periodic import HybridFlow, find_orbit
+    from nsbench.problems.relay_feedback import CASE_SOURCES, CASES
+
+    p = nsbench.get_problem("relay-feedback", case=case)
+    assert {k: p.parameters[k] for k in CASES[case]} == CASES[case] and case in CASE_SOURCES
+    orbit = find_orbit(HybridFlow(p), transient=200.0, window=100.0)
+    kinds = [e.kind for e in orbit.events]
+    half = len(kinds) // 2
+    assert set(kinds) == {"slide", "exit"} and len(kinds) == 2 * half
+    # x -> -x maps each half of the orbit onto the other (the relay system's symmetry)
+    first = np.array([e.y for e in orbit.events[:half]])
+    second = np.array([e.y for e in orbit.events[half:]])
+    assert np.max(np.abs(first + second)) <= 1e-9
+    if several is not None:
+        assert (kinds.count("slide") > 2) == several  # more than one sliding segment per half period
+
+
+def test_an_unknown_case_names_the_allowed_ones():
+    with pytest.raises(ConfigError, match="siconos-sliding"):
+        nsbench.get_problem("relay-feedback", case="dibernardo")

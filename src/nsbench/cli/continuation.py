@@ -16,7 +16,7 @@ SECTIONS = ("peaks", "strobe", "stick", "mapping")
 def add_parser(sub) -> None:
     p = sub.add_parser("continuation", help="follow periodic orbits in one parameter; locate their bifurcations")
     p.add_argument("problem", metavar="PROBLEM", help="registered problem, e.g. two-dof")
-    p.add_argument("--case", default="1", help="preset 1..4 (default 1)")
+    p.add_argument("--case", default="1", help="preset 1..4, or a named case (default 1)")
     p.add_argument(
         "--param", action="append", default=[], metavar="NAME=VALUE", help="fixed parameter override (repeatable)"
     )
@@ -90,10 +90,17 @@ def main(args: argparse.Namespace) -> int:
     name, start, stop = parse_range(args.sweep)
     steps = parse_count(args.steps, "--steps", low=1, high=100_000)
     transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
-    try:
-        case = int(parse_number(args.case, "--case"))
-    except (ValueError, OverflowError):
-        raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4") from None
+    case: int | str = str(args.case).strip()
+    if not (case[:1].isalpha()):  # a name (relay-feedback's published cases) is checked by the problem
+        try:
+            number = parse_number(args.case, "--case")
+            if not float(number).is_integer():
+                raise ValueError(number)
+            case = int(number)
+        except (ValueError, OverflowError):
+            raise ConfigError(
+                f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4, or a case name"
+            ) from None
     origin = parse_real(args.origin, "--origin") if args.origin is not None else None
     params = shared_params(args)
     if name in params:
@@ -175,7 +182,8 @@ def main(args: argparse.Namespace) -> int:
     }
     paths = write(out, result, points, meta)
     title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {flow.integrator_name})"
-    written = figure(result, points, out / "branches", diagram=diagram, title=title, formats=formats)
+    variable = ends[0].state_names[0]  # x1 of the friction problems and the relay, x of the impact oscillator
+    written = figure(result, points, out / "branches", variable=variable, diagram=diagram, title=title, formats=formats)
     n_steps = sum(len(b.values) for b in result.branches)
     print(
         f"{len(result.branches)} branch(es), {n_steps} orbits, {len(result.gaps)} value(s) without a periodic "

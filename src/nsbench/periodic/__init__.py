@@ -1,4 +1,5 @@
-"""Periodic orbits of the friction oscillators: shooting, Floquet multipliers, continuation, bifurcations.
+"""Periodic orbits of the friction oscillators, the impact oscillator and the relay: shooting, Floquet
+multipliers, continuation, bifurcations.
 
 - :mod:`~nsbench.periodic.flow`: the hybrid flow with its Jacobian (state-transition
   and saltation matrices);
@@ -6,7 +7,9 @@
 - :mod:`~nsbench.periodic.continuation`: natural-parameter continuation with step
   control, every branch over a range (:func:`trace`), branch switching at period doublings;
 - :mod:`~nsbench.periodic.bifurcations`: bifurcations located by bisection to 1e-11 and
-  named by their mechanism and the paper's category.
+  named by their mechanism and the paper's category;
+- :mod:`~nsbench.periodic.degenerate`: the degenerate events and arcs of the impact oscillator
+  and the relay (grazing, sliding onset), measured from the closed form of each mode.
 """
 
 from nsbench.periodic.bifurcations import Bifurcation, classify, locate, survey

@@ -48,7 +48,8 @@ from typing import Callable
 
 import numpy as np
 
-from nsbench.periodic.flow import HybridFlow
+from nsbench.periodic import degenerate
+from nsbench.periodic.flow import HybridFlow, is_friction
 from nsbench.periodic.shooting import PeriodicOrbit, anchor, resolve
 
 
@@ -142,6 +143,12 @@ def locate(
         if key is not None:  # worth following to zero; classify() judges the result
             value, orbit_a = refine_end(flow, problem_at, a, orbit_a, key, far_end)
             a = b = value
+            if not is_friction(orbit_a.problem) and key[0] != "multiplier":
+                # Newton stops short of the zero (an impact's saltation grows like one over its speed,
+                # and the shooting Jacobian's condition with it): the zero is extrapolated along the
+                # smooth, near-linear quantity; the bracket is the extrapolated distance.
+                value, a = extrapolate_end(flow, problem_at, orbit_a, key, value)
+                b = value
     left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
     bif = Bifurcation(
@@ -201,6 +208,8 @@ def measure(flow: HybridFlow, orbit: PeriodicOrbit, key: tuple) -> float:
     and crosses zero at the bifurcation: the squared guard rate at an event (a grazing's rate
     goes like the square root of the distance), the margin ``fr - |R|``, or an arc's dip."""
     problem = flow.problem
+    if key[0] != "multiplier" and not is_friction(problem):
+        return degenerate.measure(orbit.problem, orbit, key)
     if key[0] == "multiplier":  # at a fold, 1 - mu goes like the square root of the distance
         z = orbit.multipliers[np.argmin(np.abs(orbit.multipliers - 1.0))]
         return float(1.0 - z.real) ** 2
@@ -274,6 +283,38 @@ def refine_end(
     return pts[-1][0], orbit
 
 
+def extrapolate_end(flow: HybridFlow, problem_at: Callable, orbit: PeriodicOrbit, key: tuple, value: float):
+    """``(zero, value)``: the zero of the quantity ``key`` by a secant through the converged orbit at
+    ``value`` and one a little back towards the branch, where the quantity is smooth.
+
+    The second point lies back by ``1e-4 max(|value|, 1e-3)``, halved until an orbit of the same
+    signature converges there: Newton's reach ends where the shooting Jacobian's condition (an
+    impact's saltation grows like one over its speed) eats the tolerance, so the second point
+    must stay clear of it; the quantity is near linear there, so the secant is near exact.
+    ``(value, value)`` if no second orbit is found or the zero is not ahead.
+    """
+    f1 = measure(flow, orbit, key)
+    if f1 == 0.0:
+        return value, value
+    back = 1e-4 * max(abs(value), 1e-3)
+    for _ in range(20):
+        other = _probe(flow, problem_at, value - back, orbit)
+        if other is not None and signature(other) == signature(orbit):
+            break
+        back *= 0.5
+    else:
+        return value, value
+    f0 = measure(flow, other, key)
+    f1 = measure(flow, orbit, key)
+    x0 = value - back
+    if f1 == f0:
+        return value, value
+    zero = value - f1 * (value - x0) / (f1 - f0)
+    if (zero - value) * (value - x0) < 0:  # the zero is behind: no extrapolation
+        return value, value
+    return zero, value
+
+
 def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tuple[float, str, str, tuple]]:
     """Every near-degenerate quantity of an orbit as ``(relative size, kind, text, key)``, smallest first.
 
@@ -289,6 +330,8 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
     family (velocity or static limit, per block) sampled along the whole orbit.
     """
     problem = flow.problem
+    if not is_friction(problem):
+        return degenerate.survey(problem, orbit, samples)
     rate_scale: dict[tuple, float] = {}
     value_scale: dict[tuple, float] = {}
     dips = []
@@ -397,7 +440,8 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
     With both given, ``near`` is the orbit at the smaller parameter value, so
     "gains" and "loses" read in the direction of a growing parameter.
     """
-    nb = near.problem.n_blocks
+    friction = is_friction(near.problem)
+    nb = near.problem.n_blocks if friction else 0
     if far is not None and far.pattern == near.pattern:
         lost = near.multipliers if near.unstable_count < far.unstable_count else far.multipliers
         other = far.multipliers if lost is near.multipliers else near.multipliers
@@ -451,6 +495,11 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
                 f"{rel:.2g}); the value is where Newton stops converging, not a located tangency"
             ),
         )
+    if not friction:  # the text carries its relative size already
+        category = degenerate.CATEGORY.get(kind, "unknown")
+        if far is None:
+            return kind, category, f"{text}; the branch ends (no orbit of this kind beyond)"
+        return kind, category, f"{text}; the event pattern changes"
     if far is None:
         return kind, CATEGORY[kind], f"{text} [relative size {rel:.2g}]; the branch ends (no orbit of this kind beyond)"
     a, b = _stick_counts(near, nb), _stick_counts(far, nb)

@@ -25,7 +25,7 @@ import pandas as pd
 
 from nsbench.errors import ConfigError
 from nsbench.periodic.bifurcations import Bifurcation, _reanchored, format_multipliers, locate, signature
-from nsbench.periodic.flow import HybridFlow
+from nsbench.periodic.flow import HybridFlow, is_friction
 from nsbench.periodic.shooting import PeriodicOrbit, ShootingError, resolve, shoot
 
 #: Halvings of the step before a branch is declared ended.
@@ -151,6 +151,11 @@ def continue_orbit(
                     f"the orbit of pattern [{orbit.pattern_brief()}] ends at {param} = {bif.value:.12g} ({bif.kind})"
                 )
                 break
+            if not is_friction(orbit.problem) and signature(far) != signature(new):
+                # A second change lies between the bracket and the target (an impacting orbit turns
+                # unstable just before it grazes): go on from the bracket's far side, not the target.
+                target = bif.value + direction * 0.5 * bif.bracket
+                new = _reanchored(flow, far)
             flow.rebind(problem_at(target))
 
         value, orbit = target, new

@@ -66,9 +66,23 @@ class Pass:
         return tuple(f"{e.kind}{e.block}" for e in self.events)
 
 
+def is_friction(problem) -> bool:
+    """Whether ``problem`` is a friction oscillator (blocks with stick and slip phases)."""
+    return getattr(problem, "family", "") == "friction"
+
+
 def guard_of(kind: str, block: int, problem, t: float, y: np.ndarray, mode_before: Mode) -> Guard:
     """The guard that fired for an event of ``kind`` (MODEL.md: stick and reverse end a slip phase on
-    ``v - v0``; a slip ends a stick phase on ``R - fr`` (upper) or ``R + fr`` (lower))."""
+    ``v - v0``; a slip ends a stick phase on ``R - fr`` (upper) or ``R + fr`` (lower)).
+
+    Other families: the only guard of ``mode_before``, or of several the one nearest zero at the
+    event (the resets of the impact oscillator and the relay leave the guard's own variables on
+    the surface)."""
+    if not is_friction(problem):
+        guards = problem.guards(mode_before)
+        if not guards:
+            raise ConfigError(f"mode {mode_before} has no guard to explain a {kind} event")
+        return min(guards, key=lambda g: abs(float(g.value(t, y))))
     for g in problem.guards(mode_before):
         if g.block != block:
             continue
@@ -81,7 +95,9 @@ def guard_of(kind: str, block: int, problem, t: float, y: np.ndarray, mode_befor
     raise ConfigError(f"no guard of mode {mode_before} explains a {kind} event of block {block}")
 
 
-def saltation(problem, guard: Guard, mode_before: Mode, mode_after: Mode, t: float, y: np.ndarray) -> np.ndarray:
+def saltation(
+    problem, guard: Guard, mode_before: Mode, mode_after: Mode, t: float, y: np.ndarray, kind: str = ""
+) -> np.ndarray:
     """Saltation matrix of an event: how a perturbation just before the switch maps to one just after.
 
     ``S = I + (f+ - f-) grad(g)^T / (dg/dt)`` with ``f-``, ``f+`` the vector fields of
@@ -90,7 +106,11 @@ def saltation(problem, guard: Guard, mode_before: Mode, mode_after: Mode, t: flo
     reverse) only remove rounding, so the reset map's derivative is the identity on the
     surface; at a stick the formula sends the ``v_i`` perturbation to zero, which is the
     stuck block's lost dimension.
+
+    Other (piecewise-linear) families: :func:`event_saltation`, with the event's ``kind``.
     """
+    if not is_friction(problem):
+        return event_saltation(problem, guard, kind, mode_before, mode_after, t, y)
     n = problem.n_states
     f_minus = problem.rhs(mode_before, t, y)
     f_plus = problem.rhs(mode_after, t, y)
@@ -106,6 +126,35 @@ def saltation(problem, guard: Guard, mode_before: Mode, mode_after: Mode, t: flo
     if rate == 0.0:
         raise ArithmeticError(f"grazing event ({guard.name} touches zero with zero slope at t = {t:.17g})")
     return np.eye(n) + np.outer(f_plus - f_minus, grad) / rate
+
+
+def event_saltation(
+    problem, guard: Guard, kind: str, mode_before: Mode, mode_after: Mode, t: float, y_after: np.ndarray
+) -> np.ndarray:
+    """Saltation matrix of an event with a state reset ``y+ = R(y-)``:
+
+    ``S = R_y + (f+(y+) - R_y f-(y-)) grad(g)^T / (dg/dt)``, ``dg/dt = grad(g) . f-(y-) + dg/dt|explicit``.
+
+    The problem gives the state just before the event and ``R_y`` through
+    ``problem.event_linearisation(kind, t, y_after)`` (the impact oscillator: ``v- = -v+ / r``,
+    ``R_y = diag(1, -r)``; the relay: the state and the identity). A ``None`` from it
+    means the event forgets every perturbation (a mass that sticks on the stop: its state there
+    and its release time do not depend on where it came from), so ``S = 0``. The guard's gradient
+    is read from :meth:`guard_row` (piecewise-linear problems).
+    """
+    n = problem.n_states
+    y_after = np.asarray(y_after, dtype=float)
+    found = problem.event_linearisation(kind, t, y_after)
+    if found is None:
+        return np.zeros((n, n))
+    y_before, reset = found
+    f_minus = np.asarray(problem.rhs(mode_before, t, y_before), dtype=float)
+    f_plus = np.asarray(problem.rhs(mode_after, t, y_after), dtype=float)
+    grad = np.asarray(problem.guard_row(mode_before, guard.code, guard.block - 1), dtype=float)[:n]
+    rate = float(guard.rate(t, y_before, f_minus))
+    if rate == 0.0:
+        raise ArithmeticError(f"grazing event ({guard.name} touches zero with zero slope at t = {t:.17g})")
+    return reset + np.outer(f_plus - reset @ f_minus, grad) / rate
 
 
 class HybridFlow:
@@ -124,6 +173,12 @@ class HybridFlow:
         from nsbench.hybrid.run import warm_up
         from nsbench.integrators import get_integrator
 
+        if not (is_friction(problem) or (problem.is_linear and hasattr(problem, "event_linearisation"))):
+            raise ConfigError(
+                f"{problem.name}: periodic orbits are computed for the friction oscillators and the "
+                "piecewise-linear problems whose events say how they map perturbations "
+                "(impact-oscillator, relay-feedback); this problem is neither"
+            )
         if integrator is None:
             integrator, default = LINEAR_FLOW if problem.is_linear else NONLINEAR_FLOW
             options = {**default, **(options or {})}
@@ -151,6 +206,7 @@ class HybridFlow:
         from nsbench.hybrid.run import run_hybrid
         from nsbench.problems.modes import EVENT_KINDS
 
+        names = getattr(self.problem, "event_kinds", ()) or EVENT_KINDS
         raw = run_hybrid(
             self.problem,
             self.integ,
@@ -169,7 +225,7 @@ class HybridFlow:
         for k in range(raw.n_events):
             after = tuple(int(m) for m in rec.ev_mode[k])
             kind, block, t, y = (
-                EVENT_KINDS[int(rec.ev_kind[k])],
+                names[int(rec.ev_kind[k])],
                 int(rec.ev_block[k]),
                 float(rec.ev_t[k]),
                 rec.ev_y[k].copy(),
@@ -245,13 +301,16 @@ class HybridFlow:
         total = np.eye(problem.n_states)
         for e in p.events:
             total = self.arc_transition(mode, t, y, e.t - t) @ total
-            total = saltation(problem, e.guard, e.mode_before, e.mode_after, e.t, e.y) @ total
+            total = saltation(problem, e.guard, e.mode_before, e.mode_after, e.t, e.y, e.kind) @ total
             t, y, mode = e.t, e.y, e.mode_after
         return self.arc_transition(mode, t, y, p.t0 + p.span - t) @ total
 
 
 def free_components(problem, mode: Mode) -> np.ndarray:
-    """State indices that may vary in ``mode``: a stuck block's velocity is ``v0``, not an unknown."""
+    """State indices that may vary in ``mode``: a stuck block's velocity is ``v0``, not an unknown
+    (other families: every component)."""
+    if not is_friction(problem):
+        return np.arange(problem.n_states)
     keep = [j for j in range(problem.n_states) if not (j % 2 == 1 and mode[j // 2] == STICK)]
     return np.array(keep, dtype=int)
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nsbench.errors import NsbenchError
-from nsbench.periodic.flow import Crossing, HybridFlow, Pass, free_components
+from nsbench.periodic.flow import Crossing, HybridFlow, Pass, free_components, is_friction
 from nsbench.problems.modes import Mode
 
 
@@ -177,9 +177,10 @@ def shoot(
     mode0 = tuple(int(m) for m in mode0)
     free = free_components(problem, mode0)
     y = np.array(y0, dtype=float)
-    for i, phase in enumerate(mode0):
-        if phase == 0:
-            y[2 * i + 1] = problem.v0
+    if is_friction(problem):
+        for i, phase in enumerate(mode0):
+            if phase == 0:
+                y[2 * i + 1] = problem.v0
     y_ref = y.copy()
     normal = _phase_normal(flow, t0, y_ref, mode0, free)
     T = float(period)
@@ -227,6 +228,8 @@ def shoot(
         done = float(np.max(np.abs(lam * step))) <= tol * scale and float(np.max(np.abs(r))) <= 10 * tol * scale
         if done:
             shorter = _shorter_period(flow.problem, p, T, forced, scale)
+            if shorter is None and forced and not p.events:
+                shorter = _shorter_eventless(flow, t0, y, mode0, T, scale)
             if shorter is not None:  # converged to a repetition of a shorter orbit: solve that one
                 return shoot(flow, t0, y, mode0, shorter, forced=forced, tol=tol, max_iter=max_iter)
             return _orbit(flow, t0, y, mode0, T, forced, p, free, float(np.max(np.abs(r))), it)
@@ -252,6 +255,16 @@ def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> f
         ):
             return T / d
     return None
+
+
+def _shorter_eventless(flow: HybridFlow, t0: float, y: np.ndarray, mode0: Mode, T: float, scale: float):
+    """One forcing period, if a forced orbit without events (nothing for :func:`_shorter_period` to
+    compare) already returns to its start after it."""
+    tf = 2.0 * math.pi / flow.problem.forcing_frequency
+    if T < 1.5 * tf:
+        return None
+    p = flow.run(t0, y, mode0, tf)
+    return tf if not p.events and float(np.max(np.abs(p.y - y))) <= 1e-8 * scale else None
 
 
 def _orbit(flow, t0, y, mode0, T, forced, p: Pass, free, res, it) -> PeriodicOrbit:

@@ -89,6 +89,28 @@ class ImpactOscillator(NamedModes, HybridProblem):
             return np.array([-1.0, 0.0, self.sigma, 0.0, 0.0])  # sigma - x
         return np.array([-1.0, -2.0 * self.zeta, 0.0, self.F, 0.0])  # the free acceleration
 
+    # ------------------------------------------------------------------ linearisation of the events
+    def event_linearisation(self, kind: str, t: float, y_after) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(y_before, R_y)`` of an event (for saltation matrices, :mod:`nsbench.periodic.flow`).
+
+        ``impact``: the state before is ``(sigma, -v+ / r)`` and the reset's Jacobian
+        ``diag(1, -r)``; ``release``: nothing is reset. ``stick``: ``None`` (the mass rests
+        at ``(sigma, 0)`` and leaves at a time fixed by the force, whatever came before).
+
+        Raises
+        ------
+        ArithmeticError
+            An impact with ``r = 0``: the speed before it cannot be recovered.
+        """
+        y = np.asarray(y_after, dtype=float)
+        if kind == "stick":
+            return None
+        if kind == "release":
+            return y.copy(), np.eye(2)
+        if self.r == 0.0:
+            raise ArithmeticError("an impact with r = 0 forgets its speed: no saltation matrix from the state after it")
+        return np.array([self.sigma, -y[1] / self.r]), np.diag([1.0, -self.r])
+
     # ------------------------------------------------------------------ what is known exactly
     def free_amplitude(self) -> float:
         """``A``: the amplitude of the periodic motion that never reaches the stop (``zeta > 0`` or ``w != 1``)."""

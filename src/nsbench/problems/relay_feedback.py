@@ -28,6 +28,26 @@ from nsbench.problems.parameters import Bound, check_values
 NAME = "relay-feedback"
 _ANY = -np.inf
 DEFAULTS = {"zeta": 0.05, "omega": 2.0, "lam": 0.02, "sigma": 2.0, "rho": 1.0, "x1_0": 1.0, "x2_0": 0.0, "x3_0": 0.0}
+#: Published example values, each with where it was read (``case=NAME``). The Siconos example
+#: cites di Bernardo, Johansson and Vasca (2001) for its sets but writes ``B = [1, 2 sigma rho,
+#: rho^2]``, so its ``sigma = -1`` is ``sigma = 1`` here; nosnoc_py's example transcribes
+#: Piiroinen and Kuznetsov (2008), equation (32), whose form is this one. Their values were not
+#: checked against the papers themselves (not at hand); the problem sheet says what nsbench
+#: computes for each.
+CASES = {
+    "siconos-sliding": {"zeta": 1.0, "omega": 1.0, "lam": 1.0, "sigma": 1.0, "rho": 1.0},
+    "siconos-multisliding": {"zeta": 0.05, "omega": 8.0, "lam": 1.0, "sigma": 1.0, "rho": 1.0},
+    "piiroinen-kuznetsov": {"zeta": 0.05, "omega": 25.0, "lam": 1.0, "sigma": 1.0, "rho": 1.0},
+}
+#: The source of each case.
+CASE_SOURCES = {
+    "siconos-sliding": "Siconos, examples/Control/RelayOscillator/RelayOscillatorWithSliding.cpp "
+    "('limit cycles with sliding'; cites di Bernardo, Johansson and Vasca, IJBC 11(4), 2001)",
+    "siconos-multisliding": "Siconos, examples/Control/RelayOscillator/RelayOscillatorWithSliding.cpp "
+    "('multi-sliding periods'; cites di Bernardo, Johansson and Vasca, IJBC 11(4), 2001)",
+    "piiroinen-kuznetsov": "nosnoc_py, examples/relay_feedback_system.py (P. T. Piiroinen and Yu. A. "
+    "Kuznetsov, ACM TOMS 34(3), 2008, equation (32))",
+}
 BOUNDS = {
     "zeta": Bound(0.0, False, "damping ratio zeta"),
     "omega": Bound(0.0, False, "natural frequency omega"),
@@ -95,6 +115,11 @@ class RelayFeedback(NamedModes, HybridProblem):
         u = 1.0 if m == spec.UP else -1.0
         return self.A.copy(), u * self.B, np.zeros(3), np.zeros(3)
 
+    def event_linearisation(self, kind: str, t: float, y_after) -> tuple[np.ndarray, np.ndarray]:
+        """``(y_before, R_y)`` of an event (for saltation matrices, :mod:`nsbench.periodic.flow`):
+        a crossing, a sliding entry or exit changes the mode, never the state."""
+        return np.array(y_after, dtype=float), np.eye(3)
+
     # ------------------------------------------------------------------ a form for symbolic integrators
     #: The modes a symbolic integrator prepares at set-up.
     symbolic_modes = ((spec.UP,), (spec.DOWN,), (spec.SLIDE,))
@@ -135,13 +160,17 @@ def relay_feedback(case: int | str | None = None, dimensional: bool = False, **p
     Raises
     ------
     ConfigError
-        A case (the problem has one form), an unknown parameter, a non-finite or
-        out-of-range value (``zeta``, ``omega``, ``lam``, ``rho`` must be > 0).
+        An unknown case (1, or a name of :data:`CASES`: published example values, overridden by
+        the parameters given), an unknown parameter, a non-finite or out-of-range value
+        (``zeta``, ``omega``, ``lam``, ``rho`` must be > 0).
     """
-    if case not in (None, 1, "1"):
-        raise ConfigError(f"{NAME}: unknown case {case!r}; the problem has no cases (give its parameters)")
+    if case not in (None, 1, "1") and case not in CASES:
+        raise ConfigError(
+            f"{NAME}: unknown case {case!r}; allowed: 1 (the defaults) or one of {', '.join(CASES)} "
+            "(published example values)"
+        )
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
-    return RelayFeedback(params, {**DEFAULTS, **given})
+    return RelayFeedback(params, {**DEFAULTS, **CASES.get(case, {}), **given})
 
 
 # ---------------------------------------------------------------------- what is computed exactly

@@ -90,8 +90,9 @@ def main(args: argparse.Namespace) -> int:
     name, start, stop = parse_range(args.sweep)
     steps = parse_count(args.steps, "--steps", low=1, high=100_000)
     transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
-    case: int | str = str(args.case).strip()
-    if not (case[:1].isalpha()):  # a name (relay-feedback's published cases) is checked by the problem
+    text = str(args.case).strip()
+    case: int | str = text
+    if not (text[:1].isalpha()):  # a name (relay-feedback's published cases) is checked by the problem
         try:
             number = parse_number(args.case, "--case")
             if not float(number).is_integer():

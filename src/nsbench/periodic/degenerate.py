@@ -22,6 +22,8 @@ Each quantity crosses zero at the bifurcation and is smooth on the near side:
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 import scipy.optimize
@@ -137,7 +139,8 @@ def survey(problem, orbit, samples: int = 65) -> list[tuple[float, str, str, tup
     """
     fam = problem.family
     scales: dict[tuple[str, str], float] = {}  # (guard kind, "value" or "rate") -> largest size
-    found = []  # (size, guard kind, "value" or "rate", bifurcation kind, text, key)
+    # (size, guard kind, "value" or "rate", bifurcation kind, text, key)
+    found: list[tuple[float, str, str, str, str, tuple[Any, ...]]] = []
     for arc, (t0, y0, mode, dt) in enumerate(_arcs(orbit)):
         if dt <= 0:
             continue

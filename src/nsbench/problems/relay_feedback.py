@@ -170,7 +170,8 @@ def relay_feedback(case: int | str | None = None, dimensional: bool = False, **p
             "(published example values)"
         )
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
-    return RelayFeedback(params, {**DEFAULTS, **CASES.get(case, {}), **given})
+    preset = CASES.get(case, {}) if isinstance(case, str) else {}
+    return RelayFeedback(params, {**DEFAULTS, **preset, **given})
 
 
 # ---------------------------------------------------------------------- what is computed exactly

@@ -210,9 +210,8 @@ def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
     if forced:
         ph, pl = dd.two_prod(w, t0)
         ph, pl = dd.add_d(ph, pl, w * t0_lo)
-        r0, r1, r2, r3 = dd.cos_sin(ph, pl)
         wh, wl = dd.two_prod(w, s0)
-        e0, e1, e2, e3 = dd.cos_sin(wh, wl)
+        r0, r1, r2, r3, e0, e1, e2, e3 = dd.cos_sin2(ph, pl, wh, wl)  # in lockstep: the same doubles, sooner
     if ns > 0:
         # P0 = A_ss^-1 (P1 - A_sk y_k0 - b0_s) in double-double: the double solution, then one refinement
         for r in range(ns):

@@ -271,3 +271,41 @@ def cexp(ah, al, bh, bl):
     re = mul(mh, ml, ch, cl)
     im = mul(mh, ml, sh, sl)
     return re[0], re[1], im[0], im[1]
+
+
+@hot
+def cexp2(ah, al, bh, bl, ch, cl, dh, dl):
+    """:func:`cexp` of ``a + i b`` and of ``c + i d`` in lockstep (the same doubles as two calls)."""
+    if ah > 709.0 or ah < -745.0 or ch > 709.0 or ch < -745.0:
+        x0, x1, x2, x3 = cexp(ah, al, bh, bl)
+        y0, y1, y2, y3 = cexp(ch, cl, dh, dl)
+        return x0, x1, x2, x3, y0, y1, y2, y3
+    k, rh, rl = _exp_reduce(ah, al)
+    kc, xh, xl, r2h, r2l = _cs_reduce(bh, bl)
+    k2, rh2, rl2 = _exp_reduce(ch, cl)
+    kc2, xh2, xl2, r2h2, r2l2 = _cs_reduce(dh, dl)
+    eth, etl, esh, esl = rh, rl, rh, rl
+    th, tl, sh, sl, kh, kl, uh, ul = xh, xl, xh, xl, 1.0, 0.0, 1.0, 0.0
+    eth2, etl2, esh2, esl2 = rh2, rl2, rh2, rl2
+    th2, tl2, sh2, sl2, kh2, kl2, uh2, ul2 = xh2, xl2, xh2, xl2, 1.0, 0.0, 1.0, 0.0
+    for j in range(1, 13):
+        uh, ul, kh, kl, th, tl, sh, sl = _cs_term(j, r2h, r2l, uh, ul, kh, kl, th, tl, sh, sl)
+        uh2, ul2, kh2, kl2, th2, tl2, sh2, sl2 = _cs_term(j, r2h2, r2l2, uh2, ul2, kh2, kl2, th2, tl2, sh2, sl2)
+        if 2 <= j <= 11:
+            eth, etl, esh, esl = _exp_term(j, rh, rl, eth, etl, esh, esl)
+            eth2, etl2, esh2, esl2 = _exp_term(j, rh2, rl2, eth2, etl2, esh2, esl2)
+    for i in range(8):
+        esh, esl = _exp_square(esh, esl)
+        esh2, esl2 = _exp_square(esh2, esl2)
+        if i < 3:
+            kh, kl, sh, sl = _cs_double(kh, kl, sh, sl)
+            kh2, kl2, sh2, sl2 = _cs_double(kh2, kl2, sh2, sl2)
+    mh, ml = _exp_finish(k, esh, esl)
+    kh, kl, sh, sl = _cs_quadrant(kc, kh, kl, sh, sl)
+    mh2, ml2 = _exp_finish(k2, esh2, esl2)
+    kh2, kl2, sh2, sl2 = _cs_quadrant(kc2, kh2, kl2, sh2, sl2)
+    re = mul(mh, ml, kh, kl)
+    im = mul(mh, ml, sh, sl)
+    re2 = mul(mh2, ml2, kh2, kl2)
+    im2 = mul(mh2, ml2, sh2, sl2)
+    return re[0], re[1], im[0], im[1], re2[0], re2[1], im2[0], im2[1]

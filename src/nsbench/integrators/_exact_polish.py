@@ -294,9 +294,7 @@ def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
                 wp[k, 9],
                 wp[k, 10],
                 wp[k, 11],
-            ) = dd.cexp2(
-                wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11], wp[k, 8], wp[k, 9], wp[k, 10], wp[k, 11]
-            )
+            ) = dd.cexp2(wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11], wp[k, 8], wp[k, 9], wp[k, 10], wp[k, 11])
             prev = -1
         if prev >= 0:
             wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11] = dd.cexp(

@@ -19,6 +19,11 @@ an untimed first run). Figures in ``extra_info``:
     the whole ``simulate`` call, which adds a fixed cost (pandas frames of the
     events and the provenance) to the run's ``wall_time``.
 
+``test_exact_events_per_second`` times ``exact`` alone as issue 29 (item 3) states its goal: the same run
+with ``check_points=0`` (no states are computed for the missed-crossing check, so only the closed form,
+its roots, the polish and the core are timed), best and median of ten warm runs; the goal is
+1,000,000 events per second (``events_per_s_best``).
+
 ``test_rk4_step_floor`` reads ``henon-rk4``'s cost per step against a bare RK4
 loop over the same compiled field (``kernel_ns_per_step``, ``bare_ns_per_step``):
 the floor under any event machinery for that method.
@@ -91,6 +96,47 @@ def test_core_events_per_second(benchmark, request, nsbench_baseline, name):
         {"t_end": SPAN},
         label=f"core {name} 2-DOF case 1 [0, {SPAN:g}]: {events / wall:,.0f} events/s, "
         f"{1e6 * overhead:.2f} us/event in the core",
+    )
+
+
+def test_exact_events_per_second(benchmark, request, nsbench_baseline):
+    """``exact`` through ``simulate`` on 2-DOF case 1, no check points: events per second of the run.
+
+    Figures: ``events_per_s_best`` and ``events_per_s_median`` (events over ``wall_time``),
+    ``us_per_event``, ``kernel_us_per_event`` (``integrator_time``: the arc kernel) and
+    ``core_us_per_event`` (the rest of the run: the loop, the settle step, the Python driver).
+    """
+    problem = nsbench.get_problem("two-dof", case=1)
+    nsbench.simulate(problem, "exact", min(SPAN, 50.0), check_points=0)  # compile, load
+    runs = []
+
+    def run():
+        res = nsbench.simulate(problem, "exact", SPAN, check_points=0)
+        runs.append(res)
+        return res
+
+    benchmark.pedantic(run, rounds=2 * ROUNDS, iterations=1)
+    assert all(r.ok for r in runs), runs[-1].message
+    events = len(runs[-1].events)
+    best = min(runs, key=lambda r: r.wall_time)
+    wall = statistics.median(r.wall_time for r in runs)
+    figures = {
+        "events": events,
+        "events_per_s_best": events / best.wall_time,
+        "events_per_s_median": events / wall,
+        "us_per_event": 1e6 * best.wall_time / events,
+        "kernel_us_per_event": 1e6 * best.integrator_time / events,
+        "core_us_per_event": 1e6 * (best.wall_time - best.integrator_time) / events,
+    }
+    benchmark.extra_info.update(integrator="exact", problem="two-dof/1", t_end=SPAN, check_points=0)
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "us_per_event",
+        {"t_end": SPAN},
+        label=f"exact 2-DOF case 1 [0, {SPAN:g}], no check points: {events / best.wall_time:,.0f} events/s "
+        f"(best; median {events / wall:,.0f}), {1e6 * best.integrator_time / events:.2f} us/event in the kernel",
     )
 
 

@@ -64,6 +64,7 @@ from nsbench.integrators._exact_layout import (
     V_A1,
     V_FA,
     V_FB,
+    V_LAM,
     V_MA,
     V_MB,
     V_PA,
@@ -666,6 +667,10 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
             wr[j, q0 + n + 2] = 0.0
             sg[j] = 1.0
     if not defective:
+        lam_abs = wv[V_LAM]  # |lambda_k|, once per arc rather than once per guard (a hypot each)
+        for k in range(ns):
+            if tf[mi, f_cw + k] != 0.0:
+                lam_abs[k] = abs(tc[mi, c_lam + k])
         for j in range(nq):
             g0 = wr[j, q0 + n]
             g1 = 0.0
@@ -682,7 +687,7 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
                 if cwk != 0.0:
                     for i in range(n):
                         acc += wr[j, q0 + i] * wc[b0 + i, k]
-                    lk = abs(tc[mi, c_lam + k])
+                    lk = lam_abs[k]
                     a_abs = abs(acc)
                     wr[j, cm0 + k] = cwk * lk * lk * a_abs
                     scale += cwk * a_abs
@@ -802,7 +807,8 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
     delta = 0.0
     if fired >= 0 and ti[mi, I_POLISH] != 0:
         # Newton on the guard in double-double, then the state there (see _exact_polish)
-        _exps(tf, tc, mi, ns, w, s_stop, E, wv[V_MS])
+        if defective or s_stop == 0.0:  # otherwise _state just left exp(lambda_k s_stop) in E
+            _exps(tf, tc, mi, ns, w, s_stop, E, wv[V_MS])
         rate = _value_rate(wr, wc, tf, tc, mi, fired, ns, w, s_stop, E)[1]
         delta = polish_event(
             ArcMode(ti, tf, tc, wv, wc, nqr, mi, ns, nst, n, m_size, g_max, forced, w),

@@ -25,7 +25,7 @@ I_MODE = 5
 #: extra objective rows kept in the work arrays beyond the guards (sections)
 SECTION_ROWS = 8
 #: rows of the float vector scratch ``wv``
-V_A0, V_A1, V_FA, V_PA, V_FB, V_PB, V_Z0, V_ZS, V_Y, V_SG, V_MA, V_MB, V_RHS = range(13)
+V_A0, V_A1, V_FA, V_PA, V_FB, V_PB, V_Z0, V_ZS, V_Y, V_SG, V_MA, V_MB, V_RHS, V_LAM = range(14)
 V_YH, V_YL, V_RH, V_RL, V_P0, V_P0L, V_DH, V_DL, V_SCR = range(14, 23)
 N_V = 24
 #: complex vector rows of ``wc`` after the objective rows

@@ -210,9 +210,8 @@ def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
     if forced:
         ph, pl = dd.two_prod(w, t0)
         ph, pl = dd.add_d(ph, pl, w * t0_lo)
-        r0, r1, r2, r3 = dd.cos_sin(ph, pl)
         wh, wl = dd.two_prod(w, s0)
-        e0, e1, e2, e3 = dd.cos_sin(wh, wl)
+        r0, r1, r2, r3, e0, e1, e2, e3 = dd.cos_sin2(ph, pl, wh, wl)  # in lockstep: the same doubles, sooner
     if ns > 0:
         # P0 = A_ss^-1 (P1 - A_sk y_k0 - b0_s) in double-double: the double solution, then one refinement
         for r in range(ns):
@@ -272,13 +271,35 @@ def polish_event(arc_mode, t0, t0_lo, y0, s0, fired, rate, y_out):
                 acc += tc[mi, c_vinv + k * n + r] * res[r]
             wp[k, 4], wp[k, 5] = dd.add_d(c0[k].real, 0.0, acc.real)
             wp[k, 6], wp[k, 7] = dd.add_d(c0[k].imag, 0.0, acc.imag)
-            # exp(lambda_k s0) in double-double
+            # lambda_k s0 in double-double (its exponential below)
             lk, lklo = tc[mi, c_lam + k], tc[mi, c_lamlo + k]
             lrh, lrl = dd.add_d(lk.real, 0.0, lklo.real)
             lih, lil = dd.add_d(lk.imag, 0.0, lklo.imag)
-            xrh, xrl = dd.mul_d(lrh, lrl, s0)
-            xih, xil = dd.mul_d(lih, lil, s0)
-            wp[k, 8], wp[k, 9], wp[k, 10], wp[k, 11] = dd.cexp(xrh, xrl, xih, xil)
+            wp[k, 8], wp[k, 9] = dd.mul_d(lrh, lrl, s0)
+            wp[k, 10], wp[k, 11] = dd.mul_d(lih, lil, s0)
+        # exp(lambda_k s0) in double-double, two at a time in lockstep (the same doubles as one by one)
+        prev = -1
+        for k in range(ns):
+            if tf[mi, f_cw + k] == 0.0:
+                continue
+            if prev < 0:
+                prev = k
+                continue
+            (
+                wp[prev, 8],
+                wp[prev, 9],
+                wp[prev, 10],
+                wp[prev, 11],
+                wp[k, 8],
+                wp[k, 9],
+                wp[k, 10],
+                wp[k, 11],
+            ) = dd.cexp2(wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11], wp[k, 8], wp[k, 9], wp[k, 10], wp[k, 11])
+            prev = -1
+        if prev >= 0:
+            wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11] = dd.cexp(
+                wp[prev, 8], wp[prev, 9], wp[prev, 10], wp[prev, 11]
+            )
         for r in range(ns):
             mh, ml = dd.mul_d(tf[mi, f_p1 + r], tf[mi, f_p1lo + r], s0)
             ah, al = dd.add(p0[r], p0_lo[r], mh, ml)

@@ -26,3 +26,19 @@ def test_the_cache_guard_sees_every_import_of_a_compiled_file():
         "nsbench.integrators._picard_arc",
     ]
     assert [g or n for _, g, n, _ in found][:3] == ["monotonic_ns", "\n    settle,\n    pending_guard,\n", "record_hit"]
+
+
+def test_a_module_imported_from_its_package_under_another_name_counts():
+    """``from nsbench.integrators import _double_double as dd``: the exact kernel inlines that
+    module's functions, so editing it must drop the kernel's cache (the alias once hid it)."""
+    known = {"nsbench.integrators", "nsbench.integrators._double_double", "nsbench.model.abi"}
+    text = (
+        "from nsbench.integrators import _double_double as dd\n"
+        "from nsbench.integrators import (\n    _double_double as dd2,\n)\n"
+        "from nsbench.model import abi\n"
+    )
+    assert compiled.imported_modules(text, known) == {
+        "nsbench.integrators",
+        "nsbench.integrators._double_double",
+        "nsbench.model.abi",
+    }

@@ -36,6 +36,23 @@ _IMPORTS = re.compile(
 )
 
 
+def imported_modules(text: str, known) -> set[str]:
+    """The modules among ``known`` that ``text`` imports: ``import nsbench.x``, ``from nsbench.x
+    import ...`` and the modules imported by name from a package (``from nsbench.x import y as z``:
+    ``nsbench.x.y``, the alias dropped)."""
+    out = set()
+    for frm, grouped, names, plain in _IMPORTS.findall(text):
+        module = frm or plain
+        if module in known:
+            out.add(module)
+        for item in (grouped or names).replace("\n", " ").split(","):
+            words = item.split()  # "y" or "y as z"
+            sub = f"{frm}.{words[0]}" if words else ""
+            if frm and sub in known:
+                out.add(sub)
+    return out
+
+
 def drop_stale_numba_caches() -> None:
     """Delete the on-disk numba caches of every compiled source whose code, or code it uses, changed.
 
@@ -53,16 +70,7 @@ def drop_stale_numba_caches() -> None:
     texts = {name: path.read_text(encoding="utf-8", errors="ignore") for name, path in paths.items()}
 
     def imports(name: str) -> set[str]:
-        out = set()
-        for frm, grouped, names, plain in _IMPORTS.findall(texts[name]):
-            module = frm or plain
-            if module in paths:
-                out.add(module)
-            for item in (grouped or names).replace("\n", " ").split(","):
-                sub = f"{frm}.{item.strip()}"
-                if frm and sub in paths:
-                    out.add(sub)
-        return out
+        return imported_modules(texts[name], paths)
 
     stamps: dict[str, str] = {}
 

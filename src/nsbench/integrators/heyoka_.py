@@ -51,6 +51,16 @@ from nsbench.status import Status
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
 _SAMPLES = np.arange(1, 33) / 32.0  # where a fresh guard is sampled in a step, as fractions of the step
+_EXPONENTS = np.arange(128, dtype=float)
+_POWERS: dict[int, np.ndarray] = {}
+
+
+def _sample_powers(size: int) -> np.ndarray:
+    """``_SAMPLES[k] ** j`` for ``j < size``: the samples of a Taylor polynomial as one matrix product."""
+    table = _POWERS.get(size)
+    if table is None:
+        table = _POWERS[size] = _SAMPLES[:, None] ** _EXPONENTS[None, :size]
+    return table
 
 
 def _caps(precision: str) -> Capabilities:
@@ -115,6 +125,10 @@ class HeyokaIntegrator(Integrator):
         self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._compiled_in_advance = 0.0
         self._fresh_plan: dict[tuple[int, ...], Any] = {}  # per mode: its mode array and guard kinds
+        self._section_logs: dict[int, Any] = {}
+        self._orders: dict[int, Any] = {}
+        self._no_rows = np.empty((problem.n_states, 0))
+        self._no_rows.flags.writeable = False
         self._v0 = None if self._symbolic else float(problem.coefficients.v0)
         if self._symbolic:
             self._mode_tas: dict[tuple[int, ...], Any] = {}
@@ -185,9 +199,15 @@ class HeyokaIntegrator(Integrator):
         """
         if request.sections is not self._pars_sections:
             self._pars_sections, self._pars_cache = request.sections, {}
+        # first by the identity of the guards (the problem hands one tuple per mode; the tuple is
+        # kept in the entry, so its id is not reused), then by what the parameters depend on
+        quick = self._pars_cache.get((id(st), id(request.guards)))
+        if quick is not None and quick[0] is request.guards and quick[1] == request.mode:
+            return quick[2]
         key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards))
         cached = self._pars_cache.get(key)
         if cached is not None:
+            self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
             return cached
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
@@ -204,6 +224,7 @@ class HeyokaIntegrator(Integrator):
             coeffs = off + model.SECTION_COEFFS
             pars[coeffs : coeffs + st.n_mech] = sec.coeffs
         cached = self._pars_cache[key] = pars.astype(self._fp)
+        self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
         return cached
 
     def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
@@ -214,26 +235,44 @@ class HeyokaIntegrator(Integrator):
         """
         fp = self._fp
         ta.pars[:] = self._pars(st, request)
+        logs = self._logs(ta)
+        for log in logs:
+            if log.hits:
+                log.hits.clear()
         if carried is not None:
             ta.dtime = carried[0]
             ta.state[:] = carried[1]
             ta.reset_cooldowns()
-            for ev in ta.nt_events:
-                ev.callback.hits.clear()
             return ta.time
-        state = np.asarray(request.y0, dtype=float).astype(fp)
+        state = request.y0 if fp is float else np.asarray(request.y0, dtype=float).astype(fp)
         # heyoka keeps time as a double-length number: the start t0 + t0_lo is exact.
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
         t0 = ta.time
         if st.forced:
             w = np.array([self._coefficients[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
-            state = np.concatenate([state, np.cos(phase), np.sin(phase)])
-        ta.state[:] = state
+            n = st.n_mech
+            ta.state[:n] = state
+            ta.state[n] = np.cos(phase)[0]
+            ta.state[n + 1] = np.sin(phase)[0]
+        else:
+            ta.state[:] = state
         ta.reset_cooldowns()
-        for ev in ta.nt_events:
-            ev.callback.hits.clear()
         return t0
+
+    def _order(self, ta) -> int:
+        """``ta.order``, looked up once per compiled integrator."""
+        order = self._orders.get(id(ta))
+        if order is None or order[0] is not ta:
+            order = self._orders[id(ta)] = (ta, int(ta.order))
+        return order[1]
+
+    def _logs(self, ta) -> list:
+        """The section callbacks of ``ta`` (:class:`~nsbench.integrators._heyoka_model.SectionLog`), looked up once."""
+        logs = self._section_logs.get(id(ta))
+        if logs is None or logs[0] is not ta:
+            logs = self._section_logs[id(ta)] = (ta, [ev.callback for ev in ta.nt_events])
+        return logs[1]
 
     # -- problems written symbolically (_heyoka_symbolic)
     def _mode_ta(self, mode):
@@ -369,7 +408,7 @@ class HeyokaIntegrator(Integrator):
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None
         t0 = self._load(st, ta, request, carried)
-        fp, n = self._fp, problem.n_states
+        fp, n, logs = self._fp, problem.n_states, self._logs(ta)
         if request.max_steps <= 0:
             return ArcResult(
                 t=request.t0,
@@ -389,17 +428,17 @@ class HeyokaIntegrator(Integrator):
         fired, status, message = self._verdict(ta, outcome, fresh_hit, request, t_stop)
         if outcome == model.hy.taylor_outcome.time_limit and fresh_hit is None:
             t_stop, t_lo = request.t_end, 0.0
-        extra = {"taylor_coefficients": nsteps * int(ta.order)}
+        extra = {"taylor_coefficients": nsteps * self._order(ta)}
         if self._compiled_in_advance:  # a wider model compiled for more sections
             extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
-        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
+        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok and request.t_eval.size else 0
         rows = first_rows[:n_eval]
         if len(rows) < n_eval and c_out is not None:
             times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
-        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
-        y_out = np.asarray(y_fp[:n]).astype(float)
+        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else self._no_rows
+        y_out = np.array(y_fp[:n], dtype=float)
         if self.precision != "double" and status.ok:
             self._keep(request, fired, t_stop, t_lo, y_out, (hi, lo), y_fp)
         return ArcResult(
@@ -407,7 +446,7 @@ class HeyokaIntegrator(Integrator):
             y=y_out,
             fired=fired,
             y_eval=y_eval,
-            section_hits=model.section_hits(ta, request, t0, hi),
+            section_hits=model.section_hits(ta, request, t0, hi, logs) if any(log.hits for log in logs) else [],
             nfev=nsteps,
             njev=0,
             nsteps=nsteps,
@@ -472,13 +511,15 @@ class HeyokaIntegrator(Integrator):
                 plan = self._fresh_plan[request.mode] = (
                     problem.mode_array(request.mode),
                     tuple((g.kind == "velocity", g.code, g.block - 1) for g in request.guards),
+                    problem.law.guard_value,
+                    problem.data.p,
                 )
             else:
                 return [
                     q for q, g in enumerate(request.guards) if g.expected_sign * float(g.value(request.t0, y0)) == 0.0
                 ]
-        mode_arr, kinds = plan
-        v0, law_value, p = self._v0, problem.law.guard_value, problem.data.p
+        mode_arr, kinds, law_value, p = plan
+        v0 = self._v0
         fresh = []
         for q, (velocity, code, i) in enumerate(kinds):
             if velocity:
@@ -557,7 +598,9 @@ class HeyokaIntegrator(Integrator):
         coeffs = ta.tc[2 * guard.block - 1]
         hi0, lo0 = start
         ts = t_start + (t_end - t_start) * _SAMPLES
-        gs = (sign * (np.polyval(coeffs[::-1], (ts - hi0) - lo0) - v0)).tolist()
+        # the samples as one product: p(f_k H) = sum_j (f_k^j) (c_j H^j), with f_k^j tabulated once
+        powers = _sample_powers(coeffs.shape[0])
+        gs = (sign * (powers @ (coeffs * ((t_end - hi0) - lo0) ** _EXPONENTS[: coeffs.shape[0]]) - v0)).tolist()
         terms = coeffs[::-1].tolist()
 
         def value(t):

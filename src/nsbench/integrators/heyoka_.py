@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
+from nsbench.integrators import _heyoka_crossing as crossing
 from nsbench.integrators import _heyoka_model as model
 from nsbench.integrators import _heyoka_symbolic as symbolic
 from nsbench.integrators._carry import reset_velocities
@@ -50,17 +51,6 @@ from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
-_SAMPLES = np.arange(1, 33) / 32.0  # where a fresh guard is sampled in a step, as fractions of the step
-_EXPONENTS = np.arange(128, dtype=float)
-_POWERS: dict[int, np.ndarray] = {}
-
-
-def _sample_powers(size: int) -> np.ndarray:
-    """``_SAMPLES[k] ** j`` for ``j < size``: the samples of a Taylor polynomial as one matrix product."""
-    table = _POWERS.get(size)
-    if table is None:
-        table = _POWERS[size] = _SAMPLES[:, None] ** _EXPONENTS[None, :size]
-    return table
 
 
 def _caps(precision: str) -> Capabilities:
@@ -129,6 +119,7 @@ class HeyokaIntegrator(Integrator):
         self._orders: dict[int, Any] = {}
         self._no_rows = np.empty((problem.n_states, 0))
         self._no_rows.flags.writeable = False
+        self._root = np.zeros(1)  # where _velocity_crossing writes its root
         self._v0 = None if self._symbolic else float(problem.coefficients.v0)
         if self._symbolic:
             self._mode_tas: dict[tuple[int, ...], Any] = {}
@@ -140,6 +131,8 @@ class HeyokaIntegrator(Integrator):
             return
         self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self._model(_SECTION_SLOTS)
+        if self.precision == "double":
+            crossing.warm_up()  # load (or, once per install, compile) the compiled search: not a run's cost
         self._compiled_in_advance = 0.0
 
     def _model(self, n_sections: int):
@@ -588,39 +581,21 @@ class HeyokaIntegrator(Integrator):
     def _velocity_crossing(self, ta, guard, start, t_start: float, t_end: float):
         """:meth:`_first_crossing` of a velocity guard in double, on the Taylor polynomial of the step.
 
-        The same samples, decisions and Illinois refinement, but the guard is evaluated from
-        the step's Taylor coefficients of ``v_i`` (what heyoka's dense output evaluates), the
-        32 samples in one numpy call and the refinement in Python floats, instead of one
+        The same samples, decisions and Illinois refinement, compiled
+        (:func:`nsbench.integrators._heyoka_crossing.velocity_crossing`) on the step's Taylor
+        coefficients of ``v_i`` (what heyoka's dense output evaluates), instead of one
         ``update_d_output`` call and a state copy per evaluation. ``start``: heyoka's
         double-length time where the step started (``t - start`` is the polynomial's variable).
         """
-        sign, v0 = float(guard.expected_sign), self._v0
-        coeffs = ta.tc[2 * guard.block - 1]
-        hi0, lo0 = start
-        ts = t_start + (t_end - t_start) * _SAMPLES
-        # the samples as one product: p(f_k H) = sum_j (f_k^j) (c_j H^j), with f_k^j tabulated once
-        powers = _sample_powers(coeffs.shape[0])
-        gs = (sign * (powers @ (coeffs * ((t_end - hi0) - lo0) ** _EXPONENTS[: coeffs.shape[0]]) - v0)).tolist()
-        terms = coeffs[::-1].tolist()
-
-        def value(t):
-            h, acc = (t - hi0) - lo0, 0.0
-            for c in terms:
-                acc = acc * h + c
-            return sign * (acc - v0)
-
-        lo, g_lo, positive, negative = t_start, 0.0, False, False
-        for t, g in zip(ts.tolist(), gs):
-            if g > 0:
-                lo, g_lo, positive = t, g, True
-            elif positive:
-                return model.illinois(value, lo, g_lo, t, g)
-            negative = negative or g < 0
-        g_end = value(t_end)
-        if positive or g_end > 0:
+        out = self._root
+        found = crossing.velocity_crossing(
+            ta.tc[2 * guard.block - 1], start[0], start[1], t_start, t_end, float(guard.expected_sign), self._v0, out
+        )
+        if found == crossing.ROOT:
+            return float(out[0])
+        if found == crossing.NONE:
             return None
-        negative = negative or g_end < 0
-        return t_start if negative else _ON_SURFACE
+        return t_start if found == crossing.AT_START else _ON_SURFACE
 
     def _first_crossing(self, ta, guard, t_start, t_end):
         """First zero of ``expected_sign * guard`` in ``(t_start, t_end]`` after it turned positive."""

@@ -51,6 +51,7 @@ from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
+_SUCCESS, _TIME_LIMIT = model.hy.taylor_outcome.success, model.hy.taylor_outcome.time_limit
 
 
 def _caps(precision: str) -> Capabilities:
@@ -418,8 +419,8 @@ class HeyokaIntegrator(Integrator):
             (hi, lo), y_fp = ta.dtime, ta.state
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
-        fired, status, message = self._verdict(ta, outcome, fresh_hit, request, t_stop)
-        if outcome == model.hy.taylor_outcome.time_limit and fresh_hit is None:
+        fired, status, message = self._verdict(len(model.GUARD_SLOT) * st.n_blocks, outcome, fresh_hit, request, t_stop)
+        if fresh_hit is None and outcome == _TIME_LIMIT:
             t_stop, t_lo = request.t_end, 0.0
         extra = {"taylor_coefficients": nsteps * self._order(ta)}
         if self._compiled_in_advance:  # a wider model compiled for more sections
@@ -453,10 +454,10 @@ class HeyokaIntegrator(Integrator):
         """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
         fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
         fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
-        outcome = model.hy.taylor_outcome.success
+        outcome = _SUCCESS
         if fresh:
             outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, first_rows)
-        if fresh_hit is None and outcome == model.hy.taylor_outcome.success:
+        if fresh_hit is None and outcome == _SUCCESS:
             if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
                 outcome = model.hy.taylor_outcome.step_limit
             else:
@@ -467,19 +468,19 @@ class HeyokaIntegrator(Integrator):
         return outcome, fresh_hit, c_out, nsteps, first_rows
 
     @staticmethod
-    def _verdict(ta, outcome, fresh_hit, request: ArcRequest, t_stop: float):
-        """``(fired, status, message)`` from heyoka's outcome."""
+    def _verdict(n_events: int, outcome, fresh_hit, request: ArcRequest, t_stop: float):
+        """``(fired, status, message)`` from heyoka's outcome (``n_events``: the model's terminal events)."""
         taylor = model.hy.taylor_outcome
         if fresh_hit is not None:
             return fresh_hit[1], Status.SUCCESS, ""
-        if outcome == taylor.time_limit:
+        if outcome == _TIME_LIMIT:
             return None, Status.SUCCESS, ""
         if outcome == taylor.step_limit:
             return None, Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
         if outcome == taylor.err_nf_state:
             return None, Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
         event = -int(outcome) - 1
-        if 0 <= event < len(ta.t_events):
+        if 0 <= event < n_events:
             fired = model.guard_index(request, event)
             if fired is None:
                 return (
@@ -544,15 +545,17 @@ class HeyokaIntegrator(Integrator):
         pending, best, outcome, steps = list(fresh), None, model.hy.taylor_outcome.success, 0
         # in double, a velocity guard's crossings are found on the step's Taylor coefficients in one pass
         polynomial = self.precision == "double" and any(request.guards[q].kind == "velocity" for q in fresh)
+        pars = ta.pars
         while pending:
             offsets = [st.guard_par(request.guards[q]) + model.GUARD_ACTIVE for q in pending]
             for off in offsets:
-                ta.pars[off] = fp(0.0)
+                pars[off] = fp(0.0)
             t_start, start = ta.time, ta.dtime
             outcome, _ = ta.step(fp(request.t_end) - t_start, write_tc=polynomial)
             steps += 1
             t_end = ta.time
-            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
+            first = int(np.searchsorted(request.t_eval, float(t_start), side="right")) if request.t_eval.size else 0
+            for te in request.t_eval[first:]:
                 if fp(float(te)) > t_end:
                     break
                 dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
@@ -568,8 +571,8 @@ class HeyokaIntegrator(Integrator):
                 elif root is not None and (best is None or root < best[0]):
                     best = (root, q, np.array(ta.update_d_output(root), copy=True))
             for off in offsets:
-                ta.pars[off] = fp(1.0)
-            if best is not None or outcome != model.hy.taylor_outcome.success:
+                pars[off] = fp(1.0)
+            if best is not None or outcome != _SUCCESS:
                 break  # a crossing, an event of another guard, or the arc's end: a guard on its surface is no event
             if on_surface and steps >= self.fresh_steps:  # on its surface for good: the transition decides
                 q = on_surface[0]

@@ -54,6 +54,14 @@ _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see 
 _SUCCESS, _TIME_LIMIT = model.hy.taylor_outcome.success, model.hy.taylor_outcome.time_limit
 
 
+def _any_hits(logs) -> bool:
+    """Whether a section callback recorded a crossing in this arc."""
+    for log in logs:
+        if log.hits:
+            return True
+    return False
+
+
 def _caps(precision: str) -> Capabilities:
     return Capabilities(
         event_location="taylor-root",
@@ -118,6 +126,7 @@ class HeyokaIntegrator(Integrator):
         self._fresh_plan: dict[tuple[int, ...], Any] = {}  # per mode: its mode array and guard kinds
         self._section_logs: dict[int, Any] = {}
         self._orders: dict[int, Any] = {}
+        self._n_states = problem.n_states
         self._no_rows = np.empty((problem.n_states, 0))
         self._no_rows.flags.writeable = False
         self._root = np.zeros(1)  # where _velocity_crossing writes its root
@@ -138,6 +147,8 @@ class HeyokaIntegrator(Integrator):
 
     def _model(self, n_sections: int):
         """The compiled integrator with at least ``n_sections`` section slots."""
+        if n_sections <= _SECTION_SLOTS and _SECTION_SLOTS in self._models:  # every arc of most runs
+            return self._models[_SECTION_SLOTS]
         usable = [n for n in self._models if n >= n_sections]
         if usable:
             return self._models[min(usable)]
@@ -402,7 +413,7 @@ class HeyokaIntegrator(Integrator):
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None
         t0 = self._load(st, ta, request, carried)
-        fp, n, logs = self._fp, problem.n_states, self._logs(ta)
+        fp, n, logs = self._fp, self._n_states, self._logs(ta)
         if request.max_steps <= 0:
             return ArcResult(
                 t=request.t0,
@@ -440,7 +451,7 @@ class HeyokaIntegrator(Integrator):
             y=y_out,
             fired=fired,
             y_eval=y_eval,
-            section_hits=model.section_hits(ta, request, t0, hi, logs) if any(log.hits for log in logs) else [],
+            section_hits=model.section_hits(ta, request, t0, hi, logs) if _any_hits(logs) else [],
             nfev=nsteps,
             njev=0,
             nsteps=nsteps,

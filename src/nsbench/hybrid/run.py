@@ -351,8 +351,8 @@ class _PythonArcs:
         # the fields of every request of the run; the others are set per arc (_make_request)
         self._fixed = {"problem": problem, "t_end": t_end, "sections": self.sections}
         names = {f.name for f in dataclasses.fields(ArcRequest)}
-        if names != set(self._fixed) | {"mode", "t0", "y0", "guards", "t_eval", "max_steps", "t0_lo"}:
-            self._make_request = self._construct  # a field this glue does not know: the constructor
+        known = names == set(self._fixed) | {"mode", "t0", "y0", "guards", "t_eval", "max_steps", "t0_lo"}
+        self._build = self._make_request if known else self._construct  # a field this glue does not know
 
     def _fail(self, si, code: int, message: str) -> None:
         self.message = message
@@ -402,7 +402,7 @@ class _PythonArcs:
         y_in.flags.writeable = False
         i_eval = int(si[abi.SI_IEVAL])
         t_eval = self.t_eval[i_eval:] if self.t_eval.size else self.t_eval
-        request = self._make_request(mode, t, y_in, guards, t_eval, self.max_steps - int(cnt[abi.NSTEPS]), t_lo)
+        request = self._build(mode, t, y_in, guards, t_eval, self.max_steps - int(cnt[abi.NSTEPS]), t_lo)
         tic = time.perf_counter()
         try:
             res = integ.advance(request)

@@ -123,7 +123,7 @@ class HeyokaIntegrator(Integrator):
         self._carry = None  # the last event's state in our precision (see _continued)
         self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._compiled_in_advance = 0.0
-        self._fresh_plan: dict[tuple[int, ...], Any] = {}  # per mode: its mode array and guard kinds
+        self._fresh_plan: dict[tuple, Any] = {}  # per mode and guards: the mode array and the guards' kinds
         self._section_logs: dict[int, Any] = {}
         self._orders: dict[int, Any] = {}
         self._n_states = problem.n_states
@@ -143,6 +143,10 @@ class HeyokaIntegrator(Integrator):
         self._model(_SECTION_SLOTS)
         if self.precision == "double":
             crossing.warm_up()  # load (or, once per install, compile) the compiled search: not a run's cost
+        # the law's guard function as _fresh_guards calls it, loaded (or compiled) here, not in a run
+        self._state = np.array(problem.initial_state(), dtype=float)
+        start = problem.initial_mode(0.0, self._state)
+        problem.law.guard_value(problem.data.p, problem.mode_array(start), 0, 0, 0.0, self._state)
         self._compiled_in_advance = 0.0
 
     def _model(self, n_sections: int):
@@ -510,10 +514,12 @@ class HeyokaIntegrator(Integrator):
         function called directly (about 1 us, against 15 us through :meth:`Guard.value`).
         """
         y0, problem = request.y0, request.problem
-        plan = self._fresh_plan.get(request.mode) if not self._symbolic else None
-        if plan is None:
+        # per mode and guard tuple (the tuple is kept in the plan, so its id is not reused)
+        plan = self._fresh_plan.get((request.mode, id(request.guards))) if not self._symbolic else None
+        if plan is None or plan[0] is not request.guards:
             if not self._symbolic:
-                plan = self._fresh_plan[request.mode] = (
+                plan = self._fresh_plan[(request.mode, id(request.guards))] = (
+                    request.guards,
                     problem.mode_array(request.mode),
                     tuple((g.kind == "velocity", g.code, g.block - 1) for g in request.guards),
                     problem.law.guard_value,
@@ -523,14 +529,17 @@ class HeyokaIntegrator(Integrator):
                 return [
                     q for q, g in enumerate(request.guards) if g.expected_sign * float(g.value(request.t0, y0)) == 0.0
                 ]
-        mode_arr, kinds, law_value, p = plan
-        v0 = self._v0
+        _, mode_arr, kinds, law_value, p = plan
+        v0, y = self._v0, None
         fresh = []
         for q, (velocity, code, i) in enumerate(kinds):
             if velocity:
                 zero = float(y0[2 * i + 1]) == v0
             else:
-                zero = float(law_value(p, mode_arr, code, i, float(request.t0), y0)) == 0.0
+                if y is None:  # one array type for the compiled call (warmed in setup)
+                    y = self._state
+                    y[:] = y0
+                zero = float(law_value(p, mode_arr, code, i, float(request.t0), y)) == 0.0
             if zero:
                 fresh.append(q)
         return fresh

@@ -160,7 +160,15 @@ class HeyokaIntegrator(Integrator):
         if compact is None:
             compact = self.precision == "quad"
         st = model.Structure.of(self._problem, max(n_sections, _SECTION_SLOTS))
-        ta, seconds = model.compiled(st, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        key = (st, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        # kept across setups: a sweep's next value has the same structure, and its coefficients, like
+        # the mode, are runtime parameters (a copy of heyoka's compiled integrator costs milliseconds)
+        own = self.__dict__.setdefault("_own_models", {})
+        if key in own:
+            ta, seconds = own[key], 0.0
+        else:
+            ta, seconds = model.compiled(*key)
+            own[key] = ta
         self.compile_time += seconds  # setup's share lands in setup_time; later ones in extra
         self._compiled_in_advance = getattr(self, "_compiled_in_advance", 0.0) + seconds
         self._models[st.n_sections] = (st, ta)

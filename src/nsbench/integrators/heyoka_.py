@@ -1,7 +1,8 @@
 """``heyoka``, ``heyoka-ld``, ``heyoka-q``: heyoka's adaptive Taylor method in double, long double and quad.
 
 One ``taylor_adaptive`` is compiled per problem structure in :meth:`setup`
-(see :mod:`nsbench.integrators._heyoka_model`); an arc sets the mode, the
+(see :mod:`nsbench.integrators._heyoka_model`) and kept by the integrator across
+setups of problems of that structure (a sweep's values); an arc sets the mode, the
 coefficients and the sections as runtime parameters, the time and the state in
 the integrator's own precision, and propagates to ``t_end``. Guards are
 terminal events located by heyoka on the Taylor polynomial of each step

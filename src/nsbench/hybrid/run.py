@@ -12,6 +12,7 @@ integrator: both come in as objects.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -320,7 +321,13 @@ def low_part(t: float, t_lo: float) -> float:
 
 
 class _PythonArcs:
-    """Runs one arc of an integrator without a compiled kernel and stores its outcome for the loop."""
+    """Runs one arc of an integrator without a compiled kernel and stores its outcome for the loop.
+
+    What it costs beyond the integrator's ``advance`` is nsbench's share of such a run
+    (docs/core.md): the request is filled from fields fixed for the run, the result's
+    checks are scalar Python (no numpy call on the common path: an arc that ends at an
+    event with no dense states and no section hits).
+    """
 
     def __init__(self, problem, integ, sections, t_eval, t_end, max_steps, hit_from, hit_stop) -> None:
         from nsbench.integrators.base import ArcRequest
@@ -328,6 +335,7 @@ class _PythonArcs:
         from nsbench.model import loop
 
         self._request = ArcRequest  # imported once per run, not once per arc
+        self._new = object.__new__
         self._arc_done = loop.P_ARC_DONE
         self._no_states = np.empty((problem.n_states, 0))
         self.problem, self.integ = problem, integ
@@ -337,6 +345,14 @@ class _PythonArcs:
         self.seconds = 0.0
         self.extra: dict[str, float] = {}
         self.message = ""
+        self._guards: dict[tuple[int, ...], tuple] = {}  # per mode, the problem's guards
+        self._modes: dict[tuple[int, ...], tuple[int, ...]] = {}
+        self._ok = Status.SUCCESS
+        # the fields of every request of the run; the others are set per arc (_make_request)
+        self._fixed = {"problem": problem, "t_end": t_end, "sections": self.sections}
+        names = {f.name for f in dataclasses.fields(ArcRequest)}
+        known = names == set(self._fixed) | {"mode", "t0", "y0", "guards", "t_eval", "max_steps", "t0_lo"}
+        self._build = self._make_request if known else self._construct  # a field this glue does not know
 
     def _fail(self, si, code: int, message: str) -> None:
         self.message = message
@@ -347,28 +363,46 @@ class _PythonArcs:
         si[abi.SI_ARC_STATUS] = code
         si[abi.SI_PHASE] = self._arc_done
 
-    def arc(self, rec: Records, st) -> None:
-        problem, integ = self.problem, self.integ
-        y, sf, si, cnt, y_arc = st.y, st.sf, st.si, st.cnt, st.y_arc
-        n = problem.n_states
-        mode = tuple(st.mode.tolist())
-        guards = problem.guards(mode)
-        t, t_lo = float(sf[abi.SF_T]), float(sf[abi.SF_TLO])
-        y_in = y.copy()
-        y_in.flags.writeable = False
-        i_eval = int(si[abi.SI_IEVAL])
-        request = self._request(
-            problem=problem,
+    def _make_request(self, mode, t, y_in, guards, t_eval, max_steps, t_lo):
+        """An :class:`ArcRequest`, its fields set directly (a frozen dataclass's ``__init__`` sets
+        each through ``object.__setattr__``: a few us per arc; this sets the same fields)."""
+        request = self._new(self._request)
+        fields = request.__dict__
+        fields.update(self._fixed)
+        fields["mode"], fields["t0"], fields["y0"], fields["guards"] = mode, t, y_in, guards
+        fields["t_eval"], fields["max_steps"], fields["t0_lo"] = t_eval, max_steps, t_lo
+        return request
+
+    def _construct(self, mode, t, y_in, guards, t_eval, max_steps, t_lo):
+        return self._request(
+            problem=self.problem,
             mode=mode,
             t0=t,
             y0=y_in,
             t_end=self.t_end,
             guards=guards,
             sections=self.sections,
-            t_eval=self.t_eval[i_eval:],
-            max_steps=self.max_steps - int(cnt[abi.NSTEPS]),
+            t_eval=t_eval,
+            max_steps=max_steps,
             t0_lo=t_lo,
         )
+
+    def arc(self, rec: Records, st) -> None:
+        problem, integ = self.problem, self.integ
+        y, sf, si, cnt, y_arc = st.y, st.sf, st.si, st.cnt, st.y_arc
+        n = problem.n_states
+        key = tuple(st.mode.tolist())
+        mode = self._modes.get(key)
+        if mode is None:
+            mode = self._modes[key] = key
+            self._guards[key] = problem.guards(mode)
+        guards = self._guards[mode]
+        t, t_lo = float(sf[abi.SF_T]), float(sf[abi.SF_TLO])
+        y_in = y.copy()
+        y_in.flags.writeable = False
+        i_eval = int(si[abi.SI_IEVAL])
+        t_eval = self.t_eval[i_eval:] if self.t_eval.size else self.t_eval
+        request = self._build(mode, t, y_in, guards, t_eval, self.max_steps - int(cnt[abi.NSTEPS]), t_lo)
         tic = time.perf_counter()
         try:
             res = integ.advance(request)
@@ -386,32 +420,37 @@ class _PythonArcs:
             for key, value in res.extra.items():
                 extra[key] = extra.get(key, 0) + value
         t1 = float(res.t)
-        y1 = np.asarray(res.y, dtype=float).reshape(-1)
+        y1 = res.y
+        if not (type(y1) is np.ndarray and y1.dtype == np.float64 and y1.ndim == 1):
+            y1 = np.asarray(y1, dtype=float).reshape(-1)
         sf[abi.SF_ARC_T], sf[abi.SF_ARC_TLO] = t1, 0.0
-        y_arc[:] = y1 if y1.shape == (n,) else y
-        expected = int(np.searchsorted(request.t_eval, t1, side="right")) if request.t_eval.size else 0
-        y_eval = np.asarray(res.y_eval, dtype=float)
-        if y_eval.size == 0:
-            y_eval = self._no_states
-        if y_eval.ndim != 2 or y_eval.shape[0] != n:
-            return self._fail(
-                si,
-                _PY_FAILURE,
-                (
-                    f"{integ.name} returned y_eval of shape {y_eval.shape}; the protocol wants "
-                    f"(n_states, n_points) = ({n}, {expected})"
-                ),
-            )
-        if res.status.ok and y_eval.shape[1] != expected:
-            return self._fail(
-                si,
-                _PY_FAILURE,
-                (f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"),
-            )
-        k = min(y_eval.shape[1], expected)
-        if k:
-            rec.dense.y[i_eval : i_eval + k] = y_eval[:, :k].T
-            si[abi.SI_IEVAL] = i_eval + k
+        shaped = y1.shape[0] == n
+        y_arc[:] = y1 if shaped else y
+        expected = int(np.searchsorted(t_eval, t1, side="right")) if t_eval.size else 0
+        y_eval = res.y_eval
+        if expected or not (type(y_eval) is np.ndarray and y_eval.size == 0):
+            y_eval = np.asarray(y_eval, dtype=float)
+            if y_eval.size == 0:
+                y_eval = self._no_states
+            if y_eval.ndim != 2 or y_eval.shape[0] != n:
+                return self._fail(
+                    si,
+                    _PY_FAILURE,
+                    (
+                        f"{integ.name} returned y_eval of shape {y_eval.shape}; the protocol wants "
+                        f"(n_states, n_points) = ({n}, {expected})"
+                    ),
+                )
+            if res.status.ok and y_eval.shape[1] != expected:
+                return self._fail(
+                    si,
+                    _PY_FAILURE,
+                    (f"{integ.name} returned {y_eval.shape[1]} dense states for {expected} requested times"),
+                )
+            k = min(y_eval.shape[1], expected)
+            if k:
+                rec.dense.y[i_eval : i_eval + k] = y_eval[:, :k].T
+                si[abi.SI_IEVAL] = i_eval + k
         stop_hit = None
         for hit in res.section_hits:
             if hit.t < self.hit_from:
@@ -424,29 +463,32 @@ class _PythonArcs:
             if 0 <= self.hit_stop <= j + 1:
                 stop_hit = hit
                 break
-        if not res.status.ok:
-            if res.status is Status.BUDGET_EXHAUSTED:
+        status = res.status
+        if status is not self._ok and not status.ok:
+            if status is Status.BUDGET_EXHAUSTED:
                 self.message = res.message
                 return self._done(si, abi.K_BUDGET)
-            return self._fail(si, _PY_FAILURE, res.message or res.status.value)
+            return self._fail(si, _PY_FAILURE, res.message or status.value)
         if stop_hit is not None:
             sf[abi.SF_ARC_T] = float(stop_hit.t)
             y_arc[:] = np.asarray(stop_hit.y, dtype=float)
-            si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(request.t_eval, float(stop_hit.t), side="right"))
+            si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(t_eval, float(stop_hit.t), side="right"))
             return self._done(si, abi.K_HIT_STOP)
-        if not (math.isfinite(t1) and y1.shape == (n,) and np.all(np.isfinite(y1))):
+        if not (math.isfinite(t1) and shaped and all(map(math.isfinite, y1.tolist()))):
             self.message = f"non-finite state at t = {t1}"
             return self._done(si, abi.K_NONFINITE)
         if t1 < t or t1 > self.t_end:
             return self._fail(
                 si, _PY_FAILURE, (f"{integ.name} stopped at t = {t1!r} outside the arc [{t!r}, {self.t_end!r}]")
             )
-        if res.fired is None and t1 < self.t_end:
-            return self._fail(si, _PY_FAILURE, f"{integ.name} stopped at t = {t1!r} < t_end without an event")
-        if res.fired is not None and not 0 <= int(res.fired) < len(guards):
-            return self._fail(si, _PY_FAILURE, f"{integ.name} reported guard {res.fired!r} of {len(guards)}")
+        fired = res.fired
+        if fired is None:
+            if t1 < self.t_end:
+                return self._fail(si, _PY_FAILURE, f"{integ.name} stopped at t = {t1!r} < t_end without an event")
+        elif not 0 <= int(fired) < len(guards):
+            return self._fail(si, _PY_FAILURE, f"{integ.name} reported guard {fired!r} of {len(guards)}")
         sf[abi.SF_ARC_TLO] = low_part(t1, res.t_lo)
-        si[abi.SI_DETAIL] = -1 if res.fired is None else int(res.fired)
+        si[abi.SI_DETAIL] = -1 if fired is None else int(fired)
         return self._done(si, abi.K_OK)
 
 

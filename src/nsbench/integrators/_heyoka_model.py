@@ -235,12 +235,15 @@ def guard_index(request: "ArcRequest", event: int) -> int | None:
     return None
 
 
-def section_hits(ta, request: "ArcRequest", t0, t_stop) -> list[SectionHit]:
-    """Crossings recorded by the section callbacks in ``(t0, t_stop]``, in their direction."""
+def section_hits(ta, request: "ArcRequest", t0, t_stop, logs=None) -> list[SectionHit]:
+    """Crossings recorded by the section callbacks in ``(t0, t_stop]``, in their direction.
+
+    ``logs``: the callbacks of ``ta``'s non-terminal events, if the caller has them at hand.
+    """
     n = request.problem.n_states
     hits = []
-    for ev in ta.nt_events:
-        for slot, t, d_sgn, y in ev.callback.hits:
+    for log in [ev.callback for ev in ta.nt_events] if logs is None else logs:
+        for slot, t, d_sgn, y in log.hits:
             if slot >= len(request.sections) or not (t0 < t <= t_stop) or d_sgn == 0:
                 continue  # starting on a section is not a crossing; touches are not either
             direction = request.sections[slot].direction

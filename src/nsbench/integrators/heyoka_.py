@@ -1,7 +1,8 @@
 """``heyoka``, ``heyoka-ld``, ``heyoka-q``: heyoka's adaptive Taylor method in double, long double and quad.
 
 One ``taylor_adaptive`` is compiled per problem structure in :meth:`setup`
-(see :mod:`nsbench.integrators._heyoka_model`); an arc sets the mode, the
+(see :mod:`nsbench.integrators._heyoka_model`) and kept by the integrator across
+setups of problems of that structure (a sweep's values); an arc sets the mode, the
 coefficients and the sections as runtime parameters, the time and the state in
 the integrator's own precision, and propagates to ``t_end``. Guards are
 terminal events located by heyoka on the Taylor polynomial of each step
@@ -41,6 +42,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
+from nsbench.integrators import _heyoka_crossing as crossing
 from nsbench.integrators import _heyoka_model as model
 from nsbench.integrators import _heyoka_symbolic as symbolic
 from nsbench.integrators._carry import reset_velocities
@@ -50,6 +52,15 @@ from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
+_SUCCESS, _TIME_LIMIT = model.hy.taylor_outcome.success, model.hy.taylor_outcome.time_limit
+
+
+def _any_hits(logs) -> bool:
+    """Whether a section callback recorded a crossing in this arc."""
+    for log in logs:
+        if log.hits:
+            return True
+    return False
 
 
 def _caps(precision: str) -> Capabilities:
@@ -113,6 +124,14 @@ class HeyokaIntegrator(Integrator):
         self._carry = None  # the last event's state in our precision (see _continued)
         self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._compiled_in_advance = 0.0
+        self._fresh_plan: dict[tuple, Any] = {}  # per mode and guards: the mode array and the guards' kinds
+        self._section_logs: dict[int, Any] = {}
+        self._orders: dict[int, Any] = {}
+        self._n_states = problem.n_states
+        self._no_rows = np.empty((problem.n_states, 0))
+        self._no_rows.flags.writeable = False
+        self._root = np.zeros(1)  # where _velocity_crossing writes its root
+        self._v0 = None if self._symbolic else float(problem.coefficients.v0)
         if self._symbolic:
             self._mode_tas: dict[tuple[int, ...], Any] = {}
             # every mode the problem names (else its start mode) now, so that no run compiles or copies one
@@ -123,10 +142,18 @@ class HeyokaIntegrator(Integrator):
             return
         self._coefficients = np.array(model.coefficient_values(problem), dtype=float)
         self._model(_SECTION_SLOTS)
+        if self.precision == "double":
+            crossing.warm_up()  # load (or, once per install, compile) the compiled search: not a run's cost
+        # the law's guard function as _fresh_guards calls it, loaded (or compiled) here, not in a run
+        self._state = np.array(problem.initial_state(), dtype=float)
+        start = problem.initial_mode(0.0, self._state)
+        problem.law.guard_value(problem.data.p, problem.mode_array(start), 0, 0, 0.0, self._state)
         self._compiled_in_advance = 0.0
 
     def _model(self, n_sections: int):
         """The compiled integrator with at least ``n_sections`` section slots."""
+        if n_sections <= _SECTION_SLOTS and _SECTION_SLOTS in self._models:  # every arc of most runs
+            return self._models[_SECTION_SLOTS]
         usable = [n for n in self._models if n >= n_sections]
         if usable:
             return self._models[min(usable)]
@@ -134,7 +161,15 @@ class HeyokaIntegrator(Integrator):
         if compact is None:
             compact = self.precision == "quad"
         st = model.Structure.of(self._problem, max(n_sections, _SECTION_SLOTS))
-        ta, seconds = model.compiled(st, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        key = (st, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        # kept across setups: a sweep's next value has the same structure, and its coefficients, like
+        # the mode, are runtime parameters (a copy of heyoka's compiled integrator costs milliseconds)
+        own = self.__dict__.setdefault("_own_models", {})
+        if key in own:
+            ta, seconds = own[key], 0.0
+        else:
+            ta, seconds = model.compiled(*key)
+            own[key] = ta
         self.compile_time += seconds  # setup's share lands in setup_time; later ones in extra
         self._compiled_in_advance = getattr(self, "_compiled_in_advance", 0.0) + seconds
         self._models[st.n_sections] = (st, ta)
@@ -182,9 +217,15 @@ class HeyokaIntegrator(Integrator):
         """
         if request.sections is not self._pars_sections:
             self._pars_sections, self._pars_cache = request.sections, {}
+        # first by the identity of the guards (the problem hands one tuple per mode; the tuple is
+        # kept in the entry, so its id is not reused), then by what the parameters depend on
+        quick = self._pars_cache.get((id(st), id(request.guards)))
+        if quick is not None and quick[0] is request.guards and quick[1] == request.mode:
+            return quick[2]
         key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards))
         cached = self._pars_cache.get(key)
         if cached is not None:
+            self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
             return cached
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
@@ -201,6 +242,7 @@ class HeyokaIntegrator(Integrator):
             coeffs = off + model.SECTION_COEFFS
             pars[coeffs : coeffs + st.n_mech] = sec.coeffs
         cached = self._pars_cache[key] = pars.astype(self._fp)
+        self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
         return cached
 
     def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
@@ -211,26 +253,44 @@ class HeyokaIntegrator(Integrator):
         """
         fp = self._fp
         ta.pars[:] = self._pars(st, request)
+        logs = self._logs(ta)
+        for log in logs:
+            if log.hits:
+                log.hits.clear()
         if carried is not None:
             ta.dtime = carried[0]
             ta.state[:] = carried[1]
             ta.reset_cooldowns()
-            for ev in ta.nt_events:
-                ev.callback.hits.clear()
             return ta.time
-        state = np.asarray(request.y0, dtype=float).astype(fp)
+        state = request.y0 if fp is float else np.asarray(request.y0, dtype=float).astype(fp)
         # heyoka keeps time as a double-length number: the start t0 + t0_lo is exact.
         ta.dtime = (fp(request.t0), fp(request.t0_lo))
         t0 = ta.time
         if st.forced:
             w = np.array([self._coefficients[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
-            state = np.concatenate([state, np.cos(phase), np.sin(phase)])
-        ta.state[:] = state
+            n = st.n_mech
+            ta.state[:n] = state
+            ta.state[n] = np.cos(phase)[0]
+            ta.state[n + 1] = np.sin(phase)[0]
+        else:
+            ta.state[:] = state
         ta.reset_cooldowns()
-        for ev in ta.nt_events:
-            ev.callback.hits.clear()
         return t0
+
+    def _order(self, ta) -> int:
+        """``ta.order``, looked up once per compiled integrator."""
+        order = self._orders.get(id(ta))
+        if order is None or order[0] is not ta:
+            order = self._orders[id(ta)] = (ta, int(ta.order))
+        return order[1]
+
+    def _logs(self, ta) -> list:
+        """The section callbacks of ``ta`` (:class:`~nsbench.integrators._heyoka_model.SectionLog`), looked up once."""
+        logs = self._section_logs.get(id(ta))
+        if logs is None or logs[0] is not ta:
+            logs = self._section_logs[id(ta)] = (ta, [ev.callback for ev in ta.nt_events])
+        return logs[1]
 
     # -- problems written symbolically (_heyoka_symbolic)
     def _mode_ta(self, mode):
@@ -366,7 +426,7 @@ class HeyokaIntegrator(Integrator):
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None
         t0 = self._load(st, ta, request, carried)
-        fp, n = self._fp, problem.n_states
+        fp, n, logs = self._fp, self._n_states, self._logs(ta)
         if request.max_steps <= 0:
             return ArcResult(
                 t=request.t0,
@@ -383,20 +443,20 @@ class HeyokaIntegrator(Integrator):
             (hi, lo), y_fp = ta.dtime, ta.state
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
-        fired, status, message = self._verdict(ta, outcome, fresh_hit, request, t_stop)
-        if outcome == model.hy.taylor_outcome.time_limit and fresh_hit is None:
+        fired, status, message = self._verdict(len(model.GUARD_SLOT) * st.n_blocks, outcome, fresh_hit, request, t_stop)
+        if fresh_hit is None and outcome == _TIME_LIMIT:
             t_stop, t_lo = request.t_end, 0.0
-        extra = {"taylor_coefficients": nsteps * int(ta.order)}
+        extra = {"taylor_coefficients": nsteps * self._order(ta)}
         if self._compiled_in_advance:  # a wider model compiled for more sections
             extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
-        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
+        n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok and request.t_eval.size else 0
         rows = first_rows[:n_eval]
         if len(rows) < n_eval and c_out is not None:
             times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
             rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
-        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
-        y_out = np.asarray(y_fp[:n]).astype(float)
+        y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else self._no_rows
+        y_out = np.array(y_fp[:n], dtype=float)
         if self.precision != "double" and status.ok:
             self._keep(request, fired, t_stop, t_lo, y_out, (hi, lo), y_fp)
         return ArcResult(
@@ -404,7 +464,7 @@ class HeyokaIntegrator(Integrator):
             y=y_out,
             fired=fired,
             y_eval=y_eval,
-            section_hits=model.section_hits(ta, request, t0, hi),
+            section_hits=model.section_hits(ta, request, t0, hi, logs) if _any_hits(logs) else [],
             nfev=nsteps,
             njev=0,
             nsteps=nsteps,
@@ -418,10 +478,10 @@ class HeyokaIntegrator(Integrator):
         """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
         fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
         fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
-        outcome = model.hy.taylor_outcome.success
+        outcome = _SUCCESS
         if fresh:
             outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, first_rows)
-        if fresh_hit is None and outcome == model.hy.taylor_outcome.success:
+        if fresh_hit is None and outcome == _SUCCESS:
             if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
                 outcome = model.hy.taylor_outcome.step_limit
             else:
@@ -432,19 +492,19 @@ class HeyokaIntegrator(Integrator):
         return outcome, fresh_hit, c_out, nsteps, first_rows
 
     @staticmethod
-    def _verdict(ta, outcome, fresh_hit, request: ArcRequest, t_stop: float):
-        """``(fired, status, message)`` from heyoka's outcome."""
+    def _verdict(n_events: int, outcome, fresh_hit, request: ArcRequest, t_stop: float):
+        """``(fired, status, message)`` from heyoka's outcome (``n_events``: the model's terminal events)."""
         taylor = model.hy.taylor_outcome
         if fresh_hit is not None:
             return fresh_hit[1], Status.SUCCESS, ""
-        if outcome == taylor.time_limit:
+        if outcome == _TIME_LIMIT:
             return None, Status.SUCCESS, ""
         if outcome == taylor.step_limit:
             return None, Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
         if outcome == taylor.err_nf_state:
             return None, Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
         event = -int(outcome) - 1
-        if 0 <= event < len(ta.t_events):
+        if 0 <= event < n_events:
             fired = model.guard_index(request, event)
             if fired is None:
                 return (
@@ -455,21 +515,40 @@ class HeyokaIntegrator(Integrator):
             return fired, Status.SUCCESS, ""
         return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
 
-    @staticmethod
-    def _fresh_guards(request: ArcRequest) -> list[int]:
+    def _fresh_guards(self, request: ArcRequest) -> list[int]:
         """Guards exactly zero at the start: the phase starts on its own surface.
 
-        A velocity guard ``v_i - v0`` is zero exactly when ``v_i == v0``: read from the state,
-        without a call through the problem's guard functions per guard and arc.
+        A velocity guard ``v_i - v0`` is zero exactly when ``v_i == v0``: read from the state.
+        The friction family's other guards are evaluated by the problem's compiled guard
+        function called directly (about 1 us, against 15 us through :meth:`Guard.value`).
         """
-        y0, v0 = request.y0, None
-        fresh = []
-        for q, g in enumerate(request.guards):
-            if g.kind == "velocity":
-                v0 = float(request.problem.v0) if v0 is None else v0
-                zero = float(y0[2 * g.block - 1]) == v0
+        y0, problem = request.y0, request.problem
+        # per mode and guard tuple (the tuple is kept in the plan, so its id is not reused)
+        plan = self._fresh_plan.get((request.mode, id(request.guards))) if not self._symbolic else None
+        if plan is None or plan[0] is not request.guards:
+            if not self._symbolic:
+                plan = self._fresh_plan[(request.mode, id(request.guards))] = (
+                    request.guards,
+                    problem.mode_array(request.mode),
+                    tuple((g.kind == "velocity", g.code, g.block - 1) for g in request.guards),
+                    problem.law.guard_value,
+                    problem.data.p,
+                )
             else:
-                zero = g.expected_sign * float(g.value(request.t0, y0)) == 0.0
+                return [
+                    q for q, g in enumerate(request.guards) if g.expected_sign * float(g.value(request.t0, y0)) == 0.0
+                ]
+        _, mode_arr, kinds, law_value, p = plan
+        v0, y = self._v0, None
+        fresh = []
+        for q, (velocity, code, i) in enumerate(kinds):
+            if velocity:
+                zero = float(y0[2 * i + 1]) == v0
+            else:
+                if y is None:  # one array type for the compiled call (warmed in setup)
+                    y = self._state
+                    y[:] = y0
+                zero = float(law_value(p, mode_arr, code, i, float(request.t0), y)) == 0.0
             if zero:
                 fresh.append(q)
         return fresh
@@ -493,28 +572,36 @@ class HeyokaIntegrator(Integrator):
         """
         fp = self._fp
         pending, best, outcome, steps = list(fresh), None, model.hy.taylor_outcome.success, 0
+        # in double, a velocity guard's crossings are found on the step's Taylor coefficients in one pass
+        polynomial = self.precision == "double" and any(request.guards[q].kind == "velocity" for q in fresh)
+        pars = ta.pars
         while pending:
             offsets = [st.guard_par(request.guards[q]) + model.GUARD_ACTIVE for q in pending]
             for off in offsets:
-                ta.pars[off] = fp(0.0)
-            t_start = ta.time
-            outcome, _ = ta.step(fp(request.t_end) - t_start)
+                pars[off] = fp(0.0)
+            t_start, start = ta.time, ta.dtime
+            outcome, _ = ta.step(fp(request.t_end) - t_start, write_tc=polynomial)
             steps += 1
             t_end = ta.time
-            for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
+            first = int(np.searchsorted(request.t_eval, float(t_start), side="right")) if request.t_eval.size else 0
+            for te in request.t_eval[first:]:
                 if fp(float(te)) > t_end:
                     break
                 dense_rows.append(np.array(ta.update_d_output(fp(float(te))), copy=True))
             on_surface = []
             for q in pending:
-                root = self._first_crossing(ta, request.guards[q], t_start, t_end)
+                guard = request.guards[q]
+                if polynomial and guard.kind == "velocity":
+                    root = self._velocity_crossing(ta, guard, start, t_start, t_end)
+                else:
+                    root = self._first_crossing(ta, guard, t_start, t_end)
                 if root is _ON_SURFACE:
                     on_surface.append(q)
                 elif root is not None and (best is None or root < best[0]):
                     best = (root, q, np.array(ta.update_d_output(root), copy=True))
             for off in offsets:
-                ta.pars[off] = fp(1.0)
-            if best is not None or outcome != model.hy.taylor_outcome.success:
+                pars[off] = fp(1.0)
+            if best is not None or outcome != _SUCCESS:
                 break  # a crossing, an event of another guard, or the arc's end: a guard on its surface is no event
             if on_surface and steps >= self.fresh_steps:  # on its surface for good: the transition decides
                 q = on_surface[0]
@@ -522,6 +609,25 @@ class HeyokaIntegrator(Integrator):
                 break
             pending = on_surface
         return outcome, best, steps
+
+    def _velocity_crossing(self, ta, guard, start, t_start: float, t_end: float):
+        """:meth:`_first_crossing` of a velocity guard in double, on the Taylor polynomial of the step.
+
+        The same samples, decisions and Illinois refinement, compiled
+        (:func:`nsbench.integrators._heyoka_crossing.velocity_crossing`) on the step's Taylor
+        coefficients of ``v_i`` (what heyoka's dense output evaluates), instead of one
+        ``update_d_output`` call and a state copy per evaluation. ``start``: heyoka's
+        double-length time where the step started (``t - start`` is the polynomial's variable).
+        """
+        out = self._root
+        found = crossing.velocity_crossing(
+            ta.tc[2 * guard.block - 1], start[0], start[1], t_start, t_end, float(guard.expected_sign), self._v0, out
+        )
+        if found == crossing.ROOT:
+            return float(out[0])
+        if found == crossing.NONE:
+            return None
+        return t_start if found == crossing.AT_START else _ON_SURFACE
 
     def _first_crossing(self, ta, guard, t_start, t_end):
         """First zero of ``expected_sign * guard`` in ``(t_start, t_end]`` after it turned positive."""

@@ -1,0 +1,120 @@
+"""nsbench's share of the integrators without a compiled arc kernel, and heyoka's sweep cost against exact's.
+
+``test_python_arc_share``: ``nsbench.simulate`` on the 2-DOF case 1 over ``tau`` in
+[0, 3000] (scaled by ``NSBENCH_BENCH_T_END``) with each integrator whose arcs run in
+Python (``heyoka``, the SUNDIALS and the scipy methods): the compiled loop returns to
+Python once per arc and ``_PythonArcs.arc`` runs the integrator's ``advance``. Figures
+in ``extra_info``:
+
+``outside_advance_us_per_event``
+    ``(wall_time - integrator_time) / events``: nsbench's share (the arc's protocol, the
+    loop's re-entry and its work per event); the goal (issue 29): at most 5 us;
+``wall_us_per_event``
+    the run's wall time per event.
+
+``test_heyoka_sweep_value_against_exact``: whole values of the sweep
+``two-dof --case 1 --sweep v0=0.04:0.22:1000 --transient 1500 --record 100``
+(``compute_point``, every 50th value), ``heyoka`` and ``exact`` interleaved in one
+process; ``heyoka_over_exact`` is the median of the per-round ratios (the goal: the
+sweep with ``heyoka`` within 4x of ``exact``'s).
+
+Warm runs only (an untimed first run compiles and loads). Speed is recorded and
+compared with ``benchmarks/baseline.json``, never asserted.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import pytest
+
+import nsbench
+from nsbench.bench.pytest_bench import bench_span
+from nsbench.integrators import get_integrator
+
+SPAN = bench_span(3000.0)
+ROUNDS = 5
+PYTHON_ARCS = (
+    "heyoka",
+    "cvode-adams",
+    "cvode-bdf",
+    "ida",
+    "scipy-dop853",
+    "scipy-rk45",
+    "scipy-radau",
+    "scipy-bdf",
+    "scipy-lsoda",
+)
+
+
+@pytest.mark.parametrize("name", PYTHON_ARCS)
+def test_python_arc_share(benchmark, request, nsbench_baseline, name):
+    problem = nsbench.get_problem("two-dof", case=1)
+    integ = get_integrator(name)
+    nsbench.simulate(problem, integ, min(SPAN, 50.0))  # set up, compile, load
+    runs = []
+
+    def run():
+        res = nsbench.simulate(problem, integ, SPAN)
+        runs.append(res)
+        return res
+
+    benchmark.pedantic(run, rounds=ROUNDS, iterations=1)
+    assert all(r.ok for r in runs), runs[-1].message
+    events = max(len(runs[-1].events), 1)
+    outside = statistics.median((r.wall_time - r.integrator_time) / events for r in runs)
+    wall = statistics.median(r.wall_time for r in runs)
+    figures = {
+        "wall_s": wall,
+        "events": events,
+        "outside_advance_us_per_event": 1e6 * outside,
+        "wall_us_per_event": 1e6 * wall / events,
+    }
+    benchmark.extra_info.update(integrator=name, problem="two-dof/1", t_end=SPAN, rounds=ROUNDS)
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "outside_advance_us_per_event",
+        {"t_end": SPAN},
+        label=f"{name} 2-DOF case 1 [0, {SPAN:g}]: {1e6 * outside:.1f} us/event outside advance",
+    )
+
+
+def test_heyoka_sweep_value_against_exact(benchmark, request, nsbench_baseline):
+    from nsbench.bifurcation.sweep import SweepSpec, compute_point
+
+    names = ("exact", "heyoka")
+    integs = {n: get_integrator(n) for n in names}
+    specs = {
+        n: SweepSpec(problem="two-dof", case=1, name="v0", start=0.04, stop=0.22, count=1000, integrator=n)
+        for n in names
+    }
+    for n in names:
+        compute_point(specs[n], 0, integs[n])  # set up, compile, load
+    per_value: dict[str, list[float]] = {n: [] for n in names}
+
+    def one_round():
+        for n in names if len(per_value["exact"]) % 2 == 0 else names[::-1]:
+            tic = time.perf_counter()
+            for i in range(0, 1000, 50):
+                compute_point(specs[n], i, integs[n])
+            per_value[n].append((time.perf_counter() - tic) / 20)
+
+    benchmark.pedantic(one_round, rounds=4, iterations=1)
+    ratios = [h / e for h, e in zip(per_value["heyoka"], per_value["exact"])]
+    figures = {
+        "exact_ms_per_value": 1e3 * statistics.median(per_value["exact"]),
+        "heyoka_ms_per_value": 1e3 * statistics.median(per_value["heyoka"]),
+        "heyoka_over_exact": statistics.median(ratios),
+    }
+    benchmark.extra_info.update(problem="two-dof/1", values="0:1000:50", rounds=4)
+    nsbench_baseline.record(
+        request,
+        benchmark,
+        figures,
+        "heyoka_over_exact",
+        {},
+        label=f"sweep value, heyoka over exact: {statistics.median(ratios):.2f}",
+    )

@@ -25,6 +25,14 @@ def _plt():
     return plt
 
 
+def preload() -> None:
+    """Import matplotlib in a background thread (a command that draws after a long computation
+    imports it while its workers compute, not afterwards; the import takes a third of a second)."""
+    import threading
+
+    threading.Thread(target=_plt, name="nsbench-import-matplotlib", daemon=True).start()
+
+
 def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100) -> list[Path]:
     """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths.
 

@@ -26,9 +26,11 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Callable
 
 from nsbench.bifurcation.sweep import (
+    Columns,
     SweepSpec,
     failure_columns,
     first_index,
+    join_columns,
     point_columns,
     rows_frame,
 )
@@ -155,12 +157,12 @@ def supervise(
     parts: list[list[int]],
     point_limit: float | None,
     setup_limit: float | None,
-    write: Callable[[pd.DataFrame], Any],
+    write: Callable[[Columns], Any],
     advance: Callable[[int], Any] = lambda n: None,
 ) -> None:
     """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
 
-    ``write`` receives the rows of each chunk as it ends (and, after an
+    ``write`` receives the rows of each chunk as it ends, as columns (and, after an
     interruption, every row received), ``advance`` the number of values done.
     A value that runs past ``point_limit``, crashes its process or raises is
     stored as one row with that status and reason, and the rest of its chunk
@@ -204,11 +206,11 @@ def supervise(
                     rows += [failure_columns(spec, i, status, reason) for i in rest]
                     advance(len(rest))
             if rows:
-                write(rows_frame(rows))
+                write(join_columns(rows))
     finally:  # an interrupted run keeps every value received
         for rows in got.values():
             if rows:
-                write(rows_frame(rows))
+                write(join_columns(rows))
 
 
 #: Per worker process: the integrator of the last sweep, set up and run once (compiled code loaded).
@@ -455,7 +457,7 @@ def dask_chunk(
         pool = _DASK_POOLS.pool = JobPool(1)
         _DASK_POOLS.components = components
         atexit.register(pool.close)
-    rows: list[pd.DataFrame] = []
+    rows: list[Columns] = []
     spec = SweepSpec.from_dict(spec_dict)
     try:
         supervise(pool, spec, [list(indices)], point_limit, setup_limit, rows.append)

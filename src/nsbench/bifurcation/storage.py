@@ -33,7 +33,7 @@ from typing import TextIO
 import numpy as np
 import pandas as pd
 
-from nsbench.bifurcation.sweep import SweepSpec, column_kinds, counter_columns
+from nsbench.bifurcation.sweep import Columns, SweepSpec, column_kinds, counter_columns
 from nsbench.errors import ConfigError
 from nsbench.files import STALE_AFTER, refuse_links, remove_stale_temporaries, write_atomic
 
@@ -116,11 +116,16 @@ class SweepStore:
         cols = self.columns
         return tuple(cols[cols.index("t") + 1 : cols.index("event_block")])
 
-    def write(self, frame: pd.DataFrame) -> Path:
-        """Store the rows of some finished parameter values (one chunk file, named by what it holds)."""
+    def write(self, frame: "pd.DataFrame | Columns") -> Path:
+        """Store the rows of some finished parameter values (one chunk file, named by what it holds).
+
+        ``frame``: a table, or columns as a sweep's workers send them
+        (:func:`~nsbench.bifurcation.sweep.join_columns`), written without a pandas table.
+        """
         data = _parquet_bytes(frame, self.columns)
-        first, last = int(frame["index"].min()), int(frame["index"].max())
-        name = f"chunk-{first:06d}-{last:06d}-n{len(frame)}-{_digest(data)}-s{self.spec_key}.parquet"
+        index = np.asarray(frame["index"])
+        first, last, rows = int(index.min()), int(index.max()), len(index)
+        name = f"chunk-{first:06d}-{last:06d}-n{rows}-{_digest(data)}-s{self.spec_key}.parquet"
         return write_atomic(self.points_dir / name, data)
 
     def _files(self) -> list[Path]:
@@ -245,18 +250,21 @@ _CHUNK = re.compile(
 _ARROW_KINDS = {"int": ("int64",), "float": ("double",), "text": ("string", "large_string")}
 
 
-def _parquet_bytes(frame: pd.DataFrame, columns: tuple[str, ...]) -> bytes:
-    """The rows as one Parquet file, each column of its kind's type (the types survive the file)."""
+def _parquet_bytes(frame: "pd.DataFrame | Columns", columns: tuple[str, ...]) -> bytes:
+    """The rows (a table, or columns) as one Parquet file, each column of its kind's type (the types
+    survive the file)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     kinds = column_kinds(columns)
     arrays = []
     for c, kind in kinds.items():
+        values = frame[c]
         if kind == "text":
-            arrays.append(pa.Array.from_pandas(frame[c].astype(str)).cast(pa.large_string()))
+            texts = [str(v) for v in values] if isinstance(values, list) else values.astype(str)
+            arrays.append(pa.array(texts, type=pa.large_string()))
         else:
-            arrays.append(pa.array(frame[c].to_numpy(dtype="int64" if kind == "int" else "float64")))
+            arrays.append(pa.array(np.asarray(values, dtype="int64" if kind == "int" else "float64")))
     sink = pa.BufferOutputStream()
     pq.write_table(pa.Table.from_arrays(arrays, names=list(kinds)), sink)
     return sink.getvalue().to_pybytes()

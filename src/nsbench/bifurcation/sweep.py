@@ -298,23 +298,27 @@ def _columns(
     return data
 
 
+def join_columns(parts: "list[Columns | pd.DataFrame]") -> Columns:
+    """The columns of several values (from :func:`point_columns`, or tables) as one set of columns."""
+    if not parts:
+        raise ValueError("no rows to join")
+    cols = [p if isinstance(p, dict) else {c: p[c].to_numpy() for c in p.columns} for p in parts]
+    data: Columns = {}
+    for c in cols[0]:
+        if isinstance(cols[0][c], list):
+            data[c] = [v for part in cols for v in part[c]]
+        else:
+            data[c] = np.concatenate([np.asarray(part[c]) for part in cols])
+    return data
+
+
 def rows_frame(parts: "list[Columns | pd.DataFrame]") -> pd.DataFrame:
     """One table of the rows of several values (columns from :func:`point_columns`, or tables)."""
     import pandas as pd
 
-    if not parts:
-        raise ValueError("no rows to join")
-    if not any(isinstance(p, dict) for p in parts):
+    if parts and not any(isinstance(p, dict) for p in parts):
         return pd.concat(parts, ignore_index=True)
-    cols = [p if isinstance(p, dict) else {c: p[c].to_numpy() for c in p.columns} for p in parts]
-    data: dict[str, Any] = {}
-    for c in cols[0]:
-        first = cols[0][c]
-        if isinstance(first, list):
-            data[c] = [v for part in cols for v in part[c]]
-        else:
-            data[c] = np.concatenate([np.asarray(part[c]) for part in cols])
-    return pd.DataFrame(data)
+    return pd.DataFrame(join_columns(parts))
 
 
 def first_index(part: "Columns | pd.DataFrame") -> int:

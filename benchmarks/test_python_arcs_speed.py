@@ -10,7 +10,13 @@ in ``extra_info``:
     ``(wall_time - integrator_time) / events``: nsbench's share (the arc's protocol, the
     loop's re-entry and its work per event); the goal (issue 29): at most 5 us;
 ``wall_us_per_event``
-    the run's wall time per event.
+    the run's wall time per event;
+``replayed_us_per_event``
+    the same share with the integrator's own work taken out: its results of one run
+    are recorded and handed back, arc by arc, to the same run made again (the events
+    are checked to be the same). What is left is nsbench's own cost per event on warm
+    caches; the difference to ``outside_advance_us_per_event`` is what the integrator's
+    work between two arcs costs the glue in cache refills (docs/core.md).
 
 ``test_heyoka_sweep_value_against_exact``: whole values of the sweep
 ``two-dof --case 1 --sweep v0=0.04:0.22:1000 --transient 1500 --record 100``
@@ -65,11 +71,13 @@ def test_python_arc_share(benchmark, request, nsbench_baseline, name):
     events = max(len(runs[-1].events), 1)
     outside = statistics.median((r.wall_time - r.integrator_time) / events for r in runs)
     wall = statistics.median(r.wall_time for r in runs)
+    replayed = _replayed(problem, name, runs[-1])
     figures = {
         "wall_s": wall,
         "events": events,
         "outside_advance_us_per_event": 1e6 * outside,
         "wall_us_per_event": 1e6 * wall / events,
+        "replayed_us_per_event": 1e6 * replayed / events,
     }
     benchmark.extra_info.update(integrator=name, problem="two-dof/1", t_end=SPAN, rounds=ROUNDS)
     nsbench_baseline.record(
@@ -80,6 +88,32 @@ def test_python_arc_share(benchmark, request, nsbench_baseline, name):
         {"t_end": SPAN},
         label=f"{name} 2-DOF case 1 [0, {SPAN:g}]: {1e6 * outside:.1f} us/event outside advance",
     )
+
+
+def _replayed(problem, name: str, run) -> float:
+    """nsbench's share of ``run`` per run with the integrator's results replayed (median of ROUNDS runs)."""
+    integ = get_integrator(name)
+    advance, results = integ.advance, []
+
+    def record(arc_request):
+        results.append(advance(arc_request))
+        return results[-1]
+
+    integ.advance = record
+    nsbench.simulate(problem, integ, SPAN)
+    position = iter(())
+
+    def replay(arc_request):
+        return next(position)
+
+    integ.advance = replay
+    shares = []
+    for _ in range(ROUNDS):
+        position = iter(results)
+        res = nsbench.simulate(problem, integ, SPAN)
+        assert res.events.t.equals(run.events.t), "the replayed run must be the run"
+        shares.append(res.wall_time - res.integrator_time)
+    return statistics.median(shares)
 
 
 def test_heyoka_sweep_value_against_exact(benchmark, request, nsbench_baseline):

@@ -12,6 +12,7 @@ integrator: both come in as objects.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
@@ -20,7 +21,8 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from nsbench.model import abi
+from nsbench.model import abi, callback
+from nsbench.model.callback import ARC_STORED, ARC_STORED_REENTER
 from nsbench.model.records import Records
 from nsbench.results import Counters
 from nsbench.status import Status
@@ -179,25 +181,25 @@ def run_hybrid(
     )
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
-    py = _PythonArcs(problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop))
-    call = loop.hybrid_loop  # numba's dispatch; for arcs in Python, the resolved entry point (below)
-    while True:
-        args = (table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
-        code = call(*args)
-        if code == loop.R_DONE:
-            break
-        if code == loop.R_GROW_EVENTS:
-            rec.grow_events(int(st.si[abi.SI_RECORDED]))
-        elif code == loop.R_GROW_HITS:
-            rec.grow_hits(int(st.si[abi.SI_NHITS]))
-        elif code == loop.R_NEED_MODE:
-            tic = time.perf_counter()
-            kd = kernel.prepare_mode(mode_arr.copy())
-            prepare_time += time.perf_counter() - tic
-        else:  # R_NEED_ARC
-            if call is loop.hybrid_loop:  # one re-entry per arc from here on: skip the type dispatch
-                call = _entry_point(loop.hybrid_loop, args)
-            py.arc(rec, st)
+    py = _PythonArcs(
+        problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop), rec, st
+    )
+    with callback.running(py) if kernel is None else contextlib.nullcontext():
+        while True:
+            code = loop.hybrid_loop(table, kd, fo, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
+            if code == loop.R_DONE:
+                break
+            if code == loop.R_GROW_EVENTS:
+                rec.grow_events(int(st.si[abi.SI_RECORDED]))
+            elif code == loop.R_GROW_HITS:
+                rec.grow_hits(int(st.si[abi.SI_NHITS]))
+            elif code == loop.R_NEED_MODE:
+                tic = time.perf_counter()
+                kd = kernel.prepare_mode(mode_arr.copy())
+                prepare_time += time.perf_counter() - tic
+            # R_RESUME: an arc run in Python grew a buffer; the loop resumes with the new one
+    if kernel is None:
+        py.counters_into(st.cnt)
     status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
     cnt, si = st.cnt, st.si
     counters = Counters(
@@ -231,23 +233,6 @@ def run_hybrid(
         start_mode=start_mode,
         prepare_time=prepare_time,
     )
-
-
-def _entry_point(dispatcher: Any, args: tuple) -> Any:
-    """``dispatcher``'s compiled function for the types of ``args`` (compiled for them already).
-
-    Calling it skips numba's type dispatch, which types each of the loop's bundles of
-    arrays again at every call: about 15-50 us, more than the rest of a Python arc's
-    glue, paid once per arc by integrators without a compiled kernel. The buffers a run
-    grows are new arrays of the same types, so the types of ``args`` hold for the run.
-    Resolving costs more than one dispatch (numba's Python-level typing), so runs whose
-    arcs are compiled, which re-enter only a few times, never resolve.
-    Without a compiled form (numba's JIT disabled) ``dispatcher`` itself.
-    """
-    try:
-        return dispatcher.get_overload(tuple(dispatcher.typeof_pyval(a) for a in args))
-    except (AttributeError, KeyError):
-        return dispatcher
 
 
 def section_bundle(sections, n: int, hit_from: float = -math.inf, hit_stop: int = -1) -> abi.Sections:
@@ -323,13 +308,16 @@ def low_part(t: float, t_lo: float) -> float:
 class _PythonArcs:
     """Runs one arc of an integrator without a compiled kernel and stores its outcome for the loop.
 
-    What it costs beyond the integrator's ``advance`` is nsbench's share of such a run
-    (docs/core.md): the request is filled from fields fixed for the run, the result's
-    checks are scalar Python (no numpy call on the common path: an arc that ends at an
-    event with no dense states and no section hits).
+    The compiled loop calls it back (:mod:`nsbench.model.callback`) once per arc. What
+    it costs beyond the integrator's ``advance`` is nsbench's share of such a run
+    (docs/core.md), so the common arc takes a short path: the request's fields are set
+    directly, the counters are kept as Python integers, and the result, checked with a
+    few scalar comparisons, is written into the run's arrays (the loop checks that the
+    state is finite). Any other result (a failure, section hits, a shape or a time
+    outside the protocol) goes through :meth:`_checked`, which names what is wrong.
     """
 
-    def __init__(self, problem, integ, sections, t_eval, t_end, max_steps, hit_from, hit_stop) -> None:
+    def __init__(self, problem, integ, sections, t_eval, t_end, max_steps, hit_from, hit_stop, rec, st) -> None:
         from nsbench.integrators.base import ArcRequest
 
         from nsbench.model import loop
@@ -338,15 +326,18 @@ class _PythonArcs:
         self._new = object.__new__
         self._arc_done = loop.P_ARC_DONE
         self._no_states = np.empty((problem.n_states, 0))
-        self.problem, self.integ = problem, integ
+        self.problem, self.integ, self.rec, self.st = problem, integ, rec, st
+        self._advance = integ.advance
+        self._n = problem.n_states
+        self._shape = (problem.n_states,)
         self.sections = tuple(sections)
         self.t_eval, self.t_end, self.max_steps = t_eval, t_end, max_steps
         self.hit_from, self.hit_stop = hit_from, hit_stop
         self.seconds = 0.0
+        self.nfev = self.njev = self.nsteps = 0
         self.extra: dict[str, float] = {}
         self.message = ""
-        self._guards: dict[tuple[int, ...], tuple] = {}  # per mode, the problem's guards
-        self._modes: dict[tuple[int, ...], tuple[int, ...]] = {}
+        self._by_mode: dict[bytes, tuple[tuple[int, ...], tuple]] = {}  # per mode: its tuple and its guards
         self._ok = Status.SUCCESS
         # the fields of every request of the run; the others are set per arc (_make_request)
         self._fixed = {"problem": problem, "t_end": t_end, "sections": self.sections}
@@ -354,14 +345,14 @@ class _PythonArcs:
         known = names == set(self._fixed) | {"mode", "t0", "y0", "guards", "t_eval", "max_steps", "t0_lo"}
         self._build = self._make_request if known else self._construct  # a field this glue does not know
 
-    def _fail(self, si, code: int, message: str) -> None:
+    def _fail(self, si, code: int, message: str) -> int:
         self.message = message
-        si[abi.SI_ARC_STATUS] = code
-        si[abi.SI_PHASE] = self._arc_done
+        return self._done(si, code)
 
-    def _done(self, si, code: int) -> None:
+    def _done(self, si, code: int) -> int:
         si[abi.SI_ARC_STATUS] = code
         si[abi.SI_PHASE] = self._arc_done
+        return ARC_STORED
 
     def _make_request(self, mode, t, y_in, guards, t_eval, max_steps, t_lo):
         """An :class:`ArcRequest`, its fields set directly (a frozen dataclass's ``__init__`` sets
@@ -387,38 +378,86 @@ class _PythonArcs:
             t0_lo=t_lo,
         )
 
-    def arc(self, rec: Records, st) -> None:
-        problem, integ = self.problem, self.integ
-        y, sf, si, cnt, y_arc = st.y, st.sf, st.si, st.cnt, st.y_arc
-        n = problem.n_states
-        key = tuple(st.mode.tolist())
-        mode = self._modes.get(key)
-        if mode is None:
-            mode = self._modes[key] = key
-            self._guards[key] = problem.guards(mode)
-        guards = self._guards[mode]
-        t, t_lo = float(sf[abi.SF_T]), float(sf[abi.SF_TLO])
-        y_in = y.copy()
-        y_in.flags.writeable = False
+    def _mode(self, key: bytes) -> tuple[tuple[int, ...], tuple]:
+        mode = tuple(self.st.mode.tolist())
+        entry = self._by_mode[key] = (mode, self.problem.guards(mode))
+        return entry
+
+    def counters_into(self, cnt: np.ndarray) -> None:
+        """Add the run's evaluation counters to the loop's (steps are kept there arc by arc)."""
+        cnt[abi.NFEV] += self.nfev
+        cnt[abi.NJEV] += self.njev
+
+    def __call__(self) -> int:
+        """Run the current arc (called from the compiled loop); :data:`ARC_STORED` or, when a record
+        buffer was replaced, :data:`ARC_STORED_REENTER`."""
+        st = self.st
+        key = st.mode.tobytes()
+        entry = self._by_mode.get(key)
+        mode, guards = self._mode(key) if entry is None else entry
+        sf, si = st.sf, st.si
+        times = sf.tolist()
+        t, t_lo = times[abi.SF_T], times[abi.SF_TLO]
         i_eval = int(si[abi.SI_IEVAL])
-        t_eval = self.t_eval[i_eval:] if self.t_eval.size else self.t_eval
-        request = self._build(mode, t, y_in, guards, t_eval, self.max_steps - int(cnt[abi.NSTEPS]), t_lo)
+        t_eval = self.t_eval[i_eval:] if i_eval else self.t_eval
+        y_in = np.frombuffer(st.y.tobytes())  # a read-only copy
+        request = self._build(mode, t, y_in, guards, t_eval, self.max_steps - self.nsteps, t_lo)
         tic = time.perf_counter()
         try:
-            res = integ.advance(request)
+            res = self._advance(request)
         except Exception as exc:  # a protocol violation by the integrator: keep what we have
             self.seconds += time.perf_counter() - tic
             sf[abi.SF_ARC_T] = t
-            y_arc[:] = y
+            st.y_arc[:] = st.y
             return self._fail(si, _PY_FAILURE, f"{type(exc).__name__}: {exc}")
         self.seconds += time.perf_counter() - tic
-        cnt[abi.NFEV] += int(res.nfev)
-        cnt[abi.NJEV] += int(res.njev)
-        cnt[abi.NSTEPS] += int(res.nsteps)
+        try:
+            self.nfev += res.nfev
+            self.njev += res.njev
+            self.nsteps = steps = self.nsteps + res.nsteps
+            st.cnt[abi.NSTEPS] = steps
+        except (TypeError, ValueError, OverflowError):
+            return self._fail(
+                si,
+                _PY_FAILURE,
+                f"{self.integ.name} returned counters that are not integers: {res.nfev!r}, {res.njev!r}, {res.nsteps!r}",
+            )
         if res.extra:
             extra = self.extra
-            for key, value in res.extra.items():
-                extra[key] = extra.get(key, 0) + value
+            for name, value in res.extra.items():
+                extra[name] = extra.get(name, 0) + value
+        # The common arc: it ended at an event or at t_end, with its dense states and nothing else.
+        t1, y1, y_eval, fired = res.t, res.y, res.y_eval, res.fired
+        if (
+            res.status is self._ok
+            and not res.section_hits
+            and type(y1) is np.ndarray
+            and y1.shape == self._shape
+            and type(y_eval) is np.ndarray
+            and t <= t1 <= self.t_end
+            and (t1 == self.t_end if fired is None else 0 <= fired < len(guards))
+        ):
+            expected = t_eval.searchsorted(t1, "right") if t_eval.size else 0
+            if expected:
+                if y_eval.shape != (self._n, expected):
+                    return self._checked(res, t, t_eval, i_eval, guards)
+                self.rec.dense.y[i_eval : i_eval + expected] = y_eval.T
+                si[abi.SI_IEVAL] = i_eval + expected
+            elif y_eval.size:
+                return self._checked(res, t, t_eval, i_eval, guards)
+            sf[abi.SF_ARC_T] = t1
+            sf[abi.SF_ARC_TLO] = low_part(t1, res.t_lo) if res.t_lo else 0.0
+            st.y_arc[:] = y1
+            si[abi.SI_ARC_STATUS] = abi.K_OK
+            si[abi.SI_DETAIL] = -1 if fired is None else fired
+            return ARC_STORED
+        return self._checked(res, t, t_eval, i_eval, guards)
+
+    def _checked(self, res, t: float, t_eval: np.ndarray, i_eval: int, guards: tuple) -> int:
+        """Store an arc's result after checking it field by field against the protocol."""
+        st, rec, integ, n = self.st, self.rec, self.integ, self._n
+        y, sf, si, y_arc = st.y, st.sf, st.si, st.y_arc
+        reenter = False
         t1 = float(res.t)
         y1 = res.y
         if not (type(y1) is np.ndarray and y1.dtype == np.float64 and y1.ndim == 1):
@@ -426,6 +465,10 @@ class _PythonArcs:
         sf[abi.SF_ARC_T], sf[abi.SF_ARC_TLO] = t1, 0.0
         shaped = y1.shape[0] == n
         y_arc[:] = y1 if shaped else y
+        if res.status.ok and (t1 < t or t1 > self.t_end):  # before the dense states, which it would miscount
+            return self._fail(
+                si, _PY_FAILURE, (f"{integ.name} stopped at t = {t1!r} outside the arc [{t!r}, {self.t_end!r}]")
+            )
         expected = int(np.searchsorted(t_eval, t1, side="right")) if t_eval.size else 0
         y_eval = res.y_eval
         if expected or not (type(y_eval) is np.ndarray and y_eval.size == 0):
@@ -458,11 +501,18 @@ class _PythonArcs:
             j = int(si[abi.SI_NHITS])
             if j >= rec.hits.t.shape[0]:
                 rec.grow_hits(j)
+                reenter = True
             rec.hits.index[j], rec.hits.t[j], rec.hits.y[j] = hit.index, float(hit.t), np.asarray(hit.y, dtype=float)
             si[abi.SI_NHITS] = j + 1
             if 0 <= self.hit_stop <= j + 1:
                 stop_hit = hit
                 break
+        code = self._store(res, t, t1, y1, shaped, t_eval, i_eval, guards, stop_hit)
+        return ARC_STORED_REENTER if reenter else code
+
+    def _store(self, res, t, t1, y1, shaped, t_eval, i_eval, guards, stop_hit) -> int:
+        st, integ = self.st, self.integ
+        sf, si = st.sf, st.si
         status = res.status
         if status is not self._ok and not status.ok:
             if status is Status.BUDGET_EXHAUSTED:
@@ -471,10 +521,14 @@ class _PythonArcs:
             return self._fail(si, _PY_FAILURE, res.message or status.value)
         if stop_hit is not None:
             sf[abi.SF_ARC_T] = float(stop_hit.t)
-            y_arc[:] = np.asarray(stop_hit.y, dtype=float)
+            st.y_arc[:] = np.asarray(stop_hit.y, dtype=float)
             si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(t_eval, float(stop_hit.t), side="right"))
             return self._done(si, abi.K_HIT_STOP)
-        if not (math.isfinite(t1) and shaped and all(map(math.isfinite, y1.tolist()))):
+        if not shaped:
+            return self._fail(
+                si, _PY_FAILURE, f"{integ.name} returned y of shape {y1.shape}; the protocol wants ({self._n},)"
+            )
+        if not (math.isfinite(t1) and all(map(math.isfinite, y1.tolist()))):
             self.message = f"non-finite state at t = {t1}"
             return self._done(si, abi.K_NONFINITE)
         if t1 < t or t1 > self.t_end:

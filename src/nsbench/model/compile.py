@@ -82,7 +82,9 @@ def drop_stale_numba_caches() -> None:
             stamps[name] = digest.hexdigest()
         return stamps[name]
 
-    compiled = [name for name, text in texts.items() if "@jit" in text or "@hot" in text or "@inline" in text]
+    compiled = [
+        name for name, text in texts.items() if any(f"@{kind}" in text for kind in ("jit", "hot", "inline", "with_gil"))
+    ]
     record = root / "__pycache__" / "numba-sources.json"
     try:
         old = json.loads(record.read_text()) if record.exists() else {}
@@ -116,3 +118,6 @@ jit = numba.njit(cache=True, fastmath=False, nogil=True)
 hot = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
 #: The smallest of them, inlined by numba itself (LLVM keeps some as calls otherwise).
 inline = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False, inline="always")
+#: Functions with an object-mode block (a call back into Python): not ``nogil``, since they hold
+#: the GIL for the block (numba warns about object mode in a ``nogil`` function).
+with_gil = numba.njit(cache=True, fastmath=False, _nrt=False)

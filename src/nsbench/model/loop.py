@@ -8,9 +8,13 @@ returns to Python only when Python has work to do:
 - :data:`R_GROW_EVENTS`, :data:`R_GROW_HITS`: a record buffer is full (grow it, call again);
 - :data:`R_NEED_MODE`: the arc kernel needs data for a mode it has not seen
   (``exact`` builds them lazily; call again);
-- :data:`R_NEED_ARC`: the integrator has no compiled kernel: Python runs its
-  ``advance`` for the current arc, stores the outcome in the arc slots and calls
-  again with ``si[SI_PHASE] = P_ARC_DONE`` (once per arc).
+- :data:`R_RESUME`: an arc run in Python replaced a record buffer (it grew one):
+  call again (the loop resumes at ``si[SI_PHASE] = P_ARC_DONE``).
+
+An integrator without a compiled kernel has its arcs run in Python without
+leaving the loop: the loop calls back (:func:`nsbench.model.callback.python_arc`),
+and Python runs the integrator's ``advance`` and stores the outcome in the arc
+slots (``sf[SF_ARC_T]``, ``st.y_arc``, ``si[SI_ARC_STATUS]``, ``si[SI_DETAIL]``).
 
 The problem's law and the integrator's kernel come as address tables
 (:mod:`nsbench.model.functions`): this module imports neither, and one compiled
@@ -29,6 +33,7 @@ import numpy as np
 from numba.extending import overload
 
 from nsbench.model import functions, law
+from nsbench.model.callback import ARC_STORED, python_arc
 from nsbench.model.abi import (
     arc_signature,
     K_BUDGET,
@@ -37,6 +42,7 @@ from nsbench.model.abi import (
     K_HIT_STOP,
     K_NEED_MODE,
     K_NONFINITE,
+    K_OK,
     NSTEPS,
     RUN_EVENT_BUDGET,
     RUN_FAILURE,
@@ -69,7 +75,7 @@ from nsbench.model.records import copy_into
 from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle
 
 P_INIT, P_TOP, P_ARC_DONE = 0, 1, 2
-R_DONE, R_GROW_EVENTS, R_GROW_HITS, R_NEED_MODE, R_NEED_ARC = 0, 1, 2, 3, 4
+R_DONE, R_GROW_EVENTS, R_GROW_HITS, R_NEED_MODE, R_RESUME = 0, 1, 2, 3, 4
 #: Room the settle step needs in the event buffers beyond the storm ring: the fired event and an accumulation.
 EXTRA_EVENTS = 2
 _EPS = np.finfo(np.float64).eps
@@ -107,6 +113,17 @@ def call_arc(kernel, kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
 def _finish(si, status):
     si[SI_STATUS] = status
     return R_DONE
+
+
+@hot
+def _finite(t, y):
+    """Whether the time and every component of the state an arc run in Python returned are finite."""
+    if not np.isfinite(t):
+        return False
+    for j in range(y.shape[0]):
+        if not np.isfinite(y[j]):
+            return False
+    return True
 
 
 @hot
@@ -183,21 +200,25 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
             si[SI_NG] = ng
             si[SI_ARC_IEVAL] = si[SI_IEVAL]  # the first dense state of this arc
             if kernel.shape[0] == 0:
-                return R_NEED_ARC
-            copy_into(saved, cnt)
-            n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
-            tic = monotonic_ns(clock)
-            arc = Arc(
-                st.mode, st.gk, st.gi, st.gs, ng, sf[SF_T], sf[SF_TLO], st.y, lim.t_end, lim.max_steps - cnt[NSTEPS]
-            )
-            status, t1, t_lo1, fired = call_arc(kernel, kd, fo, prob, arc, sec, hits, dense, si, st.y_arc, cnt)
-            si[SI_CLOCK] += monotonic_ns(clock) - tic
-            if status == K_HIT_FULL or status == K_NEED_MODE:
-                copy_into(cnt, saved)  # the arc runs again from its start once Python has done its part
-                si[SI_NHITS], si[SI_IEVAL] = n_hits, i_eval
-                return R_GROW_HITS if status == K_HIT_FULL else R_NEED_MODE
-            sf[SF_ARC_T], sf[SF_ARC_TLO] = t1, t_lo1
-            si[SI_ARC_STATUS], si[SI_DETAIL] = status, fired
+                if python_arc() != ARC_STORED:
+                    return R_RESUME
+                if si[SI_ARC_STATUS] == K_OK and not _finite(sf[SF_ARC_T], st.y_arc):
+                    si[SI_ARC_STATUS] = K_NONFINITE
+            else:
+                copy_into(saved, cnt)
+                n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
+                tic = monotonic_ns(clock)
+                arc = Arc(
+                    st.mode, st.gk, st.gi, st.gs, ng, sf[SF_T], sf[SF_TLO], st.y, lim.t_end, lim.max_steps - cnt[NSTEPS]
+                )
+                status, t1, t_lo1, fired = call_arc(kernel, kd, fo, prob, arc, sec, hits, dense, si, st.y_arc, cnt)
+                si[SI_CLOCK] += monotonic_ns(clock) - tic
+                if status == K_HIT_FULL or status == K_NEED_MODE:
+                    copy_into(cnt, saved)  # the arc runs again from its start once Python has done its part
+                    si[SI_NHITS], si[SI_IEVAL] = n_hits, i_eval
+                    return R_GROW_HITS if status == K_HIT_FULL else R_NEED_MODE
+                sf[SF_ARC_T], sf[SF_ARC_TLO] = t1, t_lo1
+                si[SI_ARC_STATUS], si[SI_DETAIL] = status, fired
         # ---- the outcome of the arc (compiled, or stored by Python)
         si[SI_PHASE] = P_TOP
         status = si[SI_ARC_STATUS]

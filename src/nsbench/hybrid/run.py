@@ -430,7 +430,6 @@ class _PythonArcs:
         t1, y1, y_eval, fired = res.t, res.y, res.y_eval, res.fired
         if (
             res.status is self._ok
-            and not res.section_hits
             and type(y1) is np.ndarray
             and y1.shape == self._shape
             and type(y_eval) is np.ndarray
@@ -450,14 +449,45 @@ class _PythonArcs:
             st.y_arc[:] = y1
             si[abi.SI_ARC_STATUS] = abi.K_OK
             si[abi.SI_DETAIL] = -1 if fired is None else fired
-            return ARC_STORED
+            if not res.section_hits:
+                return ARC_STORED
+            stop_hit, reenter = self._hits(res.section_hits)
+            code = ARC_STORED if stop_hit is None else self._hit_stop(stop_hit, t_eval, i_eval)
+            if reenter:  # the loop returns and resumes with the grown buffer
+                si[abi.SI_PHASE] = self._arc_done
+                return ARC_STORED_REENTER
+            return code
         return self._checked(res, t, t_eval, i_eval, guards)
+
+    def _hits(self, hits) -> tuple[Any, bool]:
+        """Store the section hits at ``t >= hit_from``; the hit that ends the run (or None), and whether
+        the buffer was grown (the loop must then be entered again to see it)."""
+        rec, si, reenter = self.rec, self.st.si, False
+        for hit in hits:
+            if hit.t < self.hit_from:
+                continue
+            j = int(si[abi.SI_NHITS])
+            if j >= rec.hits.t.shape[0]:
+                rec.grow_hits(j)
+                reenter = True
+            rec.hits.index[j], rec.hits.t[j], rec.hits.y[j] = hit.index, float(hit.t), np.asarray(hit.y, dtype=float)
+            si[abi.SI_NHITS] = j + 1
+            if 0 <= self.hit_stop <= j + 1:
+                return hit, reenter
+        return None, reenter
+
+    def _hit_stop(self, hit, t_eval: np.ndarray, i_eval: int) -> int:
+        """The arc ends at the section hit that ends the run."""
+        st = self.st
+        st.sf[abi.SF_ARC_T], st.sf[abi.SF_ARC_TLO] = float(hit.t), 0.0
+        st.y_arc[:] = np.asarray(hit.y, dtype=float)
+        st.si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(t_eval, float(hit.t), side="right"))
+        return self._done(st.si, abi.K_HIT_STOP)
 
     def _checked(self, res, t: float, t_eval: np.ndarray, i_eval: int, guards: tuple) -> int:
         """Store an arc's result after checking it field by field against the protocol."""
         st, rec, integ, n = self.st, self.rec, self.integ, self._n
         y, sf, si, y_arc = st.y, st.sf, st.si, st.y_arc
-        reenter = False
         t1 = float(res.t)
         y1 = res.y
         if not (type(y1) is np.ndarray and y1.dtype == np.float64 and y1.ndim == 1):
@@ -494,19 +524,7 @@ class _PythonArcs:
             if k:
                 rec.dense.y[i_eval : i_eval + k] = y_eval[:, :k].T
                 si[abi.SI_IEVAL] = i_eval + k
-        stop_hit = None
-        for hit in res.section_hits:
-            if hit.t < self.hit_from:
-                continue
-            j = int(si[abi.SI_NHITS])
-            if j >= rec.hits.t.shape[0]:
-                rec.grow_hits(j)
-                reenter = True
-            rec.hits.index[j], rec.hits.t[j], rec.hits.y[j] = hit.index, float(hit.t), np.asarray(hit.y, dtype=float)
-            si[abi.SI_NHITS] = j + 1
-            if 0 <= self.hit_stop <= j + 1:
-                stop_hit = hit
-                break
+        stop_hit, reenter = self._hits(res.section_hits)
         code = self._store(res, t, t1, y1, shaped, t_eval, i_eval, guards, stop_hit)
         return ARC_STORED_REENTER if reenter else code
 
@@ -520,10 +538,7 @@ class _PythonArcs:
                 return self._done(si, abi.K_BUDGET)
             return self._fail(si, _PY_FAILURE, res.message or status.value)
         if stop_hit is not None:
-            sf[abi.SF_ARC_T] = float(stop_hit.t)
-            st.y_arc[:] = np.asarray(stop_hit.y, dtype=float)
-            si[abi.SI_IEVAL] = i_eval + int(np.searchsorted(t_eval, float(stop_hit.t), side="right"))
-            return self._done(si, abi.K_HIT_STOP)
+            return self._hit_stop(stop_hit, t_eval, i_eval)
         if not shaped:
             return self._fail(
                 si, _PY_FAILURE, f"{integ.name} returned y of shape {y1.shape}; the protocol wants ({self._n},)"

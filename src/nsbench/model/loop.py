@@ -202,8 +202,6 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
             if kernel.shape[0] == 0:
                 if python_arc() != ARC_STORED:
                     return R_RESUME
-                if si[SI_ARC_STATUS] == K_OK and not _finite(sf[SF_ARC_T], st.y_arc):
-                    si[SI_ARC_STATUS] = K_NONFINITE
             else:
                 copy_into(saved, cnt)
                 n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
@@ -222,6 +220,8 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
         # ---- the outcome of the arc (compiled, or stored by Python)
         si[SI_PHASE] = P_TOP
         status = si[SI_ARC_STATUS]
+        if kernel.shape[0] == 0 and status == K_OK and not _finite(sf[SF_ARC_T], st.y_arc):
+            status = si[SI_ARC_STATUS] = K_NONFINITE  # Python checked the arc's shape, not its values
         if status == K_NONFINITE:
             sf[SF_T] = sf[SF_ARC_T]
             return _finish(si, RUN_NONFINITE)

@@ -87,6 +87,8 @@ class Option:
     choices: tuple[Any, ...] | None = None
     nullable: bool = False
     doc: str = ""
+    #: Whether ``inf`` is allowed, meaning no limit (a largest step); other numbers must be finite.
+    unbounded: bool = False
 
     def check(self, owner: str, name: str, value: Any) -> Any:
         """Return ``value`` converted to ``kind``, or raise a ``ConfigError`` naming it."""
@@ -106,7 +108,7 @@ class Option:
                 number = float(value)
             except (TypeError, ValueError):
                 raise ConfigError(f"{owner}: option {name} = {value!r} is not a number") from None
-            if math.isnan(number) or (self.kind is int and not math.isfinite(number)):
+            if math.isnan(number) or (math.isinf(number) and not (self.unbounded and self.kind is float)):
                 raise ConfigError(f"{owner}: option {name} = {value!r} must be a finite number")
             if self.kind is int:
                 if number != int(number):

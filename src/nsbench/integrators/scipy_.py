@@ -114,7 +114,8 @@ _TOLERANCES = {
         float,
         lower=0.0,
         nullable=True,
-        doc="largest step (time units); None: 1/16 of the forcing period if forced",
+        unbounded=True,
+        doc="largest step (time units); None: 1/16 of the forcing period if forced; inf: no limit",
     ),
 }
 

@@ -44,8 +44,15 @@ from nsbench.status import Status
 _OPTIONS = {
     "rtol": Option(1e-8, float, lower=0.0, upper=1e-3, doc="relative tolerance"),
     "atol": Option(1e-10, float, lower=0.0, doc="absolute tolerance"),
-    "max_step": Option(None, float, lower=0.0, nullable=True, doc="largest step (time units); None: unbounded"),
+    "max_step": Option(
+        None, float, lower=0.0, nullable=True, unbounded=True, doc="largest step (time units); None or inf: unbounded"
+    ),
 }
+
+
+def _sundials_max_step(max_step: float | None) -> float:
+    """SUNDIALS' largest step: 0 means none."""
+    return 0.0 if max_step is None or max_step == np.inf else max_step
 
 
 class SundialsIntegrator(Integrator):
@@ -82,7 +89,7 @@ class SundialsIntegrator(Integrator):
         opts = dict(
             rtol=self.settings["rtol"],
             atol=self.settings["atol"],
-            max_step=self.settings["max_step"] or 0.0,
+            max_step=_sundials_max_step(self.settings["max_step"]),
             max_num_steps=10**9,
             eventsfn=eventsfn if n_events else None,
             num_events=n_events,

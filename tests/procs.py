@@ -1,4 +1,4 @@
-"""Process helpers of the kill tests (Linux ``/proc``)."""
+"""Process helpers of the tests: the kill tests' (Linux ``/proc``), and the environment of an inner pytest run."""
 
 from __future__ import annotations
 
@@ -53,3 +53,14 @@ def kill_leaves_no_workers(proc, workers: int, start_within: float = 300.0, end_
     while time.monotonic() < deadline and any(alive(p) for p in children):
         time.sleep(0.2)
     assert not any(alive(p) for p in children)
+
+
+def inner_pytest_env(**extra: str) -> dict[str, str]:
+    """The environment for a pytest run started by a test, with ``extra`` set.
+
+    Without pytest-xdist's worker variables: pytest-benchmark reads them as "xdist is on"
+    and refuses ``--benchmark-only`` in a run that has no workers of its own.
+    """
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")}
+    env.update(extra)
+    return env

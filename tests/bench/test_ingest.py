@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +13,7 @@ from nsbench.bench import Suite, run_suite
 from nsbench.bench.ingest import ingest, read_benchmark_json
 from nsbench.bench.report import write_report
 from nsbench.errors import ConfigError
+from tests.procs import inner_pytest_env
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def bench_json(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("pb")
     out = tmp / "bench.json"
-    env = {**os.environ, "NSBENCH_BENCH_T_END": "30"}
+    env = inner_pytest_env(NSBENCH_BENCH_T_END="30")
     cmd = [
         sys.executable,
         "-m",
@@ -203,7 +203,7 @@ def test_a_folder_that_is_not_an_nsbench_store_is_not_cleared(bench_json, tmp_pa
 def matched_json(tmp_path_factory):
     """The matched-accuracy module (several integrators, each timing its own call), case 1, over [0, 20]."""
     out = tmp_path_factory.mktemp("matched") / "matched.json"
-    env = {**os.environ, "NSBENCH_BENCH_T_END": "20"}
+    env = inner_pytest_env(NSBENCH_BENCH_T_END="20")
     module = "benchmarks/test_ofapi_matched_accuracy.py"
     ids = [f"{module}::test_matched_accuracy[1-{name}]" for name in ("henon-rk4", "ofapi", "mcpi")]
     cmd = [

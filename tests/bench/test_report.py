@@ -9,6 +9,7 @@ import pytest
 
 from nsbench.bench import Suite, run_suite
 from nsbench.bench.report import write_report
+from tests.procs import inner_pytest_env
 
 
 @pytest.fixture(scope="module")
@@ -166,7 +167,6 @@ def test_problem_labels_sort_by_their_numbers():
 
 def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
     """Cost-only rows without a problem config or accuracy level (a timed sweep) next to case rows."""
-    import os
     import subprocess
     import sys
     from pathlib import Path
@@ -190,7 +190,7 @@ def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
         "(one-dof-1 and scipy-dop853) or (case1_v0 and henon-rk4)",
     ]
     done = subprocess.run(
-        cmd, cwd=root, env={**os.environ, "NSBENCH_BENCH_T_END": "20"}, capture_output=True, text=True, timeout=600
+        cmd, cwd=root, env=inner_pytest_env(NSBENCH_BENCH_T_END="20"), capture_output=True, text=True, timeout=600
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert main(["ingest", str(out), "--out", str(tmp_path / "pb"), "--report"]) == 0

@@ -244,9 +244,12 @@ _SHARED: dict[tuple[int, bytes], JobPool] = {}
 
 
 def _components() -> dict[str, dict[str, Any]]:
-    from nsbench import registry
+    import sys
 
-    return registry.runtime_components()
+    # a registry never imported holds no runtime registration; importing it (it reads the metadata
+    # of every installed package) would only delay the start of a command's workers
+    registry = sys.modules.get("nsbench.registry")
+    return registry.runtime_components() if registry is not None else {}
 
 
 def shared_pool(workers: int) -> JobPool:
@@ -268,6 +271,12 @@ def shared_pool(workers: int) -> JobPool:
         pool = _SHARED[key] = JobPool(workers, hello)
         atexit.register(pool.close)
     return pool
+
+
+def default_workers() -> int:
+    """One worker per core this process may run on (here, not with the sweeps: a command that starts
+    its workers first imports no more than this module before they run)."""
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
 def check_limit(what: str, seconds: float | None) -> None:
@@ -311,5 +320,7 @@ def drop_shared(pool: JobPool) -> None:
 
 
 def shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """The runtime registrations a worker can import."""
-    return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)} for kind, objs in components.items()}
+    """The runtime registrations a worker can import (by kind; kinds without any left out, so that
+    "nothing registered" has one form, whether the registry was imported or not)."""
+    kept = {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)} for kind, objs in components.items()}
+    return {kind: objs for kind, objs in kept.items() if objs}

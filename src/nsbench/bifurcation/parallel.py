@@ -70,7 +70,10 @@ def chunks(indices: list[int], workers: int, size: int | None = None) -> list[li
 
 
 def default_workers() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+    """Local workers by default: one per core this process may run on."""
+    from nsbench.jobs import default_workers as cores
+
+    return cores()
 
 
 def run_sweep(

@@ -171,10 +171,10 @@ def _start_workers(workers: int | None):
     compiled core while this process prepares (about a second of a short sweep's wall time).
     Returns the pool if this call started them, ``None`` if they were running (kept from an
     earlier sweep of this process)."""
-    from nsbench.jobs import default_workers, shared_pool  # no more: the sooner they start, the better
+    from nsbench.jobs import Job, default_workers, shared_pool  # no more: the sooner they start, the better
 
     pool = shared_pool(workers or default_workers())
-    return pool if pool.start() else None
+    return pool if pool.start(Job("prepare", "nsbench.bifurcation.parallel:prepare_job")) else None
 
 
 def _main(args: argparse.Namespace, workers: int | None) -> int:

@@ -55,31 +55,3 @@ def test_the_locus_and_portrait_legends_are_beside_the_data(kept):
     assert len(kept) == 2
     for fig in kept:
         assert fig.axes[0].get_legend() is not None and overlaps(fig) == []
-
-
-@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="formats are written in forked copies only with fork")
-def test_every_format_is_written_even_when_a_forked_copy_fails(tmp_path, monkeypatch):
-    import os
-    import threading
-
-    import matplotlib.pyplot as plt
-
-    parent, write = os.getpid(), figures._write
-
-    def fail_in_a_copy(fig, path, fmt, dpi):
-        if os.getpid() != parent:
-            raise OSError("no space left in the copy")
-        write(fig, path, fmt, dpi)
-
-    forks = []
-    fork = os.fork
-    monkeypatch.setattr(os, "fork", lambda: forks.append(1) or fork())
-    monkeypatch.setattr(figures, "_write", fail_in_a_copy)
-    alone = threading.active_count() == 1  # else no copy is forked (nor may be)
-    fig, ax = plt.subplots()
-    ax.plot([0, 1], [1, 0])
-    paths = figures.save(fig, tmp_path / "line", formats=("png", "svg", "pdf"))
-    assert [p.name for p in paths] == ["line.png", "line.svg", "line.pdf"]
-    assert all(p.stat().st_size > 0 for p in paths)
-    assert paths[1].read_text().lstrip().startswith("<?xml") and paths[2].read_bytes().startswith(b"%PDF")
-    assert len(forks) == (2 if alone else 0)

@@ -6,7 +6,6 @@ matplotlib is imported here on first use. Every figure is written as PNG
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Sequence
 
@@ -38,58 +37,18 @@ def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100
     """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths.
 
     The saved area is the figure's tight bounding box, so a legend placed beside the
-    axes (where it covers no data) is kept whole. Where processes can be forked and
-    this process runs no other thread, the formats after the first are written by
-    forked copies of this process at the same time (each format renders the whole
-    figure: a third of a second for a sweep's diagram in three formats, on one core);
-    a format a copy could not write is written here afterwards.
+    axes (where it covers no data) is kept whole.
     """
     plt = _plt()
     base = Path(base)
     base.parent.mkdir(parents=True, exist_ok=True)
-    paths = [base.parent / f"{base.name}.{fmt}" for fmt in formats]  # not with_suffix: names may hold dots
-    copies = _fork_writers(fig, list(zip(formats[1:], paths[1:])), dpi) if len(formats) > 1 else []
-    for fmt, path in zip(formats, paths):
-        if not any(path == p for _, p in copies):
-            _write(fig, path, fmt, dpi)
-    for pid, path in copies:
-        _, status = os.waitpid(pid, 0)
-        if status != 0:  # the copy failed (its error is on stderr): this process writes that format
-            _write(fig, path, path.suffix[1:], dpi)
+    out = []
+    for fmt in formats:
+        path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
+        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches="tight")
+        out.append(path)
     plt.close(fig)
-    return paths
-
-
-def _write(fig, path: Path, fmt: str, dpi: int) -> None:
-    fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches="tight")
-
-
-def _fork_writers(fig, jobs: list[tuple[str, Path]], dpi: int) -> list[tuple[int, Path]]:
-    """Forked copies of this process writing ``fig`` in each format of ``jobs``: ``(pid, path)``.
-
-    None where fork is missing, or while another thread runs (a lock it holds at the fork
-    would stay held in the copy forever).
-    """
-    import threading
-
-    if not hasattr(os, "fork") or threading.active_count() > 1:
-        return []
-    copies = []
-    for fmt, path in jobs:
-        pid = os.fork()
-        if pid == 0:  # the copy: write, then leave at once (no clean-up of the parent's state)
-            code = 1
-            try:
-                _write(fig, path, fmt, dpi)
-                code = 0
-            except BaseException:  # noqa: BLE001 - reported, and the parent writes this format
-                import traceback
-
-                traceback.print_exc()
-            finally:
-                os._exit(code)
-        copies.append((pid, path))
-    return copies
+    return out
 
 
 def diagram(

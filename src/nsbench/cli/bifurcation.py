@@ -243,7 +243,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     from nsbench.bifurcation.parallel import default_workers
 
     local_workers = workers or default_workers()  # refinements and portraits reuse the sweep's kept workers
-    figures.preload()  # while the values are computed
+    figures.preload(formats)  # while the values are computed
     for spec in specs:
         from nsbench.bench.storage import file_name  # plug-in names are data: checked before they name a folder
 

@@ -330,6 +330,9 @@ class _Rows:
     parts: _Parts
 
 
+#: At most this many modes of a sweep's last value are filled before the next value's run.
+PREFILL_MODES = 16
+
 #: Mode rows by the exact bytes of what they come from besides b0 (see ``ModeTables._fill``).
 _ROWS: OrderedDict[tuple, _Rows] = OrderedDict()
 ROWS_CACHE_SIZE = 256
@@ -413,10 +416,11 @@ class ExactIntegrator(CompiledArcs):
         # The modes the last problem of this family visited are filled now: a sweep's next value
         # visits the same few, and its run then never leaves the compiled loop to have one filled
         # (each return costs a Python round trip and numba's dispatch). A mode filled ahead is
-        # what its first visit would fill; the run is the same.
+        # what its first visit would fill; the run is the same. Only a few: the modes filled ahead
+        # are carried on too, and a system of many blocks may visit many modes, each a fill.
         family = (problem.law_module, tables.dims)
         last = getattr(self, "_last_modes", None)
-        if last is not None and last[0] == family:
+        if last is not None and last[0] == family and len(last[1]) <= PREFILL_MODES:
             for mode in last[1]:
                 tables.add(np.array(mode, np.int64))
         self._last_modes = (family, tables.visited)

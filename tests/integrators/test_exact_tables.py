@@ -9,6 +9,7 @@ run. Both must give exactly what filling each mode afresh gives.
 from __future__ import annotations
 
 import itertools
+import pickle
 
 import numpy as np
 import pytest
@@ -64,6 +65,7 @@ def test_a_sweeps_next_value_runs_the_same_with_the_last_values_modes_filled_ahe
     point_columns(spec, 0, warm)
     visited = list(warm._last_modes[1])
     assert visited  # the first value's run filled its modes
+    assert pickle.loads(pickle.dumps(warm)).name == "exact"  # what it carries to the next value pickles
     warm.setup(spec.problem_at(spec.values[1]))
     assert warm._last_modes[1][: len(visited)] == visited  # filled ahead, before the run
     for i in (1, 2, 3):

@@ -418,7 +418,7 @@ class ExactIntegrator(CompiledArcs):
         # (each return costs a Python round trip and numba's dispatch). A mode filled ahead is
         # what its first visit would fill; the run is the same. Only a few: the modes filled ahead
         # are carried on too, and a system of many blocks may visit many modes, each a fill.
-        family = (problem.law_module, tables.dims)
+        family = (getattr(problem.law_module, "__name__", problem.law_module), tables.dims)  # picklable
         last = getattr(self, "_last_modes", None)
         if last is not None and last[0] == family and len(last[1]) <= PREFILL_MODES:
             for mode in last[1]:

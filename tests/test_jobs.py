@@ -105,3 +105,42 @@ def test_the_kept_pool_reuses_its_warm_worker_and_starts_clean_after_a_drop():
     again = shared_pool(1)
     assert again is not pool and one(again) != first
     drop_shared(again)
+
+
+_PREPARED: list[int] = []
+
+
+def prepare(*, stage, emit):
+    _PREPARED.append(os.getpid())
+    return "not reported"
+
+
+def prepared(*, stage, emit):
+    return os.getpid(), list(_PREPARED)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_preparation_sent_with_the_start_runs_first_in_every_worker_and_is_not_reported(workers):
+    with JobPool(workers) as pool:
+        assert pool.start(Job("prep", TARGET + "prepare"))
+        assert not pool.start(Job("prep", TARGET + "prepare"))  # running already: nothing sent again
+        for k in range(2 * workers):
+            pool.submit(Job(k, TARGET + "prepared"))
+        out = list(pool.outcomes())
+    assert sorted(o.key for o in out) == list(range(2 * workers))  # the preparation's Done is not among them
+    # each job ran after its own worker's preparation, which ran once there
+    assert all(o.kind == "done" and o.value[1] == [o.value[0]] for o in out)
+
+
+def dies_preparing(*, stage, emit):
+    os._exit(5)
+
+
+def test_a_worker_that_dies_in_its_preparation_could_not_start():
+    from nsbench.errors import NsbenchError
+
+    with JobPool(1) as pool:
+        pool.start(Job("prep", TARGET + "dies_preparing"))
+        pool.submit(Job("x", TARGET + "pid"))
+        with pytest.raises(NsbenchError, match=r"ended while starting \(exit code 5\)"):
+            list(pool.outcomes())

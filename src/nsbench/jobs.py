@@ -84,6 +84,7 @@ class _Slot:
         self.worker: wp.WorkerProcess | None = None
         self.ready = False
         self.job: Job | None = None
+        self.preparing = False  # ``job`` is the preparation sent with the start (its outcome is not reported)
         self.task = 0
         self.stage = ""
         self.limit: float | None = None
@@ -121,12 +122,17 @@ class JobPool:
     def submit(self, job: Job) -> None:
         self._queue.append(job)
 
-    def start(self) -> bool:
+    def start(self, prepare: Job | None = None) -> bool:
         """Start every worker process now, before any job (they import nsbench meanwhile).
 
         Returns whether any was started (``False``: all were running already). A
         command that starts its workers first overlaps their start with its own
         preparation; :meth:`outcomes` then reads their ``Ready`` as usual.
+
+        ``prepare``: a job each started worker runs first, sent with its start
+        (imports its later jobs need, say), so that the worker does not wait idle for
+        the caller's first job. Its outcome is not reported; a worker that dies or
+        hangs in it is a worker that could not start. It runs under the start's limit.
         """
         started = False
         for slot in self._slots:
@@ -135,6 +141,13 @@ class JobPool:
                 slot.stage, slot.limit = "worker start", START_LIMIT
                 slot.deadline = time.monotonic() + START_LIMIT
                 started = True
+                if prepare is not None:
+                    self._tasks += 1
+                    slot.job, slot.task, slot.preparing = prepare, self._tasks, True
+                    try:  # read by the worker right after its Ready
+                        slot.worker.send(msg.Call(slot.task, prepare.target, prepare.args))
+                    except (BrokenPipeError, OSError):
+                        pass  # the worker is gone: its end of file is read next
         return started
 
     def drop_queued(self) -> list[Job]:
@@ -159,11 +172,12 @@ class JobPool:
                 else:
                     slot.worker.kill()
             slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
+            slot.preparing = False
 
     # -------------------------------------------------------------------------------------------
     def outcomes(self) -> Iterator[Outcome]:
         """Outcomes in the order they happen, until no job is queued or running."""
-        while self._queue or any(s.job is not None for s in self._slots):
+        while self._queue or any(s.job is not None and not s.preparing for s in self._slots):
             self._dispatch()
             busy = [s for s in self._slots if s.worker is not None and (s.job is not None or not s.ready)]
             deadlines = [s.deadline for s in busy if s.deadline is not None]
@@ -201,10 +215,15 @@ class JobPool:
             yield from self._lost(slot)
             return
         if isinstance(m, msg.Ready):
-            slot.ready, slot.stage, slot.deadline = True, "", None
+            slot.ready = True
+            if not slot.preparing:  # a preparation stays under the start's limit
+                slot.stage, slot.deadline = "", None
         elif isinstance(m, msg.InitFailed):
             self.close()
             raise NsbenchError(f"a worker process could not start: {m.error}")
+        elif slot.preparing:  # its end (or a stray message): the worker is now free for jobs
+            if isinstance(m, (msg.Done, msg.Failed)):
+                slot.job, slot.preparing, slot.stage, slot.deadline = None, False, "", None
         elif isinstance(m, msg.Stage):
             slot.stage, slot.limit = m.what, m.limit
             slot.deadline = time.monotonic() + m.limit if m.limit is not None else None
@@ -221,7 +240,8 @@ class JobPool:
                 yield Outcome(job.key, "failed", None, stage, m.error)
 
     def _lost(self, slot: _Slot) -> Iterator[Outcome]:
-        job, stage = slot.job, slot.stage
+        job, stage = (None, "") if slot.preparing else (slot.job, slot.stage)
+        slot.preparing = False
         reason = slot.worker.exit_reason()
         slot.worker.kill()
         slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
@@ -230,7 +250,8 @@ class JobPool:
         yield Outcome(job.key, "crashed", None, stage, f"worker process ended ({reason}) during {stage or 'start'}")
 
     def _expire(self, slot: _Slot) -> Iterator[Outcome]:
-        job, stage, limit = slot.job, slot.stage, slot.limit
+        job, stage, limit = (None, "", None) if slot.preparing else (slot.job, slot.stage, slot.limit)
+        slot.preparing = False
         slot.worker.kill()
         slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
         if job is None:
@@ -244,9 +265,12 @@ _SHARED: dict[tuple[int, bytes], JobPool] = {}
 
 
 def _components() -> dict[str, dict[str, Any]]:
-    from nsbench import registry
+    import sys
 
-    return registry.runtime_components()
+    # a registry never imported holds no runtime registration; importing it (it reads the metadata
+    # of every installed package) would only delay the start of a command's workers
+    registry = sys.modules.get("nsbench.registry")
+    return registry.runtime_components() if registry is not None else {}
 
 
 def shared_pool(workers: int) -> JobPool:
@@ -268,6 +292,12 @@ def shared_pool(workers: int) -> JobPool:
         pool = _SHARED[key] = JobPool(workers, hello)
         atexit.register(pool.close)
     return pool
+
+
+def default_workers() -> int:
+    """One worker per core this process may run on (here, not with the sweeps: a command that starts
+    its workers first imports no more than this module before they run)."""
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
 def check_limit(what: str, seconds: float | None) -> None:
@@ -311,5 +341,7 @@ def drop_shared(pool: JobPool) -> None:
 
 
 def shareable(components: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """The runtime registrations a worker can import."""
-    return {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)} for kind, objs in components.items()}
+    """The runtime registrations a worker can import (by kind; kinds without any left out, so that
+    "nothing registered" has one form, whether the registry was imported or not)."""
+    kept = {kind: {name: obj for name, obj in objs.items() if wp.importable(obj)} for kind, objs in components.items()}
+    return {kind: objs for kind, objs in kept.items() if objs}

@@ -28,7 +28,7 @@ import json
 import os
 import re
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 import pandas as pd
@@ -53,7 +53,10 @@ class SweepStore:
     def __init__(self, directory: str | os.PathLike, spec: SweepSpec | None = None) -> None:
         self.directory = Path(directory)
         self.points_dir = self.directory / "points"
-        self._checked: dict[Path, tuple[tuple[int, int], pd.DataFrame | None, str]] = {}
+        # chunk -> (size and time stamp, its rows or None, why not): a Parquet chunk's rows are kept as
+        # the Arrow table read, converted to pandas once for the whole store (a conversion per chunk
+        # cost a third of reading a 1000-value sweep back)
+        self._checked: dict[Path, tuple[tuple[int, int], Any, str]] = {}
         refuse_links(self.directory, ("meta.json", "points", "*.tmp"), ("points",))
         meta_path = self.directory / "meta.json"
         meta = None
@@ -137,6 +140,11 @@ class SweepStore:
         A run asks several times (damaged chunks, missing values, the final
         table); a chunk is read again only if its size or time stamp changed.
         """
+        good, bad = self._check()
+        return [(f, _frame(rows)) for f, rows in good], bad
+
+    def _check(self) -> tuple[list[tuple[Path, Any]], list[tuple[Path, str]]]:
+        """:meth:`check`, with each sound chunk's rows as read (an Arrow table, or a frame from a CSV)."""
         good, bad = [], []
         for f in self._files():
             try:
@@ -166,7 +174,7 @@ class SweepStore:
         """
         import sys
 
-        _, bad = self.check()
+        _, bad = self._check()
         for f, reason in bad:
             print(
                 f"nsbench: warning: {f} is damaged ({reason}); its values are computed again", file=stream or sys.stderr
@@ -181,7 +189,7 @@ class SweepStore:
         Raises ``ConfigError`` naming the first damaged chunk, if any (rerun the
         sweep to compute its values again).
         """
-        good, bad = self.check()
+        good, bad = self._check()
         if bad:
             f, reason = bad[0]
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
@@ -190,21 +198,27 @@ class SweepStore:
             )
         if not good:
             return _typed_empty(self.columns)
-        frame = pd.concat([rows for _, rows in good], ignore_index=True)
+        tables = [rows for _, rows in good]
+        if all(not isinstance(rows, pd.DataFrame) and rows.schema == tables[0].schema for rows in tables):
+            import pyarrow as pa
+
+            frame = pa.concat_tables(tables).to_pandas()  # Parquet chunks of one schema: one conversion
+        else:  # chunks written as CSV, or text stored as both Arrow string types
+            frame = pd.concat([_frame(rows) for rows in tables], ignore_index=True)
         # a value computed twice (two runs racing on one folder) keeps its first copy
         frame = frame.drop_duplicates(subset=["index", "k"], keep="first")
         return frame.sort_values(["index", "k"], kind="stable").reset_index(drop=True)
 
     def done(self) -> set[int]:
         """Indices of the parameter values stored in sound chunks."""
-        good, _ = self.check()
-        return {int(i) for _, rows in good for i in rows["index"].unique()}
+        good, _ = self._check()
+        return {int(i) for _, rows in good for i in np.unique(np.asarray(rows["index"]))}
 
     def missing(self) -> list[int]:
         done = self.done()
         return [i for i in range(self.spec.count) if i not in done]
 
-    def _read_checked(self, path: Path) -> pd.DataFrame:
+    def _read_checked(self, path: Path) -> Any:
         data = path.read_bytes()
         named = _CHUNK.fullmatch(path.name)
         if named and named["sha"] and _digest(data) != named["sha"]:
@@ -216,13 +230,13 @@ class SweepStore:
             raise _Damaged("it holds values of another sweep (other settings)")
         kinds = column_kinds(self.columns)
         frame = _read_parquet(data, kinds) if path.suffix == ".parquet" else _read_csv(data, kinds)
-        if list(frame.columns) != list(self.columns):
+        if list(frame.column_names if path.suffix == ".parquet" else frame.columns) != list(self.columns):
             raise _Damaged("its columns are not this sweep's")
         if named and named["rows"] and len(frame) != int(named["rows"]):
             raise _Damaged(f"{len(frame)} rows where its name says {named['rows']}")
-        if frame.empty:
+        if len(frame) == 0:
             raise _Damaged("no rows")
-        idx = frame["index"].to_numpy()
+        idx = np.asarray(frame["index"])
         if idx.min() < 0 or idx.max() >= self.spec.count:
             raise _Damaged(f"indices outside 0..{self.spec.count - 1}")
         if named and named["last"] and (idx.min() != int(named["first"]) or idx.max() != int(named["last"])):
@@ -270,13 +284,21 @@ def _parquet_bytes(frame: "pd.DataFrame | Columns", columns: tuple[str, ...]) ->
     return sink.getvalue().to_pybytes()
 
 
-def _read_parquet(data: bytes, kinds: dict[str, str]) -> pd.DataFrame:
-    """A Parquet chunk, its column types checked against the sweep's (no value missing but a float's)."""
+def _frame(rows: Any) -> pd.DataFrame:
+    """A chunk's rows as a pandas table (they are kept as read: an Arrow table, or a frame from a CSV)."""
+    return rows if isinstance(rows, pd.DataFrame) else rows.to_pandas()
+
+
+def _read_parquet(data: bytes, kinds: dict[str, str]) -> Any:
+    """A Parquet chunk as an Arrow table, its column types checked against the sweep's (no value
+    missing but a float's)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     try:
-        table = pq.read_table(pa.BufferReader(data))
+        # the file reader itself, on this thread: read_table's dataset layer and thread pool cost
+        # more than the decoding of a chunk this small
+        table = pq.ParquetFile(pa.BufferReader(data)).read(use_threads=False)
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise _Damaged(f"not a readable Parquet table: {' '.join(str(exc).split())}") from None
     if table.column_names != list(kinds):
@@ -287,7 +309,7 @@ def _read_parquet(data: bytes, kinds: dict[str, str]) -> pd.DataFrame:
             raise _Damaged(f"column {name!r} holds {column.type} values where the sweep stores {kind}")
         if kind != "float" and column.null_count:
             raise _Damaged(f"a value of column {name!r} is missing")
-    return table.to_pandas()
+    return table
 
 
 def _read_csv(data: bytes, kinds: dict[str, str]) -> pd.DataFrame:
@@ -317,13 +339,14 @@ def _read_csv(data: bytes, kinds: dict[str, str]) -> pd.DataFrame:
     return frame
 
 
-def _check_values(frame: pd.DataFrame, spec: SweepSpec) -> None:
+def _check_values(frame: Any, spec: SweepSpec) -> None:
     """Every value's rows: ``n_points`` of them (one if none), numbered ``k = 0, 1, ...`` (``-1`` if none),
-    all at the value the grid gives. Checked for all values at once; the first bad value is named."""
-    idx = frame["index"].to_numpy()
+    all at the value the grid gives. Checked for all values at once; the first bad value is named.
+    ``frame``: a pandas or an Arrow table."""
+    idx = np.asarray(frame["index"])
     order = np.argsort(idx, kind="stable")  # a value's rows keep their order
-    idx, k = idx[order], frame["k"].to_numpy()[order]
-    n_points, value = frame["n_points"].to_numpy()[order], frame["value"].to_numpy(dtype=float)[order]
+    idx, k = idx[order], np.asarray(frame["k"])[order]
+    n_points, value = np.asarray(frame["n_points"])[order], np.asarray(frame["value"], dtype=float)[order]
     starts = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
     counts = np.diff(np.r_[starts, len(idx)])
     n = n_points[starts]

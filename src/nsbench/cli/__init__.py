@@ -80,7 +80,9 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every sub-command, or of the sub-command ``only`` alone (the others' modules
+    are then not imported: a command that starts worker processes starts them sooner)."""
     import importlib
 
     parser = Parser(
@@ -92,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"nsbench {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMANDS:
+    for name in COMMANDS if only is None else (only,):
         module = importlib.import_module(f"nsbench.cli.{name}")
         module.add_parser(sub)
     return parser
@@ -149,7 +151,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     each sub-command), 2 (bad input: one ``nsbench: error:`` line on stderr),
     130 (interrupted) or 141 (stdout closed by its reader, e.g. ``| head``).
     """
-    parser = build_parser()
+    words = sys.argv[1:] if argv is None else list(argv)
+    # a command named first is parsed by its own parser alone (the same result); anything else
+    # (--help, --version, an unknown command) by the whole one
+    parser = build_parser(words[0] if words and words[0] in COMMANDS else None)
     try:
         try:
             args = parser.parse_args(argv)

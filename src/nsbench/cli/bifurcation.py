@@ -151,10 +151,12 @@ def _probe(problem: str, case: str):
 
 
 def main(args: argparse.Namespace) -> int:
-    _check_numbers(args)  # every number and count before any problem is built or value computed
     workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
+    # the workers first (a bad number below ends them at once): the checks import numpy, a tenth
+    # of a second in which the workers start instead
     pool = _start_workers(workers) if args.dask is None else None
     try:
+        _check_numbers(args)  # every number and count before any problem is built or value computed
         return _main(args, workers)
     except BaseException:
         if pool is not None:  # started for this command, which failed: they are not kept
@@ -169,11 +171,10 @@ def _start_workers(workers: int | None):
     compiled core while this process prepares (about a second of a short sweep's wall time).
     Returns the pool if this call started them, ``None`` if they were running (kept from an
     earlier sweep of this process)."""
-    from nsbench.bifurcation.parallel import default_workers
-    from nsbench.jobs import shared_pool
+    from nsbench.jobs import Job, default_workers, shared_pool  # no more: the sooner they start, the better
 
     pool = shared_pool(workers or default_workers())
-    return pool if pool.start() else None
+    return pool if pool.start(Job("prepare", "nsbench.bifurcation.parallel:prepare_job")) else None
 
 
 def _main(args: argparse.Namespace, workers: int | None) -> int:
@@ -242,7 +243,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     from nsbench.bifurcation.parallel import default_workers
 
     local_workers = workers or default_workers()  # refinements and portraits reuse the sweep's kept workers
-    figures.preload()  # while the values are computed
+    figures.preload(formats)  # while the values are computed
     for spec in specs:
         from nsbench.bench.storage import file_name  # plug-in names are data: checked before they name a folder
 

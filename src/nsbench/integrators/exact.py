@@ -142,6 +142,7 @@ class ModeTables:
             raise ValueError("closed forms need a linear problem")
         self.problem = problem
         self.n_modes = 0
+        self._visited: list[tuple[int, ...]] = []
         self.dims = (problem.n_states, problem.mode_size, problem.max_guards)
         self.data = empty_tables(capacity, *self.dims)
         w = problem.forcing_frequency
@@ -161,11 +162,18 @@ class ModeTables:
             self._grow()
             t = self.data
         slot = self.n_modes
-        self._fill(slot, tuple(int(v) for v in mode))
+        key = tuple(int(v) for v in mode)
+        self._fill(slot, key)
         insert_mode(t.keys, t.slots, t.ti, mode, slot)
         t.ti[slot, I_READY] = 1
         self.n_modes += 1
+        self._visited.append(key)
         return t
+
+    @property
+    def visited(self) -> list[tuple[int, ...]]:
+        """The modes filled so far (a list that grows with the tables), in the order they were."""
+        return self._visited
 
     def ensure_sections(self, n_sections: int):
         """The tables, with scratch for ``n_sections`` sections."""
@@ -190,14 +198,12 @@ class ModeTables:
 
     def _fill(self, s: int, mode: tuple[int, ...]) -> None:
         from nsbench.integrators import _exact_layout as lay
-        from nsbench.integrators import _exact_polish as polish
 
         t = self.data
         p = self.problem
         n, m, g = self.dims
         n3 = n + 3
-        f_cw, f_ainv, f_ask, f_ass, f_b0s, f_p1, f_p1lo, f_b0k, f_rate, f_q, f_aug, _ = lay.f_offsets(n, g)
-        c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, _ = lay.c_offsets(n)
+        f_q, f_aug = lay.f_offsets(n, g)[9:11]
         tf, tc, ti = t.tf[s], t.tc[s], t.ti[s]
         a, b0, bc, bs = p.linear_form(mode)
         w = p.forcing_frequency
@@ -205,6 +211,43 @@ class ModeTables:
         if p.is_forced and w == 0.0:
             b0 = b0 + bc  # cos(0 t) = 1: a constant force
             bc = np.zeros(n)
+        # Everything but the constant force b0 (and the guards) depends on the mode's matrix and
+        # harmonic forcing alone; a sweep over a belt speed or a force meets the same few of them
+        # at every value. Those parts of the row are kept by the exact bytes they come from and
+        # copied (the numbers the computation gives); the parts that b0 enters are computed anew.
+        key = (self.dims, mode, a.tobytes(), bc.tobytes(), bs.tobytes(), float(w), bool(forced))
+        rows = _ROWS.get(key)
+        if rows is None:
+            parts = self._fill_static(s, a, bc, bs, w, forced)
+            _b0_parts(tf, n, g, b0, parts)
+            rows = _Rows(tf.copy(), tc.copy(), ti.copy(), parts)
+            _ROWS[key] = rows
+            if len(_ROWS) > ROWS_CACHE_SIZE:
+                _ROWS.popitem(last=False)
+        else:
+            _ROWS.move_to_end(key)
+            tf[:], tc[:], ti[:] = rows.tf, rows.tc, rows.ti
+            _b0_parts(tf, n, g, b0, rows.parts)
+        aug_b0 = tf[f_aug + n : f_aug + n * n3 : n3]  # column n of the augmented matrix: b0
+        aug_b0[:] = b0
+        # the guards in the law's order, read as (kind, block) arrays: no Guard objects are needed here
+        tf[f_q:f_aug] = 0.0
+        kind, block = np.zeros(max(g, 1), np.int64), np.zeros(max(g, 1), np.int64)
+        n_guards = p.law.guards_of(p.data.p, np.asarray(mode, np.int64), kind, block, np.zeros(max(g, 1), np.int64))
+        for q in range(n_guards):
+            tf[f_q + q * n3 : f_q + (q + 1) * n3] = p.guard_row(mode, int(kind[q]), int(block[q]))
+
+    def _fill_static(self, s: int, a: np.ndarray, bc: np.ndarray, bs: np.ndarray, w: float, forced: bool) -> _Parts:
+        """The parts of slot ``s``'s row that b0 does not enter (into a row of zeros); what b0's need."""
+        from nsbench.integrators import _exact_layout as lay
+        from nsbench.integrators import _exact_polish as polish
+
+        t = self.data
+        n, m, g = self.dims
+        n3 = n + 3
+        f_cw, f_ainv, f_ask, f_ass, _, _, _, _, f_rate, _, f_aug, _ = lay.f_offsets(n, g)
+        c_lam, c_lamlo, c_z, c_zlo, c_vec, c_veclo, c_vinv, _ = lay.c_offsets(n)
+        tf, tc, ti = t.tf[s], t.tc[s], t.ti[s]
         # A state whose row of A is zero and that no harmonic term drives moves at a constant rate
         # (a block stuck to the belt: x at v0, v at 0): it is "stuck"; the others form the modal system.
         still = [j for j in range(n) if not a[j].any() and bc[j] == 0.0 and bs[j] == 0.0]
@@ -213,10 +256,10 @@ class ModeTables:
         ns, nst = len(slip), len(stuck)
         o_slip, o_stuck = lay.i_slip(m), lay.i_stuck(m, n)
         ti[o_slip : o_slip + ns], ti[o_stuck : o_stuck + nst] = slip, stuck
-        tf[f_b0k : f_b0k + nst] = b0[stuck]
         rates = [w if forced else 0.0]
         defective = False
         polished = ns == 0  # every state stuck: nothing to refine, the polish is exact
+        a_ss = a_sk = ainv = None
 
         def put(off: int, block: np.ndarray, target=tf) -> None:  # an ns x nc block at row stride n
             rows, cols = block.shape
@@ -241,11 +284,6 @@ class ModeTables:
                 put(f_ass, a_ss)
                 if nst:
                     put(f_ask, a_sk)
-                tf[f_b0s : f_b0s + ns] = b0[slip]
-                # slope of the particular solution, from the stuck blocks moving at v0
-                drive = a_sk @ b0[stuck] if nst else np.zeros(ns)
-                p1 = -ainv @ drive
-                tf[f_p1 : f_p1 + ns] = p1
                 harmonic = bc[slip] - 1j * bs[slip]
                 z = np.linalg.solve(1j * w * np.eye(ns) - a_ss, harmonic) if forced else np.zeros(ns, complex)
                 tc[c_z : c_z + ns] = z
@@ -253,10 +291,6 @@ class ModeTables:
                     assert modal.vec_lo is not None
                     tc[c_lamlo : c_lamlo + ns] = modal.lam_lo
                     put(c_veclo, modal.vec_lo, tc)
-                    bh, bl = polish.product_dd(a_sk, np.asarray(b0[stuck], float), -1.0)
-                    p1_lo = np.zeros(ns)
-                    polish.refine_linear(a_ss, ainv, bh, bl, p1.copy(), p1_lo, np.zeros(ns))
-                    tf[f_p1lo : f_p1lo + ns] = p1_lo
                     if forced:
                         z_lo = np.zeros(ns, np.complex128)
                         polish.refine_harmonic(a_ss, w, z.copy(), np.asarray(harmonic, np.complex128), z_lo)
@@ -265,15 +299,69 @@ class ModeTables:
         ti[lay.I_NS], ti[lay.I_NST], ti[lay.I_DEFECTIVE] = ns, nst, int(defective)
         ti[lay.I_POLISH] = int(polished and not defective)
         tf[f_rate] = max(rates)
-        aug = np.zeros((n3, n3))
-        aug[:n, :n], aug[:n, n], aug[:n, n + 1], aug[:n, n + 2] = a, b0, bc, bs
+        aug = np.zeros((n3, n3))  # b0's column (n) is written with the other parts b0 enters
+        aug[:n, :n], aug[:n, n + 1], aug[:n, n + 2] = a, bc, bs
         aug[n + 1, n + 2], aug[n + 2, n + 1] = -w, w
         tf[f_aug : f_aug + n3 * n3] = aug.ravel()
-        # the guards in the law's order, read as (kind, block) arrays: no Guard objects are needed here
-        kind, block = np.zeros(max(g, 1), np.int64), np.zeros(max(g, 1), np.int64)
-        n_guards = p.law.guards_of(p.data.p, np.asarray(mode, np.int64), kind, block, np.zeros(max(g, 1), np.int64))
-        for q in range(n_guards):
-            tf[f_q + q * n3 : f_q + (q + 1) * n3] = p.guard_row(mode, int(kind[q]), int(block[q]))
+        modal_ok = bool(ns) and not defective
+        return _Parts(slip, stuck, a_ss, a_sk, ainv, modal_ok, modal_ok and ns <= polish.MAX_POLISH)
+
+
+@dataclass(frozen=True)
+class _Parts:
+    """What the parts of a mode's row that the constant force b0 enters are computed from."""
+
+    slip: list[int]
+    stuck: list[int]
+    a_ss: np.ndarray | None
+    a_sk: np.ndarray | None
+    ainv: np.ndarray | None
+    modal: bool  # the modal form is used (slipping states, not defective)
+    polish: bool  # and its double-double polish
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """A mode's rows as filled for one b0 (the parts b0 enters are overwritten for another)."""
+
+    tf: np.ndarray
+    tc: np.ndarray
+    ti: np.ndarray
+    parts: _Parts
+
+
+#: At most this many modes of a sweep's last value are filled before the next value's run.
+PREFILL_MODES = 16
+
+#: Mode rows by the exact bytes of what they come from besides b0 (see ``ModeTables._fill``).
+_ROWS: OrderedDict[tuple, _Rows] = OrderedDict()
+ROWS_CACHE_SIZE = 256
+
+
+def _b0_parts(tf: np.ndarray, n: int, g: int, b0: np.ndarray, parts: _Parts) -> None:
+    """Write the parts of a mode's float row that the constant force ``b0`` enters (not the augmented
+    matrix's column): the stuck states' rates, the slipping states' force and the particular
+    solution's slope, with its double-double low part."""
+    from nsbench.integrators import _exact_layout as lay
+    from nsbench.integrators import _exact_polish as polish
+
+    _, _, _, _, f_b0s, f_p1, f_p1lo, f_b0k, _, _, _, _ = lay.f_offsets(n, g)
+    slip, stuck = parts.slip, parts.stuck
+    ns, nst = len(slip), len(stuck)
+    tf[f_b0k : f_b0k + nst] = b0[stuck]
+    if not parts.modal:
+        return
+    assert parts.a_ss is not None and parts.a_sk is not None and parts.ainv is not None
+    tf[f_b0s : f_b0s + ns] = b0[slip]
+    # slope of the particular solution, from the stuck blocks moving at v0
+    drive = parts.a_sk @ b0[stuck] if nst else np.zeros(ns)
+    p1 = -parts.ainv @ drive
+    tf[f_p1 : f_p1 + ns] = p1
+    if parts.polish:
+        bh, bl = polish.product_dd(parts.a_sk, np.asarray(b0[stuck], float), -1.0)
+        p1_lo = np.zeros(ns)
+        polish.refine_linear(parts.a_ss, parts.ainv, bh, bl, p1.copy(), p1_lo, np.zeros(ns))
+        tf[f_p1lo : f_p1lo + ns] = p1_lo
 
 
 def closed_form_states(problem, mode, t0: float, y0, times) -> np.ndarray:
@@ -325,6 +413,17 @@ class ExactIntegrator(CompiledArcs):
         from nsbench.model.kernel import ArcKernel, arc_table
 
         tables = ModeTables(problem)
+        # The modes the last problem of this family visited are filled now: a sweep's next value
+        # visits the same few, and its run then never leaves the compiled loop to have one filled
+        # (each return costs a Python round trip and numba's dispatch). A mode filled ahead is
+        # what its first visit would fill; the run is the same. Only a few: the modes filled ahead
+        # are carried on too, and a system of many blocks may visit many modes, each a fill.
+        family = (getattr(problem.law_module, "__name__", problem.law_module), tables.dims)  # picklable
+        last = getattr(self, "_last_modes", None)
+        if last is not None and last[0] == family and len(last[1]) <= PREFILL_MODES:
+            for mode in last[1]:
+                tables.add(np.array(mode, np.int64))
+        self._last_modes = (family, tables.visited)
         return ArcKernel(
             arc_table(exact_arc, problem),
             kernel_data(tables.data),

@@ -22,7 +22,7 @@ def test_dask_local_cluster_gives_identical_points(tmp_path):
         problem="two-dof", case=2, name="F", start=0.1, stop=0.5, count=8, section="strobe", transient=150.0, record=10
     )
     local = run_sweep(spec, tmp_path / "local", workers=1, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
         remote = run_sweep(spec, tmp_path / "dask", dask=cluster.scheduler_address, progress=False)
     assert len(remote) == len(local) == 80
     assert remote.drop(columns="wall_time").equals(local.drop(columns="wall_time"))
@@ -35,7 +35,7 @@ def test_a_cluster_without_workers_stops_the_sweep_with_a_reason(tmp_path, monke
     monkeypatch.setattr(parallel, "NO_WORKER_LIMIT", 3.0)
     spec = SweepSpec(problem="two-dof", case=1, name="v0", start=0.1, stop=0.2, count=2, transient=10.0, record=2)
     with (
-        distributed.LocalCluster(n_workers=0, dashboard_address=None) as cluster,
+        distributed.LocalCluster(n_workers=0, dashboard_address=":0") as cluster,
         distributed.Client(cluster) as client,
     ):
         with pytest.raises(NsbenchError, match=r"has had no worker for 3 s with \d+ chunk"):
@@ -44,7 +44,7 @@ def test_a_cluster_without_workers_stops_the_sweep_with_a_reason(tmp_path, monke
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
         yield c
 
 

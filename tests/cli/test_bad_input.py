@@ -555,7 +555,7 @@ def test_dask_scheduler_without_workers(d, capsys, monkeypatch):
     from nsbench.cli import _dask
 
     monkeypatch.setattr(_dask, "WORKER_TIMEOUT", 1.0)
-    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster:
         argv = _argv(B + ["--dask", cluster.scheduler_address, "--out", "{d}/bif-dask3"], d)
         assert main(argv) == 2
     line = _one_error_line(capsys)

@@ -313,8 +313,9 @@ class _PythonArcs:
     (docs/core.md), so the common arc takes a short path: the request's fields are set
     directly, the counters are kept as Python integers, and the result, checked with a
     few scalar comparisons, is written into the run's arrays (the loop checks that the
-    state is finite). Any other result (a failure, section hits, a shape or a time
-    outside the protocol) goes through :meth:`_checked`, which names what is wrong.
+    state is finite); its section hits are stored as they come. Any other result (a
+    failure, a shape or a time outside the protocol) goes through :meth:`_checked`,
+    which names what is wrong.
     """
 
     def __init__(self, problem, integ, sections, t_eval, t_end, max_steps, hit_from, hit_stop, rec, st) -> None:

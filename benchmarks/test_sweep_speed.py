@@ -155,7 +155,7 @@ def _agreement(ref, frame) -> float:
         if abs(ref_values.iloc[j] - v) < 1e-12:
             mine = ref[ref["index"] == ref_values.index[j]]
             d.append(hausdorff(mine[["x1", "x2"]].to_numpy(float), rows[["x1", "x2"]].to_numpy(float)))
-    finite = [x for x in d if not np.isnan(x)]  # a family whose sweep records no peaks gives none
+    finite = [x for x in d if not np.isnan(x)]  # values without a distance (NaN) are left out
     return float(np.median(finite)) if finite else float("nan")
 
 

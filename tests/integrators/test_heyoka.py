@@ -100,6 +100,76 @@ def test_sections_and_trajectory_match_exact(case2):
     np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-12)
 
 
+def _hits_and_callbacks(problem, name: str, hit_from: float, monkeypatch, **kwargs):
+    """The section hits of a run through the core at ``t >= hit_from``, and the number of section
+    callbacks heyoka made (counted on the callback class)."""
+    from nsbench.hybrid.run import run_hybrid
+
+    calls = [0]
+    record = _heyoka_model.SectionLog.__call__
+
+    def counted(self, ta, t, d_sgn):
+        calls[0] += 1
+        return record(self, ta, t, d_sgn)
+
+    monkeypatch.setattr(_heyoka_model.SectionLog, "__call__", counted)
+    integ = nsbench.get_integrator(name)
+    integ.setup(problem)
+    raw = run_hybrid(problem, integ, 80.0, sections=[peaks(problem)], hit_from=hit_from, **kwargs)
+    rec = raw.records
+    return raw, np.column_stack([rec.ht[: raw.n_hits], rec.hy[: raw.n_hits]]), calls[0]
+
+
+def test_sections_off_before_sections_from_keep_every_hit_after_it(case2, monkeypatch):
+    # A sweep's transient: the core drops hits before hit_from, and heyoka runs those arcs with its
+    # sections off (ArcRequest.sections_from), stopping its propagation at hit_from. The hits after it
+    # are exact's to heyoka's accuracy on this case (test_sections_and_trajectory_match_exact), and
+    # heyoka calls back for none of the crossings before it but those of an arc's first steps.
+    ref, ref_hits, _ = _hits_and_callbacks(case2, "exact", 40.0, monkeypatch)
+    raw, hits, calls = _hits_and_callbacks(case2, "heyoka", 40.0, monkeypatch)
+    _, all_hits, all_calls = _hits_and_callbacks(case2, "heyoka", -np.inf, monkeypatch)
+    assert raw.status is nsbench.Status.SUCCESS and len(hits) == len(ref_hits) >= 5
+    assert (hits[:, 0] >= 40.0).all()
+    np.testing.assert_allclose(hits, ref_hits, rtol=0, atol=1e-12)
+    before = int(np.count_nonzero(all_hits[:, 0] < 40.0))
+    assert before >= 5 and calls <= all_calls - before
+
+
+def test_an_arc_whose_first_steps_pass_sections_from_is_run_again_with_its_sections(case2, monkeypatch):
+    # An arc that starts on a guard's surface takes its first steps apart (HeyokaIntegrator._first_step);
+    # with the sections off, steps that go past sections_from would miss the crossings just after it. Such
+    # an arc is run again with its sections on: no crossing after sections_from is missed, and the hits are
+    # the run's with sections throughout to heyoka's accuracy (not bit for bit: the arc before ended at
+    # an event inside a step cut at sections_from, whose root is found on a shorter interval).
+    from nsbench.integrators.heyoka_ import HeyokaIntegrator
+
+    full, full_hits, _ = _hits_and_callbacks(case2, "heyoka", -np.inf, monkeypatch)
+    propagate, again = HeyokaIntegrator._propagate, []
+
+    def watched(self, st, ta, request, quiet, spent=0):
+        out = propagate(self, st, ta, request, quiet, spent)
+        again.append(out[0] is None)
+        return out
+
+    monkeypatch.setattr(HeyokaIntegrator, "_propagate", watched)
+    checked = 0
+    for t_event in full.records.ev_t[: full.n_events][5:25]:
+        hit_from = float(t_event) + 1e-9  # inside the first step of the arc after the event
+        again.clear()
+        raw, hits, _ = _hits_and_callbacks(case2, "heyoka", hit_from, monkeypatch)
+        wanted = full_hits[full_hits[:, 0] >= hit_from]
+        assert raw.status is nsbench.Status.SUCCESS and len(hits) == len(wanted)
+        np.testing.assert_allclose(hits, wanted, rtol=0, atol=1e-12)
+        checked += any(again)
+    assert checked >= 3  # the arcs run again
+
+
+def test_a_step_budget_spent_before_sections_from_is_a_status(case2, monkeypatch):
+    raw, hits, _ = _hits_and_callbacks(case2, "heyoka", 70.0, monkeypatch, max_steps=30)
+    assert raw.status is nsbench.Status.BUDGET_EXHAUSTED and raw.counters.nsteps <= 30
+    assert raw.t < 70.0 and len(hits) == 0
+
+
 def test_step_budget_is_a_status(case1):
     res = nsbench.simulate(case1, "heyoka", 300.0, max_steps=20)
     assert res.status is nsbench.Status.BUDGET_EXHAUSTED

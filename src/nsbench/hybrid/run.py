@@ -341,7 +341,7 @@ class _PythonArcs:
         self._by_mode: dict[bytes, tuple[tuple[int, ...], tuple]] = {}  # per mode: its tuple and its guards
         self._ok = Status.SUCCESS
         # the fields of every request of the run; the others are set per arc (_make_request)
-        self._fixed = {"problem": problem, "t_end": t_end, "sections": self.sections}
+        self._fixed = {"problem": problem, "t_end": t_end, "sections": self.sections, "sections_from": hit_from}
         names = {f.name for f in dataclasses.fields(ArcRequest)}
         known = names == set(self._fixed) | {"mode", "t0", "y0", "guards", "t_eval", "max_steps", "t0_lo"}
         self._build = self._make_request if known else self._construct  # a field this glue does not know
@@ -374,6 +374,7 @@ class _PythonArcs:
             t_end=self.t_end,
             guards=guards,
             sections=self.sections,
+            sections_from=self.hit_from,
             t_eval=t_eval,
             max_steps=max_steps,
             t0_lo=t_lo,

@@ -158,6 +158,11 @@ class ArcRequest:
         double does not accumulate over many events; integrators that measure
         time from the arc start may use it (and report ``ArcResult.t_lo``),
         others ignore it.
+    sections_from
+        Crossings of ``sections`` before this time are not wanted (a sweep's
+        transient): the core drops them. An integrator may skip looking for
+        them there, which costs nothing in accuracy; one that reports them
+        anyway is still right. ``-inf``: every crossing is wanted.
     """
 
     problem: "HybridProblem"
@@ -170,6 +175,7 @@ class ArcRequest:
     t_eval: np.ndarray = field(default_factory=lambda: np.empty(0))
     max_steps: int = 10**7
     t0_lo: float = 0.0
+    sections_from: float = -math.inf
 
     def rhs(self, t, y):
         """The frozen-mode vector field of this arc."""

@@ -209,9 +209,11 @@ class HeyokaIntegrator(Integrator):
             np.array(y_fp, copy=True),
         )
 
-    def _pars(self, st: model.Structure, request: ArcRequest) -> np.ndarray:
+    def _pars(self, st: model.Structure, request: ArcRequest, sections: bool = True) -> np.ndarray:
         """The runtime parameters of an arc (coefficients, mode, guards, sections) in our precision.
 
+        ``sections=False``: every section slot off (its event function a constant, so heyoka
+        calls no section callback), for the part of an arc before ``request.sections_from``.
         Kept per mode and structure for the sections of the last request (one run
         hands every arc the same sections): an arc of a mode seen before only copies them in.
         """
@@ -219,13 +221,13 @@ class HeyokaIntegrator(Integrator):
             self._pars_sections, self._pars_cache = request.sections, {}
         # first by the identity of the guards (the problem hands one tuple per mode; the tuple is
         # kept in the entry, so its id is not reused), then by what the parameters depend on
-        quick = self._pars_cache.get((id(st), id(request.guards)))
+        quick = self._pars_cache.get((id(st), id(request.guards), sections))
         if quick is not None and quick[0] is request.guards and quick[1] == request.mode:
             return quick[2]
-        key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards))
+        key = (id(st), request.mode, tuple((g.kind, g.block, g.expected_sign) for g in request.guards), sections)
         cached = self._pars_cache.get(key)
         if cached is not None:
-            self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
+            self._pars_cache[(id(st), id(request.guards), sections)] = (request.guards, request.mode, cached)
             return cached
         pars = np.zeros(st.n_pars)
         pars[: self._coefficients.size] = self._coefficients
@@ -236,23 +238,37 @@ class HeyokaIntegrator(Integrator):
         for guard in request.guards:
             off = st.guard_par(guard)
             pars[off + model.GUARD_ACTIVE], pars[off + model.GUARD_SIGN] = 1.0, float(guard.expected_sign)
-        for q, sec in enumerate(request.sections):
+        for q, sec in enumerate(request.sections if sections else ()):
             off = st.section_offset(q)
             pars[off + model.SECTION_ACTIVE], pars[off + model.SECTION_LEVEL] = 1.0, sec.level
             coeffs = off + model.SECTION_COEFFS
             pars[coeffs : coeffs + st.n_mech] = sec.coeffs
         cached = self._pars_cache[key] = pars.astype(self._fp)
-        self._pars_cache[(id(st), id(request.guards))] = (request.guards, request.mode, cached)
+        self._pars_cache[(id(st), id(request.guards), sections)] = (request.guards, request.mode, cached)
         return cached
 
-    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None):
+    @staticmethod
+    def _quiet_until(request: ArcRequest) -> float | None:
+        """The time up to which the arc runs with its sections off, or ``None`` (sections on throughout).
+
+        Crossings before ``request.sections_from`` are not wanted (a sweep's transient: most of its
+        section callbacks, a quarter of a sweep value's time). The arc then stops its propagation
+        there, which heyoka's next step starts from; an arc with dense states keeps one
+        propagation (its dense output is of one call).
+        """
+        t = request.sections_from
+        if request.sections and request.t0 < t < request.t_end and not request.t_eval.size:
+            return t
+        return None
+
+    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None, sections: bool = True):
         """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
 
         ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
-        of the request's double time and state.
+        of the request's double time and state. ``sections=False``: the section slots off.
         """
         fp = self._fp
-        ta.pars[:] = self._pars(st, request)
+        ta.pars[:] = self._pars(st, request, sections)
         logs = self._logs(ta)
         for log in logs:
             if log.hits:
@@ -425,7 +441,8 @@ class HeyokaIntegrator(Integrator):
         st, ta = self._model(len(request.sections))
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None
-        t0 = self._load(st, ta, request, carried)
+        quiet = self._quiet_until(request)
+        t0 = self._load(st, ta, request, carried, sections=quiet is None)
         fp, n, logs = self._fp, self._n_states, self._logs(ta)
         if request.max_steps <= 0:
             return ArcResult(
@@ -436,7 +453,11 @@ class HeyokaIntegrator(Integrator):
                 status=Status.BUDGET_EXHAUSTED,
                 message=f"step budget exhausted at t = {request.t0:.6g}",
             )
-        outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request)
+        outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request, quiet)
+        if outcome is None:  # the first steps, with the sections off, went past sections_from: again, with them
+            t0 = self._load(st, ta, request, carried)
+            outcome, fresh_hit, c_out, redone, first_rows = self._propagate(st, ta, request, None, nsteps)
+            nsteps += redone
         if fresh_hit is not None:  # a fresh guard crossed inside the first step
             hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
         else:
@@ -474,22 +495,36 @@ class HeyokaIntegrator(Integrator):
             t_lo=t_lo,
         )
 
-    def _propagate(self, st, ta, request: ArcRequest):
-        """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation."""
+    def _propagate(self, st, ta, request: ArcRequest, quiet: float | None, spent: int = 0):
+        """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation.
+
+        ``quiet``: the sections are off (see :meth:`_load`) up to this time, then on. If the first
+        steps went past it (crossings after it were not looked for), the outcome is ``None``: the
+        arc is to be run again with the sections on. ``spent``: steps this arc has already used.
+        """
         fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
+        budget = int(request.max_steps) - spent
         fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
         outcome = _SUCCESS
         if fresh:
             outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, first_rows)
-        if fresh_hit is None and outcome == _SUCCESS:
-            if nsteps >= request.max_steps:  # heyoka reads max_steps=0 as "no limit"
-                outcome = model.hy.taylor_outcome.step_limit
-            else:
-                outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0
-                )
+        if quiet is not None and not (ta.time if fresh_hit is None else fresh_hit[0]) <= fp(quiet):
+            return None, None, None, nsteps, first_rows
+        if fresh_hit is not None or outcome != _SUCCESS:
+            return outcome, fresh_hit, c_out, nsteps, first_rows
+        if quiet is not None:  # the sections off up to there, then on
+            if nsteps < budget:  # heyoka reads max_steps=0 as "no limit"
+                outcome, _, _, taken, _, _ = ta.propagate_until(fp(quiet), max_steps=budget - nsteps)
                 nsteps += int(taken)
-        return outcome, fresh_hit, c_out, nsteps, first_rows
+            ta.pars[:] = self._pars(st, request)
+            if outcome != _TIME_LIMIT and outcome != _SUCCESS:  # an event, a failure, the budget
+                return outcome, fresh_hit, c_out, nsteps, first_rows
+        if nsteps >= budget:
+            return model.hy.taylor_outcome.step_limit, fresh_hit, c_out, nsteps, first_rows
+        outcome, _, _, taken, c_out, _ = ta.propagate_until(
+            fp(request.t_end), max_steps=budget - nsteps, c_output=request.t_eval.size > 0
+        )
+        return outcome, fresh_hit, c_out, nsteps + int(taken), first_rows
 
     @staticmethod
     def _verdict(n_events: int, outcome, fresh_hit, request: ArcRequest, t_stop: float):

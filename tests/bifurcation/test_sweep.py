@@ -175,6 +175,27 @@ def test_chunk_files_are_written_atomically(tmp_path):
     assert Path(tmp_path / "a" / "meta.json").exists()
 
 
+def test_the_rows_a_store_wrote_are_its_table_and_a_replaced_chunk_is_read_again(tmp_path):
+    # A store keeps the rows it wrote (checked as a read checks them) instead of reading its own chunks
+    # back: its table must be a new reader's, bit for bit; a chunk replaced since is read again.
+    spec = SweepSpec(**SMALL)
+    out = tmp_path / "s"
+    frame = run_sweep(spec, out, workers=1, progress=False)
+    fresh = SweepStore(out).load()
+    pd.testing.assert_frame_equal(frame, fresh, check_exact=True)
+    store = SweepStore(out, spec)
+    first = sorted(store.points_dir.glob("chunk-*.parquet"))[0]
+    written = store.write(pd.read_parquet(first))
+    assert written == first and written in store._checked  # the same rows: the same chunk, kept
+    pd.testing.assert_frame_equal(store.load(), fresh, check_exact=True)
+    data = bytearray(written.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # replaced behind the store's back: the same size, another time stamp
+    written.write_bytes(bytes(data))
+    os.utime(written, ns=(0, 0))
+    with pytest.raises(ConfigError, match="damaged"):
+        store.load()
+
+
 def test_motion_at_rest_is_recorded_as_its_equilibrium(tmp_path):
     # past the pure-sliding threshold the motion damps out: RK4 settles on the equilibrium and
     # has no more peaks; the value is kept as status "rest" with its final state as one point.

@@ -201,3 +201,12 @@ def test_lyapunov_command(capsys, tmp_path):
     assert main(["lyapunov", "two-dof", "--case", "1", "--members", "2"]) == 2
     assert main(["lyapunov", "two-dof", "--case", "1", "--iterations", "1e4.5"]) == 2
     assert main(["lyapunov", "two-dof", "--case", "1", "--seed", "0.5"]) == 2
+
+
+@pytest.mark.parametrize("workers", [0, 1])
+def test_a_whole_system_method_is_refused_once_not_per_member(workers):
+    # the members are runs of the hybrid core (event-driven integrators only): one error up front,
+    # in this process and with workers alike, instead of a failure per member
+    problem = nsbench.get_problem("two-dof", case=2)
+    with pytest.raises(ConfigError, match="switch-model is a whole-system method .*Lyapunov exponent needs"):
+        largest_exponent(problem, integrator="switch-model", iterations=80, members=4, transient=10.0, workers=workers)

@@ -167,6 +167,16 @@ def test_bad_section_for_unforced_problem(tmp_path):
         run_sweep(SweepSpec(section="strobe", **SMALL), tmp_path / "x", workers=1, progress=False)
 
 
+@pytest.mark.parametrize("name", ["moreau-jean", "smoothing", "switch-model"])
+def test_a_whole_system_method_is_refused_before_anything_runs(tmp_path, name):
+    # A sweep's values are runs of the hybrid core, which runs event-driven integrators only: a
+    # whole-system method would fail every value in the workers (as it did), so it is refused first.
+    spec = SweepSpec(integrator=name, **SMALL)
+    with pytest.raises(ConfigError, match=f"{name} is a whole-system method .*a sweep needs an event-driven"):
+        run_sweep(spec, tmp_path / "s", workers=1, progress=False)
+    assert not (tmp_path / "s").exists()
+
+
 def test_chunk_files_are_written_atomically(tmp_path):
     spec = SweepSpec(**SMALL)
     store = SweepStore(tmp_path / "a", spec)

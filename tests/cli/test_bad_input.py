@@ -208,6 +208,12 @@ C = [
 ]
 
 CASES = [
+    # ---- a whole-system method where the hybrid core's runs are needed: refused before any worker starts
+    *[
+        (f"bifurcation-{name}", B + ["--integrator", name], f"{name} is a whole-system method")
+        for name in ("moreau-jean", "smoothing", "switch-model")
+    ],
+    ("lyapunov-smoothing", L + ["--integrator", "smoothing"], "a Lyapunov exponent needs an event-driven"),
     # ---- continuation (more in tests/cli/test_continuation.py)
     ("continuation-steps-nan", C + ["--steps", "nan"], "--steps = nan"),
     ("continuation-sweep-count", ["continuation", "two-dof", "--sweep", "v0=0.1:0.2:30"], "NAME=START:STOP"),

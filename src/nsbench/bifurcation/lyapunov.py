@@ -458,12 +458,15 @@ def largest_exponent(
     if integrator is None:
         integrator = "exact" if problem.is_linear else "henon-rk4"
     integ = get_integrator(integrator, **(options or {}))
+    from nsbench.integrators.base import require_event_driven
+
+    require_event_driven(integ, "a Lyapunov exponent")  # not once per member
     if workers == 0:
         integ.setup(problem)  # the members run here
     else:  # set up in the workers, under member_limit: a plug-in's setup that hangs costs its members
         from nsbench.bifurcation.sweep import check_in_caller
 
-        check_in_caller(integ, problem)
+        check_in_caller(integ, problem, "a Lyapunov exponent")
     members, per_member = int(members), int(iterations // members)
     seeds = np.random.SeedSequence(int(seed)).spawn(members)
     params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread, align=int(align))

@@ -225,16 +225,19 @@ class SweepSpec:
         check_in_caller(get_integrator(self.integrator, **self.options), problem)
 
 
-def check_in_caller(integ, problem) -> None:
+def check_in_caller(integ, problem, use: str = "a sweep") -> None:
     """The refusals of ``integ`` on ``problem`` that the calling process may run before its workers start.
 
-    A built-in integrator's :meth:`~nsbench.integrators.base.Integrator.check_problem` (compiling or
+    A whole-system method (``use`` names what needs an event-driven integrator); then a built-in
+    integrator's :meth:`~nsbench.integrators.base.Integrator.check_problem` (compiling or
     loading compiled code is the workers' set-up); for a plug-in only the capabilities (a cubic
     problem refused): its own setup runs only in supervised workers, under their limit, since one
     that hangs or ends its process must not take the command with it.
     """
+    from nsbench.integrators.base import require_event_driven
     from nsbench.integrators.base import Integrator
 
+    require_event_driven(integ, use)  # a whole-system method would fail every value in the workers
     if type(integ).__module__.startswith("nsbench."):
         integ.check_problem(problem)
     else:

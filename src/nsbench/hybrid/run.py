@@ -122,17 +122,10 @@ def run_hybrid(
         which the accumulation (Zeno) time is extrapolated and the problem's limit
         behaviour applied (0: never).
     """
+    from nsbench.integrators.base import require_event_driven
     from nsbench.model import loop
 
-    family = getattr(getattr(integ, "capabilities", None), "family", "event-driven")
-    if family != "event-driven":
-        from nsbench.errors import ConfigError
-
-        raise ConfigError(
-            f"{integ.name} is a whole-system method ({family}): the hybrid core runs event-driven "
-            "integrators only; nsbench.simulate runs it (sweeps, Lyapunov exponents and periodic "
-            "orbits need an event-driven integrator)"
-        )
+    require_event_driven(integ)
     n = problem.n_states
     prob = problem.data
     kernel = integ.kernel(problem)

@@ -294,6 +294,8 @@ class Integrator:
     name: ClassVar[str] = ""
     capabilities: ClassVar[Capabilities]
     options: ClassVar[dict[str, Option]] = {}
+    #: Whether it advances the whole system (:class:`nsbench.integrators.whole.WholeSystem`) instead of arcs.
+    whole_system: ClassVar[bool] = False
     #: Option sets from loose to tight (typically three) that benchmark suites and
     #: convergence checks use by default; empty means "the defaults only".
     accuracy_levels: ClassVar[tuple[dict[str, Any], ...]] = ()
@@ -488,3 +490,21 @@ def kernel_advance(integ: CompiledArcs, request: ArcRequest) -> ArcResult:
         message=message,
         t_lo=out.t_lo,
     )
+
+
+def require_event_driven(integ: Any, use: str = "") -> None:
+    """``ConfigError`` unless ``integ`` (an integrator or its class) runs arcs of frozen modes: the
+    hybrid core runs only those (sweeps, Lyapunov exponents and periodic orbits are made of its
+    runs). ``use`` names what the caller was asked for (``"a sweep"``), for the message."""
+    family = getattr(getattr(integ, "capabilities", None), "family", "event-driven")
+    if family != "event-driven" or getattr(integ, "whole_system", False):  # Siconos's event-driven scheme
+        what = (
+            f"{use} needs an event-driven integrator"
+            if use
+            else "the hybrid core runs event-driven integrators only (sweeps, Lyapunov exponents and periodic "
+            "orbits need one)"
+        )
+        raise ConfigError(
+            f"{integ.name} is a whole-system method (family {family}): {what}; `nsbench list integrators` "
+            f"shows each one's family (nsbench.simulate runs {integ.name})"
+        )

@@ -125,6 +125,7 @@ class WholeSystem(Integrator):
     bouncing ball; a subclass widens :attr:`INFERABLE` to what it runs.
     """
 
+    whole_system: ClassVar[bool] = True
     #: The problem families whose events :func:`nsbench.hybrid.inference.infer_events` can infer.
     INFERABLE: ClassVar[tuple[str, ...]] = ("friction",)
 

@@ -16,7 +16,7 @@ import pytest
 import nsbench
 from nsbench.bifurcation.parallel import run_sweep
 from nsbench.bifurcation.storage import SweepStore
-from nsbench.bifurcation.sweep import SweepSpec, parse_sweep
+from nsbench.bifurcation.sweep import SweepSpec, parse_sweep, strobe_times
 from nsbench.errors import ConfigError
 from nsbench.sections import peaks
 
@@ -165,6 +165,54 @@ def test_a_sweep_without_a_range_is_refused():
 def test_bad_section_for_unforced_problem(tmp_path):
     with pytest.raises(ConfigError, match="strobe"):
         run_sweep(SweepSpec(section="strobe", **SMALL), tmp_path / "x", workers=1, progress=False)
+
+
+@pytest.mark.parametrize(
+    "problem, name, integrator, section",
+    [
+        ("henon-heiles", "coupling", "henon-rk4", "peaks"),
+        ("relay-feedback", "rho", "exact", "peaks"),
+        ("impact-oscillator", "F", "exact", "strobe"),  # forced: the command's default section
+    ],
+)
+def test_a_sweep_of_a_library_problem_records_its_sections_classifies_and_draws(
+    tmp_path, problem, name, integrator, section
+):
+    # Problems whose states are not the blocks' x1, v1, ... (x, y, px, py; x1, x2, x3; x, v): the values
+    # are recorded, the counters are those of the table, and the classification and the diagram use
+    # the problem's own state variables (they used to fail on a missing x1 or sticks2).
+    from nsbench.bifurcation import detect, figures
+
+    start, stop = {"coupling": (0.9, 1.0), "rho": (0.1, 0.2), "F": (0.5, 0.6)}[name]
+    spec = SweepSpec(
+        problem=problem,
+        case=1,
+        name=name,
+        start=start,
+        stop=stop,
+        count=3,
+        integrator=integrator,
+        section=section,
+        transient=20.0,
+        record=3,
+    )
+    frame = run_sweep(spec, tmp_path / "s", workers=1, progress=False)
+    assert (frame["status"] == "success").all(), frame["message"].unique()
+    # each value's points are the section's points after the transient in a run of its own
+    p = spec.problem_at(float(spec.values[1]))
+    if section == "peaks":
+        ref = nsbench.simulate(p, integrator, 20.0 + spec.record_window, sections=[peaks(p)]).sections
+    else:
+        times = strobe_times(p, 20.0, 3)
+        ref = nsbench.simulate(p, integrator, float(times[-1]), t_eval=times).trajectory
+    ref = ref[ref["t"] >= 20.0].iloc[:3]
+    got = frame[frame["index"] == 1]
+    cols = ["t", *p.state_names]
+    np.testing.assert_allclose(got[cols].to_numpy(), ref[cols].to_numpy(), rtol=0, atol=1e-12)
+    feats = detect.classify(frame)
+    assert len(feats) == 3 and (feats["period"] >= 0).all()
+    written = figures.diagram(frame, tmp_path / "diagram", formats=("png",))
+    assert written[0].stat().st_size > 0
 
 
 @pytest.mark.parametrize("name", ["moreau-jean", "smoothing", "switch-model"])

@@ -25,11 +25,11 @@ def hausdorff(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _coords(frame: pd.DataFrame) -> list[str]:
-    """The position columns ``x1 .. xn`` that hold values (peaks sections record them all)."""
-    from nsbench.bifurcation.storage import n_blocks_of
+    """The position columns (``x1 .. xn``, :func:`~nsbench.bifurcation.storage.positions_of`) that hold
+    values (peaks sections record them all)."""
+    from nsbench.bifurcation.storage import positions_of
 
-    names = [f"x{b}" for b in range(1, n_blocks_of(frame) + 1)]
-    return [c for c in names if frame[c].notna().any()]
+    return [c for c in positions_of(frame) if frame[c].notna().any()]
 
 
 def agreement(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from nsbench.bifurcation.storage import n_blocks_of
+from nsbench.bifurcation.storage import n_blocks_of, positions_of, state_columns
 from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec, compute_point
 
 
@@ -114,10 +114,11 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
 
 def _feature_columns(points: pd.DataFrame, section: str) -> tuple[list[str], bool]:
     """The columns of :func:`_features`, and whether ``10 * event_block`` joins them."""
-    blocks = range(1, n_blocks_of(points) + 1)
-    if section in ("stick", "mapping"):
-        return [f"x{b}" for b in blocks], True
-    return (["x1"] if section == "peaks" else [c for b in blocks for c in (f"x{b}", f"v{b}")]), False
+    states = state_columns(points)
+    if section in ("stick", "mapping"):  # the positions of the blocks
+        return positions_of(points)[: n_blocks_of(points)] or states[:1], True
+    # peaks: the first position (x1: a section of v1); strobe: the whole state
+    return (states[:1] if section == "peaks" else states), False
 
 
 def _period_and_distinct(feats: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:

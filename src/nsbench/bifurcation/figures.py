@@ -70,17 +70,18 @@ def diagram(
 ) -> list[Path]:
     """Bifurcation diagram: section-point coordinates against the swept parameter.
 
-    ``variables`` default to the block positions ``x1 .. xn`` (one panel each).
+    ``variables`` default to the block positions ``x1 .. xn`` (one panel each; the first of each
+    pair of state variables of other problems, every one if they do not come in pairs).
 
     Failed or incomplete values are marked along the bottom; candidate
     bifurcation points (if given) as faint vertical lines.
     """
     plt = _plt()
-    if variables is None:
-        from nsbench.bifurcation.storage import n_blocks_of
+    from nsbench.bifurcation.storage import positions_of, state_columns
 
-        variables = [f"x{k}" for k in range(1, n_blocks_of(frame) + 1)]
-    variables = [v for v in variables if v in frame and frame[v].notna().any()] or ["x1"]
+    if variables is None:
+        variables = positions_of(frame)
+    variables = [v for v in variables if v in frame and frame[v].notna().any()] or state_columns(frame)[:1]
     fig, axes = plt.subplots(len(variables), 1, figsize=(7.0, 2.4 * len(variables) + 0.6), sharex=True, squeeze=False)
     name = frame["param"].iloc[0] if len(frame) else "parameter"
     from nsbench.bifurcation.sweep import OK_STATUSES

@@ -443,11 +443,32 @@ def points_summary(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def n_blocks_of(frame: pd.DataFrame) -> int:
-    """Number of blocks of a sweep table (its ``x1, x2, ...`` columns)."""
+    """Number of blocks whose counters a sweep table holds (its ``sticks1, sticks2, ...`` columns: half
+    its state variables, :func:`~nsbench.bifurcation.sweep.sweep_columns`); a table without counters,
+    its ``x1, x2, ...`` columns."""
+    key = "sticks" if "sticks1" in frame.columns else "x"
     n = 0
-    while f"x{n + 1}" in frame.columns:
+    while f"{key}{n + 1}" in frame.columns:
         n += 1
     return n
+
+
+def state_columns(frame: pd.DataFrame) -> list[str]:
+    """The state variables of a sweep table (the problem's state names: ``x1, v1, ...`` of the friction
+    problems, ``x, y, px, py`` of Henon-Heiles), between ``t`` and ``event_block``; a table without
+    them, its ``x1, v1, x2, ...`` columns."""
+    cols = list(frame.columns)
+    if "t" in cols and "event_block" in cols and cols.index("t") < cols.index("event_block"):
+        return cols[cols.index("t") + 1 : cols.index("event_block")]
+    return [c for c in cols if re.fullmatch(r"[xv]\d+", c)]
+
+
+def positions_of(frame: pd.DataFrame) -> list[str]:
+    """The variables a sweep's diagram and point features use as positions: the first of each pair of
+    state variables (``x1 .. xn`` of the friction problems, whose states are ``x1, v1, x2, v2, ...``);
+    every state variable of a problem whose states do not come in pairs."""
+    states = state_columns(frame)
+    return states[0::2] if len(states) % 2 == 0 else states
 
 
 def _canonical(spec: SweepSpec) -> str:

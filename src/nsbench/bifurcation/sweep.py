@@ -413,7 +413,7 @@ def _point(spec: SweepSpec, problem, integ):
         "nsteps": raw.counters.nsteps,
     }
     for code, (_, name) in enumerate(EVENT_COUNTS):
-        for b in range(1, problem.n_blocks + 1):
+        for b in range(1, len(problem.state_names) // 2 + 1):  # the table's counter columns (sweep_columns)
             counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b)))
     if spec.section == "peaks":
         t, y, blocks = rec.ht[: raw.n_hits], rec.hy[: raw.n_hits], np.ones(raw.n_hits, np.int64)
@@ -424,7 +424,7 @@ def _point(spec: SweepSpec, problem, integ):
         want = EVENT_KINDS.index(kwargs["stop_kind"])
         pick = np.flatnonzero(kinds == want)[: spec.record]
         t, y, blocks = rec.ev_t[pick], rec.ev_y[pick], blocks_ev[pick]
-    moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, problem.n_blocks + 1))
+    moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, len(problem.state_names) // 2 + 1))
     rest = len(t) < spec.record and raw.status.ok and moved == 0 and float(np.max(np.abs(raw.y[1::2]))) <= REST_SPEED
     status, message = _finish(spec, len(t), raw.status.value, raw.t, rest)
     if raw.status.ok is False:

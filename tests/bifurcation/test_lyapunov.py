@@ -210,3 +210,10 @@ def test_a_whole_system_method_is_refused_once_not_per_member(workers):
     problem = nsbench.get_problem("two-dof", case=2)
     with pytest.raises(ConfigError, match="switch-model is a whole-system method .*Lyapunov exponent needs"):
         largest_exponent(problem, integrator="switch-model", iterations=80, members=4, transient=10.0, workers=workers)
+
+
+def test_a_problem_without_slip_events_is_refused_once():
+    # the exponent is measured between mapping points (slip events): the relay system has none
+    problem = nsbench.get_problem("relay-feedback")
+    with pytest.raises(ConfigError, match="relay-feedback has none .its event kinds: cross"):
+        largest_exponent(problem, iterations=80, members=4, transient=10.0, workers=1)

@@ -213,6 +213,17 @@ def test_a_sweep_of_a_library_problem_records_its_sections_classifies_and_draws(
     assert len(feats) == 3 and (feats["period"] >= 0).all()
     written = figures.diagram(frame, tmp_path / "diagram", formats=("png",))
     assert written[0].stat().st_size > 0
+    # the counters count the problem's stick, slip and reverse events by name: none here but the
+    # impact oscillator's sticking to its wall
+    counts = frame[[c for c in frame.columns if c.startswith(("sticks", "slips", "reverses"))]].to_numpy()
+    kinds = {"stick", "slip", "reverse"} & set(p.event_kinds)
+    assert (counts == 0).all() if not kinds else kinds == {"stick"}
+
+
+def test_a_section_of_events_the_problem_does_not_have_is_refused(tmp_path):
+    spec = SweepSpec(problem="henon-heiles", case=1, name="coupling", start=0.9, stop=1.0, count=3, section="mapping")
+    with pytest.raises(ConfigError, match="section mapping records slip events; henon-heiles has none"):
+        run_sweep(spec, tmp_path / "s", workers=1, progress=False)
 
 
 @pytest.mark.parametrize("name", ["moreau-jean", "smoothing", "switch-model"])

@@ -130,3 +130,13 @@ def test_many_section_hits_and_events_grow_their_buffers():
     short = nsbench.simulate(p, "exact", 1500.0, sections=[level_crossing(p, "v1", 0.0)])
     n = len(short.events)
     pd.testing.assert_frame_equal(res.events.iloc[:n], short.events)
+
+
+def test_a_stop_at_events_the_problem_does_not_have_is_refused():
+    from nsbench.hybrid.run import run_hybrid
+
+    problem = nsbench.get_problem("henon-heiles")
+    integ = nsbench.get_integrator("henon-rk4")
+    integ.setup(problem)
+    with pytest.raises(nsbench.ConfigError, match="stop_kind 'slip': henon-heiles has no such events; its event kinds"):
+        run_hybrid(problem, integ, 10.0, stop_kind="slip", stop_count=1)

@@ -457,6 +457,11 @@ def largest_exponent(
     check_limit("member_limit", member_limit)
     if integrator is None:
         integrator = "exact" if problem.is_linear else "henon-rk4"
+    if "slip" not in problem.event_kinds:  # not once per member
+        raise ConfigError(
+            f"the exponent is measured between mapping points (slip events); {problem.name} has none "
+            f"(its event kinds: {', '.join(problem.event_kinds)})"
+        )
     integ = get_integrator(integrator, **(options or {}))
     from nsbench.integrators.base import require_event_driven
 

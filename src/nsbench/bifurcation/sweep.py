@@ -221,6 +221,12 @@ class SweepSpec:
                     "section strobe needs a harmonic force (F > 0) in the sweep; use peaks, stick or mapping"
                 )
         problem = ends[0]
+        kind = {"stick": "stick", "mapping": "slip"}.get(self.section)
+        if kind is not None and kind not in problem.event_kinds:
+            raise ConfigError(
+                f"section {self.section} records {kind} events; {problem.name} has none (its event kinds: "
+                f"{', '.join(problem.event_kinds)}); use peaks or strobe"
+            )
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
         check_in_caller(get_integrator(self.integrator, **self.options), problem)
 
@@ -387,7 +393,6 @@ def _finish(spec, n_found, status, t_last, rest=False) -> tuple[str, str]:
 def _point(spec: SweepSpec, problem, integ):
     """One value through the hybrid core: the recorded points, status and counters of the recording window."""
     from nsbench.hybrid.run import run_hybrid
-    from nsbench.problems.modes import EVENT_KINDS
     from nsbench.sections import peaks
 
     integ.setup(problem)
@@ -412,16 +417,17 @@ def _point(spec: SweepSpec, problem, integ):
         "nfev": raw.counters.nfev,
         "nsteps": raw.counters.nsteps,
     }
-    for code, (_, name) in enumerate(EVENT_COUNTS):
+    for kind, name in EVENT_COUNTS:  # by the problem's own codes: none for a problem without such events
+        code = problem.event_kinds.index(kind) if kind in problem.event_kinds else -1
         for b in range(1, len(problem.state_names) // 2 + 1):  # the table's counter columns (sweep_columns)
-            counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b)))
+            counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b))) if code >= 0 else 0
     if spec.section == "peaks":
         t, y, blocks = rec.ht[: raw.n_hits], rec.hy[: raw.n_hits], np.ones(raw.n_hits, np.int64)
     elif spec.section == "strobe":
         t, y = kwargs["t_eval"][: raw.n_dense], rec.y_eval[: raw.n_dense]
         blocks = np.zeros(raw.n_dense, np.int64)
     else:
-        want = EVENT_KINDS.index(kwargs["stop_kind"])
+        want = problem.event_kinds.index(kwargs["stop_kind"])
         pick = np.flatnonzero(kinds == want)[: spec.record]
         t, y, blocks = rec.ev_t[pick], rec.ev_y[pick], blocks_ev[pick]
     moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, len(problem.state_names) // 2 + 1))

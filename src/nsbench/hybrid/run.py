@@ -161,6 +161,13 @@ def run_hybrid(
         iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
     )
     st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
+    if stop_kind is not None and stop_kind not in problem.event_kinds:
+        from nsbench.errors import ConfigError
+
+        raise ConfigError(
+            f"stop_kind {stop_kind!r}: {problem.name} has no such events; its event kinds: "
+            f"{', '.join(problem.event_kinds)}"
+        )
     kind_code = -1 if stop_kind is None else problem.event_kinds.index(stop_kind)
     lim = abi.RunLimits(
         float(t_end),

@@ -214,6 +214,17 @@ CASES = [
         for name in ("moreau-jean", "smoothing", "switch-model")
     ],
     ("lyapunov-smoothing", L + ["--integrator", "smoothing"], "a Lyapunov exponent needs an event-driven"),
+    ("lyapunov-relay", ["lyapunov", "relay-feedback"], "relay-feedback has none (its event kinds: cross"),
+    (
+        "bifurcation-portrait-of-a-relay",
+        ["bifurcation", "relay-feedback", "--sweep", "rho=0.1:0.2:2", "--portrait", "0.15", "--out", "{d}/bif-r"],
+        "--portrait draws the locus of sticking phase of a friction oscillator; relay-feedback is of the 'relay'",
+    ),
+    (
+        "bifurcation-mapping-of-henon-heiles",
+        ["bifurcation", "henon-heiles", "--sweep", "coupling=0.9:1:2", "--section", "mapping", "--out", "{d}/bif-h"],
+        "section mapping records slip events; henon-heiles has none",
+    ),
     # ---- continuation (more in tests/cli/test_continuation.py)
     ("continuation-steps-nan", C + ["--steps", "nan"], "--steps = nan"),
     ("continuation-sweep-count", ["continuation", "two-dof", "--sweep", "v0=0.1:0.2:30"], "NAME=START:STOP"),

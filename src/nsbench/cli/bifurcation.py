@@ -224,6 +224,11 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
         problem = specs[0].problem_at(value)
+        if getattr(problem, "family", "") != "friction":
+            raise ConfigError(
+                f"--portrait draws the locus of sticking phase of a friction oscillator; {args.problem} is of "
+                f"the {getattr(problem, 'family', '') or 'other'!r} family"
+            )
         if any(not 1 <= b <= problem.n_blocks for b in pair):
             raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {problem.n_blocks}")
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""

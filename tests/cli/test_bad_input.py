@@ -221,6 +221,11 @@ CASES = [
         "--portrait draws the locus of sticking phase of a friction oscillator; relay-feedback is of the 'relay'",
     ),
     (
+        "bifurcation-peaks-of-henon-heiles-by-heyoka",
+        ["bifurcation", "henon-heiles", "--sweep", "coupling=0.9:1:2", "--integrator", "heyoka", "--out", "{d}/bh"],
+        "section peaks: heyoka records no state sections on henon-heiles",
+    ),
+    (
         "bifurcation-mapping-of-henon-heiles",
         ["bifurcation", "henon-heiles", "--sweep", "coupling=0.9:1:2", "--section", "mapping", "--out", "{d}/bif-h"],
         "section mapping records slip events; henon-heiles has none",

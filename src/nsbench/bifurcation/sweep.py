@@ -228,7 +228,11 @@ class SweepSpec:
                 f"{', '.join(problem.event_kinds)}); use peaks or strobe"
             )
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
-        check_in_caller(get_integrator(self.integrator, **self.options), problem)
+        integ = get_integrator(self.integrator, **self.options)
+        check_in_caller(integ, problem)
+        refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
+        if self.section == "peaks" and refusal:
+            raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")
 
 
 def check_in_caller(integ, problem, use: str = "a sweep") -> None:

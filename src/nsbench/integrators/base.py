@@ -344,6 +344,12 @@ class Integrator:
         process and sets up in its workers. The default runs :meth:`setup`."""
         self.setup(problem)
 
+    def sections_refusal(self, problem: "HybridProblem") -> str:
+        """Why this integrator records no state sections (``request.sections``) on ``problem``; ``''``
+        if it does (the default). A command asks before its workers start (a sweep's ``peaks``), so
+        that a refusal is one line, not one failure per value."""
+        return ""
+
     def advance(self, request: ArcRequest) -> ArcResult:  # pragma: no cover - abstract
         """Integrate one arc of a frozen mode; see the class docstring."""
         raise NotImplementedError

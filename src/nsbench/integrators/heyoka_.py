@@ -112,6 +112,14 @@ class HeyokaIntegrator(Integrator):
                 f"{problem.family or 'other'!r} family, which has no heyoka form"
             )
 
+    def sections_refusal(self, problem) -> str:
+        if self._written_symbolically(problem):
+            return (
+                f"{self.name} records no state sections on {problem.name} (its heyoka form has no section events; "
+                "the friction family's has)"
+            )
+        return ""
+
     def setup(self, problem) -> None:
         self.check_problem(problem)
         self._symbolic = self._written_symbolically(problem)
@@ -338,7 +346,7 @@ class HeyokaIntegrator(Integrator):
                 fired=None,
                 y_eval=np.empty((n, 0)),
                 status=Status.INTEGRATOR_FAILURE,
-                message=f"{self.name}: state sections are not supported on {problem.name}",
+                message=self.sections_refusal(problem),
             )
         ta = self._mode_ta(request.mode)
         carry, self._carry = self._carry, None

@@ -54,6 +54,14 @@ class Reference(Integrator):
         self.delegate.setup(problem)
         self._problem = problem
 
+    def sections_refusal(self, problem) -> str:
+        if problem.is_linear:
+            return ""
+        from nsbench.integrators.heyoka_ import HeyokaQuad
+
+        refusal = HeyokaQuad().sections_refusal(problem)
+        return f"{self.name} (heyoka-q on this problem): {refusal}" if refusal else ""
+
     def kernel(self, problem):
         """The delegate's compiled kernel (``exact``'s for linear problems), so the whole run stays compiled."""
         if getattr(self, "_problem", None) is not problem:

@@ -66,7 +66,8 @@ def _channels() -> tuple[BinaryIO, BinaryIO]:
     return inp, out
 
 
-def _register(hello: msg.Hello) -> None:
+def register(hello: msg.Hello) -> None:
+    """Take the runner's path and runtime registrations (a worker's first message)."""
     from nsbench import registry
 
     sys.path[:] = [p for p in hello.sys_path] + [p for p in sys.path if p not in hello.sys_path]
@@ -76,23 +77,26 @@ def _register(hello: msg.Hello) -> None:
 
 
 def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
-    from nsbench.bench import storage
-    from nsbench.bench.execute import complete_row, time_case, warm_up
-    from nsbench.bench.reference import compute_reference
-
+    # each kind of task imports what it needs: a sweep's worker (``Call``) never needs the suite
+    # runner's modules, whose pandas alone is a quarter of a second of every worker's start
     def stage(what: str, limit: float | None) -> None:
         _send(out, msg.Stage(task.task, what, limit))
 
-    if isinstance(task, msg.ComputeReference):
-        return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
-    if isinstance(task, msg.WarmUp):
-        return warm_up(task.case, task.suite, stage)
     if isinstance(task, msg.Call):
         import importlib
 
         module, _, name = task.target.partition(":")
         target = getattr(importlib.import_module(module), name)
         return target(*task.args, stage=stage, emit=lambda item: _send(out, msg.Partial(task.task, item)))
+    if isinstance(task, msg.ComputeReference):
+        from nsbench.bench.reference import compute_reference
+
+        return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
+    from nsbench.bench import storage
+    from nsbench.bench.execute import complete_row, time_case, warm_up
+
+    if isinstance(task, msg.WarmUp):
+        return warm_up(task.case, task.suite, stage)
     if isinstance(task, msg.TimeCase):
         if task.round > 0:  # timings only: the runner joins them to the stored row
             return time_case(
@@ -116,11 +120,16 @@ def serve(inp: BinaryIO, out: BinaryIO) -> None:
     """Answer tasks until :class:`~nsbench.bench.protocol.Stop` or the end of the input."""
     try:
         hello = msg.read_message(inp)
-        _register(hello)
+        register(hello)
     except Exception as exc:  # e.g. a component whose module this process cannot import
         msg.write_message(out, msg.InitFailed(f"{type(exc).__name__}: {exc}"))
         return
     msg.write_message(out, msg.Ready(os.getpid()))
+    serve_tasks(inp, out, hello)
+
+
+def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
+    """Answer tasks until :class:`~nsbench.bench.protocol.Stop` or the end of the input (after the Ready)."""
     while True:
         try:
             task = msg.read_message(inp)
@@ -149,10 +158,14 @@ def _exit_with_parent(parent: int) -> None:
     os._exit(0)
 
 
-def main() -> None:
+def _watch_parent() -> None:
     global _PARENT
     _PARENT = os.getppid()
     threading.Thread(target=_exit_with_parent, args=(_PARENT,), daemon=True).start()
+
+
+def main() -> None:
+    _watch_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     faulthandler.enable()  # a crash in compiled code leaves a traceback on stderr
     inp, out = _channels()
@@ -168,6 +181,29 @@ def main() -> None:
     # command ending its workers would wait for). Nothing of a worker's is left to flush but stderr.
     sys.stderr.flush()
     os._exit(0)
+
+
+def run_forked(inp_fd: int, out_fd: int, hello: msg.Hello, init_error: str = "") -> None:
+    """Serve as a worker forked from a factory (:mod:`nsbench.bench.factory`), on the channels the parent
+    sent it; never returns. The factory is this process's parent: once it is gone (it leaves when the
+    runner does) the worker ends, as a worker started by the runner ends with the runner."""
+    code = 0
+    try:
+        _watch_parent()  # the factory's watcher thread is not in this process: threads do not survive a fork
+        inp, out = os.fdopen(inp_fd, "rb"), os.fdopen(out_fd, "wb")
+        if init_error:
+            msg.write_message(out, msg.InitFailed(init_error))
+        else:
+            msg.write_message(out, msg.Ready(os.getpid()))
+            serve_tasks(inp, out, hello)
+    except BrokenPipeError:
+        pass
+    except BaseException:
+        traceback.print_exc()
+        code = 1
+    finally:  # never back into the factory's loop
+        sys.stderr.flush()
+        os._exit(code)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,20 @@ def children_of(pid: int) -> set[int]:
     return out
 
 
+def descendants_of(pid: int) -> dict[int, set[int]]:
+    """The live processes below ``pid``, each with its own live children."""
+    tree: dict[int, set[int]] = {}
+    todo = [pid]
+    while todo:
+        for child in children_of(todo.pop()):
+            if child not in tree:
+                tree[child] = set()
+                todo.append(child)
+    for child in tree:
+        tree[child] = {c for c in tree if c in children_of(child)}
+    return tree
+
+
 def alive(pid: int) -> bool:
     """Whether ``pid`` exists and is not a zombie."""
     try:
@@ -33,26 +47,28 @@ def alive(pid: int) -> bool:
 
 
 def kill_leaves_no_workers(proc, workers: int, start_within: float = 300.0, end_within: float = 30.0) -> None:
-    """Wait until ``proc`` has ``workers`` children, SIGKILL it, and assert its children end too.
+    """Wait until ``proc`` has ``workers`` workers, SIGKILL it, and assert every process below it ends too.
 
+    The workers are the processes below ``proc`` with no children of their own:
+    its children, or, when they are forked from a worker factory, its grandchildren.
     ``start_within`` allows for worker start-up and a cold compile; a worker polls
     for its parent once a second, so ``end_within`` is generous.
     """
     import signal
     import time
 
-    children: set[int] = set()
+    tree: dict[int, set[int]] = {}
     deadline = time.monotonic() + start_within
-    while time.monotonic() < deadline and proc.poll() is None and len(children) < workers:
-        children = children_of(proc.pid)
+    while time.monotonic() < deadline and proc.poll() is None and sum(not c for c in tree.values()) < workers:
+        tree = descendants_of(proc.pid)
         time.sleep(0.2)
-    assert proc.poll() is None and len(children) == workers, (proc.poll(), children)
+    assert proc.poll() is None and sum(not c for c in tree.values()) == workers, (proc.poll(), tree)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     deadline = time.monotonic() + end_within
-    while time.monotonic() < deadline and any(alive(p) for p in children):
+    while time.monotonic() < deadline and any(alive(p) for p in tree):
         time.sleep(0.2)
-    assert not any(alive(p) for p in children)
+    assert not any(alive(p) for p in tree)
 
 
 def inner_pytest_env(**extra: str) -> dict[str, str]:

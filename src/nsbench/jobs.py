@@ -3,8 +3,13 @@
 Sweeps (:mod:`nsbench.bifurcation.parallel`) and Lyapunov ensembles
 (:mod:`nsbench.bifurcation.lyapunov`) hand their work here. A job is a call
 ``target(*args, stage=..., emit=...)`` (``target`` named ``'module:function'``)
-that runs in a worker process of the suite runner (:mod:`nsbench.bench.worker`,
-started with :mod:`subprocess`, so it never imports the user's ``__main__``).
+that runs in a worker process of the suite runner (:mod:`nsbench.bench.worker`).
+On Linux the workers are forked from a worker factory (:mod:`nsbench.bench.factory`),
+itself started with :mod:`subprocess` (so neither ever imports the user's
+``__main__``): the factory imports nsbench and runs the pool's preparation once,
+and each worker starts with all of it loaded, instead of every worker importing
+numba and the core again while the others do the same. Elsewhere, or with
+``NSBENCH_FORK_WORKERS=0``, each worker is started on its own.
 The job announces each step with ``stage(what, limit)`` and sends each finished
 part of its result with ``emit(item)``.
 
@@ -112,6 +117,7 @@ class JobPool:
         self._slots = [_Slot() for _ in range(workers)]
         self._queue: deque[Job] = deque()
         self._tasks = 0
+        self._factory: wp.WorkerFactory | None = None
 
     def __enter__(self) -> "JobPool":
         return self
@@ -135,13 +141,17 @@ class JobPool:
         hangs in it is a worker that could not start. It runs under the start's limit.
         """
         started = False
+        factory = self._usable_factory()
+        if factory is not None and prepare is not None and any(s.worker is None for s in self._slots):
+            try:  # run once, in the factory, before it forks the workers
+                factory.prepare(prepare.target, prepare.args)
+            except OSError:
+                factory = None
         for slot in self._slots:
             if slot.worker is None:
-                slot.worker, slot.ready = wp.WorkerProcess(self._hello), False
-                slot.stage, slot.limit = "worker start", START_LIMIT
-                slot.deadline = time.monotonic() + START_LIMIT
+                self._new_worker(slot)
                 started = True
-                if prepare is not None:
+                if prepare is not None and not isinstance(slot.worker, wp.ForkedWorker):
                     self._tasks += 1
                     slot.job, slot.task, slot.preparing = prepare, self._tasks, True
                     try:  # read by the worker right after its Ready
@@ -149,6 +159,34 @@ class JobPool:
                     except (BrokenPipeError, OSError):
                         pass  # the worker is gone: its end of file is read next
         return started
+
+    def _usable_factory(self) -> wp.WorkerFactory | None:
+        """The worker factory (started now if there is none, or a new one if it has ended); ``None`` where
+        workers are not forked (:func:`nsbench.bench.pool.can_fork`) or a factory could not be started."""
+        if not wp.can_fork():
+            return None
+        if self._factory is not None and not self._factory.alive():
+            self._factory.close()
+            self._factory = None
+        if self._factory is None:
+            try:
+                self._factory = wp.WorkerFactory(self._hello)
+            except OSError:
+                return None
+        return self._factory
+
+    def _new_worker(self, slot: _Slot) -> None:
+        """A worker for ``slot``: forked from the factory, else started on its own."""
+        factory = self._usable_factory()
+        worker: wp.WorkerProcess | wp.ForkedWorker | None = None
+        if factory is not None:
+            try:
+                worker = factory.fork()
+            except OSError:  # the factory ended meanwhile: a worker of its own
+                worker = None
+        slot.worker, slot.ready = worker or wp.WorkerProcess(self._hello), False
+        slot.stage, slot.limit = "worker start", START_LIMIT
+        slot.deadline = time.monotonic() + START_LIMIT
 
     def drop_queued(self) -> list[Job]:
         """Remove the jobs not started yet from the queue and return them (they will not run)."""
@@ -173,6 +211,9 @@ class JobPool:
                     slot.worker.kill()
             slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
             slot.preparing = False
+        if self._factory is not None:
+            self._factory.close()
+            self._factory = None
 
     # -------------------------------------------------------------------------------------------
     def outcomes(self) -> Iterator[Outcome]:
@@ -196,9 +237,7 @@ class JobPool:
             if not self._queue:
                 return
             if slot.worker is None:
-                slot.worker, slot.ready = wp.WorkerProcess(self._hello), False
-                slot.stage, slot.limit = "worker start", START_LIMIT
-                slot.deadline = time.monotonic() + START_LIMIT
+                self._new_worker(slot)
             if slot.ready and slot.job is None:
                 self._tasks += 1
                 slot.job, slot.task = self._queue.popleft(), self._tasks
@@ -311,24 +350,21 @@ def check_limit(what: str, seconds: float | None) -> None:
 
 
 def worker_cpu_seconds() -> float:
-    """CPU seconds used so far by the live workers of the kept pool (Linux ``/proc``; 0 elsewhere).
+    """CPU seconds used so far by the live workers of the kept pool and its worker factory (with the
+    factory's workers that have ended) (Linux ``/proc``; 0 elsewhere).
 
-    Ended workers are reaped, so ``resource.getrusage(RUSAGE_CHILDREN)`` counts
-    them; the kept pool's workers are alive, so a caller measuring the CPU cost
-    of its sweeps adds this (before and after).
+    Ended workers started on their own are reaped by this process, so
+    ``resource.getrusage(RUSAGE_CHILDREN)`` counts them; the kept pool's workers
+    and factory are alive, so a caller measuring the CPU cost of its sweeps adds
+    this (before and after).
     """
-    ticks = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
     total = 0.0
     for pool in _SHARED.values():
+        if pool._factory is not None:  # its own time and that of the workers it forked that have ended
+            total += pool._factory.cpu_seconds()
         for slot in pool._slots:
-            if slot.worker is None:
-                continue
-            try:
-                with open(f"/proc/{slot.worker.pid}/stat") as fh:
-                    fields = fh.read().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            total += (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
+            if slot.worker is not None:
+                total += wp.process_cpu_seconds(slot.worker.pid)
     return total
 
 

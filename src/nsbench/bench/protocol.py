@@ -9,7 +9,12 @@ Parent to worker: :class:`Hello` (once), then :class:`ComputeReference`,
 :class:`WarmUp`, :class:`TimeCase`, :class:`Call`, :class:`Stop`. Worker to
 parent: :class:`Ready` or :class:`InitFailed` (once), then any number of
 :class:`Stage` and :class:`Partial` per task and exactly one :class:`Done`,
-:class:`Failed` or :class:`Interrupted`.
+:class:`Failed` or :class:`Interrupted`. A worker forked from a factory gets no
+:class:`Hello` (the factory had it) and starts with its :class:`Ready`.
+
+Parent to worker factory, on its control socket: :class:`Hello`, :class:`Call`
+(a preparation, run in the factory), :class:`Fork`, :class:`Kill`, :class:`Stop`;
+factory to parent: :class:`Exited`.
 """
 
 from __future__ import annotations
@@ -155,6 +160,34 @@ class Interrupted:
     """A task raised ``KeyboardInterrupt``: the parent stops the run as if interrupted."""
 
     task: int
+
+
+# ---------------------------------------------------------------- parent <-> worker factory
+# A worker factory (:mod:`nsbench.bench.factory`) imports and prepares once, then forks the
+# workers of :mod:`nsbench.jobs`; these travel on its control socket, one record each.
+@dataclass(frozen=True)
+class Fork:
+    """Start a worker from the factory: its channels are the two file descriptors sent with this
+    record (what the parent writes, what it reads); ``token`` names it in :class:`Kill` and
+    :class:`Exited`."""
+
+    token: int
+
+
+@dataclass(frozen=True)
+class Kill:
+    """End the worker ``token`` now (a time limit, an interrupt)."""
+
+    token: int
+
+
+@dataclass(frozen=True)
+class Exited:
+    """Factory to parent: the worker ``token`` has ended; ``reason`` as :func:`nsbench.bench.pool.describe_exit`
+    words it (``'exit code 3'``, ``'signal 11 (SIGSEGV)'``), or why it could not be started."""
+
+    token: int
+    reason: str
 
 
 # ---------------------------------------------------------------- framing

@@ -297,3 +297,20 @@ def test_strobe_sweep_of_the_force_amplitude_may_start_at_zero():
     assert default_section(spec.problem_at(0.0)) == "peaks"
     with pytest.raises(ConfigError, match="Omega > 0"):
         SweepSpec(problem="two-dof", case=2, name="Omega", start=0.0, stop=1.0, count=3, section="strobe").check()
+
+
+@pytest.mark.parametrize(
+    "problem, state, resting",
+    [
+        ("henon-heiles", [0.0, 0.0, 0.0, 0.0], True),  # its equilibrium
+        ("henon-heiles", [0.1, 0.0, 0.0, 0.0], False),  # y and py are zero, but the force is not
+        ("relay-feedback", [1.0, 0.0, 0.0], False),  # x2 is zero, the other rates are not
+        ("two-dof", [1.7, 0.0, 2.5, 0.0], True),  # the friction rule: both blocks stand still
+    ],
+)
+def test_at_rest_means_an_equilibrium_of_the_problems_own_field(problem, state, resting):
+    from nsbench.bifurcation.sweep import at_rest
+    from nsbench.problems import get_problem
+
+    p = get_problem(problem)
+    assert at_rest(p, (0,) * p.mode_size, 0.0, np.array(state)) is resting

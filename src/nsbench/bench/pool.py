@@ -62,7 +62,25 @@ def describe_exit(returncode: int | None) -> str:
     return f"exit code {returncode}"
 
 
-class WorkerProcess:
+class _Asking:
+    """What both kinds of worker handle share: asking the worker to leave."""
+
+    _asked = False  # a Stop sent
+
+    def send(self, message: Any) -> None:
+        raise NotImplementedError
+
+    def ask_to_stop(self) -> None:
+        """Ask the worker to exit, without waiting (``stop`` then waits)."""
+        if not self._asked:
+            self._asked = True
+            try:
+                self.send(msg.Stop())
+            except (BrokenPipeError, OSError):
+                pass
+
+
+class WorkerProcess(_Asking):
     """One running worker: send it messages, read its messages, end it."""
 
     def __init__(self, first: msg.Hello) -> None:
@@ -74,7 +92,6 @@ class WorkerProcess:
             env=_environment(),
             close_fds=True,
         )
-        self._asked = False  # a Stop sent
         self.send(first)
 
     @property
@@ -106,15 +123,6 @@ class WorkerProcess:
             self.proc.kill()
         self.proc.wait()
         self._close()
-
-    def ask_to_stop(self) -> None:
-        """Ask the worker to exit, without waiting (:meth:`stop` then waits)."""
-        if not self._asked:
-            self._asked = True
-            try:
-                self.send(msg.Stop())
-            except (BrokenPipeError, OSError):
-                pass
 
     def stop(self, timeout: float = 10.0) -> None:
         """Ask the worker to exit; end it if it does not within ``timeout`` seconds."""
@@ -254,7 +262,7 @@ class WorkerFactory:
         return process_cpu_seconds(self.proc.pid, children=True)
 
 
-class ForkedWorker:
+class ForkedWorker(_Asking):
     """One worker forked from a :class:`WorkerFactory`: the interface of :class:`WorkerProcess`."""
 
     def __init__(self, factory: WorkerFactory, token: int, to_worker: int, from_worker: int) -> None:
@@ -264,7 +272,6 @@ class ForkedWorker:
         self._from = os.fdopen(from_worker, "rb", buffering=0)
         self._pid: int | None = None  # from its Ready
         self._reason: str | None = None
-        self._asked = False
 
     @property
     def pid(self) -> int | None:
@@ -300,14 +307,6 @@ class ForkedWorker:
                     pass
                 self._reason = "ended by the runner"
         self._close()
-
-    def ask_to_stop(self) -> None:
-        if not self._asked:
-            self._asked = True
-            try:
-                self.send(msg.Stop())
-            except (BrokenPipeError, OSError):
-                pass
 
     def stop(self, timeout: float = 10.0) -> None:
         self.ask_to_stop()

@@ -32,6 +32,7 @@ import signal
 import socket
 import sys
 import traceback
+import warnings
 from typing import Any
 
 from nsbench.bench import protocol as msg
@@ -85,7 +86,12 @@ class _Factory:
             self._report(token, f"the fork request came with {len(fds)} file descriptors, not 2")
             return
         try:
-            pid = os.fork()
+            with warnings.catch_warnings():
+                # Python 3.12+ warns about forking a process with threads: here they are the idle
+                # pools of numpy's and scipy's OpenBLAS, which shut down before a fork and start again
+                # on their next use (their pthread_atfork handlers); nothing of the factory's runs in a thread
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
         except OSError as exc:
             for fd in fds:
                 os.close(fd)

@@ -118,6 +118,7 @@ class JobPool:
         self._queue: deque[Job] = deque()
         self._tasks = 0
         self._factory: wp.WorkerFactory | None = None
+        self._no_factory = False  # one could not be started
 
     def __enter__(self) -> "JobPool":
         return self
@@ -163,7 +164,7 @@ class JobPool:
     def _usable_factory(self) -> wp.WorkerFactory | None:
         """The worker factory (started now if there is none, or a new one if it has ended); ``None`` where
         workers are not forked (:func:`nsbench.bench.pool.can_fork`) or a factory could not be started."""
-        if not wp.can_fork():
+        if not wp.can_fork() or self._no_factory:
             return None
         if self._factory is not None and not self._factory.alive():
             self._factory.close()
@@ -171,7 +172,8 @@ class JobPool:
         if self._factory is None:
             try:
                 self._factory = wp.WorkerFactory(self._hello)
-            except OSError:
+            except OSError:  # it would fail again: this pool starts its workers alone
+                self._no_factory = True
                 return None
         return self._factory
 

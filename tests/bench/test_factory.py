@@ -124,3 +124,18 @@ def family_then_wait(*, stage, emit):
     stage("waiting", 120.0)
     emit((os.getppid(), os.getpid()))
     time.sleep(120)
+
+
+def test_a_pool_whose_factory_cannot_start_starts_its_workers_alone(monkeypatch):
+    from nsbench.bench import pool as wp
+
+    monkeypatch.setenv("NSBENCH_FORK_WORKERS", "1")
+    # provenance too large for one record of the factory's socket: the factory is refused at once
+    hello = wp.hello({}, "", {"notes": "x" * 8_000_000})
+    with JobPool(1, hello) as pool:
+        for k in range(2):
+            pool.submit(Job(k, TARGET + "family"))
+        out = [o for o in pool.outcomes()]
+        assert pool._factory is None and isinstance(pool._slots[0].worker, wp.WorkerProcess)
+    assert [o.kind for o in out] == ["done", "done"]
+    assert out[0].value[1] == os.getpid()  # the worker is this process's own child

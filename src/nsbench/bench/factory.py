@@ -38,9 +38,6 @@ from typing import Any
 from nsbench.bench import protocol as msg
 from nsbench.bench.worker import register, run_forked
 
-#: The largest control record (a Hello carries the runner's path and runtime registrations).
-MAX_RECORD = 1 << 22
-
 
 def _describe(status: int) -> str:
     from nsbench.bench.pool import describe_exit
@@ -144,7 +141,7 @@ class _Factory:
                 return  # the runner is gone (killed): the workers follow within a second
             if self.ctrl not in ready:
                 continue
-            data, fds, _, _ = socket.recv_fds(self.ctrl, MAX_RECORD, 2)
+            data, fds, _, _ = socket.recv_fds(self.ctrl, msg.MAX_CONTROL_RECORD, 2)
             if not data:
                 return  # the runner closed its end
             m: Any = pickle.loads(data)

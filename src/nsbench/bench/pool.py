@@ -181,12 +181,20 @@ class WorkerFactory:
         self._tokens = 0
         self._exits: dict[int, str] = {}  # token -> how that worker ended, as reported
         self.prepared: set[str] = set()  # the preparations sent (by target)
-        self._record(first)
+        try:
+            self._record(first)
+        except OSError:  # a record too large for the socket, say: no factory (the caller starts workers alone)
+            self.close(timeout=0.0)
+            raise
 
     def _record(self, message: Any, fds: tuple[int, ...] = ()) -> None:
         import socket
 
         data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        if len(data) > msg.MAX_CONTROL_RECORD:
+            import errno
+
+            raise OSError(errno.EMSGSIZE, f"a record of {len(data)} bytes is more than the factory reads")
         if fds:
             socket.send_fds(self._sock, [data], list(fds))
         else:

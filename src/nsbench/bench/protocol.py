@@ -163,6 +163,11 @@ class Interrupted:
 
 
 # ---------------------------------------------------------------- parent <-> worker factory
+#: The largest record on a factory's control socket (a Hello carries the runner's path and runtime
+#: registrations); the runner starts its workers alone rather than send a larger one.
+MAX_CONTROL_RECORD = 1 << 22
+
+
 # A worker factory (:mod:`nsbench.bench.factory`) imports and prepares once, then forks the
 # workers of :mod:`nsbench.jobs`; these travel on its control socket, one record each.
 @dataclass(frozen=True)

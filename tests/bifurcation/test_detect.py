@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
+import pytest
 
 import nsbench
 from nsbench.bifurcation import detect
@@ -105,3 +107,33 @@ def test_classify_of_all_values_at_once_is_the_value_by_value_one():
     expect = np.where(got["period"] > 0, np.round(got["sticks1"] / cycles), np.nan)
     np.testing.assert_array_equal(got["sticks1_per_cycle"].to_numpy(), expect)
     assert (got["pure_sliding"] == ((got["sticks1"] == 0) & (got["sticks2"] == 0))).all()
+
+
+@pytest.mark.parametrize(
+    "family, words",
+    [
+        ("friction", ["block 1 starts sticking", "pure sliding ends", "sticking phases per cycle (0) -> (1)"]),
+        (
+            "impact",
+            ["the motion starts sticking", "motion without sticking ends", "sticking phases per cycle (0) -> (1)"],
+        ),
+    ],
+)
+def test_candidates_speak_of_the_problems_own_motion(family, words):
+    feats = pd.DataFrame(
+        {
+            "index": [0, 1],
+            "value": [0.1, 0.2],
+            "status": ["success", "success"],
+            "n_points": [20, 20],
+            "period": [1, 1],
+            "n_distinct": [1, 1],
+            "sticks1": [0, 5],
+            "sticks1_per_cycle": [0.0, 1.0],
+            "block1_sticks": [False, True],
+            "pure_sliding": [True, False],
+        }
+    )
+    cands = detect.candidates(feats, family)
+    assert list(cands["description"]) == words
+    assert list(cands["kind"]) == ["sliding", "sliding", "event-pattern"]

@@ -148,15 +148,17 @@ def _blocks(features: pd.Series | pd.DataFrame) -> list[int]:
     return sorted(int(k[5:-7]) for k in keys if k.startswith("block") and k.endswith("_sticks"))
 
 
-def _changes(a: pd.Series, b: pd.Series) -> list[tuple[str, str]]:
+def _changes(a: pd.Series, b: pd.Series, friction: bool = True) -> list[tuple[str, str]]:
     out = []
     blocks = _blocks(a)
     for blk in blocks:
         if a[f"block{blk}_sticks"] != b[f"block{blk}_sticks"]:
             what = "stops" if a[f"block{blk}_sticks"] else "starts"
-            out.append(("sliding", f"block {blk} {what} sticking"))
+            body = f"block {blk}" if friction else ("the motion" if len(blocks) == 1 else f"body {blk}")
+            out.append(("sliding", f"{body} {what} sticking"))
     if a["pure_sliding"] != b["pure_sliding"]:
-        out.append(("sliding", "pure sliding " + ("begins" if b["pure_sliding"] else "ends")))
+        what = "pure sliding" if friction else "motion without sticking"
+        out.append(("sliding", f"{what} " + ("begins" if b["pure_sliding"] else "ends")))
     if a["period"] != b["period"]:
         out.append(("period", f"period {_p(a['period'])} -> {_p(b['period'])}"))
     elif a["period"] > 0 and any(a[f"sticks{k}_per_cycle"] != b[f"sticks{k}_per_cycle"] for k in blocks):
@@ -172,10 +174,13 @@ def _p(p: int) -> str:
     return "none" if p == 0 else ("failed" if p < 0 else str(p))
 
 
-def candidates(features: pd.DataFrame) -> pd.DataFrame:
+def candidates(features: pd.DataFrame, family: str = "friction") -> pd.DataFrame:
     """Candidate bifurcation points: where features change between neighbouring values.
 
-    Columns: ``kind, description, left, right, value`` (midpoint), ``width``.
+    Columns: ``kind, description, left, right, value`` (midpoint), ``width``. ``family`` is
+    the swept problem's (``problem.family``): the descriptions speak of blocks and pure sliding
+    for the friction oscillators, of the motion's sticking phases for the others (an impact
+    oscillator's mass sticking to its stop).
     """
     rows = []
     feats = features.sort_values("value").reset_index(drop=True)
@@ -183,7 +188,7 @@ def candidates(features: pd.DataFrame) -> pd.DataFrame:
         a, b = feats.iloc[j], feats.iloc[j + 1]
         if a["status"] not in OK_STATUSES or b["status"] not in OK_STATUSES:
             continue
-        for kind, text in _changes(a, b):
+        for kind, text in _changes(a, b, family == "friction"):
             rows.append(
                 dict(
                     kind=kind,

@@ -269,7 +269,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
-        cands = detect.candidates(feats)
+        cands = detect.candidates(feats, getattr(spec.problem_at(spec.start), "family", "friction"))
         if args.refine and len(cands):
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []

@@ -100,6 +100,22 @@ def test_sections_and_trajectory_match_exact(case2):
     np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-12)
 
 
+@pytest.mark.parametrize("name", ["heyoka", "heyoka-q"])
+def test_states_at_many_times_in_every_step_come_from_their_own_step(case2, name):
+    # A grid ten times as dense as the steps: each arc spans several Taylor steps, each step holds
+    # several requested times, and each is evaluated on the polynomial of the step that holds it
+    # (a step callback, not heyoka's continuous output). Against exact's closed form to 1e-12, as
+    # the coarse grid above: heyoka's error on this case is rounding (tolerance at eps).
+    grid = np.linspace(0.0, 50.0, 20_001)
+    ref = nsbench.simulate(case2, "exact", 50.0, t_eval=grid)
+    res = nsbench.simulate(case2, name, 50.0, t_eval=grid)
+    assert res.ok, res.message
+    assert res.counters.nsteps > len(res.events) and len(grid) > 10 * res.counters.nsteps  # arcs of several steps
+    cols = ["t", "x1", "v1", "x2", "v2"]
+    assert list(res.events["kind"]) == list(ref.events["kind"])
+    np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-12)
+
+
 def _hits_and_callbacks(problem, name: str, hit_from: float, monkeypatch, **kwargs):
     """The section hits of a run through the core at ``t >= hit_from``, and the number of section
     callbacks heyoka made (counted on the callback class)."""

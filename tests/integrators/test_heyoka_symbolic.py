@@ -45,6 +45,22 @@ def test_the_impact_times(ball, name):
     assert np.abs(got - want).max() <= 1e-12
 
 
+@pytest.mark.parametrize("name", ["heyoka", "heyoka-q"])
+def test_states_between_impacts(ball, name):
+    # the symbolic path's states at requested times, from the polynomial of the step holding each:
+    # a flight is a quadratic, so they are exact's closed form to the impact times' error (1e-12
+    # above) times the speed (at most 10 here), and the grid keeps 1e-9 away from every impact
+    want = nsbench.simulate(ball, "exact", 10.0)
+    impacts = want.events["t"].to_numpy()
+    grid = np.linspace(0.0, 10.0, 4001)
+    grid = grid[np.min(np.abs(grid[:, None] - impacts[None, :]), axis=1) > 1e-9]
+    ref = nsbench.simulate(ball, "exact", 10.0, t_eval=grid)
+    got = nsbench.simulate(ball, name, 10.0, t_eval=grid)
+    assert got.ok, got.message
+    cols = list(ref.trajectory.columns[:3])
+    np.testing.assert_allclose(got.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), rtol=0, atol=1e-10)
+
+
 def test_illinois_converges_when_one_end_reaches_the_root_first():
     # the bracket of the ball's fifth impact in heyoka's first step (t0 = the fourth impact): the secant
     # puts the left end on the root to rounding while the right end is still 1.4e-6 away, and the old

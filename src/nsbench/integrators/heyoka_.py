@@ -8,7 +8,10 @@ the integrator's own precision, and propagates to ``t_end``. Guards are
 terminal events located by heyoka on the Taylor polynomial of each step
 (direction "decreasing", so a phase that starts on its own surface does not
 stop at once); sections are non-terminal events; trajectory points come from
-heyoka's continuous output. Times and states cross the protocol as doubles.
+the Taylor polynomial of the step that holds them (``update_d_output`` in a step
+callback, :class:`_StepRows`), not from heyoka's continuous output, whose every
+propagation builds a compiled evaluator of its own (about 1 ms, a hundred times
+an arc here). Times and states cross the protocol as doubles.
 
 Precision across events (``heyoka-ld``, ``heyoka-q``): the state and time where
 an arc stopped at an event are kept in the integrator's own precision (the full
@@ -61,6 +64,46 @@ def _any_hits(logs) -> bool:
         if log.hits:
             return True
     return False
+
+
+class _StepRows:
+    """A step callback of ``propagate_until``: the states at the requested times, each from the Taylor
+    polynomial of the step that holds it, as heyoka takes the step.
+
+    heyoka's continuous output (``c_output=True``) would give the same polynomials, but each
+    propagation that asks for it builds an object with its own compiled evaluator: about 1 ms per
+    call on heyoka 7.13, where a whole arc of the 2-DOF oscillator takes a few microseconds. The
+    callback runs after every step (the last one too, cut short at the arc's terminal event or
+    end), so every time up to the step's end is taken from that step's polynomial, and
+    ``update_d_output`` evaluates it there.
+
+    ``t_eval``: the request's times (doubles, ascending), of which ``rows`` holds the states of the
+    first ``len(rows)`` already; ``fp``: the integrator's precision.
+    """
+
+    __slots__ = ("fp", "t_eval", "k", "rows")
+
+    def __init__(self, fp, t_eval: np.ndarray, rows: list) -> None:
+        self.fp, self.t_eval, self.k, self.rows = fp, t_eval, len(rows), rows
+
+    def __call__(self, ta) -> bool:
+        fp, t_eval, k, t = self.fp, self.t_eval, self.k, ta.time
+        while k < t_eval.size:
+            te = fp(float(t_eval[k]))
+            if te > t:
+                break
+            self.rows.append(np.array(ta.update_d_output(te), copy=True))
+            k += 1
+        self.k = k
+        return True
+
+
+def _step_rows(fp, t_eval: np.ndarray, rows: list, t_end: float) -> _StepRows | None:
+    """The :class:`_StepRows` of the times of ``t_eval`` after the ``len(rows)`` ones already taken;
+    ``None`` if none is before ``t_end`` (the propagation then needs no callback)."""
+    if len(rows) >= t_eval.size or t_eval[len(rows)] > t_end:
+        return None
+    return _StepRows(fp, t_eval, rows)
 
 
 def _caps(precision: str) -> Capabilities:
@@ -374,7 +417,7 @@ class HeyokaIntegrator(Integrator):
         taylor = model.hy.taylor_outcome
         t_start, nsteps, hit, rows = ta.time, 0, None, []
         fresh = self._fresh_guards(request)
-        outcome, c_out = taylor.success, None
+        outcome = taylor.success
         if fresh:  # heyoka looks for no root of an event that is zero where a step starts: one step alone
             outcome, _ = ta.step(fp(request.t_end) - t_start)
             nsteps = 1
@@ -390,8 +433,10 @@ class HeyokaIntegrator(Integrator):
             if nsteps >= request.max_steps:
                 outcome = taylor.step_limit
             else:
-                outcome, _, _, taken, c_out, _ = ta.propagate_until(
-                    fp(request.t_end), max_steps=int(request.max_steps) - nsteps, c_output=request.t_eval.size > 0
+                outcome, _, _, taken, _, _ = ta.propagate_until(
+                    fp(request.t_end),
+                    max_steps=int(request.max_steps) - nsteps,
+                    callback=_step_rows(fp, request.t_eval, rows, request.t_end),
                 )
                 nsteps += int(taken)
         if hit is not None:
@@ -415,10 +460,7 @@ class HeyokaIntegrator(Integrator):
             t_stop, t_lo = request.t_end, 0.0
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok else 0
         rows = rows[:n_eval]
-        if len(rows) < n_eval and c_out is not None:
-            times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
-            rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
-        rows += [y_fp] * (n_eval - len(rows))
+        rows += [y_fp] * (n_eval - len(rows))  # no step was taken
         y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else np.empty((n, 0))
         y_out = np.asarray(y_fp[:n]).astype(float)
         if fired is not None and status.ok:
@@ -461,10 +503,10 @@ class HeyokaIntegrator(Integrator):
                 status=Status.BUDGET_EXHAUSTED,
                 message=f"step budget exhausted at t = {request.t0:.6g}",
             )
-        outcome, fresh_hit, c_out, nsteps, first_rows = self._propagate(st, ta, request, quiet)
+        outcome, fresh_hit, nsteps, first_rows = self._propagate(st, ta, request, quiet)
         if outcome is None:  # the first steps, with the sections off, went past sections_from: again, with them
             t0 = self._load(st, ta, request, carried)
-            outcome, fresh_hit, c_out, redone, first_rows = self._propagate(st, ta, request, None, nsteps)
+            outcome, fresh_hit, redone, first_rows = self._propagate(st, ta, request, None, nsteps)
             nsteps += redone
         if fresh_hit is not None:  # a fresh guard crossed inside the first step
             hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
@@ -480,9 +522,6 @@ class HeyokaIntegrator(Integrator):
             extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok and request.t_eval.size else 0
         rows = first_rows[:n_eval]
-        if len(rows) < n_eval and c_out is not None:
-            times = np.asarray(request.t_eval[len(rows) : n_eval], dtype=float).astype(fp)
-            rows += list(np.asarray(c_out(times)).reshape(times.size, -1))
         rows += [y_fp] * (n_eval - len(rows))  # no step was taken
         y_eval = np.array([np.asarray(r[:n]).astype(float) for r in rows]).T if rows else self._no_rows
         y_out = np.array(y_fp[:n], dtype=float)
@@ -509,30 +548,33 @@ class HeyokaIntegrator(Integrator):
         ``quiet``: the sections are off (see :meth:`_load`) up to this time, then on. If the first
         steps went past it (crossings after it were not looked for), the outcome is ``None``: the
         arc is to be run again with the sections on. ``spent``: steps this arc has already used.
+        Returns heyoka's outcome, the fresh guards' crossing (see :meth:`_first_step`), the steps
+        taken and the states at the request's times up to where the arc stopped (and perhaps a few
+        past it, in the last step).
         """
-        fp, nsteps, fresh_hit, c_out, first_rows = self._fp, 0, None, None, []
+        fp, nsteps, fresh_hit, rows = self._fp, 0, None, []
         budget = int(request.max_steps) - spent
         fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
         outcome = _SUCCESS
         if fresh:
-            outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, first_rows)
+            outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, rows)
         if quiet is not None and not (ta.time if fresh_hit is None else fresh_hit[0]) <= fp(quiet):
-            return None, None, None, nsteps, first_rows
+            return None, None, nsteps, rows
         if fresh_hit is not None or outcome != _SUCCESS:
-            return outcome, fresh_hit, c_out, nsteps, first_rows
+            return outcome, fresh_hit, nsteps, rows
         if quiet is not None:  # the sections off up to there, then on
             if nsteps < budget:  # heyoka reads max_steps=0 as "no limit"
                 outcome, _, _, taken, _, _ = ta.propagate_until(fp(quiet), max_steps=budget - nsteps)
                 nsteps += int(taken)
             ta.pars[:] = self._pars(st, request)
             if outcome != _TIME_LIMIT and outcome != _SUCCESS:  # an event, a failure, the budget
-                return outcome, fresh_hit, c_out, nsteps, first_rows
+                return outcome, fresh_hit, nsteps, rows
         if nsteps >= budget:
-            return model.hy.taylor_outcome.step_limit, fresh_hit, c_out, nsteps, first_rows
-        outcome, _, _, taken, c_out, _ = ta.propagate_until(
-            fp(request.t_end), max_steps=budget - nsteps, c_output=request.t_eval.size > 0
+            return model.hy.taylor_outcome.step_limit, fresh_hit, nsteps, rows
+        outcome, _, _, taken, _, _ = ta.propagate_until(
+            fp(request.t_end), max_steps=budget - nsteps, callback=_step_rows(fp, request.t_eval, rows, request.t_end)
         )
-        return outcome, fresh_hit, c_out, nsteps + int(taken), first_rows
+        return outcome, fresh_hit, nsteps + int(taken), rows
 
     @staticmethod
     def _verdict(n_events: int, outcome, fresh_hit, request: ArcRequest, t_stop: float):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from nsbench.integrators.base import ArcRequest
@@ -54,9 +56,12 @@ class InterpolatedOutput:
         self.done = 0
         self.fallbacks = 0
         self.last = None  # (t, y) of the last step end, for the rare fallback
+        # the first time not recorded yet, as a Python float: most steps hold none, and this
+        # comparison is all they cost (numpy's searchsorted call was a few us per step)
+        self._next = float(t_eval[0]) if t_eval.size else math.inf
 
     def pending(self, t: float) -> bool:
-        return int(np.searchsorted(self.t_eval, t, side="right")) > self.done
+        return t >= self._next
 
     def upto(self, t: float, tn: float, known: tuple[float, np.ndarray]) -> None:
         """Record every requested time ``<= t``; the solver's last step ends at ``tn``.
@@ -64,6 +69,9 @@ class InterpolatedOutput:
         ``known`` is a solution point at or after ``t`` (the step end, or the
         root that ends the arc), used only by the fallback.
         """
+        if t < self._next:  # no requested time in this step
+            self.last = (known[0], np.asarray(known[1])[: self.n].copy())
+            return
         stop = int(np.searchsorted(self.t_eval, t, side="right"))
         for te in self.t_eval[self.done : stop]:
             got = self.solver.step(float(te), method="normal")
@@ -75,6 +83,7 @@ class InterpolatedOutput:
             if te < tn:
                 self.solver.step(tn, method="normal")
         self.done = max(self.done, stop)
+        self._next = float(self.t_eval[self.done]) if self.done < self.t_eval.size else math.inf
         self.last = (known[0], np.asarray(known[1])[: self.n].copy())
 
     def _linear(self, te: float, tb: float, yb: np.ndarray) -> np.ndarray:

@@ -71,6 +71,19 @@ def test_parts_then_the_result_of_every_job():
         assert mine[-1].kind == "done" and mine[-1].value == k + 2
 
 
+def test_the_next_job_is_sent_before_an_outcome_is_handed_on():
+    # A caller that takes its time over an outcome (a sweep writes the chunk's table) must not
+    # keep the worker idle: when the first job's result is handed on, the second already runs.
+    with JobPool(1) as pool:
+        pool.submit(Job("a", TARGET + "squares", (2,)))
+        pool.submit(Job("b", TARGET + "squares", (3,)))
+        running = {}
+        for o in pool.outcomes():
+            if o.kind == "done":
+                running[o.key] = [s.job.key for s in pool._slots if s.job is not None]
+    assert running == {"a": ["b"], "b": []}
+
+
 def test_a_job_that_never_returns_is_stopped_and_the_others_finish():
     out = _run([Job("hang", TARGET + "hangs_at", (4, 2)), *(Job(k, TARGET + "squares", (3,)) for k in range(3))])
     hang = [o for o in out if o.key == "hang"]

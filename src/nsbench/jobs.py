@@ -275,6 +275,9 @@ class JobPool:
         elif isinstance(m, (msg.Done, msg.Failed)):
             job, stage = slot.job, slot.stage
             slot.job, slot.stage, slot.deadline = None, "", None
+            # the worker's next job goes out before this outcome is handed on: what the caller does
+            # with it (a sweep writes the chunk's table, a few ms) would otherwise leave the worker idle
+            self._dispatch()
             if isinstance(m, msg.Done):
                 yield Outcome(job.key, "done", m.result, stage)
             else:

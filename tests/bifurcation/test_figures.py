@@ -55,3 +55,29 @@ def test_the_locus_and_portrait_legends_are_beside_the_data(kept):
     assert len(kept) == 2
     for fig in kept:
         assert fig.axes[0].get_legend() is not None and overlaps(fig) == []
+
+
+def _legend_beside_the_axes():
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(4.0, 2.5))
+    ax.plot([0, 1], [0, 1], label="a long label that sticks out of the figure")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_xlabel("v0")
+    fig.suptitle("title")
+    fig.tight_layout()
+    return fig
+
+
+def test_save_finds_the_tight_box_once_and_writes_what_savefig_tight_writes(tmp_path):
+    # save() draws the figure once for its tight box and hands every format that box, instead of
+    # savefig's "tight" (which draws each format twice): the PNG must be the same image.
+    import matplotlib.image as mpimg
+
+    figures.save(_legend_beside_the_axes(), tmp_path / "ours", formats=("png", "svg", "pdf"))
+    reference = _legend_beside_the_axes()
+    reference.savefig(tmp_path / "tight.png", dpi=100, bbox_inches="tight")
+    ours, tight = mpimg.imread(tmp_path / "ours.png"), mpimg.imread(tmp_path / "tight.png")
+    assert ours.shape == tight.shape
+    np.testing.assert_array_equal(ours, tight)
+    assert (tmp_path / "ours.svg").stat().st_size > 0 and (tmp_path / "ours.pdf").stat().st_size > 0

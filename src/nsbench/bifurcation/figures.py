@@ -67,15 +67,24 @@ def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100
     """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths.
 
     The saved area is the figure's tight bounding box, so a legend placed beside the
-    axes (where it covers no data) is kept whole.
+    axes (where it covers no data) is kept whole. It is found once, on one drawing
+    without output: asked for as ``"tight"``, every format would draw the figure
+    twice, once for the box (a third of a second for a diagram in three formats).
     """
     plt = _plt()
     base = Path(base)
     base.parent.mkdir(parents=True, exist_ok=True)
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    fig.draw_without_rendering()  # the ticks and texts where they will be drawn
+    box = fig.get_tightbbox(fig.canvas.get_renderer()).padded(plt.rcParams["savefig.pad_inches"])
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        # what tight_layout() leaves: it does nothing, but with any engine savefig draws once more first
+        fig.set_layout_engine(None)
     out = []
     for fmt in formats:
         path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
-        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches="tight")
+        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches=box)
         out.append(path)
     plt.close(fig)
     return out

@@ -196,3 +196,34 @@ def test_sections_and_trajectory_match_exact(case2):
         assert len(res.sections) == len(ref.sections) > 5
         np.testing.assert_allclose(res.sections[cols].to_numpy(), ref.sections[cols].to_numpy(), atol=1e-8)
         np.testing.assert_allclose(res.trajectory[cols].to_numpy(), ref.trajectory[cols].to_numpy(), atol=1e-8)
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+def test_an_arc_without_states_in_one_call_is_the_stepped_arc(name, monkeypatch):
+    # An arc that asks for no states runs as one call of scikit-sundae's solve; stepped from Python
+    # instead, the same solver must give the same events, section crossings and counters, bit for
+    # bit. Case 3 over [0, 400] ends in a step that reaches t_end as a plain step return followed by
+    # a tstop return at the same time (cvode-bdf): one step, not two.
+    from nsbench.integrators.sundials import SundialsIntegrator
+    from nsbench.sections import peaks
+
+    def run(case):
+        problem = nsbench.get_problem("two-dof", case=case)
+        return nsbench.simulate(problem, name, 400.0, check_points=0, sections=[peaks(problem)])
+
+    whole = {case: run(case) for case in (2, 3)}
+    monkeypatch.setattr(SundialsIntegrator, "_whole_arc", SundialsIntegrator._stepped_arc)
+    for case, fast in whole.items():
+        stepped = run(case)
+        assert fast.ok and stepped.ok and len(fast.events) > 100
+        assert fast.events.equals(stepped.events)  # exact equality of every value (NaN with NaN)
+        assert len(fast.sections) > 20 and fast.sections.equals(stepped.sections)
+        assert fast.counters == stepped.counters
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+def test_an_arc_in_one_call_keeps_to_the_step_budget(name, case1):
+    # the budget is checked when the call returns: the run ends there, with its status and reason
+    res = nsbench.simulate(case1, name, 300.0, max_steps=50, check_points=0)
+    assert res.status is nsbench.Status.BUDGET_EXHAUSTED and "budget" in res.message
+    assert res.counters.nsteps > 50

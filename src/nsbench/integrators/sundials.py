@@ -6,7 +6,12 @@ root finding locate the guards (direction: ``expected_sign * guard``
 decreasing, so a phase starting on its own surface does not stop at once) and
 the sections. The first root return of a guard ends the arc; section roots are
 recorded and stepping goes on. Trajectory points are SUNDIALS' interpolant
-(``normal`` output inside the last step). Right-hand sides, residuals,
+(``normal`` output inside the last step), read between steps, so an arc that
+asks for states is stepped from Python one internal step at a time. An arc that
+asks for none (a sweep's, or ``check_points=0``) is one call of scikit-sundae's
+``solve`` over ``[t0, t_end]`` instead: the same ``onestep`` calls of the same
+solver, the guards terminal, looped in compiled code (the same steps, roots and
+counters; tests/integrators/test_sundials.py). Right-hand sides, residuals,
 Jacobians (analytic) and root functions are compiled numba kernels
 (:mod:`nsbench.integrators._sundials_kernels`).
 
@@ -83,8 +88,10 @@ class SundialsIntegrator(Integrator):
         self.advance(ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
         self._solvers.clear()
 
-    def _common_options(self, n_events: int, directions: list[int], eventsfn) -> dict[str, Any]:
-        eventsfn.terminal = [False] * n_events  # the loop below decides what stops an arc
+    def _common_options(self, n_events: int, n_guards: int, directions: list[int], eventsfn) -> dict[str, Any]:
+        # a guard's root ends an arc run in one call (_whole_arc); stepped from Python (advance),
+        # the loop decides, and scikit-sundae's step reports every root whatever this says
+        eventsfn.terminal = [True] * n_guards + [False] * (n_events - n_guards)
         eventsfn.direction = directions
         opts = dict(
             rtol=self.settings["rtol"],
@@ -101,22 +108,96 @@ class SundialsIntegrator(Integrator):
         if key not in self._solvers:
             arc = CallbackData(len(request.guards), len(request.sections), request.problem.n_states)
             directions = [-1] * len(request.guards) + [int(s.direction) for s in request.sections]
-            self._solvers[key] = (*self._build(arc, len(directions), directions), arc)
+            self._solvers[key] = (*self._build(arc, len(request.guards), directions), arc)
         return self._solvers[key]
 
-    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):  # pragma: no cover - abstract
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _start(self, solver, request: ArcRequest):  # pragma: no cover - abstract
+    def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:  # pragma: no cover - abstract
+        """The solver's start values at ``request.t0`` (``y0``; ``y0, yp0`` for a DAE)."""
         raise NotImplementedError
+
+    def _whole_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+        """The arc as one call of scikit-sundae's ``solve`` (``onestep`` over ``[t0, t_end]``, the guards
+        terminal): for an arc that asks for no states, the per-step Python of :meth:`advance` left out.
+
+        Every internal step's end comes back (``res.t``, ``tstop`` included); a root that does not
+        end the arc (a section) is not a step's end and comes back in the events only. The step
+        budget is checked when the call returns: a run whose budget this arc crosses ends there
+        with :attr:`Status.BUDGET_EXHAUSTED` (its counters then exceed the budget by part of the arc).
+        """
+        n, n_guards = request.problem.n_states, len(request.guards)
+        if hasattr(eventsfn, "_i_cnt"):  # scikit-sundae counts roots over the solver's life: a fresh count per arc
+            eventsfn._i_cnt[:] = 0
+            forget_roots(eventsfn)
+        try:
+            res = solver.solve(np.array([float(request.t0), float(request.t_end)]), *self._initial(request))
+        except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
+            y0 = np.array(request.y0, dtype=float)
+            return ArcResult(
+                t=float(request.t0),
+                y=y0,
+                fired=None,
+                status=Status.INTEGRATOR_FAILURE,
+                message=f"SUNDIALS: {exc}",
+                y_eval=np.empty((n, 0)),
+            )
+        hits: list[SectionHit] = []
+        fired = None
+        roots = 0
+        if res.i_events is not None:
+            roots = len(res.i_events)
+            for t_root, which_row, y_root in zip(res.t_events.tolist(), res.i_events, res.y_events):
+                which = np.flatnonzero(which_row)
+                for j in which[which >= n_guards]:
+                    hits.append(SectionHit(int(j - n_guards), t_root, y_root[:n].copy()))
+                guard_hits = which[which < n_guards]
+                if guard_hits.size:
+                    fired = int(guard_hits[0])
+            forget_roots(eventsfn)
+        t, y = float(res.t[-1]), res.y[-1]
+        status, message = Status.SUCCESS, ""
+        if res.status < 0:
+            status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {res.message} (t = {t:.6g})"
+            fired = None
+        elif fired is None:
+            t = float(request.t_end)
+        # Every row after the start ends a step but the last one of a failure or of a root that ends
+        # the arc, and a tstop return at the time of the row before (the step had ended there).
+        ends = res.t if status is Status.SUCCESS and fired is None else res.t[:-1]
+        steps = ends.size - 1 - int(np.count_nonzero(ends[1:] == ends[:-1]))
+        if status is Status.SUCCESS and steps > request.max_steps:
+            status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
+            fired = None
+        return ArcResult(
+            t=t,
+            y=np.array(y[:n], dtype=float),
+            fired=fired,
+            y_eval=np.empty((n, 0)),
+            section_hits=hits,
+            nfev=int(res.nfev),
+            njev=int(res.njev),
+            nsteps=steps,
+            extra={"root_returns": roots, "dense_fallbacks": 0},
+            status=status,
+            message=message,
+        )
 
     def advance(self, request: ArcRequest) -> ArcResult:
         problem = request.problem
         if getattr(self, "_problem", None) is not problem:
             self.setup(problem)
-        n, n_guards = problem.n_states, len(request.guards)
         solver, eventsfn, arc = self._solver(request)
         arc.load(request)
+        if not request.t_eval.size:
+            return self._whole_arc(request, solver, eventsfn)
+        return self._stepped_arc(request, solver, eventsfn)
+
+    def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+        """The arc stepped from Python one internal step at a time, its states read at the requested times
+        from each step's interpolant."""
+        n, n_guards = request.problem.n_states, len(request.guards)
         t_end = request.t_end
         dense = InterpolatedOutput(solver, request.t_eval, n)
         steps, roots = 0, 0
@@ -124,7 +205,7 @@ class SundialsIntegrator(Integrator):
         fired, status, message = None, Status.SUCCESS, ""
         t, y, nfev, njev = float(request.t0), np.array(request.y0, dtype=float), 0, 0
         try:
-            self._start(solver, request)
+            solver.init_step(float(request.t0), *self._initial(request))
             while True:
                 if steps >= request.max_steps:
                     status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
@@ -199,7 +280,7 @@ class CvodeIntegrator(SundialsIntegrator):
         sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
         from sksundae.cvode import CVODE
 
         p0, F, w = self._p0, self._F, self._w
@@ -213,14 +294,14 @@ class CvodeIntegrator(SundialsIntegrator):
         def eventsfn(t, y, events):
             sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
 
-        opts = self._common_options(n_events, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
         return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
 
-    def _start(self, solver, request: ArcRequest):
+    def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:
         y0 = np.asarray(request.y0, dtype=float)
         if self._n_extra:
             y0 = np.concatenate([y0, [np.cos(self._w * request.t0), np.sin(self._w * request.t0)]])
-        return solver.init_step(float(request.t0), y0)
+        return (y0,)
 
 
 class CvodeBDF(CvodeIntegrator):
@@ -273,7 +354,7 @@ class Ida(SundialsIntegrator):
         sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_events: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
         from sksundae.ida import IDA
 
         p = self._p
@@ -293,15 +374,15 @@ class Ida(SundialsIntegrator):
 
         mode = np.asarray(self._pending_mode, dtype=np.int64)
         algebraic = [n + i for i in range(nb)] + [2 * i + 1 for i in range(nb) if mode[i] == 0]
-        opts = self._common_options(n_events, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
         return IDA(resfn, jacfn=jacfn, algebraic_idx=sorted(algebraic), **opts), eventsfn
 
     def _solver(self, request: ArcRequest):
         self._pending_mode = request.mode  # the algebraic variables depend on the mode
         return super()._solver(request)
 
-    def _start(self, solver, request: ArcRequest):
+    def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:
         y0, yp0 = sk.consistent_start(
             self._p, np.asarray(request.mode, dtype=np.int64), float(request.t0), np.asarray(request.y0, dtype=float)
         )
-        return solver.init_step(float(request.t0), y0, yp0)
+        return y0, yp0

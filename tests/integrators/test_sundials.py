@@ -227,3 +227,19 @@ def test_an_arc_in_one_call_keeps_to_the_step_budget(name, case1):
     res = nsbench.simulate(case1, name, 300.0, max_steps=50, check_points=0)
     assert res.status is nsbench.Status.BUDGET_EXHAUSTED and "budget" in res.message
     assert res.counters.nsteps > 50
+
+
+@pytest.mark.parametrize("name", SUNDIALS)
+@pytest.mark.parametrize("check_points", [None, 0])
+def test_the_root_lists_do_not_grow_over_a_run(name, check_points, case2):
+    # scikit-sundae appends every root (index, time, state; IDA also the derivative) to lists on the
+    # events function and turns them into arrays at every step: left to grow, each step of a run
+    # costs more than the one before (IDA's derivatives were kept, and its steps slowed twofold).
+    integ = nsbench.get_integrator(name)
+    res = nsbench.simulate(case2, integ, 300.0, check_points=check_points)
+    assert res.ok and res.counters.extra["root_returns"] > 100
+    kept = [solver[1] for solver in integ._solvers.values()]
+    assert kept
+    for eventsfn in kept:
+        lists = [getattr(eventsfn, name) for name in ("_i", "_t", "_y", "_yp") if hasattr(eventsfn, name)]
+        assert len(lists) >= 3 and all(len(store) == 0 for store in lists)

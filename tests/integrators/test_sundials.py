@@ -243,3 +243,15 @@ def test_the_root_lists_do_not_grow_over_a_run(name, check_points, case2):
     for eventsfn in kept:
         lists = [getattr(eventsfn, name) for name in ("_i", "_t", "_y", "_yp") if hasattr(eventsfn, name)]
         assert len(lists) >= 3 and all(len(store) == 0 for store in lists)
+
+
+def test_the_fallback_state_is_linear_between_the_last_step_end_and_the_known_point():
+    # A requested time the solver's interpolant can no longer reach (a rare SUNDIALS refusal) is
+    # interpolated linearly between the last step end and the point known after it, on the problem's
+    # states only (a CVODE state may carry cos and sin of the forcing after them).
+    from nsbench.integrators._sundials_loop import InterpolatedOutput
+
+    out = InterpolatedOutput(None, np.array([1.5]), 2)
+    np.testing.assert_array_equal(out._linear(1.5, 2.0, np.array([2.0, 4.0, 7.0])), [2.0, 4.0])  # no step end yet
+    out.last = (1.0, np.array([0.0, 0.0, 9.0, 9.0]))
+    np.testing.assert_array_equal(out._linear(1.5, 2.0, np.array([2.0, 4.0, 7.0, 7.0])), [1.0, 2.0])

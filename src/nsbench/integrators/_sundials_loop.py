@@ -60,13 +60,22 @@ class InterpolatedOutput:
         self.rows: list[np.ndarray] = []
         self.done = 0
         self.fallbacks = 0
-        self.last = None  # (t, y) of the last step end, for the rare fallback
+        # the last step end (t, y), for the rare fallback; y as the solver returned it (a fresh
+        # array per return, never written to), sliced only when used
+        self.last: tuple[float, np.ndarray] | None = None
         # the first time not recorded yet, as a Python float: most steps hold none, and this
         # comparison is all they cost (numpy's searchsorted call was a few us per step)
         self._next = float(t_eval[0]) if t_eval.size else math.inf
 
     def pending(self, t: float) -> bool:
         return t >= self._next
+
+    def step_end(self, t: float, y: np.ndarray) -> None:
+        """A plain step return at ``t`` with the solver's state ``y``: record the requested times it passed."""
+        if t < self._next:  # most steps: no requested time, nothing to do but remember the step end
+            self.last = (t, y)
+            return
+        self.upto(t, t, (t, y))
 
     def upto(self, t: float, tn: float, known: tuple[float, np.ndarray]) -> None:
         """Record every requested time ``<= t``; the solver's last step ends at ``tn``.
@@ -75,7 +84,7 @@ class InterpolatedOutput:
         root that ends the arc), used only by the fallback.
         """
         if t < self._next:  # no requested time in this step
-            self.last = (known[0], np.asarray(known[1])[: self.n].copy())
+            self.last = (known[0], np.asarray(known[1]))
             return
         stop = int(np.searchsorted(self.t_eval, t, side="right"))
         for te in self.t_eval[self.done : stop]:
@@ -89,13 +98,13 @@ class InterpolatedOutput:
                 self.solver.step(tn, method="normal")
         self.done = max(self.done, stop)
         self._next = float(self.t_eval[self.done]) if self.done < self.t_eval.size else math.inf
-        self.last = (known[0], np.asarray(known[1])[: self.n].copy())
+        self.last = (known[0], np.asarray(known[1]))
 
     def _linear(self, te: float, tb: float, yb: np.ndarray) -> np.ndarray:
         yb = np.asarray(yb)[: self.n]
         if self.last is None or tb == self.last[0]:
             return yb.copy()
-        ta, ya = self.last
+        ta, ya = self.last[0], self.last[1][: self.n]
         w = (te - ta) / (tb - ta)
         return (1.0 - w) * ya + w * yb
 

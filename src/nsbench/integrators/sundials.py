@@ -203,23 +203,26 @@ class SundialsIntegrator(Integrator):
         steps, roots = 0, 0
         hits: list[SectionHit] = []
         fired, status, message = None, Status.SUCCESS, ""
-        t, y, nfev, njev = float(request.t0), np.array(request.y0, dtype=float), 0, 0
+        t, y = float(request.t0), np.array(request.y0, dtype=float)
+        last = None  # the last successful return: its counters are the arc's
+        step = solver.step
         try:
             solver.init_step(float(request.t0), *self._initial(request))
             while True:
                 if steps >= request.max_steps:
                     status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
                     break
-                res = solver.step(t_end, method="onestep", tstop=t_end)
-                if res.status < 0:
+                res = step(t_end, method="onestep", tstop=t_end)
+                flag = res.status
+                if flag < 0:
                     status = Status.INTEGRATOR_FAILURE
                     message = f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
                     break
-                t, y, nfev, njev = float(res.t), np.asarray(res.y), int(res.nfev), int(res.njev)
-                if res.status != ROOT_RETURN:
+                last, t, y = res, float(res.t), res.y  # res.y: a fresh array per return
+                if flag != ROOT_RETURN:
                     steps += 1
-                    dense.upto(t, t, (t, y))
-                    if res.status == TSTOP_RETURN or t >= t_end:
+                    dense.step_end(t, y)
+                    if flag == TSTOP_RETURN or t >= t_end:
                         t = t_end
                         break
                     continue
@@ -248,8 +251,8 @@ class SundialsIntegrator(Integrator):
             fired=fired,
             y_eval=dense.states(),
             section_hits=hits,
-            nfev=nfev,
-            njev=njev,
+            nfev=0 if last is None else int(last.nfev),
+            njev=0 if last is None else int(last.njev),
             nsteps=steps,
             extra={"root_returns": roots, "dense_fallbacks": dense.fallbacks},
             status=status,

@@ -132,6 +132,36 @@ def test_many_section_hits_and_events_grow_their_buffers():
     pd.testing.assert_frame_equal(res.events.iloc[:n], short.events)
 
 
+def test_a_run_that_stops_at_its_hth_hit_holds_them_without_leaving_the_loop(monkeypatch):
+    # A sweep value stops at its 100th peak: the hits buffer is sized for them, so the compiled loop
+    # is entered once (each return to grow a buffer is a Python round trip and numba's dispatch),
+    # and the hits are those of a run whose buffer grew as it went.
+    from nsbench.hybrid import run as hybrid_run
+    from nsbench.model import loop
+    from nsbench.sections import peaks
+
+    p = nsbench.get_problem("two-dof", case=1)
+    integ = nsbench.get_integrator("exact")
+    integ.setup(p)
+    codes: list[int] = []
+    original = loop.hybrid_loop
+
+    def counted(*args):
+        codes.append(original(*args))
+        return codes[-1]
+
+    monkeypatch.setattr(loop, "hybrid_loop", counted)
+    kw = dict(sections=[peaks(p)], hit_from=500.0, hit_stop=100)
+    sized = hybrid_run.run_hybrid(p, integ, 5000.0, **kw)
+    assert sized.n_hits == 100 and codes.count(loop.R_GROW_HITS) == 0
+    monkeypatch.setattr(hybrid_run, "MAX_HITS_AHEAD", 8)  # the buffer starts smaller than the hits
+    codes.clear()
+    grown = hybrid_run.run_hybrid(p, integ, 5000.0, **kw)
+    assert codes.count(loop.R_GROW_HITS) >= 1
+    np.testing.assert_array_equal(sized.records.ht[:100], grown.records.ht[:100])
+    np.testing.assert_array_equal(sized.records.hy[:100], grown.records.hy[:100])
+
+
 def test_a_stop_at_events_the_problem_does_not_have_is_refused():
     from nsbench.hybrid.run import run_hybrid
 

@@ -80,6 +80,10 @@ def _no_kernel() -> tuple[np.ndarray, abi.KernelData, np.ndarray]:
     return _NO_KERNEL["k"]
 
 
+#: The most section hits a run's buffer is sized for ahead of the run (beyond that it grows as needed).
+MAX_HITS_AHEAD = 1 << 16
+
+
 def run_hybrid(
     problem: "HybridProblem",
     integ: "Integrator",
@@ -143,7 +147,9 @@ def run_hybrid(
         mode_arr[:] = np.asarray(mode, dtype=np.int64)
     grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
     sec = section_bundle(sections, n, hit_from, hit_stop)
-    rec = Records(n, problem.mode_size, grid)
+    # a run that stops at its hit_stop-th hit never holds more: sized for them, the loop is not left
+    # to grow the buffer (a sweep value's 100 peaks overran the default 64: one re-entry per value)
+    rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), 64), MAX_HITS_AHEAD))
     g = max(problem.max_guards, 1)
     st = abi.RunState(
         y=y,

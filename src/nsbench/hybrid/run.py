@@ -24,7 +24,7 @@ import numpy as np
 
 from nsbench.model import abi, callback
 from nsbench.model.callback import ARC_STORED, ARC_STORED_REENTER
-from nsbench.model.records import Records
+from nsbench.model.records import HITS_AT_START, Records
 from nsbench.results import Counters
 from nsbench.status import Status
 
@@ -148,8 +148,8 @@ def run_hybrid(
     grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
     sec = section_bundle(sections, n, hit_from, hit_stop)
     # a run that stops at its hit_stop-th hit never holds more: sized for them, the loop is not left
-    # to grow the buffer (a sweep value's 100 peaks overran the default 64: one re-entry per value)
-    rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), 64), MAX_HITS_AHEAD))
+    # to grow the buffer (a sweep value's 100 peaks overran the 64 rows it starts with: one re-entry per value)
+    rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), HITS_AT_START), MAX_HITS_AHEAD))
     g = max(problem.max_guards, 1)
     st = abi.RunState(
         y=y,

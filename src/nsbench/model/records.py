@@ -73,6 +73,10 @@ def section_crossed(direction, before, after):
     return direction == 0 or (direction > 0) == upward
 
 
+#: Rows of a run's section-hit buffer at its start (it grows as needed; see ``hybrid.run.run_hybrid``).
+HITS_AT_START = 64
+
+
 class Records:
     """Growable buffers for one run: events, section hits and states at requested times.
 
@@ -85,7 +89,9 @@ class Records:
     and grows fourfold: a run of 1000 events grows it once, of 100,000 events four times.
     """
 
-    def __init__(self, n_states: int, mode_size: int, t_eval: np.ndarray, events: int = 1024, hits: int = 64) -> None:
+    def __init__(
+        self, n_states: int, mode_size: int, t_eval: np.ndarray, events: int = 1024, hits: int = HITS_AT_START
+    ) -> None:
         self.n, self.mode_size = n_states, mode_size
         self.events = Events(
             np.empty(events),

@@ -162,8 +162,8 @@ def test_an_arc_whose_first_steps_pass_sections_from_is_run_again_with_its_secti
     full, full_hits, _ = _hits_and_callbacks(case2, "heyoka", -np.inf, monkeypatch)
     propagate, again = HeyokaIntegrator._propagate, []
 
-    def watched(self, st, ta, request, quiet, spent=0):
-        out = propagate(self, st, ta, request, quiet, spent)
+    def watched(self, compiled, request, quiet, spent=0):
+        out = propagate(self, compiled, request, quiet, spent)
         again.append(out[0] is None)
         return out
 

@@ -55,7 +55,11 @@ from nsbench.status import Status
 
 _SECTION_SLOTS = 2  # compiled in setup(); a request with more sections compiles a wider model
 _ON_SURFACE = object()  # a fresh guard still exactly zero at a step's end (see _first_crossing)
-_SUCCESS, _TIME_LIMIT = model.hy.taylor_outcome.success, model.hy.taylor_outcome.time_limit
+_OUTCOME = model.hy.taylor_outcome
+# heyoka's outcomes as Python integers: comparing two of heyoka's enum values costs about 0.4 us,
+# and an arc compared several (int() converts one, once per propagation)
+_SUCCESS_CODE, _TIME_LIMIT_CODE = int(_OUTCOME.success), int(_OUTCOME.time_limit)
+_STEP_LIMIT_CODE, _NONFINITE_CODE = int(_OUTCOME.step_limit), int(_OUTCOME.err_nf_state)
 
 
 def _any_hits(logs) -> bool:
@@ -64,6 +68,23 @@ def _any_hits(logs) -> bool:
         if log.hits:
             return True
     return False
+
+
+class _Compiled:
+    """A compiled Taylor integrator of the friction family with its structure and its arrays.
+
+    heyoka hands its arrays out as numpy views of the integrator's own storage, a new view per
+    attribute read (about 0.45 us each; an arc read five to eight of them). The storage is fixed
+    when the integrator is built and the views keep the integrator alive, so they are read once.
+    """
+
+    __slots__ = ("st", "ta", "state", "pars", "tc", "order", "logs")
+
+    def __init__(self, st: model.Structure, ta) -> None:
+        self.st, self.ta = st, ta
+        self.state, self.pars, self.tc = ta.state, ta.pars, ta.tc
+        self.order = int(ta.order)
+        self.logs = [ev.callback for ev in ta.nt_events]  # the section callbacks (SectionLog)
 
 
 class _StepRows:
@@ -167,7 +188,7 @@ class HeyokaIntegrator(Integrator):
         self.check_problem(problem)
         self._symbolic = self._written_symbolically(problem)
         self._problem = problem
-        self._models: dict[int, Any] = {}
+        self._models: dict[int, _Compiled] = {}
         self._fp = model.FP_TYPES.get(self.precision)
         if self._fp is None:  # pragma: no cover - depends on the heyoka build
             raise ConfigError(f"{self.name}: this heyoka build has no {self.precision} type")
@@ -176,8 +197,6 @@ class HeyokaIntegrator(Integrator):
         self._pars_sections, self._pars_cache = None, {}  # runtime parameters per mode (see _pars)
         self._compiled_in_advance = 0.0
         self._fresh_plan: dict[tuple, Any] = {}  # per mode and guards: the mode array and the guards' kinds
-        self._section_logs: dict[int, Any] = {}
-        self._orders: dict[int, Any] = {}
         self._n_states = problem.n_states
         self._no_rows = np.empty((problem.n_states, 0))
         self._no_rows.flags.writeable = False
@@ -223,7 +242,7 @@ class HeyokaIntegrator(Integrator):
             own[key] = ta
         self.compile_time += seconds  # setup's share lands in setup_time; later ones in extra
         self._compiled_in_advance = getattr(self, "_compiled_in_advance", 0.0) + seconds
-        self._models[st.n_sections] = (st, ta)
+        self._models[st.n_sections] = _Compiled(st, ta)
         return self._models[st.n_sections]
 
     def _continued(self, request: ArcRequest):
@@ -312,21 +331,20 @@ class HeyokaIntegrator(Integrator):
             return t
         return None
 
-    def _load(self, st: model.Structure, ta, request: ArcRequest, carried=None, sections: bool = True):
-        """Write coefficients, mode, sections, time and state into ``ta``; return the start time.
+    def _load(self, c: _Compiled, request: ArcRequest, carried=None, sections: bool = True):
+        """Write coefficients, mode, sections, time and state into ``c.ta``; return the start time.
 
         ``carried``: ``(dtime, state)`` in our precision from :meth:`_continued`, used instead
         of the request's double time and state. ``sections=False``: the section slots off.
         """
-        fp = self._fp
-        ta.pars[:] = self._pars(st, request, sections)
-        logs = self._logs(ta)
-        for log in logs:
+        fp, st, ta = self._fp, c.st, c.ta
+        c.pars[:] = self._pars(st, request, sections)
+        for log in c.logs:
             if log.hits:
                 log.hits.clear()
         if carried is not None:
             ta.dtime = carried[0]
-            ta.state[:] = carried[1]
+            c.state[:] = carried[1]
             ta.reset_cooldowns()
             return ta.time
         state = request.y0 if fp is float else np.asarray(request.y0, dtype=float).astype(fp)
@@ -337,27 +355,13 @@ class HeyokaIntegrator(Integrator):
             w = np.array([self._coefficients[st.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(request.t0) + fp(request.t0_lo))
             n = st.n_mech
-            ta.state[:n] = state
-            ta.state[n] = np.cos(phase)[0]
-            ta.state[n + 1] = np.sin(phase)[0]
+            c.state[:n] = state
+            c.state[n] = np.cos(phase)[0]
+            c.state[n + 1] = np.sin(phase)[0]
         else:
-            ta.state[:] = state
+            c.state[:] = state
         ta.reset_cooldowns()
         return t0
-
-    def _order(self, ta) -> int:
-        """``ta.order``, looked up once per compiled integrator."""
-        order = self._orders.get(id(ta))
-        if order is None or order[0] is not ta:
-            order = self._orders[id(ta)] = (ta, int(ta.order))
-        return order[1]
-
-    def _logs(self, ta) -> list:
-        """The section callbacks of ``ta`` (:class:`~nsbench.integrators._heyoka_model.SectionLog`), looked up once."""
-        logs = self._section_logs.get(id(ta))
-        if logs is None or logs[0] is not ta:
-            logs = self._section_logs[id(ta)] = (ta, [ev.callback for ev in ta.nt_events])
-        return logs[1]
 
     # -- problems written symbolically (_heyoka_symbolic)
     def _mode_ta(self, mode):
@@ -488,12 +492,13 @@ class HeyokaIntegrator(Integrator):
             self.setup(problem)
         if self._symbolic:
             return self._advance_symbolic(request)
-        st, ta = self._model(len(request.sections))
+        c = self._model(len(request.sections))
+        st, ta = c.st, c.ta
         carried = None if self.precision == "double" else self._continued(request)
         self._carry = None
         quiet = self._quiet_until(request)
-        t0 = self._load(st, ta, request, carried, sections=quiet is None)
-        fp, n, logs = self._fp, self._n_states, self._logs(ta)
+        t0 = self._load(c, request, carried, sections=quiet is None)
+        fp, n, logs = self._fp, self._n_states, c.logs
         if request.max_steps <= 0:
             return ArcResult(
                 t=request.t0,
@@ -503,21 +508,21 @@ class HeyokaIntegrator(Integrator):
                 status=Status.BUDGET_EXHAUSTED,
                 message=f"step budget exhausted at t = {request.t0:.6g}",
             )
-        outcome, fresh_hit, nsteps, first_rows = self._propagate(st, ta, request, quiet)
+        outcome, fresh_hit, nsteps, first_rows = self._propagate(c, request, quiet)
         if outcome is None:  # the first steps, with the sections off, went past sections_from: again, with them
-            t0 = self._load(st, ta, request, carried)
-            outcome, fresh_hit, redone, first_rows = self._propagate(st, ta, request, None, nsteps)
+            t0 = self._load(c, request, carried)
+            outcome, fresh_hit, redone, first_rows = self._propagate(c, request, None, nsteps)
             nsteps += redone
         if fresh_hit is not None:  # a fresh guard crossed inside the first step
             hi, lo, y_fp = fresh_hit[0], fp(0.0), fresh_hit[2]
         else:
-            (hi, lo), y_fp = ta.dtime, ta.state
+            (hi, lo), y_fp = ta.dtime, c.state
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
         fired, status, message = self._verdict(len(model.GUARD_SLOT) * st.n_blocks, outcome, fresh_hit, request, t_stop)
-        if fresh_hit is None and outcome == _TIME_LIMIT:
+        if fresh_hit is None and outcome == _TIME_LIMIT_CODE:
             t_stop, t_lo = request.t_end, 0.0
-        extra = {"taylor_coefficients": nsteps * self._order(ta)}
+        extra = {"taylor_coefficients": nsteps * c.order}
         if self._compiled_in_advance:  # a wider model compiled for more sections
             extra["compile_seconds"], self._compiled_in_advance = self._compiled_in_advance, 0.0
         n_eval = int(np.searchsorted(request.t_eval, t_stop, side="right")) if status.ok and request.t_eval.size else 0
@@ -542,53 +547,54 @@ class HeyokaIntegrator(Integrator):
             t_lo=t_lo,
         )
 
-    def _propagate(self, st, ta, request: ArcRequest, quiet: float | None, spent: int = 0):
+    def _propagate(self, c: _Compiled, request: ArcRequest, quiet: float | None, spent: int = 0):
         """Run the arc: a special first step if the phase starts on a guard, then heyoka's propagation.
 
         ``quiet``: the sections are off (see :meth:`_load`) up to this time, then on. If the first
         steps went past it (crossings after it were not looked for), the outcome is ``None``: the
         arc is to be run again with the sections on. ``spent``: steps this arc has already used.
-        Returns heyoka's outcome, the fresh guards' crossing (see :meth:`_first_step`), the steps
-        taken and the states at the request's times up to where the arc stopped (and perhaps a few
-        past it, in the last step).
+        Returns heyoka's outcome as an integer (``int(taylor_outcome)``), the fresh guards'
+        crossing (see :meth:`_first_step`), the steps taken and the states at the request's times
+        up to where the arc stopped (and perhaps a few past it, in the last step).
         """
-        fp, nsteps, fresh_hit, rows = self._fp, 0, None, []
+        fp, ta, nsteps, fresh_hit, rows = self._fp, c.ta, 0, None, []
         budget = int(request.max_steps) - spent
         fresh = self._fresh_guards(request) if self.fresh_steps > 0 else []
-        outcome = _SUCCESS
+        outcome = _SUCCESS_CODE
         if fresh:
-            outcome, fresh_hit, nsteps = self._first_step(st, ta, request, fresh, rows)
+            outcome, fresh_hit, nsteps = self._first_step(c, request, fresh, rows)
         if quiet is not None and not (ta.time if fresh_hit is None else fresh_hit[0]) <= fp(quiet):
             return None, None, nsteps, rows
-        if fresh_hit is not None or outcome != _SUCCESS:
+        if fresh_hit is not None or outcome != _SUCCESS_CODE:
             return outcome, fresh_hit, nsteps, rows
         if quiet is not None:  # the sections off up to there, then on
             if nsteps < budget:  # heyoka reads max_steps=0 as "no limit"
-                outcome, _, _, taken, _, _ = ta.propagate_until(fp(quiet), max_steps=budget - nsteps)
+                result, _, _, taken, _, _ = ta.propagate_until(fp(quiet), max_steps=budget - nsteps)
+                outcome = int(result)
                 nsteps += int(taken)
-            ta.pars[:] = self._pars(st, request)
-            if outcome != _TIME_LIMIT and outcome != _SUCCESS:  # an event, a failure, the budget
+            c.pars[:] = self._pars(c.st, request)
+            if outcome != _TIME_LIMIT_CODE and outcome != _SUCCESS_CODE:  # an event, a failure, the budget
                 return outcome, fresh_hit, nsteps, rows
         if nsteps >= budget:
-            return model.hy.taylor_outcome.step_limit, fresh_hit, nsteps, rows
-        outcome, _, _, taken, _, _ = ta.propagate_until(
+            return _STEP_LIMIT_CODE, fresh_hit, nsteps, rows
+        result, _, _, taken, _, _ = ta.propagate_until(
             fp(request.t_end), max_steps=budget - nsteps, callback=_step_rows(fp, request.t_eval, rows, request.t_end)
         )
-        return outcome, fresh_hit, nsteps + int(taken), rows
+        return int(result), fresh_hit, nsteps + int(taken), rows
 
     @staticmethod
-    def _verdict(n_events: int, outcome, fresh_hit, request: ArcRequest, t_stop: float):
-        """``(fired, status, message)`` from heyoka's outcome (``n_events``: the model's terminal events)."""
-        taylor = model.hy.taylor_outcome
+    def _verdict(n_events: int, outcome: int, fresh_hit, request: ArcRequest, t_stop: float):
+        """``(fired, status, message)`` from heyoka's outcome as an integer (``n_events``: the model's
+        terminal events)."""
         if fresh_hit is not None:
             return fresh_hit[1], Status.SUCCESS, ""
-        if outcome == _TIME_LIMIT:
+        if outcome == _TIME_LIMIT_CODE:
             return None, Status.SUCCESS, ""
-        if outcome == taylor.step_limit:
+        if outcome == _STEP_LIMIT_CODE:
             return None, Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t_stop:.6g}"
-        if outcome == taylor.err_nf_state:
+        if outcome == _NONFINITE_CODE:
             return None, Status.INTEGRATOR_FAILURE, f"non-finite state at t = {t_stop:.6g}"
-        event = -int(outcome) - 1
+        event = -outcome - 1
         if 0 <= event < n_events:
             fired = model.guard_index(request, event)
             if fired is None:
@@ -598,7 +604,7 @@ class HeyokaIntegrator(Integrator):
                     (f"event {event} of an inactive phase fired at t = {t_stop:.17g}"),
                 )
             return fired, Status.SUCCESS, ""
-        return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
+        return None, Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {_OUTCOME(outcome)!r}"
 
     def _fresh_guards(self, request: ArcRequest) -> list[int]:
         """Guards exactly zero at the start: the phase starts on its own surface.
@@ -638,7 +644,7 @@ class HeyokaIntegrator(Integrator):
                 fresh.append(q)
         return fresh
 
-    def _first_step(self, st, ta, request: ArcRequest, fresh: list[int], dense_rows: list):
+    def _first_step(self, c: _Compiled, request: ArcRequest, fresh: list[int], dense_rows: list):
         """Taylor steps with the fresh guards' events off; their crossings found on the steps' polynomials.
 
         A guard that starts the arc on its own surface starts from a zero of its
@@ -652,20 +658,20 @@ class HeyokaIntegrator(Integrator):
         :attr:`fresh_steps` steps while a guard is still exactly on its surface
         at a step's end (a step cut short by the arc's end); a guard that has
         left its surface goes back on and heyoka's own detection takes over.
-        Returns heyoka's outcome, ``(t, guard index, state)`` of the earliest
+        Returns heyoka's outcome as an integer, ``(t, guard index, state)`` of the earliest
         fresh crossing (if any) and the number of steps taken.
         """
-        fp = self._fp
-        pending, best, outcome, steps = list(fresh), None, model.hy.taylor_outcome.success, 0
+        fp, st, ta, pars = self._fp, c.st, c.ta, c.pars
+        pending, best, outcome, steps = list(fresh), None, _SUCCESS_CODE, 0
         # in double, a velocity guard's crossings are found on the step's Taylor coefficients in one pass
         polynomial = self.precision == "double" and any(request.guards[q].kind == "velocity" for q in fresh)
-        pars = ta.pars
         while pending:
             offsets = [st.guard_par(request.guards[q]) + model.GUARD_ACTIVE for q in pending]
             for off in offsets:
                 pars[off] = fp(0.0)
             t_start, start = ta.time, ta.dtime
-            outcome, _ = ta.step(fp(request.t_end) - t_start, write_tc=polynomial)
+            result, _ = ta.step(fp(request.t_end) - t_start, write_tc=polynomial)
+            outcome = int(result)
             steps += 1
             t_end = ta.time
             first = int(np.searchsorted(request.t_eval, float(t_start), side="right")) if request.t_eval.size else 0
@@ -677,7 +683,7 @@ class HeyokaIntegrator(Integrator):
             for q in pending:
                 guard = request.guards[q]
                 if polynomial and guard.kind == "velocity":
-                    root = self._velocity_crossing(ta, guard, start, t_start, t_end)
+                    root = self._velocity_crossing(c.tc, guard, start, t_start, t_end)
                 else:
                     root = self._first_crossing(ta, guard, t_start, t_end)
                 if root is _ON_SURFACE:
@@ -686,7 +692,7 @@ class HeyokaIntegrator(Integrator):
                     best = (root, q, np.array(ta.update_d_output(root), copy=True))
             for off in offsets:
                 pars[off] = fp(1.0)
-            if best is not None or outcome != _SUCCESS:
+            if best is not None or outcome != _SUCCESS_CODE:
                 break  # a crossing, an event of another guard, or the arc's end: a guard on its surface is no event
             if on_surface and steps >= self.fresh_steps:  # on its surface for good: the transition decides
                 q = on_surface[0]
@@ -695,18 +701,19 @@ class HeyokaIntegrator(Integrator):
             pending = on_surface
         return outcome, best, steps
 
-    def _velocity_crossing(self, ta, guard, start, t_start: float, t_end: float):
+    def _velocity_crossing(self, tc: np.ndarray, guard, start, t_start: float, t_end: float):
         """:meth:`_first_crossing` of a velocity guard in double, on the Taylor polynomial of the step.
 
         The same samples, decisions and Illinois refinement, compiled
         (:func:`nsbench.integrators._heyoka_crossing.velocity_crossing`) on the step's Taylor
         coefficients of ``v_i`` (what heyoka's dense output evaluates), instead of one
-        ``update_d_output`` call and a state copy per evaluation. ``start``: heyoka's
-        double-length time where the step started (``t - start`` is the polynomial's variable).
+        ``update_d_output`` call and a state copy per evaluation. ``tc``: the integrator's Taylor
+        coefficients (``ta.tc``); ``start``: heyoka's double-length time where the step started
+        (``t - start`` is the polynomial's variable).
         """
         out = self._root
         found = crossing.velocity_crossing(
-            ta.tc[2 * guard.block - 1], start[0], start[1], t_start, t_end, float(guard.expected_sign), self._v0, out
+            tc[2 * guard.block - 1], start[0], start[1], t_start, t_end, float(guard.expected_sign), self._v0, out
         )
         if found == crossing.ROOT:
             return float(out[0])

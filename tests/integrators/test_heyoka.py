@@ -250,3 +250,23 @@ def test_crossing_inside_the_first_step_of_a_phase(name):
     res, ref = nsbench.simulate(p, name, 60.0), nsbench.simulate(p, "exact", 60.0)
     assert same_sequence(res.events, ref.events)
     assert max_time_error(res.events, ref.events) < 1e-12
+
+
+def test_a_pickled_integrator_writes_into_its_own_compiled_integrator():
+    # The kept compiled integrator holds numpy views of heyoka's storage (state, parameters, Taylor
+    # coefficients), read once. A pickled view would be an array of its own: writing the next arc's
+    # state into it would leave heyoka's untouched. After unpickling, the views are the unpickled
+    # integrator's own, and the integrator runs as before.
+    import pickle
+
+    problem = nsbench.get_problem("two-dof", case=1)
+    integ = nsbench.get_integrator("heyoka")
+    first = nsbench.simulate(problem, integ, 60.0)
+    copied, copied_problem = pickle.loads(pickle.dumps((integ, problem)))
+    assert copied._models
+    for compiled in copied._models.values():
+        for name in ("state", "pars", "tc"):
+            assert np.shares_memory(getattr(compiled, name), getattr(compiled.ta, name))
+    again = nsbench.simulate(copied_problem, copied, 60.0)
+    assert first.ok and again.ok
+    np.testing.assert_array_equal(again.events["t"], first.events["t"])

@@ -86,6 +86,11 @@ class _Compiled:
         self.order = int(ta.order)
         self.logs = [ev.callback for ev in ta.nt_events]  # the section callbacks (SectionLog)
 
+    def __reduce__(self):
+        # A pickled or copied view would be an array of its own, no longer the integrator's storage:
+        # the views are read again from the unpickled integrator.
+        return _Compiled, (self.st, self.ta)
+
 
 class _StepRows:
     """A step callback of ``propagate_until``: the states at the requested times, each from the Taylor

@@ -423,12 +423,12 @@ class HeyokaIntegrator(Integrator):
                 status=Status.BUDGET_EXHAUSTED,
                 message=f"step budget exhausted at t = {request.t0:.6g}",
             )
-        taylor = model.hy.taylor_outcome
         t_start, nsteps, hit, rows = ta.time, 0, None, []
         fresh = self._fresh_guards(request)
-        outcome = taylor.success
+        outcome = _SUCCESS_CODE
         if fresh:  # heyoka looks for no root of an event that is zero where a step starts: one step alone
-            outcome, _ = ta.step(fp(request.t_end) - t_start)
+            result, _ = ta.step(fp(request.t_end) - t_start)
+            outcome = int(result)
             nsteps = 1
             for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
                 if fp(float(te)) > ta.time:
@@ -438,31 +438,32 @@ class HeyokaIntegrator(Integrator):
                 root = symbolic.first_crossing(ta, fp, request.guards[q], t_start, ta.time)
                 if root is not None and (hit is None or root < hit[0]):
                     hit = (root, q, np.array(ta.update_d_output(root), copy=True))
-        if hit is None and outcome in (taylor.success, taylor.time_limit) and ta.time < fp(request.t_end):
+        if hit is None and outcome in (_SUCCESS_CODE, _TIME_LIMIT_CODE) and ta.time < fp(request.t_end):
             if nsteps >= request.max_steps:
-                outcome = taylor.step_limit
+                outcome = _STEP_LIMIT_CODE
             else:
-                outcome, _, _, taken, _, _ = ta.propagate_until(
+                result, _, _, taken, _, _ = ta.propagate_until(
                     fp(request.t_end),
                     max_steps=int(request.max_steps) - nsteps,
                     callback=_step_rows(fp, request.t_eval, rows, request.t_end),
                 )
+                outcome = int(result)
                 nsteps += int(taken)
         if hit is not None:
             hi, lo, y_fp, fired, status, message = hit[0], fp(0.0), hit[2], hit[1], Status.SUCCESS, ""
         else:
             (hi, lo), y_fp = ta.dtime, ta.state
             fired, status, message = None, Status.SUCCESS, ""
-            if outcome == taylor.step_limit:
+            if outcome == _STEP_LIMIT_CODE:
                 status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {float(hi):.6g}"
-            elif outcome == taylor.err_nf_state:
+            elif outcome == _NONFINITE_CODE:
                 status, message = Status.INTEGRATOR_FAILURE, f"non-finite state at t = {float(hi):.6g}"
-            elif outcome not in (taylor.success, taylor.time_limit):
-                event = -int(outcome) - 1
+            elif outcome not in (_SUCCESS_CODE, _TIME_LIMIT_CODE):
+                event = -outcome - 1
                 if 0 <= event < len(request.guards):
                     fired = event
                 else:
-                    status, message = Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {outcome!r}"
+                    status, message = Status.INTEGRATOR_FAILURE, f"unexpected heyoka outcome {_OUTCOME(outcome)!r}"
         t_stop = float(hi)
         t_lo = float((hi - fp(t_stop)) + lo)
         if fired is None and status.ok:

@@ -133,7 +133,8 @@ def _least_glue(self: _PythonArcs) -> int:
     arc must: the mode's tuple and guards, the request, ``advance`` timed, and its outcome stored where
     the compiled loop reads it (time, low part, state, fired guard, steps, dense states). It trusts the
     result: no protocol check, no counters but the steps, no section hits (the runs timed here have
-    no sections)."""
+    no sections). Its first lines are those of ``_PythonArcs.__call__`` on purpose: the same request,
+    built the same way, so that the two figures differ only by what the real glue checks."""
     st = self.st
     key = st.mode.tobytes()
     entry = self._by_mode.get(key)

@@ -41,6 +41,7 @@ import statistics
 import time
 from unittest import mock
 
+import numpy as np
 import pytest
 
 import nsbench
@@ -48,6 +49,7 @@ from nsbench.bench.pytest_bench import bench_span
 from nsbench.hybrid.run import _PythonArcs, low_part
 from nsbench.integrators import get_integrator
 from nsbench.model import abi
+from nsbench.model.callback import ARC_STORED
 
 SPAN = bench_span(3000.0)
 ROUNDS = 5
@@ -143,7 +145,9 @@ def _least_glue(self: _PythonArcs) -> int:
     times = sf.tolist()
     t, t_lo = times[abi.SF_T], times[abi.SF_TLO]
     i_eval = int(si[abi.SI_IEVAL])
-    request = self._build(mode, t, st.y.copy(), guards, self.t_eval[i_eval:], self.max_steps - self.nsteps, t_lo)
+    t_eval = self.t_eval[i_eval:] if i_eval else self.t_eval
+    y_in = np.frombuffer(st.y.tobytes())  # a read-only copy
+    request = self._build(mode, t, y_in, guards, t_eval, self.max_steps - self.nsteps, t_lo)
     tic = time.perf_counter()
     res = self._advance(request)
     self.seconds += time.perf_counter() - tic
@@ -158,7 +162,7 @@ def _least_glue(self: _PythonArcs) -> int:
     st.y_arc[:] = res.y
     si[abi.SI_ARC_STATUS] = abi.K_OK
     si[abi.SI_DETAIL] = -1 if res.fired is None else res.fired
-    return 0
+    return ARC_STORED
 
 
 def _least_glue_share(problem, integ, run) -> float:

@@ -6,7 +6,16 @@ of main before the problems became data and the core generic (f32c8b4): the
 ``exact``, ``reference``, ``ofapi`` and ``henon-rk4`` over tau in [0, 300],
 times and states as the repr of the doubles. The same computation in the same
 order gives the same doubles on a machine with IEEE arithmetic and the same
-libm (numba compiles without fast-math, so no fused operation changes a bit).
+libm (numba compiles without fast-math, so no fused operation changes a bit),
+whatever BLAS it has and whichever kernel BLAS picks (``OPENBLAS_CORETYPE``):
+none of these integrators' arithmetic goes through BLAS. ``ofapi``'s rows were
+computed again when its Chebyshev operators stopped being products in BLAS
+(their doubles had depended on the kernel's order of summation; now each entry
+is its exact value rounded once, :mod:`nsbench.integrators._chebyshev`): the
+same events, times within 3.9e-12 of the old rows. ``exact`` and ``reference``
+start from LAPACK's eigen-decomposition but polish it in double-double
+(:mod:`nsbench.integrators._exact_polish`), which gave the same doubles on the
+SkylakeX and Haswell kernels of OpenBLAS 0.3.31 (AMD EPYC, 2026-12-01).
 """
 
 from __future__ import annotations

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from numpy.polynomial import chebyshev as C
 
+import mpmath
+
 from nsbench.integrators import _chebyshev as cheb
 
 
@@ -77,3 +79,29 @@ def test_operators_are_cached_and_read_only():
         cheb.operators(12).integration[1, 1] = 0.0
     with pytest.raises(ValueError, match="N = 1"):
         cheb.operators(1)
+
+
+@pytest.mark.parametrize("N", [3, 8, 12])
+def test_every_operator_entry_is_its_exact_value_rounded_once(N):
+    """The operators are the nearest doubles of their exact values, so no BLAS kernel can change a bit.
+
+    Computed independently at 50 digits: ``E[i, j]`` is the integral of the Lagrange basis polynomial
+    ``l_j`` from -1 to ``tau_i`` (Gauss-Legendre quadrature, exact for its degree), ``A[k, j]`` the
+    discrete-orthogonality weight ``gamma_k T_k(tau_j)`` (halved at the ends), ``T_k(tau_j) = cos(k (N - j) pi / N)``.
+    """
+    ops = cheb.operators(N)
+    with mpmath.workdps(50):
+        tau = [-mpmath.cospi(mpmath.mpf(j) / N) for j in range(N + 1)]  # cospi: exact zeros
+        assert [float(t) for t in tau] == ops.nodes.tolist()
+
+        def lagrange(j):
+            return lambda s: mpmath.fprod((s - tau[m]) / (tau[j] - tau[m]) for m in range(N + 1) if m != j)
+
+        for j in range(N + 1):
+            for k in range(N + 1):
+                gamma = mpmath.mpf(1 if k in (0, N) else 2) / N
+                half = mpmath.mpf(1) / 2 if j in (0, N) else 1
+                assert float(gamma * half * mpmath.cospi(mpmath.mpf(k * (N - j)) / N)) == ops.to_coefficients[k, j]
+            for i in range(1, N + 1):
+                exact = mpmath.quad(lagrange(j), [-1, tau[i]], method="gauss-legendre")
+                assert float(exact) == ops.integration[i, j], (i, j)

@@ -8,6 +8,7 @@ import pytest
 from nsbench import simulate
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import get_integrator
+from nsbench.integrators._moreau_jean_kernel import spd_inverse
 from nsbench.integrators.moreau_jean import MAX_BLOCKS, stiffness_matrix, uniform_steps
 from nsbench.problems import get_problem
 from nsbench.testing import check_integrator
@@ -268,3 +269,17 @@ def test_the_bouncing_ball_impacts_and_rest():
         assert abs(run.events["t"].iloc[-1] - problem.accumulation_time()) <= 20 * h
         assert abs(run.y_final[1]) < 1e-12 and run.mode_final == (1,)
     assert errors[1] < errors[0] / 4
+
+
+def test_the_step_matrix_is_inverted_without_blas():
+    """``spd_inverse`` (Gauss-Jordan in a fixed order, not LAPACK through BLAS) inverts exactly where the
+    inverse is exact in binary, and to rounding elsewhere; a matrix that is not positive definite is refused."""
+    a = np.array([[2.0, 1.0], [1.0, 1.0]])  # inverse [[1, -1], [-1, 2]], every step exact
+    np.testing.assert_array_equal(spd_inverse(a), [[1.0, -1.0], [-1.0, 2.0]])
+    rng = np.random.default_rng(5)
+    for n in (1, 3, 6):
+        b = rng.normal(size=(n, n))
+        w = b @ b.T + n * np.eye(n)  # well conditioned: the inverse is accurate to a few ulps
+        np.testing.assert_allclose(spd_inverse(w) @ w, np.eye(n), atol=1e-14)
+    with pytest.raises(ValueError, match="not positive definite"):
+        spd_inverse(np.array([[0.0, 1.0], [1.0, 0.0]]))

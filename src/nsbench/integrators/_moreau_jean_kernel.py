@@ -325,8 +325,29 @@ def operators(m, c, K, h: float, theta: float, inverses: bool = True):
     winv = np.zeros((2**n, n, n))
     for mask in range(1, 2**n):
         idx = [i for i in range(n) if mask >> i & 1]
-        winv[mask][np.ix_(idx, idx)] = np.linalg.inv(W[np.ix_(idx, idx)])
+        winv[mask][np.ix_(idx, idx)] = spd_inverse(W[np.ix_(idx, idx)])
     return W, winv
+
+
+def spd_inverse(a: np.ndarray) -> np.ndarray:
+    """The inverse of a symmetric positive definite matrix by Gauss-Jordan elimination in a fixed order.
+
+    Not ``np.linalg.inv``: LAPACK's elimination goes through BLAS, whose kernel (chosen per CPU and by
+    ``OPENBLAS_CORETYPE``) orders its sums in its own way, so the step's doubles would depend on the
+    machine. An SPD matrix needs no pivoting (every pivot is a ratio of leading principal minors, all
+    positive), and each update below is one rounded product and one rounded difference per entry.
+    """
+    n = a.shape[0]
+    work = np.concatenate([np.array(a, dtype=float), np.eye(n)], axis=1)
+    for k in range(n):
+        pivot = work[k, k]
+        if not pivot > 0.0:
+            raise ValueError(f"spd_inverse: pivot {k} is {pivot!r}; the matrix is not positive definite")
+        work[k, :] = work[k, :] / pivot
+        for r in range(n):
+            if r != k and work[r, k] != 0.0:
+                work[r, :] = work[r, :] - work[r, k] * work[k, :]
+    return work[:, n:].copy()
 
 
 @jit

@@ -252,7 +252,9 @@ class SiconosEventDriven(WholeSystem):
     at every point of an output grid of step ``h`` and at every impact, the impulse of
     each sample and the resting label, from which nsbench infers the impacts and the rest
     like a time-stepping run's (a sample sits at the impact itself, so the inference adds
-    no error).
+    no error). The times of the impact samples and of the first resting one are Siconos's
+    own switch times (``SystemResult.switch_times``), reported beside the inferred ones
+    (the event log's ``t_located``).
 
     Only the bouncing ball: ``LsodarOSI`` takes Newton's impact law alone (its
     ``fillDSLinks`` refuses ``NewtonImpactFrictionNSL``; tried on the block on the ground,
@@ -337,11 +339,19 @@ class SiconosEventDriven(WholeSystem):
                 Status.BUDGET_EXHAUSTED,
                 (f"{info.get('events')} events, budget {request.max_steps}; stopped at t = {rows[-1, 0]:.6g}"),
             )
+        # the impacts LSODAR's root finder located and the sample where Siconos took the resting contact:
+        # its own switch times, reported beside the inferred ones
+        own = marks[:, 0] > 0.0
+        resting = np.flatnonzero(marks[:, 1] > 0.0)
+        if resting.size:
+            own[resting[0]] = True
         return SystemResult(
             t=rows[:, 0],
             y=rows[:, 1:],
             modes=marks[:, 1:].astype(np.int64),
             impulses=marks[:, :1],
+            switch_times=rows[own, 0].copy(),
+            switch_elements=np.zeros(int(own.sum()), np.int64),
             nsteps=int(info.get("events", 0)),
             status=status,
             message=message,

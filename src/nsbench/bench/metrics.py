@@ -269,15 +269,20 @@ def state_errors(
     return final_err, l2
 
 
-def stick_intervals(reference: pd.DataFrame, t_end: float) -> list[tuple[int, float, float]]:
+def stick_intervals(
+    reference: pd.DataFrame, t_end: float, n_prefix: int | None = None
+) -> list[tuple[int, float, float]]:
     """The true stick intervals of the reference: ``(block, start, stop)`` (1-based block), from each
     ``stick`` event of a block to its next ``slip`` event (or ``t_end``). A block stuck from the start
-    (before any event) is not counted: the log does not say so."""
+    (before any event) is not counted: the log does not say so. With ``n_prefix``, only the intervals whose
+    ``stick`` event is among the first ``n_prefix`` (a run's matched prefix: it reproduced the sequence up to
+    that stick, so its state there is the reference's to the switching-time error)."""
     out = []
     open_at: dict[int, float] = {}
-    for t, kind, block in zip(reference["t"].to_numpy(dtype=float), reference["kind"], reference["block"]):
+    rows = zip(reference["t"].to_numpy(dtype=float), reference["kind"], reference["block"])
+    for j, (t, kind, block) in enumerate(rows):
         b = int(block)
-        if kind == "stick":
+        if kind == "stick" and (n_prefix is None or j < n_prefix):
             open_at.setdefault(b, float(t))
         elif kind == "slip" and b in open_at:
             out.append((b, open_at.pop(b), float(t)))
@@ -287,42 +292,85 @@ def stick_intervals(reference: pd.DataFrame, t_end: float) -> list[tuple[int, fl
 
 @dataclass(frozen=True)
 class StickCreep:
-    """How far a run moves off the belt while the reference sticks.
+    """How fast and how far a run moves off the belt while the reference sticks under an in-cone load.
 
-    ``creep`` is the largest ``|v_i - v_belt|`` at the dense points inside the
-    reference's stick intervals of block ``i`` (over all blocks and intervals);
-    ``drift`` the largest position drift relative to the belt there,
-    ``|(x_i(t) - x_i(t_a)) - v_belt (t - t_a)|`` from the first dense point ``t_a`` of
-    the interval. Both NaN when no dense point falls inside a stick interval
-    (or the problem has no belt). An exact method has both at rounding level.
+    The windows are the dense points inside the reference's stick intervals of block
+    ``i`` (:func:`stick_intervals`) that start within the run's matched prefix (after a
+    run's sequence departs from the reference's, the two states are unrelated: a
+    regularised block that broke away early is elsewhere), at which the reference's load is in the cone,
+    ``|R_i| <= fs_i`` with ``v_i = v_belt`` (:func:`in_cone`: within the kinetic level,
+    so inside the static cone ``fr_i >= fs_i`` of Coulomb's law with stiction and
+    within what a regularised law can hold; all the points of the interval where the
+    load is not known), cut into runs of consecutive points.
+
+    ``creep`` is the drift velocity per unit of stick time, as MuJoCo's users measure
+    creep: the distance the block moves relative to the belt, ``sum |d(x_i - v_belt t)|``
+    over consecutive points of a window, divided by the stick time those pairs span,
+    pooled over every window and block. A regularised law creeps at a speed of order
+    (its force's deficit)/(its sharpness), so ``creep`` falls as ``1/eps``; an exact
+    method's is rounding, the switch model's at most ``eta``. ``drift`` is the largest
+    position drift relative to the belt within a window, ``|(x_i(t) - x_i(t_a)) -
+    v_belt (t - t_a)|`` from its first point ``t_a``. Both NaN when no window holds
+    two points (or the problem has no belt).
     """
 
     creep: float
     drift: float
 
 
+def in_cone(problem, times: np.ndarray, ref_dense: np.ndarray) -> np.ndarray | None:
+    """Per block and dense point, whether the reference's load is in the cone: ``|R_i| <= fs_i`` at ``v_i = v_belt``.
+
+    ``ref_dense`` is the reference's dense states ``(n_states, n_points)``. ``R_i`` is MODEL.md's restoring
+    force (every force on block ``i`` but friction) with every block at the belt speed, as while stuck
+    (``problem.belt_speed_restoring``). ``None`` where the problem does not give its loads.
+    """
+    restoring = getattr(problem, "belt_speed_restoring", None)
+    coefficients = getattr(problem, "coefficients", None)
+    if restoring is None or coefficients is None:
+        return None
+    dense = np.asarray(ref_dense, dtype=float)
+    times = np.asarray(times, dtype=float)
+    loads = np.array(restoring(times, [dense[2 * i] for i in range(dense.shape[0] // 2)]), dtype=float)
+    fs = np.asarray(coefficients.fs, dtype=float).reshape(-1, 1)
+    return np.abs(loads.reshape(fs.shape[0], -1)) <= fs
+
+
 def stick_creep(
-    reference: pd.DataFrame, times: np.ndarray, dense: np.ndarray, v_belt: float, t_end: float
+    reference: pd.DataFrame,
+    times: np.ndarray,
+    dense: np.ndarray,
+    v_belt: float,
+    t_end: float,
+    cone: np.ndarray | None = None,
+    n_prefix: int | None = None,
 ) -> StickCreep:
     """:class:`StickCreep` of a run's dense states ``dense`` (shape ``(n_states, n_points)``, states
-    ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`).
+    ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`)
+    where ``cone`` (shape ``(n_blocks, n_points)``, :func:`in_cone`; ``None``: everywhere) holds, of the
+    intervals whose stick event is among the run's first ``n_prefix`` matched events (``None``: all).
 
     The interval ends are left out (a point exactly at a switch belongs to neither phase).
     """
     times = np.asarray(times, dtype=float)
     dense = np.asarray(dense, dtype=float)
-    creep, drift = -math.inf, -math.inf
-    for block, a, b in stick_intervals(reference, t_end):
+    moved, spent, drift = 0.0, 0.0, -math.inf
+    for block, a, b in stick_intervals(reference, t_end, n_prefix):
         inside = (times > a) & (times < b)
-        if not inside.any():
-            continue
-        x, v = dense[2 * (block - 1), inside], dense[2 * block - 1, inside]
-        t = times[inside]
-        creep = max(creep, float(np.max(np.abs(v - v_belt))))
-        drift = max(drift, float(np.max(np.abs((x - x[0]) - v_belt * (t - t[0])))))
-    if creep == -math.inf:
+        if cone is not None:
+            inside &= np.asarray(cone[block - 1], dtype=bool)
+        idx = np.flatnonzero(inside)
+        for window in np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1):
+            if window.size < 2:
+                continue
+            t = times[window]
+            off = dense[2 * (block - 1), window] - v_belt * t  # position relative to the belt
+            moved += float(np.sum(np.abs(np.diff(off))))
+            spent += float(t[-1] - t[0])
+            drift = max(drift, float(np.max(np.abs(off - off[0]))))
+    if spent == 0.0:
         return StickCreep(math.nan, math.nan)
-    return StickCreep(creep, drift)
+    return StickCreep(moved / spent, drift)
 
 
 def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: int) -> float:
@@ -330,6 +378,16 @@ def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: in
     kinds = reference["kind"].to_numpy()[:n_prefix]
     err = np.abs(np.asarray(event_err, dtype=float)[:n_prefix])[kinds == "slip"]
     return float(err.max()) if err.size else math.nan
+
+
+def located_error(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int) -> float:
+    """Largest ``|t_located - t_ref|`` over the matched prefix (the switches the method located itself,
+    ``SystemResult.switch_times``), NaN if the run has no ``t_located`` column or locates none of them."""
+    if "t_located" not in events or n_prefix == 0:
+        return math.nan
+    own = events["t_located"].to_numpy(dtype=float)[:n_prefix]
+    err = np.abs(own - reference["t"].to_numpy(dtype=float)[:n_prefix])
+    return float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
 
 
 def impact_metrics(
@@ -383,11 +441,15 @@ def case_metrics(
     times: np.ndarray | None = None,
     v_belt: float | None = None,
     t_end: float | None = None,
+    cone: np.ndarray | None = None,
 ) -> dict:
     """Every metric column of a tidy row (see :mod:`nsbench.bench.schema`).
 
     ``times`` (the dense grid), ``v_belt`` and ``t_end`` give the stick creep
-    (:func:`stick_creep`; NaN without them: a problem without a belt).
+    (:func:`stick_creep`; NaN without them: a problem without a belt), over the points
+    where ``cone`` (:func:`in_cone` of the reference's dense states) holds.
+    ``located_err_max`` is the largest ``|t_located - t_ref|`` over the matched prefix, from
+    the run's ``t_located`` column (a method that locates its own switches); NaN without it.
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
     reference's order (:func:`order_ties_as_reference`). If ``reference`` has a
@@ -402,7 +464,7 @@ def case_metrics(
         final_err, l2 = math.nan, math.nan
     creep = StickCreep(math.nan, math.nan)
     if dense is not None and times is not None and v_belt is not None and t_end is not None:
-        creep = stick_creep(reference, times, dense, v_belt, t_end)
+        creep = stick_creep(reference, times, dense, v_belt, t_end, cone, al.n_prefix)
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time
@@ -417,6 +479,7 @@ def case_metrics(
         stick_creep=creep.creep,
         stick_drift=creep.drift,
         breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
+        located_err_max=located_error(reference, events, al.n_prefix),
         event_t=t_ref.tolist(),
         event_err=dt.tolist(),
         event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [],

@@ -9,7 +9,7 @@ from nsbench import simulate
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import get_integrator
 from nsbench.integrators._moreau_jean_kernel import spd_inverse
-from nsbench.integrators.moreau_jean import MAX_BLOCKS, stiffness_matrix, uniform_steps
+from nsbench.integrators.moreau_jean import MAX_BLOCKS, rest_window, stiffness_matrix, uniform_steps
 from nsbench.problems import get_problem
 from nsbench.testing import check_integrator
 
@@ -252,9 +252,8 @@ def test_a_budget_stops_the_run_with_a_status():
 
 def test_the_bouncing_ball_impacts_and_rest():
     """Newton's impact law at the velocity level: the impact times converge to the closed form at first order;
-    the ball rests once its impact speed is below one step's gain under gravity (e |v| <= g h), missing the
-    remaining flights, which last about 2 h / (e (1 - e)) = 12.5 h in all (e = 0.8): the rest time is within
-    20 h of the accumulation time."""
+    the ball rests once its impact speed is below one step's gain under gravity (e |v| <= g h), inside the
+    window rest_window derives (docs/families.md)."""
     problem = get_problem("bouncing-ball")
     closed = problem.impact_times(6)
     errors = []
@@ -266,9 +265,31 @@ def test_the_bouncing_ball_impacts_and_rest():
         err = np.max(np.abs(run.events["t"].to_numpy()[:6] - closed))
         assert err <= 5 * h
         errors.append(err)
-        assert abs(run.events["t"].iloc[-1] - problem.accumulation_time()) <= 20 * h
+        lo, hi = rest_window(problem.e, h, kinds.count("impact"))
+        assert lo <= run.events["t"].iloc[-1] - problem.accumulation_time() <= hi
         assert abs(run.y_final[1]) < 1e-12 and run.mode_final == (1,)
     assert errors[1] < errors[0] / 4
+
+
+@pytest.mark.parametrize(
+    "e, x0, h, t_end",
+    [(0.9, 1.0, 0.005, 10.0), (0.8, 1.0, 1e-3, 6.0), (0.7, 0.37, 1e-3, 3.0), (0.95, 1.0, 0.01, 20.0)],
+)
+def test_the_inferred_rest_falls_in_its_first_order_window(e, x0, h, t_end):
+    """Issue 48 item 7: at e = 0.9, h = 0.005 the rest is 36 steps before t_Z = 8.579 (the docs' "within 20 h" was
+    one measurement at e = 0.8). t_rest - t_Z = sum(D) - G (docs/families.md): each resolved impact shifts the
+    accumulation time the trajectory predicts by D in (-h / e, h] and the rest label cuts off a tail G in
+    (-2 h, (2 + e) h / (1 - e) - h / 2], both to first order in g h / (e |v|): rest_window. Checked on runs
+    that resolve many impacts (15 to 62 here); the window is first order, not a proof for flights of a few steps
+    (docs/families.md names the grid point of its measured table where it is exceeded)."""
+    problem = get_problem("bouncing-ball", e=e, x0=x0)
+    run = simulate(problem, "moreau-jean", t_end, options={"h": h}, check_points=0)
+    assert run.ok, run.message
+    kinds = list(run.events["kind"])
+    assert kinds[-1] == "rest" and kinds.count("impact") >= 10
+    _, h_used = uniform_steps(0.0, t_end, h)
+    lo, hi = rest_window(e, h_used, kinds.count("impact"))
+    assert lo <= run.events["t"].iloc[-1] - problem.accumulation_time() <= hi
 
 
 def test_the_step_matrix_is_inverted_without_blas():

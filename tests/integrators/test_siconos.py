@@ -16,6 +16,7 @@ import pytest
 from nsbench import simulate
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators import get_integrator
+from nsbench.integrators.moreau_jean import rest_window
 from nsbench.integrators.siconos_ import unavailable_reason
 from nsbench.integrators.whole import SystemRequest
 from nsbench.problems import get_problem
@@ -87,7 +88,7 @@ def test_the_bouncing_ball_as_moreau_jeans(theta):
 @needs_siconos
 def test_the_ball_impacts_converge_to_the_closed_form():
     """Inferred impacts against the closed-form impact times: first order in h (within 5 h, as moreau-jean), and
-    the rest within 20 h of the accumulation time (the flights it misses sum to about 12.5 h at e = 0.8)."""
+    the rest inside moreau-jean's first-order window (rest_window, derived in docs/families.md)."""
     p = get_problem("bouncing-ball")
     closed = p.impact_times(6)
     errors = []
@@ -99,7 +100,8 @@ def test_the_ball_impacts_converge_to_the_closed_form():
         err = np.max(np.abs(run.events["t"].to_numpy()[:6] - closed))
         assert err <= 5 * h
         errors.append(err)
-        assert abs(run.events["t"].iloc[-1] - p.accumulation_time()) <= 20 * h
+        lo, hi = rest_window(p.e, h, kinds.count("impact"))  # moreau-jean's: the same discrete equations
+        assert lo <= run.events["t"].iloc[-1] - p.accumulation_time() <= hi
     assert errors[1] < errors[0] / 4
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nsbench import simulate
-from nsbench.bench.metrics import case_metrics, in_cone
+from nsbench.bench.metrics import case_metrics, creep_cone
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import get_integrator
 from nsbench.integrators.smoothing import friction
@@ -34,7 +34,7 @@ def _creep(eps, law="arctan", t_end=8.0, points=161):
         times=grid,
         v_belt=problem.v0,
         t_end=t_end,
-        cone=in_cone(problem, grid, ref_dense),
+        cone=creep_cone(problem, grid, ref_dense, dense),
     )
     return metrics, problem, ref, grid, run
 

@@ -372,9 +372,11 @@ def time_case(
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
         belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
-        from nsbench.bench.metrics import in_cone
+        from nsbench.bench.metrics import creep_cone
 
-        cone = in_cone(problem, grid, reference.y_dense) if belt is not None and reference.y_dense is not None else None
+        cone = None
+        if belt is not None and reference.y_dense is not None:
+            cone = creep_cone(problem, grid, reference.y_dense, dense)
         metrics = case_metrics(
             reference.events,
             lead.events,

@@ -297,8 +297,9 @@ class StickCreep:
     The windows are the dense points inside the reference's stick intervals of block
     ``i`` (:func:`stick_intervals`) that start within the run's matched prefix (after a
     run's sequence departs from the reference's, the two states are unrelated: a
-    regularised block that broke away early is elsewhere), at which the reference's load is in the cone,
-    ``|R_i| <= fs_i`` with ``v_i = v_belt`` (:func:`in_cone`: within the kinetic level,
+    regularised block that broke away early is elsewhere), at which the load is in the cone,
+    ``|R_i| <= fs_i`` with ``v_i = v_belt``, by the reference's state and by the run's own
+    (:func:`creep_cone`, :func:`in_cone`: within the kinetic level,
     so inside the static cone ``fr_i >= fs_i`` of Coulomb's law with stiction and
     within what a regularised law can hold; all the points of the interval where the
     load is not known), cut into runs of consecutive points.
@@ -334,6 +335,18 @@ def in_cone(problem, times: np.ndarray, ref_dense: np.ndarray) -> np.ndarray | N
     loads = np.array(restoring(times, [dense[2 * i] for i in range(dense.shape[0] // 2)]), dtype=float)
     fs = np.asarray(coefficients.fs, dtype=float).reshape(-1, 1)
     return np.abs(loads.reshape(fs.shape[0], -1)) <= fs
+
+
+def creep_cone(problem, times: np.ndarray, ref_dense: np.ndarray, dense: np.ndarray | None) -> np.ndarray | None:
+    """The windows' load test of :class:`StickCreep`: the load in the cone (:func:`in_cone`) by the reference's
+    state and, where the run's dense states ``dense`` are given, by the run's own too (a block whose neighbour
+    broke away early in the run carries another load than the reference's: only an in-cone one counts)."""
+    cone = in_cone(problem, times, ref_dense)
+    if cone is not None and dense is not None:
+        own = in_cone(problem, times, dense)
+        if own is not None:
+            cone = cone & own
+    return cone
 
 
 def stick_creep(

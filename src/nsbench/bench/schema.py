@@ -132,9 +132,10 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     (
         "stick_creep",
         "drift velocity off the belt per unit of stick time under an in-cone load: sum |d(x_i - v_belt t)| "
-        "over consecutive dense points inside the reference's stick intervals of block i where the "
-        "reference's load is within the kinetic level (|R_i| <= fs_i), divided by the time they span, "
-        "pooled over blocks; NaN if no two such points (nsbench.bench.metrics.stick_creep)",
+        "over consecutive dense points inside the reference's stick intervals of block i (those begun in the "
+        "matched prefix) where the load, by the reference's state and by the run's own, is within the kinetic "
+        "level (|R_i| <= fs_i), divided by the time they span, pooled over blocks; NaN if no two such points "
+        "(nsbench.bench.metrics.stick_creep)",
     ),
     (
         "stick_drift",

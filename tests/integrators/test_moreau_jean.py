@@ -117,6 +117,21 @@ def test_block_on_ground_passes_through_zero_speed_as_reversals():
     assert run.y_final[0] == pytest.approx(ref["x1"].iloc[-1], abs=1e-3)  # the rest position
 
 
+def test_the_forced_block_on_ground_converges_to_exacts_stick_slip_cycle():
+    """Issue 48 item 11: the forced variant (F = 1.5, w = 0.5: 6 reversals, then 13 sticks and 13 slips over
+    [0, 100]), the natural test of time-stepping on stick-slip cycles. exact's sequence at every h, the largest
+    switching-time error first order (measured 2.0e-2, 1.7e-3, 2.5e-4: between 0.1 h and 3 h)."""
+    problem = get_problem("block-on-ground", F=1.5, w=0.5)
+    ref = simulate(problem, "exact", 100.0).events
+    errors = []
+    for h in (1e-2, 1e-3, 1e-4):
+        run = simulate(problem, "moreau-jean", 100.0, options={"h": h})
+        assert run.ok and _sequence(run.events) == _sequence(ref), h
+        errors.append(np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())))
+        assert errors[-1] <= 3 * h
+    assert errors[0] > 5 * errors[1] > 25 * errors[2]
+
+
 def test_a_stuck_block_moves_exactly_with_the_belt():
     problem = get_problem("one-dof")
     v0 = problem.v0

@@ -75,6 +75,24 @@ def test_creep_falls_as_eps_grows_over_the_whole_stick_slip_span():
     assert all(0.5 < eps * c < 5.0 for eps, c in zip((1e2, 1e3, 1e4), creeps))
 
 
+@pytest.mark.parametrize("params, n_events", [({}, 8), ({"F": 1.5, "w": 0.5}, 32)])
+def test_the_block_on_ground_reverses_through_the_band(params, n_events):
+    """Issue 48 item 6: a pass through the belt speed past the static limit is a reverse, however many steps the
+    regularised block spends in its band: exact's sequence on the block on the ground, unforced (7 reversals, then
+    stick; 15 events before) and forced (32; 38 before). With fs = fr there is no early break-away; the switching
+    times are within 0.5, set by where the band's edge (10 / eps) falls in a slow approach to the belt speed or a
+    slow break-away (measured: unforced 0.35, 0.039, 0.0039, the last stick entered early as the band's edge is
+    crossed; forced 0.18, 0.019, 0.100 at eps 1e2, 1e3, 1e4)."""
+    problem = get_problem("block-on-ground", **params)
+    ref = simulate(problem, "exact", 100.0).events
+    assert len(ref) == n_events
+    for eps, rtol in ((1e2, 1e-6), (1e3, 1e-8), (1e4, 1e-10)):
+        run = simulate(problem, "smoothing", 100.0, options={"eps": eps, "rtol": rtol, "atol": rtol * 1e-2})
+        assert run.ok, run.message
+        assert list(run.events["kind"]) == list(ref["kind"]), eps
+        assert np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())) < 0.5
+
+
 def test_the_regularised_law_and_its_derivative():
     fs = np.array([2.0])
     f, df = friction("arctan", fs, 10.0, np.array([0.1]))

@@ -43,6 +43,26 @@ def test_stick_creep_is_the_drift_velocity_per_unit_of_stick_time():
     assert math.isnan(stick_creep(ref, times, np.vstack([x, v]), v_belt, 4.0, None, n_prefix=0).creep)
 
 
+def test_the_creep_windows_are_cut_to_where_the_run_sticks_too():
+    """A run that sticks late (1.6 for 1.0) and slips early (2.6 for 3.0): its slipping before and after is its
+    switching-time error, not creep; only (1.6, 2.6) counts."""
+    v_belt = 0.5
+    ref = _log([(1.0, "stick", 1), (3.0, "slip", 1)])
+    run = _log([(1.6, "stick", 1), (2.6, "slip", 1)])
+    times = np.array([1.2, 1.5, 1.8, 2.1, 2.4, 2.8])
+    # relative to the belt: slipping at 1 per unit time before 1.6 and after 2.6, creeping 0.01 per unit between
+    off = np.array([-0.4, -0.1, 0.002, 0.005, 0.008, 0.2])
+    x = off + v_belt * times
+    dense = np.vstack([x, np.full(times.size, v_belt)])
+    plain = stick_creep(ref, times, dense, v_belt, 4.0, None, n_prefix=2)
+    assert plain.creep == pytest.approx((0.3 + 0.102 + 0.003 + 0.003 + 0.192) / 1.6)
+    cut = stick_creep(ref, times, dense, v_belt, 4.0, None, n_prefix=2, events=run)
+    assert cut.creep == pytest.approx(0.006 / 0.6) and cut.drift == pytest.approx(0.006)
+    # a closing slip the run does not match (outside its prefix): the run's own next slip ends the window
+    cut = stick_creep(ref, times, dense, v_belt, 4.0, None, n_prefix=1, events=run)
+    assert cut.creep == pytest.approx(0.006 / 0.6)
+
+
 def test_in_cone_compares_the_load_at_the_belt_speed_with_the_kinetic_level():
     from nsbench.bench.metrics import in_cone
     from nsbench.problems import get_problem

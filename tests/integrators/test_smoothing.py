@@ -66,10 +66,10 @@ def test_creep_is_the_quasi_static_drift_velocity(law):
 def test_creep_falls_as_eps_grows_over_the_whole_stick_slip_span():
     """Issue 48 item 8, the issue's run: one-dof case 1 over [0, 100] with the bench's 1000 dense points. The
     regularised block breaks away at fs, before exact (fr > fs), and its sequence departs from exact's there, so
-    only the first stick interval is in its matched prefix, and only while exact's load is in the cone (|R| <=
-    fs). Before, the metric took the largest |u| over every later stick interval, where the run was sliding
-    elsewhere: 8.47e-2 at eps = 1e2, 1.38e-1 at 1e4. Measured now 1.20e-2, 1.92e-3, 2.42e-4: about 1/eps (eps *
-    creep from 1.2 to 2.4, the slow growth of the mean of tan(pi R / (2 fs)) near the cone's edge)."""
+    only the first stick interval is in its matched prefix, cut to the run's own stick (to its early slip), and
+    only while the load is in the cone (|R| <= fs). Before, the metric took the largest |u| over every later
+    stick interval, where the run was sliding elsewhere: 8.47e-2 at eps = 1e2, 1.38e-1 at 1e4. Measured now
+    1.20e-2, 1.64e-3, 1.54e-4: eps * creep from 1.2 to 1.6, the 1/eps of the balance."""
     creeps = [_creep(eps, t_end=100.0, points=1000)[0]["stick_creep"] for eps in (1e2, 1e3, 1e4)]
     assert creeps[0] > 4 * creeps[1] > 16 * creeps[2]
     assert all(0.5 < eps * c < 5.0 for eps, c in zip((1e2, 1e3, 1e4), creeps))

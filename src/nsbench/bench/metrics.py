@@ -269,6 +269,22 @@ def state_errors(
     return final_err, l2
 
 
+def _stick_rows(log: pd.DataFrame, t_end: float, n_prefix: int | None) -> list[tuple[int, int, float, int, float]]:
+    """``(block, stick index, start, slip index or -1, stop)`` of each stick interval of ``log``."""
+    out = []
+    open_at: dict[int, tuple[int, float]] = {}
+    rows = zip(log["t"].to_numpy(dtype=float), log["kind"], log["block"])
+    for j, (t, kind, block) in enumerate(rows):
+        b = int(block)
+        if kind == "stick" and (n_prefix is None or j < n_prefix):
+            open_at.setdefault(b, (j, float(t)))
+        elif kind == "slip" and b in open_at:
+            j0, t0 = open_at.pop(b)
+            out.append((b, j0, t0, j, float(t)))
+    out.extend((b, j0, t0, -1, float(t_end)) for b, (j0, t0) in open_at.items())
+    return sorted(out, key=lambda row: (row[2], row[0]))
+
+
 def stick_intervals(
     reference: pd.DataFrame, t_end: float, n_prefix: int | None = None
 ) -> list[tuple[int, float, float]]:
@@ -277,17 +293,21 @@ def stick_intervals(
     (before any event) is not counted: the log does not say so. With ``n_prefix``, only the intervals whose
     ``stick`` event is among the first ``n_prefix`` (a run's matched prefix: it reproduced the sequence up to
     that stick, so its state there is the reference's to the switching-time error)."""
-    out = []
-    open_at: dict[int, float] = {}
-    rows = zip(reference["t"].to_numpy(dtype=float), reference["kind"], reference["block"])
-    for j, (t, kind, block) in enumerate(rows):
-        b = int(block)
-        if kind == "stick" and (n_prefix is None or j < n_prefix):
-            open_at.setdefault(b, float(t))
-        elif kind == "slip" and b in open_at:
-            out.append((b, open_at.pop(b), float(t)))
-    out.extend((b, t0, float(t_end)) for b, t0 in open_at.items())
-    return sorted(out, key=lambda row: (row[1], row[0]))
+    return [(b, t0, t1) for b, _, t0, _, t1 in _stick_rows(reference, t_end, n_prefix)]
+
+
+def _run_interval(events: pd.DataFrame, j0: int, j1: int, n_prefix: int, t_end: float) -> tuple[float, float]:
+    """The run's own stick interval matched to the reference's with stick index ``j0`` and slip index ``j1``:
+    from its event ``j0`` (the prefix pairs events one to one) to its event ``j1`` if matched, else to the
+    block's next slip in its own log (or ``t_end``)."""
+    t = events["t"].to_numpy(dtype=float)
+    start = float(t[j0])
+    if 0 <= j1 < n_prefix:
+        return start, float(t[j1])
+    block = int(events["block"].iloc[j0])
+    later = (events["kind"].to_numpy()[j0 + 1 :] == "slip") & (events["block"].to_numpy()[j0 + 1 :] == block)
+    hits = np.flatnonzero(later)
+    return start, float(t[j0 + 1 + hits[0]]) if hits.size else float(t_end)
 
 
 @dataclass(frozen=True)
@@ -297,7 +317,8 @@ class StickCreep:
     The windows are the dense points inside the reference's stick intervals of block
     ``i`` (:func:`stick_intervals`) that start within the run's matched prefix (after a
     run's sequence departs from the reference's, the two states are unrelated: a
-    regularised block that broke away early is elsewhere), at which the load is in the cone,
+    regularised block that broke away early is elsewhere), cut to where the run sticks too
+    (its matched stick to its slip: a switching-time error is not creep), at which the load is in the cone,
     ``|R_i| <= fs_i`` with ``v_i = v_belt``, by the reference's state and by the run's own
     (:func:`creep_cone`, :func:`in_cone`: within the kinetic level,
     so inside the static cone ``fr_i >= fs_i`` of Coulomb's law with stiction and
@@ -357,18 +378,24 @@ def stick_creep(
     t_end: float,
     cone: np.ndarray | None = None,
     n_prefix: int | None = None,
+    events: pd.DataFrame | None = None,
 ) -> StickCreep:
     """:class:`StickCreep` of a run's dense states ``dense`` (shape ``(n_states, n_points)``, states
     ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`)
     where ``cone`` (shape ``(n_blocks, n_points)``, :func:`in_cone`; ``None``: everywhere) holds, of the
-    intervals whose stick event is among the run's first ``n_prefix`` matched events (``None``: all).
+    intervals whose stick event is among the run's first ``n_prefix`` matched events (``None``: all). With the
+    run's event log ``events`` (and ``n_prefix``) each interval is cut to where the run sticks too (its matched
+    stick to its slip), so a run's switching-time error does not count as creep.
 
     The interval ends are left out (a point exactly at a switch belongs to neither phase).
     """
     times = np.asarray(times, dtype=float)
     dense = np.asarray(dense, dtype=float)
     moved, spent, drift = 0.0, 0.0, -math.inf
-    for block, a, b in stick_intervals(reference, t_end, n_prefix):
+    for block, j0, a, j1, b in _stick_rows(reference, t_end, n_prefix):
+        if events is not None and n_prefix is not None:
+            a2, b2 = _run_interval(events, j0, j1, n_prefix, t_end)
+            a, b = max(a, a2), min(b, b2)
         inside = (times > a) & (times < b)
         if cone is not None:
             inside &= np.asarray(cone[block - 1], dtype=bool)
@@ -477,7 +504,7 @@ def case_metrics(
         final_err, l2 = math.nan, math.nan
     creep = StickCreep(math.nan, math.nan)
     if dense is not None and times is not None and v_belt is not None and t_end is not None:
-        creep = stick_creep(reference, times, dense, v_belt, t_end, cone, al.n_prefix)
+        creep = stick_creep(reference, times, dense, v_belt, t_end, cone, al.n_prefix, events)
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time

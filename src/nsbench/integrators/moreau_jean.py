@@ -7,8 +7,10 @@ is solved exactly (to rounding) by enumerating the stick/slip status of the
 blocks up to :data:`MAX_BLOCKS` blocks, and by an active-set (semismooth Newton)
 iteration on longer chains (option ``one_step``;
 :mod:`nsbench.integrators._moreau_jean_kernel`). No event is located: the
-switches are inferred afterwards from the status of the steps
-(:mod:`nsbench.hybrid.inference`), so switching times are first order in ``h``.
+switches are inferred afterwards from the steps by the rule of every
+whole-system method (:mod:`nsbench.hybrid.inference`: the phases read off the
+trajectory; the status the enumeration chose is returned but not read), so
+switching times are first order in ``h``.
 On a smooth arc (no status change) the scheme is the trapezoidal rule for
 ``theta = 1/2`` (order 2) and first order otherwise.
 

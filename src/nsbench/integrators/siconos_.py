@@ -11,8 +11,10 @@ interpreter (``NSBENCH_SICONOS_PYTHON``, default ``/usr/bin/python3``) on
 files out). The model: the chain as Siconos's first-order linear system, one relay per
 block on its velocity relative to the belt, the ``EulerMoreauOSI`` theta-scheme (the same
 discrete equations as ``moreau-jean`` on these linear systems), the relay problem solved
-by Lemke's method. A step's mode is read off the relay: stuck while the friction force is
-inside ``(-fr, fr)``, slipping against its sign at a bound.
+by Lemke's method. A step's mode is read off the relay (stuck while the friction force is
+inside ``(-fr, fr)``, slipping against its sign at a bound) and returned, but the event
+inference reads the phases off the trajectory, as for ``moreau-jean``, so the two give the
+same event times from the same trajectory.
 
 The bouncing ball is Siconos's classic (``LagrangianLinearTIDS`` under gravity,
 ``LagrangianLinearTIR`` on the height, ``NewtonImpactNSL(e)``, ``MoreauJeanOSI(theta)``, an

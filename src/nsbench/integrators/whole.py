@@ -5,9 +5,10 @@ one frozen mode and locates that mode's guards; the hybrid core switches modes.
 A *whole-system* method instead advances the whole non-smooth system over
 ``[t0, t_end]`` itself, through the problem's set-valued law (Moreau-Jean
 time-stepping), a stick band with force-based switching (Leine's switch model)
-or a regularised law (smoothing), and hands back its discrete trajectory and,
-where it knows it, the mode (the stick/slip status) of every step. nsbench then
-infers the switching events from that output by one documented rule
+or a regularised law (smoothing), and hands back its discrete trajectory (and,
+optionally, its own labels, the impulses of an impact problem and the switches it
+located itself). nsbench then infers the switching events from the trajectory by one
+documented rule, the same for every method
 (:func:`nsbench.hybrid.inference.infer_events`), so the event log, the
 trajectory and every metric of the bench are those of an event-driven run.
 

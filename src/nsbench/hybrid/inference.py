@@ -126,22 +126,26 @@ def band_modes(problem: "HybridProblem", y: np.ndarray, band: float) -> np.ndarr
 
 
 def _limit_guards(problem: "HybridProblem", block: int):
-    """The stick mode's two guards of ``block`` (0-based): towards slip- (``R - fr``) and slip+ (``R + fr``)."""
+    """The stick mode's two guards of ``block`` (0-based): towards slip- (``R - fr``) and slip+ (``R + fr``);
+    ``None`` for a side whose guard the problem does not have (a stuck block that never leaves that way)."""
     guards = problem.guards((STICK,) * problem.mode_size)
-    upper = next(g for g in guards if g.block == block + 1 and g.kind == "upper")
-    lower = next(g for g in guards if g.block == block + 1 and g.kind == "lower")
+    upper = next((g for g in guards if g.block == block + 1 and g.kind == "upper"), None)
+    lower = next((g for g in guards if g.block == block + 1 and g.kind == "lower"), None)
     return upper, lower
 
 
 def _limit_margins(problem: "HybridProblem", block: int, t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Both stick guards of ``block`` at steps ``(t, y)`` (rows) with ``v = v_belt``, positive while the limit holds."""
-    upper, lower = _limit_guards(problem, block)
     state = np.array(y, dtype=float).T.copy()
     state[2 * block + 1] = problem.v0
     times = np.asarray(t, dtype=float)
-    a = upper.expected_sign * np.asarray(upper.value(times, state), dtype=float)
-    b = lower.expected_sign * np.asarray(lower.value(times, state), dtype=float)
-    return a, b
+    out = []
+    for guard in _limit_guards(problem, block):
+        if guard is None:
+            out.append(np.full(times.size, np.inf))
+        else:
+            out.append(guard.expected_sign * np.asarray(guard.value(times, state), dtype=float).reshape(times.size))
+    return out[0], out[1]
 
 
 def trajectory_modes(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, band: float) -> np.ndarray:

@@ -185,3 +185,29 @@ def test_heyoka_q_agrees_with_an_independent_high_precision_solution():
     period, change, kinds = orbit_period(mine, 28, 30.0)
     assert kinds.count("slide") == 14 and change <= mp.mpf("1e-20")
     assert abs(period - mp.mpf("5.96183694261370")) <= mp.mpf("1e-14")  # the value docs/problems.md gives
+
+
+@pytest.mark.slow
+def test_the_continuation_command_finds_the_fourteen_slide_orbit(tmp_path):
+    """`nsbench continuation relay-feedback --case piiroinen-kuznetsov`: the branch starts on the 14-slide orbit
+    and finds where its two shortest slides vanish (heyoka-q: 14 slides at zeta = 0.0502, 12 at 0.0503)."""
+    import pandas as pd
+
+    from nsbench.cli import main
+
+    out = tmp_path / "pk"
+    argv = ["continuation", "relay-feedback", "--case", "piiroinen-kuznetsov", "--sweep", "zeta=0.05:0.051"]
+    assert (
+        main([*argv, "--steps", "2", "--transient", "200", "--out", str(out), "--formats", "png", "--no-progress"]) == 0
+    )
+    branch = pd.read_csv(out / "branch.csv")
+    first = branch.iloc[0]
+    assert first["value"] == 0.05 and first["events_per_period"] == 28
+    assert first["pattern"].split().count("slide1") == 14
+    # the period of the independent solution (tests/problems/relay_mp.py, docs/problems.md) to the shooting's
+    # tolerance (residual below 1e-12, exact's event times within 2e-11 of heyoka-q's above)
+    assert abs(first["period"] - 5.96183694261370) <= 1e-10
+    bifs = pd.read_csv(out / "bifurcations.csv")
+    (zeta,) = bifs.loc[bifs["kind"] == "crossing-sliding", "value"]
+    assert 0.0502 < zeta < 0.0503
+    assert branch.iloc[-1]["events_per_period"] == 24

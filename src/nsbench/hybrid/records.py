@@ -29,7 +29,7 @@ def has_accumulation_limit(problem) -> bool:
     return problem.law.functions.get("accumulation_limit", no_accumulation_limit) is not no_accumulation_limit
 
 
-def event_frame(problem, rec: Records, n_events: int) -> pd.DataFrame:
+def event_frame(problem, rec: Records, n_events: int, located: np.ndarray | None = None) -> pd.DataFrame:
     """The event log: ``t, kind, block, <states>, mode`` (the state and the mode after each event).
 
     ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
@@ -37,6 +37,8 @@ def event_frame(problem, rec: Records, n_events: int) -> pd.DataFrame:
     A problem whose law declares an accumulation limit also has :data:`ACCUMULATION_ERROR`:
     at an event the Zeno rule extrapolated, the error estimate of its time
     (:func:`nsbench.model.rules.tail_estimate`), NaN at every other event.
+    ``located`` (a whole-system method that locates its own switches): the method's own
+    time of each event, as a column ``t_located`` after ``t`` (NaN where it located none).
     """
     k = n_events
     ev = rec.events
@@ -56,6 +58,8 @@ def event_frame(problem, rec: Records, n_events: int) -> pd.DataFrame:
     frame["mode"] = pd.Series(texts, dtype=object)
     if has_accumulation_limit(problem):
         frame[ACCUMULATION_ERROR] = ev.err[:k].copy()
+    if located is not None:
+        frame.insert(1, "t_located", np.asarray(located, dtype=float)[:k].copy())
     return frame
 
 

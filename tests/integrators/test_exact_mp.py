@@ -261,3 +261,49 @@ def test_a_set_up_instance_pickles_as_its_configuration():
     again = pickle.loads(pickle.dumps(integ))
     assert again.config() == integ.config()
     assert nsbench.simulate(problem, again, 20.0).events.equals(first.events)
+
+
+# ---------------------------------------------------------------------- 7. the whole hybrid run in mp
+#: The complete chattering set of issue 48 (every period ends stuck on the stop after a chattering sequence).
+CHATTER = {"zeta": 0.0, "w": 4.2, "sigma": -0.25, "r": 0.5, "F": 1.0}
+
+
+def test_the_whole_hybrid_run_in_mp_matches_an_independent_solution():
+    # tests/impact_reference.py (60 digits, closed-form flights, its own root finder and Zeno tail,
+    # written without this code) against _mp_hybrid.hybrid_run at 40 digits, resets and accumulations
+    # in mp. The run's accumulations are accepted at a tail estimate of 1e-24 t; measured 1.1e-24 at
+    # the sticks, 1e-30 elsewhere: 1e-22 leaves a factor 100 and is 1e6 below a double's resolution.
+    from nsbench.integrators._mp_hybrid import hybrid_run
+    from nsbench.model.streaks import pair_events
+    from tests.impact_reference import impact_oscillator_events
+
+    p = nsbench.get_problem("impact-oscillator", **CHATTER)
+    mine = hybrid_run(p, 10.0)
+    truth = impact_oscillator_events(p, 10.0)
+    pairs, stop = pair_events(
+        [(p.event_kinds[e.code], 1) for e in mine],
+        [e.accumulation_error is not None for e in mine],
+        [(e.kind, 1) for e in truth],
+        [e.err is not None for e in truth],
+    )
+    assert stop is None and sum(e.kind == "stick" for e in truth) == 2
+    assert max(abs(mine[i].t - truth[j].t) for i, j in pairs) <= 1e-22
+    for i, j in pairs:  # the accumulations' own estimates cover their error
+        if mine[i].accumulation_error is not None:
+            assert abs(mine[i].t - truth[j].t) <= mine[i].accumulation_error
+
+
+def test_the_law_runs_as_plain_python_on_mp_numbers():
+    # the resets of the mp run are the law's own transition, run on mpmath numbers: on doubles it must
+    # give what the compiled law gives, and on mp numbers keep their precision
+    from nsbench.integrators._mp_hybrid import python_law
+
+    p = nsbench.get_problem("impact-oscillator", **CHATTER)
+    law = python_law(p)
+    compiled = p.transition((0,), p.guards((0,))[0], 1.3, np.array([-0.25, 0.7]))
+    mode, y, fresh = [0], [-0.25, 0.7], [False]
+    code = law["transition"](list(p.data.p), mode, 0, 0, 1.3, y, fresh)
+    assert (p.event_kinds[code], tuple(mode), y) == (compiled.kind, compiled.mode, compiled.y.tolist())
+    y_mp = [CTX.mpf(-0.25), CTX.mpf(1) / 3]
+    law["transition"]([CTX.mpf(float(v)) for v in p.data.p], [0], 0, 0, CTX.mpf("1.3"), y_mp, [False])
+    assert y_mp[1] == -CTX.mpf("0.5") / 3  # -r v in 50 digits, not a double

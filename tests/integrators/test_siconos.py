@@ -188,7 +188,9 @@ def test_event_driven_impacts_match_exact_to_lsodar_tolerance():
     ex = simulate(p, "exact", 6.0)
     ex_impacts = ex.events["t"].to_numpy()[np.array(list(ex.events["kind"])) == "impact"]
     n = min(len(ex_impacts), seen)
-    assert n >= 5 and np.all(np.abs(ours[:n] - ex_impacts[:n]) <= _lsodar_bound(p, n) + 1e-12 * ex_impacts[:n])
+    # exact logs 4 impacts, then the rest: the flights are exactly geometric, so the Zeno rule's estimate is
+    # at the rounding of the times from the first four (issue 48)
+    assert n >= 4 and np.all(np.abs(ours[:n] - ex_impacts[:n]) <= _lsodar_bound(p, n) + 1e-12 * ex_impacts[:n])
     # Siconos's own times (its impact samples, its first resting one) beside the inferred ones: an impact is
     # inferred at the zero of the height's line between a sample and the impact's own, where x = 0 to rounding
     located = run.events["t_located"].to_numpy()

@@ -492,9 +492,15 @@ def case_metrics(
     the run's ``t_located`` column (a method that locates its own switches); NaN without it.
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
-    reference's order (:func:`order_ties_as_reference`). If ``reference`` has a
+    reference's order (:func:`order_ties_as_reference`), and the impacts of a Zeno tail
+    one log resolved deeper than the other before the same accumulation are left out
+    (:func:`nsbench.hybrid.records.match_accumulation_tails`). If ``reference`` has a
     :data:`CERTIFIED` column, no switching-time error is reported below it.
     """
+    from nsbench.hybrid.records import match_accumulation_tails
+
+    # a Zeno tail resolved to another depth before the same accumulation event is no missed event
+    reference, events = match_accumulation_tails(reference, events)
     events = order_ties_as_reference(reference, events)
     al = align(reference, events)
     sw, t_ref, dt = switching_errors(reference, events, al.n_prefix)

@@ -130,6 +130,8 @@ def reference_key(
             "dense": dense_points,
             "nsbench": __version__,
             "certify": list(CERTIFY_CHECKS),
+            # impact problems are certified by a whole hybrid run in mp (issue 48), not arc by arc
+            "certify_mp": "whole hybrid run, digits 40 and 50",
         }
     )
 
@@ -253,18 +255,30 @@ def conditioning(problem, config: dict[str, Any], t0: float, t_end: float, event
     return (float(dt.max()) / PERTURBATION if dt.size else 0.0), ""
 
 
+def _paired(events: pd.DataFrame, other: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """Indices of the events of two logs paired over their common ``(kind, block)`` prefix, and the
+    time of the first event where they differ (``None`` if they agree to the end). A Zeno tail the two
+    resolved to different depths before the same accumulation event pairs its first events
+    (:func:`nsbench.model.streaks.pair_events`); other logs pair one to one."""
+    from nsbench.hybrid.records import extrapolated, labels
+    from nsbench.model.streaks import pair_events
+
+    pairs, stop = pair_events(labels(events), extrapolated(events), labels(other), extrapolated(other))
+    ia = np.array([i for i, _ in pairs], dtype=np.int64)
+    ib = np.array([j for _, j in pairs], dtype=np.int64)
+    if stop is None:
+        return ia, ib, None
+    i, j = stop
+    return ia, ib, float(events["t"].iloc[i]) if i < len(events) else float(other["t"].iloc[j])
+
+
 def compare_logs(events: pd.DataFrame, other: pd.DataFrame) -> tuple[np.ndarray, float | None]:
-    """``|t - t_other|`` over the two event logs' common ``(kind, block)`` prefix, and the time of
-    the first event where they differ (``None`` if they agree to the end)."""
-    a = list(zip(events["kind"], events["block"]))
-    b = list(zip(other["kind"], other["block"]))
-    n = 0
-    while n < min(len(a), len(b)) and a[n] == b[n]:
-        n += 1
-    dt = np.abs(other["t"].to_numpy(dtype=float)[:n] - events["t"].to_numpy(dtype=float)[:n])
-    if n == max(len(a), len(b)):
-        return dt, None
-    return dt, float(events["t"].iloc[n]) if n < len(a) else float(other["t"].iloc[n])
+    """``|t - t_other|`` over the two event logs' common ``(kind, block)`` prefix (paired as
+    :func:`_paired` says), and the time of the first event where they differ (``None`` if they agree
+    to the end)."""
+    ia, ib, at = _paired(events, other)
+    dt = np.abs(other["t"].to_numpy(dtype=float)[ib] - events["t"].to_numpy(dtype=float)[ia])
+    return dt, at
 
 
 def _paths(directory: Path, key: str) -> tuple[Path, Path, Path]:
@@ -407,6 +421,8 @@ def certified_errors(
     from nsbench.errors import PluginLoadError
     from nsbench.integrators import integrator_from_config
 
+    if _mp_check(problem):
+        return _certified_in_mp(problem, events, t0, t_end, y0)
     out = np.full(len(events), np.nan)
     other, what = None, "no check accepts the problem"
     for config in _checks_for(problem, reference):
@@ -424,13 +440,35 @@ def certified_errors(
             return out, f"not certified: the check ({what}) failed: {type(exc).__name__}: {exc}"
     if other is None:
         return out, f"not certified: {what}"
-    dt, at = compare_logs(events, other)
-    t_check = other["t"].to_numpy(dtype=float)[: dt.size]
-    out[: dt.size] = dt + np.spacing(np.abs(t_check))
+    ia, ib, at = _paired(events, other)
+    t_check = other["t"].to_numpy(dtype=float)[ib]
+    out[ia] = np.abs(events["t"].to_numpy(dtype=float)[ia] - t_check) + np.spacing(np.abs(t_check))
     note = f"against {what}"
     if at is not None:
-        note += f"; the event sequences differ from event {dt.size + 1} (t = {at:.6g}): {NOT_CERTIFIED_FROM}"
+        note += f"; the event sequences differ from event {ia.size + 1} (t = {at:.6g}): {NOT_CERTIFIED_FROM}"
     return out, note
+
+
+def _mp_check(problem) -> bool:
+    """Whether the reference of ``problem`` is certified by a whole hybrid run in mp
+    (:mod:`nsbench.integrators._mp_hybrid`): a small piecewise-linear problem whose law runs on mpmath
+    numbers (``problem.mp_law``: the impact problems, whose resets and Zeno accumulations an arc-by-arc
+    check through the double core would take from the double run)."""
+    return bool(getattr(problem, "mp_law", False)) and problem.is_linear and problem.n_states <= MP_CHECK_STATES
+
+
+def _certified_in_mp(problem, events: pd.DataFrame, t0: float, t_end: float, y0) -> tuple[np.ndarray, str]:
+    """:func:`certified_errors` through :func:`nsbench.integrators._mp_hybrid.certify`: a bound per
+    event, NaN from where the check cannot certify, with the reason in the note."""
+    from nsbench.hybrid.records import extrapolated, labels
+    from nsbench.integrators._mp_hybrid import certify
+
+    times = events["t"].to_numpy(dtype=float)
+    cert = certify(problem, times, labels(events), extrapolated(events), t0, t_end, y0)
+    note = f"against {cert.what}"
+    if cert.stop < len(times):
+        note += f"; {cert.reason}: {NOT_CERTIFIED_FROM} (event {cert.stop + 1}, t = {times[cert.stop]:.6g})"
+    return cert.bounds, note
 
 
 def certainty_of(events: pd.DataFrame) -> float:

@@ -103,9 +103,11 @@ def main(args: argparse.Namespace) -> int:
         errors, note = certified_errors(problem, result.events, 0.0, t_end)
         result.events["certified_error"] = errors
         finite = errors[np.isfinite(errors)]
-        # each value bounds |t - t_true|: the difference from the check plus one ulp of t
+        # each value bounds |t - t_true|: the difference from the check plus the check's own error and an ulp
         worst = "no event certified" if not finite.size else f"at most {finite.max():.2g}"
         print(f"certified error of this log: {worst} over {finite.size} of {errors.size} events ({note})")
+        if finite.size:
+            print(f"certified error by kind: {_by_kind(result.events['kind'], errors)}")
     if args.events_out:
         _write(result.events, args.events_out)
         print(f"events      -> {args.events_out}")
@@ -118,6 +120,17 @@ def main(args: argparse.Namespace) -> int:
         plot_simulation(result, args.plot)
         print(f"plot        -> {args.plot}")
     return 0 if result.ok else 1
+
+
+def _by_kind(kinds, errors: np.ndarray) -> str:
+    """The largest certified error of each event kind, ``'impact 9.9e-14, stick 5.1e-12'`` (kinds in the
+    order of the log; a kind with no certified event says so)."""
+    parts = []
+    for kind in dict.fromkeys(kinds):
+        mine = errors[np.asarray(kinds) == kind]
+        mine = mine[np.isfinite(mine)]
+        parts.append(f"{kind} {mine.max():.2g}" if mine.size else f"{kind} not certified")
+    return ", ".join(parts)
 
 
 def _write(frame, path: str) -> None:

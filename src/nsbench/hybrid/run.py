@@ -107,7 +107,7 @@ def run_hybrid(
     max_events: int = 1_000_000,
     zeno_events: int = 64,
     zeno_span: float = 1e-9,
-    accumulation: int = 8,
+    accumulation: float = 1e-14,
 ) -> RawRun:
     """Run ``problem`` with the (set-up) integrator ``integ`` from ``t0`` to ``t_end`` through every event.
 
@@ -126,12 +126,13 @@ def run_hybrid(
     max_steps, max_events, zeno_events, zeno_span
         Budgets; more than ``zeno_events`` consecutive events within ``zeno_span`` are a storm.
     accumulation
-        Geometrically shrinking intervals between consecutive events of one guard after
-        which the accumulation (Zeno) time is extrapolated and the problem's limit
-        behaviour applied (0: never).
+        Tolerance of an extrapolated accumulation (Zeno) time, relative to ``max(1, |t|)``
+        (:func:`nsbench.model.rules.accumulation_time` says when the rule extrapolates and
+        applies the problem's limit behaviour; 0: never).
     """
     from nsbench.integrators.base import require_event_driven
     from nsbench.model import loop
+    from nsbench.model.rules import STREAK_TIMES
 
     require_event_driven(integ)
     n = problem.n_states
@@ -162,7 +163,7 @@ def run_hybrid(
         gi=np.zeros(g, np.int64),
         gs=np.zeros(g, np.int64),
         ring=np.full(max(int(zeno_events), 1), -np.inf),
-        acc=np.zeros(max(int(accumulation), 0) + 1),
+        acc=np.zeros(STREAK_TIMES),
         sf=np.zeros(abi.N_SF),
         si=np.zeros(abi.N_SI, np.int64),
         cnt=np.zeros(abi.N_COUNTERS, np.int64),
@@ -187,7 +188,7 @@ def run_hybrid(
         float(record_from),
         int(kind_code),
         int(stop_count),
-        int(accumulation),
+        float(accumulation),
     )
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0

@@ -196,27 +196,43 @@ def _taylor_terms(rho: float, digits: int) -> int:
 
 # ---------------------------------------------------------------------- a polynomial on one step
 class _Poly:
-    """``P(s) = sum_j c_j s^j`` (mp coefficients), a guard or section on one step."""
+    """``P(s) = sum_j c_j s^j`` (mp coefficients), a guard or section on one step.
 
-    __slots__ = ("c", "abs2", "tail2")
+    ``c_j = q M^j z / j!``, so ``|c_j| <= ||q D||_1 ||z||_D nu^j / j!`` (``nu = ||M||_D``): at a point
+    ``s`` of the step the terms past :func:`_taylor_terms` ``(nu s)`` sum to below ``10^-(digits+3)`` of
+    that scale, the truncation the series already has at the step's end, and are not evaluated (a
+    short flight after an impact is evaluated on a handful of terms, not on the step's whole series).
+    """
 
-    def __init__(self, coeffs: list, tail2: float) -> None:
+    __slots__ = ("c", "abs2", "tail2", "nu", "digits")
+
+    def __init__(self, coeffs: list, tail2: float, nu: float = math.inf, digits: int = 0) -> None:
         self.c = coeffs
         # |c_j| j (j - 1), inflated: the curvature bound on [0, b] is a polynomial in b
         self.abs2 = [abs(float(c)) * j * (j - 1) * _SAFETY for j, c in enumerate(coeffs)]
         self.tail2 = tail2
+        self.nu, self.digits = nu, digits
+
+    def _top(self, s) -> int:
+        """Index of the last term worth evaluating at ``s``."""
+        rho = self.nu * abs(float(s))
+        if not rho < 0.5:
+            return len(self.c) - 1
+        return min(len(self.c) - 1, _taylor_terms(rho, self.digits) + 1)
 
     def value(self, s):
-        acc = self.c[-1]
-        for c in reversed(self.c[:-1]):
+        top = self._top(s)
+        acc = self.c[top]
+        for c in reversed(self.c[:top]):
             acc = acc * s + c
         return acc
 
     def value_rate(self, s):
         """``(P(s), P'(s))`` by Horner's scheme."""
-        p = self.c[-1]
+        top = self._top(s)
+        p = self.c[top]
         dp = p * 0
-        for c in reversed(self.c[:-1]):
+        for c in reversed(self.c[:top]):
             dp = dp * s + p
             p = p * s + c
         return p, dp
@@ -231,7 +247,7 @@ class _Poly:
     def negated(self) -> "_Poly":
         other = _Poly.__new__(_Poly)
         other.c = [-c for c in self.c]
-        other.abs2, other.tail2 = self.abs2, self.tail2
+        other.abs2, other.tail2, other.nu, other.digits = self.abs2, self.tail2, self.nu, self.digits
         return other
 
 
@@ -569,6 +585,7 @@ class _ModeFlow:
         h = _H_MAX if self.norm == 0.0 else min(_H_MAX, 2.0 ** math.floor(math.log2(0.5 / self.norm)))
         self.h = ctx.mpf(h)  # a power of two: step grids k h are exact
         self.rho = self.norm * h
+        self.digits = digits
         self.terms = _taylor_terms(self.rho, digits)
         # the truncated series' second derivative on a step, per unit of ||q D||_1 ||z||_D
         j = self.terms
@@ -618,8 +635,10 @@ class _ModeFlow:
         """``expm(M s) z`` for ``0 <= s <= h`` by its Taylor series."""
         if s == 0:
             return list(z)
+        # a short time needs fewer terms for the same truncation (below 10^-(digits+3), as the step's)
+        terms = min(self.terms, _taylor_terms(self.norm * abs(float(s)), self.digits)) if self.norm > 0 else 1
         vecs = [list(z)]
-        for j in range(1, self.terms + 1):
+        for j in range(1, terms + 1):
             v = self.times(self.rows, vecs[-1])
             vecs.append([x / j for x in v])
         acc = vecs[-1]
@@ -648,7 +667,7 @@ class _ModeFlow:
         coeffs = [fdot(r, z) for r in row.taylor]
         if sign < 0:
             coeffs = [-c for c in coeffs]
-        return _Poly(coeffs, row.norm * zn * self.tail2)
+        return _Poly(coeffs, row.norm * zn * self.tail2, self.norm, self.digits)
 
     def dense(self, z: list, offsets: np.ndarray) -> np.ndarray:
         """States ``(n, k)`` at ``offsets`` (in ``[0, h]``) from ``z``: a double Taylor series."""
@@ -805,11 +824,12 @@ class ExactMP(Integrator):
 class _Arc:
     """One arc of :class:`ExactMP`: the step loop, its guard and section searches, dense states."""
 
-    def __init__(self, integ: ExactMP, request: ArcRequest) -> None:
+    def __init__(self, integ: ExactMP, request: ArcRequest, start: tuple | None = None) -> None:
         self.integ, self.request = integ, request
         self.ctx = ctx = integ._ctx
         self.flow = flow = integ._flow(request.mode)
-        start = integ._continued(request)
+        if start is None:  # an mp start given by the caller (the whole run in mp, below) is used as it is
+            start = integ._continued(request)
         integ._carry = None
         self.t0, self.z0 = start if start is not None else integ._fresh(request)
         self.guards, self.sections = integ._rows(request, flow)
@@ -862,7 +882,17 @@ class _Arc:
             if start == "clear":
                 return None
             u, fu, pu = start
-            return search.first_zero(poly, u, length, fu, pu, fb, pb)
+            # a short flight (an impact at a small speed, a chattering tail): its first zero is a few
+            # times u, and a search of (u, length] would halve its way down from the step's length
+            # there; (u, 4u], (4u, 16u], ... are searched in turn instead, each as rigorously
+            a = u
+            while True:
+                b = a * 4 if a * 4 < length else length
+                fb_, pb_ = (fb, pb) if b is length else poly.value_rate(b)
+                hit = search.first_zero(poly, a, b, fu, pu, fb_, pb_)
+                if hit is not None or b is length:
+                    return hit
+                a, fu, pu = b, fb_, pb_
         return search.first_zero(poly, self.ctx.zero, length, poly.c[0], poly.c[1], fb, pb)
 
     def _section_crossings(self, k: int, z_a, zn: float, end, va, ra, vb, rb, at_end: bool):

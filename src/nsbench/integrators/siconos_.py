@@ -290,7 +290,7 @@ class SiconosEventDriven(WholeSystem):
     accuracy_levels = ()  # LSODAR's tolerances are fixed (see the class docstring): it runs at its defaults
     known_gaps = {
         "event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
-        "extrapolates the accumulation after ten: the sequences differ in length"
+        "extrapolates the accumulation after four: the sequences differ in length"
     }
     INFERABLE = ("friction", "impact")
 

@@ -94,13 +94,15 @@ class Dense(NamedTuple):
 
 
 class Events(NamedTuple):
-    """Buffer of events: time, event kind code, 0-based index of the guard's element, state and mode after."""
+    """Buffer of events: time, event kind code, 0-based index of the guard's element, state and mode after,
+    and the error estimate of an accumulation time (:func:`nsbench.model.rules.settle`)."""
 
     t: np.ndarray  # float64
     kind: np.ndarray  # int64
     index: np.ndarray  # int64
     y: np.ndarray  # float64 (capacity, n_states)
     mode: np.ndarray  # int64 (capacity, mode size)
+    err: np.ndarray  # float64, an extrapolated accumulation's error estimate (NaN for every other event)
 
 
 class KernelData(NamedTuple):
@@ -159,7 +161,7 @@ class RunLimits(NamedTuple):
     record_from: float  # events at t >= record_from are stored
     stop_kind: int  # the run stops after stop_count stored events of this kind (-1: none)
     stop_count: int
-    accumulation: int  # intervals of a geometric accumulation before it is extrapolated (0: never)
+    accumulation: float  # tolerance of an extrapolated accumulation time, relative to max(1, |t|) (0: never)
 
 
 class RunState(NamedTuple):

@@ -81,7 +81,7 @@ class Records:
     """Growable buffers for one run: events, section hits and states at requested times.
 
     Events: time, event kind code, 0-based element index, the state after the
-    event and the mode after it. Hits: section index, time, state. Dense: one
+    event, the mode after it and an accumulation's error estimate (NaN otherwise). Hits: section index, time, state. Dense: one
     row per requested time.
 
     A full event buffer costs a return of the compiled loop to Python and a new entry
@@ -99,6 +99,7 @@ class Records:
             np.empty(events, np.int64),
             np.empty((events, n_states)),
             np.empty((events, mode_size), np.int64),
+            np.full(events, np.nan),  # rows written outside the core (inferred events) carry no estimate
         )
         self.hits = Hits(np.empty(hits, np.int64), np.empty(hits), np.empty((hits, n_states)))
         self.dense = Dense(np.ascontiguousarray(t_eval, dtype=float), np.empty((len(t_eval), n_states)))
@@ -107,7 +108,11 @@ class Records:
     def _grown(bundle, cap: int, used: int):
         fields = []
         for old in bundle:
-            new = np.empty((cap,) + old.shape[1:], old.dtype)
+            new = (
+                np.full((cap,) + old.shape[1:], np.nan)
+                if old.dtype == np.float64
+                else np.empty((cap,) + old.shape[1:], old.dtype)
+            )
             new[:used] = old[:used]
             fields.append(new)
         return type(bundle)(*fields)

@@ -51,6 +51,9 @@ class ImpactOscillator(NamedModes, HybridProblem):
     guard_kinds = spec.GUARD_KINDS
     event_kinds = spec.EVENT_KINDS
     mode_columns = ("contact",)
+    #: Its law runs on mpmath numbers (arithmetic; ``math`` only in sign tests): the reference is certified by
+    #: a whole hybrid run in mp (:mod:`nsbench.integrators._mp_hybrid`), resets and accumulations included.
+    mp_law = True
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
         self._given(NAME, params, parameters, state_names=("x", "v"))
@@ -142,11 +145,15 @@ def impact_oscillator(case: int | str | None = None, dimensional: bool = False, 
         A case (the problem has one form), an unknown parameter, a non-finite or
         out-of-range value (``zeta < 0``, ``w <= 0``, ``r`` outside ``[0, 1]``), or a
         start beyond the stop (``x0 > sigma``, or on it moving into it).
+
+    Without ``x0`` the mass starts at the origin, or on the stop if the stop is below it (``sigma < 0``).
     """
     if case not in (None, 1, "1"):
         raise ConfigError(f"{NAME}: unknown case {case!r}; the problem has no cases (give its parameters)")
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
     v = {**DEFAULTS, **given}
+    if "x0" not in given and v["sigma"] < v["x0"]:
+        v["x0"] = v["sigma"]  # a stop below the origin: the default start is on the stop, at rest
     if v["r"] > 1.0:
         raise ConfigError(
             f"{NAME}: parameter r = {v['r']:g} is out of range: restitution r must be <= 1 "

@@ -24,12 +24,25 @@ algebraic constraint and ``|f| <= fr`` its guard); a stuck block's force
 carries the forcing into the error test. Consistent initial values are
 computed at every switch.
 
+Every internal step is checked for a guard that leaves its side and comes back
+inside the step, which SUNDIALS' root finding (a sign test between step ends)
+cannot see (:mod:`nsbench.integrators._step_check`): from the step ends the arc
+already returns, the guards' values and rates at both ends (compiled,
+:func:`~nsbench.integrators._sundials_kernels.first_dip`). A step where those
+allow a dip is integrated again from its start by the same solver, freshly
+started (so with steps that resolve it), and checked in turn (at most
+:data:`CHECK_DEPTH` levels): a root found there ends the arc; none, and the arc
+stands as it was.
+
 Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
-internal steps; ``extra['root_returns']`` the solver's root stops.
+internal steps (those of the steps integrated again included);
+``extra['root_returns']`` the solver's root stops, ``extra['check_reruns']`` the
+steps integrated again by the check.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, ClassVar
 
 import numpy as np
@@ -55,6 +68,10 @@ _OPTIONS = {
 }
 
 
+#: Levels of steps integrated again by the missed-crossing check within one step (each a fresh start).
+CHECK_DEPTH = 3
+
+
 def _sundials_max_step(max_step: float | None) -> float:
     """SUNDIALS' largest step: 0 means none."""
     return 0.0 if max_step is None or max_step == np.inf else max_step
@@ -63,6 +80,8 @@ def _sundials_max_step(max_step: float | None) -> float:
 class SundialsIntegrator(Integrator):
     """Shared stepping loop of the CVODE and IDA adapters."""
 
+    #: Whether every internal step is checked for a guard's excursion inside it (the module docstring).
+    check_steps: ClassVar[bool] = True
     options = dict(_OPTIONS)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
@@ -118,7 +137,7 @@ class SundialsIntegrator(Integrator):
         """The solver's start values at ``request.t0`` (``y0``; ``y0, yp0`` for a DAE)."""
         raise NotImplementedError
 
-    def _whole_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+    def _whole_arc(self, request: ArcRequest, solver, eventsfn) -> tuple[ArcResult, np.ndarray, np.ndarray]:
         """The arc as one call of scikit-sundae's ``solve`` (``onestep`` over ``[t0, t_end]``, the guards
         terminal): for an arc that asks for no states, the per-step Python of :meth:`advance` left out.
 
@@ -135,7 +154,7 @@ class SundialsIntegrator(Integrator):
             res = solver.solve(np.array([float(request.t0), float(request.t_end)]), *self._initial(request))
         except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
             y0 = np.array(request.y0, dtype=float)
-            return ArcResult(
+            failed = ArcResult(
                 t=float(request.t0),
                 y=y0,
                 fired=None,
@@ -143,6 +162,7 @@ class SundialsIntegrator(Integrator):
                 message=f"SUNDIALS: {exc}",
                 y_eval=np.empty((n, 0)),
             )
+            return failed, np.empty(0), np.empty((0, n))
         hits: list[SectionHit] = []
         fired = None
         roots = 0
@@ -170,7 +190,7 @@ class SundialsIntegrator(Integrator):
         if status is Status.SUCCESS and steps > request.max_steps:
             status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
             fired = None
-        return ArcResult(
+        result = ArcResult(
             t=t,
             y=np.array(y[:n], dtype=float),
             fired=fired,
@@ -183,6 +203,7 @@ class SundialsIntegrator(Integrator):
             status=status,
             message=message,
         )
+        return result, np.asarray(res.t, dtype=float), np.asarray(res.y, dtype=float)
 
     def advance(self, request: ArcRequest) -> ArcResult:
         problem = request.problem
@@ -191,10 +212,56 @@ class SundialsIntegrator(Integrator):
         solver, eventsfn, arc = self._solver(request)
         arc.load(request)
         if not request.t_eval.size:
-            return self._whole_arc(request, solver, eventsfn)
-        return self._stepped_arc(request, solver, eventsfn)
+            res, times, states = self._whole_arc(request, solver, eventsfn)
+        else:
+            res, times, states = self._stepped_arc(request, solver, eventsfn)
+        return self._checked(request, res, times, states, solver, eventsfn, arc, 0)
 
-    def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+    def _checked(self, request: ArcRequest, res: ArcResult, times, states, solver, eventsfn, arc, depth: int):
+        """``res`` with every step of the arc checked for a guard's excursion inside it (the module docstring).
+
+        A step the compiled test flags is integrated again from its start (a fresh start of the same
+        solver over that step alone, itself checked, to :data:`CHECK_DEPTH` levels); a guard's root there
+        ends the arc at it: the states, hits and trajectory points up to that time are the arc's own (the
+        same solution to the solver's tolerance), the work of the reruns is added to its counters.
+        """
+        res.extra["check_reruns"] = res.extra.get("check_reruns", 0)
+        if not (self.check_steps and request.guards and res.status.ok and times.shape[0] > 1):
+            return res
+        n = request.problem.n_states
+        p, mode = self._p, arc.mode
+        j = 1
+        while True:
+            j = int(sk.first_dip(p, mode, arc.kinds, arc.blocks, arc.signs, times, states, j, float(res.t)))
+            if j < 0 or depth >= CHECK_DEPTH:  # the finest level: a graze its fresh steps resolve to rounding
+                return res
+            start = np.array(states[j - 1, :n], dtype=float)
+            start.flags.writeable = False
+            sub = dataclasses.replace(
+                request, t0=float(times[j - 1]), y0=start, t_end=float(times[j]), t_eval=np.empty(0), t0_lo=0.0
+            )
+            again, sub_times, sub_states = self._whole_arc(sub, solver, eventsfn)
+            again = self._checked(sub, again, sub_times, sub_states, solver, eventsfn, arc, depth + 1)
+            res.nfev += again.nfev
+            res.njev += again.njev
+            res.nsteps += again.nsteps
+            for name in ("root_returns", "check_reruns"):
+                res.extra[name] = res.extra.get(name, 0) + again.extra.get(name, 0)
+            res.extra["check_reruns"] += 1
+            if not again.status.ok:  # the check could not be made: the arc fails with its reason
+                res.status, res.message, res.fired = again.status, again.message, None
+                res.t, res.y = again.t, again.y
+                return res
+            if again.fired is not None:  # the excursion is real: the arc ends at its crossing
+                t_hit = float(again.t)
+                kept = int(np.searchsorted(request.t_eval, t_hit, side="right"))
+                res.t, res.y, res.fired = t_hit, again.y, again.fired
+                res.y_eval = res.y_eval[:, :kept]
+                res.section_hits = [h for h in res.section_hits if h.t <= t_hit]
+                return res
+            j += 1
+
+    def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> tuple[ArcResult, np.ndarray, np.ndarray]:
         """The arc stepped from Python one internal step at a time, its states read at the requested times
         from each step's interpolant."""
         n, n_guards = request.problem.n_states, len(request.guards)
@@ -206,8 +273,10 @@ class SundialsIntegrator(Integrator):
         t, y = float(request.t0), np.array(request.y0, dtype=float)
         last = None  # the last successful return: its counters are the arc's
         step = solver.step
+        start = self._initial(request)
+        ends_t, ends_y = [float(request.t0)], [np.asarray(start[0], dtype=float)]  # the step ends, for the check
         try:
-            solver.init_step(float(request.t0), *self._initial(request))
+            solver.init_step(float(request.t0), *start)
             while True:
                 if steps >= request.max_steps:
                     status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
@@ -219,6 +288,8 @@ class SundialsIntegrator(Integrator):
                     message = f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
                     break
                 last, t, y = res, float(res.t), res.y  # res.y: a fresh array per return
+                ends_t.append(t)
+                ends_y.append(y)
                 if flag != ROOT_RETURN:
                     steps += 1
                     dense.step_end(t, y)
@@ -245,7 +316,7 @@ class SundialsIntegrator(Integrator):
                     break
         except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
             status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {exc}"
-        return ArcResult(
+        result = ArcResult(
             t=t,
             y=np.array(y[:n], dtype=float),
             fired=fired,
@@ -258,6 +329,7 @@ class SundialsIntegrator(Integrator):
             status=status,
             message=message,
         )
+        return result, np.array(ends_t), np.array(ends_y)
 
 
 class CvodeIntegrator(SundialsIntegrator):
@@ -320,6 +392,7 @@ class CvodeBDF(CvodeIntegrator):
         supports_nonlinear=True,
         precision="double",
         step_option="rtol",
+        checks_steps=True,
     )
 
 
@@ -343,6 +416,7 @@ class Ida(SundialsIntegrator):
         supports_nonlinear=True,
         precision="double",
         step_option="rtol",
+        checks_steps=True,
     )
 
     def setup(self, problem) -> None:

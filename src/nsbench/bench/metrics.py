@@ -13,6 +13,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
+# the column of a reference's event log holding each event's certified error bound, declared by the
+# certification (nsbench.certify.certified_errors)
+from nsbench.certify import CERTIFIED
 from nsbench.status import Status
 
 #: Relative error floor of a switching time (half an ulp): digits are capped at ~15.95.
@@ -182,11 +185,6 @@ def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
         truncated=truncated,
         first_divergence="missed" if missed else "extra",
     )
-
-
-#: Column of a reference's event log holding each event's certified error bound
-#: (:func:`nsbench.bench.reference.certified_errors`).
-CERTIFIED = "certified_error"
 
 
 @dataclass(frozen=True)

@@ -29,10 +29,9 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
-import pandas as pd
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import Integrator, get_integrator
@@ -44,6 +43,12 @@ from nsbench.problems.base import HybridProblem
 from nsbench.results import Counters, SimulationResult
 from nsbench.sections import Section, StateSection, TimeSection
 from nsbench.status import Status
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+# pandas is imported where the frames are made (simulate): the commands that read a run's buffers
+# (a sweep's workers, Lyapunov's) do not load it (about half a CPU second per process)
 
 
 def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | None) -> Integrator:
@@ -440,6 +445,8 @@ def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
     ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
     index of the element its guard belongs to, ``mode`` the problem's name of the mode.
     """
+    import pandas as pd
+
     k = len(events)
     frame = pd.DataFrame(events.y, columns=list(problem.state_names))
     frame.insert(0, "t", events.t.copy())
@@ -466,6 +473,8 @@ def _frames(
     state_sections: Sequence[StateSection],
 ):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
+    import pandas as pd
+
     names = list(problem.state_names)
     events = events_frame(problem, rec.events)
     hits = rec.hits

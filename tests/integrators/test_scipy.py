@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import nsbench
+from nsbench.integrators.scipy_ import ScipyDOP853
 from tests.conftest import exact_events, max_time_error, same_sequence
 
 SCIPY = ["scipy-rk45", "scipy-dop853", "scipy-radau", "scipy-bdf", "scipy-lsoda"]
@@ -34,16 +37,29 @@ def test_every_scipy_method_finds_the_event_sequence(name):
         assert res.counters.njev > 0
 
 
-def test_uncapped_step_misses_forced_stick_guards():
-    # Documented pitfall: with every block stuck the field is constant, so without
-    # the default max_step cap the step grows past the forcing period and the
-    # force-driven slip of block 2 at t ~ 33.46 is stepped over.
+class _Unchecked(ScipyDOP853):
+    """``scipy-dop853`` as ``solve_ivp`` runs it: only the signs at its step ends are looked at."""
+
+    name = "test-dop853-unchecked"
+    check_steps = False
+    capabilities = dataclasses.replace(ScipyDOP853.capabilities, checks_steps=False)
+
+
+def test_an_uncapped_step_over_forced_stick_guards_is_caught_by_the_step_check():
+    # Documented pitfall: with every block stuck the field is constant, so without the default max_step
+    # cap the step grows past the forcing period and the force-driven slip of block 2 at t ~ 33.46 is
+    # stepped over when only the signs at the step ends are looked at. The per-step check flags those
+    # steps (the guard's rates at their ends) and integrates them again: the sequence of exact.
     p = nsbench.get_problem("two-dof", case=2)
     ref = exact_events("two-dof", 2)
-    capped = nsbench.simulate(p, "scipy-dop853", 300.0, options={"rtol": 1e-12, "atol": 1e-12})
-    uncapped = nsbench.simulate(p, "scipy-dop853", 300.0, options={"rtol": 1e-12, "atol": 1e-12, "max_step": np.inf})
+    tight = {"rtol": 1e-12, "atol": 1e-12}
+    capped = nsbench.simulate(p, "scipy-dop853", 300.0, options=tight)
+    uncapped = nsbench.simulate(p, "scipy-dop853", 300.0, options={**tight, "max_step": np.inf})
+    unchecked = nsbench.simulate(p, _Unchecked(**tight, max_step=np.inf), 300.0)
     assert same_sequence(capped.events, ref)
-    assert not same_sequence(uncapped.events, ref)
+    assert not same_sequence(unchecked.events, ref)
+    assert same_sequence(uncapped.events, ref) and uncapped.counters.extra["check_reruns"] > 0
+    assert max_time_error(uncapped.events, ref) <= 1e-8  # as the capped run at this tolerance (test above)
 
 
 def test_tolerance_controls_the_event_error():

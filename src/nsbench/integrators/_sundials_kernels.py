@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.integrators._step_check import may_dip
 from nsbench.model.compile import jit
 from nsbench.problems import friction_law as k
 from nsbench.model.records import linear_section_value
@@ -134,50 +133,6 @@ def ida_roots(p, kinds, blocks, signs, sec_coeffs, sec_levels, y, out):
     m = kinds.shape[0]
     for j in range(sec_levels.shape[0]):
         out[m + j] = linear_section_value(sec_coeffs[j], sec_levels[j], y[:n])
-
-
-@jit
-def first_dip(p, mode, kinds, blocks, signs, times, states, first, stop):
-    """The end index ``j >= first`` of the first step ``[times[j - 1], times[j]]`` (starting before ``stop``) in
-    which a guard on its side at both ends may go below zero (:func:`nsbench.integrators._step_check.may_dip`),
-    or -1.
-
-    ``times``, ``states``: the arc's step ends (and a root that ended it), rows of the solver's state,
-    the mechanical states first; ``p``: the problem's parameters with the force (the guards and rates
-    of MODEL.md at time ``t``). A guard exactly on its surface at the arc's start (a phase start) is
-    looked at away from the start only.
-    """
-    n = 2 * n_blocks(p)
-    ng = kinds.shape[0]
-    dy = np.empty(n)
-    h0, d0 = np.empty(ng), np.empty(ng)
-    fresh = np.zeros(ng, np.bool_)
-    start = max(first - 1, 0)
-    y = states[start, :n]
-    k.rhs(p, mode, times[start], y, dy)
-    for q in range(ng):
-        h0[q] = signs[q] * k.guard_value(p, mode, kinds[q], blocks[q], times[start], y)
-        d0[q] = signs[q] * k.guard_rate(p, mode, kinds[q], blocks[q], times[start], y, dy)
-        fresh[q] = start == 0 and h0[q] == 0.0
-    for j in range(start + 1, times.shape[0]):
-        t_a, t_b = times[j - 1], times[j]
-        if t_a >= stop:
-            break
-        dt = t_b - t_a
-        if dt <= 0.0:
-            continue
-        y = states[j, :n]
-        k.rhs(p, mode, t_b, y, dy)
-        found = False
-        for q in range(ng):
-            h1 = signs[q] * k.guard_value(p, mode, kinds[q], blocks[q], t_b, y)
-            d1 = signs[q] * k.guard_rate(p, mode, kinds[q], blocks[q], t_b, y, dy)
-            if h1 > 0.0 and h0[q] >= 0.0 and may_dip(h0[q], h1, dt * d0[q], dt * d1, fresh[q] and j == 1):
-                found = True
-            h0[q], d0[q] = h1, d1
-        if found:
-            return j
-    return -1
 
 
 @jit

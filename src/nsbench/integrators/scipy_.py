@@ -11,15 +11,12 @@ implicit methods get the analytic mode Jacobian.
 
 Every accepted step is also checked for a guard that leaves its side and comes
 back inside the step, which a sign test at the step ends cannot see
-(:mod:`nsbench.integrators._step_check`): the guard's values and rates at both
-ends, then, on the few steps where those allow a dip, the guard on the step's
-dense output. A dip is located and ends the arc like any crossing. The rates
-take the field at the step end, which the explicit methods and Radau already
-hold (no extra evaluation); for BDF and LSODA it is one evaluation of the
-compiled field per step, outside the method (``extra['check_fev']``, not in
-``nfev``). The dense outputs the check builds are the method's own work and are
-in ``nfev`` (3 evaluations each for DOP853, none for the others);
-``extra['check_searches']`` counts the steps searched.
+(:mod:`nsbench.integrators._step_check`): after the arc, one compiled call
+tests every step from the guards' values and rates at its ends; a step where
+those allow a dip is integrated again from its start with a fresh solver of the
+same method in at least 8 steps, itself checked, and a crossing found there
+ends the arc. A step costs the check only the keeping of its end; the reruns'
+work is in the counters (``extra['check_reruns']`` counts them).
 
 Step-size control sees only the vector field. While every block sticks the
 field is constant, the error estimate is zero and the step grows without
@@ -113,77 +110,6 @@ _TOLERANCES = {
 }
 
 
-class _StepCheck:
-    """The per-step missed-crossing check of one arc (:mod:`nsbench.integrators._step_check`).
-
-    Keeps each guard's signed value and rate at the last step end; :meth:`dip` checks the
-    step just taken and returns the first guard that dips inside it, with the time.
-    """
-
-    def __init__(self, problem, m: np.ndarray, guards, t0: float, y0: np.ndarray, solver) -> None:
-        law = problem.law
-        self.p, self.m, self.law = problem.data.p, m, law
-        self.codes = [(g.code, g.block - 1, float(g.expected_sign)) for g in guards]
-        self.n = problem.n_states
-        # the field at a step end: the explicit methods and Radau keep it (solver.f); BDF and LSODA do not
-        self.keeps_f = hasattr(solver, "f")
-        self.extra_fev = 0
-        self.searches = 0  # steps whose dense output was searched for a dip
-        self.t0 = t0
-        self.h, self.d = self._at(t0, y0, self._field(solver, t0, y0), None)
-        # on its own surface at the arc's start (a phase start): its event is the guard over t - t0
-        self.fresh = [h == 0.0 for h in self.h]
-
-    def _field(self, solver, t: float, y: np.ndarray) -> np.ndarray:
-        if self.keeps_f:
-            return solver.f
-        out = np.empty(self.n)
-        self.law.rhs(self.p, self.m, t, y, out)
-        self.extra_fev += 1
-        return out
-
-    def _at(self, t: float, y: np.ndarray, f: np.ndarray, g) -> tuple[list[float], list[float]]:
-        """Signed values and rates of the guards at ``(t, y)``; ``g``: the events' values there (a guard's
-        own value unless it started on its surface), or None."""
-        value, rate, p, m = self.law.guard_value, self.law.guard_rate, self.p, self.m
-        h = [
-            s * (g[q] if g is not None and not self.fresh[q] else value(p, m, k, i, t, y))
-            for q, (k, i, s) in enumerate(self.codes)
-        ]
-        d = [s * rate(p, m, k, i, t, y, f) for k, i, s in self.codes]
-        return h, d
-
-    def dip(self, solver, t_old: float, t: float, y: np.ndarray, g, crossed: set[int], sol):
-        """``((guard, time) or None, sol)``: the first excursion inside the step ``[t_old, t]`` of a guard on
-        its side at both ends (``crossed``: the guards whose sign changed, which the root finding locates;
-        ``g``: the events' values at ``t``), and the step's dense output (``sol``, built here if needed)."""
-        h0, d0 = self.h, self.d
-        h1, d1 = self._at(t, y, self._field(solver, t, y), g)
-        dt = t - t_old
-        first = t_old == self.t0
-        found = None
-        for q in range(len(self.codes)):
-            if q in crossed or not (h1[q] > 0.0 and h0[q] >= 0.0):
-                continue
-            fresh = first and self.fresh[q]
-            if not step_check.may_dip(h0[q], h1[q], dt * d0[q], dt * d1[q], fresh):
-                continue
-            if sol is None:
-                sol = solver.dense_output()
-            self.searches += 1
-            kind, index, sign = self.codes[q]
-            law, p, m = self.law, self.p, self.m
-
-            def h(tt, yy, kind=kind, index=index, sign=sign):
-                return sign * law.guard_value(p, m, kind, index, tt, yy)
-
-            tau = step_check.dip_root(h, sol, t_old, t, h0[q], step_check.rounding(y))
-            if tau is not None and (found is None or tau < found[1]):
-                found = (q, tau)
-        self.h, self.d = h1, d1
-        return found, sol
-
-
 class _Arc:
     """The events, section hits and step ends of one arc as it is stepped (the loop of ``solve_ivp``)."""
 
@@ -202,7 +128,7 @@ class _Arc:
         self.fired: int | None = None
         self.t_stop, self.y_stop = t0, y0
 
-    def step(self, solver, check: _StepCheck | None) -> bool:
+    def step(self, solver) -> bool:
         """Record the step the solver just took; whether the arc ends with it (an event, or ``t_end``)."""
         from scipy.optimize import brentq
 
@@ -216,24 +142,19 @@ class _Arc:
             if (up and direction > 0) or (down and direction < 0) or ((up or down) and direction == 0):
                 active.append(q)
         self.g = g_new
-        roots: list[tuple[float, int]] = []
+        end = None
         if active:
             if sol is None:
                 sol = solver.dense_output()
+            roots = []
             for q in active:
                 event = self.events[q]
                 roots.append((brentq(lambda tt: event(tt, sol(tt)), t_old, t, xtol=4 * _EPS, rtol=4 * _EPS), q))
-        dip = None
-        if check is not None:
-            crossed = {q for q in active if q < self.n_guards}
-            dip, sol = check.dip(solver, t_old, t, y, g_new, crossed, sol)
-        if dip is not None:
-            roots.append((dip[1], dip[0]))
-        end = None
-        if roots:
-            roots.sort(key=lambda r: r[0])  # time order; a dip or a crossing, whichever comes first
+            roots.sort(
+                key=lambda r: r[0]
+            )  # time order: the first guard ends the arc, sections after it are not reached
             for tau, q in roots:
-                if q < self.n_guards:  # the first guard ends the arc; sections after it are not reached
+                if q < self.n_guards:
                     end = (tau, q)
                     break
                 self.t_events[q].append(tau)
@@ -254,7 +175,7 @@ class _Arc:
             self.ts.append(t)
             self.interpolants.append(sol)
 
-    def budget_exhausted(self, problem, solver, check) -> ArcResult:
+    def budget_exhausted(self, problem, solver) -> ArcResult:
         t = float(solver.t)
         return ArcResult(
             t=t,
@@ -266,16 +187,9 @@ class _Arc:
             message=f"step budget exhausted at t = {t:.6g}",
         )
 
-    def result(self, problem, request, solver, check, status: Status, message: str, method: str) -> ArcResult:
-        extra_fev = check.extra_fev if check is not None else 0
-        searches = check.searches if check is not None else 0
+    def result(self, problem, request, solver, status: Status, message: str, method: str) -> ArcResult:
         nsteps = len(self.ts) - 1
-        counts = dict(
-            nfev=int(solver.nfev),
-            njev=int(solver.njev),
-            nsteps=nsteps,
-            extra={"nlu": int(solver.nlu), "check_fev": extra_fev, "check_searches": searches},
-        )
+        counts = dict(nfev=int(solver.nfev), njev=int(solver.njev), nsteps=nsteps, extra={"nlu": int(solver.nlu)})
         if status is not Status.SUCCESS:
             return ArcResult(
                 t=float(self.ts[-1]),
@@ -317,6 +231,9 @@ class ScipyIntegrator(Integrator):
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
     def advance(self, request: ArcRequest) -> ArcResult:
+        return self._advance(request, 0)
+
+    def _advance(self, request: ArcRequest, depth: int) -> ArcResult:
         import scipy.integrate
 
         problem, mode = request.problem, request.mode
@@ -332,6 +249,8 @@ class ScipyIntegrator(Integrator):
         if max_step is None:
             w = problem.forcing_frequency
             max_step = (2.0 * np.pi / w) / 16.0 if (problem.is_forced and w > 0.0) else np.inf
+        if depth:  # a step integrated again by the check: in at least RERUN_STEPS steps
+            max_step = min(max_step, (t_end - t0) / step_check.RERUN_STEPS)
         # the field, Jacobian and guards of the mode are the problem's compiled law: scipy's own
         # work is what is measured, not a Python re-evaluation of the model
         n = problem.n_states
@@ -354,20 +273,32 @@ class ScipyIntegrator(Integrator):
         solver = getattr(scipy.integrate, self.method)(
             fun, t0, y0, t_end, rtol=opts["rtol"], atol=opts["atol"], max_step=max_step, vectorized=False, **kwargs
         )
-        check = _StepCheck(problem, m, request.guards, t0, y0, solver) if self.check_steps and request.guards else None
         arc = _Arc(guard_events, section_events, t0, y0, dense)
+        keep = self.check_steps and bool(request.guards)
+        ends_t, ends_y = [t0], [y0]  # the step ends, for the check (each a fresh array of the solver's)
         budget = request.max_steps
         while True:
             message = solver.step()
             if solver.status == "failed":
                 failure = message or "integration failed"
-                return arc.result(problem, request, solver, check, Status.INTEGRATOR_FAILURE, failure, self.method)
+                return arc.result(problem, request, solver, Status.INTEGRATOR_FAILURE, failure, self.method)
             if arc.steps >= budget:  # this step is one past the budget: it ends the run there
                 arc.steps += 1
-                return arc.budget_exhausted(problem, solver, check)
-            if arc.step(solver, check):
+                return arc.budget_exhausted(problem, solver)
+            done = arc.step(solver)
+            if keep:
+                ends_t.append(arc.t_stop)
+                ends_y.append(arc.y_stop)
+            if done:
                 break
-        return arc.result(problem, request, solver, check, Status.SUCCESS, "", self.method)
+        res = arc.result(problem, request, solver, Status.SUCCESS, "", self.method)
+        if not keep:
+            return res
+        return step_check.checked(request, res, np.array(ends_t), np.array(ends_y), self._rerun, depth)
+
+    def _rerun(self, request: ArcRequest, depth: int) -> ArcResult:
+        """The arc of ``request`` (a step of another arc integrated again by the check), checked at ``depth``."""
+        return self._advance(request, depth)
 
 
 def _caps(order: int | None, implicit: bool) -> Capabilities:

@@ -27,12 +27,11 @@ computed at every switch.
 Every internal step is checked for a guard that leaves its side and comes back
 inside the step, which SUNDIALS' root finding (a sign test between step ends)
 cannot see (:mod:`nsbench.integrators._step_check`): from the step ends the arc
-already returns, the guards' values and rates at both ends (compiled,
-:func:`~nsbench.integrators._sundials_kernels.first_dip`). A step where those
-allow a dip is integrated again from its start by the same solver, freshly
-started (so with steps that resolve it), and checked in turn (at most
-:data:`CHECK_DEPTH` levels): a root found there ends the arc; none, and the arc
-stands as it was.
+already returns, the guards' values and rates at both ends (one compiled call
+per arc). A step where those allow a dip is integrated again from its start by a
+solver of the same method whose largest step is an eighth of that step, and
+checked in turn (at most three levels): a root found there ends the arc; none,
+and the arc stands as it was.
 
 Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
 internal steps (those of the steps integrated again included);
@@ -42,11 +41,11 @@ steps integrated again by the check.
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any, ClassVar
 
 import numpy as np
 
+from nsbench.integrators import _step_check as step_check
 from nsbench.integrators import _sundials_kernels as sk
 from nsbench.integrators._sundials_loop import (
     ROOT_RETURN,
@@ -66,10 +65,6 @@ _OPTIONS = {
         None, float, lower=0.0, nullable=True, unbounded=True, doc="largest step (time units); None or inf: unbounded"
     ),
 }
-
-
-#: Levels of steps integrated again by the missed-crossing check within one step (each a fresh start).
-CHECK_DEPTH = 3
 
 
 def _sundials_max_step(max_step: float | None) -> float:
@@ -107,7 +102,9 @@ class SundialsIntegrator(Integrator):
         self.advance(ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
         self._solvers.clear()
 
-    def _common_options(self, n_events: int, n_guards: int, directions: list[int], eventsfn) -> dict[str, Any]:
+    def _common_options(
+        self, n_events: int, n_guards: int, directions: list[int], eventsfn, max_step: float | None = None
+    ) -> dict[str, Any]:
         # a guard's root ends an arc run in one call (_whole_arc); stepped from Python (advance),
         # the loop decides, and scikit-sundae's step reports every root whatever this says
         eventsfn.terminal = [True] * n_guards + [False] * (n_events - n_guards)
@@ -115,7 +112,7 @@ class SundialsIntegrator(Integrator):
         opts = dict(
             rtol=self.settings["rtol"],
             atol=self.settings["atol"],
-            max_step=_sundials_max_step(self.settings["max_step"]),
+            max_step=_sundials_max_step(self.settings["max_step"] if max_step is None else max_step),
             max_num_steps=10**9,
             eventsfn=eventsfn if n_events else None,
             num_events=n_events,
@@ -130,7 +127,9 @@ class SundialsIntegrator(Integrator):
             self._solvers[key] = (*self._build(arc, len(request.guards), directions), arc)
         return self._solvers[key]
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):  # pragma: no cover - abstract
+    def _build(
+        self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None
+    ):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:  # pragma: no cover - abstract
@@ -215,51 +214,26 @@ class SundialsIntegrator(Integrator):
             res, times, states = self._whole_arc(request, solver, eventsfn)
         else:
             res, times, states = self._stepped_arc(request, solver, eventsfn)
-        return self._checked(request, res, times, states, solver, eventsfn, arc, 0)
+        return self._checked(request, res, times, states, arc, 0)
 
-    def _checked(self, request: ArcRequest, res: ArcResult, times, states, solver, eventsfn, arc, depth: int):
-        """``res`` with every step of the arc checked for a guard's excursion inside it (the module docstring).
-
-        A step the compiled test flags is integrated again from its start (a fresh start of the same
-        solver over that step alone, itself checked, to :data:`CHECK_DEPTH` levels); a guard's root there
-        ends the arc at it: the states, hits and trajectory points up to that time are the arc's own (the
-        same solution to the solver's tolerance), the work of the reruns is added to its counters.
-        """
-        res.extra["check_reruns"] = res.extra.get("check_reruns", 0)
-        if not (self.check_steps and request.guards and res.status.ok and times.shape[0] > 1):
+    def _checked(self, request: ArcRequest, res: ArcResult, times, states, arc, depth: int) -> ArcResult:
+        """``res`` with every internal step of the arc checked (:func:`nsbench.integrators._step_check.checked`):
+        a flagged step is integrated again as an arc in one call, by a solver of the same method whose
+        largest step is an eighth of that step (built for it: the check flags few steps)."""
+        if not self.check_steps:
             return res
-        n = request.problem.n_states
-        p, mode = self._p, arc.mode
-        j = 1
-        while True:
-            j = int(sk.first_dip(p, mode, arc.kinds, arc.blocks, arc.signs, times, states, j, float(res.t)))
-            if j < 0 or depth >= CHECK_DEPTH:  # the finest level: a graze its fresh steps resolve to rounding
-                return res
-            start = np.array(states[j - 1, :n], dtype=float)
-            start.flags.writeable = False
-            sub = dataclasses.replace(
-                request, t0=float(times[j - 1]), y0=start, t_end=float(times[j]), t_eval=np.empty(0), t0_lo=0.0
-            )
-            again, sub_times, sub_states = self._whole_arc(sub, solver, eventsfn)
-            again = self._checked(sub, again, sub_times, sub_states, solver, eventsfn, arc, depth + 1)
-            res.nfev += again.nfev
-            res.njev += again.njev
-            res.nsteps += again.nsteps
-            for name in ("root_returns", "check_reruns"):
-                res.extra[name] = res.extra.get(name, 0) + again.extra.get(name, 0)
-            res.extra["check_reruns"] += 1
-            if not again.status.ok:  # the check could not be made: the arc fails with its reason
-                res.status, res.message, res.fired = again.status, again.message, None
-                res.t, res.y = again.t, again.y
-                return res
-            if again.fired is not None:  # the excursion is real: the arc ends at its crossing
-                t_hit = float(again.t)
-                kept = int(np.searchsorted(request.t_eval, t_hit, side="right"))
-                res.t, res.y, res.fired = t_hit, again.y, again.fired
-                res.y_eval = res.y_eval[:, :kept]
-                res.section_hits = [h for h in res.section_hits if h.t <= t_hit]
-                return res
-            j += 1
+
+        def rerun(sub: ArcRequest, level: int) -> ArcResult:
+            # a solver of its own, whose largest step makes at least RERUN_STEPS steps of the flagged one
+            cap = (sub.t_end - sub.t0) / step_check.RERUN_STEPS
+            limit = self.settings["max_step"]
+            cap = cap if limit is None or limit == np.inf else min(cap, limit)
+            directions = [-1] * len(sub.guards) + [int(s.direction) for s in sub.sections]
+            fine, fine_events = self._build(arc, len(sub.guards), directions, cap)
+            again, sub_times, sub_states = self._whole_arc(sub, fine, fine_events)
+            return self._checked(sub, again, sub_times, sub_states, arc, level)
+
+        return step_check.checked(request, res, times, states, rerun, depth)
 
     def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> tuple[ArcResult, np.ndarray, np.ndarray]:
         """The arc stepped from Python one internal step at a time, its states read at the requested times
@@ -355,7 +329,7 @@ class CvodeIntegrator(SundialsIntegrator):
         sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None):
         from sksundae.cvode import CVODE
 
         p0, F, w = self._p0, self._F, self._w
@@ -369,7 +343,7 @@ class CvodeIntegrator(SundialsIntegrator):
         def eventsfn(t, y, events):
             sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
 
-        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn, max_step)
         return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
 
     def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:
@@ -431,7 +405,7 @@ class Ida(SundialsIntegrator):
         sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None):
         from sksundae.ida import IDA
 
         p = self._p
@@ -451,7 +425,7 @@ class Ida(SundialsIntegrator):
 
         mode = np.asarray(self._pending_mode, dtype=np.int64)
         algebraic = [n + i for i in range(nb)] + [2 * i + 1 for i in range(nb) if mode[i] == 0]
-        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn, max_step)
         return IDA(resfn, jacfn=jacfn, algebraic_idx=sorted(algebraic), **opts), eventsfn
 
     def _solver(self, request: ArcRequest):

@@ -85,3 +85,46 @@ def test_options_are_validated():
         nsbench.get_integrator("scipy-dop853", rtol=-1)
     with pytest.raises(nsbench.ConfigError, match="unknown option 'h'"):
         nsbench.get_integrator("scipy-dop853", h=0.1)
+
+
+def _sequence(events) -> list:
+    return list(zip(events["kind"], events["block"]))
+
+
+def test_the_case_1_point_where_3001_check_points_missed_an_excursion_of_dop853_at_rtol_1e12():
+    """Issue 48, item 9: 2-DOF case 1 at v0 = 0.44 over [0, 300], dop853 at its tightest level. Looked at only
+    at its step ends and 3001 check points (simulate's default before), it ended 'success' with 6 events
+    where exact has 8 (the excursion after t = 6.54 is shorter than the points' spacing, 0.1); 30001
+    points flag it. With its per-step check it gives exact's sequence."""
+    p = nsbench.get_problem("two-dof", case=1, v0=0.44)
+    tight = {"rtol": 1e-12, "atol": 1e-14}
+    ref = nsbench.simulate(p, "exact", 300.0).events
+    old = nsbench.simulate(p, _Unchecked(**tight), 300.0, check_points=3001)
+    assert old.ok and len(old.events) == 6 and len(ref) == 8  # the false success the check removes
+    assert nsbench.simulate(p, _Unchecked(**tight), 300.0, check_points=30001).status is nsbench.Status.EVENT_MISSED
+    new = nsbench.simulate(p, "scipy-dop853", 300.0, options=tight)
+    assert new.ok and _sequence(new.events) == _sequence(ref)
+    assert max_time_error(new.events, ref) <= 1e-8  # as test_dop853_tight_reproduces_exact_over_300
+
+
+def test_the_random_study_set_where_dop853_logged_a_block_2_slip_late():
+    """Issue 48, item 9: set 180 of the random study (case 3, cubic springs, fs = fr on both blocks), dop853 at
+    its default tolerance, run as the study runs it (the reference's 20 dense points, no other check):
+    it stepped over block 1's stick at 4.487 and the slip after it and logged block 2's slip at 4.830,
+    0.086 after the reference's 4.745, as 'success'. With its per-step check it gives the reference's
+    sequence (the reference: heyoka-q at its tightest tolerance on a cubic problem)."""
+    from tests.test_random_study import parameter_sets
+
+    case, params, t_end = parameter_sets()[180]
+    p = nsbench.get_problem("two-dof", case=case, **params)
+    grid = np.linspace(0.0, t_end, 20)
+    ref = nsbench.simulate(p, "reference", t_end, t_eval=grid).events
+    old = nsbench.simulate(p, _Unchecked(), t_end, t_eval=grid, check_points=0)
+    assert old.ok and _sequence(old.events) != _sequence(ref)
+    slips = old.events[(old.events["kind"] == "slip") & (old.events["block"] == 2)]
+    ref_slips = ref[(ref["kind"] == "slip") & (ref["block"] == 2)]
+    assert 0.08 < float(slips["t"].iloc[0]) - float(ref_slips["t"].iloc[0]) < 0.09
+    new = nsbench.simulate(p, "scipy-dop853", t_end, t_eval=grid)
+    assert new.ok and _sequence(new.events) == _sequence(ref)
+    # dop853's default tolerance (rtol 1e-8) over t <= 20 bounds its event times against the reference's
+    assert max_time_error(new.events, ref) <= 1e-5

@@ -90,15 +90,19 @@ RERUN_STEPS = 8
 
 
 @jit
-def first_dip(prob, mode, guards, times, states, f, first, stop):
+def first_dip(prob, mode, guards, times, states, f, first, stop, fired):
     """The end index ``j >= first`` of the first step ``[times[j - 1], times[j]]`` (starting before ``stop``) in
     which a guard on its side at both ends may go below zero (:func:`may_dip`), or -1.
 
     ``times``, ``states``: the arc's step ends (and the root that ended it), the rows of the solver's
     state with the problem's states first (a row may carry more: the forcing's cos and sin, friction
     forces); ``guards``: rows ``(kind, index, expected sign)``; ``f``: scratch for the field (as long as
-    the problem's state). A guard exactly on its surface at the arc's start (a phase start) is looked
-    at away from the start only.
+    the problem's state); ``fired``: the guard whose root ended the arc at the last row (-1: none), left
+    out there (it is on its surface). A guard exactly on its surface at the arc's start (a phase start)
+    is looked at away from the start only. At the last row, cut short at the root of the guard that
+    fired, another guard across its surface is flagged too: the root finding did not stop at it,
+    since it had come back by the end of the whole step (elsewhere a guard is across only by the
+    difference of the solver's formulation, a forcing state for instance, and is left to the core).
     """
     n = f.shape[0]
     ng = guards.shape[0]
@@ -125,17 +129,15 @@ def first_dip(prob, mode, guards, times, states, f, first, stop):
         for i in range(n):
             tol = max(tol, abs(y[i]))
         tol = 64.0 * _EPS * max(1.0, tol)
+        last = j == times.shape[0] - 1
         found = False
         for q in range(ng):
             kind, index, sign = guards[q, 0], guards[q, 1], guards[q, 2]
             h1 = sign * law.guard_value(prob, mode, kind, index, t_b, y)
             d1 = sign * law.guard_rate(prob, mode, kind, index, t_b, y, f)
-            if h0[q] >= 0.0:
-                if h1 < -tol:
-                    # across its surface at a step end the root finding did not stop at: the arc's last
-                    # step, cut short at another guard's root, where this guard had come back by the
-                    # step's own end (an excursion the cut made visible)
-                    found = True
+            if h0[q] >= 0.0 and not (last and q == fired):
+                if last and h1 < -tol:
+                    found = True  # across, where the arc's last step was cut short at another guard's root
                 elif h1 > 0.0 and may_dip(h0[q], h1, dt * d0[q], dt * d1, fresh[q] and j == 1):
                     found = True
             h0[q], d0[q] = h1, d1
@@ -165,7 +167,8 @@ def checked(request, res, times: np.ndarray, states: np.ndarray, rerun, depth: i
     scratch = np.empty(problem.n_states)
     j = 1
     while True:
-        j = int(first_dip(prob, mode, guards, times, states, scratch, j, float(res.t)))
+        fired = -1 if res.fired is None else int(res.fired)
+        j = int(first_dip(prob, mode, guards, times, states, scratch, j, float(res.t), fired))
         if j < 0:
             return res
         start = np.array(states[j - 1, : problem.n_states], dtype=float)

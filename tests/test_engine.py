@@ -303,16 +303,20 @@ class _UncheckedDop853(ScipyDOP853):
 
 
 def test_every_built_in_event_driven_integrator_checks_its_own_steps():
-    # what check_points_for reads: an integrator added without it is checked at DEFAULT_CHECK_POINTS states
+    """What check_points_for reads. henon-rk4 tests each step too (the cubic Hermite of each guard), but its
+    fixed step is not sized to the guards: at h = 1.7 on case 1 the test sees 1 of exact's 8 events
+    (tests/integrators/test_henon_rk4.py), so it keeps the check points. An integrator added without the
+    declaration is checked at DEFAULT_CHECK_POINTS states."""
     from nsbench.engine import DEFAULT_CHECK_POINTS, check_points_for
     from nsbench.integrators import integrator_class, list_integrators
     from nsbench.integrators.whole import is_whole_system
 
+    points = {}
     for name in list_integrators():
-        cls = integrator_class(name)
-        if not is_whole_system(cls()):
-            assert cls.capabilities.checks_steps, name
-            assert check_points_for(cls()) == 0, name
+        if not is_whole_system(integrator_class(name)()):
+            points[name] = check_points_for(integrator_class(name)())
+    assert {name for name, k in points.items() if k} == {"henon-rk4"}
+    assert points["henon-rk4"] == DEFAULT_CHECK_POINTS
     assert check_points_for(_UncheckedDop853()) == DEFAULT_CHECK_POINTS
     assert check_points_for(nsbench.get_integrator("moreau-jean")) == 0  # events inferred: no state checked
 
@@ -335,7 +339,7 @@ def test_a_crossing_pair_inside_one_step_is_located_by_the_integrators_own_check
     between = tight[(tight["t"] > default.events["t"].iloc[-1]) & (tight["t"] <= default.t_final)]
     assert ("stick", 1) in list(zip(between["kind"], between["block"]))
     checked = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose)
-    assert checked.ok and checked.counters.extra["check_searches"] >= 1
+    assert checked.ok and checked.counters.extra["check_reruns"] >= 1
     assert list(zip(checked.events["kind"], checked.events["block"])) == list(zip(tight["kind"], tight["block"]))
     # the tolerance of the loose run (1e-6) bounds its event times against the tight run's
     assert np.abs(checked.events["t"].to_numpy() - tight["t"].to_numpy()).max() < 1e-4

@@ -134,11 +134,12 @@ def check_points_for(integ: Integrator) -> int:
     """The check points of a run of ``integ`` when the caller gives none (``check_points=None``).
 
     0 for an integrator that checks every guard on every accepted step itself
-    (``capabilities.checks_steps``: every built-in event-driven integrator; it locates a
-    crossing pair inside one step instead of stepping over it) and for a whole-system
-    method (its events are inferred from its steps; no state of the core is checked);
-    :data:`DEFAULT_CHECK_POINTS` evenly spaced states over the span otherwise (a plug-in
-    whose root finding sees only the signs at its step ends), with or without a ``t_eval``.
+    (``capabilities.checks_steps``: every built-in event-driven integrator but ``henon-rk4``,
+    whose fixed step is not sized to the guards; it locates a crossing pair inside one step
+    instead of stepping over it) and for a whole-system method (its events are inferred from
+    its steps; no state of the core is checked); :data:`DEFAULT_CHECK_POINTS` evenly spaced
+    states over the span otherwise (``henon-rk4``, a plug-in whose root finding sees only the
+    signs at its step ends), with or without a ``t_eval``.
     """
     if is_whole_system(integ) or integ.capabilities.checks_steps:
         return 0
@@ -573,9 +574,9 @@ def simulate(
         ``t_eval``: a guard on its wrong side and back on its own side inside one
         arc ends the run with ``EVENT_MISSED`` (docs/core.md, "Missed events").
         ``None`` (the default): :func:`check_points_for`, none for an integrator that
-        checks every guard on each of its steps itself (every built-in event-driven
-        integrator: a crossing pair inside one step is located, not stepped over),
-        :data:`DEFAULT_CHECK_POINTS` for one that does not. With 0, an integrator
+        declares a check of every guard on each of its steps (every built-in event-driven
+        integrator but ``henon-rk4``: a crossing pair inside one step is located, not
+        stepped over), :data:`DEFAULT_CHECK_POINTS` for one that does not. With 0, an integrator
         that does not check its steps and no ``t_eval``, no state inside a step is
         seen and a crossing pair inside one step goes unnoticed; callers that compare
         the run with a reference themselves (the bench) pass 0 so that only the

@@ -49,13 +49,9 @@ MARGIN = 0.125
 
 
 @hot
-def may_dip(h_a, h_b, d_a, d_b, fresh):
+def may_dip(h_a, h_b, d_a, d_b):
     """Whether a guard with values ``h_a, h_b >= 0`` and step-scaled rates ``d_a, d_b`` at a step's ends may go
-    below zero inside the step (see the module docstring).
-
-    ``fresh``: the step starts on the guard's own surface (``h_a = 0``, an arc's first step); minima within a
-    millionth of the step from its start are then the start itself, not a dip.
-    """
+    below zero inside the step (see the module docstring)."""
     reach = abs(d_a) + abs(d_b)
     # p(s) >= min(h_a, h_b) - (4/27) reach on the whole step: far from zero, no minimum comes near it
     if min(h_a, h_b) > (4.0 / 27.0 + MARGIN) * reach:
@@ -74,10 +70,9 @@ def may_dip(h_a, h_b, d_a, d_b, fresh):
             return False
         sq = np.sqrt(disc)
         r0, r1 = (-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)
-    skip = 1e-6 if fresh else 0.0
     for k in range(2):
         s = r0 if k == 0 else r1
-        if skip < s < 1.0 and 6.0 * a * s + 2.0 * b > 0.0 and ((a * s + b) * s + d_a) * s + h_a <= MARGIN * reach:
+        if 0.0 < s < 1.0 and 6.0 * a * s + 2.0 * b > 0.0 and ((a * s + b) * s + d_a) * s + h_a <= MARGIN * reach:
             return True
     return False
 
@@ -99,7 +94,9 @@ def first_dip(prob, mode, guards, times, states, f, first, stop, fired):
     forces); ``guards``: rows ``(kind, index, expected sign)``; ``f``: scratch for the field (as long as
     the problem's state); ``fired``: the guard whose root ended the arc at the last row (-1: none), left
     out there (it is on its surface). A guard exactly on its surface at the arc's start (a phase start)
-    is looked at away from the start only. At the last row, cut short at the root of the guard that
+    is not looked at on the arc's first step: how it leaves its surface is the start rule's (and, at
+    ``fs = fr``, a double zero whose cubic says nothing; integrated again from there, with short steps,
+    SUNDIALS' root finding read the rounding of the double zero as a crossing). At the last row, cut short at the root of the guard that
     fired, another guard across its surface is flagged too: the root finding did not stop at it,
     since it had come back by the end of the whole step (elsewhere a guard is across only by the
     difference of the solver's formulation, a forcing state for instance, and is left to the core).
@@ -138,7 +135,7 @@ def first_dip(prob, mode, guards, times, states, f, first, stop, fired):
             if h0[q] >= 0.0 and not (last and q == fired):
                 if last and h1 < -tol:
                     found = True  # across, where the arc's last step was cut short at another guard's root
-                elif h1 > 0.0 and may_dip(h0[q], h1, dt * d0[q], dt * d1, fresh[q] and j == 1):
+                elif h1 > 0.0 and not (fresh[q] and j == 1) and may_dip(h0[q], h1, dt * d0[q], dt * d1):
                     found = True
             h0[q], d0[q] = h1, d1
         if found:

@@ -58,7 +58,6 @@ class HenonRK4(CompiledArcs):
         supports_nonlinear=True,
         precision="double",
         step_option="h",
-        checks_steps=True,
     )
     options = {"h": Option(0.01, float, lower=0.0, doc="step size (time units)")}
     accuracy_levels = ({"h": 0.04}, {"h": 0.01}, {"h": 0.0025}, {"h": 0.000625})

@@ -160,6 +160,9 @@ class EventRecord:
         1-based index of the element whose guard fired (the event log's ``block``).
     y, mode
         The state and the mode after each event, shapes ``(k, n_states)``, ``(k, mode_size)``.
+    located
+        A whole-system method's own time of each event (``SystemResult.switch_times``), NaN
+        where it located none; ``None``: it locates none.
     """
 
     t: np.ndarray
@@ -167,6 +170,7 @@ class EventRecord:
     block: np.ndarray
     y: np.ndarray
     mode: np.ndarray
+    located: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -268,7 +272,8 @@ def _records(raw, grid: np.ndarray, merged: np.ndarray | None) -> tuple[EventRec
     times the core saw when check points were added to ``grid`` (None: it saw ``grid`` alone)."""
     rec, k, h = raw.records, raw.n_events, raw.n_hits
     ev = rec.events
-    events = EventRecord(ev.t[:k], ev.kind[:k], (ev.index[:k] + 1).astype(np.int64), ev.y[:k], ev.mode[:k])
+    located = None if raw.located_t is None else np.asarray(raw.located_t, dtype=float)[:k]
+    events = EventRecord(ev.t[:k], ev.kind[:k], (ev.index[:k] + 1).astype(np.int64), ev.y[:k], ev.mode[:k], located)
     hits = HitRecord(rec.hits.index[:h], rec.hits.t[:h], rec.hits.y[:h])
     if merged is None:
         dense = DenseRecord(grid[: raw.n_dense], rec.dense.y[: raw.n_dense])
@@ -444,7 +449,8 @@ def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
     """The event log: ``t, kind, block, <states>, mode`` (the state and the mode after each event).
 
     ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
-    index of the element its guard belongs to, ``mode`` the problem's name of the mode.
+    index of the element its guard belongs to, ``mode`` the problem's name of the mode;
+    ``t_located`` after ``t`` where the method located its own switches (``events.located``).
     """
     import pandas as pd
 
@@ -463,6 +469,8 @@ def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
             cache[key] = problem.mode_name(tuple(int(v) for v in row))
         texts.append(cache[key])
     frame["mode"] = pd.Series(texts, dtype=object)
+    if events.located is not None:
+        frame.insert(1, "t_located", events.located.copy())
     return frame
 
 

@@ -68,6 +68,9 @@ class RawRun:
     t0: float
     start_mode: tuple[int, ...]
     prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
+    #: a whole-system method's own time of each event (``SystemResult.switch_times``), NaN where it located
+    #: none; ``None``: it locates none (the event log then has no ``t_located`` column)
+    located_t: np.ndarray | None = None
 
 
 _NO_KERNEL: dict[str, Any] = {}

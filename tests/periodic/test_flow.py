@@ -74,6 +74,15 @@ def test_a_flow_that_steps_over_a_crossing_fails_instead_of_giving_a_pass():
         flow = HybridFlow(p, Unchecked.name, loose)
         with pytest.raises(ArithmeticError, match="event missed"):
             flow.run(0.0, y0, mode, 40.0)
+        # a run that nothing checked (no check of the integrator's, no check points) is refused even where
+        # it ends 'success' (the flow's runs never ask for that; a guard against a caller that would)
+        from nsbench.engine import run
+        from nsbench.periodic.flow import _require_ok
+
+        bare = run(p, flow.integ, 40.0, check_points=0)
+        assert bare.ok
+        with pytest.raises(ArithmeticError, match="crossings unchecked"):
+            _require_ok(bare)
     finally:
         registry.unregister("integrators", Unchecked.name)
     checked = HybridFlow(p, "scipy-dop853", loose).run(0.0, y0, mode, 40.0)

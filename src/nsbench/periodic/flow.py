@@ -350,6 +350,12 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
 
 
 def _require_ok(raw) -> None:
-    """``ArithmeticError`` unless the engine's run reached its end (or its stop) successfully."""
+    """``ArithmeticError`` unless the engine's run reached its end (or its stop) successfully with its
+    crossings checked (:attr:`nsbench.engine.RunRecord.crossings_checked`): a pass of a run that could
+    have stepped over a crossing unseen is never part of an orbit."""
     if not raw.ok:
         raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
+    if not raw.crossings_checked:
+        raise ArithmeticError(
+            "flow run with its crossings unchecked (an integrator that checks no step and no check points)"
+        )

@@ -128,3 +128,16 @@ def test_the_random_study_set_where_dop853_logged_a_block_2_slip_late():
     assert new.ok and _sequence(new.events) == _sequence(ref)
     # dop853's default tolerance (rtol 1e-8) over t <= 20 bounds its event times against the reference's
     assert max_time_error(new.events, ref) <= 1e-5
+
+
+def test_where_no_step_is_flagged_the_checked_run_is_the_unchecked_run_bit_for_bit():
+    # the check only reads the arc's step ends after the arc: with no step flagged (none on 2-DOF case 2 at the
+    # default tolerance, benchmarks/step_check_cost.py) events, states and counters are those of the bare run
+    p = nsbench.get_problem("two-dof", case=2)
+    on = nsbench.simulate(p, "scipy-dop853", 300.0, check_points=0)
+    off = nsbench.simulate(p, _Unchecked(), 300.0, check_points=0)
+    assert on.ok and off.ok and on.counters.extra["check_reruns"] == 0 and len(on.events) == 182
+    assert (on.counters.nfev, on.counters.nsteps) == (off.counters.nfev, off.counters.nsteps)
+    numeric = ["t", *p.state_names]
+    np.testing.assert_array_equal(on.events[numeric].to_numpy(), off.events[numeric].to_numpy())
+    assert list(on.events["mode"]) == list(off.events["mode"])

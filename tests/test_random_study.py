@@ -223,6 +223,10 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
     assert not refs, "\n".join(refs)
     assert not inconsistent, "\n".join(inconsistent)  # every success off the sequence is flagged
     assert not wrong, "\n".join(wrong)
+    # fails at c07a67f on one run of 1800, as on main: set 223 (case 3, fs = fr on block 2), ida logs block 2's
+    # slip at 7.284 and a 'reverse' at the same instant (IDA's root finding reads the rounding of the velocity
+    # guard's double zero at the slip's start as a crossing); an event too many, not a stepped-over crossing
+    # (no step is flagged, the adapter without its check gives the same); open, not excused here
     assert not false_successes, "\n".join(false_successes)
     # every planned run ran: none refused its set
     assert covered == {n: k for n, k in planned.items() if k}, (covered, planned)

@@ -210,6 +210,10 @@ class HybridFlow:
         from nsbench.engine import run
         from nsbench.problems.modes import EVENT_KINDS
 
+        if span == 0.0:  # no time to flow (a guess with no transient): the start itself, no run (the engine
+            # refuses t_end = t0); the next pass from it applies the start rule as a run would
+            y = np.asarray(y0, dtype=float).copy()
+            return Pass(float(t0), y, tuple(int(m) for m in mode0), 0.0, y.copy(), tuple(int(m) for m in mode0), ())
         names = getattr(self.problem, "event_kinds", ()) or EVENT_KINDS
         raw = run(
             self.problem,
@@ -242,10 +246,13 @@ class HybridFlow:
         )
 
     def states(self, t0: float, y0: np.ndarray, mode0: Mode, times: np.ndarray) -> np.ndarray:
-        """States at the sorted ``times`` (all ``> t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
+        """States at the sorted ``times`` (all ``>= t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
         from nsbench.engine import run
 
         times = np.ascontiguousarray(times, dtype=float)
+        if times[-1] == t0:  # every time is the start (a one-period strobe of an orbit starting on it): y0
+            # itself, no run (the engine refuses t_end = t0)
+            return np.tile(np.asarray(y0, dtype=float), (times.size, 1))
         raw = run(
             self.problem,
             self.integ,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import nsbench
 from nsbench import registry
 from nsbench.integrators import ArcResult, Capabilities, Integrator
+from nsbench.integrators.scipy_ import ScipyDOP853
 from nsbench.results import Status
 from nsbench.sections import StateSection, TimeSection, peaks, stroboscopic
 
@@ -295,21 +297,152 @@ def test_budgets_of_numpy_integers_are_accepted(case1):
     ).ok
 
 
-def test_a_plain_call_is_checked_for_crossings_stepped_over_by_default():
-    """``simulate`` without ``t_eval`` checks its guards at DEFAULT_CHECK_POINTS states: the loose dop853 run
-    of 2-DOF case 3 that steps over a stick (tests/cli/test_cli.py) ends 'event missed', not 'success';
-    ``check_points=0`` is the unchecked run, which reports success with events missing."""
+class _UncheckedDop853(ScipyDOP853):
+    """``scipy-dop853`` as ``solve_ivp`` runs it: only the signs at its step ends are looked at."""
+
+    name = "test-dop853-unchecked"
+    check_steps = False
+    capabilities = dataclasses.replace(ScipyDOP853.capabilities, checks_steps=False)
+
+
+def test_every_built_in_event_driven_integrator_checks_its_own_steps():
+    """What check_points_for reads. henon-rk4 tests each step too (the cubic Hermite of each guard), but its
+    fixed step is not sized to the guards: at h = 1.7 on case 1 the test sees 1 of exact's 8 events
+    (tests/integrators/test_henon_rk4.py), so it keeps the check points. An integrator added without the
+    declaration is checked at DEFAULT_CHECK_POINTS states."""
+    from nsbench.engine import DEFAULT_CHECK_POINTS, check_points_for
+    from nsbench.integrators import integrator_class, list_integrators
+    from nsbench.integrators.whole import is_whole_system
+
+    points = {}
+    for name in list_integrators():
+        if not is_whole_system(integrator_class(name)()):
+            points[name] = check_points_for(integrator_class(name)())
+    assert {name for name, k in points.items() if k} == {"henon-rk4"}
+    assert points["henon-rk4"] == DEFAULT_CHECK_POINTS
+    assert check_points_for(_UncheckedDop853()) == DEFAULT_CHECK_POINTS
+    assert check_points_for(nsbench.get_integrator("moreau-jean")) == 0  # events inferred: no state checked
+
+
+def test_a_crossing_pair_inside_one_step_is_located_by_the_integrators_own_check():
+    """The loose dop853 run of 2-DOF case 3 steps over block 1's stick near t = 25.68 when only its step ends
+    are looked at (tests/cli/test_cli.py): checked at DEFAULT_CHECK_POINTS states it ends 'event missed',
+    unchecked it ends 'success' with events missing. With its per-step check it finds the stick: the
+    sequence of the reference (heyoka's Taylor method in extended precision on this cubic problem, an
+    independent method whose event detection isolates every root of a guard on each step), with no
+    check point."""
     from nsbench.engine import DEFAULT_CHECK_POINTS
 
     problem = nsbench.get_problem("two-dof", case=3)
     loose = {"rtol": 1e-6, "atol": 1e-8}
-    default = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose)
-    explicit = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose, check_points=DEFAULT_CHECK_POINTS)
-    unchecked = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose, check_points=0)
-    assert default.status.value == "event missed" and default.t_final == explicit.t_final
-    assert unchecked.ok
-    # the unchecked success is false: a run six orders tighter has a stick of block 1 after the loose run's
-    # last event and before the checked run's end
-    tight = nsbench.simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-12, "atol": 1e-14}).events
+    tight = nsbench.simulate(problem, "reference", 40.0).events
+    default = nsbench.simulate(problem, _UncheckedDop853(**loose), 40.0)
+    explicit = nsbench.simulate(problem, _UncheckedDop853(**loose), 40.0, check_points=DEFAULT_CHECK_POINTS)
+    unchecked = nsbench.simulate(problem, _UncheckedDop853(**loose), 40.0, check_points=0)
+    assert default.status is Status.EVENT_MISSED and default.t_final == explicit.t_final
+    assert unchecked.ok and len(unchecked.events) < len(tight)
     between = tight[(tight["t"] > default.events["t"].iloc[-1]) & (tight["t"] <= default.t_final)]
     assert ("stick", 1) in list(zip(between["kind"], between["block"]))
+    checked = nsbench.simulate(problem, "scipy-dop853", 40.0, options=loose)
+    assert checked.ok and checked.counters.extra["check_reruns"] >= 1
+    assert list(zip(checked.events["kind"], checked.events["block"])) == list(zip(tight["kind"], tight["block"]))
+    # the tolerance of the loose run (1e-6) over t <= 40 bounds its event times against the reference's
+    assert np.abs(checked.events["t"].to_numpy() - tight["t"].to_numpy()).max() < 1e-4
+
+
+def test_run_gives_the_buffers_simulate_makes_its_frames_of(case2):
+    from nsbench.engine import prepare, run
+
+    grid = np.linspace(0.0, 40.0, 81)
+    sec = [peaks(case2)]
+    res = nsbench.simulate(case2, "exact", 40.0, t_eval=grid, sections=sec)
+    integ = nsbench.get_integrator("exact")
+    prepare(case2, integ)
+    rec = run(case2, integ, 40.0, t_eval=grid, sections=sec)
+    assert rec.ok and rec.checked_steps and rec.check_points == 0 and rec.crossings_checked
+    ev = res.events
+    np.testing.assert_array_equal(rec.events.t, ev["t"].to_numpy())
+    np.testing.assert_array_equal(rec.events.block, ev["block"].to_numpy())
+    assert [case2.event_kinds[k] for k in rec.events.kind] == list(ev["kind"])
+    np.testing.assert_array_equal(rec.events.y, ev[list(case2.state_names)].to_numpy())
+    assert [case2.mode_name(tuple(m)) for m in rec.events.mode] == list(ev["mode"])
+    np.testing.assert_array_equal(rec.hits.t, res.sections["t"].to_numpy())
+    np.testing.assert_array_equal(rec.dense.t, grid)
+    np.testing.assert_array_equal(rec.dense.y, res.trajectory[list(case2.state_names)].to_numpy())
+    assert rec.n_events_total == len(ev) and rec.counters.n_events == len(ev) and not rec.stopped
+
+
+def test_check_points_stay_out_of_the_dense_record_and_a_repeated_time_keeps_its_rows(case2):
+    from nsbench.engine import prepare, run
+
+    integ = _UncheckedDop853()
+    prepare(case2, integ)
+    times = np.array([1.0, 2.5, 2.5, 7.0])
+    rec = run(case2, integ, 8.0, t_eval=times)
+    assert rec.check_points == 3001 and not rec.checked_steps and rec.crossings_checked
+    np.testing.assert_array_equal(rec.dense.t, times)
+    np.testing.assert_array_equal(rec.dense.y[1], rec.dense.y[2])
+    bare = run(case2, integ, 8.0, t_eval=times, check_points=0)
+    # the same steps with or without the check points' dense states: the same states at the requested times
+    np.testing.assert_array_equal(bare.dense.y, rec.dense.y)
+    # four requested times are no check: only the integrator's own or the engine's check points count
+    assert not bare.crossings_checked and not run(case2, integ, 8.0, check_points=0).crossings_checked
+
+
+def test_run_hands_the_core_what_simulate_hands_it(monkeypatch):
+    """Every command runs a problem under simulate's defaults: the same budgets, the storm span scaled by
+    the problem's time scale (a sweep point once got 1e-9 absolute), the same check points."""
+    import nsbench.engine as engine
+
+    p = nsbench.get_problem("two-dof", case=1, dimensional=True, k1=0.01)
+    assert p.time_scale == 10.0
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return run_hybrid(*args, **kwargs)
+
+    run_hybrid = engine.run_hybrid
+    monkeypatch.setattr(engine, "run_hybrid", spy)
+    for integ in (nsbench.get_integrator("exact"), _UncheckedDop853()):
+        seen.clear()
+        nsbench.simulate(p, integ, 30.0)
+        engine.prepare(p, integ)
+        engine.run(p, integ, 30.0)
+        a, b = seen[-2], seen[-1]
+        assert a["zeno_span"] == b["zeno_span"] == 1e-8
+        for key in ("max_steps", "max_events", "zeno_events", "accumulation", "t0", "mode"):
+            assert a[key] == b[key], key
+        np.testing.assert_array_equal(a["t_eval"], b["t_eval"])  # the check points of each integrator
+        assert a["t_eval"].size == (0 if integ.capabilities.checks_steps else 3001)
+
+
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(t_end=-1.0), "must be greater than t0"),
+        (dict(t_end=1.0, y0=[0.0]), "needs 4 states"),
+        (dict(t_end=1.0, mode=(0,)), "has 1 entries"),
+        (dict(t_end=1.0, max_steps=0), "max_steps = 0"),
+        (dict(t_end=1.0, check_points=1), "check_points = 1"),
+        (dict(t_end=1.0, sections=[StateSection("s", (1.0, 0.0, 0.0))]), "3 coefficients"),
+        (dict(t_end=1.0, stop_kind="bounce"), "stop_kind 'bounce'"),
+    ],
+)
+def test_run_checks_its_input_as_simulate_does(case1, kwargs, fragment):
+    from nsbench.engine import prepare, run
+
+    integ = nsbench.get_integrator("exact")
+    prepare(case1, integ)
+    with pytest.raises(nsbench.ConfigError, match=re.escape(fragment)):
+        run(case1, integ, **kwargs)
+
+
+def test_run_refuses_the_core_only_controls_to_a_whole_system_method(case1):
+    from nsbench.engine import prepare, run
+
+    integ = nsbench.get_integrator("moreau-jean")
+    prepare(case1, integ)
+    assert run(case1, integ, 5.0).ok
+    with pytest.raises(nsbench.ConfigError, match="a run with stop_kind, stop_count needs an event-driven"):
+        run(case1, integ, 5.0, stop_kind="slip", stop_count=1)

@@ -2,10 +2,12 @@
 
 Layers, from the ground up: ``model`` (the compiled ground floor: the law ABI,
 the generic rules, the loop) below ``problems`` and ``integrators``, below the
-core's driver ``hybrid``, below ``engine`` (``simulate``), below the apps
-(``bench``, ``bifurcation``, ``periodic``, ``testing``), below ``cli``. The
-test reads every module's imports (deferred ones inside functions included)
-with ``ast``.
+core's driver ``hybrid``, below ``engine`` (``simulate`` and ``run``), below
+``certify`` (checking a reference log), below the apps (``bench``,
+``bifurcation``, ``periodic``, ``testing``), below ``cli``. Only the engine and
+the integrators reach the core's driver: every app runs a problem through the
+engine, under its defaults and its checks. The test reads every module's
+imports (deferred ones inside functions included) with ``ast``.
 """
 
 from __future__ import annotations
@@ -86,11 +88,47 @@ def _package_edges() -> dict[tuple[str, str], list[str]]:
         ("hybrid", "bench"),
         ("engine", "bench"),
         ("engine", "cli"),
+        ("engine", "certify"),
+        ("certify", "bench"),
+        ("certify", "bifurcation"),
+        ("certify", "periodic"),
+        ("certify", "testing"),
+        ("certify", "cli"),
     ],
 )
 def test_a_lower_layer_never_imports_a_higher_one(lower, upper):
     offending = _package_edges().get((lower, upper), [])
     assert not offending, f"{lower} imports {upper}: {offending}"
+
+
+#: The packages and modules that may import the core's driver (``nsbench.hybrid``) besides itself.
+HYBRID_USERS = ("engine", "integrators")
+
+
+def test_only_the_engine_and_the_integrators_import_the_core_driver():
+    # sweeps, Lyapunov exponents, periodic orbits and continuation once called run_hybrid with
+    # defaults of their own and no missed-crossing check; they run through nsbench.engine.run now
+    edges = _package_edges().items()
+    offending = sorted(edge for (a, b), found in edges if b == "hybrid" and a not in HYBRID_USERS for edge in found)
+    assert not offending, offending
+
+
+def test_the_simulate_command_imports_no_part_of_the_bench():
+    # `nsbench simulate --integrator reference` certifies its log through nsbench.certify, below the bench:
+    # the command run in a fresh interpreter loads no module of nsbench.bench
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from nsbench.cli import main\n"
+        "code = main(['simulate', 'two-dof', '--case', '1', '--integrator', 'reference', '--t-end', '5'])\n"
+        "print(code, sorted(m for m in sys.modules if m.startswith('nsbench.bench')))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "certified error of this log" in done.stdout, done.stdout  # the certification ran
+    assert done.stdout.strip().splitlines()[-1] == "0 []", done.stdout
+    assert not [t for t in _imports(MODULES["nsbench.certify"]) if t.startswith("nsbench.bench")]
 
 
 def test_no_import_circle_among_problems_integrators_and_the_core():

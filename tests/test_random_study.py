@@ -20,7 +20,11 @@ unforced linear sets with fs = fr on both blocks, about a dozen). What must hold
   counted), and the metrics agree with a direct comparison of the two logs;
 - a reference-grade integrator (``exact``, ``exact-mp``, heyoka's extended
   precisions, ``reference``) is on the certified reference's sequence unless the
-  set is ill-conditioned there (a start moved by 1e-9 changes the sequence).
+  set is ill-conditioned there (a start moved by 1e-9 changes the sequence);
+- no false success: an event-driven integrator (each checks every guard on each of
+  its steps) that ends ``success`` is on the reference's sequence wherever the set
+  is well-conditioned (issue 48, item 9: ``scipy-dop853`` once stepped over a stick
+  and logged a block-2 slip 0.08 late, as a success).
 
 Spans are short (20; 60 for the grazing sets, where the motion must reach the
 periodic orbit): 5 min 23 s for the 300 sets and 1800 runs of 21 integrators on 2
@@ -139,6 +143,8 @@ def study_set(
             continue
         row = {
             "integrator": name,
+            "event_driven": integrator_class(name).capabilities.family == "event-driven"
+            and not getattr(integrator_class(name), "whole_system", False),
             "status": res.status.value,
             "message": res.message,
             "reference_grade": integrator_class(name).capabilities.reference_grade,
@@ -176,8 +182,10 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
     assert len(sets) == 300
     plan = assign(sets, names)
     planned = {n: sum(n in pick for pick in plan) for n in names}
-    # every integrator has sets it accepts (siconos-moreau-jean: unforced, fs = fr on both blocks)
-    assert min(planned.values()) >= 10, planned
+    # an integrator for other problems only (siconos-event-driven: the bouncing ball) has no set here
+    others = [n for n, k in planned.items() if k == 0 and not any(accepting(c, q, [n]) for c, q, _ in sets)]
+    # every other integrator has sets it accepts (siconos-moreau-jean: unforced, fs = fr on both blocks)
+    assert min(k for n, k in planned.items() if n not in others) >= 10, planned
     results, faults = [], []
     with JobPool(2) as pool:
         for i, (case, params, t_end) in enumerate(sets):
@@ -190,7 +198,7 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
     assert not faults, "\n".join(faults)
     assert len(results) == 300
     covered = {}
-    wrong, inconsistent, refs = [], [], []
+    wrong, inconsistent, refs, false_successes = [], [], [], []
     for r in results:
         if r["reference_status"] == "ok":
             # a reference in use agrees with its independent check over the whole span
@@ -205,6 +213,8 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
             if run["sequence_ok"] != run["same_sequence"]:
                 inconsistent.append(f"set {r['index']} {run['integrator']}: metrics say {run['sequence_ok']}")
             ill_conditioned = not math.isfinite(r["conditioning"])
+            if run["event_driven"] and not run["same_sequence"] and not ill_conditioned:
+                false_successes.append(f"set {r['index']} case {r['case']} {r['params']}: {run['integrator']}")
             if run["reference_grade"] and not run["same_sequence"] and not ill_conditioned:
                 wrong.append(
                     f"set {r['index']} case {r['case']} {r['params']}: {run['integrator']} "
@@ -213,4 +223,10 @@ def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_
     assert not refs, "\n".join(refs)
     assert not inconsistent, "\n".join(inconsistent)  # every success off the sequence is flagged
     assert not wrong, "\n".join(wrong)
-    assert covered == planned, (covered, planned)  # every planned run ran: none refused its set
+    # fails at c07a67f on one run of 1800, as on main: set 223 (case 3, fs = fr on block 2), ida logs block 2's
+    # slip at 7.284 and a 'reverse' at the same instant (IDA's root finding reads the rounding of the velocity
+    # guard's double zero at the slip's start as a crossing); an event too many, not a stepped-over crossing
+    # (no step is flagged, the adapter without its check gives the same); open, not excused here
+    assert not false_successes, "\n".join(false_successes)
+    # every planned run ran: none refused its set
+    assert covered == {n: k for n, k in planned.items() if k}, (covered, planned)

@@ -1,4 +1,4 @@
-"""``nsbench.simulate``: one run of a problem with an integrator, as tidy frames.
+"""``nsbench.simulate``: one run of a problem with an integrator, as tidy frames; :func:`run`: the same run as buffers.
 
 For an event-driven integrator the work is done by the hybrid core (:mod:`nsbench.hybrid`): the compiled loop
 applies the stick/slip/reverse rules of MODEL.md, runs the integrator's compiled
@@ -12,26 +12,46 @@ same records, so the result is the same type with the same columns. This
 module checks the input, merges the requested times with stroboscopic
 sections, times the run (``wall_time``, and ``cpu_time`` on the process's CPU clock;
 ``integrator_time`` is the part spent inside the integrator) and builds the frames.
+
+:func:`run` is the entry below :func:`simulate` for the commands that want the
+run's buffers rather than frames (sweeps, Lyapunov exponents, periodic orbits and
+continuation): the same input checks, the same defaults (the storm span scaled by
+the problem's time scale, the same budgets) and the same missed-crossing check
+(:func:`check_points_for`), with the extra controls those commands need (a start
+mode, stopping at the n-th section hit or event of a kind, keeping only what comes
+after a transient). It returns a :class:`RunRecord` (events, section hits, dense
+states, counters, by name); :func:`simulate` is :func:`run` plus the frames. No
+module above this one imports :mod:`nsbench.hybrid` (``tests/test_layers.py``).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from typing import Any, Iterable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
-import pandas as pd
 
 from nsbench.errors import ConfigError
 from nsbench.integrators import Integrator, get_integrator
+from nsbench.integrators.base import require_event_driven
 from nsbench.integrators.whole import is_whole_system
 from nsbench.hybrid.inference import run_whole
-from nsbench.hybrid.records import event_frame
 from nsbench.hybrid.run import run_hybrid, warm_up
+from nsbench.hybrid.records import extrapolated as extrapolated_events  # noqa: F401 - for the layers above
+from nsbench.hybrid.records import labels as event_labels  # noqa: F401 - for the layers above
+from nsbench.hybrid.records import match_accumulation_tails  # noqa: F401 - for the layers above
 from nsbench.problems.base import HybridProblem
-from nsbench.results import SimulationResult
+from nsbench.results import Counters, SimulationResult
 from nsbench.sections import Section, StateSection, TimeSection
+from nsbench.status import Status
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+# pandas is imported where the frames are made (simulate): the commands that read a run's buffers
+# (a sweep's workers, Lyapunov's) do not load it (about half a CPU second per process)
 
 
 def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | None) -> Integrator:
@@ -102,7 +122,8 @@ def _check_budgets(
 
 #: Largest ``check_points`` (as many dense states as ``nsbench simulate --samples`` allows).
 MAX_CHECK_POINTS = 10**7
-#: ``check_points`` of a run given no ``t_eval`` (the default of ``nsbench simulate --samples``).
+#: ``check_points`` of a run of an integrator that does not check its own steps (the default of
+#: ``nsbench simulate --samples``): see :func:`check_points_for`.
 DEFAULT_CHECK_POINTS = 3001
 
 
@@ -118,22 +139,367 @@ def _check_points(value: Any) -> None:
         )
 
 
+def check_points_for(integ: Integrator) -> int:
+    """The check points of a run of ``integ`` when the caller gives none (``check_points=None``).
+
+    0 for an integrator that checks every guard on every accepted step itself
+    (``capabilities.checks_steps``: every built-in event-driven integrator but ``henon-rk4``,
+    whose fixed step is not sized to the guards; it locates a crossing pair inside one step
+    instead of stepping over it) and for a whole-system method (its events are inferred from
+    its steps; no state of the core is checked); :data:`DEFAULT_CHECK_POINTS` evenly spaced
+    states over the span otherwise (``henon-rk4``, a plug-in whose root finding sees only the
+    signs at its step ends), with or without a ``t_eval``.
+    """
+    if is_whole_system(integ) or integ.capabilities.checks_steps:
+        return 0
+    return DEFAULT_CHECK_POINTS
+
+
+@dataclass(frozen=True)
+class EventRecord:
+    """The events a run kept, one row each, in time order.
+
+    Attributes
+    ----------
+    t
+        Event times.
+    kind
+        Codes into ``problem.event_kinds``.
+    block
+        1-based index of the element whose guard fired (the event log's ``block``).
+    y, mode
+        The state and the mode after each event, shapes ``(k, n_states)``, ``(k, mode_size)``.
+    located
+        A whole-system method's own time of each event (``SystemResult.switch_times``), NaN
+        where it located none; ``None``: it locates none.
+    """
+
+    t: np.ndarray
+    kind: np.ndarray
+    block: np.ndarray
+    y: np.ndarray
+    mode: np.ndarray
+    located: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+
+@dataclass(frozen=True)
+class HitRecord:
+    """The section hits a run kept: ``section`` (index into the run's state sections), ``t``, ``y``."""
+
+    section: np.ndarray
+    t: np.ndarray
+    y: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+
+@dataclass(frozen=True)
+class DenseRecord:
+    """The states at the requested times the run reached (``t`` a prefix of ``t_eval``), ``y`` of shape
+    ``(k, n_states)``; the engine's check points are not among them."""
+
+    t: np.ndarray
+    y: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One run of :func:`run`, by name.
+
+    Attributes
+    ----------
+    status, message
+        How the run ended (:class:`~nsbench.status.Status`) and why.
+    t, t_lo, y, mode
+        Where it ended: time (compensated, ``t + t_lo``), state and mode.
+    t0, start_mode
+        Where it started (the mode after the start rule, before any event).
+    events, hits, dense
+        What it kept (:class:`EventRecord`, :class:`HitRecord`, :class:`DenseRecord`).
+    n_events_total
+        Every event of the run, kept or not (``record_from`` drops the earlier ones).
+    stopped
+        Whether it ended at its ``hit_stop``-th hit or its ``stop_count``-th event of ``stop_kind``.
+    counters
+        Cost counters of the whole run.
+    wall_time, cpu_time
+        Seconds of the run on the wall clock and on the process's CPU clock, without the first
+        use of a mode's data (``prepare_time``).
+    integrator_time
+        Seconds inside the integrator (NaN where compiled code has no clock).
+    prepare_time
+        Seconds building the data of newly visited modes (first use, set-up rather than run).
+    check_points
+        The evenly spaced states the core checked the guards at besides ``t_eval``
+        (:func:`check_points_for`); 0 with ``checked_steps`` true: the integrator checked
+        every step itself.
+    checked_steps
+        Whether the integrator checks every guard on every accepted step.
+    """
+
+    status: Status
+    message: str
+    t: float
+    t_lo: float
+    y: np.ndarray
+    mode: tuple[int, ...]
+    t0: float
+    start_mode: tuple[int, ...]
+    events: EventRecord
+    hits: HitRecord
+    dense: DenseRecord
+    n_events_total: int
+    stopped: bool
+    counters: Counters
+    wall_time: float
+    cpu_time: float
+    integrator_time: float
+    prepare_time: float
+    check_points: int
+    checked_steps: bool
+
+    @property
+    def ok(self) -> bool:
+        return self.status.ok
+
+    @property
+    def crossings_checked(self) -> bool:
+        """Whether a crossing pair the integrator stepped over would have been seen: the integrator checks
+        its steps, or the core checked its evenly spaced check points inside the arcs. A ``t_eval`` of
+        the caller's alone does not count (a handful of strobe times sees no excursion between them)."""
+        return self.checked_steps or self.check_points > 0
+
+
+def _records(raw, grid: np.ndarray, merged: np.ndarray | None) -> tuple[EventRecord, HitRecord, DenseRecord]:
+    """The kept parts of a core run's buffers (views where no copy is needed); ``merged``: the dense
+    times the core saw when check points were added to ``grid`` (None: it saw ``grid`` alone)."""
+    rec, k, h = raw.records, raw.n_events, raw.n_hits
+    ev = rec.events
+    located = None if raw.located_t is None else np.asarray(raw.located_t, dtype=float)[:k]
+    events = EventRecord(ev.t[:k], ev.kind[:k], (ev.index[:k] + 1).astype(np.int64), ev.y[:k], ev.mode[:k], located)
+    hits = HitRecord(rec.hits.index[:h], rec.hits.t[:h], rec.hits.y[:h])
+    if merged is None:
+        dense = DenseRecord(grid[: raw.n_dense], rec.dense.y[: raw.n_dense])
+    else:  # the requested times' rows among the merged ones (a repeated time keeps its rows)
+        rows = np.searchsorted(merged, grid)
+        reached = int(np.count_nonzero(rows < raw.n_dense))
+        dense = DenseRecord(grid[:reached], rec.dense.y[rows[:reached]])
+    return events, hits, dense
+
+
+#: The controls of :func:`run` that only the hybrid core has (a whole-system method runs none of them).
+_CORE_ONLY = ("t0_lo", "mode", "hit_from", "hit_stop", "record_from", "stop_kind", "stop_count")
+
+
+def run(
+    problem: HybridProblem,
+    integ: Integrator,
+    t_end: float,
+    *,
+    t0: float = 0.0,
+    t0_lo: float = 0.0,
+    y0: Iterable[float] | None = None,
+    mode: Sequence[int] | None = None,
+    sections: Sequence[StateSection] = (),
+    t_eval: Iterable[float] | None = None,
+    hit_from: float = -math.inf,
+    hit_stop: int = -1,
+    record_from: float = -math.inf,
+    stop_kind: str | None = None,
+    stop_count: int = 0,
+    max_steps: int = 5_000_000,
+    max_events: int = 1_000_000,
+    zeno_events: int = 64,
+    zeno_span: float | None = None,
+    accumulation: float = DEFAULT_ACCUMULATION,
+    check_points: int | None = None,
+) -> RunRecord:
+    """Run ``problem`` with the set-up integrator ``integ`` over ``[t0, t_end]``: the buffers of the run.
+
+    The entry of the commands that read a run's arrays (sweeps, Lyapunov exponents, periodic
+    orbits, continuation), and what :func:`simulate` runs underneath: the same checks of the
+    input, the same defaults and the same missed-crossing check.
+
+    Parameters
+    ----------
+    problem, integ
+        The problem and an integrator set up for it (:func:`prepare`).
+    t_end, t0, t0_lo, y0, mode
+        The span, the start time (compensated: ``t0 + t0_lo``), state (default: the problem's
+        start state) and mode (default: the mode of the state, then the start rule).
+    sections, t_eval
+        State sections (:class:`~nsbench.sections.StateSection`) to record, and sorted times
+        in ``[t0, t_end]`` for states.
+    hit_from, hit_stop
+        Section hits at ``t >= hit_from`` are kept; the run stops at the ``hit_stop``-th (-1: never).
+    record_from, stop_kind, stop_count
+        Events at ``t >= record_from`` are kept; the run stops after ``stop_count`` of kind
+        ``stop_kind`` (one of ``problem.event_kinds``) among them.
+    max_steps, max_events, zeno_events, zeno_span, accumulation
+        As in :func:`simulate` (``zeno_span`` None: ``1e-9`` times the problem's time scale).
+    check_points
+        As in :func:`simulate`; None: :func:`check_points_for`.
+
+    Returns
+    -------
+    RunRecord
+
+    Raises
+    ------
+    ConfigError
+        Bad input, or a control only the hybrid core has (``mode``, the stops, ``record_from``)
+        asked of a whole-system method.
+    """
+    _check_budgets(max_steps, max_events, zeno_events, zeno_span, accumulation)
+    if check_points is None:
+        check_points = check_points_for(integ)
+    _check_points(check_points)
+    y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
+    if t_eval is None:
+        grid = np.empty(0)
+    else:
+        values = t_eval if isinstance(t_eval, np.ndarray) else list(t_eval)
+        grid = np.ascontiguousarray(values, dtype=float).ravel()
+    t0, t_end = float(t0), float(t_end)
+    _check_inputs(problem, t0, t_end, y, grid)
+    for s in sections:
+        if not isinstance(s, StateSection):
+            raise ConfigError(f"unknown section object {s!r}: the core records state sections (nsbench.sections)")
+        if len(s.coeffs) != problem.n_states:
+            raise ConfigError(
+                f"section {s.name!r} has {len(s.coeffs)} coefficients; {problem.name} has {problem.n_states} states"
+            )
+    if mode is not None and len(mode) != problem.mode_size:
+        raise ConfigError(f"mode {tuple(mode)!r} has {len(mode)} entries; {problem.name} has {problem.mode_size}")
+    merged = None
+    if check_points:  # states only the core's missed-crossing check sees (left out of the dense record)
+        merged = np.union1d(grid, np.linspace(t0, t_end, int(check_points)))
+    dense_times = grid if merged is None else merged
+    span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
+    whole = is_whole_system(integ)
+    if whole:
+        given = (t0_lo != 0.0, mode is not None, hit_from != -math.inf, hit_stop != -1, record_from != -math.inf)
+        given += (stop_kind is not None, stop_count != 0)
+        asked = [name for name, on in zip(_CORE_ONLY, given) if on]
+        if asked:
+            require_event_driven(integ, f"a run with {', '.join(asked)}")
+    tic, cpu_tic = time.perf_counter(), time.process_time()
+    if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
+        raw = run_whole(
+            problem, integ, t_end, t0=t0, y0=y, sections=tuple(sections), t_eval=dense_times, max_steps=max_steps
+        )
+    else:
+        raw = run_hybrid(
+            problem,
+            integ,
+            t_end,
+            t0=t0,
+            t0_lo=t0_lo,
+            y0=y,
+            mode=mode,
+            sections=tuple(sections),
+            t_eval=dense_times,
+            hit_from=hit_from,
+            hit_stop=hit_stop,
+            record_from=record_from,
+            stop_kind=stop_kind,
+            stop_count=stop_count,
+            max_steps=max_steps,
+            max_events=max_events,
+            zeno_events=zeno_events,
+            zeno_span=span,
+            accumulation=accumulation,
+        )
+    # tables built for modes visited for the first time are first use (setup), not the run
+    wall = time.perf_counter() - tic - raw.prepare_time
+    # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts
+    # the time other programs held the core, the CPU clock only the work done (nsbench.bench.compare)
+    cpu = max(0.0, time.process_time() - cpu_tic - raw.prepare_time)
+    events, hits, dense = _records(raw, grid, merged)
+    return RunRecord(
+        status=raw.status,
+        message=raw.message,
+        t=raw.t,
+        t_lo=raw.t_lo,
+        y=raw.y,
+        mode=raw.mode,
+        t0=raw.t0,
+        start_mode=raw.start_mode,
+        events=events,
+        hits=hits,
+        dense=dense,
+        n_events_total=raw.n_events_total,
+        stopped=raw.stopped,
+        counters=raw.counters,
+        wall_time=wall,
+        cpu_time=cpu,
+        integrator_time=raw.integrator_time,
+        prepare_time=raw.prepare_time,
+        check_points=int(check_points),
+        checked_steps=bool(not whole and integ.capabilities.checks_steps),
+    )
+
+
+def prepare(problem: HybridProblem, integ: Integrator) -> None:
+    """Set ``integ`` up for ``problem`` and load (or, on a machine's first use, compile) the core's loop for
+    it: what :func:`run` needs before its first call on the problem (untimed)."""
+    integ.setup(problem)
+    if not is_whole_system(integ):
+        warm_up(problem, integ)
+
+
+def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
+    """The event log: ``t, kind, block, <states>, mode`` (the state and the mode after each event).
+
+    ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
+    index of the element its guard belongs to, ``mode`` the problem's name of the mode;
+    ``t_located`` after ``t`` where the method located its own switches (``events.located``).
+    """
+    import pandas as pd
+
+    k = len(events)
+    frame = pd.DataFrame(events.y, columns=list(problem.state_names))
+    frame.insert(0, "t", events.t.copy())
+    frame.insert(
+        1, "kind", np.asarray(problem.event_kinds, dtype=object)[events.kind] if k else np.empty(0, dtype=object)
+    )
+    frame.insert(2, "block", events.block)
+    cache: dict[bytes, str] = {}
+    texts = []
+    for row in events.mode:
+        key = row.tobytes()
+        if key not in cache:
+            cache[key] = problem.mode_name(tuple(int(v) for v in row))
+        texts.append(cache[key])
+    frame["mode"] = pd.Series(texts, dtype=object)
+    if events.located is not None:
+        frame.insert(1, "t_located", events.located.copy())
+    return frame
+
+
 def _frames(
     problem: HybridProblem,
-    raw,
-    dense_times: np.ndarray,
+    rec: RunRecord,
     traj_mask: np.ndarray,
     strobe_names: list[str | None],
     state_sections: Sequence[StateSection],
 ):
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
+    import pandas as pd
+
     names = list(problem.state_names)
-    rec = raw.records
-    events = event_frame(problem, rec, raw.n_events, raw.located_t)
-    rows = [(state_sections[int(rec.hk[j])].name, float(rec.ht[j]), *rec.hy[j]) for j in range(raw.n_hits)]
-    k = raw.n_dense
-    states = rec.y_eval[:k]
-    times = dense_times[:k]
+    events = events_frame(problem, rec.events)
+    hits = rec.hits
+    rows = [(state_sections[int(hits.section[j])].name, float(hits.t[j]), *hits.y[j]) for j in range(len(hits))]
+    k = len(rec.dense)
+    states, times = rec.dense.y, rec.dense.t
     for j in range(k):
         if strobe_names[j] is not None:
             for sec_name in strobe_names[j].split("\n"):
@@ -143,25 +509,24 @@ def _frames(
     mask = traj_mask[:k]
     traj = pd.DataFrame(states[mask], columns=names)
     traj.insert(0, "t", times[mask])
-    phases = _phases_at(events, raw, times[mask], problem)
+    phases = _phases_at(rec, times[mask], problem)
     for i, column in enumerate(problem.mode_columns):
         traj[column] = phases[:, i]
     return events, sections, traj
 
 
-def _phases_at(events: pd.DataFrame, raw, times: np.ndarray, problem: HybridProblem) -> np.ndarray:
+def _phases_at(rec: RunRecord, times: np.ndarray, problem: HybridProblem) -> np.ndarray:
     """The mode at each trajectory time: the mode after the last event at or before it (before the first
-    event: the start mode), from the event log's ``mode`` column."""
+    event: the start mode), from the event record's modes."""
     out = np.empty((times.size, problem.mode_size), np.int8)
     if not times.size:
         return out
-    ev_modes = raw.records.ev_mode[: raw.n_events]
-    ev_t = raw.records.ev_t[: raw.n_events]
-    start = np.asarray(raw.start_mode, np.int8)
+    ev_modes, ev_t = rec.events.mode, rec.events.t
+    start = np.asarray(rec.start_mode, np.int8)
     # a state at an event time is the one just before the transition (the arc's end), except at the
     # start, where the requested states are those after the start's own transitions
     idx = np.searchsorted(ev_t, times, side="left") - 1
-    at_start = times <= raw.t0
+    at_start = times <= rec.t0
     idx[at_start] = np.searchsorted(ev_t, times[at_start], side="right") - 1
     out[:] = start
     has = idx >= 0
@@ -231,13 +596,14 @@ def simulate(
         but not returned, so that the core checks each guard's sign there as at
         ``t_eval``: a guard on its wrong side and back on its own side inside one
         arc ends the run with ``EVENT_MISSED`` (docs/core.md, "Missed events").
-        ``None`` (the default): :data:`DEFAULT_CHECK_POINTS` when no ``t_eval`` is
-        given, none beside a ``t_eval`` (whose states are checked). With 0 and
-        without ``t_eval`` no state inside a step is seen, and a crossing pair
-        inside one step goes unnoticed; callers that compare the run with a
-        reference themselves (the bench) pass 0 so that only the integrator's
-        work is timed.
-        ``nsbench simulate`` passes its ``--samples``.
+        ``None`` (the default): :func:`check_points_for`, none for an integrator that
+        declares a check of every guard on each of its steps (every built-in event-driven
+        integrator but ``henon-rk4``: a crossing pair inside one step is located, not
+        stepped over), :data:`DEFAULT_CHECK_POINTS` for one that does not. With 0, an integrator
+        that does not check its steps and no ``t_eval``, no state inside a step is
+        seen and a crossing pair inside one step goes unnoticed; callers that compare
+        the run with a reference themselves (the bench) pass 0 so that only the
+        integrator's work is timed. ``nsbench simulate`` passes its ``--samples``.
 
     Returns
     -------
@@ -251,9 +617,8 @@ def simulate(
         integrator that refuses the problem.
     """
     _check_budgets(max_steps, max_events, zeno_events, zeno_span, accumulation)
-    if check_points is None:
-        check_points = DEFAULT_CHECK_POINTS if t_eval is None and float(t_end) > float(t0) else 0
-    _check_points(check_points)
+    if check_points is not None:
+        _check_points(check_points)
     integ = _resolve_integrator(integrator, options)
     y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
     grid = np.empty(0) if t_eval is None else np.asarray(list(t_eval), dtype=float).ravel()
@@ -276,60 +641,42 @@ def simulate(
         for ts in s.times(t0, t_end):
             labels.setdefault(float(ts), []).append(s.name)
     dense_times = np.union1d(grid, np.array(sorted(labels), dtype=float))
-    if check_points:  # states only the core's missed-crossing check sees (traj_mask leaves them out)
-        dense_times = np.union1d(dense_times, np.linspace(t0, t_end, int(check_points)))
     traj_mask = np.isin(dense_times, grid)
     strobe_names = ["\n".join(labels[float(ts)]) if float(ts) in labels else None for ts in dense_times]
 
-    whole = is_whole_system(integ)
     tic = time.perf_counter()
-    integ.setup(problem)
-    if not whole:
-        warm_up(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
+    prepare(problem, integ)  # the compiled loop is loaded (or compiled) before the timed run
     setup_time = time.perf_counter() - tic
-
-    span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
-    tic, cpu_tic = time.perf_counter(), time.process_time()
-    if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
-        raw = run_whole(
-            problem, integ, t_end, t0=t0, y0=y, sections=state_sections, t_eval=dense_times, max_steps=max_steps
-        )
-    else:
-        raw = run_hybrid(
-            problem,
-            integ,
-            t_end,
-            t0=t0,
-            y0=y,
-            sections=state_sections,
-            t_eval=dense_times,
-            max_steps=max_steps,
-            max_events=max_events,
-            zeno_events=zeno_events,
-            zeno_span=span,
-            accumulation=accumulation,
-        )
-    # tables built for modes visited for the first time are first use (setup), not the run
-    wall = time.perf_counter() - tic - raw.prepare_time
-    # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts
-    # the time other programs held the core, the CPU clock only the work done (nsbench.bench.compare)
-    cpu = max(0.0, time.process_time() - cpu_tic - raw.prepare_time)
-    setup_time += raw.prepare_time
-    events, section_frame, trajectory = _frames(problem, raw, dense_times, traj_mask, strobe_names, state_sections)
+    rec = run(
+        problem,
+        integ,
+        t_end,
+        t0=t0,
+        y0=y,
+        sections=state_sections,
+        t_eval=dense_times,
+        max_steps=max_steps,
+        max_events=max_events,
+        zeno_events=zeno_events,
+        zeno_span=zeno_span,
+        accumulation=accumulation,
+        check_points=check_points,
+    )
+    events, section_frame, trajectory = _frames(problem, rec, traj_mask, strobe_names, state_sections)
     return SimulationResult(
         problem=problem,
         integrator=integ.config(),
-        status=raw.status,
-        message=raw.message,
+        status=rec.status,
+        message=rec.message,
         events=events,
         sections=section_frame,
         trajectory=trajectory,
-        counters=raw.counters,
-        t_final=raw.t,
-        y_final=np.array(raw.y, dtype=float),
-        mode_final=raw.mode,
-        wall_time=wall,
-        setup_time=setup_time,
-        integrator_time=raw.integrator_time,
-        cpu_time=cpu,
+        counters=rec.counters,
+        t_final=rec.t,
+        y_final=np.array(rec.y, dtype=float),
+        mode_final=rec.mode,
+        wall_time=rec.wall_time,
+        setup_time=setup_time + rec.prepare_time,
+        integrator_time=rec.integrator_time,
+        cpu_time=rec.cpu_time,
     )

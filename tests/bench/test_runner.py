@@ -115,10 +115,10 @@ def test_unsupported_and_missing_reference_are_rows(pooled):
     cubic = frame[frame["problem_label"] == "two-dof/3"]
     assert cubic.loc[cubic["integrator"] == "exact", "status"].tolist() == ["unsupported"]
     dop = cubic[cubic["integrator"] == "scipy-dop853"].sort_values("level")
-    # at rtol 1e-6 DOP853 steps over the stick of block 1 at t ~ 25.68 and the slip after it (the velocity
-    # guard dips across and back inside one step): the core sees it in the dense states and says so
-    assert dop["status"].tolist() == ["event missed", "success", "success"]
-    assert "on its wrong side at t = 25.8" in dop["message"].iloc[0]
+    # at rtol 1e-6 DOP853's steps straddle the stick of block 1 at t ~ 25.68 and the slip after it (the
+    # velocity guard dips across and back inside one step): its per-step check integrates that step again
+    # and finds them (before it, the core saw it in the dense states and ended the run 'event missed')
+    assert dop["status"].tolist() == ["success", "success", "success"]
     assert dop["reference_status"].str.startswith("no reference available").all()
     assert dop["switch_err_max"].isna().all()
 

@@ -217,3 +217,31 @@ def test_a_problem_without_slip_events_is_refused_once():
     problem = nsbench.get_problem("relay-feedback")
     with pytest.raises(ConfigError, match="relay-feedback has none .its event kinds: cross"):
         largest_exponent(problem, iterations=80, members=4, transient=10.0, workers=1)
+
+
+def test_a_return_map_step_that_steps_over_a_crossing_gives_no_mapping_point():
+    """A step of the return map runs through the engine with simulate's check: the loose dop853 run of
+    2-DOF case 3 that steps over block 1's stick near t = 25.68 (tests/test_engine.py) gives no mapping
+    point (and its reason) when the integrator does not check its own steps, instead of a wrong one."""
+    import dataclasses
+
+    from nsbench.bifurcation.lyapunov import _mapping_point
+    from nsbench.engine import prepare
+    from nsbench.integrators.scipy_ import ScipyDOP853
+
+    class Unchecked(ScipyDOP853):
+        name = "test-lyapunov-dop853-unchecked"
+        check_steps = False
+        capabilities = dataclasses.replace(ScipyDOP853.capabilities, checks_steps=False)
+
+    p = nsbench.get_problem("two-dof", case=3)
+    ref = nsbench.simulate(p, "reference", 40.0).events
+    slips = ref[(ref["kind"] == "slip") & (ref["t"] > 25.0)]
+    for integ in (Unchecked(rtol=1e-6, atol=1e-8), nsbench.get_integrator("scipy-dop853", rtol=1e-6, atol=1e-8)):
+        prepare(p, integ)
+        point, status = _mapping_point(integ, p, 0.0, p.initial_state(), None, 25.0, 15.0)
+        if not integ.capabilities.checks_steps:
+            assert point is None and status.startswith("event missed")
+        else:  # the first slip after t = 25 of the reference, to the loose tolerance
+            assert point is not None and abs(point[0] - float(slips["t"].iloc[0])) < 1e-4
+            assert point[3] == int(slips["block"].iloc[0])

@@ -9,6 +9,8 @@ compensated time split, which ``simulate`` rounds once more).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -17,6 +19,7 @@ from nsbench import registry
 from nsbench.bifurcation.parallel import run_sweep
 from nsbench.bifurcation.storage import SweepStore
 from nsbench.bifurcation.sweep import SweepSpec, compute_point
+from nsbench.integrators.scipy_ import ScipyDOP853
 from nsbench.problems.oscillator import Coefficients, FrictionOscillator, Scales
 from nsbench.sections import peaks, stroboscopic
 
@@ -175,3 +178,37 @@ def test_locus_of_a_chosen_pair_of_blocks(tmp_path):
     assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(ConfigError, match="pair"):
         locus_run(p, transient=1.0, duration=1.0, pair=(2, 2))
+
+
+class _UncheckedDop853(ScipyDOP853):
+    """``scipy-dop853`` as ``solve_ivp`` runs it: it declares no check of its own steps."""
+
+    name = "test-sweep-dop853-unchecked"
+    check_steps = False
+    capabilities = dataclasses.replace(ScipyDOP853.capabilities, checks_steps=False)
+
+
+@pytest.fixture
+def unchecked():
+    registry.register("integrators", _UncheckedDop853.name, _UncheckedDop853)
+    yield _UncheckedDop853.name
+    registry.unregister("integrators", _UncheckedDop853.name)
+
+
+def test_a_sweep_value_that_steps_over_a_crossing_is_a_failure_not_a_result(unchecked):
+    """Loose dop853 steps over block 1's stick near t = 25.68 of 2-DOF case 3 (tests/test_engine.py). A sweep
+    value runs through the engine with simulate's check: the integrator's own per-step check, or, for
+    one without it, simulate's check points; a value that fails it has its status and no point."""
+    loose = {"rtol": 1e-6, "atol": 1e-8}
+    v0 = nsbench.get_problem("two-dof", case=3).v0  # the case's own value: the run of tests/test_engine.py
+    spec = _spec(case=3, name="v0", start=v0, stop=v0, section="stick", transient=0.0, record=50, window=40.0)
+    bad = compute_point(dataclasses.replace(spec, integrator=unchecked, options=loose), 0)
+    assert list(bad["status"]) == ["event missed"] and int(bad["n_points"].iloc[0]) == 0
+    assert "stopped at t = " in bad["message"].iloc[0] and np.isnan(bad["t"]).all()
+    # dop853 itself checks its steps: the same value, the stick times of exact to the loose tolerance
+    good = compute_point(dataclasses.replace(spec, integrator="scipy-dop853", options=loose), 0)
+    ref = nsbench.simulate(nsbench.get_problem("two-dof", case=3), "reference", 40.0).events
+    sticks = ref[ref["kind"] == "stick"]
+    assert set(good["status"]) == {"incomplete"}  # fewer than 50 sticks by t = 40: every one recorded
+    np.testing.assert_array_equal(good["event_block"].to_numpy(), sticks["block"].to_numpy())
+    assert np.abs(good["t"].to_numpy() - sticks["t"].to_numpy()).max() < 1e-4  # rtol 1e-6 over t <= 40

@@ -52,38 +52,43 @@ def test_simulate_trajectory_and_plot(tmp_path):
 
 def test_simulate_never_reports_success_over_a_stepped_over_crossing(capsys):
     """dop853 at its loosest level steps over block 1's stick near t = 25.68 on case 3 and the slip after
-    it (the relative velocity dips across zero and back inside one step). Without a trajectory asked for,
-    the run used to say 'success' with 20 of the 22 events; the samples are always checked now."""
-    code = main(
-        [
-            "simulate",
-            "two-dof",
-            "--case",
-            "3",
-            "--integrator",
-            "scipy-dop853",
-            "--rtol",
-            "1e-6",
-            "--atol",
-            "1e-8",
-            "--t-end",
-            "40",
-        ]
-    )
+    it (the relative velocity dips across zero and back inside one step) when only its step ends are looked
+    at (``test-dop853-unchecked``, a plug-in that declares no check of its steps). Without a trajectory
+    asked for, the run used to say 'success' with 20 of the 22 events; the samples are always checked.
+    ``scipy-dop853`` itself checks every step and finds the stick: 'success' on the right sequence."""
+    import dataclasses
+
+    from nsbench import get_problem, registry, simulate
+    from nsbench.integrators.scipy_ import ScipyDOP853
+
+    class Unchecked(ScipyDOP853):
+        name = "test-dop853-unchecked"
+        check_steps = False
+        capabilities = dataclasses.replace(ScipyDOP853.capabilities, checks_steps=False)
+
+    args = ["simulate", "two-dof", "--case", "3", "--rtol", "1e-6", "--atol", "1e-8", "--t-end", "40"]
+    registry.register("integrators", Unchecked.name, Unchecked)
+    try:
+        code = main([*args, "--integrator", Unchecked.name])
+    finally:
+        registry.unregister("integrators", Unchecked.name)
     out, err = capsys.readouterr()
     assert code == 1 and "status      event missed: a guard of mode slip-|slip- was on its wrong side" in out
     assert err.startswith("nsbench: simulate: the run ended at t = ") and "event missed" in err
     t_final = float(out.split("t_final")[1].split()[0])
     # the flag is true: a run six orders tighter has a stick of block 1 before the reported time, after the
     # last event the loose run found
-    from nsbench import get_problem, simulate
-
     problem = get_problem("two-dof", case=3)
-    loose = simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-6, "atol": 1e-8}, check_points=3001)
+    loose = simulate(problem, Unchecked(rtol=1e-6, atol=1e-8), 40.0, check_points=3001)
     tight = simulate(problem, "scipy-dop853", 40.0, options={"rtol": 1e-12, "atol": 1e-14}).events
     assert loose.status.value == "event missed" and loose.t_final == pytest.approx(t_final, abs=1e-4)
     between = tight[(tight["t"] > loose.events["t"].iloc[-1]) & (tight["t"] <= t_final)]
     assert ("stick", 1) in list(zip(between["kind"], between["block"]))
+    # the built-in dop853 checks each of its steps: the same loose run locates the stick and ends on the
+    # tight run's events
+    code = main([*args, "--integrator", "scipy-dop853"])
+    out = capsys.readouterr().out
+    assert code == 0 and "status      success" in out and f"events      {len(tight)} (" in out
 
 
 def test_simulate_dimensional_units(tmp_path):

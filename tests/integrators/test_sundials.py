@@ -178,7 +178,9 @@ def test_counters_budget_and_options(name, case1):
     res = two_dof_run(name, 2, 300.0, TIGHT)
     c = res.counters
     assert c.nfev > c.nsteps > 0 and c.njev > 0 and c.extra["root_returns"] >= len(res.events)
-    short = nsbench.simulate(case1, name, 300.0, max_steps=50)
+    # stepped from Python (states asked for) the budget is checked at every step; an arc in one call checks
+    # it when the call returns (test_an_arc_in_one_call_keeps_to_the_step_budget)
+    short = nsbench.simulate(case1, name, 300.0, max_steps=50, check_points=3001)
     assert short.status is nsbench.Status.BUDGET_EXHAUSTED and short.counters.nsteps <= 50
     with pytest.raises(nsbench.ConfigError, match="rtol"):
         nsbench.get_integrator(name, rtol=0.5)
@@ -255,3 +257,33 @@ def test_the_fallback_state_is_linear_between_the_last_step_end_and_the_known_po
     np.testing.assert_array_equal(out._linear(1.5, 2.0, np.array([2.0, 4.0, 7.0])), [2.0, 4.0])  # no step end yet
     out.last = (1.0, np.array([0.0, 0.0, 9.0, 9.0]))
     np.testing.assert_array_equal(out._linear(1.5, 2.0, np.array([2.0, 4.0, 7.0, 7.0])), [1.0, 2.0])
+
+
+def test_the_case_2_point_where_cvode_adams_stepped_over_a_stick_and_a_slip():
+    """Issue 48, item 9: set 107 of the random study (2-DOF case 2, fs = fr on block 1), cvode-adams at its
+    default tolerance over [0, 20]. Looked at only at its step ends and the study's 20 dense points (or
+    none), it ended 'success' with 10 of the 12 events of exact (block 2's stick at 7.899 and its slip at
+    9.094 stepped over); 3001 check points flag it. With its per-step check (the steps around 7.9
+    integrated again) it gives exact's sequence."""
+    import dataclasses
+
+    from nsbench.integrators.sundials import CvodeAdams
+    from tests.test_random_study import parameter_sets
+
+    class Unchecked(CvodeAdams):
+        name = "test-cvode-adams-unchecked"
+        check_steps = False
+        capabilities = dataclasses.replace(CvodeAdams.capabilities, checks_steps=False)
+
+    case, params, t_end = parameter_sets()[107]
+    p = nsbench.get_problem("two-dof", case=case, **params)
+    grid = np.linspace(0.0, t_end, 20)
+    ref = nsbench.simulate(p, "exact", t_end).events
+    old = nsbench.simulate(p, Unchecked(), t_end, t_eval=grid, check_points=0)
+    assert old.ok and len(old.events) == 10 and len(ref) == 12
+    assert nsbench.simulate(p, Unchecked(), t_end, check_points=3001).status is nsbench.Status.EVENT_MISSED
+    for kwargs in ({"t_eval": grid}, {}):
+        new = nsbench.simulate(p, "cvode-adams", t_end, **kwargs)
+        assert new.ok and same_sequence(new.events, ref) and new.counters.extra["check_reruns"] > 0
+        # rtol 1e-8 over t <= 20 through 12 events: within 1e-5 of exact (measured 2.0e-6)
+        assert max_time_error(new.events, ref) <= 1e-5

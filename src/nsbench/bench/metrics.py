@@ -13,6 +13,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
+# the column of a reference's event log holding each event's certified error bound, declared by the
+# certification (nsbench.certify.certified_errors)
+from nsbench.certify import CERTIFIED
 from nsbench.status import Status
 
 #: Relative error floor of a switching time (half an ulp): digits are capped at ~15.95.
@@ -182,11 +185,6 @@ def align(reference: pd.DataFrame, events: pd.DataFrame) -> Alignment:
         truncated=truncated,
         first_divergence="missed" if missed else "extra",
     )
-
-
-#: Column of a reference's event log holding each event's certified error bound
-#: (:func:`nsbench.bench.reference.certified_errors`).
-CERTIFIED = "certified_error"
 
 
 @dataclass(frozen=True)
@@ -494,10 +492,10 @@ def case_metrics(
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
     reference's order (:func:`order_ties_as_reference`), and the impacts of a Zeno tail
     one log resolved deeper than the other before the same accumulation are left out
-    (:func:`nsbench.hybrid.records.match_accumulation_tails`). If ``reference`` has a
+    (:func:`nsbench.engine.match_accumulation_tails`). If ``reference`` has a
     :data:`CERTIFIED` column, no switching-time error is reported below it.
     """
-    from nsbench.hybrid.records import match_accumulation_tails
+    from nsbench.engine import match_accumulation_tails
 
     # a Zeno tail resolved to another depth before the same accumulation event is no missed event
     reference, events = match_accumulation_tails(reference, events)

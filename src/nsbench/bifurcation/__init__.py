@@ -5,7 +5,8 @@ Modules, one job each: :mod:`.sweep` (one parameter value, a sweep spec),
 (local processes and Dask), :mod:`.detect` (qualitative changes and candidate
 bifurcation points), :mod:`.locus`, :mod:`.lyapunov`, :mod:`.figures`,
 :mod:`.compare` (several integrators) and :mod:`.paper`. Every run goes
-through the hybrid core (:mod:`nsbench.hybrid`), shaped by the problem: the
+through the engine (:func:`nsbench.engine.run`: ``simulate``'s defaults and its
+missed-crossing check), shaped by the problem: the
 tables name the problem's state names and per-block counters. Nothing heavy is
 imported here.
 """

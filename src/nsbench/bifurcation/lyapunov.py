@@ -45,8 +45,10 @@ members is small, ``<= max(0.05 |exponent|, tol / 2)``, and they are a clear
 majority (at least :data:`MAJORITY` of the members finished): otherwise the
 ensemble has no dominant attractor and no single exponent describes it.
 
-The map is advanced by the hybrid core (:func:`nsbench.hybrid.run.run_hybrid`),
-which starts in a given mode and stops at the next slip event; any registered
+The map is advanced by the engine (:func:`nsbench.engine.run`: the defaults and the
+missed-crossing check of ``nsbench.simulate``), which starts in a given mode and stops
+at the next slip event (a run that fails, a crossing stepped over among them, gives no
+mapping point and ends the member with its reason); any registered
 integrator runs there (``exact`` for linear problems and ``henon-rk4`` for any
 are compiled end to end, the fastest).
 """
@@ -225,16 +227,14 @@ def _mapping_point(integ, problem, t, y, mode, t_rec, window):
     before ``t_rec + window``. The hybrid core stops right after the settle step
     of that slip event, so the returned state and mode are the ones to continue from.
     """
-    from nsbench.hybrid.run import run_hybrid
+    from nsbench.engine import run
     from nsbench.problems.modes import EVENT_KINDS
 
-    raw = run_hybrid(
-        problem, integ, t_rec + window, t0=t, y0=y, mode=mode, record_from=t_rec, stop_kind="slip", stop_count=1
-    )
-    slips = np.flatnonzero(raw.records.ev_kind[: raw.n_events] == EVENT_KINDS.index("slip"))
-    if not raw.stopped or slips.size == 0:
+    raw = run(problem, integ, t_rec + window, t0=t, y0=y, mode=mode, record_from=t_rec, stop_kind="slip", stop_count=1)
+    slips = np.flatnonzero(raw.events.kind == EVENT_KINDS.index("slip"))
+    if not raw.status.ok or not raw.stopped or slips.size == 0:  # a failed run (a crossing missed) is no point
         return None, raw.status.value if raw.status.ok else f"{raw.status.value}: {raw.message}"
-    block = int(raw.records.ev_block[slips[0]])
+    block = int(raw.events.block[slips[0]])
     return (raw.t, raw.y.copy(), np.array(raw.mode, dtype=np.int64), block), raw.status.value
 
 

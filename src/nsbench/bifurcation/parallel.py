@@ -222,7 +222,7 @@ def prepare_job(*, stage: Callable[[str, float | None], None], emit: Callable[[A
     the hybrid core with numba, the integrators, and numba's own start (its registries of
     compiled operations, read on the first use of any compiled function). About 0.8 s of
     a worker's 1 s set-up, otherwise spent after the command sends the first chunk."""
-    from nsbench.hybrid.run import warm_up  # noqa: F401 - numba and the core's modules
+    import nsbench.engine  # noqa: F401 - numba and the core's modules
     from nsbench.integrators import get_integrator  # noqa: F401
 
     try:  # numba's internals: without them, the first compiled call does this instead
@@ -252,7 +252,7 @@ def sweep_job(
     core) runs under ``setup_limit``; everything that runs the integrator (the
     first short run, then each value) under ``point_limit``.
     """
-    from nsbench.hybrid.run import warm_up
+    from nsbench.engine import prepare
     from nsbench.integrators import get_integrator
 
     spec = SweepSpec.from_dict(spec_dict)
@@ -264,8 +264,7 @@ def sweep_job(
             stage(SETUP_STAGE, setup_limit)
             integ = get_integrator(spec.integrator, **spec.options)
             problem = spec.problem_at(spec.values[i])
-            integ.setup(problem)
-            warm_up(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
+            prepare(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
             stage(f"{label}, a first short run", point_limit)
             point_columns(replace(spec, transient=0.0, record=1, window=None), i, integ)  # first use
             _WARM.clear()
@@ -277,14 +276,12 @@ def sweep_job(
 
 def _set_up(spec: SweepSpec, value: float, setup_limit: float | None, stage: Callable) -> Any:
     """The sweep's integrator, set up at ``value`` with the compiled core loaded, under ``setup_limit``."""
-    from nsbench.hybrid.run import warm_up
+    from nsbench.engine import prepare
     from nsbench.integrators import get_integrator
 
     stage(SETUP_STAGE, setup_limit)
     integ = get_integrator(spec.integrator, **spec.options)
-    problem = spec.problem_at(value)
-    integ.setup(problem)
-    warm_up(problem, integ)
+    prepare(spec.problem_at(value), integ)
     return integ
 
 

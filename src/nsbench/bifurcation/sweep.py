@@ -4,9 +4,11 @@ Each point integrates from rest (the standard initial condition) through the
 transient, then records ``record`` section points: ``peaks`` (local maxima of
 ``x1``), ``strobe`` (states at ``t = 2 pi k / Omega``), ``stick`` (stick events)
 or ``mapping`` (slip events: where the locus of sticking phase leaves a
-sliding region). Every integrator runs through the hybrid core
-(:func:`nsbench.hybrid.run.run_hybrid`), which stops at the last point wanted;
-an integrator with a compiled kernel runs the whole point in compiled code.
+sliding region). Every integrator runs through the engine
+(:func:`nsbench.engine.run`: the defaults and the missed-crossing check of
+``nsbench.simulate``), which stops at the last point wanted; an integrator with a
+compiled kernel runs the whole point in compiled code. A value whose run fails
+(a crossing stepped over among them) is a failure row, with no points.
 The columns follow the problem: its state names, and event counts per block.
 """
 
@@ -408,8 +410,9 @@ def at_rest(problem, mode, t: float, y: np.ndarray) -> bool:
 
 
 def _point(spec: SweepSpec, problem, integ):
-    """One value through the hybrid core: the recorded points, status and counters of the recording window."""
-    from nsbench.hybrid.run import run_hybrid
+    """One value through the engine (:func:`nsbench.engine.run`, with its defaults and its missed-crossing
+    check): the recorded points, status and counters of the recording window."""
+    from nsbench.engine import run
     from nsbench.sections import peaks
 
     integ.setup(problem)
@@ -423,12 +426,9 @@ def _point(spec: SweepSpec, problem, integ):
         kwargs = dict(t_eval=times)
     else:
         kwargs = dict(stop_kind="stick" if spec.section == "stick" else "slip", stop_count=spec.record)
-    raw = run_hybrid(
-        problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000, **kwargs
-    )
-    rec = raw.records
-    kinds = rec.ev_kind[: raw.n_events]
-    blocks_ev = rec.ev_block[: raw.n_events]
+    raw = run(problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000, **kwargs)
+    events = raw.events
+    kinds, blocks_ev = events.kind, events.block
     counters: dict[str, int] = {
         "n_events": raw.n_events_total,
         "nfev": raw.counters.nfev,
@@ -438,20 +438,23 @@ def _point(spec: SweepSpec, problem, integ):
         code = problem.event_kinds.index(kind) if kind in problem.event_kinds else -1
         for b in range(1, len(problem.state_names) // 2 + 1):  # the table's counter columns (sweep_columns)
             counters[f"{name}{b}"] = int(np.count_nonzero((kinds == code) & (blocks_ev == b))) if code >= 0 else 0
+    if not raw.status.ok:
+        # a value whose run failed (a crossing stepped over, a storm, a budget) is a failure, not a result:
+        # no point of it is recorded, whatever it found before it stopped
+        message = f"stopped at t = {raw.t:.6g}" + (f": {raw.message}" if raw.message else "")
+        return np.empty(0), np.empty((0, problem.n_states)), np.empty(0, np.int64), raw.status.value, message, counters
     if spec.section == "peaks":
-        t, y, blocks = rec.ht[: raw.n_hits], rec.hy[: raw.n_hits], np.ones(raw.n_hits, np.int64)
+        t, y, blocks = raw.hits.t, raw.hits.y, np.ones(len(raw.hits), np.int64)
     elif spec.section == "strobe":
-        t, y = kwargs["t_eval"][: raw.n_dense], rec.y_eval[: raw.n_dense]
-        blocks = np.zeros(raw.n_dense, np.int64)
+        t, y = raw.dense.t, raw.dense.y
+        blocks = np.zeros(len(raw.dense), np.int64)
     else:
         want = problem.event_kinds.index(kwargs["stop_kind"])
         pick = np.flatnonzero(kinds == want)[: spec.record]
-        t, y, blocks = rec.ev_t[pick], rec.ev_y[pick], blocks_ev[pick]
+        t, y, blocks = events.t[pick], events.y[pick], blocks_ev[pick]
     moved = sum(counters[f"{name}{b}"] for _, name in EVENT_COUNTS for b in range(1, len(problem.state_names) // 2 + 1))
-    rest = len(t) < spec.record and raw.status.ok and moved == 0 and at_rest(problem, raw.mode, raw.t, raw.y)
+    rest = len(t) < spec.record and moved == 0 and at_rest(problem, raw.mode, raw.t, raw.y)
     status, message = _finish(spec, len(t), raw.status.value, raw.t, rest)
-    if raw.status.ok is False:
-        message = f"{message}: {raw.message}" if raw.message else message
     if status == Status.REST:
         return np.array([raw.t]), raw.y[None, :], np.zeros(1, np.int64), status, message, counters
     return np.asarray(t), np.asarray(y), np.asarray(blocks), status, message, counters

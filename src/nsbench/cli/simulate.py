@@ -98,10 +98,10 @@ def main(args: argparse.Namespace) -> int:
         )
     if name == "reference" and result.ok and len(result.events):
         # the reference's log says how far it can be trusted: an independent quad-precision check
-        from nsbench.bench.reference import certified_errors
+        from nsbench.certify import CERTIFIED, certified_errors
 
         errors, note = certified_errors(problem, result.events, 0.0, t_end)
-        result.events["certified_error"] = errors
+        result.events[CERTIFIED] = errors
         finite = errors[np.isfinite(errors)]
         # each value bounds |t - t_true|: the difference from the check plus the check's own error and an ulp
         worst = "no event certified" if not finite.size else f"at most {finite.max():.2g}"

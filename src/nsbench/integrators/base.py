@@ -58,6 +58,14 @@ class Capabilities:
         one frozen mode per arc: this protocol), or a whole-system method
         (:class:`nsbench.integrators.whole.WholeSystem`): ``'time-stepping'``,
         ``'switch-model'``, ``'smoothing'``.
+    checks_steps
+        Whether the integrator checks every guard on every accepted step itself, so
+        that a crossing pair inside one step is located, not stepped over: its sign
+        at both ends and an extremum test on the step's interpolant (or a rigorous
+        bound on the step). The engine then adds no check points of its own
+        (:func:`nsbench.engine.run`); an integrator that finds only the sign changes
+        between step ends (the default, for a plug-in) is checked at evenly spaced
+        states instead (docs/core.md, "Missed events").
     """
 
     event_location: str
@@ -69,6 +77,7 @@ class Capabilities:
     step_option: str | None = None
     reference_grade: bool = False
     family: str = "event-driven"
+    checks_steps: bool = False
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:

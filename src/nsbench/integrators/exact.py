@@ -398,6 +398,7 @@ class ExactIntegrator(CompiledArcs):
         precision="double",
         step_option=None,
         reference_grade=True,
+        checks_steps=True,
     )
     options = {
         "scan": Option(

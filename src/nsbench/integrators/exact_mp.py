@@ -703,6 +703,7 @@ class ExactMP(Integrator):
         precision="mp",
         step_option=None,
         reference_grade=True,
+        checks_steps=True,
     )
     options = {
         "digits": Option(

@@ -141,6 +141,7 @@ def _caps(precision: str) -> Capabilities:
         supports_nonlinear=True,
         precision=precision,
         step_option="tol",
+        checks_steps=True,
     )
 
 

@@ -162,6 +162,7 @@ def _caps(needs_jacobian: bool) -> Capabilities:
         supports_nonlinear=True,
         precision="double",
         step_option="tol",
+        checks_steps=True,
     )
 
 

@@ -40,6 +40,7 @@ class Reference(Integrator):
         precision="quad",
         step_option=None,
         reference_grade=True,
+        checks_steps=True,
     )
     options: dict = {}
 

@@ -24,8 +24,19 @@ algebraic constraint and ``|f| <= fr`` its guard); a stuck block's force
 carries the forcing into the error test. Consistent initial values are
 computed at every switch.
 
+Every internal step is checked for a guard that leaves its side and comes back
+inside the step, which SUNDIALS' root finding (a sign test between step ends)
+cannot see (:mod:`nsbench.integrators._step_check`): from the step ends the arc
+already returns, the guards' values and rates at both ends (one compiled call
+per arc). A step where those allow a dip is integrated again from its start by a
+solver of the same method whose largest step is an eighth of that step, and
+checked in turn (at most three levels): a root found there ends the arc; none,
+and the arc stands as it was.
+
 Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
-internal steps; ``extra['root_returns']`` the solver's root stops.
+internal steps (those of the steps integrated again included);
+``extra['root_returns']`` the solver's root stops, ``extra['check_reruns']`` the
+steps integrated again by the check.
 """
 
 from __future__ import annotations
@@ -34,6 +45,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from nsbench.integrators import _step_check as step_check
 from nsbench.integrators import _sundials_kernels as sk
 from nsbench.integrators._sundials_loop import (
     ROOT_RETURN,
@@ -63,6 +75,8 @@ def _sundials_max_step(max_step: float | None) -> float:
 class SundialsIntegrator(Integrator):
     """Shared stepping loop of the CVODE and IDA adapters."""
 
+    #: Whether every internal step is checked for a guard's excursion inside it (the module docstring).
+    check_steps: ClassVar[bool] = True
     options = dict(_OPTIONS)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
@@ -88,7 +102,9 @@ class SundialsIntegrator(Integrator):
         self.advance(ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
         self._solvers.clear()
 
-    def _common_options(self, n_events: int, n_guards: int, directions: list[int], eventsfn) -> dict[str, Any]:
+    def _common_options(
+        self, n_events: int, n_guards: int, directions: list[int], eventsfn, max_step: float | None = None
+    ) -> dict[str, Any]:
         # a guard's root ends an arc run in one call (_whole_arc); stepped from Python (advance),
         # the loop decides, and scikit-sundae's step reports every root whatever this says
         eventsfn.terminal = [True] * n_guards + [False] * (n_events - n_guards)
@@ -96,7 +112,7 @@ class SundialsIntegrator(Integrator):
         opts = dict(
             rtol=self.settings["rtol"],
             atol=self.settings["atol"],
-            max_step=_sundials_max_step(self.settings["max_step"]),
+            max_step=_sundials_max_step(self.settings["max_step"] if max_step is None else max_step),
             max_num_steps=10**9,
             eventsfn=eventsfn if n_events else None,
             num_events=n_events,
@@ -111,14 +127,16 @@ class SundialsIntegrator(Integrator):
             self._solvers[key] = (*self._build(arc, len(request.guards), directions), arc)
         return self._solvers[key]
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):  # pragma: no cover - abstract
+    def _build(
+        self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None
+    ):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:  # pragma: no cover - abstract
         """The solver's start values at ``request.t0`` (``y0``; ``y0, yp0`` for a DAE)."""
         raise NotImplementedError
 
-    def _whole_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+    def _whole_arc(self, request: ArcRequest, solver, eventsfn) -> tuple[ArcResult, np.ndarray, np.ndarray]:
         """The arc as one call of scikit-sundae's ``solve`` (``onestep`` over ``[t0, t_end]``, the guards
         terminal): for an arc that asks for no states, the per-step Python of :meth:`advance` left out.
 
@@ -135,7 +153,7 @@ class SundialsIntegrator(Integrator):
             res = solver.solve(np.array([float(request.t0), float(request.t_end)]), *self._initial(request))
         except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
             y0 = np.array(request.y0, dtype=float)
-            return ArcResult(
+            failed = ArcResult(
                 t=float(request.t0),
                 y=y0,
                 fired=None,
@@ -143,6 +161,7 @@ class SundialsIntegrator(Integrator):
                 message=f"SUNDIALS: {exc}",
                 y_eval=np.empty((n, 0)),
             )
+            return failed, np.empty(0), np.empty((0, n))
         hits: list[SectionHit] = []
         fired = None
         roots = 0
@@ -170,7 +189,7 @@ class SundialsIntegrator(Integrator):
         if status is Status.SUCCESS and steps > request.max_steps:
             status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
             fired = None
-        return ArcResult(
+        result = ArcResult(
             t=t,
             y=np.array(y[:n], dtype=float),
             fired=fired,
@@ -183,6 +202,7 @@ class SundialsIntegrator(Integrator):
             status=status,
             message=message,
         )
+        return result, np.asarray(res.t, dtype=float), np.asarray(res.y, dtype=float)
 
     def advance(self, request: ArcRequest) -> ArcResult:
         problem = request.problem
@@ -191,10 +211,31 @@ class SundialsIntegrator(Integrator):
         solver, eventsfn, arc = self._solver(request)
         arc.load(request)
         if not request.t_eval.size:
-            return self._whole_arc(request, solver, eventsfn)
-        return self._stepped_arc(request, solver, eventsfn)
+            res, times, states = self._whole_arc(request, solver, eventsfn)
+        else:
+            res, times, states = self._stepped_arc(request, solver, eventsfn)
+        return self._checked(request, res, times, states, arc, 0)
 
-    def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> ArcResult:
+    def _checked(self, request: ArcRequest, res: ArcResult, times, states, arc, depth: int) -> ArcResult:
+        """``res`` with every internal step of the arc checked (:func:`nsbench.integrators._step_check.checked`):
+        a flagged step is integrated again as an arc in one call, by a solver of the same method whose
+        largest step is an eighth of that step (built for it: the check flags few steps)."""
+        if not self.check_steps:
+            return res
+
+        def rerun(sub: ArcRequest, level: int) -> ArcResult:
+            # a solver of its own, whose largest step makes at least RERUN_STEPS steps of the flagged one
+            cap = (sub.t_end - sub.t0) / step_check.RERUN_STEPS
+            limit = self.settings["max_step"]
+            cap = cap if limit is None or limit == np.inf else min(cap, limit)
+            directions = [-1] * len(sub.guards) + [int(s.direction) for s in sub.sections]
+            fine, fine_events = self._build(arc, len(sub.guards), directions, cap)
+            again, sub_times, sub_states = self._whole_arc(sub, fine, fine_events)
+            return self._checked(sub, again, sub_times, sub_states, arc, level)
+
+        return step_check.checked(request, res, times, states, rerun, depth)
+
+    def _stepped_arc(self, request: ArcRequest, solver, eventsfn) -> tuple[ArcResult, np.ndarray, np.ndarray]:
         """The arc stepped from Python one internal step at a time, its states read at the requested times
         from each step's interpolant."""
         n, n_guards = request.problem.n_states, len(request.guards)
@@ -206,8 +247,10 @@ class SundialsIntegrator(Integrator):
         t, y = float(request.t0), np.array(request.y0, dtype=float)
         last = None  # the last successful return: its counters are the arc's
         step = solver.step
+        start = self._initial(request)
+        ends_t, ends_y = [float(request.t0)], [np.asarray(start[0], dtype=float)]  # the step ends, for the check
         try:
-            solver.init_step(float(request.t0), *self._initial(request))
+            solver.init_step(float(request.t0), *start)
             while True:
                 if steps >= request.max_steps:
                     status, message = Status.BUDGET_EXHAUSTED, f"step budget exhausted at t = {t:.6g}"
@@ -219,6 +262,8 @@ class SundialsIntegrator(Integrator):
                     message = f"SUNDIALS: {res.message} (t = {float(res.t):.6g})"
                     break
                 last, t, y = res, float(res.t), res.y  # res.y: a fresh array per return
+                ends_t.append(t)
+                ends_y.append(y)
                 if flag != ROOT_RETURN:
                     steps += 1
                     dense.step_end(t, y)
@@ -245,7 +290,7 @@ class SundialsIntegrator(Integrator):
                     break
         except RuntimeError as exc:  # SUNDIALS errors surface as RuntimeError in scikit-sundae
             status, message = Status.INTEGRATOR_FAILURE, f"SUNDIALS: {exc}"
-        return ArcResult(
+        result = ArcResult(
             t=t,
             y=np.array(y[:n], dtype=float),
             fired=fired,
@@ -258,6 +303,7 @@ class SundialsIntegrator(Integrator):
             status=status,
             message=message,
         )
+        return result, np.array(ends_t), np.array(ends_y)
 
 
 class CvodeIntegrator(SundialsIntegrator):
@@ -283,7 +329,7 @@ class CvodeIntegrator(SundialsIntegrator):
         sk.cvode_roots(self._p0, mode, 1.0, codes, codes, codes, np.zeros((1, n - 2)), np.zeros(1), y, np.zeros(2))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None):
         from sksundae.cvode import CVODE
 
         p0, F, w = self._p0, self._F, self._w
@@ -297,7 +343,7 @@ class CvodeIntegrator(SundialsIntegrator):
         def eventsfn(t, y, events):
             sk.cvode_roots(p0, arc.mode, F, arc.kinds, arc.blocks, arc.signs, arc.sec_coeffs, arc.sec_levels, y, events)
 
-        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn, max_step)
         return CVODE(rhsfn, method=self.method, jacfn=jacfn, **opts), eventsfn
 
     def _initial(self, request: ArcRequest) -> tuple[np.ndarray, ...]:
@@ -320,6 +366,7 @@ class CvodeBDF(CvodeIntegrator):
         supports_nonlinear=True,
         precision="double",
         step_option="rtol",
+        checks_steps=True,
     )
 
 
@@ -343,6 +390,7 @@ class Ida(SundialsIntegrator):
         supports_nonlinear=True,
         precision="double",
         step_option="rtol",
+        checks_steps=True,
     )
 
     def setup(self, problem) -> None:
@@ -357,7 +405,7 @@ class Ida(SundialsIntegrator):
         sk.consistent_start(self._p, mode, 0.0, np.zeros(n))
         self._first_arc(problem)
 
-    def _build(self, arc: CallbackData, n_guards: int, directions: list[int]):
+    def _build(self, arc: CallbackData, n_guards: int, directions: list[int], max_step: float | None = None):
         from sksundae.ida import IDA
 
         p = self._p
@@ -377,7 +425,7 @@ class Ida(SundialsIntegrator):
 
         mode = np.asarray(self._pending_mode, dtype=np.int64)
         algebraic = [n + i for i in range(nb)] + [2 * i + 1 for i in range(nb) if mode[i] == 0]
-        opts = self._common_options(len(directions), n_guards, directions, eventsfn)
+        opts = self._common_options(len(directions), n_guards, directions, eventsfn, max_step)
         return IDA(resfn, jacfn=jacfn, algebraic_idx=sorted(algebraic), **opts), eventsfn
 
     def _solver(self, request: ArcRequest):

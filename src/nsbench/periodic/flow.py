@@ -1,7 +1,9 @@
 """The hybrid flow over a fixed time with its Jacobian: state-transition and saltation matrices.
 
 :class:`HybridFlow` runs a problem with one set-up integrator through the
-hybrid core from a start time, state and mode over a given span, and returns
+engine (:func:`nsbench.engine.run`: ``nsbench.simulate``'s defaults and its
+missed-crossing check, so a run that steps over a crossing fails instead of
+giving a wrong orbit) from a start time, state and mode over a given span, and returns
 the :class:`Pass`: the end state and mode, and every event with the mode
 before and after it. :meth:`HybridFlow.jacobian` then gives the derivative of
 the end state with respect to the start state as the ordered product
@@ -170,7 +172,7 @@ class HybridFlow:
     """
 
     def __init__(self, problem, integrator: str | None = None, options: dict[str, Any] | None = None) -> None:
-        from nsbench.hybrid.run import warm_up
+        from nsbench.engine import prepare
         from nsbench.integrators import get_integrator
 
         if not (is_friction(problem) or (problem.is_linear and hasattr(problem, "event_linearisation"))):
@@ -185,8 +187,7 @@ class HybridFlow:
         self.problem = problem
         self.integrator_name = integrator
         self.integ = get_integrator(integrator, **(options or {}))
-        self.integ.setup(problem)
-        warm_up(problem, self.integ)
+        prepare(problem, self.integ)
         self._expm: dict[Mode, tuple] = {}
 
     def rebind(self, problem) -> None:
@@ -198,16 +199,23 @@ class HybridFlow:
     def run(self, t0: float, y0: np.ndarray, mode0: Mode, span: float, max_events: int = 100_000) -> Pass:
         """The flow over ``[t0, t0 + span]`` with every event on the way.
 
+        Run by :func:`nsbench.engine.run`, with ``nsbench.simulate``'s defaults and its
+        missed-crossing check: a run that steps over a crossing is a failure, never a pass.
+
         Raises
         ------
         ArithmeticError
-            The integrator did not reach the end (budget, event storm, failure).
+            The integrator did not reach the end (budget, event storm, a crossing missed, failure).
         """
-        from nsbench.hybrid.run import run_hybrid
+        from nsbench.engine import run
         from nsbench.problems.modes import EVENT_KINDS
 
+        if span == 0.0:  # no time to flow (a guess with no transient): the start itself, no run (the engine
+            # refuses t_end = t0); the next pass from it applies the start rule as a run would
+            y = np.asarray(y0, dtype=float).copy()
+            return Pass(float(t0), y, tuple(int(m) for m in mode0), 0.0, y.copy(), tuple(int(m) for m in mode0), ())
         names = getattr(self.problem, "event_kinds", ()) or EVENT_KINDS
-        raw = run_hybrid(
+        raw = run(
             self.problem,
             self.integ,
             t0 + span,
@@ -217,19 +225,13 @@ class HybridFlow:
             max_events=max_events,
             max_steps=50_000_000,
         )
-        if not raw.status.ok:
-            raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
-        rec = raw.records
+        _require_ok(raw)
+        ev = raw.events
         events = []
         before = tuple(int(m) for m in mode0)
-        for k in range(raw.n_events):
-            after = tuple(int(m) for m in rec.ev_mode[k])
-            kind, block, t, y = (
-                names[int(rec.ev_kind[k])],
-                int(rec.ev_block[k]),
-                float(rec.ev_t[k]),
-                rec.ev_y[k].copy(),
-            )
+        for k in range(len(ev)):
+            after = tuple(int(m) for m in ev.mode[k])
+            kind, block, t, y = names[int(ev.kind[k])], int(ev.block[k]), float(ev.t[k]), ev.y[k].copy()
             guard = guard_of(kind, block, self.problem, t, y, before)
             events.append(Crossing(t, kind, block, y, before, after, guard))
             before = after
@@ -244,11 +246,14 @@ class HybridFlow:
         )
 
     def states(self, t0: float, y0: np.ndarray, mode0: Mode, times: np.ndarray) -> np.ndarray:
-        """States at the sorted ``times`` (all ``> t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
-        from nsbench.hybrid.run import run_hybrid
+        """States at the sorted ``times`` (all ``>= t0``) of the flow from ``(t0, y0, mode0)``, shape ``(k, n)``."""
+        from nsbench.engine import run
 
         times = np.ascontiguousarray(times, dtype=float)
-        raw = run_hybrid(
+        if times[-1] == t0:  # every time is the start (a one-period strobe of an orbit starting on it): y0
+            # itself, no run (the engine refuses t_end = t0)
+            return np.tile(np.asarray(y0, dtype=float), (times.size, 1))
+        raw = run(
             self.problem,
             self.integ,
             float(times[-1]),
@@ -258,9 +263,10 @@ class HybridFlow:
             t_eval=times,
             max_steps=50_000_000,
         )
-        if not raw.status.ok or raw.n_dense < times.size:
-            raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
-        return raw.records.y_eval[: times.size].copy()
+        _require_ok(raw)
+        if len(raw.dense) < times.size:
+            raise ArithmeticError(f"flow stopped at t = {raw.t:.6g} before its last requested time")
+        return raw.dense.y.copy()
 
     # ------------------------------------------------------------------ Jacobian
     def arc_transition(self, mode: Mode, t0: float, y0: np.ndarray, dt: float) -> np.ndarray:
@@ -321,7 +327,7 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
     ``section`` as in :mod:`nsbench.bifurcation.sweep`: ``peaks`` (local maxima of ``x1``),
     ``strobe`` (``t = 2 pi k / Omega``), ``stick`` or ``mapping`` (slip events).
     """
-    from nsbench.hybrid.run import run_hybrid
+    from nsbench.engine import run
     from nsbench.sections import peaks
 
     problem = flow.problem
@@ -336,7 +342,7 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
         return flow.states(orbit.t0, orbit.y0, orbit.mode0, times) if times.size else np.empty((0, problem.n_states))
     if section != "peaks":
         raise ConfigError(f"section {section!r} is not allowed; choose one of peaks, strobe, stick, mapping")
-    raw = run_hybrid(
+    raw = run(
         problem,
         flow.integ,
         orbit.t0 + orbit.period,
@@ -346,4 +352,17 @@ def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
         sections=[peaks(problem)],
         max_steps=50_000_000,
     )
-    return raw.records.hy[: raw.n_hits].copy()
+    _require_ok(raw)  # the points of a run that failed (a crossing missed) are no points of the orbit
+    return raw.hits.y.copy()
+
+
+def _require_ok(raw) -> None:
+    """``ArithmeticError`` unless the engine's run reached its end (or its stop) successfully with its
+    crossings checked (:attr:`nsbench.engine.RunRecord.crossings_checked`): a pass of a run that could
+    have stepped over a crossing unseen is never part of an orbit."""
+    if not raw.ok:
+        raise ArithmeticError(f"flow stopped at t = {raw.t:.6g}: {raw.status.value} {raw.message}")
+    if not raw.crossings_checked:
+        raise ArithmeticError(
+            "flow run with its crossings unchecked (an integrator that checks no step and no check points)"
+        )

@@ -41,6 +41,7 @@ from nsbench.hybrid.inference import run_whole
 from nsbench.hybrid.run import run_hybrid, warm_up
 from nsbench.hybrid.records import extrapolated as extrapolated_events  # noqa: F401 - for the layers above
 from nsbench.hybrid.records import labels as event_labels  # noqa: F401 - for the layers above
+from nsbench.hybrid.records import ACCUMULATION_ERROR, has_accumulation_limit
 from nsbench.hybrid.records import match_accumulation_tails  # noqa: F401 - for the layers above
 from nsbench.problems.base import HybridProblem
 from nsbench.results import Counters, SimulationResult
@@ -172,6 +173,9 @@ class EventRecord:
     located
         A whole-system method's own time of each event (``SystemResult.switch_times``), NaN
         where it located none; ``None``: it locates none.
+    err
+        At an event the Zeno rule extrapolated, the error estimate of its time
+        (:func:`nsbench.model.rules.tail_estimate`); NaN at every other event. ``None``: not kept.
     """
 
     t: np.ndarray
@@ -180,6 +184,7 @@ class EventRecord:
     y: np.ndarray
     mode: np.ndarray
     located: np.ndarray | None = None
+    err: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -283,7 +288,9 @@ def _records(raw, grid: np.ndarray, merged: np.ndarray | None) -> tuple[EventRec
     rec, k, h = raw.records, raw.n_events, raw.n_hits
     ev = rec.events
     located = None if raw.located_t is None else np.asarray(raw.located_t, dtype=float)[:k]
-    events = EventRecord(ev.t[:k], ev.kind[:k], (ev.index[:k] + 1).astype(np.int64), ev.y[:k], ev.mode[:k], located)
+    events = EventRecord(
+        ev.t[:k], ev.kind[:k], (ev.index[:k] + 1).astype(np.int64), ev.y[:k], ev.mode[:k], located, ev.err[:k]
+    )
     hits = HitRecord(rec.hits.index[:h], rec.hits.t[:h], rec.hits.y[:h])
     if merged is None:
         dense = DenseRecord(grid[: raw.n_dense], rec.dense.y[: raw.n_dense])
@@ -461,6 +468,9 @@ def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
     ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
     index of the element its guard belongs to, ``mode`` the problem's name of the mode;
     ``t_located`` after ``t`` where the method located its own switches (``events.located``).
+    A problem whose law declares an accumulation limit also has the column
+    ``accumulation_error`` (:data:`nsbench.hybrid.records.ACCUMULATION_ERROR`): the Zeno rule's
+    error estimate at an event it extrapolated, NaN at every other event.
     """
     import pandas as pd
 
@@ -479,6 +489,9 @@ def events_frame(problem: HybridProblem, events: EventRecord) -> pd.DataFrame:
             cache[key] = problem.mode_name(tuple(int(v) for v in row))
         texts.append(cache[key])
     frame["mode"] = pd.Series(texts, dtype=object)
+    if has_accumulation_limit(problem):
+        err = events.err if events.err is not None else np.full(k, np.nan)
+        frame[ACCUMULATION_ERROR] = np.asarray(err, dtype=float).copy()
     if events.located is not None:
         frame.insert(1, "t_located", events.located.copy())
     return frame

@@ -1,0 +1,721 @@
+"""CVODE and IDA running the whole hybrid run natively: the solvers, and the compiled event loop that drives them.
+
+:class:`NativeSolver` owns one SUNDIALS solver (its ``SUNContext``, vectors, dense
+matrix, dense linear solver and memory, created through
+:mod:`~nsbench.integrators._sundials_capi` with the options of the per-arc adapters
+of :mod:`nsbench.integrators.sundials`) whose callbacks are the compiled functions of
+:mod:`~nsbench.integrators._sundials_callbacks`. :func:`native_loop` is the twin of
+the core's :func:`nsbench.model.loop.hybrid_loop` with the arc run in place: it
+calls ``CVode``/``IDASolve`` one internal step at a time through their C
+addresses, and at each guard's root applies the transition through the core's
+compiled rules (:func:`nsbench.model.rules.settle`: the same transitions, storms,
+accumulations and event budget), reinitialises the solver from the new state and
+goes on. It fills the run's own bundles (:class:`~nsbench.model.abi.RunState`, the
+record buffers of :class:`~nsbench.model.records.Records`), so the run's outcome
+is read as for any run of the core.
+
+The checks the core makes per arc are made here on the solver's own steps:
+
+- *missed crossings*: after every internal step each guard is evaluated (the
+  formulation's root function, what the solver's root finding sees) at the middle
+  of the step, read from the solver's interpolant, and at its end; a guard seen on
+  its wrong side and later back on its own side within the arc is a crossing the
+  solver stepped over (:data:`~nsbench.model.abi.RUN_MISSED`, at the time of the
+  first wrong-side sighting). The states at requested times are checked with the
+  core's own rule on them (the law's guards), as the core checks any arc's;
+- the step budget before every step, non-finite states at every step end, the
+  end time (``tstop``), and the event budget, storms and accumulations through
+  :func:`~nsbench.model.rules.settle`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from nsbench.integrators import _sundials_callbacks as cb
+from nsbench.integrators import _sundials_capi as capi
+from nsbench.integrators._sundials_capi import SLOT, c_function
+from nsbench.model import law
+from nsbench.model.abi import (
+    K_BUDGET,
+    K_FAIL,
+    K_HIT_FULL,
+    K_HIT_STOP,
+    K_NONFINITE,
+    K_OK,
+    NFEV,
+    NJEV,
+    NSTEPS,
+    RUN_EVENT_BUDGET,
+    RUN_FAILURE,
+    RUN_MISSED,
+    RUN_NONFINITE,
+    RUN_STEP_BUDGET,
+    RUN_STORM,
+    RUN_SUCCESS,
+    SF_ARC_T,
+    SF_T,
+    SF_TLO,
+    SI_ARC_IEVAL,
+    SI_ARC_STATUS,
+    SI_CLOCK,
+    SI_DETAIL,
+    SI_IEVAL,
+    SI_NG,
+    SI_NHITS,
+    SI_PHASE,
+    SI_RECORDED,
+    SI_STATUS,
+    SI_STOP_SEEN,
+    SI_STOPPED,
+    X0,
+    X1,
+)
+from nsbench.model.clock import monotonic_ns
+from nsbench.model.compile import hot
+from nsbench.model.records import copy_into, record_hit
+from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle
+from nsbench.problems import friction_law as k
+
+#: Solver kinds (slot ``H_KIND`` of the handles).
+CVODE, IDA = 0, 1
+#: Slots of the handles (int64): the solver's C objects and sizes.
+H_KIND, H_MEM, H_Y, H_YP, H_DKY, H_ID, H_NEQ, H_SLOTS, H_NROOTS = range(9)
+N_H = 9
+#: Counter slots of the native run (the core's method-specific ones).
+COUNTERS = ("root_returns", "midpoint_checks")
+
+#: The arc stepped over a guard's crossing (this loop's own code; the core's kernels have none).
+K_MISSED = 6
+P_INIT, P_TOP = 0, 1
+R_DONE, R_GROW_EVENTS, R_GROW_HITS = 0, 1, 2
+#: Room the settle step needs in the event buffers beyond the storm ring (as the core's loop).
+EXTRA_EVENTS = 2
+_EPS = np.finfo(np.float64).eps
+
+_cv_solve = c_function("i32(p, f64, p, p, i32)")  # CVode(mem, tout, yout, &tret, itask)
+_cv_reinit = c_function("i32(p, f64, p)")  # CVodeReInit(mem, t0, y0)
+_ida_solve = c_function("i32(p, f64, p, p, p, i32)")  # IDASolve(mem, tout, &tret, yy, yp, itask)
+_ida_reinit = c_function("i32(p, f64, p, p)")  # IDAReInit(mem, t0, yy0, yp0)
+_set_stop = c_function("i32(p, f64)")  # *SetStopTime(mem, tstop)
+_root_info = c_function("i32(p, p)")  # *GetRootInfo(mem, int *rootsfound)
+_get_dky = c_function("i32(p, f64, i32, p)")  # *GetDky(mem, t, k, dky)
+_get_long = c_function("i32(p, p)")  # *GetNum...(mem, long *)
+_set_id = c_function("i32(p, p)")  # IDASetId(mem, id)
+#: Slots of the address table, as constants for compiled code.
+_CVode = SLOT["CVode"]
+_CVodeGetDky = SLOT["CVodeGetDky"]
+_CVodeGetNumJacEvals = SLOT["CVodeGetNumJacEvals"]
+_CVodeGetNumRhsEvals = SLOT["CVodeGetNumRhsEvals"]
+_CVodeGetRootInfo = SLOT["CVodeGetRootInfo"]
+_CVodeReInit = SLOT["CVodeReInit"]
+_CVodeSetStopTime = SLOT["CVodeSetStopTime"]
+_IDAGetDky = SLOT["IDAGetDky"]
+_IDAGetNumJacEvals = SLOT["IDAGetNumJacEvals"]
+_IDAGetNumResEvals = SLOT["IDAGetNumResEvals"]
+_IDAGetRootInfo = SLOT["IDAGetRootInfo"]
+_IDAReInit = SLOT["IDAReInit"]
+_IDASetId = SLOT["IDASetId"]
+_IDASetStopTime = SLOT["IDASetStopTime"]
+_IDASolve = SLOT["IDASolve"]
+_N_VGetArrayPointer = SLOT["N_VGetArrayPointer"]
+
+
+class Solver(NamedTuple):
+    """What the compiled loop needs of a :class:`NativeSolver` (arrays only)."""
+
+    calls: np.ndarray  # int64 addresses of capi.CALLS
+    h: np.ndarray  # int64 handles H_*
+    ud: np.ndarray  # int64 user data of the callbacks (cb.UD_*)
+    p: np.ndarray  # float64 parameters the callbacks read (CVODE: F = 0)
+    fw: np.ndarray  # float64 [F, w]
+    y: np.ndarray  # float64 view of the solver's state vector
+    yp: np.ndarray  # float64 view of its derivative (IDA; CVODE: empty)
+    dky: np.ndarray  # float64 view of the interpolation vector
+    ident: np.ndarray  # float64 view of IDA's differential/algebraic vector (CVODE: empty)
+    found: np.ndarray  # int32 root information (H_NROOTS)
+    roots: np.ndarray  # float64 root values (H_NROOTS)
+    tret: np.ndarray  # float64, 1
+    counter: np.ndarray  # int64, 1 (a counter read from the solver)
+    wrong: np.ndarray  # float64, 2 x slots + 1: each guard's first wrong-side time (solver points; states); open ones
+
+
+# ---------------------------------------------------------------------- compiled: one arc
+@hot
+def _consistent(p, mode, t, y, yy, yp, ident):
+    """IDA's consistent start at a switch (:func:`nsbench.integrators._sundials_kernels.consistent_start`,
+    compiled), and its differential (1) / algebraic (0) components."""
+    nb = mode.shape[0]
+    n = 2 * nb
+    for i in range(n):
+        yy[i] = y[i]
+    for i in range(nb):
+        yy[n + i] = 0.0
+    k.rhs(p, mode, t, yy, yp)
+    for i in range(nb):
+        yp[n + i] = 0.0
+    for i in range(nb):
+        if mode[i] == 0:
+            yy[n + i] = k.restoring(p, t, yy, i)
+            yp[n + i] = k.restoring_rate(p, t, yy, yp, i)
+        else:
+            yy[n + i] = k.slip_force(p, i, mode[i], yy[2 * i + 1])
+        ident[2 * i] = 1.0
+        ident[2 * i + 1] = 0.0 if mode[i] == 0 else 1.0
+        ident[n + i] = 0.0
+
+
+@hot
+def _point_ud(sv, st, sec):
+    """Point the callbacks' user data at this run's mode, guards and sections."""
+    ud = sv.ud
+    ud[cb.UD_MODE] = st.mode.ctypes.data
+    ud[cb.UD_GK] = st.gk.ctypes.data
+    ud[cb.UD_GI] = st.gi.ctypes.data
+    ud[cb.UD_GS] = st.gs.ctypes.data
+    ud[cb.UD_NG] = st.si[SI_NG]
+    ud[cb.UD_NSEC] = sec.levels.shape[0]
+    ud[cb.UD_SEC_C] = sec.coeffs.ctypes.data
+    ud[cb.UD_SEC_L] = sec.levels.ctypes.data
+
+
+@hot
+def _start(sv, prob, st, t0, t_end):
+    """Reinitialise the solver at ``(t0, st.y)`` in ``st.mode``; SUNDIALS' flag."""
+    h, calls = sv.h, sv.calls
+    mem = h[H_MEM]
+    n = st.y.shape[0]
+    if h[H_KIND] == CVODE:
+        for i in range(n):
+            sv.y[i] = st.y[i]
+        if h[H_NEQ] > n:  # the forcing's cos and sin as states
+            w = sv.fw[1]
+            sv.y[n] = math.cos(w * t0)
+            sv.y[n + 1] = math.sin(w * t0)
+        flag = _cv_reinit(calls[_CVodeReInit], (mem, t0, h[H_Y]))
+        if flag < 0:
+            return flag
+        return _set_stop(calls[_CVodeSetStopTime], (mem, t_end))
+    _consistent(sv.p, st.mode, t0, st.y, sv.y, sv.yp, sv.ident)
+    flag = _set_id(calls[_IDASetId], (mem, h[H_ID]))
+    if flag < 0:
+        return flag
+    flag = _ida_reinit(calls[_IDAReInit], (mem, t0, h[H_Y], h[H_YP]))
+    if flag < 0:
+        return flag
+    return _set_stop(calls[_IDASetStopTime], (mem, t_end))
+
+
+@hot
+def _step(sv, t_end):
+    """One internal step towards ``t_end`` (or the next root in the step); SUNDIALS' flag, time in ``sv.tret``."""
+    h, calls = sv.h, sv.calls
+    if h[H_KIND] == CVODE:
+        return _cv_solve(calls[_CVode], (h[H_MEM], t_end, h[H_Y], sv.tret.ctypes.data, capi.CV_ONE_STEP))
+    return _ida_solve(calls[_IDASolve], (h[H_MEM], t_end, sv.tret.ctypes.data, h[H_Y], h[H_YP], capi.IDA_ONE_STEP))
+
+
+@hot
+def _interpolate(sv, t):
+    """The solver's interpolant at ``t`` (inside its last step) into ``sv.dky``; SUNDIALS' flag."""
+    h = sv.h
+    slot = _CVodeGetDky if h[H_KIND] == CVODE else _IDAGetDky
+    return _get_dky(sv.calls[slot], (h[H_MEM], t, 0, h[H_DKY]))
+
+
+@hot
+def _counter(sv, name_cv, name_ida):
+    h = sv.h
+    sv.counter[0] = 0  # a C long may be narrower than the int64 it is read into
+    _get_long(sv.calls[name_cv if h[H_KIND] == CVODE else name_ida], (h[H_MEM], sv.counter.ctypes.data))
+    return sv.counter[0]
+
+
+@hot
+def _root_values(sv, y):
+    """The formulation's root functions at the solver state ``y`` into ``sv.roots``."""
+    if sv.h[H_KIND] == CVODE:
+        cb.cvode_root_values(sv.ud, y, sv.roots)
+    else:
+        cb.ida_root_values(sv.ud, y, sv.roots)
+
+
+@hot
+def _scale(y):
+    ymax = 1.0
+    for j in range(y.shape[0]):
+        ymax = max(ymax, abs(y[j]))
+    return 64.0 * _EPS * ymax
+
+
+@hot
+def _watch_solver(sv, ng, t, y):
+    """Feed a solver point to the missed-crossing rule (formulation's guards); the first wrong-side time of a
+    guard now back on its own side, or -1."""
+    _root_values(sv, y)
+    tol = _scale(y)
+    wrong = sv.wrong
+    for q in range(ng):
+        g = sv.roots[q]
+        if g < -tol:
+            if wrong[q] < 0.0:
+                wrong[q] = t
+                wrong[wrong.shape[0] - 1] += 1.0  # sightings still open
+        elif g > tol and wrong[q] >= 0.0:
+            return wrong[q]
+    return -1.0
+
+
+@hot
+def _fill_states(sv, prob, st, dense, t_upto, n, watch):
+    """The states at the requested times up to ``t_upto`` (inside the last step) from the interpolant, each
+    checked with the core's rule; the first wrong-side time of a guard back on its own side, or -1."""
+    si = st.si
+    i = si[SI_IEVAL]
+    ng = si[SI_NG]
+    slots = st.gk.shape[0]
+    wrong = sv.wrong
+    found = -1.0
+    while i < dense.t.shape[0] and dense.t[i] <= t_upto:
+        if _interpolate(sv, dense.t[i]) < 0:  # outside the last step (cannot happen): the step's end state
+            for j in range(n):
+                sv.dky[j] = sv.y[j]
+        row = dense.y[i]
+        for j in range(n):
+            row[j] = sv.dky[j]
+        if watch and found < 0.0:
+            tol = _scale(row)
+            for q in range(ng):
+                g = st.gs[q] * law.guard_value(prob, st.mode, st.gk[q], st.gi[q], dense.t[i], row)
+                if g < -tol:
+                    if wrong[slots + q] < 0.0:
+                        wrong[slots + q] = dense.t[i]
+                elif g > tol and wrong[slots + q] >= 0.0:
+                    found = wrong[slots + q]
+                    break
+        i += 1
+    si[SI_IEVAL] = i
+    return found
+
+
+@hot
+def _finite(y, n):
+    for j in range(n):
+        if not np.isfinite(y[j]):
+            return False
+    return True
+
+
+@hot
+def _arc(sv, prob, lim, sec, hits, dense, st, budget):
+    """One arc from ``(sf[SF_T], st.y)`` in ``st.mode`` to its first guard's root, ``t_end`` or a stop;
+    ``(status, t_stop, fired)`` as an arc kernel's (plus :data:`K_MISSED`), the stop state in ``st.y_arc``."""
+    si, sf, cnt = st.si, st.sf, st.cnt
+    n = st.y.shape[0]
+    t0, t_end = sf[SF_T], lim.t_end
+    ng = si[SI_NG]
+    slots = sv.h[H_SLOTS]
+    n_sec = sec.levels.shape[0]
+    _point_ud(sv, st, sec)
+    for q in range(2 * slots):
+        sv.wrong[q] = -1.0
+    sv.wrong[2 * slots] = 0.0
+    flag = _start(sv, prob, st, t0, t_end)
+    copy_into(st.y_arc, st.y)
+    if flag < 0:
+        return K_FAIL - flag, t0, -1
+    steps, t_prev, t = 0, t0, t0
+    status, fired, t_stop = K_OK, -1, t_end
+    while True:
+        if steps >= budget:
+            status, t_stop = K_BUDGET, t
+            break
+        flag = _step(sv, t_end)
+        if flag < 0:
+            for j in range(n):
+                st.y_arc[j] = sv.y[j]
+            status, t_stop = K_FAIL - flag, sv.tret[0]
+            break
+        t = sv.tret[0]
+        if flag == capi.ROOT_RETURN:
+            cnt[X0] += 1
+            slot = _CVodeGetRootInfo if sv.h[H_KIND] == CVODE else _IDAGetRootInfo
+            _root_info(sv.calls[slot], (sv.h[H_MEM], sv.found.ctypes.data))
+            if n_sec > 0:
+                if hits.t.shape[0] - si[SI_NHITS] < n_sec:
+                    return K_HIT_FULL, t, -1
+                for j in range(n_sec):
+                    if sv.found[slots + j] != 0 and t >= sec.hit_from:
+                        record_hit(hits, si, j, t, sv.y[:n])
+                        if 0 <= sec.hit_stop <= si[SI_NHITS]:
+                            for i in range(n):
+                                st.y_arc[i] = sv.y[i]
+                            _fill_states(sv, prob, st, dense, t, n, False)
+                            return K_HIT_STOP, t, -1
+            for q in range(ng):
+                if sv.found[q] != 0:
+                    fired = q
+                    break
+            if fired < 0:
+                continue
+            # the arc ends at the root: the part of the step before it is checked, as a step's
+            wrong_at = -1.0
+            t_mid = 0.5 * (t_prev + t)
+            if t_mid > t_prev and _interpolate(sv, t_mid) >= 0:
+                cnt[X1] += 1
+                wrong_at = _watch_solver(sv, ng, t_mid, sv.dky)
+            found = _fill_states(sv, prob, st, dense, t, n, True)
+            if wrong_at < 0.0:
+                wrong_at = found
+            if wrong_at >= 0.0:
+                status, t_stop = K_MISSED, wrong_at
+                break
+            for j in range(n):
+                st.y_arc[j] = sv.y[j]
+            t_stop = t
+            break
+        steps += 1
+        if not _finite(sv.y, sv.h[H_NEQ]):
+            status, t_stop = K_NONFINITE, t
+            break
+        wrong_at = -1.0
+        t_mid = 0.5 * (t_prev + t)
+        if t_mid > t_prev and _interpolate(sv, t_mid) >= 0:
+            cnt[X1] += 1
+            wrong_at = _watch_solver(sv, ng, t_mid, sv.dky)
+        found = _fill_states(sv, prob, st, dense, t, n, True)
+        if wrong_at < 0.0:
+            wrong_at = found
+        if wrong_at < 0.0 and sv.wrong[sv.wrong.shape[0] - 1] > 0.0:
+            # the step's end: only to see a guard back on its own side (the solver's root finding has
+            # compared the guards at the step's two ends, so a guard cannot newly be on its wrong side
+            # there without a root: pending_guard saw none heading there at the arc's start)
+            wrong_at = _watch_solver(sv, ng, t, sv.y)
+        if wrong_at >= 0.0:
+            status, t_stop = K_MISSED, wrong_at
+            break
+        t_prev = t
+        if flag == capi.TSTOP_RETURN or t >= t_end:
+            for j in range(n):
+                st.y_arc[j] = sv.y[j]
+            _fill_states(sv, prob, st, dense, t_end, n, False)
+            t_stop = t_end
+            break
+    cnt[NSTEPS] += steps
+    cnt[NFEV] += _counter(sv, _CVodeGetNumRhsEvals, _IDAGetNumResEvals)
+    cnt[NJEV] += _counter(sv, _CVodeGetNumJacEvals, _IDAGetNumJacEvals)
+    return status, t_stop, fired
+
+
+# ---------------------------------------------------------------------- compiled: the run
+@hot
+def _finish(si, status):
+    si[SI_STATUS] = status
+    return R_DONE
+
+
+@hot
+def native_loop(sv, prob, lim, sec, hits, dense, ev, st):
+    """Advance the run held in ``st`` with the solver ``sv`` (:class:`Solver`) through every event.
+
+    The same phases, stop rules and outcomes as :func:`nsbench.model.loop.hybrid_loop`;
+    returns :data:`R_DONE` (``si[SI_STATUS]`` says how), :data:`R_GROW_EVENTS` or
+    :data:`R_GROW_HITS` (grow that buffer and call again: an arc that found its hit
+    buffer full runs again from its start, as a kernel's).
+    """
+    si, sf, cnt = st.si, st.sf, st.cnt
+    saved = st.iw[: cnt.shape[0]]
+    clock = st.iw[cnt.shape[0] :]
+    room = st.ring.shape[0] + EXTRA_EVENTS
+    if si[SI_PHASE] == P_INIT:
+        if ev.t.shape[0] - si[SI_RECORDED] < room:
+            return R_GROW_EVENTS
+        law.start_fresh(prob, st.mode, sf[SF_T], st.y, st.fresh)
+        q = pending_guard(prob, st, sf[SF_T])
+        outcome = settle(prob, st, lim, ev, q)
+        i = si[SI_IEVAL]
+        while i < dense.t.shape[0] and dense.t[i] <= sf[SF_T]:
+            copy_into(dense.y[i], st.y)
+            i += 1
+        si[SI_IEVAL] = i
+        si[SI_PHASE] = P_TOP
+        if outcome == STORM:
+            return _finish(si, RUN_STORM)
+        if outcome == EVENT_BUDGET:
+            return _finish(si, RUN_EVENT_BUDGET)
+    while True:
+        if lim.stop_count > 0 and si[SI_STOP_SEEN] >= lim.stop_count:
+            si[SI_STOPPED] = 1
+            return _finish(si, RUN_SUCCESS)
+        if sf[SF_T] >= lim.t_end:
+            return _finish(si, RUN_SUCCESS)
+        if ev.t.shape[0] - si[SI_RECORDED] < room:
+            return R_GROW_EVENTS
+        ng = law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
+        si[SI_NG] = ng
+        si[SI_ARC_IEVAL] = si[SI_IEVAL]
+        copy_into(saved, cnt)
+        n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
+        tic = monotonic_ns(clock)
+        status, t1, fired = _arc(sv, prob, lim, sec, hits, dense, st, lim.max_steps - cnt[NSTEPS])
+        si[SI_CLOCK] += monotonic_ns(clock) - tic
+        if status == K_HIT_FULL:
+            copy_into(cnt, saved)  # the arc runs again from its start once the buffer is grown
+            si[SI_NHITS], si[SI_IEVAL] = n_hits, i_eval
+            return R_GROW_HITS
+        si[SI_ARC_STATUS], si[SI_DETAIL] = status, fired
+        sf[SF_ARC_T] = t1
+        if status == K_NONFINITE:
+            sf[SF_T] = t1
+            return _finish(si, RUN_NONFINITE)
+        if status == K_MISSED:
+            sf[SF_T], sf[SF_TLO] = t1, 0.0
+            return _finish(si, RUN_MISSED)
+        if status == K_BUDGET or status >= K_FAIL:
+            sf[SF_T], sf[SF_TLO] = t1, 0.0
+            copy_into(st.y, st.y_arc)
+            if status >= K_FAIL:
+                si[SI_DETAIL] = status
+                return _finish(si, RUN_FAILURE)
+            return _finish(si, RUN_STEP_BUDGET)
+        sf[SF_T], sf[SF_TLO] = t1, 0.0
+        copy_into(st.y, st.y_arc)
+        if status == K_HIT_STOP:
+            si[SI_STOPPED] = 1
+            return _finish(si, RUN_SUCCESS)
+        if fired < 0:
+            return _finish(si, RUN_SUCCESS)  # reached t_end
+        budget_spent = cnt[NSTEPS] >= lim.max_steps
+        for i in range(st.fresh.shape[0]):
+            st.fresh[i] = False
+        law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
+        outcome = settle(prob, st, lim, ev, fired)
+        if outcome == STORM:
+            return _finish(si, RUN_STORM)
+        if outcome == EVENT_BUDGET:
+            return _finish(si, RUN_EVENT_BUDGET)
+        if budget_spent:
+            return _finish(si, RUN_STEP_BUDGET)
+
+
+# ---------------------------------------------------------------------- Python: owning a solver
+def _vector_view(binding: capi.Binding, vector: int, size: int) -> np.ndarray:
+    get = binding.fn("core", "N_VGetArrayPointer", ctypes.c_void_p, ctypes.c_void_p)
+    return np.ctypeslib.as_array((ctypes.c_double * size).from_address(get(vector)))
+
+
+class NativeSolver:
+    """One CVODE or IDA solver for a problem, with the options of the per-arc adapter, owned here.
+
+    Parameters
+    ----------
+    kind
+        :data:`CVODE` or :data:`IDA`.
+    problem
+        A friction-family problem (``n_states``, ``packed``, ``coefficients``, ``max_guards``).
+    method
+        CVODE's ``'Adams'`` or ``'BDF'`` (IDA: ignored).
+    rtol, atol, max_step
+        As the adapters' options (``max_step`` 0: none).
+    n_sections, directions
+        The sections' count and crossing directions (-1, 0, +1).
+    """
+
+    def __init__(
+        self,
+        kind: int,
+        problem: Any,
+        method: str,
+        rtol: float,
+        atol: float,
+        max_step: float,
+        n_sections: int,
+    ) -> None:
+        from nsbench.problems.friction_spec import LAYOUT
+
+        b = self.binding = capi.load()
+        self.kind = kind
+        self.n_sections = int(n_sections)
+        n, nb = int(problem.n_states), int(problem.n_blocks)
+        p = np.array(problem.packed, dtype=float)
+        c = problem.coefficients
+        F, w = float(c.F), float(c.w)
+        if kind == CVODE:
+            p[LAYOUT.offset("F", nb)] = 0.0  # the force enters through the cos state
+            neq = n + (2 if F != 0.0 else 0)
+        else:
+            neq = n + nb
+        slots = int(problem.max_guards)
+        self.n_roots = n_roots = slots + self.n_sections
+        self.own = own = capi.Owned()
+        vp, ci, cd = ctypes.c_void_p, ctypes.c_int, ctypes.c_double
+        idx = b.index
+        lib = "cvode" if kind == CVODE else "ida"
+        P = "CVode" if kind == CVODE else "IDA"
+
+        def call(name: str, *args: Any, restype: Any = ci, argtypes: tuple = ()) -> Any:
+            f = getattr(b.libs[lib], name)
+            f.restype = restype
+            if argtypes:
+                f.argtypes = list(argtypes)
+            return f(*args)
+
+        def check(flag: int, what: str) -> None:
+            if flag < 0:
+                self.close()
+                raise capi.BindingUnavailable(f"{what} failed ({b.flag_name(lib, flag)})")
+
+        core = b.libs["core"]
+        core.SUNContext_Create.argtypes = [ci, ctypes.POINTER(vp)]
+        core.SUNContext_Free.argtypes = [ctypes.POINTER(vp)]
+        core.SUNContext_ClearErrHandlers.argtypes = [vp]
+        ctx = vp()
+        check(core.SUNContext_Create(0, ctypes.byref(ctx)), "SUNContext_Create")  # 0: SUN_COMM_NULL
+        own.add(ctx.value, lambda ptr: core.SUNContext_Free(ctypes.byref(vp(ptr))), "SUNContext")
+        # no error handler: SUNDIALS would print each failure to stderr; the run's status and
+        # message say what failed (its return flag's name)
+        core.SUNContext_ClearErrHandlers(ctx)
+        destroy = b.fn("core", "N_VDestroy", None, vp)
+
+        def vector(what: str) -> int:
+            return own.add(call("N_VNew_Serial", idx(neq), ctx, restype=vp, argtypes=(idx, vp)), destroy, what)
+
+        y, yp, dky = vector("state vector"), vector("derivative vector"), vector("interpolation vector")
+        ident = vector("id vector") if kind == IDA else 0
+        mat_destroy = b.fn("core", "SUNMatDestroy", None, vp)
+        ls_free = b.fn("core", "SUNLinSolFree", ci, vp)
+        A = own.add(
+            call("SUNDenseMatrix", idx(neq), idx(neq), ctx, restype=vp, argtypes=(idx, idx, vp)),
+            mat_destroy,
+            "dense matrix",
+        )
+        LS = own.add(
+            call("SUNLinSol_Dense", vp(y), vp(A), ctx, restype=vp, argtypes=(vp, vp, vp)),
+            ls_free,
+            "dense linear solver",
+        )
+        addresses = cb.addresses()
+        free_mem = b.fn(lib, f"{P}Free", None, ctypes.POINTER(vp))
+        if kind == CVODE:
+            mem = call("CVodeCreate", CVODE_METHODS[method], ctx, restype=vp, argtypes=(ci, vp))
+        else:
+            mem = call("IDACreate", ctx, restype=vp, argtypes=(vp,))
+        mem = own.add(mem, lambda ptr: free_mem(ctypes.byref(vp(ptr))), f"{P} memory")
+        self.views = {
+            "y": _vector_view(b, y, neq),
+            "yp": _vector_view(b, yp, neq),
+            "dky": _vector_view(b, dky, neq),
+            "ident": _vector_view(b, ident, neq) if ident else np.zeros(0),
+        }
+        self.views["y"][:] = 0.0
+        self.views["yp"][:] = 0.0
+        if kind == IDA:
+            self.views["ident"][:] = 1.0
+        fn = ctypes.c_void_p
+        if kind == CVODE:
+            check(call("CVodeInit", vp(mem), fn(addresses["cvode_rhs"]), cd(0.0), vp(y)), "CVodeInit")
+        else:
+            check(call("IDAInit", vp(mem), fn(addresses["ida_res"]), cd(0.0), vp(y), vp(yp)), "IDAInit")
+        check(call(f"{P}SStolerances", vp(mem), cd(rtol), cd(atol)), f"{P}SStolerances")
+        check(call(f"{P}SetLinearSolver", vp(mem), vp(LS), vp(A)), f"{P}SetLinearSolver")
+        check(call(f"{P}SetJacFn", vp(mem), fn(addresses["cvode_jac" if kind == CVODE else "ida_jac"])), f"{P}SetJacFn")
+        # scikit-sundae's settings, which the per-arc adapters run with (its defaults and theirs)
+        check(call(f"{P}SetMaxNonlinIters", vp(mem), ci(3 if kind == CVODE else 4)), f"{P}SetMaxNonlinIters")
+        check(call(f"{P}SetMaxConvFails", vp(mem), ci(10)), f"{P}SetMaxConvFails")
+        check(call(f"{P}SetInitStep", vp(mem), cd(0.0)), f"{P}SetInitStep")
+        check(call(f"{P}SetMinStep", vp(mem), cd(0.0)), f"{P}SetMinStep")
+        check(call(f"{P}SetMaxStep", vp(mem), cd(max_step)), f"{P}SetMaxStep")
+        max_order = 12 if (kind == CVODE and method == "Adams") else 5
+        check(call(f"{P}SetMaxOrd", vp(mem), ci(max_order)), f"{P}SetMaxOrd")
+        check(call(f"{P}SetMaxNumSteps", vp(mem), ctypes.c_long(10**9)), f"{P}SetMaxNumSteps")
+        root = addresses["cvode_root" if kind == CVODE else "ida_root"]
+        check(call(f"{P}RootInit", vp(mem), ci(n_roots), fn(root)), f"{P}RootInit")
+        check(call(f"{P}SetNoInactiveRootWarn", vp(mem)), f"{P}SetNoInactiveRootWarn")
+        if kind == IDA:
+            check(call("IDASetId", vp(mem), vp(ident)), "IDASetId")
+        # the callbacks' data
+        self.p = p
+        self.fw = np.array([F, w])
+        self.scratch = np.zeros((n, n))
+        self.slip_all = np.full(nb, -1, dtype=np.int64)
+        self.root_scratch = np.zeros(n_roots)
+        self.no_sections = (np.zeros((1, n)), np.zeros(1))
+        ud = self.ud = cb.user_data()
+        ud[cb.UD_NVGET] = b.table[_N_VGetArrayPointer]
+        ud[cb.UD_MATDATA] = ctypes.cast(getattr(b.libs[lib], "SUNDenseMatrix_Data"), vp).value
+        ud[cb.UD_P], ud[cb.UD_NP] = p.ctypes.data, p.size
+        ud[cb.UD_NB], ud[cb.UD_SLOTS], ud[cb.UD_N], ud[cb.UD_NEQ] = nb, slots, n, neq
+        ud[cb.UD_FW] = self.fw.ctypes.data
+        ud[cb.UD_SCRATCH] = self.scratch.ctypes.data
+        ud[cb.UD_SLIP] = self.slip_all.ctypes.data
+        ud[cb.UD_ROOTS] = self.root_scratch.ctypes.data
+        ud[cb.UD_SEC_C], ud[cb.UD_SEC_L] = self.no_sections[0].ctypes.data, self.no_sections[1].ctypes.data
+        check(call(f"{P}SetUserData", vp(mem), vp(ud.ctypes.data)), f"{P}SetUserData")
+        self.directions = np.full(n_roots, -1, dtype=np.int32)  # guards: expected_sign * guard decreasing
+        self._set_directions = lambda d: check(
+            call(f"{P}SetRootDirection", vp(mem), d.ctypes.data_as(ctypes.POINTER(ci))), f"{P}SetRootDirection"
+        )
+        self._set_directions(self.directions)
+        h = np.zeros(N_H, np.int64)
+        h[H_KIND], h[H_MEM], h[H_Y], h[H_YP], h[H_DKY], h[H_ID] = kind, mem, y, yp, dky, ident
+        h[H_NEQ], h[H_SLOTS], h[H_NROOTS] = neq, slots, n_roots
+        self.bundle = Solver(
+            calls=b.table,
+            h=h,
+            ud=ud,
+            p=p,
+            fw=self.fw,
+            y=self.views["y"],
+            yp=self.views["yp"] if kind == IDA else np.zeros(0),
+            dky=self.views["dky"],
+            ident=self.views["ident"],
+            found=np.zeros(n_roots, np.int32),
+            roots=np.zeros(n_roots),
+            tret=np.zeros(1),
+            counter=np.zeros(1, np.int64),
+            wrong=np.zeros(2 * slots + 1),
+        )
+        self.solver_name = "cvode" if kind == CVODE else "ida"
+
+    def prepare(self, directions: np.ndarray) -> Solver:
+        """The bundle for a run whose sections cross in ``directions``."""
+        if self.own.alive == 0:
+            raise RuntimeError("this SUNDIALS solver has been freed")
+        d = np.asarray(directions, dtype=np.int32)
+        if d.size != self.n_sections:
+            raise ValueError(f"{d.size} section directions for a solver built for {self.n_sections}")
+        if not np.array_equal(self.directions[self.n_roots - self.n_sections :], d):
+            self.directions[self.n_roots - self.n_sections :] = d
+            self._set_directions(self.directions)
+        return self.bundle
+
+    def failure(self, detail: int, t: float) -> str:
+        """The message of a run that ended on SUNDIALS' failure code ``detail`` (``K_FAIL - flag``)."""
+        flag = -(int(detail) - K_FAIL)
+        return f"SUNDIALS: {self.binding.flag_name(self.solver_name, flag)} (flag {flag}) at t = {t:.6g}"
+
+    def close(self) -> None:
+        """Free the solver's C objects (the views on its vectors go with them)."""
+        self.views = {}
+        self.bundle = None  # type: ignore[assignment]
+        self.own.close()
+
+
+CVODE_METHODS = {"Adams": capi.CV_ADAMS, "BDF": capi.CV_BDF}
+
+
+def drive(solver: NativeSolver, prob: Any, lim: Any, sec: Any, rec: Any, st: Any) -> None:
+    """Run :func:`native_loop` to its end, growing the record buffers it finds full."""
+    sv = solver.prepare(sec.directions)
+    while True:
+        code = native_loop(sv, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
+        if code == R_DONE:
+            return
+        if code == R_GROW_EVENTS:
+            rec.grow_events(int(st.si[SI_RECORDED]))
+        else:
+            rec.grow_hits(int(st.si[SI_NHITS]), at_least=int(st.si[SI_NHITS]) + 2 * max(solver.n_sections, 1))

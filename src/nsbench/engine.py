@@ -321,4 +321,6 @@ def simulate(
         setup_time=setup_time,
         integrator_time=raw.integrator_time,
         cpu_time=cpu,
+        loop="whole-system" if whole else raw.loop,
+        loop_note="" if whole else raw.loop_note,
     )

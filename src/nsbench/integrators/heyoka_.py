@@ -40,6 +40,7 @@ left the state alone.
 
 from __future__ import annotations
 
+import time
 from typing import Any, ClassVar
 
 import numpy as np
@@ -47,9 +48,19 @@ import numpy as np
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import _heyoka_crossing as crossing
 from nsbench.integrators import _heyoka_model as model
+from nsbench.integrators import _heyoka_native as native_heyoka
 from nsbench.integrators import _heyoka_symbolic as symbolic
 from nsbench.integrators._carry import reset_velocities
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
+from nsbench.integrators.base import (
+    LOOP_OPTION,
+    ArcRequest,
+    ArcResult,
+    Capabilities,
+    Integrator,
+    Option,
+    RunReport,
+    RunRequest,
+)
 from nsbench.problems.modes import STICK
 from nsbench.status import Status
 
@@ -164,6 +175,7 @@ class HeyokaIntegrator(Integrator):
         ),
         "high_accuracy": Option(False, bool, doc="heyoka's compensated summation for long runs"),
         "compact_mode": Option(None, bool, nullable=True, doc="compile in compact mode; None: only for quad precision"),
+        "loop": LOOP_OPTION,
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
@@ -188,6 +200,57 @@ class HeyokaIntegrator(Integrator):
                 "the friction family's has)"
             )
         return ""
+
+    def native_refusal(self, problem, forced: bool = False) -> str:
+        """heyoka runs a friction problem's whole run itself (:mod:`nsbench.integrators._heyoka_native`),
+        except where a slip starts on a double zero of its guard (see the module docstring)."""
+        if self._written_symbolically(problem):
+            return (
+                f"{self.name}'s own event loop keeps the mode in runtime parameters of the friction family's model; "
+                f"{problem.name} ({problem.family or 'other'} family) compiles one integrator per mode"
+            )
+        if forced:
+            return ""
+        c = problem.coefficients
+        double = [i + 1 for i in range(c.n_blocks) if c.fs[i] >= c.fr[i]]
+        if double:
+            blocks = ", ".join(str(b) for b in double)
+            return (
+                f"a slip that starts at the static limit starts on a double zero of its guard (fs >= fr on block "
+                f"{blocks}), which heyoka's event detection cannot see past"
+            )
+        return ""
+
+    def _native_model(self, sections: tuple = ()):
+        """The native integrator for these sections (compiled once per structure and directions, kept across
+        setups as the per-arc models are); the seconds a compilation took (0 if it was there)."""
+        compact = self.settings["compact_mode"]
+        if compact is None:
+            compact = self.precision == "quad"
+        st = model.Structure.of(self._problem, len(sections))
+        directions = tuple(int(sec.direction) for sec in sections)
+        key = ("native", st, directions, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        own = self.__dict__.setdefault("_own_models", {})
+        if key in own:
+            return own[key], 0.0
+        ta, seconds = native_heyoka.compiled(st, directions, *key[3:])
+        own[key] = native_heyoka.NativeModel(st, ta, self.precision)
+        return own[key], seconds
+
+    def run(self, request: RunRequest) -> RunReport:
+        """The whole run with heyoka's own event loop (whole-run protocol; :mod:`._heyoka_native`)."""
+        problem = request.problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        # compiled on a configuration's first native run (a per-arc one never needs it), timed as setup
+        tic = time.perf_counter()
+        m, seconds = self._native_model(request.sections)
+        native_heyoka.warm_up(problem, self.precision)
+        self.compile_time += seconds
+        prepared = time.perf_counter() - tic
+        report = native_heyoka.run(m, request, self._coefficients)
+        report.prepare_time += prepared
+        return report
 
     def setup(self, problem) -> None:
         self.check_problem(problem)

@@ -201,8 +201,6 @@ def unavailable() -> str | None:
 
 
 def _load() -> Binding:
-    if os.environ.get("NSBENCH_SUNDIALS_NATIVE", "") == "0":
-        raise BindingUnavailable("turned off by NSBENCH_SUNDIALS_NATIVE=0")
     paths = {name: find_library(name) for name in LIBRARIES}
     mode = getattr(os, "RTLD_GLOBAL", 0)  # core first and global: the solvers' libraries resolve it
     libs = {name: ctypes.CDLL(str(paths[name]), mode=mode) for name in LIBRARIES}

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import time
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -39,7 +40,6 @@ import numpy as np
 from nsbench.integrators import _sundials_callbacks as cb
 from nsbench.integrators import _sundials_capi as capi
 from nsbench.integrators._sundials_capi import SLOT, c_function
-from nsbench.model import law
 from nsbench.model.abi import (
     K_BUDGET,
     K_FAIL,
@@ -50,19 +50,13 @@ from nsbench.model.abi import (
     NFEV,
     NJEV,
     NSTEPS,
-    RUN_EVENT_BUDGET,
     RUN_FAILURE,
     RUN_MISSED,
     RUN_NONFINITE,
     RUN_STEP_BUDGET,
-    RUN_STORM,
-    RUN_SUCCESS,
     SF_ARC_T,
     SF_T,
     SF_TLO,
-    SI_ARC_IEVAL,
-    SI_ARC_STATUS,
-    SI_CLOCK,
     SI_DETAIL,
     SI_IEVAL,
     SI_NG,
@@ -70,15 +64,12 @@ from nsbench.model.abi import (
     SI_PHASE,
     SI_RECORDED,
     SI_STATUS,
-    SI_STOP_SEEN,
-    SI_STOPPED,
-    X0,
-    X1,
 )
+from nsbench.model import native
+from nsbench.model.clock import AVAILABLE as CLOCK
 from nsbench.model.clock import monotonic_ns
 from nsbench.model.compile import hot
-from nsbench.model.records import copy_into, record_hit
-from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle
+from nsbench.model.records import copy_into
 from nsbench.problems import friction_law as k
 
 #: Solver kinds (slot ``H_KIND`` of the handles).
@@ -91,10 +82,12 @@ COUNTERS = ("root_returns", "midpoint_checks")
 
 #: The arc stepped over a guard's crossing (this loop's own code; the core's kernels have none).
 K_MISSED = 6
-P_INIT, P_TOP = 0, 1
+#: Where :func:`native_loop` resumes: the next arc (the core's ``P_TOP``, where ``native.begin`` leaves
+#: a run), or the event of the last arc, waiting for room in the event buffers.
+P_TOP, P_EVENT = 1, 7
 R_DONE, R_GROW_EVENTS, R_GROW_HITS = 0, 1, 2
-#: Room the settle step needs in the event buffers beyond the storm ring (as the core's loop).
-EXTRA_EVENTS = 2
+#: Slots of :attr:`Solver.clock`: nanoseconds inside the arcs, root returns, midpoint checks.
+C_NS, C_ROOTS, C_MIDPOINTS = 0, 1, 2
 _EPS = np.finfo(np.float64).eps
 
 _cv_solve = c_function("i32(p, f64, p, p, i32)")  # CVode(mem, tout, yout, &tret, itask)
@@ -141,7 +134,8 @@ class Solver(NamedTuple):
     roots: np.ndarray  # float64 root values (H_NROOTS)
     tret: np.ndarray  # float64, 1
     counter: np.ndarray  # int64, 1 (a counter read from the solver)
-    wrong: np.ndarray  # float64, 2 x slots + 1: each guard's first wrong-side time (solver points; states); open ones
+    wrong: np.ndarray  # float64, slots + 1: each guard's first wrong-side time at a solver point; how many
+    clock: np.ndarray  # int64, C_*: the run's time inside the arcs and its method counters
 
 
 # ---------------------------------------------------------------------- compiled: one arc
@@ -271,15 +265,10 @@ def _watch_solver(sv, ng, t, y):
 
 
 @hot
-def _fill_states(sv, prob, st, dense, t_upto, n, watch):
-    """The states at the requested times up to ``t_upto`` (inside the last step) from the interpolant, each
-    checked with the core's rule; the first wrong-side time of a guard back on its own side, or -1."""
+def _fill_states(sv, dense, st, t_upto, n):
+    """The states at the requested times up to ``t_upto`` (inside the last step), from the interpolant."""
     si = st.si
     i = si[SI_IEVAL]
-    ng = si[SI_NG]
-    slots = st.gk.shape[0]
-    wrong = sv.wrong
-    found = -1.0
     while i < dense.t.shape[0] and dense.t[i] <= t_upto:
         if _interpolate(sv, dense.t[i]) < 0:  # outside the last step (cannot happen): the step's end state
             for j in range(n):
@@ -287,19 +276,8 @@ def _fill_states(sv, prob, st, dense, t_upto, n, watch):
         row = dense.y[i]
         for j in range(n):
             row[j] = sv.dky[j]
-        if watch and found < 0.0:
-            tol = _scale(row)
-            for q in range(ng):
-                g = st.gs[q] * law.guard_value(prob, st.mode, st.gk[q], st.gi[q], dense.t[i], row)
-                if g < -tol:
-                    if wrong[slots + q] < 0.0:
-                        wrong[slots + q] = dense.t[i]
-                elif g > tol and wrong[slots + q] >= 0.0:
-                    found = wrong[slots + q]
-                    break
         i += 1
     si[SI_IEVAL] = i
-    return found
 
 
 @hot
@@ -311,19 +289,38 @@ def _finite(y, n):
 
 
 @hot
-def _arc(sv, prob, lim, sec, hits, dense, st, budget):
+def _watch_step(sv, ng, t_prev, t, end):
+    """The missed-crossing rule on the step ``(t_prev, t]``: its middle (the interpolant), and its end ``sv.y``
+    if ``end`` and a guard has been seen on its wrong side; a first wrong-side time now resolved, or -1."""
+    wrong_at = -1.0
+    t_mid = 0.5 * (t_prev + t)
+    if t_mid > t_prev and _interpolate(sv, t_mid) >= 0:
+        sv.clock[C_MIDPOINTS] += 1
+        wrong_at = _watch_solver(sv, ng, t_mid, sv.dky)
+    if end and wrong_at < 0.0 and sv.wrong[sv.wrong.shape[0] - 1] > 0.0:
+        # the step's end only to see a guard back on its own side: the solver's root finding has
+        # compared the guards at both ends of the step, so a guard cannot newly be on its wrong side
+        # there without a root (no guard was heading there at the arc's start: the core's settle rule)
+        wrong_at = _watch_solver(sv, ng, t, sv.y)
+    return wrong_at
+
+
+@hot
+def _arc(sv, prob, sec, hits, dense, st, t_end, budget):
     """One arc from ``(sf[SF_T], st.y)`` in ``st.mode`` to its first guard's root, ``t_end`` or a stop;
-    ``(status, t_stop, fired)`` as an arc kernel's (plus :data:`K_MISSED`), the stop state in ``st.y_arc``."""
-    si, sf, cnt = st.si, st.sf, st.cnt
+    ``(status, t_stop, fired)`` with the codes of an arc kernel (and :data:`K_MISSED`), the state where
+    it stopped in ``st.y_arc``. A section's hit that ends the run (``hit_stop``) is applied here
+    (:func:`nsbench.model.native.hit`): :data:`K_HIT_STOP`, the run's outcome set."""
+    si, cnt = st.si, st.cnt
     n = st.y.shape[0]
-    t0, t_end = sf[SF_T], lim.t_end
+    t0 = st.sf[SF_T]
     ng = si[SI_NG]
     slots = sv.h[H_SLOTS]
     n_sec = sec.levels.shape[0]
     _point_ud(sv, st, sec)
-    for q in range(2 * slots):
+    for q in range(slots):
         sv.wrong[q] = -1.0
-    sv.wrong[2 * slots] = 0.0
+    sv.wrong[slots] = 0.0
     flag = _start(sv, prob, st, t0, t_end)
     copy_into(st.y_arc, st.y)
     if flag < 0:
@@ -342,38 +339,29 @@ def _arc(sv, prob, lim, sec, hits, dense, st, budget):
             break
         t = sv.tret[0]
         if flag == capi.ROOT_RETURN:
-            cnt[X0] += 1
+            sv.clock[C_ROOTS] += 1
             slot = _CVodeGetRootInfo if sv.h[H_KIND] == CVODE else _IDAGetRootInfo
             _root_info(sv.calls[slot], (sv.h[H_MEM], sv.found.ctypes.data))
-            if n_sec > 0:
-                if hits.t.shape[0] - si[SI_NHITS] < n_sec:
-                    return K_HIT_FULL, t, -1
-                for j in range(n_sec):
-                    if sv.found[slots + j] != 0 and t >= sec.hit_from:
-                        record_hit(hits, si, j, t, sv.y[:n])
-                        if 0 <= sec.hit_stop <= si[SI_NHITS]:
-                            for i in range(n):
-                                st.y_arc[i] = sv.y[i]
-                            _fill_states(sv, prob, st, dense, t, n, False)
-                            return K_HIT_STOP, t, -1
             for q in range(ng):
                 if sv.found[q] != 0:
                     fired = q
                     break
+            if fired >= 0:  # the part of the step before the root, checked as a step
+                wrong_at = _watch_step(sv, ng, t_prev, t, False)
+                if wrong_at >= 0.0:
+                    status, t_stop, fired = K_MISSED, wrong_at, -1
+                    break
+            for j in range(n_sec):
+                if sv.found[slots + j] != 0:
+                    _fill_states(sv, dense, st, t, n)
+                    code = native.hit(sec, hits, dense, st, j, t, sv.y[:n])
+                    if code == native.NEED_HITS:
+                        return K_HIT_FULL, t, -1
+                    if code != native.GO_ON:
+                        return K_HIT_STOP, t, -1
             if fired < 0:
-                continue
-            # the arc ends at the root: the part of the step before it is checked, as a step's
-            wrong_at = -1.0
-            t_mid = 0.5 * (t_prev + t)
-            if t_mid > t_prev and _interpolate(sv, t_mid) >= 0:
-                cnt[X1] += 1
-                wrong_at = _watch_solver(sv, ng, t_mid, sv.dky)
-            found = _fill_states(sv, prob, st, dense, t, n, True)
-            if wrong_at < 0.0:
-                wrong_at = found
-            if wrong_at >= 0.0:
-                status, t_stop = K_MISSED, wrong_at
-                break
+                continue  # a section's root inside the step: the step goes on
+            _fill_states(sv, dense, st, t, n)
             for j in range(n):
                 st.y_arc[j] = sv.y[j]
             t_stop = t
@@ -382,27 +370,16 @@ def _arc(sv, prob, lim, sec, hits, dense, st, budget):
         if not _finite(sv.y, sv.h[H_NEQ]):
             status, t_stop = K_NONFINITE, t
             break
-        wrong_at = -1.0
-        t_mid = 0.5 * (t_prev + t)
-        if t_mid > t_prev and _interpolate(sv, t_mid) >= 0:
-            cnt[X1] += 1
-            wrong_at = _watch_solver(sv, ng, t_mid, sv.dky)
-        found = _fill_states(sv, prob, st, dense, t, n, True)
-        if wrong_at < 0.0:
-            wrong_at = found
-        if wrong_at < 0.0 and sv.wrong[sv.wrong.shape[0] - 1] > 0.0:
-            # the step's end: only to see a guard back on its own side (the solver's root finding has
-            # compared the guards at the step's two ends, so a guard cannot newly be on its wrong side
-            # there without a root: pending_guard saw none heading there at the arc's start)
-            wrong_at = _watch_solver(sv, ng, t, sv.y)
+        wrong_at = _watch_step(sv, ng, t_prev, t, True)
         if wrong_at >= 0.0:
             status, t_stop = K_MISSED, wrong_at
             break
+        _fill_states(sv, dense, st, t, n)
         t_prev = t
         if flag == capi.TSTOP_RETURN or t >= t_end:
             for j in range(n):
                 st.y_arc[j] = sv.y[j]
-            _fill_states(sv, prob, st, dense, t_end, n, False)
+            _fill_states(sv, dense, st, t_end, n)
             t_stop = t_end
             break
     cnt[NSTEPS] += steps
@@ -413,93 +390,56 @@ def _arc(sv, prob, lim, sec, hits, dense, st, budget):
 
 # ---------------------------------------------------------------------- compiled: the run
 @hot
-def _finish(si, status):
-    si[SI_STATUS] = status
-    return R_DONE
-
-
-@hot
 def native_loop(sv, prob, lim, sec, hits, dense, ev, st):
-    """Advance the run held in ``st`` with the solver ``sv`` (:class:`Solver`) through every event.
+    """Run with the solver ``sv`` (:class:`Solver`) from where the core's :func:`nsbench.model.native.begin`
+    left the run, through every event, to its outcome (``st.si[SI_STATUS]``).
 
-    The same phases, stop rules and outcomes as :func:`nsbench.model.loop.hybrid_loop`;
-    returns :data:`R_DONE` (``si[SI_STATUS]`` says how), :data:`R_GROW_EVENTS` or
-    :data:`R_GROW_HITS` (grow that buffer and call again: an arc that found its hit
-    buffer full runs again from its start, as a kernel's).
+    Between arcs it calls the core's steps (:mod:`nsbench.model.native`: ``event``, ``arrive``,
+    ``fail``), so the transitions, storms, event budget, Zeno rule, stop rule and the core's own
+    missed-crossing check on the requested states are the core's. Returns :data:`R_DONE`,
+    :data:`R_GROW_EVENTS` or :data:`R_GROW_HITS` (grow that buffer and call again: an event waiting
+    for room is applied then; an arc whose hit buffer was full runs again from its start).
     """
     si, sf, cnt = st.si, st.sf, st.cnt
     saved = st.iw[: cnt.shape[0]]
     clock = st.iw[cnt.shape[0] :]
-    room = st.ring.shape[0] + EXTRA_EVENTS
-    if si[SI_PHASE] == P_INIT:
-        if ev.t.shape[0] - si[SI_RECORDED] < room:
-            return R_GROW_EVENTS
-        law.start_fresh(prob, st.mode, sf[SF_T], st.y, st.fresh)
-        q = pending_guard(prob, st, sf[SF_T])
-        outcome = settle(prob, st, lim, ev, q)
-        i = si[SI_IEVAL]
-        while i < dense.t.shape[0] and dense.t[i] <= sf[SF_T]:
-            copy_into(dense.y[i], st.y)
-            i += 1
-        si[SI_IEVAL] = i
-        si[SI_PHASE] = P_TOP
-        if outcome == STORM:
-            return _finish(si, RUN_STORM)
-        if outcome == EVENT_BUDGET:
-            return _finish(si, RUN_EVENT_BUDGET)
     while True:
-        if lim.stop_count > 0 and si[SI_STOP_SEEN] >= lim.stop_count:
-            si[SI_STOPPED] = 1
-            return _finish(si, RUN_SUCCESS)
-        if sf[SF_T] >= lim.t_end:
-            return _finish(si, RUN_SUCCESS)
-        if ev.t.shape[0] - si[SI_RECORDED] < room:
-            return R_GROW_EVENTS
-        ng = law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
-        si[SI_NG] = ng
-        si[SI_ARC_IEVAL] = si[SI_IEVAL]
-        copy_into(saved, cnt)
-        n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
-        tic = monotonic_ns(clock)
-        status, t1, fired = _arc(sv, prob, lim, sec, hits, dense, st, lim.max_steps - cnt[NSTEPS])
-        si[SI_CLOCK] += monotonic_ns(clock) - tic
-        if status == K_HIT_FULL:
-            copy_into(cnt, saved)  # the arc runs again from its start once the buffer is grown
-            si[SI_NHITS], si[SI_IEVAL] = n_hits, i_eval
-            return R_GROW_HITS
-        si[SI_ARC_STATUS], si[SI_DETAIL] = status, fired
-        sf[SF_ARC_T] = t1
-        if status == K_NONFINITE:
-            sf[SF_T] = t1
-            return _finish(si, RUN_NONFINITE)
-        if status == K_MISSED:
-            sf[SF_T], sf[SF_TLO] = t1, 0.0
-            return _finish(si, RUN_MISSED)
-        if status == K_BUDGET or status >= K_FAIL:
-            sf[SF_T], sf[SF_TLO] = t1, 0.0
-            copy_into(st.y, st.y_arc)
+        if si[SI_PHASE] != P_EVENT:
+            copy_into(saved, cnt)
+            n_hits, i_eval = si[SI_NHITS], si[SI_IEVAL]
+            tic = monotonic_ns(clock)
+            status, t1, fired = _arc(sv, prob, sec, hits, dense, st, lim.t_end, lim.max_steps - cnt[NSTEPS])
+            sv.clock[C_NS] += monotonic_ns(clock) - tic
+            if status == K_HIT_FULL:
+                copy_into(cnt, saved)  # the arc runs again from its start once the buffer is grown
+                si[SI_NHITS], si[SI_IEVAL] = n_hits, i_eval
+                return R_GROW_HITS
+            if status == K_HIT_STOP:
+                return R_DONE
+            if status == K_MISSED:
+                sf[SF_T], sf[SF_TLO] = t1, 0.0
+                si[SI_STATUS] = RUN_MISSED
+                return R_DONE
+            if status == K_NONFINITE:
+                native.fail(st, RUN_NONFINITE, t1, st.y_arc, 0)
+                return R_DONE
+            if status == K_BUDGET:
+                native.fail(st, RUN_STEP_BUDGET, t1, st.y_arc, 0)
+                return R_DONE
             if status >= K_FAIL:
-                si[SI_DETAIL] = status
-                return _finish(si, RUN_FAILURE)
-            return _finish(si, RUN_STEP_BUDGET)
-        sf[SF_T], sf[SF_TLO] = t1, 0.0
-        copy_into(st.y, st.y_arc)
-        if status == K_HIT_STOP:
-            si[SI_STOPPED] = 1
-            return _finish(si, RUN_SUCCESS)
-        if fired < 0:
-            return _finish(si, RUN_SUCCESS)  # reached t_end
-        budget_spent = cnt[NSTEPS] >= lim.max_steps
-        for i in range(st.fresh.shape[0]):
-            st.fresh[i] = False
-        law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
-        outcome = settle(prob, st, lim, ev, fired)
-        if outcome == STORM:
-            return _finish(si, RUN_STORM)
-        if outcome == EVENT_BUDGET:
-            return _finish(si, RUN_EVENT_BUDGET)
-        if budget_spent:
-            return _finish(si, RUN_STEP_BUDGET)
+                native.fail(st, RUN_FAILURE, t1, st.y_arc, status)
+                return R_DONE
+            if fired < 0:
+                native.arrive(prob, dense, st, t1, 0.0, st.y_arc)
+                return R_DONE
+            sf[SF_ARC_T], si[SI_DETAIL] = t1, fired
+            si[SI_PHASE] = P_EVENT
+        code = native.event(prob, lim, dense, ev, st, si[SI_DETAIL], sf[SF_ARC_T], 0.0, st.y_arc)
+        if code == native.NEED_EVENTS:
+            return R_GROW_EVENTS
+        si[SI_PHASE] = P_TOP
+        if code != native.GO_ON:
+            return R_DONE
 
 
 # ---------------------------------------------------------------------- Python: owning a solver
@@ -677,7 +617,8 @@ class NativeSolver:
             roots=np.zeros(n_roots),
             tret=np.zeros(1),
             counter=np.zeros(1, np.int64),
-            wrong=np.zeros(2 * slots + 1),
+            wrong=np.zeros(slots + 1),
+            clock=np.zeros(3, np.int64),
         )
         self.solver_name = "cvode" if kind == CVODE else "ida"
 
@@ -708,14 +649,48 @@ class NativeSolver:
 CVODE_METHODS = {"Adams": capi.CV_ADAMS, "BDF": capi.CV_BDF}
 
 
-def drive(solver: NativeSolver, prob: Any, lim: Any, sec: Any, rec: Any, st: Any) -> None:
-    """Run :func:`native_loop` to its end, growing the record buffers it finds full."""
+def run(solver: NativeSolver, request: Any) -> Any:
+    """The whole run of ``request`` (:class:`~nsbench.integrators.base.RunRequest`) with ``solver``, from where
+    the core's start rule left it; its :class:`~nsbench.integrators.base.RunReport`."""
+    from nsbench.integrators.base import RunReport
+
+    rec, st, sec, lim = request.records, request.state, request.section_bundle, request.limits
+    prob = request.problem.data
     sv = solver.prepare(sec.directions)
+    sv.clock[:] = 0
+    st.si[SI_PHASE] = P_TOP
+    prepare_time = _load_loop((sv, prob, lim, sec, rec.hits, rec.dense, rec.events, st))
     while True:
         code = native_loop(sv, prob, lim, sec, rec.hits, rec.dense, rec.events, st)
         if code == R_DONE:
-            return
+            break
         if code == R_GROW_EVENTS:
             rec.grow_events(int(st.si[SI_RECORDED]))
         else:
-            rec.grow_hits(int(st.si[SI_NHITS]), at_least=int(st.si[SI_NHITS]) + 2 * max(solver.n_sections, 1))
+            rec.grow_hits(int(st.si[SI_NHITS]))
+    message = ""
+    if int(st.si[SI_STATUS]) == RUN_FAILURE:
+        message = solver.failure(int(st.si[SI_DETAIL]), float(st.sf[SF_T]))
+    return RunReport(
+        integrator_time=float(sv.clock[C_NS]) * 1e-9 if CLOCK else math.nan,
+        extra={"root_returns": int(sv.clock[C_ROOTS]), "midpoint_checks": int(sv.clock[C_MIDPOINTS])},
+        message=message,
+        prepare_time=prepare_time,
+    )
+
+
+_LOADED: set = set()
+
+
+def _load_loop(args: tuple) -> float:
+    """Load (or, once per install, compile) :func:`native_loop` for these argument types before the run
+    calls it; the seconds that took (first use: set-up, not the run)."""
+    key = type(args[1])  # the problem family's data class: every other argument type is fixed
+    if key in _LOADED:
+        return 0.0
+    import numba
+
+    tic = time.perf_counter()
+    native_loop.compile(tuple(numba.typeof(a) for a in args))
+    _LOADED.add(key)
+    return time.perf_counter() - tic

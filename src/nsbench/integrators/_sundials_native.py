@@ -4,28 +4,29 @@
 matrix, dense linear solver and memory, created through
 :mod:`~nsbench.integrators._sundials_capi` with the options of the per-arc adapters
 of :mod:`nsbench.integrators.sundials`) whose callbacks are the compiled functions of
-:mod:`~nsbench.integrators._sundials_callbacks`. :func:`native_loop` is the twin of
-the core's :func:`nsbench.model.loop.hybrid_loop` with the arc run in place: it
-calls ``CVode``/``IDASolve`` one internal step at a time through their C
-addresses, and at each guard's root applies the transition through the core's
-compiled rules (:func:`nsbench.model.rules.settle`: the same transitions, storms,
-accumulations and event budget), reinitialises the solver from the new state and
-goes on. It fills the run's own bundles (:class:`~nsbench.model.abi.RunState`, the
-record buffers of :class:`~nsbench.model.records.Records`), so the run's outcome
-is read as for any run of the core.
+:mod:`~nsbench.integrators._sundials_callbacks`. :func:`native_loop` runs the whole
+run (the whole-run protocol of :class:`nsbench.integrators.base.Integrator`, rules
+11-15): it calls ``CVode``/``IDASolve`` one internal step at a time through their C
+addresses, and at each guard's root hands the state to the core's compiled step
+:func:`nsbench.model.native.event` (the missed-crossing check on the arc's requested
+states, the transition through :func:`nsbench.model.rules.settle`: the same
+transitions, storms, accumulations, event budget and stop rule as the core's loop),
+reinitialises the solver from the new state and goes on; sections go through
+:func:`~nsbench.model.native.hit`, the end through :func:`~nsbench.model.native.arrive`
+or :func:`~nsbench.model.native.fail`. So the run fills the run's own bundles
+(:class:`~nsbench.model.abi.RunState`, the record buffers) as the core's loop would.
 
-The checks the core makes per arc are made here on the solver's own steps:
+The checks the core makes per arc are also made on the solver's own steps:
 
 - *missed crossings*: after every internal step each guard is evaluated (the
   formulation's root function, what the solver's root finding sees) at the middle
-  of the step, read from the solver's interpolant, and at its end; a guard seen on
-  its wrong side and later back on its own side within the arc is a crossing the
-  solver stepped over (:data:`~nsbench.model.abi.RUN_MISSED`, at the time of the
-  first wrong-side sighting). The states at requested times are checked with the
-  core's own rule on them (the law's guards), as the core checks any arc's;
-- the step budget before every step, non-finite states at every step end, the
-  end time (``tstop``), and the event budget, storms and accumulations through
-  :func:`~nsbench.model.rules.settle`.
+  of the step, read from the solver's interpolant, and, once a guard has been seen
+  on its wrong side, at the step's end; a guard seen on its wrong side and later back
+  on its own side within the arc is a crossing the solver stepped over
+  (:data:`~nsbench.model.abi.RUN_MISSED`, at the time of the first wrong-side sighting);
+- the step budget before every step, non-finite states at every step end, steps that
+  do not advance (``t + h == t``, :data:`MAX_STALLS` in a row), the end time (the
+  solver's stop time).
 """
 
 from __future__ import annotations
@@ -82,6 +83,11 @@ COUNTERS = ("root_returns", "midpoint_checks")
 
 #: The arc stepped over a guard's crossing (this loop's own code; the core's kernels have none).
 K_MISSED = 6
+#: A failure of this loop's own (beyond any SUNDIALS flag, ``K_FAIL - flag``): steps that did not advance.
+K_STALLED = K_FAIL + 1000
+#: Consecutive steps without progress (shorter than 16 ulps of the span's end: ``t + h == t`` or about) after
+#: which the run fails (CVODE's own count of warnings about ``t + h == t`` before it stops warning).
+MAX_STALLS = 10
 #: Where :func:`native_loop` resumes: the next arc (the core's ``P_TOP``, where ``native.begin`` leaves
 #: a run), or the event of the last arc, waiting for room in the event buffers.
 P_TOP, P_EVENT = 1, 7
@@ -325,7 +331,8 @@ def _arc(sv, prob, sec, hits, dense, st, t_end, budget):
     copy_into(st.y_arc, st.y)
     if flag < 0:
         return K_FAIL - flag, t0, -1
-    steps, t_prev, t = 0, t0, t0
+    steps, stalls, t_prev, t = 0, 0, t0, t0
+    tiny = 16.0 * _EPS * max(abs(t0), abs(t_end))  # a step shorter than this makes no progress
     status, fired, t_stop = K_OK, -1, t_end
     while True:
         if steps >= budget:
@@ -370,6 +377,13 @@ def _arc(sv, prob, sec, hits, dense, st, t_end, budget):
         if not _finite(sv.y, sv.h[H_NEQ]):
             status, t_stop = K_NONFINITE, t
             break
+        if t - t_prev <= tiny:  # a step that underflowed (t + h == t): CVODE goes on "anyway", without progress
+            stalls += 1
+            if stalls >= MAX_STALLS:
+                status, t_stop = K_STALLED, t
+                break
+            continue
+        stalls = 0
         wrong_at = _watch_step(sv, ng, t_prev, t, True)
         if wrong_at >= 0.0:
             status, t_stop = K_MISSED, wrong_at
@@ -516,9 +530,14 @@ class NativeSolver:
         ctx = vp()
         check(core.SUNContext_Create(0, ctypes.byref(ctx)), "SUNContext_Create")  # 0: SUN_COMM_NULL
         own.add(ctx.value, lambda ptr: core.SUNContext_Free(ctypes.byref(vp(ptr))), "SUNContext")
-        # no error handler: SUNDIALS would print each failure to stderr; the run's status and
-        # message say what failed (its return flag's name)
+        # no error handler, no warnings: SUNDIALS would print each failure and warning to stderr; the
+        # run's status and message say what failed (its return flag's name, or a stalled step)
         core.SUNContext_ClearErrHandlers(ctx)
+        logger = vp()
+        core.SUNContext_GetLogger.argtypes = [vp, ctypes.POINTER(vp)]
+        core.SUNLogger_SetWarningFilename.argtypes = [vp, ctypes.c_char_p]
+        if core.SUNContext_GetLogger(ctx, ctypes.byref(logger)) == 0 and logger.value:
+            core.SUNLogger_SetWarningFilename(logger, b"")  # SUNDIALS: an empty name turns the output off
         destroy = b.fn("core", "N_VDestroy", None, vp)
 
         def vector(what: str) -> int:
@@ -575,6 +594,8 @@ class NativeSolver:
         root = addresses["cvode_root" if kind == CVODE else "ida_root"]
         check(call(f"{P}RootInit", vp(mem), ci(n_roots), fn(root)), f"{P}RootInit")
         check(call(f"{P}SetNoInactiveRootWarn", vp(mem)), f"{P}SetNoInactiveRootWarn")
+        if kind == CVODE:
+            check(call("CVodeSetMaxHnilWarns", vp(mem), ci(-1)), "CVodeSetMaxHnilWarns")  # the stall check says it
         if kind == IDA:
             check(call("IDASetId", vp(mem), vp(ident)), "IDASetId")
         # the callbacks' data
@@ -636,6 +657,8 @@ class NativeSolver:
 
     def failure(self, detail: int, t: float) -> str:
         """The message of a run that ended on SUNDIALS' failure code ``detail`` (``K_FAIL - flag``)."""
+        if int(detail) == K_STALLED:
+            return f"SUNDIALS: {MAX_STALLS} steps in a row did not advance (t + h == t) at t = {t:.6g}"
         flag = -(int(detail) - K_FAIL)
         return f"SUNDIALS: {self.binding.flag_name(self.solver_name, flag)} (flag {flag}) at t = {t:.6g}"
 

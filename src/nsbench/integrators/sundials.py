@@ -26,6 +26,13 @@ computed at every switch.
 
 Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
 internal steps; ``extra['root_returns']`` the solver's root stops.
+
+All of the above is the *per-arc* path. Wherever the native binding loads, the
+whole run goes instead through SUNDIALS' C API from a compiled event loop (the
+whole-run protocol: :meth:`SundialsIntegrator.native_refusal` and
+:meth:`SundialsIntegrator.run`, :mod:`nsbench.integrators._sundials_native`): the
+same formulations, options, steps and events, without Python per step or event;
+the option ``loop = 'per-arc'`` forces the path above (docs/core.md, "SUNDIALS natively").
 """
 
 from __future__ import annotations

@@ -193,8 +193,10 @@ def test_a_solver_frees_what_it_owns(name, case2):
     nsbench.simulate(case2, integ, 10.0, sections=[peaks(case2)])
     solvers = list(integ._native.values())
     assert len(solvers) == 2 and all(s.own.alive >= 8 for s in solvers)  # context, 4 vectors, matrix, solver, memory
+    integ.setup(case2)  # the same problem: they stay
+    assert all(s.own.alive >= 8 for s in solvers) and len(integ._native) == 2
     integ.setup(nsbench.get_problem("two-dof", case=1))  # another problem: the solvers go
-    assert all(s.own.alive == 0 for s in solvers) and not integ._native
+    assert all(s.own.alive == 0 for s in solvers) and not integ.__dict__.get("_native")
     with pytest.raises(RuntimeError, match="freed"):
         solvers[0].prepare(np.zeros(0))
     # one dropped without close() is freed when collected
@@ -235,15 +237,17 @@ def test_many_runs_do_not_grow_the_c_heap(name, case2):
 
     integ = nsbench.get_integrator(name)
     integ.setup(case2)
-    for _ in range(20):
-        run_hybrid(case2, integ, 20.0)
+    twins = (case2, nsbench.get_problem("two-dof", case=2))
+    for k in range(20):
+        integ.setup(twins[k % 2])
+        run_hybrid(twins[k % 2], integ, 20.0)
     before = _heap_in_use()
     for _ in range(200):
-        raw = run_hybrid(case2, integ, 20.0)
+        raw = run_hybrid(twins[1], integ, 20.0)
     reused = _heap_in_use()
-    for _ in range(200):
-        integ.setup(case2)  # frees the solver; the run makes a new one
-        raw = run_hybrid(case2, integ, 20.0)
+    for k in range(200):
+        integ.setup(twins[k % 2])  # another problem: frees the solver; the run makes a new one
+        raw = run_hybrid(twins[k % 2], integ, 20.0)
     renewed = _heap_in_use()
     assert raw.loop == "native" and raw.status.ok
     assert reused - before < 100_000

@@ -97,7 +97,8 @@ class SundialsIntegrator(Integrator):
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
-        self._close_native()
+        if getattr(self, "_problem", None) is not problem:
+            self._close_native()  # the native solvers hold the previous problem's parameters
         if self.native_refusal(problem, forced=True) == "":
             # the native path's compiled callbacks and loop load with their module: here, not in a run
             from nsbench.integrators import _sundials_native  # noqa: F401

@@ -277,6 +277,42 @@ def test_the_compiled_consistent_start_is_the_per_arc_one():
             assert [k for k in range(6) if ident[k] == 0.0] == sorted(algebraic)
 
 
+@needs_binding
+@pytest.mark.parametrize("kind", ["cvode", "ida"])
+def test_the_roots_in_their_slots_are_the_per_arc_ones(kind):
+    # the native root functions against the per-arc adapter's (numba) ones, value for value, for every mode of
+    # a forced problem, with sections: the guards in their slots, 1.0 in the slots a mode leaves free
+    from nsbench.integrators import _sundials_callbacks as cb
+    from nsbench.integrators import _sundials_native as native
+
+    problem = nsbench.get_problem("two-dof", case=2)
+    solver = native.NativeSolver(native.CVODE if kind == "cvode" else native.IDA, problem, "BDF", 1e-8, 1e-10, 0.0, 2)
+    ud, slots = solver.ud, problem.max_guards
+    coeffs, levels = np.array([[0.0, 1.0, 0.0, 0.0], [0.3, 0.0, -1.0, 0.5]]), np.array([0.0, 0.2])
+    rng = np.random.default_rng(7)
+    for mode in ((0, 0), (1, 0), (0, -1), (-1, 1)):
+        m = np.array(mode, dtype=np.int64)
+        gk, gi, gs = (np.zeros(slots, np.int64) for _ in range(3))
+        ng = int(problem.law.guards_of(problem.data.p, m, gk, gi, gs))
+        arrays = (m, gk, gi, gs, coeffs, levels)
+        for slot, a in zip((cb.UD_MODE, cb.UD_GK, cb.UD_GI, cb.UD_GS, cb.UD_SEC_C, cb.UD_SEC_L), arrays):
+            ud[slot] = a.ctypes.data
+        ud[cb.UD_NG], ud[cb.UD_NSEC] = ng, 2
+        y = rng.normal(size=int(solver.bundle.h[native.H_NEQ]))
+        out = np.full(slots + 2, np.nan)
+        want = np.zeros(ng + 2)
+        if kind == "cvode":
+            cb.cvode_root_values(ud, y, out, True)
+            sk.cvode_roots(solver.p, m, solver.fw[0], gk[:ng], gi[:ng], gs[:ng], coeffs, levels, y, want)
+        else:
+            cb.ida_root_values(ud, y, out, True)
+            sk.ida_roots(solver.p, gk[:ng], gi[:ng], gs[:ng], coeffs, levels, y, want)
+        np.testing.assert_array_equal(out[:ng], want[:ng])
+        np.testing.assert_array_equal(out[ng:slots], 1.0)
+        np.testing.assert_array_equal(out[slots:], want[ng:])
+    solver.close()
+
+
 def test_c_signatures_are_checked():
     with pytest.raises(ValueError, match="bad C signature"):
         capi.c_function("int CVode(void*)")

@@ -10,8 +10,10 @@ the slots at the run's own arrays (the mode and guards it updates at each
 transition), so a callback reads the current mode without any Python.
 
 The formulas are the per-arc adapters' (:mod:`nsbench.integrators._sundials_kernels`,
-on the friction family's law), called as they are, so the native and the per-arc
-paths integrate the same systems:
+on the friction family's law), so the native and the per-arc paths integrate the
+same systems: the right-hand sides, residuals and Jacobians are those functions
+compiled again (:func:`_without_nrt`), the root functions compute each guard with
+the same operations, written straight into their slots:
 
 - CVODE: ``cvode_rhs``/``cvode_jacobian`` on ``[x1, v1, ..., c, s]`` (``c = cos(w t)``,
   ``s = sin(w t)`` as states for a forced problem; ``p`` with ``F = 0``);
@@ -35,6 +37,8 @@ from numba import types
 from nsbench.integrators import _sundials_kernels as sk
 from nsbench.integrators._sundials_capi import address_of, c_function, f64_fmatrix, f64_matrix, f64_view, i64_view
 from nsbench.model.compile import hot
+from nsbench.model.records import linear_section_value
+from nsbench.problems import friction_law as k
 
 #: Views on memory SUNDIALS or nsbench owns, built where they are used: inlined into the callbacks (which are
 #: compiled without reference counting; such a function may not return an array it did not receive).
@@ -60,8 +64,7 @@ UD_NEQ = 15  # the solver's equations
 UD_FW = 16  # address of [F, w] (float64)
 UD_SCRATCH = 17  # address of an n x n float64 scratch (IDA's Jacobian)
 UD_SLIP = 18  # address of an int64 array of -1 per block (IDA's Jacobian)
-UD_ROOTS = 19  # address of a float64 scratch of UD_SLOTS + n_sec values (the root functions)
-UD_SIZE = 20
+UD_SIZE = 19
 
 _nvget = c_function("p(p)")  # N_VGetArrayPointer(N_Vector) -> sunrealtype*
 
@@ -80,10 +83,8 @@ def _without_nrt(dispatcher):
 
 cvode_rhs = _without_nrt(sk.cvode_rhs)
 cvode_jacobian = _without_nrt(sk.cvode_jacobian)
-cvode_roots = _without_nrt(sk.cvode_roots)
 ida_residual = _without_nrt(sk.ida_residual)
 ida_jacobian = _without_nrt(sk.ida_jacobian)
-ida_roots = _without_nrt(sk.ida_roots)
 
 
 @view
@@ -126,38 +127,60 @@ def _guards(ud):
 
 
 @hot
-def _slots(ud, scratch, out):
-    """Rearrange root values computed for ``ng`` guards then the sections into the fixed slots."""
-    ng, slots, n_sec = ud[UD_NG], ud[UD_SLOTS], ud[UD_NSEC]
-    for j in range(n_sec - 1, -1, -1):
-        out[slots + j] = scratch[ng + j]
-    for q in range(ng):
-        out[q] = scratch[q]
-    for q in range(ng, slots):
-        out[q] = 1.0
+def _section_slots(ud, y, out):
+    """The sections' values at ``y`` into the slots after the guards'."""
+    n_sec = ud[UD_NSEC]
+    if n_sec == 0:
+        return
+    coeffs, levels = _sections(ud)
+    slots, n = ud[UD_SLOTS], ud[UD_N]
+    for j in range(n_sec):
+        out[slots + j] = linear_section_value(coeffs[j], levels[j], y[:n])
 
 
 @hot
-def cvode_root_values(ud, y, out):
-    """The root functions of the CVODE formulation at ``y`` into ``out`` (slots: guards, then sections)."""
+def cvode_root_values(ud, y, out, sections):
+    """The root functions of the CVODE formulation at ``y`` into ``out``: ``expected_sign * guard`` in the
+    guards' slots (``1.0`` in the slots the mode does not use), then, if ``sections``, the sections' values.
+
+    Each value is computed as :func:`nsbench.integrators._sundials_kernels.cvode_roots` computes it (the same
+    operations in the same order: tests/integrators/test_sundials_native.py), written in place."""
     p, mode = _params(ud)
     gk, gi, gs = _guards(ud)
-    coeffs, levels = _sections(ud)
-    fw = _f1(ud[UD_FW], 2)
-    scratch = _f1(ud[UD_ROOTS], ud[UD_SLOTS] + ud[UD_NSEC])
-    cvode_roots(p, mode, fw[0], gk, gi, gs, coeffs, levels, y, scratch)
-    _slots(ud, scratch, out)
+    F = _f1(ud[UD_FW], 2)[0]
+    ng, slots, nb, n = ud[UD_NG], ud[UD_SLOTS], ud[UD_NB], ud[UD_N]
+    for q in range(ng):
+        g = k.guard_value(p, mode, gk[q], gi[q], 0.0, y)
+        if gk[q] != k.VELOCITY and gi[q] == nb - 1 and F != 0.0:
+            g -= F * y[n]
+        out[q] = gs[q] * g
+    for q in range(ng, slots):
+        out[q] = 1.0
+    if sections:
+        _section_slots(ud, y, out)
 
 
 @hot
-def ida_root_values(ud, y, out):
-    """The root functions of the IDA formulation at ``y`` into ``out`` (slots: guards, then sections)."""
+def ida_root_values(ud, y, out, sections):
+    """The root functions of the IDA formulation at ``y`` (as
+    :func:`nsbench.integrators._sundials_kernels.ida_roots`), in the slots of :func:`cvode_root_values`."""
     p, _ = _params(ud)
     gk, gi, gs = _guards(ud)
-    coeffs, levels = _sections(ud)
-    scratch = _f1(ud[UD_ROOTS], ud[UD_SLOTS] + ud[UD_NSEC])
-    ida_roots(p, gk, gi, gs, coeffs, levels, y, scratch)
-    _slots(ud, scratch, out)
+    ng, slots, n = ud[UD_NG], ud[UD_SLOTS], ud[UD_N]
+    v0 = k.v0_of(p)
+    for q in range(ng):
+        i = gi[q]
+        if gk[q] == k.VELOCITY:
+            g = y[2 * i + 1] - v0
+        elif gk[q] == k.UPPER:
+            g = y[n + i] - k.block(p, k.FR, i)
+        else:
+            g = y[n + i] + k.block(p, k.FR, i)
+        out[q] = gs[q] * g
+    for q in range(ng, slots):
+        out[q] = 1.0
+    if sections:
+        _section_slots(ud, y, out)
 
 
 # ---------------------------------------------------------------------- the C signatures (cvode.h, ida.h, *_ls.h)
@@ -202,7 +225,7 @@ def cvode_jac_c(t, y, fy, jac, user_data, tmp1, tmp2, tmp3):
 @_callback(CV_ROOT)
 def cvode_root_c(t, y, gout, user_data):
     ud = _ud(user_data)
-    cvode_root_values(ud, _nv(ud, y), f64_view(address_of(gout), (ud[UD_SLOTS] + ud[UD_NSEC],)))
+    cvode_root_values(ud, _nv(ud, y), f64_view(address_of(gout), (ud[UD_SLOTS] + ud[UD_NSEC],)), True)
     return 0
 
 
@@ -229,7 +252,7 @@ def ida_jac_c(t, cj, yy, yp, rr, jac, user_data, tmp1, tmp2, tmp3):
 @_callback(IDA_ROOT)
 def ida_root_c(t, yy, yp, gout, user_data):
     ud = _ud(user_data)
-    ida_root_values(ud, _nv(ud, yy), f64_view(address_of(gout), (ud[UD_SLOTS] + ud[UD_NSEC],)))
+    ida_root_values(ud, _nv(ud, yy), f64_view(address_of(gout), (ud[UD_SLOTS] + ud[UD_NSEC],)), True)
     return 0
 
 

@@ -237,11 +237,11 @@ def _counter(sv, name_cv, name_ida):
 
 @hot
 def _root_values(sv, y):
-    """The formulation's root functions at the solver state ``y`` into ``sv.roots``."""
+    """The formulation's guards at the solver state ``y`` into ``sv.roots`` (their slots; no sections)."""
     if sv.h[H_KIND] == CVODE:
-        cb.cvode_root_values(sv.ud, y, sv.roots)
+        cb.cvode_root_values(sv.ud, y, sv.roots, False)
     else:
-        cb.ida_root_values(sv.ud, y, sv.roots)
+        cb.ida_root_values(sv.ud, y, sv.roots, False)
 
 
 @hot
@@ -603,7 +603,6 @@ class NativeSolver:
         self.fw = np.array([F, w])
         self.scratch = np.zeros((n, n))
         self.slip_all = np.full(nb, -1, dtype=np.int64)
-        self.root_scratch = np.zeros(n_roots)
         self.no_sections = (np.zeros((1, n)), np.zeros(1))
         ud = self.ud = cb.user_data()
         ud[cb.UD_NVGET] = b.table[_N_VGetArrayPointer]
@@ -613,7 +612,6 @@ class NativeSolver:
         ud[cb.UD_FW] = self.fw.ctypes.data
         ud[cb.UD_SCRATCH] = self.scratch.ctypes.data
         ud[cb.UD_SLIP] = self.slip_all.ctypes.data
-        ud[cb.UD_ROOTS] = self.root_scratch.ctypes.data
         ud[cb.UD_SEC_C], ud[cb.UD_SEC_L] = self.no_sections[0].ctypes.data, self.no_sections[1].ctypes.data
         check(call(f"{P}SetUserData", vp(mem), vp(ud.ctypes.data)), f"{P}SetUserData")
         self.directions = np.full(n_roots, -1, dtype=np.int32)  # guards: expected_sign * guard decreasing

@@ -239,3 +239,23 @@ def test_the_time_inside_heyoka_is_measured_apart_from_the_callbacks(case2):
     res = nsbench.simulate(p, integs["native"], 300.0, check_points=0)
     assert 0.0 < res.integrator_time < res.wall_time
     assert res.counters.nsteps > 0 and res.counters.extra["taylor_coefficients"] % res.counters.nsteps == 0
+
+
+def test_a_native_binding_that_does_not_load_gives_one_line_and_the_per_arc_path():
+    """An integrator whose own loop needs a library that fails to load (SUNDIALS' shared libraries) says so
+    in ``native_refusal`` by raising: the core runs it per arc and the note names the failure in one line."""
+    from nsbench.integrators.heyoka_ import Heyoka
+
+    class Unloadable(Heyoka):
+        def native_refusal(self, problem, forced=False):
+            raise OSError("libsundials_cvode.so.7: cannot open shared object file\nsecond line")
+
+    p = nsbench.get_problem("two-dof", case=1)
+    res = nsbench.simulate(p, Unloadable(), 30.0)
+    assert res.ok and res.loop == "per-arc"
+    assert (
+        res.loop_note
+        == "its own event loop is unavailable (OSError: libsundials_cvode.so.7: cannot open shared object file)"
+    )
+    with pytest.raises(ConfigError, match="loop = 'native' cannot run two-dof: its own event loop is unavailable"):
+        nsbench.simulate(p, Unloadable(loop="native"), 30.0)

@@ -472,6 +472,7 @@ class NativeModel:
         self.state, self.pars = ta.state, ta.pars
         self.order = int(ta.order)
         self.callbacks = [ev.callback for ev in ta.t_events]
+        self.scratch: abi.RunState | None = None
 
     def __reduce__(self):
         return NativeModel, (self.st, self.ta, self.precision, self.modes)
@@ -495,17 +496,33 @@ _TABLE = types.Array(types.int64, 2, "C")
 _F1 = types.Array(types.float64, 1, "C")
 
 
+_BY_FAMILY: dict[tuple, tuple] = {}
+
+
+def entries(problem, precision: str) -> tuple:
+    """``(guard, section, after_stretch)``: the compiled callbacks' entries for ``problem``'s family in this
+    precision, loaded (or compiled, once per install) on first use and kept for the process."""
+    data_class = type(problem.data)
+    key = (data_class, precision)
+    found = _BY_FAMILY.get(key)
+    if found is None:
+        prob = numba.typeof(problem.data)
+        if precision == "double":
+            guard = _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
+            section = _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
+        else:
+            guard = _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
+            section = _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
+        scratch = numba.typeof(_scratch(np.zeros(1), np.zeros(1, np.int64), 1))
+        after = _entry(after_stretch, prob, _TABLE, scratch, types.int64)
+        found = _BY_FAMILY[key] = (guard, section, after)
+    return found
+
+
 def warm_up(problem, precision: str) -> None:
     """Load (or compile, once per install) the compiled callbacks for ``problem``'s family, untimed."""
-    prob = numba.typeof(problem.data)
-    if precision == "double":
-        _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
-        _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
-    else:
-        _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
-        _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
-    scratch = numba.typeof(_scratch(np.zeros(1), np.zeros(1, np.int64), 1))
-    _entry(after_stretch, prob, _TABLE, scratch, types.int64)
+    entries(problem, precision)
+    _entry(_write_mode, _TABLE, _F1)
 
 
 def _scratch(y: np.ndarray, mode: np.ndarray, n_guards: int) -> abi.RunState:
@@ -565,18 +582,14 @@ class _Run:
             modes,
         ]
         self.views = native.Views(request.records, st, request.section_bundle, request.limits, own)
-        self.scratch = _scratch(st.y, st.mode, problem.max_guards)
+        scratch = getattr(m, "scratch", None)  # overwritten by each check: one per model, kept across runs
+        if scratch is None or scratch.y.shape != st.y.shape or scratch.mode.shape != st.mode.shape:
+            scratch = m.scratch = _scratch(st.y, st.mode, problem.max_guards)
+        self.scratch = scratch
         self.glue = 0.0
         self.stopped_by: tuple | None = None
-        prob = numba.typeof(problem.data)
         self.prob = problem.data
-        if double:
-            guard = _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
-            section = _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
-        else:
-            guard = _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
-            section = _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
-        self.after = _entry(after_stretch, prob, _TABLE, numba.typeof(self.scratch), types.int64)
+        guard, section, self.after = entries(problem, m.precision)
         for cb in m.callbacks:
             cb.run, cb.table, cb.prob = self, self.views.table, self.prob
             cb.call = section if isinstance(cb, _Section) else guard

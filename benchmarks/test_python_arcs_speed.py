@@ -106,7 +106,7 @@ def test_python_arc_share(benchmark, request, nsbench_baseline, name):
 
 def _per_arc(name: str):
     """The integrator on its per-arc path (this file measures that path's glue), also where it has a
-    whole-run path of its own (``loop``: benchmarks/test_native_speed_sundials.py times that)."""
+    whole-run path of its own (``loop``: benchmarks/test_native_speed.py times that)."""
     integ = get_integrator(name)
     return get_integrator(name, loop="per-arc") if "loop" in integ.options else integ
 

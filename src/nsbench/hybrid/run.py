@@ -289,7 +289,11 @@ def choose_loop(problem: "HybridProblem", integ: "Integrator", kernel: Any = Non
     if setting == "per-arc":
         return "per-arc", "loop = 'per-arc'"
     forced = setting == "native"
-    refusal = integ.native_refusal(problem, forced=forced)
+    try:
+        refusal = integ.native_refusal(problem, forced=forced)
+    except Exception as exc:  # noqa: BLE001 - a binding that does not load: one line, and the per-arc path
+        first = (str(exc).strip().splitlines() or [""])[0]
+        refusal = f"its own event loop is unavailable ({type(exc).__name__}: {first})"
     if not refusal:
         return "native", ""
     if forced:

@@ -8,10 +8,14 @@ sections are runtime parameters), whose terminal events carry callbacks:
   (:func:`nsbench.model.native.event`: the transition of the problem's law, the guards that
   fire at once, storms, the event budget, the Zeno rule, the stop rule), then writes the new
   mode into the runtime parameters and the reset velocities into the state, and returns
-  ``True``: heyoka goes on within the same propagation. The event direction ("decreasing"
-  through zero of ``expected_sign * guard``) keeps the simple zero where a new phase starts
-  from firing at once, so no step is taken by hand; a phase that starts on a *double* zero
-  (``fs = fr``) is not seen past, and such problems run per arc (``native_refusal``).
+  ``True``: heyoka goes on within the same propagation. A new phase starts on its guard's
+  surface, where heyoka would not look for the guard's roots in the first step at all (a
+  zero where a step starts; heyoka 7.13 lets a ball thrown up from the floor in one Taylor
+  step fall through it), so each guard's event is ``expected_sign * guard - NUDGE``: a
+  phase starts 1e-300 below zero and rising, which the event direction ("decreasing")
+  ignores, and its crossing is found in any step. No step is taken by hand. A phase that
+  starts on a *double* zero (``fs = fr``) can start heading to the wrong side, which no
+  event sees; such problems run per arc (``native_refusal``).
 - a section's callback records the crossing (:func:`nsbench.model.native.hit`); sections are
   terminal events, so that a run can end at its ``hit_stop``-th hit where the per-arc path
   does (a non-terminal event cannot stop a propagation). They keep heyoka's automatic
@@ -59,9 +63,13 @@ assert all(model.GUARD_SLOT[name] == code for code, name in enumerate(GUARD_KIND
 _SLOTS = len(model.GUARD_SLOT)
 
 #: Slots of this run's arrays in its :class:`~nsbench.model.native.Views` table, after the core's.
-S_HSTATE, S_PARS, S_LAYOUT, S_LOG_T, S_LOG_I, S_CTL, S_DPARS = range(native.S_OWN, native.S_OWN + 7)
-#: Entries of the layout array: mechanical states, blocks, offsets of the mode and of the guards' records.
-L_N, L_NB, L_MODE, L_GUARD = range(4)
+S_HSTATE, S_PARS, S_LAYOUT, S_LOG_T, S_LOG_I, S_CTL, S_DPARS, S_MODES = range(native.S_OWN, native.S_OWN + 8)
+#: Entries of the layout array: how the mode is written (:data:`FRICTION`, :data:`SELECTOR`), mechanical
+#: states, blocks, offsets of the mode and of the guards' records.
+L_KIND, L_N, L_NB, L_MODE, L_GUARD = range(5)
+#: The friction model's mode (a stick flag and a slip sign per block, the guards' flags and signs), or a
+#: selector per mode of a problem written symbolically (1 for the current mode, 0 for the others).
+FRICTION, SELECTOR = 0, 1
 #: Entries of the control array: the last code of a callback, arcs logged, whether to log them, a bad event.
 C_CODE, C_NLOG, C_LOG_ON, C_EVENT = range(4)
 #: Columns of the arc log before the mode: the arc's first dense state, events recorded, events applied,
@@ -71,7 +79,12 @@ LOG_FIXED = 5
 #: Arcs the log holds before a propagation stops for the check (a stop costs a few microseconds).
 LOG_CAPACITY = 4096
 #: Codes a callback leaves beside the core's (``native.GO_ON``, ``NEED_*``, ``RUN_*``).
-NEED_LOG, BAD_EVENT, JUMPED = -10, -11, -12
+NEED_LOG, BAD_EVENT, JUMPED, BAD_MODE = -10, -11, -12, -13
+
+#: Subtracted from every guard's event function (see the module docstring): heyoka does not look for the
+#: roots of an event function that is exactly zero where a step starts, and every phase starts on its
+#: guard's surface. A located crossing moves by ``NUDGE / |rate|``, nothing in any precision used here.
+NUDGE = 1e-300
 
 _OUTCOME = hy.taylor_outcome
 _TIME_LIMIT, _STEP_LIMIT, _NONFINITE = int(_OUTCOME.time_limit), int(_OUTCOME.step_limit), int(_OUTCOME.err_nf_state)
@@ -81,9 +94,21 @@ _DIRECTIONS = {-1: hy.event_direction.negative, 0: hy.event_direction.any, 1: hy
 # ---------------------------------------------------------------------- compiled: the callbacks' work
 @jit
 def _write_mode(table, pars):
-    """The mode and its guards (``st.mode``, ``st.gk/gi/gs``) into the runtime parameters ``pars`` (doubles)."""
+    """The mode and its guards (``st.mode``, ``st.gk/gi/gs``) into the runtime parameters ``pars`` (doubles);
+    whether the model has that mode (a selector model knows the modes it was built with)."""
     st = native.run_state(table)
     lay = native.i1(table, S_LAYOUT)
+    if lay[L_KIND] == SELECTOR:
+        modes = native.i2(table, S_MODES)
+        found = False
+        for m in range(modes.shape[0]):
+            same = True
+            for j in range(st.mode.shape[0]):
+                same = same and modes[m, j] == st.mode[j]
+            if lay[L_MODE] + m < pars.shape[0]:  # heyoka keeps only the selectors its expressions use
+                pars[lay[L_MODE] + m] = 1.0 if same and not found else 0.0
+            found = found or same
+        return found
     nb, mo, go = lay[L_NB], lay[L_MODE], lay[L_GUARD]
     for i in range(nb):
         phase = st.mode[i]
@@ -95,6 +120,7 @@ def _write_mode(table, pars):
         e = go + model.GUARD_RECORD * (_SLOTS * st.gi[q] + st.gk[q])
         pars[e + model.GUARD_ACTIVE] = 1.0
         pars[e + model.GUARD_SIGN] = float(st.gs[q])
+    return True
 
 
 @jit
@@ -150,11 +176,13 @@ def guard_double(prob, table, kind, index, t, t_lo):
     for j in range(n):
         y[j] = hstate[j]
     go = _guard_event(prob, table, kind, index, t, t_lo, y)
-    code = native.i1(table, S_CTL)[C_CODE]
-    if go or code == JUMPED:
+    ctl = native.i1(table, S_CTL)
+    if go or ctl[C_CODE] == JUMPED:
         for j in range(n):
             hstate[j] = st.y[j]
-        _write_mode(table, native.f1(table, S_PARS))
+        if not _write_mode(table, native.f1(table, S_PARS)):
+            ctl[C_CODE] = BAD_MODE
+            return False
     return go
 
 
@@ -163,9 +191,11 @@ def guard_wide(prob, table, kind, index, t, t_lo, y):
     """The callback of a guard in a wider precision, on the state ``y`` rounded to doubles: the new mode
     goes into the double parameters ``dpars``; the caller writes both back in its precision."""
     go = _guard_event(prob, table, kind, index, t, t_lo, y)
-    code = native.i1(table, S_CTL)[C_CODE]
-    if go or code == JUMPED:
-        _write_mode(table, native.f1(table, S_DPARS))
+    ctl = native.i1(table, S_CTL)
+    if go or ctl[C_CODE] == JUMPED:
+        if not _write_mode(table, native.f1(table, S_DPARS)):
+            ctl[C_CODE] = BAD_MODE
+            return False
     return go
 
 
@@ -352,7 +382,9 @@ def compiled(
             neg = hy.event_direction.negative
             # no cooldown on a guard (MODEL.md: it could only hide a genuine event)
             events = [
-                hy.t_event(g, callback=kind(e % _SLOTS, e // _SLOTS), direction=neg, cooldown=fp(0.0), fp_type=fp)
+                hy.t_event(
+                    g - NUDGE, callback=kind(e % _SLOTS, e // _SLOTS), direction=neg, cooldown=fp(0.0), fp_type=fp
+                )
                 for e, g in enumerate(guards)
             ]
             events += [
@@ -375,19 +407,75 @@ def compiled(
     return copy.deepcopy(hit[0]), 0.0
 
 
+def compiled_symbolic(
+    problem, precision: str, tol: float | None, high_accuracy: bool, compact_mode: bool
+) -> tuple[Any, float]:
+    """A fresh copy of the native integrator of a problem written symbolically (``symbolic_field``, its
+    modes ``symbolic_modes``), and the seconds its compilation took.
+
+    One runtime parameter per mode selects it (1 for the current mode, 0 for the others): the field is
+    the selected mode's (one field when every mode has the same), and each guard of each mode is a
+    terminal event ``s_m * (expected_sign * guard) + (1 - s_m)``, the constant 1 in the other modes.
+    """
+    modes = tuple(tuple(int(v) for v in m) for m in problem.symbolic_modes)
+    key = ("symbolic", problem.name, problem.packed.tobytes(), modes, precision, tol, high_accuracy, compact_mode)
+    with _LOCK:
+        hit = _CACHE.get(key)
+        if hit is None:
+            fp = model.FP_TYPES[precision]
+            tic = time.perf_counter()
+            y = hy.make_vars(*problem.state_names)
+            fields = [problem.symbolic_field(m, hy.time, y) for m in modes]
+            same = all(all(a == b for a, b in zip(f, fields[0])) for f in fields[1:])
+            if same:
+                field = fields[0]
+            else:
+                field = [sum((hy.par[k] * f[j] for k, f in enumerate(fields)), 0.0 * y[0]) for j in range(len(y))]
+            kind = _Guard if precision == "double" else _GuardWide
+            neg = hy.event_direction.negative
+            events = []
+            for k, m in enumerate(modes):
+                for g in problem.guards(m):
+                    expr = float(g.expected_sign) * problem.symbolic_guard(m, g.code, g.block - 1, hy.time, y)
+                    events.append(
+                        hy.t_event(
+                            hy.par[k] * expr + (1.0 - hy.par[k]) - NUDGE,
+                            callback=kind(g.code, g.block - 1),
+                            direction=neg,
+                            cooldown=fp(0.0),
+                            fp_type=fp,
+                        )
+                    )
+            kwargs = {} if tol is None else {"tol": fp(tol)}
+            ta = hy.taylor_adaptive(
+                list(zip(y, field)),
+                np.zeros(len(y), dtype=fp),
+                fp_type=fp,
+                t_events=events,
+                high_accuracy=high_accuracy,
+                compact_mode=compact_mode,
+                **kwargs,
+            )
+            hit = _CACHE[key] = (ta, time.perf_counter() - tic)
+            return copy.deepcopy(ta), hit[1]
+    return copy.deepcopy(hit[0]), 0.0
+
+
 class NativeModel:
     """A native integrator with its structure, its arrays (read once: heyoka hands a new view per read) and
-    its callbacks."""
+    its callbacks. ``st``: the friction model's structure; ``None`` with ``modes``, the modes of a
+    selector model (:func:`compiled_symbolic`)."""
 
-    def __init__(self, st: model.Structure, ta, precision: str) -> None:
-        self.st, self.ta, self.precision = st, ta, precision
+    def __init__(self, st: model.Structure | None, ta, precision: str, modes: tuple = ()) -> None:
+        self.st, self.ta, self.precision, self.modes = st, ta, precision, modes
         self.fp = model.FP_TYPES[precision]
         self.state, self.pars = ta.state, ta.pars
         self.order = int(ta.order)
         self.callbacks = [ev.callback for ev in ta.t_events]
+        self.scratch: abi.RunState | None = None
 
     def __reduce__(self):
-        return NativeModel, (self.st, self.ta, self.precision)
+        return NativeModel, (self.st, self.ta, self.precision, self.modes)
 
 
 _ENTRIES: dict[tuple, Any] = {}
@@ -408,17 +496,33 @@ _TABLE = types.Array(types.int64, 2, "C")
 _F1 = types.Array(types.float64, 1, "C")
 
 
+_BY_FAMILY: dict[tuple, tuple] = {}
+
+
+def entries(problem, precision: str) -> tuple:
+    """``(guard, section, after_stretch)``: the compiled callbacks' entries for ``problem``'s family in this
+    precision, loaded (or compiled, once per install) on first use and kept for the process."""
+    data_class = type(problem.data)
+    key = (data_class, precision)
+    found = _BY_FAMILY.get(key)
+    if found is None:
+        prob = numba.typeof(problem.data)
+        if precision == "double":
+            guard = _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
+            section = _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
+        else:
+            guard = _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
+            section = _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
+        scratch = numba.typeof(_scratch(np.zeros(1), np.zeros(1, np.int64), 1))
+        after = _entry(after_stretch, prob, _TABLE, scratch, types.int64)
+        found = _BY_FAMILY[key] = (guard, section, after)
+    return found
+
+
 def warm_up(problem, precision: str) -> None:
     """Load (or compile, once per install) the compiled callbacks for ``problem``'s family, untimed."""
-    prob = numba.typeof(problem.data)
-    if precision == "double":
-        _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
-        _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
-    else:
-        _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
-        _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
-    scratch = numba.typeof(_scratch(np.zeros(1), np.zeros(1, np.int64), 1))
-    _entry(after_stretch, prob, _TABLE, scratch, types.int64)
+    entries(problem, precision)
+    _entry(_write_mode, _TABLE, _F1)
 
 
 def _scratch(y: np.ndarray, mode: np.ndarray, n_guards: int) -> abi.RunState:
@@ -452,13 +556,20 @@ class _Run:
         self.n = problem.n_states
         self.hstate, self.pars = m.state, m.pars
         s = m.st
-        self.layout = np.array([self.n, s.n_blocks, s.mode_offset, s.guard_offset], np.int64)
+        if s is None:  # a selector per mode
+            self.layout = np.array([SELECTOR, self.n, 0, 0, 0], np.int64)
+            self.dpars = np.zeros(len(m.modes))
+            self.mode_part = slice(0, min(len(m.modes), self.pars.shape[0]))
+            modes = np.array(m.modes, np.int64).reshape(len(m.modes), problem.mode_size)
+        else:
+            self.layout = np.array([FRICTION, self.n, s.n_blocks, s.mode_offset, s.guard_offset], np.int64)
+            self.dpars = np.zeros(s.n_pars)
+            self.dpars[: coefficients.size] = coefficients
+            self.mode_part = slice(s.mode_offset, s.section_offset(0))
+            modes = np.zeros((0, problem.mode_size), np.int64)
         self.log_t = np.zeros(LOG_CAPACITY)
         self.log_i = np.zeros((LOG_CAPACITY, LOG_FIXED + problem.mode_size), np.int64)
         self.ctl = np.zeros(4, np.int64)
-        self.dpars = np.zeros(s.n_pars)
-        self.dpars[: coefficients.size] = coefficients
-        self.mode_part = slice(s.mode_offset, s.section_offset(0))
         double = m.fp is float
         own = [
             self.hstate if double else np.zeros(1),
@@ -468,20 +579,17 @@ class _Run:
             self.log_i,
             self.ctl,
             self.dpars,
+            modes,
         ]
         self.views = native.Views(request.records, st, request.section_bundle, request.limits, own)
-        self.scratch = _scratch(st.y, st.mode, problem.max_guards)
+        scratch = getattr(m, "scratch", None)  # overwritten by each check: one per model, kept across runs
+        if scratch is None or scratch.y.shape != st.y.shape or scratch.mode.shape != st.mode.shape:
+            scratch = m.scratch = _scratch(st.y, st.mode, problem.max_guards)
+        self.scratch = scratch
         self.glue = 0.0
         self.stopped_by: tuple | None = None
-        prob = numba.typeof(problem.data)
         self.prob = problem.data
-        if double:
-            guard = _entry(guard_double, prob, _TABLE, types.int64, types.int64, types.float64, types.float64)
-            section = _entry(section_double, _TABLE, types.int64, types.int64, types.float64)
-        else:
-            guard = _entry(guard_wide, prob, _TABLE, types.int64, types.int64, types.float64, types.float64, _F1)
-            section = _entry(section_hit, _TABLE, types.int64, types.int64, types.float64, _F1)
-        self.after = _entry(after_stretch, prob, _TABLE, numba.typeof(self.scratch), types.int64)
+        guard, section, self.after = entries(problem, m.precision)
         for cb in m.callbacks:
             cb.run, cb.table, cb.prob = self, self.views.table, self.prob
             cb.call = section if isinstance(cb, _Section) else guard
@@ -495,12 +603,22 @@ class _Run:
         self.views.records = self.request.records
         self.views.refresh()
 
-    def load(self, sections_on: bool) -> None:
-        """Time, state, mode, guards and sections into the integrator (at the start, and after a jump)."""
+    def load(self, sections_on: bool) -> bool:
+        """Time, state, mode, guards and sections into the integrator (at the start, and after a jump);
+        whether the model has the mode."""
         m, st, fp = self.m, self.state, self.fp
         s = m.st
         ta = m.ta
-        _write_mode_py(self)
+        if not _write_mode_py(self):
+            return False
+        t, t_lo = float(st.sf[SF_T]), float(st.sf[SF_TLO])
+        ta.dtime = (fp(t), fp(t_lo))
+        state = self.hstate
+        state[: self.n] = st.y if fp is float else st.y.astype(fp)
+        if s is None:
+            used = self.pars.shape[0]  # the selectors heyoka's expressions use (a mode without guards may not)
+            self.pars[:] = self.dpars[:used] if fp is float else self.dpars[:used].astype(fp)
+            return True
         for q, sec in enumerate(self.request.sections):
             off = s.section_offset(q)
             self.dpars[off + model.SECTION_ACTIVE] = 1.0 if sections_on else 0.0
@@ -508,24 +626,22 @@ class _Run:
             coeffs = off + model.SECTION_COEFFS
             self.dpars[coeffs : coeffs + s.n_mech] = sec.coeffs
         self.pars[:] = self.dpars if fp is float else self.dpars.astype(fp)
-        t, t_lo = float(st.sf[SF_T]), float(st.sf[SF_TLO])
-        ta.dtime = (fp(t), fp(t_lo))
-        state = self.hstate
-        state[: self.n] = st.y if fp is float else st.y.astype(fp)
         if s.forced:
             w = np.array([self.dpars[s.coefficient("w")]], dtype=float).astype(fp)
             phase = w * (fp(t) + fp(t_lo))
             state[self.n] = np.cos(phase)[0]
             state[self.n + 1] = np.sin(phase)[0]
+        return True
 
     def sections(self, on: bool) -> None:
         s = self.m.st
+        assert s is not None  # a selector model runs no sections (native_refusal)
         for q in range(len(self.request.sections)):
             self.pars[s.section_offset(q) + model.SECTION_ACTIVE] = self.fp(1.0 if on else 0.0)
 
 
-def _write_mode_py(run: _Run) -> None:
-    _entry(_write_mode, _TABLE, _F1)(run.views.table, run.dpars)
+def _write_mode_py(run: _Run) -> bool:
+    return bool(_entry(_write_mode, _TABLE, _F1)(run.views.table, run.dpars))
 
 
 def run(m: NativeModel, request: RunRequest, coefficients: np.ndarray) -> RunReport:
@@ -545,9 +661,10 @@ def _drive(r: _Run, request: RunRequest) -> RunReport:
     t_end = float(lim.t_end)
     hit_from = float(request.section_bundle.hit_from)
     quiet = bool(request.sections) and float(sf[SF_T]) < hit_from < t_end
-    r.load(sections_on=not quiet)
-    ta.reset_cooldowns()
     inside = 0.0
+    if not r.load(sections_on=not quiet):
+        return _unknown_mode(r, request)
+    ta.reset_cooldowns()
     steps = 0
     message = ""
     while True:
@@ -622,16 +739,24 @@ def _drive(r: _Run, request: RunRequest) -> RunReport:
             rec.grow_hits(int(si[SI_NHITS]))
             r.refresh()
         elif code == JUMPED:
-            r.load(sections_on=not quiet)
+            if not r.load(sections_on=not quiet):
+                return _unknown_mode(r, request)
+            _skip_to(r, request)
             continue
+        elif code == BAD_MODE:
+            return _unknown_mode(r, request)
         cb, d_sgn = r.stopped_by
         if not cb(ta, d_sgn):
             code = int(r.ctl[C_CODE])
             if code >= 0:
                 break
             if code == JUMPED:
-                r.load(sections_on=not quiet)
+                if not r.load(sections_on=not quiet):
+                    return _unknown_mode(r, request)
+                _skip_to(r, request)
                 continue
+            if code == BAD_MODE:
+                return _unknown_mode(r, request)
             # another need at once (a full log after a grown buffer): the loop's next round deals with it
             raise RuntimeError(f"heyoka native run: the core asked twice in a row (code {code})")
     if si[abi.SI_STOPPED] and si[abi.SI_STATUS] == abi.RUN_SUCCESS and si[SI_ARC_IEVAL] < si[SI_IEVAL]:
@@ -642,3 +767,33 @@ def _drive(r: _Run, request: RunRequest) -> RunReport:
             native.fail(st, abi.RUN_MISSED, wrong, rec.dense.y[first], 0)
     extra: dict[str, float] = {"taylor_coefficients": steps * r.m.order}
     return RunReport(integrator_time=inside, extra=extra, message=message)
+
+
+def _unknown_mode(r: _Run, request: RunRequest) -> RunReport:
+    """The run entered a mode the selector model was not built with (not in ``symbolic_modes``)."""
+    st = r.state
+    native.fail(st, abi.RUN_FAILURE, float(st.sf[SF_T]), st.y.copy(), abi.K_FAIL)
+    name = request.problem.mode_name(tuple(int(v) for v in st.mode))
+    return RunReport(
+        message=f"the run entered mode {name}, which is not among {request.problem.name}'s symbolic_modes",
+        integrator_time=0.0,
+    )
+
+
+def refuse(request: RunRequest, why: str) -> RunReport:
+    """End the run at its start as an integrator failure, for ``why``."""
+    st = request.state
+    native.fail(st, abi.RUN_FAILURE, float(st.sf[SF_T]), st.y.copy(), abi.K_FAIL)
+    return RunReport(message=why, integrator_time=0.0)
+
+
+def _skip_to(r: _Run, request: RunRequest) -> None:
+    """After an accumulation moved the time forward: the requested states before the new time are the state
+    there (the limit behaviour's: the per-arc path has no arc over that stretch either)."""
+    st, dense = r.state, request.records.dense
+    i, t = int(st.si[SI_IEVAL]), float(st.sf[SF_T])
+    while i < dense.t.shape[0] and dense.t[i] < t:
+        dense.y[i] = st.y
+        i += 1
+    st.si[SI_IEVAL] = i
+    st.si[SI_ARC_IEVAL] = i

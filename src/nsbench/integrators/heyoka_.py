@@ -205,10 +205,16 @@ class HeyokaIntegrator(Integrator):
         """heyoka runs a friction problem's whole run itself (:mod:`nsbench.integrators._heyoka_native`),
         except where a slip starts on a double zero of its guard (see the module docstring)."""
         if self._written_symbolically(problem):
-            return (
-                f"{self.name}'s own event loop keeps the mode in runtime parameters of the friction family's model; "
-                f"{problem.name} ({problem.family or 'other'} family) compiles one integrator per mode"
-            )
+            if not getattr(problem, "symbolic_modes", ()):
+                return f"{problem.name} names no symbolic_modes, which {self.name}'s own loop selects among"
+            if forced:
+                return ""
+            if problem.problem_class == "sliding":
+                return (
+                    "a sliding mode is left where the field is tangent to the switching surface: the next phase "
+                    "starts on a double zero of its guard, which heyoka's event detection cannot see past"
+                )
+            return ""
         if forced:
             return ""
         c = problem.coefficients
@@ -227,6 +233,17 @@ class HeyokaIntegrator(Integrator):
         compact = self.settings["compact_mode"]
         if compact is None:
             compact = self.precision == "quad"
+        if self._symbolic:  # one selector per mode (the problem's symbolic_modes); no sections
+            problem = self._problem
+            key = ("native", problem.name, problem.packed.tobytes(), self.precision, self.settings["tol"])
+            key += (self.settings["high_accuracy"], compact)
+            own = self.__dict__.setdefault("_own_models", {})
+            if key not in own:
+                ta, seconds = native_heyoka.compiled_symbolic(problem, *key[3:])
+                modes = tuple(tuple(int(v) for v in m) for m in problem.symbolic_modes)
+                own[key] = native_heyoka.NativeModel(None, ta, self.precision, modes)
+                return own[key], seconds
+            return own[key], 0.0
         st = model.Structure.of(self._problem, len(sections))
         directions = tuple(int(sec.direction) for sec in sections)
         key = ("native", st, directions, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
@@ -242,13 +259,15 @@ class HeyokaIntegrator(Integrator):
         problem = request.problem
         if getattr(self, "_problem", None) is not problem:
             self.setup(problem)
+        if self._symbolic and request.sections:
+            return native_heyoka.refuse(request, self.sections_refusal(problem))
         # compiled on a configuration's first native run (a per-arc one never needs it), timed as setup
         tic = time.perf_counter()
         m, seconds = self._native_model(request.sections)
         native_heyoka.warm_up(problem, self.precision)
         self.compile_time += seconds
         prepared = time.perf_counter() - tic
-        report = native_heyoka.run(m, request, self._coefficients)
+        report = native_heyoka.run(m, request, np.zeros(0) if self._symbolic else self._coefficients)
         report.prepare_time += prepared
         return report
 

@@ -10,8 +10,10 @@ double-double) on the piecewise-linear cases; on the cubic cases, heyoka-q's per
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import nsbench
@@ -259,3 +261,31 @@ def test_a_native_binding_that_does_not_load_gives_one_line_and_the_per_arc_path
     )
     with pytest.raises(ConfigError, match="loop = 'native' cannot run two-dof: its own event loop is unavailable"):
         nsbench.simulate(p, Unloadable(loop="native"), 30.0)
+
+
+GOLDEN = Path(__file__).parents[1] / "data" / "event_logs_before_the_hybrid_model.csv.gz"
+
+
+def _golden_keys():
+    logs = pd.read_csv(GOLDEN, dtype={"state": str})
+    keys = logs[["problem", "case", "n"]].drop_duplicates().itertuples(index=False)
+    return [pytest.param(k.problem, int(k.case), int(k.n), id=f"{k.problem}-{k.n}-{k.case}") for k in keys]
+
+
+@pytest.mark.parametrize("problem, case, n", _golden_keys())
+def test_heyokas_sequences_on_the_golden_logs_are_the_per_arc_paths(problem, case, n):
+    """The stored golden event logs (``tests/hybrid/test_event_logs.py``) over [0, 300]: heyoka on the automatic
+    path (native unless refused) gives their sequence of kinds, blocks and modes, the per-arc path's, and where
+    the log holds ``exact`` (the piecewise-linear cases) its times within 1e-12 (the bound of the linear cases
+    above: a few ulp of t ~ 300 for the location plus the Taylor error at tol = eps times the conditioning)."""
+    logs = pd.read_csv(GOLDEN, dtype={"state": str})
+    logs = logs[(logs["problem"] == problem) & (logs["case"] == case) & (logs["n"] == n)]
+    golden = logs[logs["integrator"] == ("exact" if (logs["integrator"] == "exact").any() else "reference")]
+    p = nsbench.get_problem(problem, case=case, **({"n": n} if problem == "chain" else {}))
+    res, arcs = _run("heyoka", p), _run("heyoka", p, loop="per-arc")
+    assert res.ok and arcs.ok, (res.message, arcs.message)
+    assert res.loop == "native" or (res.loop == "per-arc" and res.loop_note), res.loop_note
+    assert same_sequence(res.events, golden) and list(res.events["mode"]) == list(golden["mode"])
+    assert same_sequence(res.events, arcs.events) and list(res.events["mode"]) == list(arcs.events["mode"])
+    if golden["integrator"].iloc[0] == "exact":
+        assert max_time_error(res.events, golden) <= 1e-12

@@ -85,7 +85,7 @@ COUNTERS = ("root_returns", "midpoint_checks")
 K_MISSED = 6
 #: A failure of this loop's own (beyond any SUNDIALS flag, ``K_FAIL - flag``): steps that did not advance.
 K_STALLED = K_FAIL + 1000
-#: Consecutive steps without progress (shorter than 16 ulps of the span's end: ``t + h == t`` or about) after
+#: Consecutive steps without progress (shorter than 16 ulps of the step's time: ``t + h == t`` or about) after
 #: which the run fails (CVODE's own count of warnings about ``t + h == t`` before it stops warning).
 MAX_STALLS = 10
 #: Where :func:`native_loop` resumes: the next arc (the core's ``P_TOP``, where ``native.begin`` leaves
@@ -332,7 +332,6 @@ def _arc(sv, prob, sec, hits, dense, st, t_end, budget):
     if flag < 0:
         return K_FAIL - flag, t0, -1
     steps, stalls, t_prev, t = 0, 0, t0, t0
-    tiny = 16.0 * _EPS * max(abs(t0), abs(t_end))  # a step shorter than this makes no progress
     status, fired, t_stop = K_OK, -1, t_end
     while True:
         if steps >= budget:
@@ -377,7 +376,10 @@ def _arc(sv, prob, sec, hits, dense, st, t_end, budget):
         if not _finite(sv.y, sv.h[H_NEQ]):
             status, t_stop = K_NONFINITE, t
             break
-        if t - t_prev <= tiny:  # a step that underflowed (t + h == t): CVODE goes on "anyway", without progress
+        # a step that underflowed (t + h == t, or within 16 ulps of t): CVODE goes on "anyway", without progress.
+        # Measured at the step's own time, not the span's end: IDA at atol = 1e-15 starts with steps of 1e-14
+        # near t = 0, which are real progress (ulps of 300 would have called ten of them a stall).
+        if t - t_prev <= 16.0 * _EPS * max(abs(t), abs(t_prev)):
             stalls += 1
             if stalls >= MAX_STALLS:
                 status, t_stop = K_STALLED, t

@@ -247,6 +247,10 @@ class RunRecord:
         every step itself.
     checked_steps
         Whether the integrator checks every guard on every accepted step.
+    loop, loop_note
+        Who ran the event loop (``'native'``: the integrator, whole-run protocol; ``'per-arc'``:
+        the core, one arc per call; ``'whole-system'``: a time-stepping method, events inferred)
+        and why an integrator with a loop of its own ran per arc (``''`` if it did not).
     """
 
     status: Status
@@ -269,6 +273,8 @@ class RunRecord:
     prepare_time: float
     check_points: int
     checked_steps: bool
+    loop: str = "per-arc"
+    loop_note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -451,6 +457,8 @@ def run(
         prepare_time=raw.prepare_time,
         check_points=int(check_points),
         checked_steps=bool(not whole and integ.capabilities.checks_steps),
+        loop="whole-system" if whole else raw.loop,
+        loop_note="" if whole else raw.loop_note,
     )
 
 
@@ -692,4 +700,6 @@ def simulate(
         setup_time=setup_time + rec.prepare_time,
         integrator_time=rec.integrator_time,
         cpu_time=rec.cpu_time,
+        loop=rec.loop,
+        loop_note=rec.loop_note,
     )

@@ -93,6 +93,14 @@ class SimulationResult:
     cpu_time
         CPU seconds of this process over the same stretch as ``wall_time``: the work
         done, without the time other programs held the core (NaN if not measured).
+    loop
+        Who ran the event loop (:data:`nsbench.integrators.base.LOOP_PATHS`): ``'native'`` (the
+        integrator's own loop, calling the core's compiled rules), ``'per-arc'`` (the core's loop,
+        one ``advance`` per arc), ``'kernel'`` (the core's loop with a compiled arc kernel),
+        ``'whole-system'`` (a time-stepping, switch-model or smoothing method).
+    loop_note
+        Why an integrator with a loop of its own ran per arc (its ``loop`` option, or what it
+        cannot run natively: a start on a double zero); empty otherwise.
     """
 
     problem: "FrictionOscillator"
@@ -110,6 +118,8 @@ class SimulationResult:
     setup_time: float
     integrator_time: float = float("nan")
     cpu_time: float = float("nan")
+    loop: str = "per-arc"
+    loop_note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -121,6 +131,7 @@ class SimulationResult:
             f"problem     {self.problem!r}",
             f"integrator  {self.integrator['name']} {self.integrator.get('options', {})}",
             f"status      {self.status.value}" + (f": {self.message}" if self.message else ""),
+            f"loop        {self.loop}" + (f" ({self.loop_note})" if self.loop_note else ""),
             f"t_final     {self.t_final:.6g}   final mode {self.problem.mode_name(self.mode_final)}",
         ]
         if len(self.events):

@@ -129,7 +129,8 @@ def _hits_and_callbacks(problem, name: str, hit_from: float, monkeypatch, **kwar
         return record(self, ta, t, d_sgn)
 
     monkeypatch.setattr(_heyoka_model.SectionLog, "__call__", counted)
-    integ = nsbench.get_integrator(name)
+    # the per-arc adapter's sections (the native run's are terminal events: tests/integrators/test_native_runs.py)
+    integ = nsbench.get_integrator(name, **({"loop": "per-arc"} if name.startswith("heyoka") else {}))
     integ.setup(problem)
     raw = run_hybrid(problem, integ, 80.0, sections=[peaks(problem)], hit_from=hit_from, **kwargs)
     rec = raw.records

@@ -247,11 +247,20 @@ def test_heyoka_q_matches_real128_across_events(sensitive, monkeypatch):
     monkeypatch.setattr(
         heyoka_.HeyokaIntegrator, "_continued", lambda self, request: arcs.append(kept(self, request)) or arcs[-1]
     )
-    res = nsbench.simulate(problem, "heyoka-q", SPAN, options={"tol": 1e-30})
+    res = nsbench.simulate(problem, "heyoka-q", SPAN, options={"tol": 1e-30, "loop": "per-arc"})
     assert res.ok, res.message
     assert _compare(_nsbench_log(res), ref) <= 4e-16
     assert len(arcs) == len(ref) + 1 and arcs[0] is None
     assert all(a is not None for a in arcs[1:])
+
+
+def test_heyoka_q_running_the_loop_itself_matches_real128_across_events(sensitive):
+    # the native run never leaves real128 between events: the transition's changes (velocities set to
+    # the belt's speed, a double) are written into its state, every other entry keeps its digits
+    problem, ref = sensitive
+    res = nsbench.simulate(problem, "heyoka-q", SPAN, options={"tol": 1e-30, "loop": "native"})
+    assert res.ok and res.loop == "native", res.message
+    assert _compare(_nsbench_log(res), ref) <= 4e-16
 
 
 def test_reference_matches_real128_across_events(sensitive):
@@ -272,7 +281,7 @@ def test_heyoka_ld_keeps_long_double_across_events(sensitive, monkeypatch):
     monkeypatch.setattr(
         heyoka_.HeyokaIntegrator, "_continued", lambda self, request: states.append(kept(self, request)) or states[-1]
     )
-    res = nsbench.simulate(problem, "heyoka-ld", SPAN)
+    res = nsbench.simulate(problem, "heyoka-ld", SPAN, options={"loop": "per-arc"})
     assert res.ok, res.message
     assert len(states) == len(ref) + 1 and states[0] is None and all(c is not None for c in states[1:])
     carried = np.concatenate([np.asarray(c[1]) for c in states[1:]])

@@ -211,7 +211,9 @@ def test_an_arc_without_states_in_one_call_is_the_stepped_arc(name, monkeypatch)
 
     def run(case):
         problem = nsbench.get_problem("two-dof", case=case)
-        return nsbench.simulate(problem, name, 400.0, check_points=0, sections=[peaks(problem)])
+        return nsbench.simulate(
+            problem, name, 400.0, check_points=0, sections=[peaks(problem)], options={"loop": "per-arc"}
+        )
 
     whole = {case: run(case) for case in (2, 3)}
     monkeypatch.setattr(SundialsIntegrator, "_whole_arc", SundialsIntegrator._stepped_arc)
@@ -226,7 +228,8 @@ def test_an_arc_without_states_in_one_call_is_the_stepped_arc(name, monkeypatch)
 @pytest.mark.parametrize("name", SUNDIALS)
 def test_an_arc_in_one_call_keeps_to_the_step_budget(name, case1):
     # the budget is checked when the call returns: the run ends there, with its status and reason
-    res = nsbench.simulate(case1, name, 300.0, max_steps=50, check_points=0)
+    # (the per-arc path's one call; the native loop checks it before every step)
+    res = nsbench.simulate(case1, name, 300.0, max_steps=50, check_points=0, options={"loop": "per-arc"})
     assert res.status is nsbench.Status.BUDGET_EXHAUSTED and "budget" in res.message
     assert res.counters.nsteps > 50
 
@@ -237,7 +240,7 @@ def test_the_root_lists_do_not_grow_over_a_run(name, check_points, case2):
     # scikit-sundae appends every root (index, time, state; IDA also the derivative) to lists on the
     # events function and turns them into arrays at every step: left to grow, each step of a run
     # costs more than the one before (IDA's derivatives were kept, and its steps slowed twofold).
-    integ = nsbench.get_integrator(name)
+    integ = nsbench.get_integrator(name, loop="per-arc")
     res = nsbench.simulate(case2, integ, 300.0, check_points=check_points)
     assert res.ok and res.counters.extra["root_returns"] > 100
     kept = [solver[1] for solver in integ._solvers.values()]

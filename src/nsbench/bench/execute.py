@@ -353,6 +353,7 @@ def time_case(
     row.update(
         status=lead.status.value,
         message=" | ".join(notes),
+        loop=lead.loop,
         t_final=lead.t_final,
         nfev=int(counters["nfev"]),
         njev=int(counters["njev"]),

@@ -32,6 +32,11 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("t_end", "end of the time span"),
     ("status", "how the case ended"),
     ("message", "why, when not success"),
+    (
+        "loop",
+        "who ran the event loop (SimulationResult.loop): native (the integrator's own), per-arc (the core's, "
+        "one advance per arc), kernel (the core's, a compiled arc kernel), whole-system",
+    ),
     ("t_final", "where the run stopped"),
     ("nfev", "right-hand-side evaluations (one per state)"),
     ("njev", "Jacobian evaluations"),

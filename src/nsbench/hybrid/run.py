@@ -68,6 +68,8 @@ class RawRun:
     t0: float
     start_mode: tuple[int, ...]
     prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
+    loop: str = "per-arc"  # who ran the event loop (nsbench.integrators.base.LOOP_PATHS)
+    loop_note: str = ""  # why an integrator with a loop of its own ran per arc ('' if it did not)
     #: a whole-system method's own time of each event (``SystemResult.switch_times``), NaN where it located
     #: none; ``None``: it locates none (the event log then has no ``t_located`` column)
     located_t: np.ndarray | None = None
@@ -192,6 +194,20 @@ def run_hybrid(
     )
     start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
+    path, note = choose_loop(problem, integ, kernel)
+    if path == "native":
+        report = _run_native(problem, integ, sections, lim, sec, rec, st)
+        status, message = _outcome(problem, st, report.message, None, max_steps, max_events, zeno_events, rec)
+        cnt, si = st.cnt, st.si
+        counters = Counters(
+            nfev=int(cnt[abi.NFEV]),
+            njev=int(cnt[abi.NJEV]),
+            nsteps=int(cnt[abi.NSTEPS]),
+            n_events=int(si[abi.SI_EVENTS]),
+            extra=dict(report.extra),
+        )
+        args = (status, message, st, y, mode_arr, rec, counters, report.integrator_time, t0, start_mode)
+        return _raw(*args, report.prepare_time, "native")
     py = _PythonArcs(
         problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop), rec, st
     )
@@ -211,7 +227,7 @@ def run_hybrid(
             # R_RESUME: an arc run in Python grew a buffer; the loop resumes with the new one
     if kernel is None:
         py.counters_into(st.cnt)
-    status, message = _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec)
+    status, message = _outcome(problem, st, py.message, kernel, max_steps, max_events, zeno_events, rec)
     cnt, si = st.cnt, st.si
     counters = Counters(
         nfev=int(cnt[abi.NFEV]), njev=int(cnt[abi.NJEV]), nsteps=int(cnt[abi.NSTEPS]), n_events=int(si[abi.SI_EVENTS])
@@ -225,6 +241,14 @@ def run_hybrid(
     else:
         counters.extra.update(py.extra)
         integ_time = py.seconds
+    return _raw(status, message, st, y, mode_arr, rec, counters, integ_time, t0, start_mode, prepare_time, path, note)
+
+
+def _raw(
+    status, message, st, y, mode_arr, rec, counters, integ_time, t0, start_mode, prepare_time, loop, note=""
+) -> RawRun:
+    """The :class:`RawRun` of a run whose outcome is in ``st`` and the records."""
+    si = st.si
     return RawRun(
         status=status,
         message=message,
@@ -243,7 +267,72 @@ def run_hybrid(
         t0=float(t0),
         start_mode=start_mode,
         prepare_time=prepare_time,
+        loop=loop,
+        loop_note=note,
     )
+
+
+def choose_loop(problem: "HybridProblem", integ: "Integrator", kernel: Any = None) -> tuple[str, str]:
+    """Who runs the event loop of ``problem`` with the set-up ``integ``: ``(path, note)``.
+
+    ``path`` is one of :data:`~nsbench.integrators.base.LOOP_PATHS`: ``'kernel'`` for an integrator with
+    a compiled arc kernel (``kernel``: :meth:`Integrator.kernel`'s), ``'native'`` where the integrator
+    runs the loop itself (whole-run protocol) and its ``loop`` option allows, else ``'per-arc'``;
+    ``note`` says why an integrator with a loop of its own runs per arc (its refusal, or the option).
+
+    Raises
+    ------
+    ConfigError
+        ``loop = 'native'`` for a configuration that cannot run ``problem`` natively.
+    """
+    if kernel is not None:
+        return "kernel", ""
+    if "loop" not in getattr(integ, "options", {}):
+        return "per-arc", ""
+    setting = integ.settings.get("loop", "auto")
+    if setting == "per-arc":
+        return "per-arc", "loop = 'per-arc'"
+    forced = setting == "native"
+    try:
+        refusal = integ.native_refusal(problem, forced=forced)
+    except Exception as exc:  # noqa: BLE001 - a binding that does not load: one line, and the per-arc path
+        first = (str(exc).strip().splitlines() or [""])[0]
+        refusal = f"its own event loop is unavailable ({type(exc).__name__}: {first})"
+    if not refusal:
+        return "native", ""
+    if forced:
+        from nsbench.errors import ConfigError
+
+        raise ConfigError(f"{integ.name}: loop = 'native' cannot run {problem.name}: {refusal}")
+    return "per-arc", refusal
+
+
+def _run_native(problem, integ, sections, lim, sec, rec: Records, st):
+    """Settle the start as the compiled loop does, then hand the run to the integrator's own loop.
+
+    An exception from the integrator (a protocol violation, a bug) ends the run as an integrator
+    failure with its message, as an arc's does on the per-arc path.
+    """
+    from nsbench.integrators.base import RunReport, RunRequest
+    from nsbench.model import native
+
+    while True:
+        code = native.begin(problem.data, lim, rec.dense, rec.events, st)
+        if code != native.NEED_EVENTS:
+            break
+        rec.grow_events(int(st.si[abi.SI_RECORDED]))
+    if code != native.GO_ON:  # the start alone ended the run (t_end reached, a storm at the start, ...)
+        return RunReport(integrator_time=0.0)
+    request = RunRequest(problem, tuple(sections), lim, sec, rec, st)
+    try:
+        report = integ.run(request)
+    except Exception as exc:  # noqa: BLE001 - the run's outcome, never a lost run
+        st.si[abi.SI_STATUS], st.si[abi.SI_DETAIL] = abi.RUN_FAILURE, _PY_FAILURE
+        return RunReport(message=f"{type(exc).__name__}: {exc}")
+    if not isinstance(report, RunReport):
+        st.si[abi.SI_STATUS], st.si[abi.SI_DETAIL] = abi.RUN_FAILURE, _PY_FAILURE
+        return RunReport(message=f"{integ.name}.run returned {type(report).__name__}, not a RunReport")
+    return report
 
 
 def section_bundle(sections, n: int, hit_from: float = -math.inf, hit_stop: int = -1) -> abi.Sections:
@@ -279,7 +368,7 @@ def _storm_detail(problem, rec: Records, si, span: float, zeno_events: int) -> s
     return f"; chattering: {chatter}; {where}"
 
 
-def _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec: Records) -> tuple[Status, str]:
+def _outcome(problem, st, py_message, kernel, max_steps, max_events, zeno_events, rec: Records) -> tuple[Status, str]:
     si, sf = st.si, st.sf
     run_status, detail = int(si[abi.SI_STATUS]), int(si[abi.SI_DETAIL])
     t = float(sf[abi.SF_T])
@@ -288,7 +377,7 @@ def _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec: R
     if run_status == abi.RUN_SUCCESS:
         return status, ""
     if run_status == abi.RUN_STEP_BUDGET:
-        return status, py.message or f"{max_steps} steps used by t = {t:.6g}"
+        return status, py_message or f"{max_steps} steps used by t = {t:.6g}"
     if run_status == abi.RUN_EVENT_BUDGET:
         return status, f"event budget of {max_events} events reached at t = {t:.17g}"
     if run_status == abi.RUN_STORM:
@@ -304,9 +393,9 @@ def _outcome(problem, st, py, kernel, max_steps, max_events, zeno_events, rec: R
             "or step)"
         )
     if run_status == abi.RUN_NONFINITE:
-        return status, py.message or f"non-finite state after t = {t:.6g}"
+        return status, py_message or f"non-finite state after t = {t:.6g}"
     if detail == _PY_FAILURE or kernel is None or kernel.failure is None:
-        return status, py.message or f"integrator failure (code {detail}) at t = {t:.6g}"
+        return status, py_message or f"integrator failure (code {detail}) at t = {t:.6g}"
     return status, kernel.failure(detail, t)
 
 

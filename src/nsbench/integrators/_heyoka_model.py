@@ -185,6 +185,9 @@ def _system(st: Structure):
     return sys, guards, sections
 
 
+#: The field, guards and sections of a structure (the native run's integrator is built from them too).
+system = _system
+
 _CACHE: dict[tuple, tuple[Any, float]] = {}
 _LOCK = threading.Lock()
 

@@ -17,6 +17,8 @@ from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.model.abi import RunLimits, RunState, Sections
+    from nsbench.model.records import Records
     from nsbench.problems.base import Guard, HybridProblem, Mode
     from nsbench.sections import StateSection
 
@@ -250,6 +252,97 @@ class ArcResult:
     t_lo: float = 0.0
 
 
+#: Values of the ``loop`` option (:data:`LOOP_OPTION`): who runs the event loop.
+LOOPS = ("auto", "native", "per-arc")
+#: How a run went through the core, as recorded on the result (``SimulationResult.loop``) and the bench rows:
+#: the integrator's own loop (:meth:`Integrator.run`), the core's loop with one ``advance`` per arc, the
+#: core's loop with a compiled arc kernel, or a whole-system method (:mod:`nsbench.integrators.whole`).
+LOOP_PATHS = ("native", "per-arc", "kernel", "whole-system")
+
+#: The option an integrator with a whole-run path declares (as ``options["loop"]``), so that a config, a
+#: bench row and a suite can force either path and compare them.
+LOOP_OPTION = Option(
+    "auto",
+    str,
+    choices=LOOPS,
+    doc=(
+        "who runs the event loop: 'auto' (the integrator's own, where it can: the run records which), "
+        "'native' (the integrator's own, forced), 'per-arc' (the hybrid core's, one advance per arc)"
+    ),
+)
+
+
+@dataclass(frozen=True, eq=False)
+class RunRequest:
+    """One whole run handed to an integrator that runs the event loop itself (:meth:`Integrator.run`).
+
+    The hybrid core has prepared the run as for its own loop and applied the start rule
+    (:func:`nsbench.model.native.begin`): the integrator goes on in ``state.mode`` from
+    ``state.y`` at ``state.sf[SF_T] + state.sf[SF_TLO]``, whose guards are the first
+    ``state.si[SI_NG]`` entries of ``state.gk``, ``state.gi``, ``state.gs`` (kind, element
+    index, expected sign; slots of :mod:`nsbench.model.abi`).
+
+    Attributes
+    ----------
+    problem
+        The problem: its compiled law (``problem.law``, ``problem.data``) is what the core's
+        steps call.
+    sections
+        The state sections of the run (their compiled form is ``section_bundle``).
+    limits
+        :class:`~nsbench.model.abi.RunLimits`: ``t_end``, the step and event budgets, the storm
+        span, ``record_from``, the stop rule, the Zeno rule's streak.
+    section_bundle
+        :class:`~nsbench.model.abi.Sections`: coefficients, levels, directions, ``hit_from``, ``hit_stop``.
+    records
+        The run's buffers (:class:`~nsbench.model.records.Records`): events, section hits, and the
+        states at the requested times ``records.dense.t``; grown through its methods.
+    state
+        The run's :class:`~nsbench.model.abi.RunState`, as the compiled loop keeps it.
+    """
+
+    problem: "HybridProblem"
+    sections: tuple["StateSection", ...]
+    limits: "RunLimits"
+    section_bundle: "Sections"
+    records: "Records"
+    state: "RunState"
+
+    @property
+    def t_end(self) -> float:
+        return float(self.limits.t_end)
+
+    @property
+    def t_eval(self) -> np.ndarray:
+        """The requested times (sorted); their states go into ``records.dense.y``, one row each."""
+        return self.records.dense.t
+
+
+@dataclass
+class RunReport:
+    """What :meth:`Integrator.run` returns beside the run's buffers.
+
+    Attributes
+    ----------
+    integrator_time
+        Seconds spent inside the integrator (its steps and event location), without the core's
+        steps and the integrator's own glue: ``wall_time - integrator_time`` is what the run cost
+        outside the integrator. NaN if not measured.
+    extra
+        Method-specific counters of the run (``nfev``, ``njev``, ``nsteps`` go into ``state.cnt``).
+    message
+        Why the run failed, when it ended with ``RUN_FAILURE``, ``RUN_STEP_BUDGET`` or ``RUN_NONFINITE``
+        and the core's own message would not say (empty: the core's).
+    prepare_time
+        Seconds of first-use work inside the run (compiling a model for more sections): setup, not run.
+    """
+
+    integrator_time: float = math.nan
+    extra: dict[str, float] = field(default_factory=dict)
+    message: str = ""
+    prepare_time: float = 0.0
+
+
 class Integrator:
     """Base class and written contract of every nsbench integrator.
 
@@ -298,6 +391,37 @@ class Integrator:
        budget, return an :class:`ArcResult` with the matching ``Status`` and a
        message instead of raising. Never loop forever.
     10. Be deterministic: the same request gives the same result.
+
+    **The whole-run protocol** (optional). An integrator that can run the event loop itself (a
+    *native* run: heyoka with transition callbacks, SUNDIALS with a compiled loop) declares the
+    option ``"loop": LOOP_OPTION`` and implements :meth:`native_refusal` and :meth:`run`; the core
+    (:func:`nsbench.hybrid.run.run_hybrid`, so also sweeps, Lyapunov exponents, periodic orbits)
+    then hands it whole runs wherever :meth:`native_refusal` returns ``''`` and the option allows,
+    and records the path taken (``SimulationResult.loop``, :data:`LOOP_PATHS`). A native run:
+
+    11. Applies no transition of its own: at each crossing of a guard of ``state.mode`` (located
+        as in rule 5, from the expected sign; the earliest, the lowest index on a tie) it calls
+        the core's compiled step :func:`nsbench.model.native.event` with the state *before* the
+        transition (from compiled code, or from Python through :class:`nsbench.model.native.Views`),
+        which applies the problem's ``law.transition`` through :func:`nsbench.model.rules.settle`
+        (the guards that fire at once, storms, the event budget, the Zeno rule), records the events
+        and applies the stop rule; then it goes on in the new ``state.mode`` from ``state.y`` at
+        ``state.sf[SF_T]`` (which the Zeno rule may have moved forward), with the new guards.
+    12. Records section crossings through :func:`~nsbench.model.native.hit` and the states at
+        ``request.t_eval`` in ``records.dense.y`` (:func:`~nsbench.model.native.dense_row`), from its
+        own dense output; the states of an arc are stored before its event, or checked per arc with
+        :func:`~nsbench.model.native.missed_over`, so the missed-crossing check sees them.
+    13. Stops at any return of those steps but ``GO_ON``: ``NEED_EVENTS``/``NEED_HITS`` (grow the
+        buffer through ``request.records``, make the same call again), or the run's outcome. It ends
+        a run that reaches ``t_end`` with :func:`~nsbench.model.native.arrive`, and one that it cannot
+        go on with :func:`~nsbench.model.native.fail`: the step budget (``limits.max_steps`` steps in
+        all: ``RUN_STEP_BUDGET``), a non-finite state (``RUN_NONFINITE``), a failure of its own.
+    14. Adds its evaluations and steps to ``state.cnt`` (``NFEV``, ``NJEV``, ``NSTEPS``) and returns
+        a :class:`RunReport` (the time inside the integrator, extra counters, a failure's message).
+    15. Gives the same events as its per-arc path (``advance``) within its tolerance, and is
+        deterministic. What it cannot run (a start its event detection cannot see past, a binding
+        that does not load) it refuses in :meth:`native_refusal`, before the run, and the per-arc
+        path runs instead.
     """
 
     name: ClassVar[str] = ""
@@ -362,6 +486,21 @@ class Integrator:
     def advance(self, request: ArcRequest) -> ArcResult:  # pragma: no cover - abstract
         """Integrate one arc of a frozen mode; see the class docstring."""
         raise NotImplementedError
+
+    def native_refusal(self, problem: "HybridProblem", forced: bool = False) -> str:
+        """Why this configuration does not run ``problem`` with its own event loop (:meth:`run`); ``''`` if it does.
+
+        Called by the core before each run on the set-up integrator (whole-run protocol, rules
+        11-15). ``forced``: the ``loop`` option says ``'native'``, so only what makes a native run
+        impossible counts (no such path, a binding that did not load), not what makes it unwise (a
+        start its event detection cannot see past). One line, naming the reason and the fallback's
+        cause; the default: this integrator has no native path.
+        """
+        return f"{self.name} has no event loop of its own (it runs one arc per call)"
+
+    def run(self, request: RunRequest) -> RunReport:  # pragma: no cover - abstract
+        """Run the whole simulation of ``request`` with the integrator's own event loop (rules 11-15)."""
+        raise NotImplementedError(f"{self.name} has no event loop of its own")
 
     def kernel(self, problem: "HybridProblem"):
         """The compiled arc kernel for ``problem`` (an :class:`~nsbench.model.kernel.ArcKernel`), or ``None``.

@@ -40,6 +40,7 @@ left the state alone.
 
 from __future__ import annotations
 
+import time
 from typing import Any, ClassVar
 
 import numpy as np
@@ -47,9 +48,19 @@ import numpy as np
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import _heyoka_crossing as crossing
 from nsbench.integrators import _heyoka_model as model
+from nsbench.integrators import _heyoka_native as native_heyoka
 from nsbench.integrators import _heyoka_symbolic as symbolic
 from nsbench.integrators._carry import reset_velocities
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
+from nsbench.integrators.base import (
+    LOOP_OPTION,
+    ArcRequest,
+    ArcResult,
+    Capabilities,
+    Integrator,
+    Option,
+    RunReport,
+    RunRequest,
+)
 from nsbench.problems.modes import STICK
 from nsbench.status import Status
 
@@ -165,6 +176,7 @@ class HeyokaIntegrator(Integrator):
         ),
         "high_accuracy": Option(False, bool, doc="heyoka's compensated summation for long runs"),
         "compact_mode": Option(None, bool, nullable=True, doc="compile in compact mode; None: only for quad precision"),
+        "loop": LOOP_OPTION,
     }
     accuracy_levels = ({"tol": 1e-6}, {"tol": 1e-10}, {"tol": 1e-14})
 
@@ -189,6 +201,84 @@ class HeyokaIntegrator(Integrator):
                 "the friction family's has)"
             )
         return ""
+
+    def native_refusal(self, problem, forced: bool = False) -> str:
+        """heyoka runs a friction problem's whole run itself (:mod:`nsbench.integrators._heyoka_native`),
+        except where a slip starts on a double zero of its guard (see the module docstring), and in long
+        double and quad unless asked (``loop = 'native'``): the core's step between two arcs of a native
+        run takes the event's time and state as doubles, so an extended precision's events would come
+        out at double accuracy (seen: 2.7e-14 from exact-mp where the per-arc path gives 1.7e-23)."""
+        if self.precision != "double" and not forced:
+            return (
+                f"the core's step between the arcs of a native run works in doubles, which would round "
+                f"{self.name}'s {self.precision} event times (loop = 'native' runs it so all the same)"
+            )
+        if self._written_symbolically(problem):
+            if not getattr(problem, "symbolic_modes", ()):
+                return f"{problem.name} names no symbolic_modes, which {self.name}'s own loop selects among"
+            if forced:
+                return ""
+            if problem.problem_class == "sliding":
+                return (
+                    "a sliding mode is left where the field is tangent to the switching surface: the next phase "
+                    "starts on a double zero of its guard, which heyoka's event detection cannot see past"
+                )
+            return ""
+        if forced:
+            return ""
+        c = problem.coefficients
+        double = [i + 1 for i in range(c.n_blocks) if c.fs[i] >= c.fr[i]]
+        if double:
+            blocks = ", ".join(str(b) for b in double)
+            return (
+                f"a slip that starts at the static limit starts on a double zero of its guard (fs >= fr on block "
+                f"{blocks}), which heyoka's event detection cannot see past"
+            )
+        return ""
+
+    def _native_model(self, sections: tuple = ()):
+        """The native integrator for these sections (compiled once per structure and directions, kept across
+        setups as the per-arc models are); the seconds a compilation took (0 if it was there)."""
+        compact = self.settings["compact_mode"]
+        if compact is None:
+            compact = self.precision == "quad"
+        if self._symbolic:  # one selector per mode (the problem's symbolic_modes); no sections
+            problem = self._problem
+            key = ("native", problem.name, problem.packed.tobytes(), self.precision, self.settings["tol"])
+            key += (self.settings["high_accuracy"], compact)
+            own = self.__dict__.setdefault("_own_models", {})
+            if key not in own:
+                ta, seconds = native_heyoka.compiled_symbolic(problem, *key[3:])
+                modes = tuple(tuple(int(v) for v in m) for m in problem.symbolic_modes)
+                own[key] = native_heyoka.NativeModel(None, ta, self.precision, modes)
+                return own[key], seconds
+            return own[key], 0.0
+        st = model.Structure.of(self._problem, len(sections))
+        directions = tuple(int(sec.direction) for sec in sections)
+        key = ("native", st, directions, self.precision, self.settings["tol"], self.settings["high_accuracy"], compact)
+        own = self.__dict__.setdefault("_own_models", {})
+        if key in own:
+            return own[key], 0.0
+        ta, seconds = native_heyoka.compiled(st, directions, *key[3:])
+        own[key] = native_heyoka.NativeModel(st, ta, self.precision)
+        return own[key], seconds
+
+    def run(self, request: RunRequest) -> RunReport:
+        """The whole run with heyoka's own event loop (whole-run protocol; :mod:`._heyoka_native`)."""
+        problem = request.problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        if self._symbolic and request.sections:
+            return native_heyoka.refuse(request, self.sections_refusal(problem))
+        # compiled on a configuration's first native run (a per-arc one never needs it), timed as setup
+        tic = time.perf_counter()
+        m, seconds = self._native_model(request.sections)
+        native_heyoka.warm_up(problem, self.precision)
+        self.compile_time += seconds
+        prepared = time.perf_counter() - tic
+        report = native_heyoka.run(m, request, np.zeros(0) if self._symbolic else self._coefficients)
+        report.prepare_time += prepared
+        return report
 
     def setup(self, problem) -> None:
         self.check_problem(problem)

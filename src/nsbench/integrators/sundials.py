@@ -37,10 +37,18 @@ Counters: ``nfev`` and ``njev`` from SUNDIALS' statistics, ``nsteps`` counted
 internal steps (those of the steps integrated again included);
 ``extra['root_returns']`` the solver's root stops, ``extra['check_reruns']`` the
 steps integrated again by the check.
+
+All of the above is the *per-arc* path. Wherever the native binding loads, the
+whole run goes instead through SUNDIALS' C API from a compiled event loop (the
+whole-run protocol: :meth:`SundialsIntegrator.native_refusal` and
+:meth:`SundialsIntegrator.run`, :mod:`nsbench.integrators._sundials_native`): the
+same formulations, options, steps and events, without Python per step or event;
+the option ``loop = 'per-arc'`` forces the path above (docs/core.md, "SUNDIALS natively").
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any, ClassVar
 
 import numpy as np
@@ -55,7 +63,17 @@ from nsbench.integrators._sundials_loop import (
     forget_roots,
 )
 from nsbench.errors import UnsupportedProblemError
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.integrators.base import (
+    LOOP_OPTION,
+    ArcRequest,
+    ArcResult,
+    Capabilities,
+    Integrator,
+    Option,
+    RunReport,
+    RunRequest,
+    SectionHit,
+)
 from nsbench.status import Status
 
 _OPTIONS = {
@@ -64,6 +82,7 @@ _OPTIONS = {
     "max_step": Option(
         None, float, lower=0.0, nullable=True, unbounded=True, doc="largest step (time units); None or inf: unbounded"
     ),
+    "loop": LOOP_OPTION,
 }
 
 
@@ -92,9 +111,50 @@ class SundialsIntegrator(Integrator):
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
+        if getattr(self, "_problem", None) is not problem:
+            self._close_native()  # the native solvers hold the previous problem's parameters
+        if self.native_refusal(problem, forced=True) == "":
+            # the native path's compiled callbacks and loop load with their module: here, not in a run
+            from nsbench.integrators import _sundials_native  # noqa: F401
         self._problem = problem
         self._p = np.array(problem.packed, dtype=float)
         self._solvers: dict[tuple, tuple[Any, Any, CallbackData]] = {}
+
+    # ---- the native path (whole-run protocol): SUNDIALS' C API from a compiled loop (_sundials_native)
+    native_kind: ClassVar[str] = "cvode"
+
+    def native_refusal(self, problem, forced: bool = False) -> str:
+        """The whole run in compiled code wherever the native binding loads (docs/core.md, "SUNDIALS natively")."""
+        from nsbench.integrators import _sundials_capi
+
+        reason = _sundials_capi.unavailable()
+        return f"the native SUNDIALS binding does not load: {reason}" if reason else ""
+
+    def run(self, request: RunRequest) -> RunReport:
+        """The whole run with CVODE or IDA called from compiled code (:mod:`._sundials_native`)."""
+        from nsbench.integrators import _sundials_native as native
+
+        problem = request.problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        key = len(request.sections)
+        solvers = self.__dict__.setdefault("_native", {})
+        tic = time.perf_counter()
+        if key not in solvers:  # created on a configuration's first native run, timed as set-up
+            kind = native.CVODE if self.native_kind == "cvode" else native.IDA
+            max_step = _sundials_max_step(self.settings["max_step"])
+            method = getattr(self, "method", "BDF")
+            rtol, atol = self.settings["rtol"], self.settings["atol"]
+            solvers[key] = native.NativeSolver(kind, problem, method, rtol, atol, max_step, key)
+        created = time.perf_counter() - tic
+        report = native.run(solvers[key], request)
+        report.prepare_time += created
+        return report
+
+    def _close_native(self) -> None:
+        """Free the native solvers (their SUNDIALS objects) of the previous problem."""
+        for solver in self.__dict__.pop("_native", {}).values():
+            solver.close()
 
     def _first_arc(self, problem) -> None:
         """A short arc, so that the callbacks compile (or load) for the types SUNDIALS hands them, in setup."""
@@ -382,6 +442,7 @@ class Ida(SundialsIntegrator):
     """SUNDIALS IDA on the DAE with friction forces as algebraic variables (BDF 1-5)."""
 
     name = "ida"
+    native_kind = "ida"
     capabilities = Capabilities(
         event_location="solver-rootfinding",
         order=None,

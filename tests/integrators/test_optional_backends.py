@@ -21,6 +21,7 @@ from nsbench.problems import get_problem
 ENGINES = [
     ("cyrk-dop853", "cyrk", ("CyRK",)),
     ("diffrax-tsit5", "jax", ("jax", "diffrax", "optimistix")),
+    ("diffrax-dopri8", "jax", ("jax", "diffrax", "optimistix")),
 ]
 BACKENDS = ("CyRK", "jax", "jaxlib", "diffrax", "equinox", "optimistix", "casadi", "nosnoc")
 

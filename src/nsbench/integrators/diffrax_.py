@@ -1,12 +1,13 @@
-"""``diffrax-*``: diffrax (JAX) per mode, the guards as one ``diffrax.Event`` with Newton's root finder.
+"""``diffrax-*``: diffrax (JAX) per mode, the guards as one ``diffrax.Event`` located by bisection.
 
 diffrax (Patrick Kidger; PyPI ``diffrax``, on JAX, installed by the extra ``[jax]``) solves
 each arc of a frozen mode with an explicit Runge-Kutta method (``diffrax-tsit5``: Tsitouras
 5(4), diffrax's recommended default; ``diffrax-dopri8``: Dormand-Prince 8(7), for tight
 tolerances) under its PID step-size controller, and ends the arc with a ``diffrax.Event``:
-each guard a real condition crossing from its expected sign (``direction=False`` on
-``expected_sign * guard``), its root located on the step's dense interpolant by
-``optimistix.Newton`` (tolerance 1e-14 on the time and on the guard).
+one real condition, the smallest ``expected_sign * guard`` over the mode's guards (positive
+until the earliest crossing of any of them), crossing downwards (``direction=False``), its
+root located on the step's dense interpolant by optimistix's bisection to two doubles
+(:func:`_bracketing`, :data:`ROOT_RTOL`); the guard that fired is the smallest there.
 
 **What it runs: the piecewise-linear problems.** JAX traces the vector field, so nsbench's
 numba-compiled law cannot be used; every mode of a piecewise-linear problem is
@@ -51,8 +52,8 @@ from nsbench.status import Status
 CHUNK = 4096
 #: Most output times (``t_eval``) of one chunk; an arc with more ends a chunk at the last one.
 N_EVAL = 512
-#: Newton's tolerance on the event time and on the guard.
-ROOT_TOL = 1e-14
+#: Relative width of the bracket on the event time where the root finder stops (4 eps: two doubles).
+ROOT_RTOL = 4.0 * 2.0**-52
 
 #: Compiled solves by (method, n_states, n_guards, chunk): built once per process.
 _COMPILED: dict[tuple[str, int, int, int], Any] = {}
@@ -96,31 +97,32 @@ def _build(method: str, n: int, n_guards: int, chunk: int):
     jax = _jax()
     import diffrax
     import jax.numpy as jnp
-    import optimistix as optx
 
+    _Bracketing = _bracketing()
     solver = getattr(diffrax, METHODS[method].solver)()
 
     def field(t, y, args):
         a, b0, bc, bs, w = args["A"], args["b0"], args["bc"], args["bs"], args["w"]
         return a @ y + b0 + bc * jnp.cos(w * t) + bs * jnp.sin(w * t)
 
-    def guard_fn(k):
-        def cond(t, y, args, **kwargs):
-            w, t0 = args["w"], args["t0"]
-            z = jnp.concatenate([y, jnp.stack([jnp.ones(()), jnp.cos(w * t), jnp.sin(w * t)])])
-            value = args["S"][k] * (args["Q"][k] @ z)
-            # a guard that starts on its own surface: divided by t - t0 (its rate at t0 itself), the same
-            # crossings after t0 and none at t0; an exact zero is on the surface, not across it
-            on = args["on"][k]
-            at_start = t == t0
-            divided = jnp.where(at_start, args["rate"][k], value / jnp.where(at_start, 1.0, t - t0))
-            value = jnp.where(on, divided, value)
-            return jnp.where(value == 0.0, 1e-300, value)
+    def values(t, y, args):
+        """``expected_sign * guard`` of every guard (a row per guard, padding included)."""
+        w, t0 = args["w"], args["t0"]
+        z = jnp.concatenate([y, jnp.stack([jnp.ones(()), jnp.cos(w * t), jnp.sin(w * t)])])
+        value = args["S"] * (args["Q"] @ z)
+        # a guard that starts on its own surface: divided by t - t0 (its rate at t0 itself), the same crossings
+        # after t0 and none at t0
+        at_start = t == t0
+        divided = jnp.where(at_start, args["rate"], value / jnp.where(at_start, 1.0, t - t0))
+        value = jnp.where(args["on"], divided, value)
+        return value + jnp.where(value == 0.0, 1e-300, 0.0)  # an exact zero is on the surface, not across it
 
-        return cond
+    def cond(t, y, args, **kwargs):
+        # the smallest: positive while no guard has crossed, so its first zero is the earliest crossing of any
+        # guard (several conditions would be located in the order of their list, not of their times)
+        return jnp.min(values(t, y, args))
 
-    conds = tuple(guard_fn(k) for k in range(n_guards))
-    event = diffrax.Event(conds, root_finder=optx.Newton(rtol=ROOT_TOL, atol=ROOT_TOL), direction=False)
+    event = diffrax.Event(cond, root_finder=_Bracketing(rtol=ROOT_RTOL, atol=0.0, flip=True), direction=False)
 
     def solve(y0, t0, t1, ts, args, rtol, atol, dtmax):
         controller = diffrax.PIDController(rtol=rtol, atol=atol, dtmax=dtmax)
@@ -139,17 +141,37 @@ def _build(method: str, n: int, n_guards: int, chunk: int):
             throw=False,
             adjoint=diffrax.ForwardMode(),
         )
-        mask = jnp.stack([jnp.asarray(m) for m in sol.event_mask]) if n_guards else jnp.zeros(0, bool)
         return (
             sol.ts,
             sol.ys,
             sol.result._value,
-            mask,
             sol.stats["num_accepted_steps"],
             sol.stats["num_rejected_steps"],
         )
 
     return jax.jit(solve)
+
+
+def _bracketing():
+    """optimistix's bisection, stopped by the width of its bracket alone.
+
+    diffrax starts its root finder at the end of the step, with the step as the bracket. Newton's
+    method (optimistix's) leaves the bracket where the interpolant's slope at the step's end has the
+    other sign (it stopped, clipped to the end, on 2-DOF case 2 with Dopri8) and cannot end where its
+    iterates circle between neighbouring doubles; bisection keeps the bracket. optimistix's own test
+    also asks ``|guard| < atol``, which a guard of slope above 1 never meets at rounding: this one
+    stops when the bracket is within ``rtol |t|`` (two doubles at :data:`ROOT_RTOL`), about 50 halvings
+    of a step, each an evaluation of the interpolant.
+    """
+    import jax.numpy as jnp
+    import optimistix as optx
+
+    class Bracketing(optx.Bisection):
+        def terminate(self, fn, y, args, options, state, tags):
+            width = jnp.abs(state.lower - state.upper)
+            return width <= self.atol + self.rtol * jnp.abs(y), optx.RESULTS.successful
+
+    return Bracketing
 
 
 def compiled(method: str, n: int, n_guards: int, chunk: int = CHUNK):
@@ -222,19 +244,33 @@ class DiffraxIntegrator(OptionalBackend):
         q[:, n] = 1.0  # padding: the constant 1, never crossed
         s = np.ones(n_guards)
         on = np.zeros(n_guards, bool)
-        rate = np.zeros(n_guards)
+        rate, curve = np.zeros(n_guards), np.zeros(n_guards)
         w = float(problem.forcing_frequency)
         t0 = float(t0)
         y0 = np.asarray(y0, dtype=float)
         c, sn = math.cos(w * t0), math.sin(w * t0)
         z0 = np.concatenate([y0, [1.0, c, sn]])
-        dz0 = np.concatenate([a @ y0 + b0 + bc * c + bs * sn, [0.0, -w * sn, w * c]])
+        dy = a @ y0 + b0 + bc * c + bs * sn
+        dz0 = np.concatenate([dy, [0.0, -w * sn, w * c]])
+        ddz0 = np.concatenate([a @ dy - w * bc * sn + w * bs * c, [0.0, -w * w * c, -w * w * sn]])
         for k, g in enumerate(guards):
             q[k] = problem.guard_row(mode, g.code, g.block - 1)
             s[k] = float(g.expected_sign)
             if float(q[k] @ z0) == 0.0:
-                on[k], rate[k] = True, s[k] * float(q[k] @ dz0)
-        args = {"A": a, "b0": b0, "bc": bc, "bs": bs, "w": np.float64(w), "Q": q, "S": s, "on": on, "rate": rate}
+                on[k] = True
+                rate[k], curve[k] = s[k] * float(q[k] @ dz0), 0.5 * s[k] * float(q[k] @ ddz0)
+        args = {
+            "A": a,
+            "b0": b0,
+            "bc": bc,
+            "bs": bs,
+            "w": np.float64(w),
+            "Q": q,
+            "S": s,
+            "on": on,
+            "rate": rate,
+            "curve": curve,
+        }
         return args, n_guards
 
     def advance(self, request: ArcRequest) -> ArcResult:
@@ -249,44 +285,14 @@ class DiffraxIntegrator(OptionalBackend):
                 status=Status.INTEGRATOR_FAILURE,
                 message=self.sections_refusal(problem),
             )
-        order = list(range(len(request.guards)))
-        cost: dict[str, int] = {"nfev": 0, "nsteps": 0, "rejected_steps": 0, "chunks": 0, "reruns": 0}
-        for _ in range(len(order) + 1):
-            res = self._run(request, order, cost)
-            late = self._passed(request, res)
-            if late is None:
-                break
-            # two guards crossed in one step and diffrax, which takes the first of its list that triggered
-            # in the step, located the later one: the other is past its surface there. Run the arc again
-            # with that one first (the same steps: only its root is located)
-            order = [late] + [k for k in order if k != late]
-            cost["reruns"] += 1
-        res.nfev, res.nsteps = cost["nfev"], cost["nsteps"]
-        res.extra = {k: float(cost[k]) for k in ("rejected_steps", "chunks", "reruns")}
-        return res
+        return self._run(request)
 
-    def _passed(self, request: ArcRequest, res: ArcResult) -> int | None:
-        """A guard other than the fired one that is past its surface at the event (it crossed first), or ``None``."""
-        if not res.status.ok or res.fired is None:
-            return None
-        problem = request.problem
-        w = float(problem.forcing_frequency)
-        z = np.concatenate([res.y, [1.0, math.cos(w * res.t), math.sin(w * res.t)]])
-        for k, g in enumerate(request.guards):
-            if k == res.fired:
-                continue
-            value = float(g.expected_sign) * float(problem.guard_row(request.mode, g.code, g.block - 1) @ z)
-            scale = float(np.max(np.abs(z))) + 1.0
-            if value < -1e-12 * scale:  # beyond the rounding of the event state
-                return k
-        return None
-
-    def _run(self, request: ArcRequest, order: list[int], cost: dict[str, int]) -> ArcResult:
-        """One arc with the guards handed to diffrax in ``order`` (indices into ``request.guards``)."""
+    def _run(self, request: ArcRequest) -> ArcResult:
+        """The arc, chunk by chunk (see the module docstring)."""
         problem = request.problem
         n = problem.n_states
-        guards = [request.guards[k] for k in order]
-        args, n_guards = self._arrays(problem, request.mode, guards, request.t0, request.y0)
+        args, n_guards = self._arrays(problem, request.mode, request.guards, request.t0, request.y0)
+        start_on = args["on"].copy()
         spec = METHODS[self.method]
         opts = self.settings
         max_step = opts["max_step"]
@@ -319,7 +325,7 @@ class DiffraxIntegrator(OptionalBackend):
             ts = np.full(N_EVAL, t1)
             ts[: wanted.size] = wanted
             solve = compiled(self.method, n, n_guards, chunk)
-            ts_out, ys_out, code, mask, acc, rej = solve(
+            ts_out, ys_out, code, acc, rej = solve(
                 y, np.float64(t), np.float64(t1), ts, args, opts["rtol"], opts["atol"], np.float64(max_step)
             )
             chunks += 1
@@ -335,8 +341,7 @@ class DiffraxIntegrator(OptionalBackend):
                 n_done += got
             t, y = t_new, y_new
             if code == event_code:
-                hit = np.flatnonzero(np.asarray(mask))
-                fired = order[int(hit[0])] if hit.size else None
+                fired = self._fired(problem, args, request, t, y, start_on if chunks == 1 else None)
                 break
             if code not in (ok, max_steps_code):
                 status, message = Status.INTEGRATOR_FAILURE, f"diffrax result code {code} after t = {t:.6g}"
@@ -345,13 +350,34 @@ class DiffraxIntegrator(OptionalBackend):
                 break
             # the next chunk starts off every surface (a guard is on one only at the arc's start)
             args["on"] = np.zeros_like(args["on"])
-        cost["nfev"] += taken * (spec.stages - (1 if spec.fsal else 0)) + rejected * spec.stages + 2 * chunks
-        cost["nsteps"] += taken
-        cost["rejected_steps"] += rejected
-        cost["chunks"] += chunks
+        nfev = taken * (spec.stages - (1 if spec.fsal else 0)) + rejected * spec.stages + 2 * chunks
         y_eval = np.concatenate(out_eval, axis=1) if out_eval else np.empty((n, 0))
         y_eval = y_eval[:, : int(np.searchsorted(t_eval, t, side="right"))]
-        return ArcResult(t=t, y=y, fired=fired, y_eval=y_eval, status=status, message=message)
+        return ArcResult(
+            t=t,
+            y=y,
+            fired=fired,
+            y_eval=y_eval,
+            nfev=int(nfev),
+            nsteps=taken,
+            extra={"rejected_steps": float(rejected), "chunks": float(chunks)},
+            status=status,
+            message=message,
+        )
+
+    @staticmethod
+    def _fired(problem, args, request: ArcRequest, t: float, y: np.ndarray, on: np.ndarray | None) -> int | None:
+        """The guard at the event: the smallest ``expected_sign * guard`` there (the one the root finder's
+        minimum followed to zero); on an exact tie the lowest index (``argmin`` takes the first)."""
+        if not request.guards:
+            return None
+        w = float(problem.forcing_frequency)
+        z = np.concatenate([y, [1.0, math.cos(w * t), math.sin(w * t)]])
+        k = len(request.guards)
+        values = args["S"][:k] * (args["Q"][:k] @ z)
+        if on is not None and t != float(request.t0):  # divided as in the compiled condition
+            values = np.where(on[:k], values / (t - float(request.t0)), values)
+        return int(np.argmin(values))
 
 
 def _caps(order: int) -> Capabilities:
@@ -366,7 +392,7 @@ def _caps(order: int) -> Capabilities:
 
 
 class DiffraxTsit5(DiffraxIntegrator):
-    """diffrax's Tsitouras 5(4) (JAX, jit-compiled once per shape), guards as one Event with Newton's root finder."""
+    """diffrax's Tsitouras 5(4) (JAX, jit-compiled once per shape), guards as one Event located by bisection."""
 
     name = "diffrax-tsit5"
     method = "tsit5"
@@ -374,7 +400,7 @@ class DiffraxTsit5(DiffraxIntegrator):
 
 
 class DiffraxDopri8(DiffraxIntegrator):
-    """diffrax's Dormand-Prince 8(7) (JAX, jit-compiled once per shape), guards as one Event with Newton's root finder."""
+    """diffrax's Dormand-Prince 8(7) (JAX, jit-compiled once per shape), guards as one Event located by bisection."""
 
     name = "diffrax-dopri8"
     method = "dopri8"

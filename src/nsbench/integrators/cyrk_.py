@@ -50,6 +50,7 @@ MAX_STEPS_STATUS = -52
 class CyRKIntegrator(OptionalBackend):
     """Base of the CyRK adapters; subclasses set ``method`` (CyRK's name of it)."""
 
+    ecosystem = "CyRK"
     backend_modules = ("CyRK",)
     extra = "cyrk"
     method: ClassVar[str] = ""
@@ -106,7 +107,7 @@ class CyRKIntegrator(OptionalBackend):
             pass_dy_as_arg=True,
             max_num_steps=int(max(request.max_steps, 1)),
         )
-        counts = dict(nfev=calls[0], nsteps=int(sol.steps_taken))
+        nfev, nsteps = calls[0], int(sol.steps_taken)
         t_all, y_all = sol.t, sol.y
         if not sol.success and not sol.event_terminated:
             budget = sol.status == MAX_STEPS_STATUS
@@ -119,7 +120,8 @@ class CyRKIntegrator(OptionalBackend):
                 message=(
                     f"step budget exhausted at t = {t_all[-1]:.6g}" if budget and t_all.size else f"CyRK: {sol.message}"
                 ),
-                **counts,
+                nfev=nfev,
+                nsteps=nsteps,
             )
         t_events = sol.t_events or []
         y_events = sol.y_events or []
@@ -144,7 +146,7 @@ class CyRKIntegrator(OptionalBackend):
             y_eval = np.asarray(sol(grid), dtype=float).reshape(n, n_eval)
         else:
             y_eval = np.empty((n, 0))
-        return ArcResult(t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits, **counts)
+        return ArcResult(t=t_stop, y=y_stop, fired=fired, y_eval=y_eval, section_hits=hits, nfev=nfev, nsteps=nsteps)
 
 
 def _caps(order: int) -> Capabilities:

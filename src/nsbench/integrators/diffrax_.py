@@ -144,7 +144,7 @@ def _build(method: str, n: int, n_guards: int, chunk: int):
         return (
             sol.ts,
             sol.ys,
-            sol.result._value,
+            getattr(sol.result, "_value"),  # the code's integer (diffrax's RESULTS item wraps it)
             sol.stats["num_accepted_steps"],
             sol.stats["num_rejected_steps"],
         )
@@ -187,12 +187,15 @@ def _result_codes() -> tuple[int, int, int]:
     import diffrax
 
     r = diffrax.RESULTS
-    return int(r.successful._value), int(r.max_steps_reached._value), int(r.event_occurred._value)
+    names = ("successful", "max_steps_reached", "event_occurred")
+    ok, most, event = (int(getattr(getattr(r, name), "_value")) for name in names)
+    return ok, most, event
 
 
 class DiffraxIntegrator(OptionalBackend):
     """Base of the diffrax adapters; subclasses set ``method`` (a key of :data:`METHODS`)."""
 
+    ecosystem = "JAX (diffrax)"
     backend_modules = ("jax", "diffrax", "optimistix")
     extra = "jax"
     method: ClassVar[str] = ""

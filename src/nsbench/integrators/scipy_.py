@@ -124,6 +124,7 @@ class ScipyIntegrator(Integrator):
     """Base of the ``solve_ivp`` adapters; subclasses set ``method``."""
 
     method: ClassVar[str] = ""
+    ecosystem = "scipy"
     implicit: ClassVar[bool] = False
     options = dict(_TOLERANCES)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))

@@ -124,6 +124,7 @@ class SiconosMoreauJean(WholeSystem):
     """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
     name = "siconos-moreau-jean"
+    ecosystem = "Siconos"
     capabilities = Capabilities(
         event_location="inferred-from-status",
         order=1,
@@ -267,6 +268,7 @@ class SiconosEventDriven(WholeSystem):
     """
 
     name = "siconos-event-driven"
+    ecosystem = "Siconos"
     capabilities = Capabilities(
         event_location="lsodar-root",
         order=None,

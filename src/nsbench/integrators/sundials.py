@@ -63,6 +63,8 @@ def _sundials_max_step(max_step: float | None) -> float:
 class SundialsIntegrator(Integrator):
     """Shared stepping loop of the CVODE and IDA adapters."""
 
+    ecosystem = "SUNDIALS"
+
     options = dict(_OPTIONS)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 

@@ -321,4 +321,5 @@ def simulate(
         setup_time=setup_time,
         integrator_time=raw.integrator_time,
         cpu_time=cpu,
+        internal=raw.internal,
     )

@@ -93,6 +93,9 @@ class SimulationResult:
     cpu_time
         CPU seconds of this process over the same stretch as ``wall_time``: the work
         done, without the time other programs held the core (NaN if not measured).
+    internal
+        A whole-system method's own states beside the problem's (``lugre``'s bristle
+        deflections ``z1 .. zn``), one row per step with its time ``t``; ``None`` for the others.
     """
 
     problem: "FrictionOscillator"
@@ -110,6 +113,7 @@ class SimulationResult:
     setup_time: float
     integrator_time: float = float("nan")
     cpu_time: float = float("nan")
+    internal: pd.DataFrame | None = None
 
     @property
     def ok(self) -> bool:

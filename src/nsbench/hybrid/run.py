@@ -68,6 +68,7 @@ class RawRun:
     t0: float
     start_mode: tuple[int, ...]
     prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
+    internal: Any = None  # a whole-system method's own states by step (a DataFrame), SimulationResult.internal
 
 
 _NO_KERNEL: dict[str, Any] = {}

@@ -162,7 +162,7 @@ class LuGre(WholeSystem):
         s = self.settings
         res = run_scipy(augmented, fun, jac, s["solver"], s["rtol"], s["atol"], refine=4)
         res.internal = res.y[:, n:].copy()
-        res.internal_names = tuple(f"z{i + 1}" for i in range(problem.n_blocks))
+        res.internal_names = tuple(f"z{i + 1}" for i in range(z0.size))
         res.y = res.y[:, :n].copy()
         if res.y_eval is not None:
             res.y_eval = np.asarray(res.y_eval)[:, :n].copy()

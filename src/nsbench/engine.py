@@ -123,7 +123,7 @@ def _frames(
     """Event log, sections (state crossings and stroboscopic states) and trajectory of a run."""
     names = list(problem.state_names)
     rec = raw.records
-    events = event_frame(problem, rec, raw.n_events)
+    events = event_frame(problem, rec, raw.n_events, raw.located_t)
     rows = [(state_sections[int(rec.hk[j])].name, float(rec.ht[j]), *rec.hy[j]) for j in range(raw.n_hits)]
     k = raw.n_dense
     states = rec.y_eval[:k]

@@ -9,7 +9,7 @@ from nsbench import simulate
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import get_integrator
 from nsbench.integrators._moreau_jean_kernel import spd_inverse
-from nsbench.integrators.moreau_jean import MAX_BLOCKS, stiffness_matrix, uniform_steps
+from nsbench.integrators.moreau_jean import MAX_BLOCKS, rest_window, stiffness_matrix, uniform_steps
 from nsbench.problems import get_problem
 from nsbench.testing import check_integrator
 
@@ -115,6 +115,21 @@ def test_block_on_ground_passes_through_zero_speed_as_reversals():
     assert _sequence(run.events) == _sequence(ref)
     assert np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())) < 5 * 1e-3
     assert run.y_final[0] == pytest.approx(ref["x1"].iloc[-1], abs=1e-3)  # the rest position
+
+
+def test_the_forced_block_on_ground_converges_to_exacts_stick_slip_cycle():
+    """Issue 48 item 11: the forced variant (F = 1.5, w = 0.5: 6 reversals, then 13 sticks and 13 slips over
+    [0, 100]), the natural test of time-stepping on stick-slip cycles. exact's sequence at every h, the largest
+    switching-time error first order (measured 2.0e-2, 1.7e-3, 2.5e-4: between 0.1 h and 3 h)."""
+    problem = get_problem("block-on-ground", F=1.5, w=0.5)
+    ref = simulate(problem, "exact", 100.0).events
+    errors = []
+    for h in (1e-2, 1e-3, 1e-4):
+        run = simulate(problem, "moreau-jean", 100.0, options={"h": h})
+        assert run.ok and _sequence(run.events) == _sequence(ref), h
+        errors.append(np.max(np.abs(run.events["t"].to_numpy() - ref["t"].to_numpy())))
+        assert errors[-1] <= 3 * h
+    assert errors[0] > 5 * errors[1] > 25 * errors[2]
 
 
 def test_a_stuck_block_moves_exactly_with_the_belt():
@@ -252,9 +267,8 @@ def test_a_budget_stops_the_run_with_a_status():
 
 def test_the_bouncing_ball_impacts_and_rest():
     """Newton's impact law at the velocity level: the impact times converge to the closed form at first order;
-    the ball rests once its impact speed is below one step's gain under gravity (e |v| <= g h), missing the
-    remaining flights, which last about 2 h / (e (1 - e)) = 12.5 h in all (e = 0.8): the rest time is within
-    20 h of the accumulation time."""
+    the ball rests once its impact speed is below one step's gain under gravity (e |v| <= g h), inside the
+    window rest_window derives (docs/families.md)."""
     problem = get_problem("bouncing-ball")
     closed = problem.impact_times(6)
     errors = []
@@ -266,9 +280,31 @@ def test_the_bouncing_ball_impacts_and_rest():
         err = np.max(np.abs(run.events["t"].to_numpy()[:6] - closed))
         assert err <= 5 * h
         errors.append(err)
-        assert abs(run.events["t"].iloc[-1] - problem.accumulation_time()) <= 20 * h
+        lo, hi = rest_window(problem.e, h, kinds.count("impact"))
+        assert lo <= run.events["t"].iloc[-1] - problem.accumulation_time() <= hi
         assert abs(run.y_final[1]) < 1e-12 and run.mode_final == (1,)
     assert errors[1] < errors[0] / 4
+
+
+@pytest.mark.parametrize(
+    "e, x0, h, t_end",
+    [(0.9, 1.0, 0.005, 10.0), (0.8, 1.0, 1e-3, 6.0), (0.7, 0.37, 1e-3, 3.0), (0.95, 1.0, 0.01, 20.0)],
+)
+def test_the_inferred_rest_falls_in_its_first_order_window(e, x0, h, t_end):
+    """Issue 48 item 7: at e = 0.9, h = 0.005 the rest is 36 steps before t_Z = 8.579 (the docs' "within 20 h" was
+    one measurement at e = 0.8). t_rest - t_Z = sum(D) - G (docs/families.md): each resolved impact shifts the
+    accumulation time the trajectory predicts by D in (-h / e, h] and the rest label cuts off a tail G in
+    (-2 h, (2 + e) h / (1 - e) - h / 2], both to first order in g h / (e |v|): rest_window. Checked on runs
+    that resolve many impacts (15 to 62 here); the window is first order, not a proof for flights of a few steps
+    (docs/families.md names the grid point of its measured table where it is exceeded)."""
+    problem = get_problem("bouncing-ball", e=e, x0=x0)
+    run = simulate(problem, "moreau-jean", t_end, options={"h": h}, check_points=0)
+    assert run.ok, run.message
+    kinds = list(run.events["kind"])
+    assert kinds[-1] == "rest" and kinds.count("impact") >= 10
+    _, h_used = uniform_steps(0.0, t_end, h)
+    lo, hi = rest_window(e, h_used, kinds.count("impact"))
+    assert lo <= run.events["t"].iloc[-1] - problem.accumulation_time() <= hi
 
 
 def test_the_step_matrix_is_inverted_without_blas():

@@ -45,3 +45,49 @@ def test_parameters_and_the_start_state():
         nsbench.get_problem("block-on-ground", fs=2.0)
     with pytest.raises(nsbench.ConfigError, match="unknown parameter 'x2_0'"):
         nsbench.get_problem("block-on-ground", x2_0=1.0)
+
+
+def _forced_slip_velocity(t, x0, v0, s, m, k, fs, F, w, mp):
+    """Velocity of a slip of direction ``s`` started at ``(0, x0, v0)``: the forced harmonic oscillator in closed form.
+
+    ``m x'' + k x = -s fs + F cos(w t)``: ``x = x_c + a cos(W t) + b sin(W t) + P cos(w t)`` with
+    ``W = sqrt(k / m)``, ``x_c = -s fs / k`` and ``P = F / (k - m w^2)`` (``w != W``).
+    """
+    W = mp.sqrt(k / m)
+    xc = -s * fs / k
+    P = F / (k - m * w * w)
+    a = x0 - xc - P
+    b = v0 / W
+    return -a * W * mp.sin(W * t) + b * W * mp.cos(W * t) - P * w * mp.sin(w * t)
+
+
+def test_the_forced_block_meets_its_first_reversal_in_closed_form_and_an_independent_integrator():
+    """F cos(w t) on the block (F = 1.5 > fr: a stick-slip cycle, 32 events over [0, 100])."""
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 40
+    p = nsbench.get_problem("block-on-ground", F=1.5, w=0.5)
+    res = nsbench.simulate(p, "exact", 100.0)
+    assert res.ok, res.message
+    kinds = list(res.events["kind"])
+    assert len(kinds) == 32 and kinds.count("stick") == 13 and kinds.count("slip") == 13
+    # the first slip (v > 0 from (12, 6)) ends where its closed-form velocity is zero
+    t1 = mp.findroot(lambda t: _forced_slip_velocity(t, 12, 6, 1, 1, 1, 1, mp.mpf("1.5"), mp.mpf("0.5"), mp), 0.48)
+    assert kinds[0] == "reverse"
+    assert abs(res.events["t"].iloc[0] - float(t1)) <= 1e-13  # exact's arcs are exact to rounding
+    # every event against heyoka's Taylor method (an independent integrator; 1e-12 as for the unforced block)
+    other = nsbench.simulate(p, "heyoka", 100.0)
+    assert other.ok and list(other.events["kind"]) == kinds
+    assert np.abs(other.events["t"].to_numpy() - res.events["t"].to_numpy()).max() <= 1e-12
+
+
+def test_an_unknown_parameter_lists_every_allowed_name():
+    with pytest.raises(nsbench.ConfigError) as info:
+        nsbench.get_problem("block-on-ground", omega=1.0)
+    message = str(info.value)
+    assert "unknown parameter 'omega'" in message
+    for name in ("m", "c", "k", "fs", "fr", "F", "w", "x1_0", "v1_0", "law"):
+        assert f" {name}," in message or message.endswith(f" {name}"), name
+    with pytest.raises(nsbench.ConfigError, match="forcing frequency w"):
+        nsbench.get_problem("block-on-ground", F=1.0, w=-0.5)
+    with pytest.raises(ValueError, match="closed form is for the undamped, unforced"):
+        closed_form_events(nsbench.get_problem("block-on-ground", F=1.0))

@@ -372,6 +372,11 @@ def time_case(
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
         belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
+        from nsbench.bench.metrics import creep_cone
+
+        cone = None
+        if belt is not None and reference.y_dense is not None:
+            cone = creep_cone(problem, grid, reference.y_dense, dense)
         metrics = case_metrics(
             reference.events,
             lead.events,
@@ -382,6 +387,7 @@ def time_case(
             times=grid,
             v_belt=belt,
             t_end=case.t_end,
+            cone=cone,
         )
         if problem.family == "impact" and hasattr(problem, "energy"):
             from nsbench.bench.metrics import impact_metrics

@@ -38,8 +38,11 @@ CAPTION = (
     "`state_err_l2` along the ladder, over the configurations with the reference's switch sequence "
     "(against `1/eps` for smoothing); `order (smooth arcs)`: the slope of `arc_err`, the state error "
     "of a run started on the reference inside its longest slipping arc and stopped before the arc "
-    "ends (no switch), over the successful configurations; `creep`: `stick_creep` (largest `abs(v - v_belt)` while the "
-    "reference sticks) at the loosest and the tightest configuration; `sequence ok`: configurations with "
+    "ends (no switch), over the successful configurations; `creep`: `stick_creep` (the drift velocity off the belt "
+    "per unit of stick time while the reference sticks under an in-cone load, `abs(R) <= fs` by the reference's "
+    "state and the run's, in the run's matched prefix) at the loosest and the tightest configuration; `located`: the largest error of the switch times the "
+    "method locates itself (`located_err_max`), at the tightest configuration, where it reports them; "
+    "`sequence ok`: configurations with "
     "the reference's switch sequence, of all run."
 )
 
@@ -118,6 +121,9 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
         creep = rows.assign(_v=values).sort_values("_v", ascending=sharpens)["stick_creep"].to_numpy(dtype=float)
         row["creep (loosest)"] = float(creep[0]) if len(creep) else math.nan
         row["creep (tightest)"] = float(creep[-1]) if len(creep) else math.nan
+        if "located_err_max" in rows and rows["located_err_max"].notna().any():
+            located = rows.assign(_v=values).sort_values("_v", ascending=sharpens)["located_err_max"]
+            row["located (tightest)"] = float(located.to_numpy(dtype=float)[-1])
         row["sequence ok"] = f"{int(sel.sum())} of {len(rows)}"
         out.append(row)
     table = pd.DataFrame(out)
@@ -161,7 +167,13 @@ def families_answer(table: pd.DataFrame, targets: tuple[float, ...]) -> list[str
                 order_text += f", order {arc:.2f} on a smooth arc"
             creep = ""
             if math.isfinite(r["creep (tightest)"]):
-                creep = f"; creep {r['creep (loosest)']:.2g} to {r['creep (tightest)']:.2g} while the reference sticks"
+                creep = (
+                    f"; creep {r['creep (loosest)']:.2g} to {r['creep (tightest)']:.2g} (drift velocity) while the "
+                    "reference sticks under an in-cone load"
+                )
+            located = r.get("located (tightest)", math.nan)
+            if isinstance(located, float) and math.isfinite(located):
+                creep += f"; its own switch times within {located:.2g} at the tightest configuration"
             lines.append(
                 f"{problem}, {r['family']} ({r['integrator']}): {cost}; {order_text}{creep}; "
                 f"switch sequence right in {r['sequence ok']} configurations."

@@ -269,60 +269,148 @@ def state_errors(
     return final_err, l2
 
 
-def stick_intervals(reference: pd.DataFrame, t_end: float) -> list[tuple[int, float, float]]:
+def _stick_rows(log: pd.DataFrame, t_end: float, n_prefix: int | None) -> list[tuple[int, int, float, int, float]]:
+    """``(block, stick index, start, slip index or -1, stop)`` of each stick interval of ``log``."""
+    out = []
+    open_at: dict[int, tuple[int, float]] = {}
+    rows = zip(log["t"].to_numpy(dtype=float), log["kind"], log["block"])
+    for j, (t, kind, block) in enumerate(rows):
+        b = int(block)
+        if kind == "stick" and (n_prefix is None or j < n_prefix):
+            open_at.setdefault(b, (j, float(t)))
+        elif kind == "slip" and b in open_at:
+            j0, t0 = open_at.pop(b)
+            out.append((b, j0, t0, j, float(t)))
+    out.extend((b, j0, t0, -1, float(t_end)) for b, (j0, t0) in open_at.items())
+    return sorted(out, key=lambda row: (row[2], row[0]))
+
+
+def stick_intervals(
+    reference: pd.DataFrame, t_end: float, n_prefix: int | None = None
+) -> list[tuple[int, float, float]]:
     """The true stick intervals of the reference: ``(block, start, stop)`` (1-based block), from each
     ``stick`` event of a block to its next ``slip`` event (or ``t_end``). A block stuck from the start
-    (before any event) is not counted: the log does not say so."""
-    out = []
-    open_at: dict[int, float] = {}
-    for t, kind, block in zip(reference["t"].to_numpy(dtype=float), reference["kind"], reference["block"]):
-        b = int(block)
-        if kind == "stick":
-            open_at.setdefault(b, float(t))
-        elif kind == "slip" and b in open_at:
-            out.append((b, open_at.pop(b), float(t)))
-    out.extend((b, t0, float(t_end)) for b, t0 in open_at.items())
-    return sorted(out, key=lambda row: (row[1], row[0]))
+    (before any event) is not counted: the log does not say so. With ``n_prefix``, only the intervals whose
+    ``stick`` event is among the first ``n_prefix`` (a run's matched prefix: it reproduced the sequence up to
+    that stick, so its state there is the reference's to the switching-time error)."""
+    return [(b, t0, t1) for b, _, t0, _, t1 in _stick_rows(reference, t_end, n_prefix)]
+
+
+def _run_interval(events: pd.DataFrame, j0: int, j1: int, n_prefix: int, t_end: float) -> tuple[float, float]:
+    """The run's own stick interval matched to the reference's with stick index ``j0`` and slip index ``j1``:
+    from its event ``j0`` (the prefix pairs events one to one) to its event ``j1`` if matched, else to the
+    block's next slip in its own log (or ``t_end``)."""
+    t = events["t"].to_numpy(dtype=float)
+    start = float(t[j0])
+    if 0 <= j1 < n_prefix:
+        return start, float(t[j1])
+    block = int(events["block"].iloc[j0])
+    later = (events["kind"].to_numpy()[j0 + 1 :] == "slip") & (events["block"].to_numpy()[j0 + 1 :] == block)
+    hits = np.flatnonzero(later)
+    return start, float(t[j0 + 1 + hits[0]]) if hits.size else float(t_end)
 
 
 @dataclass(frozen=True)
 class StickCreep:
-    """How far a run moves off the belt while the reference sticks.
+    """How fast and how far a run moves off the belt while the reference sticks under an in-cone load.
 
-    ``creep`` is the largest ``|v_i - v_belt|`` at the dense points inside the
-    reference's stick intervals of block ``i`` (over all blocks and intervals);
-    ``drift`` the largest position drift relative to the belt there,
-    ``|(x_i(t) - x_i(t_a)) - v_belt (t - t_a)|`` from the first dense point ``t_a`` of
-    the interval. Both NaN when no dense point falls inside a stick interval
-    (or the problem has no belt). An exact method has both at rounding level.
+    The windows are the dense points inside the reference's stick intervals of block
+    ``i`` (:func:`stick_intervals`) that start within the run's matched prefix (after a
+    run's sequence departs from the reference's, the two states are unrelated: a
+    regularised block that broke away early is elsewhere), cut to where the run sticks too
+    (its matched stick to its slip: a switching-time error is not creep), at which the load is in the cone,
+    ``|R_i| <= fs_i`` with ``v_i = v_belt``, by the reference's state and by the run's own
+    (:func:`creep_cone`, :func:`in_cone`: within the kinetic level,
+    so inside the static cone ``fr_i >= fs_i`` of Coulomb's law with stiction and
+    within what a regularised law can hold; all the points of the interval where the
+    load is not known), cut into runs of consecutive points.
+
+    ``creep`` is the drift velocity per unit of stick time, as MuJoCo's users measure
+    creep: the distance the block moves relative to the belt, ``sum |d(x_i - v_belt t)|``
+    over consecutive points of a window, divided by the stick time those pairs span,
+    pooled over every window and block. A regularised law creeps at a speed of order
+    (its force's deficit)/(its sharpness), so ``creep`` falls as ``1/eps``; an exact
+    method's is rounding, the switch model's at most ``eta``. ``drift`` is the largest
+    position drift relative to the belt within a window, ``|(x_i(t) - x_i(t_a)) -
+    v_belt (t - t_a)|`` from its first point ``t_a``. Both NaN when no window holds
+    two points (or the problem has no belt).
     """
 
     creep: float
     drift: float
 
 
+def in_cone(problem, times: np.ndarray, ref_dense: np.ndarray) -> np.ndarray | None:
+    """Per block and dense point, whether the reference's load is in the cone: ``|R_i| <= fs_i`` at ``v_i = v_belt``.
+
+    ``ref_dense`` is the reference's dense states ``(n_states, n_points)``. ``R_i`` is MODEL.md's restoring
+    force (every force on block ``i`` but friction) with every block at the belt speed, as while stuck
+    (``problem.belt_speed_restoring``). ``None`` where the problem does not give its loads.
+    """
+    restoring = getattr(problem, "belt_speed_restoring", None)
+    coefficients = getattr(problem, "coefficients", None)
+    if restoring is None or coefficients is None:
+        return None
+    dense = np.asarray(ref_dense, dtype=float)
+    times = np.asarray(times, dtype=float)
+    loads = np.array(restoring(times, [dense[2 * i] for i in range(dense.shape[0] // 2)]), dtype=float)
+    fs = np.asarray(coefficients.fs, dtype=float).reshape(-1, 1)
+    return np.abs(loads.reshape(fs.shape[0], -1)) <= fs
+
+
+def creep_cone(problem, times: np.ndarray, ref_dense: np.ndarray, dense: np.ndarray | None) -> np.ndarray | None:
+    """The windows' load test of :class:`StickCreep`: the load in the cone (:func:`in_cone`) by the reference's
+    state and, where the run's dense states ``dense`` are given, by the run's own too (a block whose neighbour
+    broke away early in the run carries another load than the reference's: only an in-cone one counts)."""
+    cone = in_cone(problem, times, ref_dense)
+    if cone is not None and dense is not None:
+        own = in_cone(problem, times, dense)
+        if own is not None:
+            cone = cone & own
+    return cone
+
+
 def stick_creep(
-    reference: pd.DataFrame, times: np.ndarray, dense: np.ndarray, v_belt: float, t_end: float
+    reference: pd.DataFrame,
+    times: np.ndarray,
+    dense: np.ndarray,
+    v_belt: float,
+    t_end: float,
+    cone: np.ndarray | None = None,
+    n_prefix: int | None = None,
+    events: pd.DataFrame | None = None,
 ) -> StickCreep:
     """:class:`StickCreep` of a run's dense states ``dense`` (shape ``(n_states, n_points)``, states
-    ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`).
+    ``x1, v1, x2, v2, ...``) at ``times``, over the reference's stick intervals (:func:`stick_intervals`)
+    where ``cone`` (shape ``(n_blocks, n_points)``, :func:`in_cone`; ``None``: everywhere) holds, of the
+    intervals whose stick event is among the run's first ``n_prefix`` matched events (``None``: all). With the
+    run's event log ``events`` (and ``n_prefix``) each interval is cut to where the run sticks too (its matched
+    stick to its slip), so a run's switching-time error does not count as creep.
 
     The interval ends are left out (a point exactly at a switch belongs to neither phase).
     """
     times = np.asarray(times, dtype=float)
     dense = np.asarray(dense, dtype=float)
-    creep, drift = -math.inf, -math.inf
-    for block, a, b in stick_intervals(reference, t_end):
+    moved, spent, drift = 0.0, 0.0, -math.inf
+    for block, j0, a, j1, b in _stick_rows(reference, t_end, n_prefix):
+        if events is not None and n_prefix is not None:
+            a2, b2 = _run_interval(events, j0, j1, n_prefix, t_end)
+            a, b = max(a, a2), min(b, b2)
         inside = (times > a) & (times < b)
-        if not inside.any():
-            continue
-        x, v = dense[2 * (block - 1), inside], dense[2 * block - 1, inside]
-        t = times[inside]
-        creep = max(creep, float(np.max(np.abs(v - v_belt))))
-        drift = max(drift, float(np.max(np.abs((x - x[0]) - v_belt * (t - t[0])))))
-    if creep == -math.inf:
+        if cone is not None:
+            inside &= np.asarray(cone[block - 1], dtype=bool)
+        idx = np.flatnonzero(inside)
+        for window in np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1):
+            if window.size < 2:
+                continue
+            t = times[window]
+            off = dense[2 * (block - 1), window] - v_belt * t  # position relative to the belt
+            moved += float(np.sum(np.abs(np.diff(off))))
+            spent += float(t[-1] - t[0])
+            drift = max(drift, float(np.max(np.abs(off - off[0]))))
+    if spent == 0.0:
         return StickCreep(math.nan, math.nan)
-    return StickCreep(creep, drift)
+    return StickCreep(moved / spent, drift)
 
 
 def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: int) -> float:
@@ -330,6 +418,16 @@ def breakaway_error(reference: pd.DataFrame, event_err: np.ndarray, n_prefix: in
     kinds = reference["kind"].to_numpy()[:n_prefix]
     err = np.abs(np.asarray(event_err, dtype=float)[:n_prefix])[kinds == "slip"]
     return float(err.max()) if err.size else math.nan
+
+
+def located_error(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int) -> float:
+    """Largest ``|t_located - t_ref|`` over the matched prefix (the switches the method located itself,
+    ``SystemResult.switch_times``), NaN if the run has no ``t_located`` column or locates none of them."""
+    if "t_located" not in events or n_prefix == 0:
+        return math.nan
+    own = events["t_located"].to_numpy(dtype=float)[:n_prefix]
+    err = np.abs(own - reference["t"].to_numpy(dtype=float)[:n_prefix])
+    return float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
 
 
 def impact_metrics(
@@ -383,11 +481,15 @@ def case_metrics(
     times: np.ndarray | None = None,
     v_belt: float | None = None,
     t_end: float | None = None,
+    cone: np.ndarray | None = None,
 ) -> dict:
     """Every metric column of a tidy row (see :mod:`nsbench.bench.schema`).
 
     ``times`` (the dense grid), ``v_belt`` and ``t_end`` give the stick creep
-    (:func:`stick_creep`; NaN without them: a problem without a belt).
+    (:func:`stick_creep`; NaN without them: a problem without a belt), over the points
+    where ``cone`` (:func:`in_cone` of the reference's dense states) holds.
+    ``located_err_max`` is the largest ``|t_located - t_ref|`` over the matched prefix, from
+    the run's ``t_located`` column (a method that locates its own switches); NaN without it.
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
     reference's order (:func:`order_ties_as_reference`). If ``reference`` has a
@@ -402,7 +504,7 @@ def case_metrics(
         final_err, l2 = math.nan, math.nan
     creep = StickCreep(math.nan, math.nan)
     if dense is not None and times is not None and v_belt is not None and t_end is not None:
-        creep = stick_creep(reference, times, dense, v_belt, t_end)
+        creep = stick_creep(reference, times, dense, v_belt, t_end, cone, al.n_prefix, events)
     out = asdict(al)
     del out["n_events"]  # the run's own counter already holds it
     del out["first_divergence"]  # n_missed / n_extra say it in the row; the time is first_divergence_time
@@ -417,6 +519,7 @@ def case_metrics(
         stick_creep=creep.creep,
         stick_drift=creep.drift,
         breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
+        located_err_max=located_error(reference, events, al.n_prefix),
         event_t=t_ref.tolist(),
         event_err=dt.tolist(),
         event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [],

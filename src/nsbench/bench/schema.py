@@ -131,16 +131,23 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("state_err_l2", "RMS over the dense points of the Euclidean state error (NaN unless success)"),
     (
         "stick_creep",
-        "largest |v_i - v_belt| of the run at the dense points inside the reference's stick "
-        "intervals of block i (from a stick event to the block's next slip), over all blocks; NaN "
-        "if no dense point falls inside one (nsbench.bench.metrics.stick_creep)",
+        "drift velocity off the belt per unit of stick time under an in-cone load: sum |d(x_i - v_belt t)| "
+        "over consecutive dense points inside the reference's stick intervals of block i (those begun in the "
+        "matched prefix) where the load, by the reference's state and by the run's own, is within the kinetic "
+        "level (|R_i| <= fs_i), divided by the time they span, pooled over blocks; NaN if no two such points "
+        "(nsbench.bench.metrics.stick_creep)",
     ),
     (
         "stick_drift",
-        "largest position drift relative to the belt over the same points, "
-        "|x_i(t) - x_i(t_a) - v_belt (t - t_a)| from the interval's first dense point t_a",
+        "largest position drift relative to the belt within those windows, "
+        "|x_i(t) - x_i(t_a) - v_belt (t - t_a)| from a window's first dense point t_a",
     ),
     ("breakaway_err_max", "max |t - t_ref| over the break-away (slip) events of the matched prefix; NaN if none"),
+    (
+        "located_err_max",
+        "max |t_located - t_ref| over the matched prefix: the switch times a whole-system method located "
+        "itself (SystemResult.switch_times), beside the inferred ones of switch_err_max; NaN if it locates none",
+    ),
     (
         "arc_err",
         "max-norm state error of a separate run on a smooth arc: started on the reference's dense "

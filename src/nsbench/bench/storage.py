@@ -101,6 +101,7 @@ _FLOAT = (
     "stick_creep",
     "stick_drift",
     "breakaway_err_max",
+    "located_err_max",
     "arc_err",
     "penetration",
     "energy_err",

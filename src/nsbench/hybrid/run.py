@@ -69,6 +69,9 @@ class RawRun:
     start_mode: tuple[int, ...]
     prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
     internal: Any = None  # a whole-system method's own states by step (a DataFrame), SimulationResult.internal
+    #: a whole-system method's own time of each event (``SystemResult.switch_times``), NaN where it located
+    #: none; ``None``: it locates none (the event log then has no ``t_located`` column)
+    located_t: np.ndarray | None = None
 
 
 _NO_KERNEL: dict[str, Any] = {}

@@ -7,8 +7,10 @@ is solved exactly (to rounding) by enumerating the stick/slip status of the
 blocks up to :data:`MAX_BLOCKS` blocks, and by an active-set (semismooth Newton)
 iteration on longer chains (option ``one_step``;
 :mod:`nsbench.integrators._moreau_jean_kernel`). No event is located: the
-switches are inferred afterwards from the status of the steps
-(:mod:`nsbench.hybrid.inference`), so switching times are first order in ``h``.
+switches are inferred afterwards from the steps by the rule of every
+whole-system method (:mod:`nsbench.hybrid.inference`: the phases read off the
+trajectory; the status the enumeration chose is returned but not read), so
+switching times are first order in ``h``.
 On a smooth arc (no status change) the scheme is the trapezoidal rule for
 ``theta = 1/2`` (order 2) and first order otherwise.
 
@@ -55,6 +57,21 @@ def uniform_steps(t0: float, t_end: float, h: float) -> tuple[int, float]:
     span = t_end - t0
     n = max(1, math.ceil(span / h * (1.0 - 1e-12)))
     return n, span / n
+
+
+def rest_window(e: float, h: float, n_impacts: int) -> tuple[float, float]:
+    """``(lo, hi)``: where the ball's inferred ``rest`` lies relative to the accumulation time, ``lo <= t_rest - t_Z <= hi``.
+
+    For the scheme of :func:`nsbench.integrators._moreau_jean_kernel.mj_ball` at ``theta = 1/2`` (its flights
+    are exact samples of the parabolas) and ``n_impacts`` impacts before the rest (docs/families.md,
+    "The bouncing ball: where the rest falls", derives it). Each resolved impact moves the accumulation time
+    its trajectory predicts by ``D`` in ``(-h / e, h]``, to first order in ``g h / (e |v|)``; the rest label
+    cuts off the tail of the last flight, ``G`` in ``(-2 h, (2 + e) h / (1 - e) - h / 2]``:
+    ``t_rest - t_Z = sum(D) - G``. The first-order range of ``D`` widens for flights of a few steps; the
+    bound was checked on a grid of ``e`` from 0.3 to 0.95 and ``h`` from 1e-4 to 1e-2 (tests).
+    """
+    k = max(int(n_impacts) - 1, 0)
+    return -k * h / e - (2.0 + e) * h / (1.0 - e) + 0.5 * h, k * h + 2.0 * h
 
 
 class MoreauJean(WholeSystem):

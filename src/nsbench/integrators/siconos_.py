@@ -11,8 +11,10 @@ interpreter (``NSBENCH_SICONOS_PYTHON``, default ``/usr/bin/python3``) on
 files out). The model: the chain as Siconos's first-order linear system, one relay per
 block on its velocity relative to the belt, the ``EulerMoreauOSI`` theta-scheme (the same
 discrete equations as ``moreau-jean`` on these linear systems), the relay problem solved
-by Lemke's method. A step's mode is read off the relay: stuck while the friction force is
-inside ``(-fr, fr)``, slipping against its sign at a bound.
+by Lemke's method. A step's mode is read off the relay (stuck while the friction force is
+inside ``(-fr, fr)``, slipping against its sign at a bound) and returned, but the event
+inference reads the phases off the trajectory, as for ``moreau-jean``, so the two give the
+same event times from the same trajectory.
 
 The bouncing ball is Siconos's classic (``LagrangianLinearTIDS`` under gravity,
 ``LagrangianLinearTIR`` on the height, ``NewtonImpactNSL(e)``, ``MoreauJeanOSI(theta)``, an
@@ -253,7 +255,9 @@ class SiconosEventDriven(WholeSystem):
     at every point of an output grid of step ``h`` and at every impact, the impulse of
     each sample and the resting label, from which nsbench infers the impacts and the rest
     like a time-stepping run's (a sample sits at the impact itself, so the inference adds
-    no error).
+    no error). The times of the impact samples and of the first resting one are Siconos's
+    own switch times (``SystemResult.switch_times``), reported beside the inferred ones
+    (the event log's ``t_located``).
 
     Only the bouncing ball: ``LsodarOSI`` takes Newton's impact law alone (its
     ``fillDSLinks`` refuses ``NewtonImpactFrictionNSL``; tried on the block on the ground,
@@ -339,11 +343,19 @@ class SiconosEventDriven(WholeSystem):
                 Status.BUDGET_EXHAUSTED,
                 (f"{info.get('events')} events, budget {request.max_steps}; stopped at t = {rows[-1, 0]:.6g}"),
             )
+        # the impacts LSODAR's root finder located and the sample where Siconos took the resting contact:
+        # its own switch times, reported beside the inferred ones
+        own = marks[:, 0] > 0.0
+        resting = np.flatnonzero(marks[:, 1] > 0.0)
+        if resting.size:
+            own[resting[0]] = True
         return SystemResult(
             t=rows[:, 0],
             y=rows[:, 1:],
             modes=marks[:, 1:].astype(np.int64),
             impulses=marks[:, :1],
+            switch_times=rows[own, 0].copy(),
+            switch_elements=np.zeros(int(own.sum()), np.int64),
             nsteps=int(info.get("events", 0)),
             status=status,
             message=message,

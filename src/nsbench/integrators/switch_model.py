@@ -13,9 +13,10 @@ event location. Per block ``i``, with ``R_i`` the restoring force (MODEL.md):
 - ``|u_i| <= eta`` and ``|R_i| > fr_i``: break-away, friction ``fs_i sign(R_i)``
   (slip in the direction of the load).
 
-The method knows its stick set, so it reports the mode of each point it returns
-(rule 1 of :mod:`nsbench.hybrid.inference`); the events are placed on the band's
-edges (``eta`` is its stick band). ``eta`` is in the problem's velocity units.
+The method reports its stick set at each point it returns (``SystemResult.modes``);
+the inference reads the phases off the trajectory with a test of the same kind (``eta`` is its
+stick band; at the belt speed past the static limit a block slips: rule 1 of
+:mod:`nsbench.hybrid.inference`), and places the events on the band's edges. ``eta`` is in the problem's velocity units.
 The right-hand side is discontinuous at the band's edges: the solver's error
 control (option ``solver``: scipy ``RK45`` by default, as Leine used an explicit
 Runge-Kutta, or ``Radau``/``BDF``/``DOP853``, or SUNDIALS CVODE through scikit-sundae,

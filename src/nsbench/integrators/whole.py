@@ -5,9 +5,10 @@ one frozen mode and locates that mode's guards; the hybrid core switches modes.
 A *whole-system* method instead advances the whole non-smooth system over
 ``[t0, t_end]`` itself, through the problem's set-valued law (Moreau-Jean
 time-stepping), a stick band with force-based switching (Leine's switch model)
-or a regularised law (smoothing), and hands back its discrete trajectory and,
-where it knows it, the mode (the stick/slip status) of every step. nsbench then
-infers the switching events from that output by one documented rule
+or a regularised law (smoothing), and hands back its discrete trajectory (and,
+optionally, its own labels, the impulses of an impact problem and the switches it
+located itself). nsbench then infers the switching events from the trajectory by one
+documented rule, the same for every method
 (:func:`nsbench.hybrid.inference.infer_events`), so the event log, the
 trajectory and every metric of the bench are those of an event-driven run.
 
@@ -74,16 +75,27 @@ class SystemResult:
     y
         States at those times, shape ``(k, n_states)`` (one *row* per step).
     modes
-        The mode of each step, shape ``(k, mode_size)`` in the problem's mode
-        vocabulary (friction: per block 0 stick, +1 slip+, -1 slip-), when the
-        method knows it (Moreau-Jean: the status its one-step problem chose;
-        the switch model: its stick set); ``None`` when it does not
-        (smoothing): nsbench then reads the mode off the velocities with the
+        The method's own label of each step, shape ``(k, mode_size)`` in the
+        problem's mode vocabulary (friction: per block 0 stick, +1 slip+, -1
+        slip-; the ball: 1 resting contact), or ``None``. The event inference
+        reads it for the impact problems only (the ball's resting contact); the
+        phases of the friction family are read off the trajectory by one rule
+        for every method (:mod:`nsbench.hybrid.inference`, rule 1), with the
         method's stick band (:meth:`WholeSystem.stick_band`).
     impulses
         For impact problems: the impulse of each contact in the step ending at each
         time, shape ``(k, n_contacts)`` (0: none), or ``None``. A positive impulse
         while the contact approaches is an impact (:mod:`nsbench.hybrid.inference`).
+    switch_times
+        Times of the switches the method located itself (an FESD-type method's
+        switch detection, an event-driven scheme's root finder), shape ``(n,)``,
+        or ``None``. They do not place the events (the inference does, the same
+        for every method); each is paired with the inferred event it belongs to
+        and reported beside it (the event log's ``t_located`` column, the
+        bench's ``located_err_max``).
+    switch_elements
+        The element (0-based block or contact) of each located switch, shape
+        ``(n,)``, or ``None`` (paired by time alone).
     y_eval
         States at ``request.t_eval`` from the method's own dense output, shape
         ``(len(t_eval), n_states)``, or ``None`` (linear interpolation of the steps).
@@ -105,6 +117,8 @@ class SystemResult:
     y: np.ndarray
     modes: np.ndarray | None = None
     impulses: np.ndarray | None = None
+    switch_times: np.ndarray | None = None
+    switch_elements: np.ndarray | None = None
     y_eval: np.ndarray | None = None
     nfev: int = 0
     njev: int = 0
@@ -196,6 +210,12 @@ def check_result(name: str, request: SystemRequest, res: Any, n_states: int, mod
         return f"{name}: step times must start at t0 = {request.t0!r}, increase, and stay <= t_end"
     if res.modes is not None and np.shape(res.modes) != (t.size, mode_size):
         return f"{name}: modes has shape {np.shape(res.modes)}; wanted ({t.size}, {mode_size})"
+    if res.switch_times is not None:
+        located = np.asarray(res.switch_times, dtype=float)
+        if located.ndim != 1 or not np.all(np.isfinite(located)):
+            return f"{name}: switch_times must be a 1-d array of finite times, not shape {located.shape}"
+        if res.switch_elements is not None and np.shape(res.switch_elements) != located.shape:
+            return f"{name}: switch_elements has shape {np.shape(res.switch_elements)}; wanted {located.shape}"
     if res.y_eval is not None and np.shape(res.y_eval) != (request.t_eval.size, n_states):
         return f"{name}: y_eval has shape {np.shape(res.y_eval)}; wanted ({request.t_eval.size}, {n_states})"
     if res.internal is not None and np.shape(res.internal) != (t.size, len(res.internal_names)):

@@ -1,15 +1,20 @@
-"""``block-on-ground``: a 1-DOF Coulomb oscillator on fixed ground, which comes to rest for good.
+"""``block-on-ground``: a 1-DOF Coulomb oscillator on fixed ground, unforced or under a harmonic force.
 
-``m x'' + c x' + k x = f`` with ``|f| <= fr`` while stuck and ``f = -fs sign(x')``
-while slipping, the friction family with a belt that does not move (``v0 = 0``).
-The defaults are those of the Siconos ``FrictionOscillator`` example (INRIA):
-``m = k = 1``, ``c = 0``, ``fs = fr = 1``, from ``x(0) = 12``, ``x'(0) = 6``.
+``m x'' + c x' + k x = f + F cos(w t)`` with ``|f| <= fr`` while stuck and
+``f = -fs sign(x')`` while slipping, the friction family with a belt that does not
+move (``v0 = 0``). The defaults are those of the Siconos ``FrictionOscillator``
+example (INRIA): ``m = k = 1``, ``c = 0``, ``fs = fr = 1``, no force (``F = 0``),
+from ``x(0) = 12``, ``x'(0) = 6``.
 
-Undamped, each slip is half a period (``pi sqrt(m / k)``) of a harmonic
+Undamped and unforced, each slip is half a period (``pi sqrt(m / k)``) of a harmonic
 oscillation about ``-+ fs / k``, so the amplitude about the origin falls by ``2 fs
 / k`` at every velocity reversal; the block sticks at the first reversal where
-``|k x| <= fr`` and, unforced, never slips again. :func:`closed_form_events`
-gives every event time, the rest time and the rest position.
+``|k x| <= fr`` and never slips again. :func:`closed_form_events` gives every event
+time, the rest time and the rest position. With ``F > fr`` the force breaks a stuck
+block away again and the motion settles on a cycle of sticks and slips (Den Hartog's
+forced Coulomb oscillator), the natural test of time-stepping on stick-slip cycles;
+``exact`` solves it (the force is the one of the belt problems' forced cases, on the
+block itself).
 """
 
 from __future__ import annotations
@@ -20,12 +25,12 @@ from typing import Any
 import numpy as np
 
 from nsbench.errors import ConfigError
-from nsbench.problems.friction_laws import check_against_blocks, split_law
+from nsbench.problems.friction_laws import ALL_PARAMETERS, check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import Bound, Coefficients, check_friction_order, check_values, scales_of
 
 NAME = "block-on-ground"
-DEFAULTS = {"m": 1.0, "c": 0.0, "k": 1.0, "fs": 1.0, "fr": 1.0}
+DEFAULTS = {"m": 1.0, "c": 0.0, "k": 1.0, "fs": 1.0, "fr": 1.0, "F": 0.0, "w": 1.0}
 START = {"x1_0": 12.0, "v1_0": 6.0}
 BOUNDS = {
     "m": Bound(0.0, False, "mass m"),
@@ -33,14 +38,21 @@ BOUNDS = {
     "k": Bound(0.0, False, "stiffness k"),
     "fs": Bound(0.0, True, "kinetic friction fs"),
     "fr": Bound(0.0, False, "static friction fr"),
+    "F": Bound(0.0, True, "harmonic force amplitude F"),
+    "w": Bound(0.0, True, "forcing frequency w"),
 }
+#: Every name the problem takes, for the error message of an unknown one (the start and the law's
+#: names are split off before the coefficients are checked).
+ALLOWED = (*DEFAULTS, *START, *ALL_PARAMETERS)
 
 
 def block_on_ground(case: int | str | None = None, dimensional: bool = True, **params: Any) -> FrictionOscillator:
-    """Build the block on fixed ground (parameters ``m c k fs fr``, start ``x1_0``, ``v1_0``).
+    """Build the block on fixed ground (parameters ``m c k fs fr F w``, start ``x1_0``, ``v1_0``).
 
     The parameters are in the problem's own units (there are no cases and no
-    dimensionless presets; ``dimensional`` is ignored).
+    dimensionless presets; ``dimensional`` is ignored). ``F`` and ``w`` are the
+    amplitude and the angular frequency of the harmonic force ``F cos(w t)`` on the
+    block (default ``F = 0``: unforced).
     ``law`` and its parameters set the friction law (:mod:`nsbench.problems.friction_laws`;
     default Coulomb, whose closed form :func:`closed_form_events` gives).
 
@@ -53,11 +65,14 @@ def block_on_ground(case: int | str | None = None, dimensional: bool = True, **p
         raise ConfigError(f"{NAME}: unknown case {case!r}; the problem has no cases (give its parameters)")
     rest, law = split_law(NAME, params)
     rest, _, start = split_start(NAME, rest, 1)
+    unknown = [key for key in rest if key not in DEFAULTS]
+    if unknown:  # named here, not by check_values, so that the message lists the start and the law too
+        raise ConfigError(f"{NAME}: unknown parameter {unknown[0]!r}; allowed: {', '.join(ALLOWED)}")
     v = {**DEFAULTS, **check_values(NAME, rest, tuple(DEFAULTS), BOUNDS)}
     check_friction_order(NAME, "fs", v["fs"], "fr", v["fr"])
     y0 = np.array([start.get("x1_0", START["x1_0"]), start.get("v1_0", START["v1_0"])])
     coeffs = Coefficients(
-        m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(0.0,), fs=(v["fs"],), fr=(v["fr"],), F=0.0, w=0.0, v0=0.0
+        m=(v["m"],), c=(v["c"],), k=(v["k"],), h=(0.0,), fs=(v["fs"],), fr=(v["fr"],), F=v["F"], w=v["w"], v0=0.0
     )
     check_against_blocks(NAME, law, coeffs.fs)
     return FrictionOscillator(

@@ -68,6 +68,7 @@ def test_default_suite_is_packaged_and_uses_accuracy_levels():
         "moreau-jean",
         "switch-model",
         "smoothing",
+        "lugre",
         "siconos-moreau-jean",
         "siconos-event-driven",
     }

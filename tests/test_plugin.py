@@ -37,7 +37,7 @@ def test_plugin_passes_the_conformance_kit(plugin_env):
     out = _nsbench(plugin_env, "check", "heun-bisect")
     assert out.returncode == 0, out.stdout + out.stderr
     assert "FAILED" not in out.stdout
-    assert "13 checks: 11 passed, 2 skipped" in out.stdout  # switch-convergence: whole-system methods only
+    assert "14 checks: 12 passed, 2 skipped" in out.stdout  # switch-convergence: whole-system methods only
 
 
 def test_plugin_runs_by_name(plugin_env):

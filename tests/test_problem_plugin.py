@@ -85,6 +85,6 @@ def test_the_conformance_kit_passes_on_it(plugin_env, integrator):
     out = _nsbench(env, "check", integrator, "--problem", "thermostat")
     assert out.returncode == 0, out.stdout + out.stderr
     lines = {row.split()[0]: row for row in out.stdout.splitlines()[2:] if row.startswith("  ")}
-    for check in ("protocol", "determinism", "inputs-not-mutated", "event-times", "failure-status"):
+    for check in ("protocol", "determinism", "inputs-not-mutated", "event-times", "failure-status", "problem-config"):
         assert "PASSED" in lines[check], lines[check]
     assert "presets (cases 1-4); thermostat has none" in lines["stuck-stays-stuck"]

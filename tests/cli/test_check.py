@@ -14,7 +14,7 @@ def test_check_prints_a_table_and_passes(capsys):
     for line in ("protocol", "event-times", "config-round-trip"):
         assert any(row.split()[:2] == [line, "PASSED"] for row in out.splitlines())
     assert "convergence          SKIPPED" in out and "no step or tolerance option declared" in out
-    assert "13 checks:" in out
+    assert "14 checks:" in out
 
 
 def test_check_exit_status_is_nonzero_on_failure(capsys):

@@ -27,12 +27,14 @@ Event times are carried in compensated form (``t0 + t0_lo``); the forcing phase
 of an arc is taken from that sum, since near resonance ``|A|`` exceeds the state
 and a phase error of one ulp of ``t`` would cost ``|A| ulp(t)``.
 
-A mode whose eigenvectors are ill-conditioned (defective: critical damping) or
-whose harmonic response is singular (undamped resonance) has no usable modal
-form; its flow is the matrix exponential of the augmented system
-``z' = M z``, ``z = [y, 1, cos w t, sin w t]``, evaluated directly at each offset,
-with the scan at a fraction of the mode's fastest time scale and the derivative
-test for touches.
+A mode whose eigenvectors are ill-conditioned (defective: critical damping, a
+Jordan block), whose matrix is singular (a free flight) or whose harmonic response
+is singular (undamped resonance) has no usable modal form; its flow is the matrix
+exponential of the augmented system ``z' = M z``, ``z = [y, 1, cos w t, sin w t]``,
+evaluated directly at each offset. Its curvature bound comes from the nonnegative
+majorant ``P`` of ``M`` (:func:`_majorant_exp`): ``|z|`` grows by at most
+``exp(P h)`` over a step of length ``h``, so ``|g''| = |q M^2 z|`` is bounded there,
+and the scan clears and halves intervals as for the modal form.
 
 The tables of each mode (layout: :mod:`._exact_layout`) are built in Python on
 the first visit of the mode (:mod:`nsbench.integrators.exact`): the kernel
@@ -75,7 +77,12 @@ from nsbench.integrators._exact_layout import (
     V_YH,
     V_YL,
     V_Z0,
+    V_ZA,
+    V_ZB,
+    V_ZM,
     V_ZS,
+    W_MAJOR,
+    W_MAJOR_EXP,
     c_offsets,
     f_offsets,
     i_slip,
@@ -109,6 +116,9 @@ K_SCRATCH = K_FAIL  # the scratch arrays are too small for the run's sections (a
 OPTIONS = ("scan", "max_scan")
 O_SCAN, O_MAX_SCAN = range(len(OPTIONS))
 V_MS = 23  # scratch magnitudes of the objective evaluations (the scan keeps V_MA, V_MB)
+#: Defective modes: the most the majorant may grow ``|z|`` over one scan step (:func:`_majorant_exp`); the
+#: step is halved until it does not. About ``e^2``: the bound on ``g''`` then exceeds it by a small factor.
+MAJORANT_GROWTH = 8.0
 
 
 # --------------------------------------------------------------------- mode lookup
@@ -206,8 +216,11 @@ def _lower_bound(fa, pa, fb, pb, h, m):
 
     ``f >= fa + pa u - m u^2 / 2`` and ``f >= fb - pb (h - u) - m (h - u)^2 / 2``;
     the larger of two concave bounds is least at an end or where they cross
-    (their difference is linear in ``u``).
+    (their difference is linear in ``u``). Without a bound (``m`` infinite or NaN) there is
+    none: ``-inf`` (the ends alone say nothing of the interval between them).
     """
+    if not m < np.inf:
+        return -np.inf
     best = min(max(fa, fb - pb * h - 0.5 * m * h * h), max(fa + pa * h - 0.5 * m * h * h, fb))
     den = pb - pa + m * h
     if den > 0.0:
@@ -352,10 +365,11 @@ def _touch(cx, j, a, b, fa, pa, fb, pb):
 def _first_zero(cx, j, a, b, fa, pa, fb, pb, m, tol):
     """First ``s`` in ``(a, b]`` where the signed guard ``j`` (positive at ``a``) reaches zero, or NaN.
 
-    ``m`` bounds ``|g''|`` on ``[a, b]`` (so on every part of it); ``inf`` means no
-    bound (a defective mode: the interval is one short scan step and the
-    derivative test decides). Intervals the bound cannot clear are halved,
-    leftmost first, so the zero found is the first one.
+    ``m`` bounds ``|g''|`` on ``[a, b]`` (so on every part of it): from the modal form,
+    or for a defective mode from the majorant of its augmented flow (:func:`_majorant_exp`);
+    ``inf`` means no bound (the majorant overflowed: the derivative test alone decides).
+    Intervals the bound cannot clear are halved, leftmost first, so the zero found is
+    the first one.
     """
     if not np.isfinite(m):
         return _touch(cx, j, a, b, fa, pa, fb, pb)
@@ -389,8 +403,12 @@ def _first_zero(cx, j, a, b, fa, pa, fb, pb, m, tol):
                 return hit
             continue
         mid = a + 0.5 * h
-        _exps(tf, tc, mi, ns, w, mid, E, wv[V_MS])
-        gv, gr = _value_rate(wr, wc, tf, tc, mi, j, ns, w, mid, E)
+        if defective:
+            _augmented_state(tf, wm, mi, aug_o, n + 3, wv[V_Z0], mid, wv[V_ZS])
+            gv, gr = _aug_value_rate(tf, mi, aug_o, n + 3, wr, j, wv[V_ZS])
+        else:
+            _exps(tf, tc, mi, ns, w, mid, E, wv[V_MS])
+            gv, gr = _value_rate(wr, wc, tf, tc, mi, j, ns, w, mid, E)
         cnt[NFEV] += 1
         fm, pm = sgn * gv, sgn * gr
         if fm > 0.0:  # the right half waits below the left half
@@ -470,6 +488,92 @@ def _fresh_start(cx, j, b, fb, pb, pa, m, tol):
 
 
 # --------------------------------------------------------------------- augmented flow (defective modes)
+@inline
+def _aug_value_rate(tf, mi, off, n3, wr, j, zs):
+    """Objective row ``j`` (unsigned) and its rate at the augmented state ``zs`` of a defective mode:
+    ``q . z`` and ``q . M z`` (the sums in the order of :func:`_objective`)."""
+    gv = 0.0
+    gr = 0.0
+    for a in range(n3):
+        da = 0.0
+        for b in range(n3):
+            da += tf[mi, off + a * n3 + b] * zs[b]
+        gr += wr[j, 4 + a] * da
+        gv += wr[j, 4 + a] * zs[a]
+    return gv, gr
+
+
+@hot
+def _majorant_exp(tf, wm, mi, off, n3, h):
+    """``exp(P h)`` into ``wm[W_MAJOR_EXP]``, ``P`` the nonnegative majorant of the augmented matrix ``M``.
+
+    ``P`` has ``max(M_aa, 0)`` on its diagonal and ``|M_ab|`` off it. For every
+    ``0 <= u <= h``, ``|exp(M u)| <= exp(P h)`` entrywise: with ``c >= -min M_aa``,
+    ``M + c I`` has a nonnegative diagonal, so ``|(M + c I)^k| <= (P + c I)^k``
+    term by term of the series, hence ``|exp(M u)| <= exp(P u)``; and ``exp(P u)``,
+    a series of nonnegative matrices, grows with ``u``. So ``|z(s + u)| <= exp(P h) |z(s)|``
+    over a scan step, which bounds ``g''`` there (``g'' = q M^2 z``) whatever the
+    conditioning of ``M``'s eigenvectors. The series has no cancellation (every term
+    is nonnegative): it is summed to 24 terms after scaling ``P h`` to norm 1/2, then squared.
+    """
+    mp, out = wm[W_MAJOR], wm[W_MAJOR_EXP]
+    norm = 0.0
+    for a in range(n3):
+        row = 0.0
+        for b in range(n3):
+            v = tf[mi, off + a * n3 + b]
+            v = max(v, 0.0) if a == b else abs(v)
+            mp[a, b] = v
+            row += v
+        norm = max(norm, row * h)
+    squarings = 0
+    while norm > 0.5 and squarings < 1000:
+        norm *= 0.5
+        squarings += 1
+    scale = h / 2.0**squarings
+    term, tmp = wm[1], wm[2]
+    for a in range(n3):
+        for b in range(n3):
+            out[a, b] = 1.0 if a == b else 0.0
+            term[a, b] = out[a, b]
+    for k in range(1, 24):
+        for a in range(n3):
+            for b in range(n3):
+                acc = 0.0
+                for c in range(n3):
+                    acc += term[a, c] * mp[c, b]
+                tmp[a, b] = acc * scale / k
+        for a in range(n3):
+            for b in range(n3):
+                term[a, b] = tmp[a, b]
+                out[a, b] += tmp[a, b]
+    for _ in range(squarings):
+        for a in range(n3):
+            for b in range(n3):
+                acc = 0.0
+                for c in range(n3):
+                    acc += out[a, c] * out[c, b]
+                tmp[a, b] = acc
+        for a in range(n3):
+            for b in range(n3):
+                out[a, b] = tmp[a, b]
+
+
+@inline
+def _growth(wm, n3, z, zm):
+    """``zm = exp(P h) |z|`` (:func:`_majorant_exp`); returns ``max(zm) / max(|z|)`` (1 for ``z = 0``)."""
+    e = wm[W_MAJOR_EXP]
+    top, start = 0.0, 0.0
+    for a in range(n3):
+        acc = 0.0
+        for b in range(n3):
+            acc += e[a, b] * abs(z[b])
+        zm[a] = acc
+        top = max(top, acc)
+        start = max(start, abs(z[a]))
+    return top / start if start > 0.0 else 1.0
+
+
 @hot
 def _augmented_state(tf, wm, mi, off, n3, z0, s, out):
     """``expm(M s) @ z0`` into ``out`` with ``M`` the mode's augmented matrix (Taylor series and squaring).
@@ -696,6 +800,26 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
             wr[j, 0], wr[j, 1], wr[j, 2], wr[j, 3] = g0, g1, scale, w * w * abs(ga)
     else:
         cnt[EXPM_ARCS] += 1
+        # g'' = q M^2 z: the row q M^2 of each guard (its entries' magnitudes, with the rounding of the
+        # products added, so that |q M^2| |z| bounds the computed |g''|), the curvature weights of the scan
+        qm = wv[V_ZM]
+        for j in range(ng):
+            for b in range(n3):
+                acc = 0.0
+                for a in range(n3):
+                    acc += wr[j, q0 + a] * tf[mi, f_aug + a * n3 + b]
+                qm[b] = acc
+            for b in range(n3):
+                acc = 0.0
+                size = 0.0
+                for a in range(n3):
+                    mab = tf[mi, f_aug + a * n3 + b]
+                    acc += qm[a] * mab
+                    inner = 0.0
+                    for c in range(n3):
+                        inner += abs(wr[j, q0 + c] * tf[mi, f_aug + c * n3 + a])
+                    size += inner * abs(mab)
+                wr[j, cm0 + b] = abs(acc) + 4.0 * n3 * _EPS * size
     z0 = wv[V_Z0]
     for i in range(n):
         z0[i] = y0[i]
@@ -707,6 +831,25 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
     # time scale; guards alone are cleared by the curvature bound, which holds on any interval.
     scan = fo[O_SCAN] if nsec > 0 else 4.0 * fo[O_SCAN]
     ds = min(fo[O_MAX_SCAN], scan / max(tf[mi, f_rate], 1e-300))
+    bounded = True  # a defective mode whose majorant is finite (else the derivative test alone decides)
+    if defective:
+        # The majorant bounds |z| over a step by exp(P ds) |z|: halve the step until that grows |z0|
+        # by at most MAJORANT_GROWTH, so that the bound on g'' stays within a small factor of |g''|
+        # (a non-normal M, whose entries exceed its eigenvalues, would otherwise need many halvings of
+        # each step to clear it).
+        za = wv[V_ZA]
+        for i in range(n):
+            za[i] = y0[i]
+        za[n], za[n + 1], za[n + 2] = 1.0, c_ph, s_ph
+        for _ in range(60):
+            _majorant_exp(tf, wm, mi, f_aug, n3, ds)
+            grow = _growth(wm, n3, za, wv[V_ZM])
+            if not grow < np.inf:
+                bounded = False
+                break
+            if grow <= MAJORANT_GROWTH:
+                break
+            ds *= 0.5
     fa, pa, fb, pb, ma, mb, ybuf = wv[V_FA], wv[V_PA], wv[V_FB], wv[V_PB], wv[V_MA], wv[V_MB], wv[V_Y, :n]
     Ea, Eb = wc[nqr + C_EA], wc[nqr + C_EB]
     _exps(tf, tc, mi, ns, w, 0.0, Ea, ma)
@@ -732,9 +875,15 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
         s_b = min(s_a + ds, span)
         steps += 1
         if defective:
+            zb = wv[V_ZB]
+            _augmented_state(tf, wm, mi, f_aug, n3, z0, s_b, zb)
+            cnt[NFEV] += 1
             for j in range(nq):
-                fb[j] = _objective(cx, j, s_b, False)
-                pb[j] = _objective(cx, j, s_b, True)
+                gv, gr = _aug_value_rate(tf, mi, f_aug, n3, wr, j, zb)
+                fb[j], pb[j] = sg[j] * gv, sg[j] * gr
+            if bounded:
+                grow = _growth(wm, n3, wv[V_ZA], wv[V_ZM])  # |z| <= zm over the step
+                bounded = grow < np.inf
         else:
             _exps(tf, tc, mi, ns, w, s_b, Eb, mb)
             cnt[NFEV] += 1
@@ -745,7 +894,14 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
         bq = -1
         for j in range(ng):
             if defective:
-                m, tol = np.inf, 0.0
+                # the rounding of the guard near the step's start (its terms there): a guard that starts on
+                # its surface is judged at that scale, not at the step's far end (a short flight of a ball)
+                m, size = 0.0, 0.0
+                for a in range(n3):
+                    m += wr[j, cm0 + a] * wv[V_ZM, a]
+                    size += abs(wr[j, q0 + a] * wv[V_ZA, a])
+                m = 1.01 * m + 1e-300 if bounded else np.inf
+                tol = 16.0 * _EPS * size
             else:
                 m = _curvature(wr, tf, mi, j, ns, n, ma, mb)
                 tol = 16.0 * _EPS * (wr[j, 2] + abs(wr[j, 1]) * s_b)
@@ -798,6 +954,8 @@ def exact_arc(kd, fo, prob, arc, sec, hits, dense, si, y_out, cnt):
         for j in range(nq):
             fa[j] = fb[j]
             pa[j] = pb[j]
+        if defective:
+            copy_into(wv[V_ZA, :n3], wv[V_ZB, :n3])
         for k in range(ns):
             ma[k] = mb[k]
             Ea[k] = Eb[k]

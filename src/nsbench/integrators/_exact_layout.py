@@ -27,7 +27,14 @@ SECTION_ROWS = 8
 #: rows of the float vector scratch ``wv``
 V_A0, V_A1, V_FA, V_PA, V_FB, V_PB, V_Z0, V_ZS, V_Y, V_SG, V_MA, V_MB, V_RHS, V_LAM = range(14)
 V_YH, V_YL, V_RH, V_RL, V_P0, V_P0L, V_DH, V_DL, V_SCR = range(14, 23)
-N_V = 24
+#: defective modes: the augmented states ``z`` at the two ends of a scan step, and a bound on ``|z|`` over
+#: the step (row 23 is the kernel's)
+V_ZA, V_ZB, V_ZM = 24, 25, 26
+N_V = 27
+#: the matrices of ``wm``: three scratch matrices of the matrix exponential, then (defective modes)
+#: the nonnegative majorant of the augmented matrix and its exponential over one scan step
+W_MAJOR, W_MAJOR_EXP = 3, 4
+N_W = 5
 #: complex vector rows of ``wc`` after the objective rows
 C_AW, C_COEF, C_E, C_EA, C_EB, C_C0, C_RES = range(7)
 N_C = 8
@@ -91,9 +98,11 @@ class Tables(NamedTuple):
     ``ti, tf, tc``: one row per mode (layout: the ``I_*`` columns, :func:`f_offsets`,
     :func:`c_offsets`). ``scal``: the ``S_*`` entries. Scratch: ``wr`` (per objective
     row: ``g0, g1, scale, w^2 |GA|``, then the row ``q`` on ``[y, 1, cos, sin]``,
-    then the curvature weights), ``wc`` (the objectives' modal coefficients, then
-    complex vectors, then ``B``), ``wv`` (float vectors, the subdivision stack, the
-    polish's scratch).
+    then the curvature weights: one per modal term, or for a defective mode the
+    ``n + 3`` entries of the row ``q M^2`` that gives ``g''``), ``wc`` (the objectives'
+    modal coefficients, then complex vectors, then ``B``), ``wv`` (float vectors, the
+    subdivision stack, the polish's scratch), ``wm`` (:data:`N_W` matrices of the
+    augmented size).
     """
 
     keys: np.ndarray
@@ -122,10 +131,10 @@ def empty_tables(capacity: int, n: int, m: int, g: int, sections: int = SECTION_
         tf=np.zeros((capacity, f_offsets(n, g)[-1])),
         tc=np.zeros((capacity, c_offsets(n)[-1]), np.complex128),
         scal=scal,
-        wr=np.zeros((nq, 4 + (n + 3) + n)),
+        wr=np.zeros((nq, 4 + 2 * (n + 3))),
         wc=np.zeros((nq + N_C + n, n + 1), np.complex128),
         wv=np.zeros((N_V + STACK + n, width)),
-        wm=np.zeros((3, n + 3, n + 3)),
+        wm=np.zeros((N_W, n + 3, n + 3)),
     )
 
 

@@ -27,6 +27,11 @@ import numpy as np
 
 from nsbench.integrators._heyoka_model import FP_TYPES, illinois
 
+#: The cooldown of every guard's event, in the problem's time scale. heyoka reports the start of a step as a root
+#: when a guard is exactly zero there and its rate points into the surface by a rounding error (a tangential
+#: start); the report sets this cooldown, which lets the next step start past it (heyoka_.py, the fresh step).
+#: Every arc resets the cooldowns, and every other report ends its arc: nothing else sees it.
+START_COOLDOWN = 1e-12
 _CACHE: dict[tuple, tuple[Any, float]] = {}
 _LOCK = threading.Lock()
 
@@ -53,7 +58,7 @@ def compiled(
                 hy.t_event(
                     float(g.expected_sign) * problem.symbolic_guard(mode, g.code, g.block - 1, hy.time, y),
                     direction=neg,
-                    cooldown=fp(0.0),
+                    cooldown=fp(START_COOLDOWN * problem.time_scale),
                     fp_type=fp,
                 )
                 for g in problem.guards(tuple(mode))

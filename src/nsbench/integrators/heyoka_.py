@@ -416,6 +416,8 @@ class HeyokaIntegrator(Integrator):
         else:
             ta.dtime = (fp(request.t0), fp(request.t0_lo))
             ta.state[:] = np.asarray(request.y0, dtype=float).astype(fp)
+        if request.guards:  # (a mode without guards has no events, and heyoka refuses the call)
+            ta.reset_cooldowns()  # an event's cooldown acts within this arc only (see the fresh step below)
         if request.max_steps <= 0:
             return ArcResult(
                 t=request.t0,
@@ -432,6 +434,19 @@ class HeyokaIntegrator(Integrator):
             result, _ = ta.step(fp(request.t_end) - t_start)
             outcome = int(result)
             nsteps = 1
+            own = -outcome - 1
+            at_start = None
+            if ta.time == t_start and own in fresh:
+                # ... unless the guard's rate there points into its surface by a rounding error (a tangential start:
+                # an exit from sliding, carried in extended precision, has u_eq one ulp inside its limit): heyoka then
+                # reports the start itself, at once and again at every step from there. Its report set the event's
+                # cooldown (symbolic.START_COOLDOWN), so the step is taken once more, past the start, and the guard's
+                # own values on it decide, as for exact (docs/model.md): a crossing after it left its surface, or,
+                # on its wrong side at the step's end with none, the phase ends at once as heyoka said.
+                at_start = (ta.dtime, np.array(ta.state, copy=True), outcome)
+                result, _ = ta.step(fp(request.t_end) - t_start)
+                outcome = int(result)
+                nsteps = 2
             for te in request.t_eval[int(np.searchsorted(request.t_eval, float(t_start), side="right")) :]:
                 if fp(float(te)) > ta.time:
                     break
@@ -440,6 +455,11 @@ class HeyokaIntegrator(Integrator):
                 root = symbolic.first_crossing(ta, fp, request.guards[q], t_start, ta.time)
                 if root is not None and (hit is None or root < hit[0]):
                     hit = (root, q, np.array(ta.update_d_output(root), copy=True))
+            if at_start is not None and hit is None:
+                guard = request.guards[own]
+                if not guard.expected_sign * float(guard.value(float(ta.time), np.asarray(ta.state).astype(float))) > 0:
+                    ta.dtime, ta.state[:], outcome = at_start  # back to heyoka's report at the start
+                    rows = []
         if hit is None and outcome in (_SUCCESS_CODE, _TIME_LIMIT_CODE) and ta.time < fp(request.t_end):
             if nsteps >= request.max_steps:
                 outcome = _STEP_LIMIT_CODE

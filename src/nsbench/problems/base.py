@@ -108,7 +108,13 @@ class HybridProblem:
     Instance attributes a family sets (in ``__init__``)
     ---------------------------------------------------
     name, case, dimensional, params, parameters
-        Registry name, preset, units, the user's overrides, every value by name.
+        Registry name, preset, units, the user's overrides, every value by name. ``case``,
+        ``dimensional`` and ``params`` are what :meth:`config` hands back to the factory: they must
+        rebuild the same parameter vector and start state (the conformance kit checks it,
+        :func:`nsbench.testing.check_problem`).
+    cases
+        The cases the factory names (each a value of its ``case`` argument), ``()`` for a problem
+        of one form; the round-trip check rebuilds every one of them.
     state_names
         Names of the state's entries.
     packed
@@ -123,7 +129,8 @@ class HybridProblem:
     mode_columns: ClassVar[tuple[str, ...]] = ()
 
     name: str
-    case: int | None = None
+    case: int | str | None = None
+    cases: tuple[int | str, ...] = ()
     dimensional: bool = False
     params: dict[str, float]
     parameters: dict[str, float]

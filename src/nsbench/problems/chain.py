@@ -20,6 +20,7 @@ from nsbench.errors import ConfigError
 from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
+    CASES,
     Bound,
     Coefficients,
     Scales,
@@ -228,4 +229,5 @@ def chain(
         scales=scales,
         y0=y0,
         law=law,
+        cases=CASES,
     )

@@ -16,6 +16,7 @@ from nsbench.errors import ConfigError
 from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
+    CASES,
     ONE_DOF_DIMENSIONAL,
     ONE_DOF_DIMENSIONLESS,
     TABLE3_DIMENSIONAL_ONE_DOF,
@@ -124,4 +125,5 @@ def one_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         scales=scales,
         y0=y0,
         law=law,
+        cases=(*CASES, LEINE),
     )

@@ -82,6 +82,8 @@ class FrictionOscillator(HybridProblem):
         The start state (default: every block at rest at the origin).
     law
         The friction law of a slipping block (:mod:`nsbench.problems.friction_laws`; default Coulomb).
+    cases
+        The cases the problem's factory names (:attr:`HybridProblem.cases`).
 
     Notes
     -----
@@ -100,17 +102,19 @@ class FrictionOscillator(HybridProblem):
         coefficients: Coefficients,
         *,
         name: str,
-        case: int | None,
+        case: int | str | None,
         dimensional: bool,
         params: dict[str, float],
         parameters: dict[str, float],
         scales: Scales,
         y0: np.ndarray | None = None,
         law: FrictionLaw = COULOMB_LAW,
+        cases: tuple[int | str, ...] = (),
     ) -> None:
         self.coefficients = coefficients
         self.name = name
         self.case = case
+        self.cases = tuple(cases)
         self.dimensional = dimensional
         self.params = dict(params)
         self.parameters = dict(parameters)

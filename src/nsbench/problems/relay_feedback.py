@@ -83,8 +83,12 @@ class RelayFeedback(NamedModes, HybridProblem):
     event_kinds = spec.EVENT_KINDS
     mode_columns = ("relay",)
 
-    def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
+    #: The cases the factory names: 1 (the defaults) and the published sets.
+    cases = (1, *CASES)
+
+    def __init__(self, params: dict[str, Any], parameters: dict[str, float], case: int | str | None = None) -> None:
         self._given(NAME, params, parameters, state_names=("x1", "x2", "x3"))
+        self.case = case  # config() rebuilds the case's values from it (params holds the overrides only)
         self.A, self.B, self.C = plant(*(parameters[k] for k in ("zeta", "omega", "lam", "sigma", "rho")))
         values = dict(zip(spec.NAMES, [*self.A.ravel(), *self.B, *self.C]))
         self.packed = spec.LAYOUT.pack(values)
@@ -171,7 +175,7 @@ def relay_feedback(case: int | str | None = None, dimensional: bool = False, **p
         )
     given = check_values(NAME, params, tuple(DEFAULTS), BOUNDS)
     preset = CASES.get(case, {}) if isinstance(case, str) else {}
-    return RelayFeedback(params, {**DEFAULTS, **preset, **given})
+    return RelayFeedback(params, {**DEFAULTS, **preset, **given}, case=1 if case in (1, "1") else case)
 
 
 # ---------------------------------------------------------------------- what is computed exactly

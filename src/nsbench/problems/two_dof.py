@@ -8,6 +8,7 @@ from nsbench.errors import ConfigError
 from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
 from nsbench.problems.parameters import (
+    CASES,
     TABLE3_DIMENSIONAL_TWO_DOF,
     TABLE3_DIMENSIONLESS_TWO_DOF,
     TWO_DOF_DIMENSIONAL,
@@ -136,4 +137,5 @@ def two_dof(case: int | str | None = None, dimensional: bool = False, **params: 
         scales=scales,
         y0=y0,
         law=law,
+        cases=CASES,
     )

@@ -64,6 +64,16 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
   along case 2 over [0, 40], to ``ENERGY_BOUND`` (1e-6).
 - ``failure-status``: an exhausted budget is a status, not an exception.
 - ``config-round-trip``: every configured integrator is a small dict and back.
+- ``problem-config``: the problem the checks run on is rebuilt whole from its config
+  (:func:`check_problem`, which a problem plug-in's own tests can call).
+
+**Checking a problem.** :func:`check_problem` (``check_problem("thermostat")``)
+checks a registered problem, built-in or plug-in, without an integrator: at its
+default, at every case it names (``HybridProblem.cases``), in each unit system
+its factory accepts and with a few parameters overridden,
+``problem_from_config(p.config())`` (through JSON text) has the same parameter
+vector, start state and start mode as ``p``, and the same config. Every path
+that moves a problem between processes or files rebuilds it that way.
 """
 
 from __future__ import annotations
@@ -87,12 +97,14 @@ from nsbench.testing._kit import (
     plan,
     run_check,
 )
+from nsbench.testing._problem import check_problem
 
 __all__ = [
     "CHECKS",
     "Check",
     "CheckResult",
     "check_integrator",
+    "check_problem",
     "parametrize_with_checks",
     "run_check",
     "as_integrator",

@@ -606,6 +606,15 @@ def check_config_round_trip(integ: Integrator) -> None:
         raise AssertionError("an unknown option was accepted")
 
 
+def check_problem_config(integ: Integrator) -> None:
+    """The problem's ``config()`` rebuilds it: the same parameter vector and start state at every case it names."""
+    from nsbench.testing._problem import config_round_trip
+
+    name, params = FAMILY.get()
+    failures = config_round_trip(name, params)
+    assert not failures, f"{len(failures)} config(s) of {name} do not rebuild their problem: " + "; ".join(failures)
+
+
 def check_switch_convergence(integ: Integrator) -> None:
     """Whole-system methods: from the loosest accuracy level to the tightest, the switching times of case 1 over
     [0, 20] approach ``exact``'s, and the tightest level has ``exact``'s event sequence."""
@@ -698,4 +707,5 @@ CHECKS: tuple[Check, ...] = (
     Check("energy-balance", check_energy_balance, belt=True),
     Check("failure-status", check_failure_is_a_status),
     Check("config-round-trip", check_config_round_trip),
+    Check("problem-config", check_problem_config),
 )

@@ -235,3 +235,26 @@ def den_hartog(case: int | str | None = None, dimensional: bool = True, **params
 def problem_steady_state(problem: FrictionOscillator) -> SteadyState | None:
     """:func:`steady_state` of a ``den-hartog`` problem's parameters."""
     return steady_state(*(problem.parameters[key] for key in ("m", "c", "k", "fs", "fr", "F", "w")))
+
+
+def stop_boundary(m: float, c: float, k: float, F: float, w: float, fr_over_fs: float = 1.0) -> float:
+    """The kinetic friction ``fs`` at which stops appear (``fr = fr_over_fs * fs``): the non-stop motion exists
+    below it and not above, found by bisection on :attr:`SteadyState.non_stop` to 1e-13 relative.
+
+    Raises
+    ------
+    ValueError
+        No non-stop motion even at a vanishing friction (``fs = 1e-9 F``), or still one at ``fs = F``.
+    """
+
+    def non_stop(fs: float) -> bool:
+        ss = steady_state(m, c, k, fs, fr_over_fs * fs, F, w)
+        return ss is not None and ss.non_stop
+
+    lo, hi = 1e-9 * F, F
+    if not non_stop(lo) or non_stop(hi):
+        raise ValueError(f"no stop boundary in fs in ({lo:g}, {hi:g}) at m={m}, c={c}, k={k}, F={F}, w={w}")
+    while hi - lo > 1e-13 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if non_stop(mid) else (lo, mid)
+    return 0.5 * (lo + hi)

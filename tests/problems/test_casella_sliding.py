@@ -11,6 +11,7 @@ import nsbench
 from nsbench.errors import ConfigError
 from nsbench.problems.casella_sliding import CASELLA_T_END, closed_form, filippov_weight
 from nsbench.testing import parametrize_with_checks
+from tests.testing.test_conformance import BUILTINS
 
 # Casella's model by hand: s = x - y, s' = -2 - 1.5 = -7/2 where x > y and 2 + 3 = 5 where x < y, so from
 # (3/2, 1) the surface is reached at t1 = (1/2) / (7/2) = 1/7 in x = y = 3/2 - 2/7 = 17/14. Filippov's weight
@@ -69,4 +70,11 @@ def test_bad_rates_and_starts_are_refused():
 
 @parametrize_with_checks(["exact", "reference", "ofapi", "scipy-radau", "heyoka"], problem="casella-sliding")
 def test_conformance_on_casellas_sliding_test(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="casella-sliding")
+def test_builtin_conformance_on_casellas_sliding_test(integrator, check):
+    """Every built-in integrator: runs the checks, or is refused at setup with its reason."""
     check(integrator)

@@ -12,6 +12,7 @@ from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import get_integrator
 from nsbench.problems.circle_oscillator import NOSNOC_T_END, closed_form, crossing_time
 from nsbench.testing import parametrize_with_checks
+from tests.testing.test_conformance import BUILTINS
 
 #: nosnoc_py's exact solution at its TSIM = pi / 2 (examples/oscillator: X_SOL), written out here:
 #: the start (exp(-1), 0) spirals out counter-clockwise, e^t Rot(2 pi t), to (1, 0) at t = 1, then
@@ -66,4 +67,11 @@ def test_bad_values_are_refused():
 
 @parametrize_with_checks(["reference", "ofapi", "scipy-radau", "heyoka", "exact"], problem="circle-oscillator")
 def test_conformance_on_the_circle_oscillator(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="circle-oscillator")
+def test_builtin_conformance_on_the_circle_oscillator(integrator, check):
+    """Every built-in integrator: runs the checks, or is refused at setup with its reason."""
     check(integrator)

@@ -11,6 +11,7 @@ import nsbench
 from nsbench.errors import ConfigError
 from nsbench.problems.den_hartog import problem_steady_state, steady_state, stop_boundary
 from nsbench.testing import parametrize_with_checks
+from tests.testing.test_conformance import BUILTINS
 
 #: exact's event times carry a double-double polish; over 48 reversals its error stays near 1e-14. 1e-10 is
 #: the issue's bound.
@@ -86,4 +87,11 @@ def test_the_factory_refuses_a_default_start_without_non_stop_motion():
     ["exact", "reference", "henon-rk4", "scipy-radau", "heyoka", "cvode-bdf"], problem="den-hartog"
 )
 def test_conformance_on_den_hartogs_oscillator(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="den-hartog")
+def test_builtin_conformance_on_den_hartogs_oscillator(integrator, check):
+    """Every built-in integrator: runs the checks, or is refused at setup with its reason."""
     check(integrator)

@@ -9,6 +9,7 @@ import nsbench
 from nsbench.errors import ConfigError
 from nsbench.problems.woodpecker import DEFAULTS
 from nsbench.testing import parametrize_with_checks
+from tests.testing.test_conformance import BUILTINS
 from tests.problems import woodpecker_mp
 
 #: The span of the comparison (problem units: 30 bird swing times, 0.52 s, three cycles and 32 events).
@@ -105,4 +106,11 @@ def test_bad_parameters_and_starts_are_refused():
 
 @parametrize_with_checks(["exact", "reference", "ofapi", "scipy-radau", "heyoka"], problem="woodpecker")
 def test_conformance_on_the_woodpecker(integrator, check):
+    check(integrator)
+
+
+@pytest.mark.slow
+@parametrize_with_checks(BUILTINS, problem="woodpecker")
+def test_builtin_conformance_on_the_woodpecker(integrator, check):
+    """Every built-in integrator: runs the checks, or is refused at setup with its reason."""
     check(integrator)

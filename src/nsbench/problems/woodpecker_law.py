@@ -1,8 +1,8 @@
 """The law of the woodpecker toy, compiled (:mod:`nsbench.problems.woodpecker`).
 
 State ``[y, phiM, phiS, y', phiM', phiS']``; the parameter vector holds, per mode,
-the accelerations and contact forces as affine maps of ``q = (y, phiM, phiS)``,
-the contacts' gaps and directions, and the impulse matrices, all computed in
+the accelerations and the normal force as affine maps of ``q = (y, phiM, phiS)``,
+the contacts' directions, the tilt and beak limits, and the impulse matrices, all computed in
 Python from the mechanical model (:mod:`nsbench.problems.woodpecker_spec` names
 the slots). Modes: the sleeve free, or in contact ``j`` (1: tilted at ``phiM =
 -theta``, 2: at ``+theta``) sliding up, sliding down or stuck.

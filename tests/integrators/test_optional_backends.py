@@ -1,4 +1,4 @@
-"""The engines behind a pip extra (``[cyrk]``, ``[jax]``, ``[fesd]``) without their extra: listed as
+"""The engines behind a pip extra (``[cyrk]``, ``[jax]``) without their extra: listed as
 unavailable with the install command, refused at setup with it, left out of the suites that take every
 registered integrator (and named there); and ``import nsbench`` imports none of their backends."""
 

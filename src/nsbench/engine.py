@@ -251,6 +251,9 @@ class RunRecord:
         Who ran the event loop (``'native'``: the integrator, whole-run protocol; ``'per-arc'``:
         the core, one arc per call; ``'whole-system'``: a time-stepping method, events inferred)
         and why an integrator with a loop of its own ran per arc (``''`` if it did not).
+    internal
+        A whole-system method's own states beside the problem's, one row per step (a DataFrame,
+        ``SimulationResult.internal``); ``None`` for the others.
     """
 
     status: Status
@@ -275,6 +278,7 @@ class RunRecord:
     checked_steps: bool
     loop: str = "per-arc"
     loop_note: str = ""
+    internal: Any = None
 
     @property
     def ok(self) -> bool:
@@ -459,6 +463,7 @@ def run(
         checked_steps=bool(not whole and integ.capabilities.checks_steps),
         loop="whole-system" if whole else raw.loop,
         loop_note="" if whole else raw.loop_note,
+        internal=getattr(raw, "internal", None),
     )
 
 
@@ -702,4 +707,5 @@ def simulate(
         cpu_time=rec.cpu_time,
         loop=rec.loop,
         loop_note=rec.loop_note,
+        internal=rec.internal,
     )

@@ -134,16 +134,26 @@ def load(kind: Kind, name: str) -> Any:
     return obj
 
 
+def unavailable_reason(kind: Kind, name: str) -> str | None:
+    """Why the registered ``name`` cannot run here, or ``None``.
+
+    Either it fails to import (the :class:`PluginLoadError`'s message), or it imports but
+    says what it runs on is missing: an optional backend not installed, with the command that
+    installs it, or an external program (its class's ``unavailable()``; nsbench's engines
+    behind a pip extra, :mod:`nsbench.integrators._optional`, and Siconos's).
+    """
+    try:
+        obj = load(kind, name)
+    except PluginLoadError as exc:
+        return str(exc)
+    missing = getattr(obj, "unavailable", None)
+    why = missing() if callable(missing) else None
+    return str(why) if why else None
+
+
 def availability(kind: Kind) -> list[tuple[Entry, str | None]]:
-    """Each entry with ``None`` if it imports, else the reason it does not."""
-    out: list[tuple[Entry, str | None]] = []
-    for entry in entries(kind):
-        try:
-            load(kind, entry.name)
-            out.append((entry, None))
-        except PluginLoadError as exc:
-            out.append((entry, str(exc)))
-    return out
+    """Each entry with ``None`` if it can run here, else the reason it cannot (:func:`unavailable_reason`)."""
+    return [(entry, unavailable_reason(kind, entry.name)) for entry in entries(kind)]
 
 
 def register(kind: Kind, name: str, obj: Any) -> None:

@@ -101,6 +101,9 @@ class SimulationResult:
     loop_note
         Why an integrator with a loop of its own ran per arc (its ``loop`` option, or what it
         cannot run natively: a start on a double zero); empty otherwise.
+    internal
+        A whole-system method's own states beside the problem's (``lugre``'s bristle
+        deflections ``z1 .. zn``), one row per step with its time ``t``; ``None`` for the others.
     """
 
     problem: "FrictionOscillator"
@@ -120,6 +123,7 @@ class SimulationResult:
     cpu_time: float = float("nan")
     loop: str = "per-arc"
     loop_note: str = ""
+    internal: pd.DataFrame | None = None
 
     @property
     def ok(self) -> bool:

@@ -44,6 +44,11 @@ PROBLEMS = [
     ("two-dof", {"case": 2}),
     ("two-dof", {"case": 4}),
     ("chain", {"case": 2, "n": 3}),
+    ("casella-sliding", {}),
+    ("circle-oscillator", {}),
+    ("den-hartog", {}),
+    ("woodpecker", {}),
+    ("woodpecker", {"dimensional": True}),
 ]
 
 

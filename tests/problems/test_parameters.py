@@ -112,8 +112,8 @@ def test_unknown_case_is_rejected(case):
 def test_unknown_problem_lists_registered_ones():
     with pytest.raises(
         ConfigError,
-        match="registered: block-on-ground, bouncing-ball, chain, henon-heiles, "
-        "impact-oscillator, one-dof, relay-feedback, two-dof",
+        match="registered: block-on-ground, bouncing-ball, casella-sliding, chain, circle-oscillator, den-hartog, "
+        "henon-heiles, impact-oscillator, one-dof, relay-feedback, two-dof, woodpecker",
     ):
         nsbench.get_problem("three-dof")
 

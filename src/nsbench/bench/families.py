@@ -30,7 +30,8 @@ LADDERS = {"time-stepping": ("h", False), "switch-model": ("eta", False), "smoot
 FAMILY_ORDER = ("event-driven", "time-stepping", "switch-model", "smoothing")
 
 CAPTION = (
-    "One row per problem and integrator. `ladder`: the option the suite varies and its range; "
+    "One row per problem and integrator, grouped by family and, within it, by ecosystem (the software the "
+    "method comes from). `ladder`: the option the suite varies and its range; "
     "`reaches <target>`: the median wall time per run of the cheapest configuration whose switch "
     "sequence is the reference's with every switching-time error within the target (blank: none "
     "does); `order (switches)`, `order (states)`: the log-log slope of `switch_err_max` and "
@@ -56,6 +57,16 @@ def family_of(row: pd.Series) -> str:
     try:
         return integrator_class(str(row["integrator"])).capabilities.family
     except Exception:  # an integrator not installed here
+        return "other"
+
+
+def ecosystem_of(name: str) -> str:
+    """The software an integrator comes from (``Integrator.ecosystem``), or 'other' where it is not installed."""
+    from nsbench.integrators import integrator_class
+
+    try:
+        return str(getattr(integrator_class(name), "ecosystem", "nsbench"))
+    except Exception:  # an integrator not registered here
         return "other"
 
 
@@ -90,6 +101,7 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
         row: dict[str, Any] = {
             "problem": problem,
             "family": family,
+            "ecosystem": ecosystem_of(str(name)),
             "integrator": name,
             "ladder": _range(option, values),
         }
@@ -118,7 +130,7 @@ def families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFr
     if len(table):
         rank = {f: i for i, f in enumerate(FAMILY_ORDER)}
         table = table.sort_values(
-            ["problem", "family"],
+            ["problem", "family", "ecosystem"],
             key=lambda col: col.map(rank).fillna(9) if col.name == "family" else col,
             kind="stable",
         ).reset_index(drop=True)

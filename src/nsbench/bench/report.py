@@ -390,6 +390,10 @@ def _answer_blocks(
     problems = run_failures(frame)
     if problems:
         blocks += [Block("p", "**This run is incomplete:**"), Block("list", items=problems)]
+    absent = prov.get("unavailable_integrators") or {}
+    if absent:  # engines the suite would have run, left out because their extra is not installed here
+        items = [f"`{name}`: {why}" for name, why in sorted(absent.items())]
+        blocks += [Block("p", "**Not run here** (left out of the suite):"), Block("list", items=items)]
     if summary.empty:
         return blocks
     wrong, refs = wrong_sequences(frame), reference_costs(frame)

@@ -39,7 +39,7 @@ _SUITE_KEYS = {
     "bifurcation_targets",
 }
 _PROBLEM_KEYS = {"name", "case", "cases", "params", "dimensional", "t_span"}
-_INTEGRATOR_KEYS = {"registered", "exclude", "only", "grids", "skip_levels"}
+_INTEGRATOR_KEYS = {"registered", "exclude", "only", "optional", "grids", "skip_levels"}
 
 #: Most cases a suite may expand to. The count is computed from the TOML before
 #: anything is expanded, so a grid of 10^9 cases is refused at once; split a
@@ -174,11 +174,13 @@ def _check_problem(p: Any, i: int) -> None:
 
 def _check_integrators(spec: Any) -> None:
     """Types of the ``[integrators]`` table."""
-    _field(isinstance(spec, dict), "integrators", "a table (registered, only, exclude, grids, skip_levels)", spec)
+    _field(
+        isinstance(spec, dict), "integrators", "a table (registered, only, optional, exclude, grids, skip_levels)", spec
+    )
     _unknown(set(spec), _INTEGRATOR_KEYS, "integrators")
     if "registered" in spec:
         _field(isinstance(spec["registered"], bool), "integrators.registered", "true or false", spec["registered"])
-    for key in ("only", "exclude"):
+    for key in ("only", "optional", "exclude"):
         if key in spec:
             _field(_is_str_list(spec[key]), f"integrators.{key}", "a list of integrator names", spec[key])
     grids = spec.get("grids", {})
@@ -242,8 +244,9 @@ class Suite:
         Tables with ``name`` and ``case`` (or ``cases``), optional ``params``, ``dimensional``
         and ``t_span`` (the problem's own span, instead of the suite's).
     integrators
-        ``registered`` (bool: every registered integrator), ``only`` (names),
-        ``exclude`` (names), ``grids`` (name -> ``{'options': [...]}`` or
+        ``registered`` (bool: every registered integrator that can run here), ``only`` (names),
+        ``optional`` (names run where they can: an engine behind a pip extra that is not installed is
+        left out and listed in :meth:`unavailable`), ``exclude`` (names), ``grids`` (name -> ``{'options': [...]}`` or
         ``{'grid': {opt: [values]}, 'fixed': {...}}``), ``skip_levels``
         (name -> ``{'levels': [indices], 'reason': str}``, data that keeps known
         slow levels out of a suite).
@@ -522,34 +525,41 @@ class Suite:
     def integrator_names(self) -> list[str]:
         """Integrators of the suite, in registry order.
 
-        A registered plug-in that fails to import is left out (and listed in
-        :meth:`unavailable`) unless the suite names it explicitly.
+        A registered integrator that cannot run here (a plug-in that fails to import, an engine
+        whose pip extra or external program is missing: :func:`nsbench.registry.unavailable_reason`)
+        is left out, and listed in :meth:`unavailable`, when the suite takes every registered one or
+        names it under ``optional``; one named under ``only`` or ``grids`` alone stays in (its
+        cases then say why it did not run).
         """
-        from nsbench.errors import PluginLoadError
-        from nsbench.integrators import canonical_name, integrator_class, list_integrators
+        from nsbench import registry
+        from nsbench.integrators import canonical_name, list_integrators
 
         spec = self.integrators
         registered = list_integrators()
+        optional = [canonical_name(n) for n in spec.get("optional", [])]
         if "only" in spec:
-            names = list(spec["only"])
+            names, where_it_can = list(spec["only"]), set(optional)
         elif spec.get("registered", True):
-            names = []
-            for name in registered:
-                try:
-                    integrator_class(name)
-                except PluginLoadError as exc:
-                    self._unavailable[name] = str(exc)
-                    continue
-                names.append(name)
+            names, where_it_can = list(registered), set(registered)
         else:
-            names = []
+            names, where_it_can = [], set(optional)
+        names += [n for n in optional if n not in names]
         names += [n for n in spec.get("grids", {}) if n not in names]
         names = list(dict.fromkeys(canonical_name(n) for n in names))  # old aliases name the same integrator
         unknown = [n for n in names if n not in registered]
         if unknown:
             raise ConfigError(f"unknown integrator(s) {', '.join(unknown)}; registered: {', '.join(registered)}")
         exclude = {canonical_name(n) for n in spec.get("exclude", [])}
-        return [n for n in names if n not in exclude]
+        out = []
+        for name in names:
+            if name in exclude:
+                continue
+            reason = registry.unavailable_reason("integrators", name) if name in where_it_can else None
+            if reason:
+                self._unavailable[name] = reason
+                continue
+            out.append(name)
+        return out
 
     def unavailable(self) -> dict[str, str]:
         """Registered integrators left out because they fail to import, with the reason."""

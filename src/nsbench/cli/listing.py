@@ -39,11 +39,6 @@ def main(args: argparse.Namespace) -> int:
                 print(f"  {entry.name:<16} UNAVAILABLE: {reason}")
                 continue
             obj = registry.load(kind, entry.name)
-            missing = getattr(obj, "unavailable", None)
-            why = missing() if callable(missing) else None
-            if why:  # it imports, but what it runs on is missing here (an external program)
-                print(f"  {entry.name:<16} UNAVAILABLE: {why}")
-                continue
             source = "" if entry.distribution in (None, "nsbench") else f"  [plug-in: {entry.distribution}]"
             if kind == "integrators":
                 caps = obj.capabilities

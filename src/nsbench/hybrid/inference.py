@@ -470,6 +470,12 @@ def run_whole(
         else:
             for j in range(n):
                 rec.dense.y[:n_dense, j] = np.interp(grid[:n_dense], t, ys[:, j])
+    internal = None
+    if res.internal is not None and len(res.internal_names):  # the method's own states, step by step
+        import pandas as pd
+
+        cols = np.asarray(res.internal, dtype=float)[: t.size]
+        internal = pd.DataFrame({"t": t, **{name: cols[:, j] for j, name in enumerate(res.internal_names)}})
     counters = Counters(nfev=int(res.nfev), njev=int(res.njev), nsteps=int(res.nsteps), n_events=k)
     counters.extra.update({key: value for key, value in (res.extra or {}).items()})
     final_mode = tuple(int(v) for v in (ev.mode[-1] if k else ev.start_mode))
@@ -492,5 +498,6 @@ def run_whole(
         stopped=False,
         t0=float(t0),
         start_mode=tuple(int(v) for v in ev.start_mode),
+        internal=internal,
         located_t=ev.located,
     )

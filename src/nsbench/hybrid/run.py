@@ -70,6 +70,7 @@ class RawRun:
     prepare_time: float = 0.0  # seconds building data of newly visited modes (first use, not the run)
     loop: str = "per-arc"  # who ran the event loop (nsbench.integrators.base.LOOP_PATHS)
     loop_note: str = ""  # why an integrator with a loop of its own ran per arc ('' if it did not)
+    internal: Any = None  # a whole-system method's own states by step (a DataFrame), SimulationResult.internal
     #: a whole-system method's own time of each event (``SystemResult.switch_times``), NaN where it located
     #: none; ``None``: it locates none (the event log then has no ``t_located`` column)
     located_t: np.ndarray | None = None

@@ -429,6 +429,9 @@ class Integrator:
     options: ClassVar[dict[str, Option]] = {}
     #: Whether it advances the whole system (:class:`nsbench.integrators.whole.WholeSystem`) instead of arcs.
     whole_system: ClassVar[bool] = False
+    #: The software the method comes from (reports group by it beside the family): ``'nsbench'`` for the
+    #: bench's own methods, else the library it runs (``'scipy'``, ``'SUNDIALS'``, ``'CyRK'``, ...).
+    ecosystem: ClassVar[str] = "nsbench"
     #: Option sets from loose to tight (typically three) that benchmark suites and
     #: convergence checks use by default; empty means "the defaults only".
     accuracy_levels: ClassVar[tuple[dict[str, Any], ...]] = ()

@@ -159,6 +159,8 @@ def _caps(precision: str) -> Capabilities:
 class HeyokaIntegrator(Integrator):
     """Base of the heyoka adapters; subclasses set the precision."""
 
+    ecosystem = "heyoka"
+
     precision: ClassVar[str] = "double"
     #: The double-zero guard (docs/core.md): a guard that starts an arc on its own surface is kept off
     #: heyoka's event detection for the arc's first Taylor step, and for up to this many steps while it

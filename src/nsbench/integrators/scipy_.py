@@ -224,6 +224,7 @@ class ScipyIntegrator(Integrator):
     """Base of the ``solve_ivp`` adapters; subclasses set ``method``."""
 
     method: ClassVar[str] = ""
+    ecosystem = "scipy"
     implicit: ClassVar[bool] = False
     #: Whether every accepted step is checked for a guard's excursion inside it (the module docstring).
     check_steps: ClassVar[bool] = True

@@ -126,6 +126,7 @@ class SiconosMoreauJean(WholeSystem):
     """INRIA Siconos: EulerMoreauOSI with a relay per block (friction), MoreauJeanOSI with an LCP (the ball)."""
 
     name = "siconos-moreau-jean"
+    ecosystem = "Siconos"
     capabilities = Capabilities(
         event_location="inferred-from-status",
         order=1,
@@ -271,6 +272,7 @@ class SiconosEventDriven(WholeSystem):
     """
 
     name = "siconos-event-driven"
+    ecosystem = "Siconos"
     capabilities = Capabilities(
         event_location="lsodar-root",
         order=None,

@@ -94,6 +94,8 @@ def _sundials_max_step(max_step: float | None) -> float:
 class SundialsIntegrator(Integrator):
     """Shared stepping loop of the CVODE and IDA adapters."""
 
+    ecosystem = "SUNDIALS"
+
     #: Whether every internal step is checked for a guard's excursion inside it (the module docstring).
     check_steps: ClassVar[bool] = True
     options = dict(_OPTIONS)

@@ -105,6 +105,12 @@ class SystemResult:
         Method-specific counters (one-step problems solved, enumerations, ...).
     status, message
         ``Status.SUCCESS``, or the failure and its reason.
+    internal
+        The method's own states beside the problem's at each step (a friction model's bristle
+        deflections, ``lugre``), shape ``(k, len(internal_names))``, or ``None``: they take no part
+        in the event inference or the metrics, and reach the user as ``SimulationResult.internal``.
+    internal_names
+        The names of the columns of ``internal`` (``('z1', 'z2')``).
     """
 
     t: np.ndarray
@@ -120,6 +126,8 @@ class SystemResult:
     extra: dict[str, float] = field(default_factory=dict)
     status: Status = Status.SUCCESS
     message: str = ""
+    internal: np.ndarray | None = None
+    internal_names: tuple[str, ...] = ()
 
 
 class WholeSystem(Integrator):
@@ -210,6 +218,11 @@ def check_result(name: str, request: SystemRequest, res: Any, n_states: int, mod
             return f"{name}: switch_elements has shape {np.shape(res.switch_elements)}; wanted {located.shape}"
     if res.y_eval is not None and np.shape(res.y_eval) != (request.t_eval.size, n_states):
         return f"{name}: y_eval has shape {np.shape(res.y_eval)}; wanted ({request.t_eval.size}, {n_states})"
+    if res.internal is not None and np.shape(res.internal) != (t.size, len(res.internal_names)):
+        return (
+            f"{name}: internal has shape {np.shape(res.internal)}; wanted ({t.size}, {len(res.internal_names)}), "
+            "one row per step and a name per column (internal_names)"
+        )
     if res.status.ok and t[-1] != request.t_end:
         return f"{name}: stopped at t = {t[-1]!r} < t_end = {request.t_end!r} with status success"
     return ""

@@ -95,7 +95,7 @@ class HybridProblem:
         Short name of the family (``'friction'``, ``'impact'``), for reports.
     problem_class
         The class of non-smooth behaviour reports group problems by (``'friction'``,
-        ``'impact'``, ``'sliding'``, ``'smooth'``); empty: the family's name
+        ``'impact'``, ``'sliding'``, ``'smooth'``, ``'impact-friction'``); empty: the family's name
         (:meth:`HybridProblem.behaviour`).
     law_module
         The module holding the compiled law (:mod:`nsbench.model.law`), or its import path (so that

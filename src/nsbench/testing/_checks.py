@@ -583,6 +583,10 @@ def check_failure_is_a_status(integ: Integrator) -> None:
     problem = _problem(2)
     span = _span(problem, 300.0)
     res = _simulate(integ, problem, span, max_steps=3)
+    if res.ok and res.counters.nsteps <= 3:  # a field the method integrates in one step per arc (constant)
+        raise CheckSkipped(
+            f"the whole run over [0, {span:g}] takes {res.counters.nsteps} steps: no budget of 3 to exhaust"
+        )
     assert not res.ok, f"a budget of 3 steps did not stop a run over [0, {span:g}]"
     assert res.status in (Status.BUDGET_EXHAUSTED, Status.INTEGRATOR_FAILURE), res.status
     assert res.message and res.t_final < span

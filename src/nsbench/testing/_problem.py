@@ -33,11 +33,13 @@ def _differences(problem, again) -> list[str]:
     if again.name != problem.name:
         out.append(f"name {again.name!r}")
     packed, packed_again = np.asarray(problem.packed, float), np.asarray(again.packed, float)
-    if packed.shape != packed_again.shape or not np.array_equal(packed, packed_again):
+    # NaN slots equal (a law may mark an entry unused or singular with NaN: the woodpecker's impulse matrices)
+    if packed.shape != packed_again.shape or not np.array_equal(packed, packed_again, equal_nan=True):
         where = (
             "shape"
             if packed.shape != packed_again.shape
-            else f"{int(np.sum(packed != packed_again))} of {packed.size} entries"
+            else f"{int(np.sum(~((packed == packed_again) | (np.isnan(packed) & np.isnan(packed_again)))))}"
+            f" of {packed.size} entries"
         )
         out.append(f"parameter vector ({where} differ)")
     y0, y0_again = np.asarray(problem.initial_state(), float), np.asarray(again.initial_state(), float)

@@ -65,7 +65,7 @@ def test_a_registered_true_suite_leaves_them_out_and_runs(evil_env, tmp_path):
     others = [n for n in list_integrators() if n != "exact"]
     suite = tmp_path / "s.toml"
     suite.write_text(
-        't_span = [0, 5]\nrepeats = 1\nproblems = [{ name = "one-dof", case = 1 }]\n'
+        't_span = [0, 5]\nrepeats = 3\nproblems = [{ name = "one-dof", case = 1 }]\n'
         f"[integrators]\nregistered = true\nexclude = {others!r}\n".replace("'", '"')
     )
     out = _nsbench(

@@ -83,3 +83,33 @@ def test_the_entry_points_are_read_once_per_process(monkeypatch):
         monkeypatch.undo()
         registry.refresh()
     assert "late-plugin" not in registry.names("integrators")
+
+
+@pytest.mark.parametrize(
+    ("config", "message"),
+    [
+        (
+            {"name": "henon-rk4", "h": float("nan")},
+            r"unknown key\(s\) 'h'; allowed: 'name', 'options' \(options such as 'h'",
+        ),
+        ({"name": "henon-rk4", "options": 0.01}, r"'options' must be a dict, got 0.01"),
+        (["henon-rk4"], r"integrator config must be a dict with 'name' and 'options', got list"),
+    ],
+)
+def test_an_integrator_config_with_a_misplaced_option_is_refused(config, message):
+    # the option at the top level was dropped without a word: the integrator ran with its default h
+    with pytest.raises(ConfigError, match=message):
+        nsbench.integrator_from_config(config)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: nsbench.get_problem(5), r"problem name must be a string .*got int 5"),
+        (lambda: nsbench.get_problem("two-dof", dimensional="yes"), r"dimensional = 'yes' must be True or False"),
+        (lambda: nsbench.get_problem("two-dof", v0=10**400), r"parameter v0 = 1000.* is too large for a double"),
+    ],
+)
+def test_a_problem_with_a_bad_argument_type_is_a_config_error(call, message):
+    with pytest.raises(ConfigError, match=message):
+        call()

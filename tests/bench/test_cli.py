@@ -10,7 +10,7 @@ from tests.bench import _integrators as ti
 TINY = """
 name = "tiny"
 t_span = [0, 20]
-repeats = 2
+repeats = 3
 min_sample_time = 0  # one run per sample: the commands, not timing, are tested
 problems = [{ name = "one-dof", case = 1 }]
 [integrators]

@@ -72,7 +72,7 @@ def test_ingested_rows_match_the_runner_on_the_same_cases(bench_json, tmp_path):
         {
             "t_span": [0.0, 30.0],
             "problems": [{"name": "one-dof", "case": 1}],
-            "repeats": 1,
+            "repeats": 3,
             "integrators": {"only": ["exact", "scipy-dop853"], "grids": {"scipy-dop853": {"options": [{}]}}},
         }
     )

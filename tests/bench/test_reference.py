@@ -202,7 +202,7 @@ def test_a_reference_its_check_contradicts_grades_nothing_and_says_so(register, 
     suite = Suite.from_dict(
         {
             "t_span": [0.0, 50.0],
-            "repeats": 1,
+            "repeats": 3,
             "reference": [ti.CoarseReference.name],
             "problems": [{"name": "two-dof", "case": 1}],
             "integrators": {"only": ["exact"], "grids": {"exact": {"options": [{}]}}},

@@ -21,7 +21,7 @@ def report(tmp_path_factory):
         {
             "name": "rep",
             "t_span": [0.0, 30.0],
-            "repeats": 2,
+            "repeats": 3,
             "max_repeats": 3,
             "min_sample_time": 0.0,  # one run per sample: the report, not timing, is tested
             "reference": ["exact"],

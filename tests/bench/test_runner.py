@@ -416,7 +416,7 @@ from nsbench import registry
 from nsbench.bench import Suite, run_suite
 from tests.bench import _integrators as ti
 registry.register("integrators", ti.HangingWhenTimed.name, ti.HangingWhenTimed)
-suite = Suite.from_dict({{"name": "k", "t_span": [0.0, 40.0], "repeats": 1, "reference": ["exact"],
+suite = Suite.from_dict({{"name": "k", "t_span": [0.0, 40.0], "repeats": 3, "reference": ["exact"],
                          "problems": [{{"name": "one-dof", "case": 1}}, {{"name": "two-dof", "case": 1}}],
                          "integrators": {{"only": [ti.HangingWhenTimed.name]}}}})
 run_suite(suite, {out!r}, workers=2, progress=False)
@@ -442,7 +442,7 @@ def test_a_step_henon_rk4_cannot_take_is_an_unsupported_row_not_a_success(tmp_pa
         [],
         t_span=[0.0, 20.0],
         reference=["exact"],
-        integrators={"only": [], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}},
+        integrators={"only": ["henon-rk4"], "grids": {"henon-rk4": {"grid": {"h": [0.01, 1e300]}}}},
     )
     frame = run_suite(suite, tmp_path, workers=1, progress=False).results.sort_values("step_value")
     assert frame["status"].tolist() == ["success", "unsupported"]

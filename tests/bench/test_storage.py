@@ -19,7 +19,7 @@ def _suite():
         {
             "name": "store",
             "t_span": [0.0, 30.0],
-            "repeats": 1,
+            "repeats": 3,
             "reference": ["exact"],
             "min_sample_time": 0.0,  # one run per sample: storage, not timing, is tested here
             "problems": [{"name": "one-dof", "case": 1}],
@@ -198,7 +198,7 @@ def test_nothing_is_written_or_deleted_through_a_link_in_the_output_folder(store
     (out / "cases").symlink_to(elsewhere)
     suite = tmp_path / "s.toml"
     suite.write_text(
-        'name = "store"\nt_span = [0.0, 30.0]\nrepeats = 1\nmin_sample_time = 0\nreference = ["exact"]\n'
+        'name = "store"\nt_span = [0.0, 30.0]\nrepeats = 3\nmin_sample_time = 0\nreference = ["exact"]\n'
         'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["exact", "henon-rk4"]\n'
     )
     for fresh in (["--fresh"], []):  # bench --fresh deleted every *.parquet of the linked folder

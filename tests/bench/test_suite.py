@@ -10,7 +10,7 @@ from nsbench.errors import ConfigError
 TOML = """
 name = "tiny"
 t_span = [0, 50]
-repeats = 2
+repeats = 3
 
 [[problems]]
 name = "one-dof"
@@ -22,7 +22,7 @@ cases = [1, 2]
 params = { v0 = 0.1 }
 
 [integrators]
-only = ["exact", "henon-rk4"]
+only = ["exact", "henon-rk4", "scipy-dop853"]
 
 [integrators.grids.scipy-dop853]
 grid = { rtol = [1e-4, 1e-8, 1e-12] }
@@ -97,7 +97,10 @@ def test_case_ids_are_stable_and_distinct():
 
 def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
     base = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
-    assert Suite.from_dict({**base, "repeats": 1}).repeats == 3  # a spread needs three runs
+    for few in (1, 2):  # a spread needs three runs: fewer is refused, not raised to 3 in silence
+        with pytest.raises(ConfigError, match=rf"repeats = {few} must be an integer >= 3 .*three timed runs"):
+            Suite.from_dict({**base, "repeats": few})
+    assert Suite.from_dict({**base, "repeats": 3}).repeats == 3
     assert {c.repeats for c in Suite.from_dict({**base, "repeats": 5}).cases()} == {5}
     old = Suite.from_dict({**base, "repeat_budget": 0.5})  # an older suite file still loads
     assert old.cases() == Suite.from_dict(base).cases()  # ... and times the same way
@@ -106,7 +109,7 @@ def test_repeats_are_at_least_three_and_repeat_budget_is_ignored():
 
 def test_max_repeats_defaults_to_twice_repeats_and_is_checked():
     base = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
-    assert Suite.from_dict(base).max_repeats == 10 and Suite.from_dict({**base, "repeats": 1}).max_repeats == 6
+    assert Suite.from_dict(base).max_repeats == 10 and Suite.from_dict({**base, "repeats": 3}).max_repeats == 6
     assert {c.max_repeats for c in Suite.from_dict({**base, "max_repeats": 5}).cases()} == {5}
     for bad in (4, 10**9, 2.5, True, "7"):
         with pytest.raises(ConfigError, match="max_repeats = .* must be an integer >= repeats"):
@@ -195,7 +198,7 @@ def test_packaged_suites_by_name():
         ({"problems": [{"name": "one-dof"}], "repeats": 10**12}, "MAX_REPEATS"),
         ({"problems": [{"name": "one-dof"}], "dense_points": 10**12}, "MAX_DENSE_POINTS"),
         ({"problems": [{"name": "one-dof"}], "time_limit": float("inf")}, "positive, finite number of seconds"),
-        ({"problems": [{"name": "one-dof"}], "name": 5}, "suite field 'name' must be a string, got int 5"),
+        ({"problems": [{"name": "one-dof"}], "name": 5}, "suite field 'name' must be a non-empty string, got int 5"),
         ({"problems": [{"name": "one-dof"}], "integrators": {"only": "exact"}}, "'integrators.only' must be a list"),
         ({"problems": [{"name": "one-dof"}], "integrators": {"grids": 5}}, "'integrators.grids' must be a table"),
         (
@@ -248,7 +251,7 @@ def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
     suite = Suite.from_dict(
         {
             "problems": [{"name": "one-dof"}],
-            "integrators": {"grids": {"henon-rk4": {"grid": {"h": [0.01, float("inf")]}}}, "only": []},
+            "integrators": {"grids": {"henon-rk4": {"grid": {"h": [0.01, float("inf")]}}}, "only": ["henon-rk4"]},
         }
     )
     with pytest.raises(ConfigError, match="h = inf must be a finite"):
@@ -270,3 +273,68 @@ def test_a_friction_law_is_a_name_in_a_suite_and_in_the_labels():
     assert problem_label(suite.problems[1]) == "one-dof/leine"
     with pytest.raises(ConfigError, match=r"params.fk' must be a number or a list of numbers \(law: a name\)"):
         Suite(problems=[{"name": "two-dof", "params": {"law": "stribeck", "fk": "half", "vs": 0.2}}], t_span=(0, 60))
+
+
+_BASE = {"problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["scipy-rk45"]}}
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"problems": [{"name": "one-dof", "case": 1, "cases": [2]}]}, r"both 'case' = 1 and 'cases' = \[2\]"),
+        (
+            {
+                "integrators": {
+                    "only": ["scipy-rk45"],
+                    "grids": {"scipy-rk45": {"options": [{}], "grid": {"rtol": [1e-6]}}},
+                }
+            },
+            r"grids.scipy-rk45 gives both 'options' and 'grid'",
+        ),
+        (
+            {"integrators": {"only": ["scipy-rk45"], "grids": {"scipy-dop853": {"options": [{"rtol": 1e-6}]}}}},
+            r"integrators.grids.scipy-dop853' names an integrator outside 'integrators.only'",
+        ),
+        (
+            {"integrators": {"exclude": ["no-such-method"]}},
+            r"integrators.exclude': unknown integrator\(s\) no-such-method",
+        ),
+        (
+            {"integrators": {"only": ["scipy-rk45"], "skip_levels": {"no-such-method": {"levels": [0]}}}},
+            r"integrators.skip_levels': unknown integrator\(s\) no-such-method",
+        ),
+        (
+            {"integrators": {"only": ["scipy-rk45"], "skip_levels": {"scipy-rk45": {"levels": [99]}}}},
+            r"skip_levels.scipy-rk45.levels' = \[99\]: level\(s\) 99 do not exist; scipy-rk45 has \d+ level",
+        ),
+        (
+            {"integrators": {"exclude": ["scipy-rk45"], "grids": {"scipy-rk45": {"options": [{"rtol": 1e-6}]}}}},
+            r"grids.scipy-rk45' names an integrator that 'integrators.exclude' leaves out",
+        ),
+        ({"integrators": {"only": []}}, r"'integrators.only' is empty: the suite would run no integrator"),
+        ({"integrators": {"registered": False}}, r"registered = false with no 'only' and no 'grids' selects no"),
+        ({"name": ""}, r"suite field 'name' must be a non-empty string"),
+        ({"name": "  "}, r"suite field 'name' must be a non-empty string"),
+    ],
+)
+def test_a_setting_that_would_be_dropped_in_silence_is_refused_at_load(change, message):
+    with pytest.raises(ConfigError, match=message):
+        Suite.from_dict({**_BASE, **change})
+
+
+def test_a_skipped_level_is_counted_from_the_grid_when_there_is_one():
+    grid = {"scipy-rk45": {"grid": {"rtol": [1e-4, 1e-6]}}}
+    ok = Suite.from_dict(
+        {
+            **_BASE,
+            "integrators": {"only": ["scipy-rk45"], "grids": grid, "skip_levels": {"scipy-rk45": {"levels": [1]}}},
+        }
+    )
+    assert [c.options["rtol"] for c in ok.cases()] == [1e-4]
+    with pytest.raises(ConfigError, match=r"level\(s\) 2 do not exist; scipy-rk45 has 2 level\(s\) here, 0..1"):
+        Suite.from_dict(
+            {
+                **_BASE,
+                "integrators": {"only": ["scipy-rk45"], "grids": grid, "skip_levels": {"scipy-rk45": {"levels": [2]}}},
+            }
+        )

@@ -132,7 +132,7 @@ def d(tmp_path_factory):
     (root / "garbage.csv").write_text("a,b\n1,2\n")
     (root / "garbage.parquet").write_text("not parquet")
     (root / "light.toml").write_text(
-        't_span = [0.0, 1.0]\nrepeats = 1\nproblems = [{name = "one-dof", case = 1}]\n'
+        't_span = [0.0, 1.0]\nrepeats = 3\nproblems = [{name = "one-dof", case = 1}]\n'
         'integrators = {only = ["exact"]}\n'
     )  # the generated sweep's runs
     (root / "good.toml").write_text(

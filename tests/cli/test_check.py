@@ -111,3 +111,14 @@ def test_a_named_preset_is_taken_by_param(capsys):
     assert "the checks choose the case" in capsys.readouterr().err
     assert main(["check", "exact", "--problem", "one-dof", "--param", "case=lein"]) == 2
     assert "lein" in capsys.readouterr().err
+
+
+def test_a_check_run_in_which_nothing_applicable_ran_exits_1_and_says_so(capsys):
+    # exact refuses the Henon-Heiles system at setup (not piecewise linear): every check that runs it is
+    # skipped, only the configuration checks pass, and a CI gate must not read that as a pass
+    assert main(["check", "exact", "--problem", "henon-heiles"]) == 1
+    out = capsys.readouterr().out
+    assert "nothing applicable ran" in out and "exact on henon-heiles was skipped" in out
+    assert "config-round-trip    PASSED" in out
+    # asking only for a configuration check is not a run in which something applicable was skipped
+    assert main(["check", "exact", "--problem", "henon-heiles", "--check", "config-round-trip"]) == 0

@@ -145,6 +145,12 @@ def _check_problem(p: Any, i: int) -> None:
     _field(isinstance(p["name"], str), f"{where}.name", "a registered problem name (a string)", p["name"])
     _unknown(set(p), _PROBLEM_KEYS, f"problem {p['name']!r}")
     case_ok = lambda c: isinstance(c, str) or (isinstance(c, int) and not isinstance(c, bool))  # noqa: E731
+    if "case" in p and "cases" in p:
+        # one would be dropped in silence: the suite would measure another case than the one written
+        raise ConfigError(
+            f"{where} ({p['name']!r}) gives both 'case' = {p['case']!r} and 'cases' = {p['cases']!r}; "
+            "give one: 'case' (one case) or 'cases' (a list)"
+        )
     if "case" in p:
         _field(case_ok(p["case"]), f"{where}.case", "a case number (1..4) or name", p["case"])
     if "cases" in p:
@@ -189,6 +195,12 @@ def _check_integrators(spec: Any) -> None:
         where = f"integrators.grids.{name}"
         _field(isinstance(grid, dict), where, "a table with 'options' or 'grid'", grid)
         _unknown(set(grid), {"options", "grid", "fixed"}, where)
+        if "options" in grid and ("grid" in grid or "fixed" in grid):
+            other = "grid" if "grid" in grid else "fixed"
+            raise ConfigError(
+                f"{where} gives both 'options' and '{other}'; give 'options' (a list of option tables) "
+                "or 'grid' (option -> values, with 'fixed' options)"
+            )
         if "options" in grid:
             _field(
                 isinstance(grid["options"], list) and all(isinstance(o, dict) for o in grid["options"]),
@@ -220,6 +232,7 @@ def _check_integrators(spec: Any) -> None:
             "a list of level indices",
             levels,
         )
+        _field(all(v >= 0 for v in levels), f"{where}.levels", "a list of level indices >= 0", levels)
         if "reason" in skip:
             _field(isinstance(skip["reason"], str), f"{where}.reason", "a string", skip["reason"])
 
@@ -252,8 +265,8 @@ class Suite:
         slow levels out of a suite).
     repeats
         Timed samples per case (default 5), all after an untimed warm-up; the wall
-        time is their median. Fewer than :data:`~nsbench.bench.timing.MIN_REPEATS`
-        (3) are raised to 3.
+        time is their median. At least :data:`~nsbench.bench.timing.MIN_REPEATS`
+        (3): a median and a spread need three runs, and fewer is refused.
     max_repeats
         Most timed samples per case (default twice ``repeats``): a case whose
         planned samples spread by more than 25 % on the CPU clock
@@ -309,7 +322,7 @@ class Suite:
 
     def __post_init__(self) -> None:
         self._unavailable: dict[str, str] = {}
-        _field(isinstance(self.name, str), "name", "a string", self.name)
+        _field(isinstance(self.name, str) and self.name.strip() != "", "name", "a non-empty string", self.name)
         self.t_span = tuple(_number_list(self.t_span, "t_span"))  # type: ignore[assignment]
         if len(self.t_span) != 2 or not self.t_span[1] > self.t_span[0]:
             raise ConfigError(f"t_span = {list(self.t_span)} must be [t0, t_end] with t_end > t0")
@@ -317,17 +330,17 @@ class Suite:
         if any(t <= 0 for t in self.targets):
             raise ConfigError(f"targets = {list(self.targets)} must be positive")
         for key, low, high, bound in (
-            ("repeats", 1, MAX_REPEATS, "MAX_REPEATS"),
+            ("repeats", MIN_REPEATS, MAX_REPEATS, "MAX_REPEATS"),
             ("max_steps", 1, MAX_STEPS, "MAX_STEPS"),
             ("dense_points", 2, MAX_DENSE_POINTS, "MAX_DENSE_POINTS"),
         ):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+                why = " (a median and a spread need three timed runs)" if key == "repeats" else ""
                 raise ConfigError(
-                    f"{key} = {value!r} must be an integer >= {low} and <= {high} "
-                    f"(the bound is nsbench.bench.suite.{bound})"
+                    f"{key} = {value!r} must be an integer >= {low} and <= {high}{why} "
+                    f"(the upper bound is nsbench.bench.suite.{bound})"
                 )
-        self.repeats = max(self.repeats, MIN_REPEATS)  # a median and a spread need three runs
         if self.max_repeats is None:
             self.max_repeats = min(2 * self.repeats, MAX_REPEATS)
         value = self.max_repeats
@@ -364,6 +377,7 @@ class Suite:
             _check_problem(p, i)
         _check_integrators(self.integrators)
         self._check_reference()
+        self._check_selection()
         from nsbench.bench.targets import parse_targets
 
         if self.bifurcation_targets is None:
@@ -385,6 +399,68 @@ class Suite:
                 f"suite field 'reference': unknown integrator(s) {', '.join(unknown)}; "
                 f"registered: {', '.join(registered)}"
             )
+
+    def _check_selection(self) -> None:
+        """Names in ``exclude``, ``grids`` and ``skip_levels`` that select nothing, and skipped levels that do not exist.
+
+        Each of these would otherwise be dropped (or an integrator added) in silence, so the
+        suite would measure another set of configurations than the one written.
+        """
+        from nsbench.errors import PluginLoadError
+        from nsbench.integrators import canonical_name, integrator_class, list_integrators
+
+        spec = self.integrators
+        registered = list_integrators()
+        for key in ("exclude", "grids", "skip_levels"):
+            unknown = [n for n in spec.get(key, []) if canonical_name(n) not in registered]
+            if unknown:
+                raise ConfigError(
+                    f"suite field 'integrators.{key}': unknown integrator(s) {', '.join(unknown)}; "
+                    f"registered: {', '.join(registered)}"
+                )
+        if "only" in spec and not spec["only"]:
+            raise ConfigError("suite field 'integrators.only' is empty: the suite would run no integrator")
+        if not spec.get("registered", True) and "only" not in spec and not spec.get("grids"):
+            raise ConfigError(
+                "suite field 'integrators': registered = false with no 'only' and no 'grids' selects no integrator"
+            )
+        exclude = {canonical_name(n) for n in spec.get("exclude", [])}
+        only = {canonical_name(n) for n in spec["only"]} if "only" in spec else None
+        for key in ("grids", "skip_levels"):
+            for n in spec.get(key, {}):
+                name = canonical_name(n)
+                if name in exclude:
+                    raise ConfigError(
+                        f"suite field 'integrators.{key}.{n}' names an integrator that "
+                        "'integrators.exclude' leaves out; remove one of the two"
+                    )
+                if only is not None and name not in only:
+                    raise ConfigError(
+                        f"suite field 'integrators.{key}.{n}' names an integrator outside "
+                        f"'integrators.only' ({', '.join(spec['only']) or 'empty'}); add it to 'only' or remove "
+                        "its entry"
+                    )
+        grids = {canonical_name(k): v for k, v in spec.get("grids", {}).items()}
+        for n, skip in spec.get("skip_levels", {}).items():
+            name = canonical_name(n)
+            grid = grids.get(name)
+            if grid is None:
+                try:
+                    count = max(1, len(integrator_class(name).accuracy_levels))
+                except PluginLoadError:
+                    continue  # left out of the suite, with its reason (Suite.unavailable)
+            elif "options" in grid:
+                count = len(grid["options"])
+            elif "grid" in grid:
+                count = math.prod(len(v) if isinstance(v, list) else 1 for v in grid["grid"].values())
+            else:
+                continue  # refused by option_sets with its own message
+            bad = [i for i in skip.get("levels", []) if i >= count]
+            if bad:
+                raise ConfigError(
+                    f"suite field 'integrators.skip_levels.{n}.levels' = {skip['levels']}: level(s) "
+                    f"{', '.join(map(str, bad))} do not exist; {n} has {count} level(s) here, 0..{count - 1}"
+                )
 
     # ------------------------------------------------------------------ loading
     @classmethod

@@ -59,4 +59,14 @@ def main(args: argparse.Namespace) -> int:
         print(f"  {r.check:<{width}}  {r.status.upper():<7}  {r.seconds:7.2f}  {note}".rstrip())
     counts = {s: sum(r.status == s for r in results) for s in ("passed", "failed", "skipped", "xfail", "xpass")}
     print(f"{len(results)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.items() if n))
-    return 1 if counts["failed"] else 0
+    if counts["failed"]:
+        return 1
+    running = [r for r in results if r.runs]
+    if running and all(r.status == "skipped" for r in running):
+        # a gate that checked nothing of the integrator's results must not pass in CI
+        print(
+            f"nothing applicable ran: each of the {len(running)} checks that run {integ.name} on "
+            f"{args.problem} was skipped ({_one_line(running[0].message, 120)})"
+        )
+        return 1
+    return 0

@@ -62,9 +62,27 @@ def get_integrator(name: str, **options: Any) -> Integrator:
 
 
 def integrator_from_config(config: dict[str, Any]) -> Integrator:
-    """Rebuild an integrator from its :meth:`Integrator.config` dict."""
+    """Rebuild an integrator from its :meth:`Integrator.config` dict.
+
+    Raises
+    ------
+    ConfigError
+        Not a dict, no ``name``, or a key other than ``name`` and ``options`` (an option put
+        at the top level, ``{'name': 'henon-rk4', 'h': nan}``, would otherwise be dropped
+        without a word and the integrator built with its default).
+    """
+    if not isinstance(config, dict):
+        raise ConfigError(f"integrator config must be a dict with 'name' and 'options', got {type(config).__name__}")
     if "name" not in config:
         raise ConfigError(f"integrator config needs a 'name': got {config!r}")
+    unknown = sorted(set(config) - {"name", "options"})
+    if unknown:
+        raise ConfigError(
+            f"integrator config has unknown key(s) {', '.join(map(repr, unknown))}; allowed: 'name', "
+            f"'options' (options such as {unknown[0]!r} go under 'options'): got {config!r}"
+        )
+    if not isinstance(config.get("options", {}), dict):
+        raise ConfigError(f"integrator config's 'options' must be a dict, got {config['options']!r}")
     return integrator_class(config["name"]).from_config(config)
 
 

@@ -62,8 +62,22 @@ def get_problem(
     Raises
     ------
     ConfigError
-        Unknown problem, case or parameter, or a nonphysical value.
+        Unknown problem, case or parameter, a bad type (``name`` not a string,
+        ``dimensional`` not a bool, a number too large for a double), or a
+        nonphysical value.
     """
+    if not isinstance(name, str):
+        raise ConfigError(f"problem name must be a string (a registered problem), got {type(name).__name__} {name!r}")
+    if not isinstance(dimensional, bool):
+        raise ConfigError(f"dimensional = {dimensional!r} must be True or False")
+    for key, value in params.items():
+        if isinstance(value, int) and not isinstance(value, bool):
+            try:
+                float(value)
+            except OverflowError:
+                raise ConfigError(
+                    f"parameter {key} = {str(value)[:20]}... is too large for a double (at most about 1.8e308)"
+                ) from None
     factory = registry.load("problems", name)
     return factory(case=case, dimensional=dimensional, **params)
 

@@ -44,6 +44,8 @@ class CheckResult:
     status: str
     message: str
     seconds: float
+    #: The check runs the integrator on the problem (see :attr:`Check.runs`).
+    runs: bool = True
 
     @property
     def ok(self) -> bool:
@@ -138,32 +140,41 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
     cls = type(integ)
     reason = check.skip_reason(cls.capabilities)
     if reason is not None:
-        return CheckResult(cls.name, check.name, SKIPPED, reason, 0.0)
+        return CheckResult(cls.name, check.name, SKIPPED, reason, 0.0, runs=check.runs)
     gap = known_gaps(integ).get(check.name)
     tic = time.perf_counter()
     try:
         check.run(cls.from_config(integ.config()))
     except CheckSkipped as exc:
-        return CheckResult(cls.name, check.name, SKIPPED, str(exc), time.perf_counter() - tic)
+        return CheckResult(cls.name, check.name, SKIPPED, str(exc), time.perf_counter() - tic, runs=check.runs)
     except UnsupportedProblemError as exc:
         if on_presets():  # every integrator runs the belt's linear presets
-            return CheckResult(cls.name, check.name, FAILED, f"refused a belt preset: {exc}", time.perf_counter() - tic)
+            return CheckResult(
+                cls.name,
+                check.name,
+                FAILED,
+                f"refused a belt preset: {exc}",
+                time.perf_counter() - tic,
+                runs=check.runs,
+            )
         # an integrator that cannot run this problem says so at setup: reported, not a failure
-        return CheckResult(cls.name, check.name, SKIPPED, f"refused at setup: {exc}", time.perf_counter() - tic)
+        return CheckResult(
+            cls.name, check.name, SKIPPED, f"refused at setup: {exc}", time.perf_counter() - tic, runs=check.runs
+        )
     except Exception as exc:  # a failing check, whatever the integrator raised
         seconds = time.perf_counter() - tic
         if gap is not None:
-            return CheckResult(cls.name, check.name, XFAIL, f"known gap: {gap}", seconds)
+            return CheckResult(cls.name, check.name, XFAIL, f"known gap: {gap}", seconds, runs=check.runs)
         detail = (
             str(exc)
             if isinstance(exc, AssertionError)
             else f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"
         )
-        return CheckResult(cls.name, check.name, FAILED, detail, seconds)
+        return CheckResult(cls.name, check.name, FAILED, detail, seconds, runs=check.runs)
     seconds = time.perf_counter() - tic
     if gap is not None:
-        return CheckResult(cls.name, check.name, XPASS, f"declared gap passes: {gap}", seconds)
-    return CheckResult(cls.name, check.name, PASSED, check.doc, seconds)
+        return CheckResult(cls.name, check.name, XPASS, f"declared gap passes: {gap}", seconds, runs=check.runs)
+    return CheckResult(cls.name, check.name, PASSED, check.doc, seconds, runs=check.runs)
 
 
 def check_integrator(

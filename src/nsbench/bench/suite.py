@@ -411,7 +411,7 @@ class Suite:
 
         spec = self.integrators
         registered = list_integrators()
-        for key in ("exclude", "grids", "skip_levels"):
+        for key in ("exclude", "optional", "grids", "skip_levels"):
             unknown = [n for n in spec.get(key, []) if canonical_name(n) not in registered]
             if unknown:
                 raise ConfigError(
@@ -426,6 +426,8 @@ class Suite:
             )
         exclude = {canonical_name(n) for n in spec.get("exclude", [])}
         only = {canonical_name(n) for n in spec["only"]} if "only" in spec else None
+        if only is not None:  # the engines run where installed are selected as well
+            only |= {canonical_name(n) for n in spec.get("optional", [])}
         for key in ("grids", "skip_levels"):
             for n in spec.get(key, {}):
                 name = canonical_name(n)
@@ -437,8 +439,8 @@ class Suite:
                 if only is not None and name not in only:
                     raise ConfigError(
                         f"suite field 'integrators.{key}.{n}' names an integrator outside "
-                        f"'integrators.only' ({', '.join(spec['only']) or 'empty'}); add it to 'only' or remove "
-                        "its entry"
+                        f"'integrators.only' ({', '.join(spec['only']) or 'empty'}) and 'optional'; add it to "
+                        "'only' or remove its entry"
                     )
         grids = {canonical_name(k): v for k, v in spec.get("grids", {}).items()}
         for n, skip in spec.get("skip_levels", {}).items():

@@ -318,7 +318,10 @@ def test_every_built_in_event_driven_integrator_checks_its_own_steps():
     for name in list_integrators():
         if not is_whole_system(integrator_class(name)()):
             points[name] = check_points_for(integrator_class(name)())
-    assert {name for name, k in points.items() if k} == {"henon-rk4"}
+    # the engines behind a pip extra (CyRK, diffrax) locate events on their own dense output without
+    # nsbench's per-step test: the engine checks them at its evenly spaced points
+    extras = {"cyrk-rk45", "cyrk-dop853", "cyrk-tsit5", "cyrk-vern7", "diffrax-tsit5", "diffrax-dopri8"}
+    assert {name for name, k in points.items() if k} == {"henon-rk4"} | (extras & set(points))
     assert points["henon-rk4"] == DEFAULT_CHECK_POINTS
     assert check_points_for(_UncheckedDop853()) == DEFAULT_CHECK_POINTS
     assert check_points_for(nsbench.get_integrator("moreau-jean")) == 0  # events inferred: no state checked

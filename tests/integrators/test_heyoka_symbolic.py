@@ -31,7 +31,11 @@ def test_every_impact_and_the_rest_are_found(ball, name):
     want = nsbench.simulate(ball, "exact", 10.0)
     got = nsbench.simulate(ball, name, 10.0)
     assert got.ok, got.message
-    assert list(got.events["kind"]) == list(want.events["kind"]) == ["impact"] * 9 + ["rest"]
+    # the Zeno rule's depth is decided by its error estimate (4 impacts before the rest at the defaults);
+    # heyoka resolves the tail to the same depth as exact's closed-form flights
+    kinds = list(got.events["kind"])
+    assert kinds == list(want.events["kind"]) and kinds[-1] == "rest" and set(kinds[:-1]) == {"impact"}
+    assert len(kinds) >= 5
     assert got.y_final.tolist() == [0.0, 0.0]  # at rest on the ground, not below it
 
 

@@ -73,8 +73,12 @@ def test_problems_written_symbolically_run_natively_with_a_selector_per_mode(nam
     impacts = res.events[res.events["kind"] == "impact"]["t"].to_numpy()
     exact = ball.impact_times(len(impacts))
     # t ~ 4: an ulp is 8.9e-16; each flight's root on an exact quadratic polynomial: 1e-14 covers 9 flights' rounding
-    assert len(impacts) >= 8 and np.max(np.abs(impacts - exact)) <= 1e-14
+    # the Zeno rule's estimate decides the depth (4 impacts before the rest at its default tolerance)
+    assert len(impacts) >= 4 and np.max(np.abs(impacts - exact)) <= 1e-14
     assert res.events["kind"].iloc[-1] == "rest" and res.mode_final == arcs.mode_final
+    # the rest at the closed form's accumulation time, within the rule's logged estimate of its error
+    rest = res.events.iloc[-1]
+    assert abs(rest["t"] - ball.accumulation_time()) <= rest["accumulation_error"] <= 1e-10
     hh = nsbench.get_problem("henon-heiles")
     res, arcs = _run(name, hh, 100.0, loop="native"), _run(name, hh, 100.0, loop="per-arc")
     assert res.ok and res.loop == "native" and len(res.events) > 10 and same_sequence(res.events, arcs.events)
@@ -163,7 +167,9 @@ def test_leines_belt_gives_the_references_sequence_through_the_fallback():
     ref = nsbench.simulate(p, "reference", 300.0)
     for name in EPS:
         res = _run(name, p)
-        assert res.ok and res.loop == "per-arc" and "double zero" in res.loop_note
+        # heyoka for the double zero; heyoka-ld and heyoka-q run per arc by default anyway (their precision)
+        why = "double zero" if name == "heyoka" else "works in doubles"
+        assert res.ok and res.loop == "per-arc" and why in res.loop_note, res.loop_note
         assert same_sequence(res.events, ref.events)
 
 

@@ -142,11 +142,15 @@ def _styles(names: list[str]) -> dict[str, dict]:
         members.setdefault(family(n), []).append(n)
     styles: dict[str, dict] = {}
     others = 0
+    # each family's markers start at its own place in the list: two maps whose darkest shades coincide
+    # (Greens and BuGn) still give their first members different markers
+    start = {fam: k for k, (fam, _) in enumerate(FAMILIES)}
     for fam, group in members.items():
         for i, n in enumerate(group):
             if fam in maps:
                 shade = 0.9 - 0.45 * (i / max(len(group) - 1, 1)) if len(group) > 1 else 0.75
-                styles[n] = {"color": plt.get_cmap(maps[fam])(shade), "marker": _MARKERS[i % len(_MARKERS)]}
+                marker = _MARKERS[(i + start[fam]) % len(_MARKERS)]
+                styles[n] = {"color": plt.get_cmap(maps[fam])(shade), "marker": marker}
             else:  # markers from the end of the list: unlike the families' first members
                 styles[n] = {
                     "color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)],

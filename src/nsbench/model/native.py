@@ -292,12 +292,12 @@ def b1(table, k):
     return carray(_pointer(table[k, 0]), (table[k, 1],), np.bool_)
 
 
-#: Slots of a :class:`Views` table: the run state's 14 arrays, then the events' 5, the dense states' 2,
-#: the hits' 3, the sections' 3 arrays, and the limits with the sections' ``hit_from``, ``hit_stop``
-#: (float and integer halves).
-S_STATE, S_EVENTS, S_DENSE, S_HITS, S_SECTIONS, S_LIMITS_F, S_LIMITS_I = 0, 14, 19, 21, 24, 27, 28
+#: Slots of a :class:`Views` table: the run state's 14 arrays, then the events' 6 (with the accumulation
+#: error estimates), the dense states' 2, the hits' 3, the sections' 3 arrays, and the limits with the
+#: sections' ``hit_from``, ``hit_stop`` (float and integer halves: the accumulation tolerance is a float).
+S_STATE, S_EVENTS, S_DENSE, S_HITS, S_SECTIONS, S_LIMITS_F, S_LIMITS_I = 0, 14, 20, 22, 25, 28, 29
 #: The first slot an integrator may use for arrays of its own.
-S_OWN = 29
+S_OWN = 30
 
 
 @jit
@@ -325,7 +325,9 @@ def run_state(table):
 @jit
 def events(table):
     k = S_EVENTS
-    return Events(f1(table, k), i1(table, k + 1), i1(table, k + 2), f2(table, k + 3), i2(table, k + 4))
+    return Events(
+        f1(table, k), i1(table, k + 1), i1(table, k + 2), f2(table, k + 3), i2(table, k + 4), f1(table, k + 5)
+    )
 
 
 @jit
@@ -342,14 +344,14 @@ def hit_buffer(table):
 @jit
 def limits(table):
     lf, li = f1(table, S_LIMITS_F), i1(table, S_LIMITS_I)
-    return RunLimits(lf[0], li[0], li[1], lf[1], lf[2], li[2], li[3], li[4])
+    return RunLimits(lf[0], li[0], li[1], lf[1], lf[2], li[2], li[3], lf[4])
 
 
 @jit
 def sections(table):
     lf, li = f1(table, S_LIMITS_F), i1(table, S_LIMITS_I)
     k = S_SECTIONS
-    return Sections(f2(table, k), f1(table, k + 1), i1(table, k + 2), lf[3], li[5])
+    return Sections(f2(table, k), f1(table, k + 1), i1(table, k + 2), lf[3], li[4])
 
 
 class Views:
@@ -363,10 +365,11 @@ class Views:
 
     def __init__(self, records, state, section_bundle, lim, own=()) -> None:
         self.records, self.state, self.sec = records, state, section_bundle
-        self._lf = np.array([lim.t_end, lim.zeno_span, lim.record_from, section_bundle.hit_from], dtype=np.float64)
+        self._lf = np.array(
+            [lim.t_end, lim.zeno_span, lim.record_from, section_bundle.hit_from, lim.accumulation], dtype=np.float64
+        )
         self._li = np.array(
-            [lim.max_steps, lim.max_events, lim.stop_kind, lim.stop_count, lim.accumulation, section_bundle.hit_stop],
-            dtype=np.int64,
+            [lim.max_steps, lim.max_events, lim.stop_kind, lim.stop_count, section_bundle.hit_stop], dtype=np.int64
         )
         self.own = list(own)
         self.table = np.zeros((S_OWN + len(self.own), 3), np.int64)

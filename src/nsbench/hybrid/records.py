@@ -1,4 +1,5 @@
-"""The tidy frames of what a run recorded (events), from the buffers of :mod:`nsbench.model.records`."""
+"""Readers of a run's event log (accumulation tails, labels); the log itself is built by
+:func:`nsbench.engine.events_frame` from the buffers of :mod:`nsbench.model.records`."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ from nsbench.model.records import Records
 __all__ = [
     "ACCUMULATION_ERROR",
     "Records",
-    "event_frame",
     "extrapolated",
     "has_accumulation_limit",
     "labels",
@@ -27,40 +27,6 @@ def has_accumulation_limit(problem) -> bool:
     from nsbench.model.law import no_accumulation_limit
 
     return problem.law.functions.get("accumulation_limit", no_accumulation_limit) is not no_accumulation_limit
-
-
-def event_frame(problem, rec: Records, n_events: int, located: np.ndarray | None = None) -> pd.DataFrame:
-    """The event log: ``t, kind, block, <states>, mode`` (the state and the mode after each event).
-
-    ``kind`` is the event kind's name (``problem.event_kinds``), ``block`` the 1-based
-    index of the element its guard belongs to, ``mode`` the problem's name of the mode.
-    A problem whose law declares an accumulation limit also has :data:`ACCUMULATION_ERROR`:
-    at an event the Zeno rule extrapolated, the error estimate of its time
-    (:func:`nsbench.model.rules.tail_estimate`), NaN at every other event.
-    ``located`` (a whole-system method that locates its own switches): the method's own
-    time of each event, as a column ``t_located`` after ``t`` (NaN where it located none).
-    """
-    k = n_events
-    ev = rec.events
-    frame = pd.DataFrame(ev.y[:k], columns=list(problem.state_names))
-    frame.insert(0, "t", ev.t[:k].copy())
-    frame.insert(
-        1, "kind", np.asarray(problem.event_kinds, dtype=object)[ev.kind[:k]] if k else np.empty(0, dtype=object)
-    )
-    frame.insert(2, "block", (ev.index[:k] + 1).astype("int64"))
-    cache: dict[bytes, str] = {}
-    texts = []
-    for row in ev.mode[:k]:
-        key = row.tobytes()
-        if key not in cache:
-            cache[key] = problem.mode_name(tuple(int(v) for v in row))
-        texts.append(cache[key])
-    frame["mode"] = pd.Series(texts, dtype=object)
-    if has_accumulation_limit(problem):
-        frame[ACCUMULATION_ERROR] = ev.err[:k].copy()
-    if located is not None:
-        frame.insert(1, "t_located", np.asarray(located, dtype=float)[:k].copy())
-    return frame
 
 
 def extrapolated(events: pd.DataFrame) -> np.ndarray:

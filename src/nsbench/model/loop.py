@@ -72,7 +72,7 @@ from nsbench.model.abi import (
 from nsbench.model.clock import monotonic_ns
 from nsbench.model.compile import hot
 from nsbench.model.records import copy_into
-from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle
+from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle, settle_fired
 
 P_INIT, P_TOP, P_ARC_DONE = 0, 1, 2
 R_DONE, R_GROW_EVENTS, R_GROW_HITS, R_NEED_MODE, R_RESUME = 0, 1, 2, 3, 4
@@ -244,10 +244,7 @@ def hybrid_loop(kernel, kd, fo, prob, lim, sec, hits, dense, ev, st):
         if fired < 0:
             return _finish(si, RUN_SUCCESS)  # reached t_end
         budget_spent = cnt[NSTEPS] >= lim.max_steps
-        for i in range(st.fresh.shape[0]):
-            st.fresh[i] = False
-        law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
-        outcome = settle(prob, st, lim, ev, fired)
+        outcome = settle_fired(prob, st, lim, ev, fired)
         if outcome == STORM:
             return _finish(si, RUN_STORM)
         if outcome == EVENT_BUDGET:

@@ -77,7 +77,7 @@ from nsbench.model.abi import (
 from nsbench.model.compile import hot, inline, jit
 from nsbench.model.loop import EXTRA_EVENTS, P_TOP, _missed
 from nsbench.model.records import copy_into
-from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle
+from nsbench.model.rules import EVENT_BUDGET, STORM, pending_guard, settle, settle_fired
 
 #: The integrator goes on (in ``st.mode``, from ``st.y`` at ``st.sf[SF_T] + st.sf[SF_TLO]``).
 GO_ON = -1
@@ -150,7 +150,7 @@ def event(prob, lim, dense, ev, st, fired, t, t_lo, y):
 
     The dense states the integrator stored during the arc (``dense.y[si[SI_ARC_IEVAL]:si[SI_IEVAL]]``)
     are checked for a crossing it stepped over (:data:`~nsbench.model.abi.RUN_MISSED`); then the
-    transition and the guards that follow at once are applied (:func:`~nsbench.model.rules.settle`),
+    transition and the guards that follow at once are applied (:func:`~nsbench.model.rules.settle_fired`),
     recorded, and checked for storms, the event budget and the stop rule. Afterwards ``st.mode``,
     ``st.y``, ``st.sf[SF_T]`` (an accumulation moves it forward) and the guards of the new mode
     (``st.gk, st.gi, st.gs``, ``si[SI_NG]``) are where the integrator goes on.
@@ -164,10 +164,7 @@ def event(prob, lim, dense, ev, st, fired, t, t_lo, y):
     sf[SF_T], sf[SF_TLO] = t, t_lo
     copy_into(st.y, y)
     budget_spent = st.cnt[NSTEPS] >= lim.max_steps
-    for i in range(st.fresh.shape[0]):
-        st.fresh[i] = False
-    law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
-    outcome = settle(prob, st, lim, ev, fired)
+    outcome = settle_fired(prob, st, lim, ev, fired)
     if outcome == STORM:
         return _finish(st, RUN_STORM)
     if outcome == EVENT_BUDGET:

@@ -6,7 +6,9 @@ resets are; these rules say how they are applied, the same for every problem:
 - after a transition, a guard of the new mode that is already on its wrong
   side (or on its surface, heading the wrong way) fires at once, at the same
   time, until none is left (:func:`pending_guard`); a guard the transition put
-  on its surface by construction (``fresh``) is not tested again at once;
+  on its surface by construction (``fresh``) is not tested again at once, and a
+  crossing of it that an integrator reports while it heads back into its mode is a
+  false start, not an event (:func:`settle_fired`);
 - more than ``ring.size`` consecutive events within ``zeno_span`` are an event
   storm, and the event budget ends a run;
 - a run of consecutive events of one guard whose intervals shrink
@@ -244,6 +246,43 @@ def _accumulates(prob, st, lim, t, kind, index, code):
     if not t_z < lim.t_end:
         return np.nan, np.nan
     return t_z, err
+
+
+@hot
+def false_start(prob, st, q, t):
+    """Whether guard ``q`` of ``st.mode``, reported crossed at ``(t, st.y)``, is a false start.
+
+    An element marked ``fresh`` began the arc on its surface by construction. An
+    integrator that starts with a guard at zero (a double zero where the
+    acceleration vanishes at the switch, e.g. static = kinetic friction) can see
+    the noise of its first steps as a sign change and report a crossing just after
+    the start. If the guard heads back into its mode there (``sign * rate > 0``),
+    nothing left the mode: the law's transition would choose the same mode again.
+    """
+    index = st.gi[q]
+    if not st.fresh[index]:
+        return False
+    law.rhs(prob, st.mode, t, st.y, st.dy)
+    return st.gs[q] * law.guard_rate(prob, st.mode, st.gk[q], index, t, st.y, st.dy) > 0.0
+
+
+@hot
+def settle_fired(prob, st, lim, ev, q):
+    """The step after an arc ended at guard ``q`` (an index into the guards of ``st.mode``) at ``st.sf[SF_T]``.
+
+    A false start (:func:`false_start`) is not an event: the mode, its ``fresh``
+    marks and its guards stay, the arc goes on from ``st.y``, and it counts in the
+    storm ring so that an integrator that keeps reporting it ends in a storm, not a
+    loop. Otherwise the ``fresh`` marks are cleared and :func:`settle` applies the
+    transition. Returns what :func:`settle` returns.
+    """
+    t = st.sf[SF_T]
+    if false_start(prob, st, q, t):
+        return STORM if _storm(st, lim, t) else SETTLED
+    for i in range(st.fresh.shape[0]):
+        st.fresh[i] = False
+    law.guards_of(prob, st.mode, st.gk, st.gi, st.gs)
+    return settle(prob, st, lim, ev, q)
 
 
 @hot

@@ -104,6 +104,27 @@ def test_the_readme_stays_short():
     assert len((ROOT / "README.md").read_text(encoding="utf-8").splitlines()) <= 200
 
 
+def test_the_readme_keeps_the_set_up_commands():
+    # .ci/run runs the second one's pytest command; a newcomer copies the first
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for command in (
+        "python -m pip install -e . && nsbench run",
+        'python -m pip install -e ".[test]" && python -m pytest -n 2 --dist loadfile',
+        'python -m pip install -e ".[lint]" && ruff check . && ruff format --check . && mypy',
+    ):
+        assert f"\n{command}\n" in readme, command
+
+
+def test_the_readmes_links_lead_to_files():
+    # the site's own links are checked by `mkdocs build --strict`; the README is not part of the site
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", readme)
+    assert targets
+    for target in targets:
+        if "://" not in target:
+            assert (ROOT / target).exists(), target
+
+
 # ---------------------------------------------------------------------------- code blocks
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import re
 import shlex
 import sys
+import textwrap
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,6 +203,9 @@ def doc_commands() -> list[tuple[str, list[str]]]:
     for b in ALL_BLOCKS:
         if b.lang in SHELL_LANGS:
             found += [(b.where(), argv) for argv in nsbench_commands(b.text)]
+        elif b.lang == "yaml":  # a CI recipe: its `run:` steps are shell lines
+            steps = "\n".join(m.group(1) for m in re.finditer(r"^\s*-?\s*run:\s*(.+)$", b.text, re.M))
+            found += [(b.where(), argv) for argv in nsbench_commands(steps)]
     return found
 
 
@@ -332,6 +336,21 @@ def test_marked_blocks_exist():
         assert b.lang == "python", b.where()
     for b in SUITES:
         assert b.lang == "toml", b.where()
+
+
+@pytest.mark.parametrize(
+    "block", [b for b in ALL_BLOCKS if b.lang in {"python", "toml", "yaml"}], ids=lambda b: f"{b.where()} {b.lang}"
+)
+def test_every_code_block_is_well_formed(block):
+    """Blocks that are not run are read: Python compiles (a method's fragment once dedented), TOML and
+    YAML parse. A block left half-edited, or an API call with a syntax that no longer exists, fails."""
+    if block.lang == "python":
+        compile(textwrap.dedent(block.text), block.where(), "exec")
+    elif block.lang == "toml":
+        tomllib.loads(block.text)
+    else:
+        yaml = pytest.importorskip("yaml")  # PyYAML comes with dask
+        yaml.safe_load(block.text)
 
 
 @pytest.mark.parametrize("block", RUNNABLE, ids=[b.where() for b in RUNNABLE])

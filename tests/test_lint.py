@@ -22,11 +22,14 @@ def _config() -> dict:
 def test_ci_runs_ruff_and_mypy_before_the_tests():
     lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
     commands = [line for line in lines if line and not line.startswith("#")]
-    assert any('".[test,lint]"' in line for line in commands)
+    assert any('".[test,lint,docs]"' in line for line in commands)
     ruff, mypy = commands.index("ruff check ."), commands.index("mypy")
     formatted = commands.index("ruff format --check .")
     tests = next(i for i, line in enumerate(commands) if line.startswith("python -m pytest"))
     assert ruff < tests and mypy < tests and formatted < tests
+    # the docs site is built after the lint checks, before the tests, warnings as errors (issue 49)
+    docs = next(i for i, line in enumerate(commands) if "mkdocs build --strict" in line)
+    assert max(ruff, mypy, formatted) < docs < tests
 
 
 def test_the_type_checker_baseline_names_only_existing_modules():

@@ -354,6 +354,25 @@ def check_limit(what: str, seconds: float | None) -> None:
         raise ConfigError(f"{what} = {seconds!r} must be a finite number of seconds > 0, or None")
 
 
+#: Most worker processes an API call takes (the command line's ``--workers`` bound).
+MAX_WORKERS = 1024
+
+
+def check_count(what: str, value: object, low: int, high: int = MAX_WORKERS, none: bool = True) -> None:
+    """A count argument of the API (workers, chunk size, limit) must be a whole number in ``[low, high]``
+    (or ``None`` when ``none``); ``ConfigError`` naming it otherwise, where ``-1`` was silently read as 1
+    and ``0`` ended in a ``ValueError`` from deep inside."""
+    import numbers
+
+    from nsbench.errors import ConfigError
+
+    if value is None and none:
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+        allowed = f"a whole number from {low} to {high}" + (", or None" if none else "")
+        raise ConfigError(f"{what} = {value!r} must be {allowed}"[:300])
+
+
 def worker_cpu_seconds() -> float:
     """CPU seconds used so far by the live workers of the kept pool and its worker factory (with the
     factory's workers that have ended) (Linux ``/proc``; 0 elsewhere).

@@ -94,12 +94,14 @@ def run_sweep(
     Parameters
     ----------
     workers
-        Local worker processes (default: every core). ``0`` computes in this
+        Local worker processes, 0 to 1024 (default: every core). ``0`` computes in this
         process, without hard limits (for debugging and profiling).
     dask
         Address of a Dask scheduler (``tcp://host:port``) or a ``distributed.Client``;
         replaces local processes. Each Dask worker runs its chunks in a
         supervised process of its own, under the same limits.
+    chunk_size
+        Values per job, a whole number >= 1 (default: about six jobs per worker, at most 16 values each).
     limit
         Compute at most this many missing values (then stop; a rerun resumes).
     point_limit, setup_limit
@@ -110,8 +112,16 @@ def run_sweep(
         a rerun resumes, computing only the missing values.
     """
     from nsbench.bifurcation.storage import SweepStore
-    from nsbench.jobs import check_limit
+    from nsbench.errors import ConfigError
+    from nsbench.jobs import check_count, check_limit
 
+    if not isinstance(spec, SweepSpec):
+        raise ConfigError(f"spec must be a SweepSpec, got {type(spec).__name__} {spec!r}"[:300])
+    if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise ConfigError(f"out = {out!r} must be the path of a sweep folder (a str or os.PathLike)"[:300])
+    check_count("workers", workers, 0)
+    check_count("chunk_size", chunk_size, 1, 1_000_000)
+    check_count("limit", limit, 0, 1_000_000)
     check_limit("point_limit", point_limit)
     check_limit("setup_limit", setup_limit)
     if dask is not None and workers is not None:
@@ -123,7 +133,10 @@ def run_sweep(
         from nsbench.bifurcation.storage import clear_sweep
 
         clear_sweep(out)
-    store = SweepStore(out, spec)
+    try:
+        store = SweepStore(out, spec)
+    except OSError as exc:  # a read-only or virtual file system (/proc): the argument, not a crash
+        raise ConfigError(f"out = {str(out)!r}: cannot create the sweep folder: {exc.strerror or exc}") from None
     store.discard_damaged()  # named on stderr, computed again below
     todo = store.missing()
     if limit is not None:

@@ -318,7 +318,9 @@ def run_suite(
         bar.close()
         if timeline:  # kept after an interruption too: where did the time go
             storage.write_timeline(out, timeline)
-    kept = storage.read_provenance(out, damaged_ok=True).get("timing") if not loads else None  # nothing timed: keep the last
+    kept = (
+        storage.read_provenance(out, damaged_ok=True).get("timing") if not loads else None
+    )  # nothing timed: keep the last
     prov["timing"] = kept or timing_provenance(suite, prov["workers"], loads)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
     bifurcations = None

@@ -41,6 +41,7 @@ WRITTEN = (
     "results.csv",
     "provenance.json",
     "timeline.csv",
+    "worker-errors.log",
     "report.md",
     "index.html",
     "table.tex",

@@ -21,8 +21,10 @@ import json
 import math
 import os
 import pickle
+import sys
 import threading
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from nsbench.bifurcation.sweep import (
@@ -144,6 +146,9 @@ def run_sweep(
     n_workers = workers if workers is not None else default_workers()
     parts = chunks(todo, n_workers if dask is None else 8, chunk_size)
     bar = Progress(len(todo), label=f"{spec.name}", enabled=progress)
+    from nsbench.jobs import WORKER_LOG, WorkerLog
+
+    log = WorkerLog(Path(out) / WORKER_LOG, f"the {spec.name} sweep with {spec.integrator}")
     try:
         if not parts:
             pass
@@ -158,12 +163,13 @@ def run_sweep(
 
             pool = shared_pool(n_workers)  # warm workers of an earlier sweep in this process are reused
             try:
-                supervise(pool, spec, parts, point_limit, setup_limit, store.write, bar.update)
+                supervise(pool, spec, parts, point_limit, setup_limit, store.write, bar.update, log)
             except BaseException:
                 drop_shared(pool)  # jobs were in flight: the next sweep starts with fresh workers
                 raise
     finally:
         bar.close()
+        log.report()
     return store.load()
 
 
@@ -175,6 +181,7 @@ def supervise(
     setup_limit: float | None,
     write: Callable[[Columns], Any],
     advance: Callable[[int], Any] = lambda n: None,
+    log: Any = None,
 ) -> None:
     """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
 
@@ -183,7 +190,8 @@ def supervise(
     A value that runs past ``point_limit``, crashes its process or raises is
     stored as one row with that status and reason, and the rest of its chunk
     goes on in a fresh process. A set-up that does so fails every value not yet
-    computed: it would fail again for each of them.
+    computed: it would fail again for each of them. The traceback of a job that raised
+    goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`), or, without one, to stderr.
     """
     from nsbench.jobs import Job
 
@@ -207,6 +215,13 @@ def supervise(
                 continue
             rest, rows = left[o.key], got.pop(o.key)
             left[o.key] = []
+            if o.detail:
+                which = f"value {rest[0]}" if len(rest) == 1 else f"values {rest[0]}..{rest[-1]}" if rest else "a job"
+                label = f"{which} ({o.stage or 'start'})"
+                if log is not None:
+                    log.add(label, o.reason, o.detail)
+                else:  # a Dask worker's own supervision: its log is its stderr
+                    print(o.detail, file=sys.stderr, end="", flush=True)
             if o.kind != "done" and rest:
                 status = {"failed": Status.ERROR.value}.get(o.kind, o.kind)  # "time limit", "crashed": Status values
                 if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
@@ -350,9 +365,10 @@ def locus_job(
     )
 
 
-def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
+def supervised(target: str, args: tuple, workers: int = 1, log: Any = None) -> tuple[Any, str]:
     """``(result, '')`` of the job ``target(*args)`` on the kept pool, or ``(None, reason)`` if it raised,
-    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only."""
+    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only.
+    The traceback of a job that raised goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`)."""
     from nsbench.jobs import Job, drop_shared, shared_pool
 
     pool = shared_pool(max(1, workers))
@@ -364,6 +380,8 @@ def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
                 result = o.value
             elif o.final:
                 reason = f"{o.kind}: {o.reason}"
+                if o.detail and log is not None:
+                    log.add(target, o.reason, o.detail)
     except BaseException:
         drop_shared(pool)
         raise

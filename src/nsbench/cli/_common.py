@@ -429,7 +429,9 @@ def shared_params(args: argparse.Namespace) -> dict[str, Any]:
         if name in params:
             raise ConfigError(f"--param {name} is given twice ({name}={params[name]!r} and {text!r}); give it once")
         if name in ("case", "dimensional"):  # get_problem's own arguments: a TypeError there
-            hint = "give --case instead" if name == "case" else "commands that take dimensional values have --dimensional"
+            hint = (
+                "give --case instead" if name == "case" else "commands that take dimensional values have --dimensional"
+            )
             raise ConfigError(f"--param {text}: {name} is not a parameter; {hint}")
         # the friction law is a name (coulomb, weakening, stribeck); every other parameter is a number
         params[name] = value.strip() if name == "law" else parse_number(value, f"parameter {name}")

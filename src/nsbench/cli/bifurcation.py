@@ -23,7 +23,16 @@ from nsbench.errors import ConfigError
 #: Step budget of one value's run (nsbench.bifurcation.sweep gives run_hybrid max_steps=50_000_000).
 SWEEP_MAX_STEPS = 50_000_000
 #: What the command writes in a sweep folder besides the store (``meta.json``, ``points/``).
-WRITTEN = ("features.csv", "candidates.csv", "compare.md", "agreement.csv", "diagram.*", "locus_*", "portrait_*")
+WRITTEN = (
+    "features.csv",
+    "candidates.csv",
+    "compare.md",
+    "agreement.csv",
+    "diagram.*",
+    "locus_*",
+    "portrait_*",
+    "worker-errors.log",
+)
 
 
 def add_parser(sub) -> None:
@@ -287,13 +296,17 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         if args.refine and len(cands):
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []
+            from nsbench.jobs import WORKER_LOG, WorkerLog
+
+            log = WorkerLog(out / WORKER_LOG, f"the refinements of the {spec.name} sweep")
             for r in cands.itertuples():
                 job = (spec.to_dict(), r.left, r.right, r.kind, point_limit, setup_limit)
-                found, why = supervised("refine_job", job, local_workers)
+                found, why = supervised("refine_job", job, local_workers, log)
                 if found is None:
                     print(f"  refinement of the {r.kind} change in [{r.left:.6g}, {r.right:.6g}] failed: {why}")
                     found = {"left": math.nan, "right": math.nan, "value": math.nan}
                 refined.append(found)
+            log.report()
             cands["refined_left"] = [r["left"] for r in refined]
             cands["refined_right"] = [r["right"] for r in refined]
             cands["refined_value"] = [r["value"] for r in refined]
@@ -396,13 +409,16 @@ def _portrait(
 
     tag = f"{spec.name}_{value:g}"
     # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
-    from nsbench.jobs import SETUP_LIMIT
+    from nsbench.jobs import SETUP_LIMIT, WORKER_LOG, WorkerLog
 
+    log = WorkerLog(out / WORKER_LOG, f"the locus and portrait at {tag}")
     run, why = supervised(
         "locus_job",
         (spec.to_dict(), value, pair, point_limit, SETUP_LIMIT if setup_limit is None else setup_limit),
         workers,
+        log,
     )
+    log.report()
     if run is None:
         print(f"  locus and portrait at {tag} failed: {why}")
         return

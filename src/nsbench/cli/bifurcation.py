@@ -238,7 +238,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     n_blocks = getattr(specs[0].problem_at(specs[0].start), "n_blocks", None)
     if args.pair is not None and n_blocks is None:
         raise ConfigError(f"--pair {args.pair} names blocks of a friction oscillator; {args.problem} has none")
-    if args.pair is not None and any(not 1 <= b <= n_blocks for b in pair):
+    if args.pair is not None and n_blocks is not None and any(not 1 <= b <= n_blocks for b in pair):
         raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {n_blocks}")
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
     low, high = sorted((specs[0].start, specs[0].stop))

@@ -65,6 +65,35 @@ def _resolve_integrator(integrator: Integrator | str, options: dict[str, Any] | 
     return integrator
 
 
+def _check_arguments(problem: Any, t_end: Any, t0: Any, options: Any) -> None:
+    """The argument types of :func:`simulate`, checked at its entry: a text ``t_end`` was read as a
+    number, and ``None`` for the problem ended in an ``AttributeError``."""
+    import numbers
+
+    if not isinstance(problem, HybridProblem):
+        raise ConfigError(
+            f"problem must be a problem from nsbench.get_problem (a HybridProblem), got "
+            f"{type(problem).__name__} {problem!r}"[:200]
+        )
+    for name, value in (("t_end", t_end), ("t0", t0)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ConfigError(f"{name} = {value!r} must be a number (a time), got {type(value).__name__}"[:200])
+        try:
+            float(value)
+        except OverflowError:
+            raise ConfigError(f"{name} = {str(value)[:20]}... is too large for a double") from None
+    if options is not None and not isinstance(options, dict):
+        raise ConfigError(f"options = {options!r} must be a dict of integrator options or None"[:200])
+
+
+def _as_array(value: Any, name: str) -> np.ndarray:
+    """``value`` (an iterable of numbers) as a float array; anything else is a :class:`ConfigError`."""
+    try:
+        return np.array(list(value), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ConfigError(f"{name} must be an iterable of numbers: {exc}") from None
+
+
 def _check_inputs(problem: HybridProblem, t0: float, t_end: float, y0: np.ndarray, t_eval: np.ndarray) -> None:
     if not (math.isfinite(t0) and math.isfinite(t_end)):
         raise ConfigError(f"time span [{t0}, {t_end}] must be finite")
@@ -639,15 +668,17 @@ def simulate(
     Raises
     ------
     ConfigError
-        Bad input (span, state, grid, unknown integrator or option) or an
+        Bad input (a problem that is not one, a time that is not a number, span, state, grid,
+        unknown integrator or option) or an
         integrator that refuses the problem.
     """
+    _check_arguments(problem, t_end, t0, options)
     _check_budgets(max_steps, max_events, zeno_events, zeno_span, accumulation)
     if check_points is not None:
         _check_points(check_points)
     integ = _resolve_integrator(integrator, options)
-    y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
-    grid = np.empty(0) if t_eval is None else np.asarray(list(t_eval), dtype=float).ravel()
+    y = problem.initial_state() if y0 is None else _as_array(y0, "y0")
+    grid = np.empty(0) if t_eval is None else _as_array(t_eval, "t_eval").ravel()
     t0, t_end = float(t0), float(t_end)
     _check_inputs(problem, t0, t_end, y, grid)
     state_sections = tuple(s for s in sections if isinstance(s, StateSection))

@@ -69,6 +69,8 @@ class Outcome:
         ``reason``), ``time limit`` (its step ``stage`` ran past its limit; the
         worker was ended) or ``crashed`` (the worker died during ``stage``:
         ``reason`` names the signal or exit code).
+    detail
+        A failed job's traceback, for the caller's log file (never printed by the worker).
     """
 
     key: Hashable
@@ -76,6 +78,7 @@ class Outcome:
     value: Any = None
     stage: str = ""
     reason: str = ""
+    detail: str = ""
 
     @property
     def final(self) -> bool:
@@ -281,7 +284,7 @@ class JobPool:
             if isinstance(m, msg.Done):
                 yield Outcome(job.key, "done", m.result, stage)
             else:
-                yield Outcome(job.key, "failed", None, stage, m.error)
+                yield Outcome(job.key, "failed", None, stage, m.error, m.detail)
 
     def _lost(self, slot: _Slot) -> Iterator[Outcome]:
         job, stage = (None, "") if slot.preparing else (slot.job, slot.stage)
@@ -352,6 +355,76 @@ def check_limit(what: str, seconds: float | None) -> None:
 
     if seconds is not None and not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds > 0):
         raise ConfigError(f"{what} = {seconds!r} must be a finite number of seconds > 0, or None")
+
+
+#: Name of the log of worker tracebacks in an output folder.
+WORKER_LOG = "worker-errors.log"
+
+
+class WorkerLog:
+    """Tracebacks of the jobs that raised, appended to a log file; one line on stderr at the end.
+
+    A worker prints nothing on the terminal it shares with the command: a plug-in whose ``setup``
+    raises in every worker gave one traceback per worker before the command's clean outcome. The
+    log is ``path`` (in the output folder), or, when the command has no output folder, a new
+    temporary file named in the line.
+    """
+
+    def __init__(self, path: str | os.PathLike | None, what: str) -> None:
+        self.path = None if path is None else os.fspath(path)
+        self.what = what
+        self.count = 0
+        self.first = ""
+
+    def add(self, label: str, reason: str, detail: str) -> None:
+        """Record one failure (``label`` names the job, ``reason`` is its one-line error)."""
+        import tempfile
+
+        if not detail:
+            return
+        if self.path is None:
+            fd, self.path = tempfile.mkstemp(prefix="nsbench-worker-errors-", suffix=".log")
+            os.close(fd)
+        self.count += 1
+        self.first = self.first or reason
+        text = f"--- {time.strftime('%Y-%m-%d %H:%M:%S')} {self.what}, {label}: {reason}\n{detail}\n"
+        try:  # never through a link (the rule of every file nsbench writes in an output folder)
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+            with os.fdopen(fd, "a", encoding="utf-8") as f:
+                f.write(text)
+        except OSError as exc:  # the log is an aid: its failure must not end the command
+            self.first += f" (log {self.path} not written: {exc.strerror or exc})"
+
+    def report(self, stream: Any = None) -> None:
+        """One line on ``stream`` (stderr) if anything was logged."""
+        import sys
+
+        if self.count:
+            print(
+                f"nsbench: warning: {self.count} worker job(s) of {self.what} raised ({self.first}); "
+                f"tracebacks in {self.path}",
+                file=stream or sys.stderr,
+                flush=True,
+            )
+
+
+#: Most worker processes an API call takes (the command line's ``--workers`` bound).
+MAX_WORKERS = 1024
+
+
+def check_count(what: str, value: object, low: int, high: int = MAX_WORKERS, none: bool = True) -> None:
+    """A count argument of the API (workers, chunk size, limit) must be a whole number in ``[low, high]``
+    (or ``None`` when ``none``); ``ConfigError`` naming it otherwise, where ``-1`` was silently read as 1
+    and ``0`` ended in a ``ValueError`` from deep inside."""
+    import numbers
+
+    from nsbench.errors import ConfigError
+
+    if value is None and none:
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+        allowed = f"a whole number from {low} to {high}" + (", or None" if none else "")
+        raise ConfigError(f"{what} = {value!r} must be {allowed}"[:300])
 
 
 def worker_cpu_seconds() -> float:

@@ -251,6 +251,11 @@ def test_a_range_lists_commits_oldest_first(tmp_path):
 
     with pytest.raises(ConfigError, match="names no commit"):
         history.revisions(repo, f"{shas[2]}..{shas[2]}")
+    # one name is no range (issue 52: the help asks for A..B; HEAD alone ran as a list of one);
+    # the range the message proposes runs that commit alone
+    with pytest.raises(ConfigError, match=r"--commits 'HEAD' is one commit, not a range A\.\.B.*HEAD~1\.\.HEAD"):
+        history.revisions(repo, "HEAD")
+    assert history.revisions(repo, "HEAD~1..HEAD") == [shas[2]]
 
 
 def test_a_filter_that_matches_nothing_and_an_empty_machine_name_are_refused(store, tmp_path):

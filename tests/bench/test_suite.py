@@ -338,3 +338,20 @@ def test_a_skipped_level_is_counted_from_the_grid_when_there_is_one():
                 "integrators": {"only": ["scipy-rk45"], "grids": grid, "skip_levels": {"scipy-rk45": {"levels": [2]}}},
             }
         )
+
+
+def test_a_suite_with_no_case_to_run_is_refused_when_expanded():
+    # issue 52 item 6: every level skipped ran nothing and ended in KeyError 'problem_label'
+    suite = Suite.from_dict(
+        {
+            "t_span": [0.0, 1.0],
+            "problems": [{"name": "one-dof", "case": 1}],
+            "integrators": {
+                "only": ["henon-rk4"],
+                "grids": {"henon-rk4": {"grid": {"h": [0.01, 0.005]}}},
+                "skip_levels": {"henon-rk4": {"levels": [0, 1], "reason": "both"}},
+            },
+        }
+    )
+    with pytest.raises(ConfigError, match="the suite has no case to run: integrators.skip_levels skips every level"):
+        suite.cases()

@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -446,3 +447,51 @@ def test_a_sweep_never_writes_or_deletes_through_a_link(tmp_path, capsys):
     ]
     assert main(argv) == 2 and "features.csv is a symbolic link" in capsys.readouterr().err
     assert mine.read_text() == "precious"
+
+
+# ------------------------------------------------------------------------ a plug-in whose setup raises
+@pytest.fixture
+def broken_setup_registered():
+    registry.register("integrators", faulty.BrokenSetup.name, faulty.BrokenSetup)
+    yield
+    registry.unregister("integrators", faulty.BrokenSetup.name)
+
+
+def _stderr_lines(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line.strip()]
+
+
+def test_a_setup_that_raises_leaves_its_tracebacks_in_a_log_and_one_line_on_stderr(
+    tmp_path, broken_setup_registered, capfd
+):
+    # issue 52 item 6: each worker printed its traceback (3-4 of them) before the clean outcome
+    from nsbench.cli import main
+
+    out = tmp_path / "s"
+    argv = ["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:3", "--integrator", faulty.BrokenSetup.name]
+    argv += ["--transient", "10", "--record", "2", "--workers", "2", "--formats", "png", "--out", str(out)]
+    assert main([*argv, "--no-progress"]) == 0
+    err = capfd.readouterr().err  # the file descriptor: the workers' own stderr is the command's
+    assert "Traceback" not in err
+    (line,) = _stderr_lines(err)
+    assert line.startswith("nsbench: warning: ") and "RuntimeError: plug-in bug in setup" in line
+    assert str(out / "worker-errors.log") in line
+    log = (out / "worker-errors.log").read_text()
+    assert "Traceback (most recent call last)" in log and "plug-in bug in setup" in log
+    frame = SweepStore(out).load()
+    assert len(frame) == 3 and (frame["status"] == "error").all()
+
+
+def test_a_lyapunov_setup_that_raises_logs_its_tracebacks(tmp_path, broken_setup_registered, capfd):
+    from nsbench.cli import main
+
+    out = tmp_path / "ly.csv"
+    argv = ["lyapunov", "two-dof", "--case", "2", "--iterations", "80", "--members", "4", "--transient", "10"]
+    assert main([*argv, "--integrator", faulty.BrokenSetup.name, "--workers", "2", "--out", str(out)]) == 1
+    err = capfd.readouterr().err
+    assert "Traceback" not in err
+    lines = _stderr_lines(err)
+    # the log's line, then the failed run's own line
+    assert len(lines) == 2 and f"tracebacks in {out}.worker-errors.log" in lines[0], err
+    assert lines[1].startswith("nsbench: lyapunov: no exponent")
+    assert Path(f"{out}.worker-errors.log").read_text().count("plug-in bug in setup") >= 4

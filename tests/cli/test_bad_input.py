@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import socket
 import subprocess
@@ -84,6 +85,11 @@ SUITES = {
     "exclude_int": 'integrators = {exclude = 5}\nproblems = [{name = "one-dof"}]\n',
     "skip_int": 'integrators = {skip_levels = 5}\nproblems = [{name = "one-dof"}]\n',
     "registered_str": 'integrators = {registered = "yes"}\nproblems = [{name = "one-dof"}]\n',
+    # issue 52 item 6: both ended in KeyError 'problem_label' after a run of nothing
+    "registered_false_only_empty": 'integrators = {registered = false, only = []}\nproblems = [{name = "one-dof"}]\n',
+    "every_level_skipped": 'problems = [{name = "one-dof", case = 1}]\n[integrators]\nonly = ["henon-rk4"]\n'
+    "[integrators.grids.henon-rk4]\ngrid = {h = [0.01, 0.005]}\n"
+    '[integrators.skip_levels.henon-rk4]\nlevels = [0, 1]\nreason = "both skipped"\n',
     "malformed": "problems = [\n",
     "deeply_nested": "problems = " + "[" * 5000 + "]" * 5000 + "\n",  # tomllib recurses: once a RecursionError
     # 1000 x 1000 x 1000 problems: must be refused from the counts, never expanded
@@ -127,6 +133,8 @@ def d(tmp_path_factory):
     ingest(root / "good1.json", root / "res1")
     ingest(root / "good2.json", root / "res2")
     (root / "emptydir").mkdir()
+    (root / "casesfile").mkdir()
+    (root / "casesfile" / "cases").write_text("not a folder")  # a worker's FileExistsError (issue 52)
     (root / "otherdir").mkdir()
     (root / "otherdir" / "notes.txt").write_text("another tool's folder")
     (root / "garbage.csv").write_text("a,b\n1,2\n")
@@ -191,6 +199,7 @@ P = [
     "{d}/paper",
 ]
 R = ["compare", "{d}/res1", "{d}/res1"]
+B2 = ["bifurcation", "two-dof", "--sweep", "v0=0.5:1.0:2", "--transient", "10", "--record", "4", "--out", "{d}/b2"]
 C = [
     "continuation",
     "two-dof",
@@ -388,6 +397,52 @@ CASES = [
             "{d}/bif2",
         ],
         "--pair 1,9",
+    ),
+    # ---- issue 52 items 5, 6 and 12: accepted in silence, or a traceback
+    ("bifurcation-pair-out-of-range-alone", B2 + ["--pair", "1,9"], "--pair 1,9: two-dof has blocks 1 to 2"),
+    (
+        "bifurcation-pair-one-block-twice",
+        B2 + ["--pair", "1,1", "--portrait", "0.7"],
+        "--pair 1,1: the locus needs two different blocks",
+    ),
+    (
+        "bifurcation-portrait-outside-the-sweep",
+        B2 + ["--portrait", "5"],
+        "--portrait 5 lies outside the swept range v0 = 0.5 to 1",
+    ),
+    (
+        "bifurcation-integrator-twice",
+        B + ["--integrator", "exact", "--integrator", "exact"],
+        "--integrator exact is given twice; give each integrator once",
+    ),
+    (
+        "bifurcation-whole-system-after-exact",
+        B + ["--integrator", "exact", "--integrator", "moreau-jean"],
+        "moreau-jean is a whole-system method",
+    ),
+    ("bifurcation-sweep-case", B + ["--case", "1", "--sweep", "case=1:2:3"], "case is not a parameter"),
+    ("bifurcation-param-case", B + ["--param", "case=2"], "--param case=2: case is not a parameter"),
+    ("simulate-param-dimensional", S + ["--param", "dimensional=1"], "dimensional is not a parameter"),
+    (
+        "history-run-one-commit",
+        ["history", "run", "--repo", "{d}", "--commits", "HEAD", "--store", "{d}/hist"],
+        "--commits 'HEAD' is one commit, not a range A..B",
+    ),
+    ("version-and-more", ["--version", "extra"], "--version takes no other argument, got 'extra'"),
+    (
+        "bench-out-cases-is-a-file",
+        ["bench", "{d}/light.toml", "--out", "{d}/casesfile"],
+        "casesfile/cases' is a file, not the folder of stored cases",
+    ),
+    (
+        "bench-suite-every-level-skipped-message",
+        ["bench", "{d}/every_level_skipped.toml", "--out", "{d}/bo"],
+        "the suite has no case to run: integrators.skip_levels skips every level of henon-rk4",
+    ),
+    (
+        "bench-suite-registered-false-only-empty-message",
+        ["bench", "{d}/registered_false_only_empty.toml", "--out", "{d}/bo"],
+        "suite field 'integrators.only' is empty",
     ),
     ("bifurcation-formats-xyz", B + ["--formats", "xyz"], "--formats"),
     ("bifurcation-out-file", B + ["--out", "{d}/afile"], "it is a file"),
@@ -740,6 +795,132 @@ def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite
     ):
         with pytest.raises(ConfigError):
             call()
+
+
+# ---------------------------------------------------------------------- the API's bad arguments
+def _light_suite() -> dict:
+    return {"t_span": [0.0, 1.0], "problems": [{"name": "one-dof", "case": 1}], "integrators": {"only": ["exact"]}}
+
+
+def _sweep_spec():
+    from nsbench.bifurcation.sweep import SweepSpec
+
+    return SweepSpec(problem="two-dof", case=1, name="v0", start=0.5, stop=1.0, count=2, transient=10.0, record=4)
+
+
+def _api_calls(tmp: str) -> list[tuple[str, object, str]]:
+    """(id, call, fragment of the ConfigError) of issue 52 item 5: each was accepted in silence, or
+    ended in a plain TypeError, ValueError, OverflowError, AttributeError or FileNotFoundError."""
+    import nsbench
+    from nsbench.bench.runner import run_suite
+    from nsbench.bifurcation.parallel import run_sweep
+
+    p = nsbench.get_problem("two-dof", case=1)
+    return [
+        ("simulate-t-end-text", lambda: nsbench.simulate(p, "henon-rk4", "5"), "t_end = '5' must be a number"),
+        ("simulate-t-end-huge", lambda: nsbench.simulate(p, "exact", 10**400), "t_end = 1000"),
+        ("simulate-problem-none", lambda: nsbench.simulate(None, "exact", 5.0), "problem must be a problem from"),
+        ("simulate-y0-text", lambda: nsbench.simulate(p, "exact", 5.0, y0="abcd"), "y0 must be an iterable"),
+        ("simulate-options-list", lambda: nsbench.simulate(p, "exact", 5.0, options=[1]), "options = [1]"),
+        ("get-problem-int", lambda: nsbench.get_problem(5), "problem name must be a string"),
+        (
+            "get-problem-dimensional-text",
+            lambda: nsbench.get_problem("two-dof", dimensional="yes"),
+            "dimensional = 'yes' must be True or False",
+        ),
+        ("get-problem-huge-int", lambda: nsbench.get_problem("two-dof", v0=10**400), "parameter v0 = 1000"),
+        (
+            "integrator-config-top-level-h",
+            lambda: nsbench.integrator_from_config({"name": "henon-rk4", "h": math.nan}),
+            "unknown key(s) 'h'",
+        ),
+        (
+            "run-suite-workers-negative",
+            lambda: run_suite(_light_suite(), f"{tmp}/rs", workers=-1, progress=False),
+            "workers = -1 must be a whole number from 1 to 1024",
+        ),
+        (
+            "run-suite-out-proc",
+            lambda: run_suite(_light_suite(), "/proc/x", progress=False),
+            "out = '/proc/x': cannot create the results folder",
+        ),
+        ("run-suite-out-int", lambda: run_suite(_light_suite(), 5, progress=False), "out = 5 must be the path"),
+        (
+            "run-sweep-chunk-size-zero",
+            lambda: run_sweep(_sweep_spec(), f"{tmp}/sw", chunk_size=0, workers=0, progress=False),
+            "chunk_size = 0 must be a whole number from 1",
+        ),
+        (
+            "run-sweep-workers-negative",
+            lambda: run_sweep(_sweep_spec(), f"{tmp}/sw", workers=-1, progress=False),
+            "workers = -1 must be a whole number from 0 to 1024",
+        ),
+        (
+            "run-sweep-out-proc",
+            lambda: run_sweep(_sweep_spec(), "/proc/x", workers=0, progress=False),
+            "out = '/proc/x': cannot create the sweep folder",
+        ),
+        ("run-sweep-spec-dict", lambda: run_sweep({"problem": "two-dof"}, f"{tmp}/sw"), "spec must be a SweepSpec"),
+    ]
+
+
+API_IDS = [
+    "simulate-t-end-text",
+    "simulate-t-end-huge",
+    "simulate-problem-none",
+    "simulate-y0-text",
+    "simulate-options-list",
+    "get-problem-int",
+    "get-problem-dimensional-text",
+    "get-problem-huge-int",
+    "integrator-config-top-level-h",
+    "run-suite-workers-negative",
+    "run-suite-out-proc",
+    "run-suite-out-int",
+    "run-sweep-chunk-size-zero",
+    "run-sweep-workers-negative",
+    "run-sweep-out-proc",
+    "run-sweep-spec-dict",
+]
+
+
+@pytest.mark.parametrize("name", API_IDS)
+def test_bad_api_arguments_are_config_errors_naming_them(name, tmp_path):
+    from nsbench.errors import ConfigError
+
+    calls = {i: (call, fragment) for i, call, fragment in _api_calls(str(tmp_path))}
+    assert sorted(calls) == sorted(API_IDS)
+    call, fragment = calls[name]
+    with pytest.raises(ConfigError) as info:  # nothing else: a plain TypeError etc. fails the test
+        call()
+    assert fragment in str(info.value)
+    assert not (tmp_path / "rs").exists() and not (tmp_path / "sw").exists()  # refused before any work
+
+
+def test_every_integrator_is_checked_before_the_first_value(d, capsys):
+    # issue 52 item 12: the whole exact sweep ran (29 s), then moreau-jean was refused with exit 2
+    out = f"{d}/bif-12"
+    argv = B + ["--integrator", "exact", "--integrator", "moreau-jean", "--out", out]
+    assert main(_argv(argv, d)) == 2
+    assert "moreau-jean is a whole-system method" in _one_error_line(capsys)
+    assert not os.path.exists(out)  # nothing ran, nothing was written
+
+
+def test_a_truncated_provenance_is_named_by_report_and_rewritten_by_the_resume(d, tmp_path, capsys):
+    # issue 52 item 6: a traceback in report and in the resume, which blocked the folder for good
+    out = tmp_path / "b"
+    assert main(["bench", f"{d}/light.toml", "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    prov = out / "provenance.json"
+    prov.write_text(prov.read_text()[:40])
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert "provenance.json' is damaged" in line and "resuming the run (nsbench bench SUITE --out" in line
+    assert main(["bench", f"{d}/light.toml", "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "provenance.json is damaged" in err
+    assert json.loads(prov.read_text())["suite"]["integrators"] == {"only": ["exact"]}  # written again
+    assert main(["report", str(out)]) == 0
 
 
 # ---------------------------------------------------------------------- the generated sweep

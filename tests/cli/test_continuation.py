@@ -82,3 +82,25 @@ def test_bad_input_is_one_line(argv, message, capsys, tmp_path):
     assert code == 2
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()  # nothing written before the input is checked
+
+
+def test_a_plugin_whose_setup_raises_is_one_line_not_a_traceback(tmp_path, capsys):
+    # issue 52 item 6: the set-up's RuntimeError ended the command with a traceback
+    from nsbench import registry
+    from tests.bench import _integrators as faulty
+
+    registry.register("integrators", faulty.BrokenSetup.name, faulty.BrokenSetup)
+    try:
+        argv = ["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--steps", "2"]
+        code = main([*argv, "--integrator", faulty.BrokenSetup.name, "--out", str(tmp_path / "c"), "--no-progress"])
+    finally:
+        registry.unregister("integrators", faulty.BrokenSetup.name)
+    assert code == 1  # a failed run (the plug-in's fault), not refused input
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    (line,) = [ln for ln in err.splitlines() if ln.strip()]
+    assert line == (
+        f"nsbench: continuation: {faulty.BrokenSetup.name} failed in its set-up on two-dof: "
+        "RuntimeError: plug-in bug in setup"
+    )
+    assert not (tmp_path / "c").exists()  # nothing was written

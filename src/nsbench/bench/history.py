@@ -349,6 +349,11 @@ def revisions(repo: str | Path, spec: str) -> list[str]:
         raise ConfigError(f"--repo {str(repo)!r} is not a folder")
     if not spec.strip():
         raise ConfigError("--commits expects a range A..B or SHA,SHA,..., got ''")
+    if ".." not in spec and "," not in spec:  # one name: a history of one commit is no range
+        raise ConfigError(
+            f"--commits {spec!r} is one commit, not a range A..B or a list SHA,SHA,...; "
+            f"for that commit alone give {spec}~1..{spec}"
+        )
     if ".." in spec:
         shas = _git(repo, "rev-list", "--reverse", "--topo-order", spec).split()
     else:

@@ -149,10 +149,15 @@ class Done:
 
 @dataclass(frozen=True)
 class Failed:
-    """A task raised an exception that the task itself did not turn into a result (a bug)."""
+    """A task raised an exception that the task itself did not turn into a result (a bug).
+
+    ``detail`` is its traceback: the parent writes it to a log file in the output folder and says
+    so in one line (a worker prints nothing of its own on the terminal it shares with the command).
+    """
 
     task: int
     error: str
+    detail: str = ""
 
 
 @dataclass(frozen=True)

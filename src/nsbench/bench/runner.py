@@ -39,6 +39,7 @@ from nsbench.bench.reference import (
 )
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
 from nsbench.bench.suite import Case, Suite, load_suite
+from nsbench.errors import ConfigError
 from nsbench.status import Status
 
 
@@ -79,6 +80,8 @@ class RunSummary:
     @property
     def reference_failures(self) -> dict[str, str]:
         """Problem label -> why its reference run failed (raised, failed or crashed)."""
+        if "reference_status" not in self.results:  # no row at all
+            return {}
         bad = self.results[self.results["reference_status"].map(failed_status)]
         return dict(zip(bad["problem_label"], bad["reference_status"]))
 
@@ -174,7 +177,15 @@ def _with_reference(row: dict[str, Any], ref: Reference) -> dict[str, Any]:
 
 def _warn_other_version(out: Path, prov: dict[str, Any], err: TextIO) -> None:
     """One line when the stored cases come from another nsbench (version or commit): resuming mixes them."""
-    old = storage.read_provenance(out)
+    try:
+        old = storage.read_provenance(out)
+    except ConfigError:  # truncated or edited: this run writes it again from the stored cases
+        print(
+            f"nsbench: warning: {out / 'provenance.json'} is damaged; the stored cases are kept and "
+            "checked as usual, and the file is written again at the end of this run",
+            file=err,
+        )
+        return
     keys = ("version_nsbench", "git_commit")
     if old and any(old.get(k) != prov.get(k) for k in keys if old.get(k) is not None):
         was = ", ".join(f"{k} {old.get(k)}" for k in keys if old.get(k) is not None)
@@ -205,8 +216,8 @@ def run_suite(
     out
         Output directory (see :mod:`nsbench.bench.storage` for its layout).
     workers
-        Worker processes (default: all cores). With 1, the cases still run in one
-        child process (so that the time limit can stop them).
+        Worker processes, a whole number from 1 to 1024 (default: all cores). With 1,
+        the cases still run in one child process (so that the time limit can stop them).
     resume
         Keep the cases already stored in ``out`` (default); ``False`` discards them first.
     progress, stream
@@ -218,14 +229,16 @@ def run_suite(
         Counts, the results, and :attr:`RunSummary.ok`: ``False`` when a case
         crashed or a reference could not be computed (the CLI then exits with 1).
     """
+    from nsbench.jobs import check_count
     from nsbench.provenance import provenance
 
+    check_count("workers", workers, 1)
     err = stream or sys.stderr
     suite = load_suite(suite)
-    out = Path(out)
+    out = storage.check_out(out)
     if not resume:
         storage.clear_cases(out)
-    out.mkdir(parents=True, exist_ok=True)
+    storage.make_out(out)
     cases = list({c.case_id: c for c in suite.cases()}.values())
     prov = {**provenance(), "suite": suite.to_dict(), **(provenance_extra or {})}
     for name, reason in suite.unavailable().items():
@@ -305,7 +318,9 @@ def run_suite(
         bar.close()
         if timeline:  # kept after an interruption too: where did the time go
             storage.write_timeline(out, timeline)
-    kept = storage.read_provenance(out).get("timing") if not loads else None  # nothing timed: keep the last
+    kept = (
+        storage.read_provenance(out, damaged_ok=True).get("timing") if not loads else None
+    )  # nothing timed: keep the last
     prov["timing"] = kept or timing_provenance(suite, prov["workers"], loads)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
     bifurcations = None

@@ -188,6 +188,10 @@ class Scheduler:
         self.on_phase = on_phase or (lambda text: None)
         self.on_extra = on_extra or (lambda case: None)
         self.hello, self.suite = hello, suite
+        from nsbench.jobs import WORKER_LOG, WorkerLog
+
+        #: the tracebacks of tasks that raised, in the output folder (a worker prints nothing itself)
+        self.log = WorkerLog(os.path.join(hello.out, WORKER_LOG), f"suite {suite}")
         self.slots = [_Slot(i) for i in range(max(1, workers))]
         self.timing = False  # the phase: False while preparing
         self.timeline: list[TaskRecord] = []
@@ -216,6 +220,8 @@ class Scheduler:
             self._drain()
             self._end_all()
             raise
+        finally:
+            self.log.report()
         for slot in self.slots:  # every worker asked first, so that they end together
             if slot.worker is not None:
                 slot.worker.ask_to_stop()
@@ -407,6 +413,8 @@ class Scheduler:
         slot.task, slot.deadline = None, math.inf
         failed = isinstance(message, msg.Failed)
         self._close_record(slot, "failed" if failed else "done")
+        if isinstance(message, msg.Failed):
+            self.log.add(f"{kind} task", message.error, message.detail)
         if kind == "reference":
             self._refs_pending -= 1
             ref = _failed_reference(payload, f"its run raised {message.error}") if failed else message.result

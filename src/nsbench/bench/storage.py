@@ -41,6 +41,7 @@ WRITTEN = (
     "results.csv",
     "provenance.json",
     "timeline.csv",
+    "worker-errors.log",
     "report.md",
     "index.html",
     "table.tex",
@@ -54,6 +55,32 @@ WRITTEN = (
     "*.tmp",
 )
 WRITTEN_FOLDERS = ("cases", "references", "figures", "bifurcation_targets", "bifurcation_references")
+
+
+def check_out(out: Any) -> Path:
+    """``out`` as a :class:`~pathlib.Path`, refused (``ConfigError`` naming it) when it is not a path,
+    is a file, or holds a ``cases`` entry that is not a folder (a worker's ``FileExistsError`` later)."""
+    if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise ConfigError(f"out = {out!r} must be the path of a results folder (a str or os.PathLike)"[:300])
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"out = {str(path)!r} is a file; give a folder")
+    cases = path / "cases"
+    if (cases.exists() or cases.is_symlink()) and not cases.is_dir():
+        raise ConfigError(
+            f"{str(cases)!r} is a file, not the folder of stored cases: {str(path)!r} is not an nsbench "
+            "results folder; choose another out"
+        )
+    return path
+
+
+def make_out(out: Path) -> None:
+    """Create the results folder ``out``; an ``OSError`` (a read-only or virtual file system such as
+    ``/proc``) is a ``ConfigError`` naming it."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"out = {str(out)!r}: cannot create the results folder: {exc.strerror or exc}") from None
 
 
 def check_no_links(out: str | Path) -> None:
@@ -386,12 +413,30 @@ def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> set[str]:
     return short
 
 
-def read_provenance(path: str | Path) -> dict[str, Any]:
-    """The provenance stored in a Parquet file, a CSV export, or an output directory."""
+def read_provenance(path: str | Path, damaged_ok: bool = False) -> dict[str, Any]:
+    """The provenance stored in a Parquet file, a CSV export, or an output directory.
+
+    A folder's ``provenance.json`` that is not a JSON table (a truncated write, an edit) is a
+    ``ConfigError`` saying how to rebuild it, or, with ``damaged_ok`` (a run's resume, which
+    rewrites it from the stored cases), read as empty.
+    """
     p = Path(path)
     if p.is_dir():
         prov = p / "provenance.json"
-        return json.loads(prov.read_text()) if prov.exists() else {}
+        if not prov.exists():
+            return {}
+        try:
+            value = json.loads(prov.read_text(encoding="utf-8"))
+            if not isinstance(value, dict):
+                raise ValueError(f"a JSON {type(value).__name__}, not a table")
+        except ValueError as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+            if damaged_ok:
+                return {}
+            raise ConfigError(
+                f"{str(prov)!r} is damaged ({str(exc).splitlines()[0][:80]}): resuming the run "
+                f"(nsbench bench SUITE --out {str(p)!r}) rewrites it from the stored cases"
+            ) from None
+        return value
     if p.suffix == ".csv":
         meta, _ = _split_csv(p.read_text())
         return {k: v for k, v in meta.items() if k not in (CSV_ROWS, CSV_SHA256)}

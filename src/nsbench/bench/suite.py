@@ -675,11 +675,21 @@ class Suite:
         Raises
         ------
         ConfigError
-            A bad problem or integrator setting, or more than :data:`MAX_CASES` cases.
+            A bad problem or integrator setting, more than :data:`MAX_CASES` cases, or none
+            (every level skipped, every integrator excluded or unavailable).
         """
         self.check_size()
         problems = self.problem_spans()
         plan = [(name, self.option_sets(name)) for name in self.integrator_names()]
+        if not any(sets for _, sets in plan):  # nothing to run: refused here, not a KeyError after the run
+            skipped = [name for name, _ in plan]
+            why = (
+                f"integrators.skip_levels skips every level of {', '.join(skipped)}"
+                if skipped
+                else "every integrator is excluded or unavailable here"
+                + "".join(f"; {n}: {r}" for n, r in self._unavailable.items())
+            )
+            raise ConfigError(f"the suite has no case to run: {why}; keep at least one level of one integrator")
         out = []
         for problem, (t0, t_end) in problems:
             for name, sets in plan:

@@ -144,9 +144,8 @@ def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
         except KeyboardInterrupt:
             msg.write_message(out, msg.Interrupted(task.task))
             continue
-        except Exception as exc:  # a bug outside the task's own guard: report it, keep serving
-            traceback.print_exc()
-            msg.write_message(out, msg.Failed(task.task, f"{type(exc).__name__}: {exc}"))
+        except Exception as exc:  # a bug outside the task's own guard: report it (with its traceback), keep serving
+            msg.write_message(out, msg.Failed(task.task, f"{type(exc).__name__}: {exc}", traceback.format_exc()))
             continue
         msg.write_message(out, msg.Done(task.task, result))
 

@@ -56,6 +56,7 @@ are compiled end to end, the fastest).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -359,12 +360,13 @@ def _lost_member(reason: str) -> _Member:
     return _Member(np.empty(0), np.empty(0), math.nan, 0, reason)
 
 
-def _run_members(integ, problem, integrator, options, seeds, params, workers, limit) -> list[_Member]:
+def _run_members(integ, problem, integrator, options, seeds, params, workers, limit, log_path=None) -> list[_Member]:
     if workers == 0:
         return [_run_member(integ, problem, np.random.default_rng(s), **params) for s in seeds]
-    from nsbench.jobs import Job, JobPool
+    from nsbench.jobs import Job, JobPool, WorkerLog
 
     done: dict[int, _Member] = {}
+    log = WorkerLog(log_path, f"the Lyapunov members with {integrator}")
     with JobPool(min(workers, len(seeds))) as pool:
         for i, s in enumerate(seeds):
             pool.submit(Job(i, f"{__name__}:member_job", (problem, integrator, options, i, s, params, limit)))
@@ -373,6 +375,8 @@ def _run_members(integ, problem, integrator, options, seeds, params, workers, li
                 done[o.key] = o.value
             elif o.final:  # time limit, crash, or an exception the member did not turn into a message
                 done[o.key] = _lost_member(f"{o.kind}: {o.reason}")
+                log.add(f"member {o.key} ({o.stage or 'start'})", o.reason, o.detail)
+    log.report()
     return [done[i] for i in range(len(seeds))]
 
 
@@ -396,6 +400,7 @@ def largest_exponent(
     confidence: float = 0.95,
     workers: int = 1,
     member_limit: float | None = MEMBER_LIMIT,
+    worker_log: str | os.PathLike | None = None,
 ) -> LyapunovResult:
     """Ensemble Benettin estimate of the largest Lyapunov exponent of the mapping points of ``problem``.
 
@@ -442,6 +447,9 @@ def largest_exponent(
         Hard limit in seconds of one member's run in a worker (``None``: none):
         past it the worker is ended and the member counts as failed, with the
         reason; the other members go on. A crashed worker costs only its member.
+    worker_log
+        File the tracebacks of members that raised are appended to (default: a new
+        temporary file); one line on stderr names it. Nothing is printed by the workers.
 
     Returns
     -------
@@ -475,7 +483,9 @@ def largest_exponent(
     members, per_member = int(members), int(iterations // members)
     seeds = np.random.SeedSequence(int(seed)).spawn(members)
     params = dict(iterations=per_member, transient=transient, window=window, d0=d0, spread=spread, align=int(align))
-    runs = _run_members(integ, problem, integrator, dict(options or {}), seeds, params, workers, member_limit)
+    runs = _run_members(
+        integ, problem, integrator, dict(options or {}), seeds, params, workers, member_limit, worker_log
+    )
     return _result(runs, per_member, int(seed), tol, confidence)
 
 

@@ -21,8 +21,10 @@ import json
 import math
 import os
 import pickle
+import sys
 import threading
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from nsbench.bifurcation.sweep import (
@@ -94,12 +96,14 @@ def run_sweep(
     Parameters
     ----------
     workers
-        Local worker processes (default: every core). ``0`` computes in this
+        Local worker processes, 0 to 1024 (default: every core). ``0`` computes in this
         process, without hard limits (for debugging and profiling).
     dask
         Address of a Dask scheduler (``tcp://host:port``) or a ``distributed.Client``;
         replaces local processes. Each Dask worker runs its chunks in a
         supervised process of its own, under the same limits.
+    chunk_size
+        Values per job, a whole number >= 1 (default: about six jobs per worker, at most 16 values each).
     limit
         Compute at most this many missing values (then stop; a rerun resumes).
     point_limit, setup_limit
@@ -110,8 +114,16 @@ def run_sweep(
         a rerun resumes, computing only the missing values.
     """
     from nsbench.bifurcation.storage import SweepStore
-    from nsbench.jobs import check_limit
+    from nsbench.errors import ConfigError
+    from nsbench.jobs import check_count, check_limit
 
+    if not isinstance(spec, SweepSpec):
+        raise ConfigError(f"spec must be a SweepSpec, got {type(spec).__name__} {spec!r}"[:300])
+    if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise ConfigError(f"out = {out!r} must be the path of a sweep folder (a str or os.PathLike)"[:300])
+    check_count("workers", workers, 0)
+    check_count("chunk_size", chunk_size, 1, 1_000_000)
+    check_count("limit", limit, 0, 1_000_000)
     check_limit("point_limit", point_limit)
     check_limit("setup_limit", setup_limit)
     if dask is not None and workers is not None:
@@ -123,7 +135,10 @@ def run_sweep(
         from nsbench.bifurcation.storage import clear_sweep
 
         clear_sweep(out)
-    store = SweepStore(out, spec)
+    try:
+        store = SweepStore(out, spec)
+    except OSError as exc:  # a read-only or virtual file system (/proc): the argument, not a crash
+        raise ConfigError(f"out = {str(out)!r}: cannot create the sweep folder: {exc.strerror or exc}") from None
     store.discard_damaged()  # named on stderr, computed again below
     todo = store.missing()
     if limit is not None:
@@ -131,6 +146,9 @@ def run_sweep(
     n_workers = workers if workers is not None else default_workers()
     parts = chunks(todo, n_workers if dask is None else 8, chunk_size)
     bar = Progress(len(todo), label=f"{spec.name}", enabled=progress)
+    from nsbench.jobs import WORKER_LOG, WorkerLog
+
+    log = WorkerLog(Path(out) / WORKER_LOG, f"the {spec.name} sweep with {spec.integrator}")
     try:
         if not parts:
             pass
@@ -145,12 +163,13 @@ def run_sweep(
 
             pool = shared_pool(n_workers)  # warm workers of an earlier sweep in this process are reused
             try:
-                supervise(pool, spec, parts, point_limit, setup_limit, store.write, bar.update)
+                supervise(pool, spec, parts, point_limit, setup_limit, store.write, bar.update, log)
             except BaseException:
                 drop_shared(pool)  # jobs were in flight: the next sweep starts with fresh workers
                 raise
     finally:
         bar.close()
+        log.report()
     return store.load()
 
 
@@ -162,6 +181,7 @@ def supervise(
     setup_limit: float | None,
     write: Callable[[Columns], Any],
     advance: Callable[[int], Any] = lambda n: None,
+    log: Any = None,
 ) -> None:
     """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
 
@@ -170,7 +190,8 @@ def supervise(
     A value that runs past ``point_limit``, crashes its process or raises is
     stored as one row with that status and reason, and the rest of its chunk
     goes on in a fresh process. A set-up that does so fails every value not yet
-    computed: it would fail again for each of them.
+    computed: it would fail again for each of them. The traceback of a job that raised
+    goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`), or, without one, to stderr.
     """
     from nsbench.jobs import Job
 
@@ -194,6 +215,13 @@ def supervise(
                 continue
             rest, rows = left[o.key], got.pop(o.key)
             left[o.key] = []
+            if o.detail:
+                which = f"value {rest[0]}" if len(rest) == 1 else f"values {rest[0]}..{rest[-1]}" if rest else "a job"
+                label = f"{which} ({o.stage or 'start'})"
+                if log is not None:
+                    log.add(label, o.reason, o.detail)
+                else:  # a Dask worker's own supervision: its log is its stderr
+                    print(o.detail, file=sys.stderr, end="", flush=True)
             if o.kind != "done" and rest:
                 status = {"failed": Status.ERROR.value}.get(o.kind, o.kind)  # "time limit", "crashed": Status values
                 if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
@@ -337,9 +365,10 @@ def locus_job(
     )
 
 
-def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
+def supervised(target: str, args: tuple, workers: int = 1, log: Any = None) -> tuple[Any, str]:
     """``(result, '')`` of the job ``target(*args)`` on the kept pool, or ``(None, reason)`` if it raised,
-    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only."""
+    ran past a limit it announced, or its worker died: a plug-in's fault costs that result only.
+    The traceback of a job that raised goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`)."""
     from nsbench.jobs import Job, drop_shared, shared_pool
 
     pool = shared_pool(max(1, workers))
@@ -351,6 +380,8 @@ def supervised(target: str, args: tuple, workers: int = 1) -> tuple[Any, str]:
                 result = o.value
             elif o.final:
                 reason = f"{o.kind}: {o.reason}"
+                if o.detail and log is not None:
+                    log.add(target, o.reason, o.detail)
     except BaseException:
         drop_shared(pool)
         raise

@@ -155,6 +155,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # a command named first is parsed by its own parser alone (the same result); anything else
     # (--help, --version, an unknown command) by the whole one
     parser = build_parser(words[0] if words and words[0] in COMMANDS else None)
+    if words[:1] == ["--version"] and len(words) > 1:  # argparse prints the version and ignores the rest
+        return fail(f"--version takes no other argument, got {' '.join(words[1:])!r}")
     try:
         try:
             args = parser.parse_args(argv)

@@ -23,7 +23,16 @@ from nsbench.errors import ConfigError
 #: Step budget of one value's run (nsbench.bifurcation.sweep gives run_hybrid max_steps=50_000_000).
 SWEEP_MAX_STEPS = 50_000_000
 #: What the command writes in a sweep folder besides the store (``meta.json``, ``points/``).
-WRITTEN = ("features.csv", "candidates.csv", "compare.md", "agreement.csv", "diagram.*", "locus_*", "portrait_*")
+WRITTEN = (
+    "features.csv",
+    "candidates.csv",
+    "compare.md",
+    "agreement.csv",
+    "diagram.*",
+    "locus_*",
+    "portrait_*",
+    "worker-errors.log",
+)
 
 
 def add_parser(sub) -> None:
@@ -82,13 +91,14 @@ def add_parser(sub) -> None:
         action="append",
         default=[],
         metavar="VALUE",
-        help="also draw the locus of sticking phase and phase portraits at this value (repeatable)",
+        help="also draw the locus of sticking phase and phase portraits at this value, inside the swept "
+        "range (repeatable)",
     )
     p.add_argument(
         "--pair",
-        default="1,2",
+        default=None,
         metavar="A,B",
-        help="the two blocks whose positions the locus and portraits show (default 1,2)",
+        help="two different blocks whose positions the locus and portraits show (default 1,2)",
     )
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
     p.add_argument(
@@ -115,8 +125,7 @@ def _spec(args, problem_probe, integrator: str, options: dict):
 
     name, start, stop, count = parse_sweep(args.sweep)
     params = shared_params(args)
-    if name == "n":
-        raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
+    _check_swept_name(name)
     window = (
         parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
         if args.window is not None
@@ -185,6 +194,9 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
 
     probe = _probe(args.problem, args.case)
     names = args.integrator or [None]
+    twice = sorted({n for n in args.integrator if args.integrator.count(n) > 1})
+    if twice:  # the same sweep twice, and a comparison of a method with itself
+        raise ConfigError(f"--integrator {twice[0]} is given twice; give each integrator once")
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     bad = [f for f in formats if f not in figures.FORMATS]
     if bad:
@@ -220,9 +232,22 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
                 SWEEP_MAX_STEPS,
                 given=type(integ).capabilities.step_option in spec.options,
             )
-    pair = _pair(args.pair)
+    for spec in specs:  # every integrator refuses now what it would refuse later: not after a whole sweep
+        spec.check()
+    pair = _pair(args.pair or "1,2")
+    n_blocks = getattr(specs[0].problem_at(specs[0].start), "n_blocks", None)
+    if args.pair is not None and n_blocks is None:
+        raise ConfigError(f"--pair {args.pair} names blocks of a friction oscillator; {args.problem} has none")
+    if args.pair is not None and n_blocks is not None and any(not 1 <= b <= n_blocks for b in pair):
+        raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {n_blocks}")
     portraits = [parse_real(text, "--portrait") for text in args.portrait]
+    low, high = sorted((specs[0].start, specs[0].stop))
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
+        if not low <= value <= high:
+            raise ConfigError(
+                f"--portrait {value:g} lies outside the swept range {specs[0].name} = {low:g} to {high:g}; "
+                "give a value inside it"
+            )
         problem = specs[0].problem_at(value)
         if getattr(problem, "family", "") != "friction":
             raise ConfigError(
@@ -230,7 +255,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
                 f"the {getattr(problem, 'family', '') or 'other'!r} family"
             )
         if any(not 1 <= b <= problem.n_blocks for b in pair):
-            raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {problem.n_blocks}")
+            raise ConfigError(f"--pair {args.pair or '1,2'}: {args.problem} has blocks 1 to {problem.n_blocks}")
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
     base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
     check_output_dir(base, "--out")
@@ -273,13 +298,17 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         if args.refine and len(cands):
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []
+            from nsbench.jobs import WORKER_LOG, WorkerLog
+
+            log = WorkerLog(out / WORKER_LOG, f"the refinements of the {spec.name} sweep")
             for r in cands.itertuples():
                 job = (spec.to_dict(), r.left, r.right, r.kind, point_limit, setup_limit)
-                found, why = supervised("refine_job", job, local_workers)
+                found, why = supervised("refine_job", job, local_workers, log)
                 if found is None:
                     print(f"  refinement of the {r.kind} change in [{r.left:.6g}, {r.right:.6g}] failed: {why}")
                     found = {"left": math.nan, "right": math.nan, "value": math.nan}
                 refined.append(found)
+            log.report()
             cands["refined_left"] = [r["left"] for r in refined]
             cands["refined_right"] = [r["right"] for r in refined]
             cands["refined_value"] = [r["value"] for r in refined]
@@ -324,7 +353,7 @@ def _check_numbers(args: argparse.Namespace) -> None:
     """The sweep text and every numeric option, so that bad input fails before anything runs."""
     from nsbench.bifurcation.sweep import parse_sweep
 
-    parse_sweep(args.sweep)
+    _check_swept_name(parse_sweep(args.sweep)[0])
     try:
         whole = float(args.case).is_integer()
     except ValueError:
@@ -343,13 +372,27 @@ def _check_numbers(args: argparse.Namespace) -> None:
     parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     for text in args.portrait:
         parse_real(text, "--portrait")
-    _pair(args.pair)
+    if args.pair is not None:
+        _pair(args.pair)
+
+
+def _check_swept_name(name: str) -> None:
+    """Refuse a swept name that is not a parameter of the problem's state-preserving kind."""
+    if name == "n":
+        raise ConfigError("the number of blocks n cannot be swept (it changes the state); give --n")
+    if name in ("case", "dimensional"):  # get_problem's own arguments, not parameters
+        raise ConfigError(
+            f"--sweep {name}=...: {name} is not a parameter and cannot be swept; give --case for the preset "
+            "and sweep one of its parameters (v0, F, Omega, ...)"
+        )
 
 
 def _pair(text: str) -> tuple[int, int]:
     parts = [t.strip() for t in text.split(",")]
     if len(parts) != 2 or not all(p.isdigit() for p in parts):
         raise ConfigError(f"--pair expects two block numbers A,B (e.g. 1,2), got {text!r}")
+    if parts[0] == parts[1] or int(parts[0]) == int(parts[1]):
+        raise ConfigError(f"--pair {text}: the locus needs two different blocks A,B (e.g. 1,2)")
     return int(parts[0]), int(parts[1])
 
 
@@ -368,13 +411,16 @@ def _portrait(
 
     tag = f"{spec.name}_{value:g}"
     # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
-    from nsbench.jobs import SETUP_LIMIT
+    from nsbench.jobs import SETUP_LIMIT, WORKER_LOG, WorkerLog
 
+    log = WorkerLog(out / WORKER_LOG, f"the locus and portrait at {tag}")
     run, why = supervised(
         "locus_job",
         (spec.to_dict(), value, pair, point_limit, SETUP_LIMIT if setup_limit is None else setup_limit),
         workers,
+        log,
     )
+    log.report()
     if run is None:
         print(f"  locus and portrait at {tag} failed: {why}")
         return

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -125,7 +126,17 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
     from nsbench.periodic import HybridFlow
 
-    flow = HybridFlow(ends[0], args.integrator)  # an unknown or refusing integrator: one line now
+    try:
+        flow = HybridFlow(ends[0], args.integrator)  # an unknown or refusing integrator: one line now
+    except NsbenchError:
+        raise
+    except Exception as exc:  # a plug-in's fault in its own set-up: a failed run in one line, not a traceback
+        which = args.integrator or "the default integrator"
+        print(
+            f"nsbench: continuation: {which} failed in its set-up on {args.problem}: {type(exc).__name__}: {exc}",
+            file=sys.stderr,
+        )
+        return 1
     diagram = _diagram(args.diagram, name) if args.diagram else None
     out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
     check_output_dir(out, "--out")

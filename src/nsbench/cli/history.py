@@ -48,7 +48,7 @@ def add_parser(sub) -> None:
         "--commits",
         required=True,
         metavar="A..B",
-        help="a range A..B (B's ancestors that are not A's, oldest first) or SHA,SHA,...",
+        help="a range A..B (B's ancestors that are not A's, oldest first) or SHA,SHA,...; one commit alone: SHA~1..SHA",
     )
     _store(r)
     r.add_argument("--suite", default="default", help="packaged suite name or suite TOML (default: default)")

@@ -50,7 +50,12 @@ def add_parser(sub) -> None:
         help="hard limit of one member's run: past it its worker is ended and the member "
         "counts as failed (default 1800, compilation included)",
     )
-    p.add_argument("--out", default=None, metavar="FILE.csv", help="write log(d/d0) per member and iteration")
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE.csv",
+        help="write log(d/d0) per member and iteration (and FILE.csv.worker-errors.log, the tracebacks of members that raised)",
+    )
     p.set_defaults(handler=main)
 
 
@@ -86,6 +91,7 @@ def main(args: argparse.Namespace) -> int:
         seed=seed,
         workers=workers,
         member_limit=member_limit,
+        worker_log=f"{args.out}.worker-errors.log" if args.out else None,  # else a temporary file
     )
     print(f"{problem!r} with {name}")
     print(res.summary())

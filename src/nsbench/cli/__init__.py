@@ -87,7 +87,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
     parser = Parser(
         prog="nsbench",
-        description="Compare time integrators on dry-friction (stick-slip) oscillators.",
+        description="Compare time integrators on non-smooth dynamical systems (friction, impacts, sliding).",
     )
     from nsbench import __version__
 

@@ -428,13 +428,16 @@ def shared_params(args: argparse.Namespace) -> dict[str, Any]:
         name, value = parse_assignment(text, "--param")
         if name in params:
             raise ConfigError(f"--param {name} is given twice ({name}={params[name]!r} and {text!r}); give it once")
-        if name in ("case", "dimensional"):  # get_problem's own arguments: a TypeError there
+        # a command with --case (simulate, bifurcation, ...) takes the preset there: --param case= would reach
+        # get_problem twice; `nsbench check` has no --case and takes the preset as --param case=N|NAME
+        if name == "dimensional" or (name == "case" and hasattr(args, "case")):
             hint = (
                 "give --case instead" if name == "case" else "commands that take dimensional values have --dimensional"
             )
             raise ConfigError(f"--param {text}: {name} is not a parameter; {hint}")
-        # the friction law is a name (coulomb, weakening, stribeck); every other parameter is a number
-        params[name] = value.strip() if name == "law" else parse_number(value, f"parameter {name}")
+        # the friction law is a name (coulomb, weakening, stribeck) and a preset a number or a name
+        # (one-dof's 'leine'); every other parameter is a number
+        params[name] = value.strip() if name in ("law", "case") else parse_number(value, f"parameter {name}")
     if getattr(args, "n", None) is not None:
         if "n" in params:
             raise ConfigError("give the number of blocks once: --n or --param n=..., not both")

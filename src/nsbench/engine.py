@@ -407,7 +407,7 @@ def run(
     if check_points is None:
         check_points = check_points_for(integ)
     _check_points(check_points)
-    y = problem.initial_state() if y0 is None else np.array(list(y0), dtype=float)
+    y = problem.initial_state() if y0 is None else _as_array(y0, "y0")
     if t_eval is None:
         grid = np.empty(0)
     else:

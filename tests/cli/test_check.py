@@ -15,6 +15,9 @@ def test_check_prints_a_table_and_passes(capsys):
         assert any(row.split()[:2] == [line, "PASSED"] for row in out.splitlines())
     assert "convergence          SKIPPED" in out and "no step or tolerance option declared" in out
     assert "14 checks:" in out
+    # the first-call flag's line, measured before the checks (exact compiles in setup: times only, no FLAG
+    # asserted either way, since a ratio of wall times is no test's business)
+    assert "  first call: setup " in out or "  FLAG first call: setup " in out
 
 
 def test_check_exit_status_is_nonzero_on_failure(capsys):

@@ -220,14 +220,26 @@ class TransposedEval(ExactIntegrator):
         return arc
 
 
+class BareAssert(ExactIntegrator):
+    """Fails an assertion without a message inside ``advance``: the kit's note must still say what failed."""
+
+    name = "test-bare-assert"
+
+    def advance(self, request):
+        if request.t_end > request.t0:  # a bare assert as the plug-in's module has it (pytest rewrites the tests')
+            raise AssertionError
+        return super().advance(request)
+
+
 @pytest.mark.parametrize(
     "broken, check, fragment",
     [
         (TransposedEval, "protocol", "transposed? It must be (n_states, n_points) = (4, 2)"),
+        (BareAssert, "protocol", "without a message at " + __file__),
         (WrongOrder, "declared-order", "observed order 4"),
         (MutatesInput, "inputs-not-mutated", "changed request.y0"),
-        (Jitters, "determinism", "differ"),
-        (LateEvents, "event-times", "event times differ"),
+        (Jitters, "determinism", "event logs differ between identical runs: event 0 differs in {'t': "),
+        (LateEvents, "event-times", "event times differ from exact by "),
         (Chatters, "stuck-stays-stuck", "slip at 0.5, expected 8.35"),
     ],
 )

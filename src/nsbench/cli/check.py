@@ -36,6 +36,17 @@ def _one_line(text: str, width: int = 100) -> str:
     return line if len(line) <= width else line[: width - 3] + "..."
 
 
+def _first_call(integ, problem, given) -> str:
+    """The first-call flag's line (:func:`nsbench.testing.first_call_cost`); never fails the command."""
+    from nsbench.testing import first_call_cost
+
+    try:
+        cost = first_call_cost(integ, problem, given)
+    except Exception as exc:  # the checks below report what went wrong, with their own notes
+        return f"first call: not measured ({type(exc).__name__}: {_one_line(str(exc), 120)})"
+    return ("FLAG " if cost.flagged else "") + f"first call: {cost.message}"
+
+
 def main(args: argparse.Namespace) -> int:
     from nsbench.testing import check_integrator, configure, plan
     from nsbench.testing._kit import checks_for
@@ -50,6 +61,8 @@ def main(args: argparse.Namespace) -> int:
     print(f"conformance of {integ.name} {integ.settings} on {problem}")
     for line in plan(integ, given, args.check, problem):  # which configuration the accuracy checks run
         print(f"  {line}")
+    # before the checks: the process's first use of the integrator (a later call is warm whatever setup does)
+    print(f"  {_first_call(integ, problem, given)}")
     results = check_integrator(integ, args.check, problem=problem, options=given)
     width = max(len(r.check) for r in results)
     print(f"  {'check':<{width}}  {'status':<7}  {'seconds':>7}  note")

@@ -477,8 +477,30 @@ class Integrator:
     def check_problem(self, problem: "HybridProblem") -> None:
         """Refuse ``problem`` as :meth:`setup` would, without its costly part where the two can be told
         apart (compiling, loading compiled code): a command checks its input with this in its own
-        process and sets up in its workers. The default runs :meth:`setup`."""
-        self.setup(problem)
+        process and sets up in its workers. The default runs :meth:`setup` with ``self._checking`` set,
+        which a setup that compiles can test to stop after its refusals (:meth:`warm_first_call` does)."""
+        self._checking = True
+        try:
+            self.setup(problem)
+        finally:
+            self._checking = False
+
+    def warm_first_call(self, problem: "HybridProblem", call) -> None:
+        """Run ``call()`` (one short arc, or a whole-system run over a short span) untimed, once per process
+        for each configuration and law: what a first call loads or compiles (the law's functions, the
+        step check) is then :meth:`setup`'s, not the first run's. Nothing under :meth:`check_problem`.
+
+        A failure here is left to the run itself, which reports it with its own status."""
+        if getattr(self, "_checking", False):
+            return
+        key = (type(self), repr(sorted(self.settings.items())), problem.law.source)
+        if key in _FIRST_CALLS:
+            return
+        try:
+            call()
+        except Exception:  # the timed run meets the same failure and reports it as a status, with its message
+            return
+        _FIRST_CALLS.add(key)
 
     def sections_refusal(self, problem: "HybridProblem") -> str:
         """Why this integrator records no state sections (``request.sections``) on ``problem``; ``''``
@@ -521,6 +543,8 @@ class Integrator:
 
 #: Compiled kernels (integrator class, address table) that have run an arc in this process: loaded.
 _KERNELS_RUN: set[tuple[type, bytes]] = set()
+#: The (class, settings, law) of every :meth:`Integrator.warm_first_call` made in this process.
+_FIRST_CALLS: set[tuple[type, str, str]] = set()
 
 
 class CompiledArcs(Integrator):
@@ -552,14 +576,6 @@ class CompiledArcs(Integrator):
         mode = problem.initial_mode(0.0, problem.initial_state())
         kernel_advance(self, ArcRequest(problem, mode, 0.0, problem.initial_state(), 1e-3, problem.guards(mode)))
         _KERNELS_RUN.add(key)
-
-    def check_problem(self, problem: "HybridProblem") -> None:
-        """The refusals of :meth:`setup` (a subclass's own included), without building or loading the kernel."""
-        self._checking = True
-        try:
-            self.setup(problem)
-        finally:
-            self._checking = False
 
     def __getstate__(self) -> dict[str, Any]:
         """Without the kernel: its function addresses belong to this process (set up again after unpickling)."""

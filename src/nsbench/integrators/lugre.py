@@ -60,6 +60,7 @@ class LuGre(WholeSystem):
     """LuGre friction (Canudas de Wit et al. 1995): a bristle per block as an internal state, on scipy Radau/BDF."""
 
     name = "lugre"
+    WARM_IN_SETUP = True  # its first integrate loads the law's compiled functions: in setup, untimed
     COULOMB_ONLY = True  # its slip force is its own Stribeck curve between the problem's fs and fr
     capabilities = Capabilities(
         event_location="inferred-from-band",

@@ -231,6 +231,18 @@ class ScipyIntegrator(Integrator):
     options = dict(_TOLERANCES)
     accuracy_levels = tuple({"rtol": r, "atol": r * 1e-2} for r in (1e-6, 1e-9, 1e-12))
 
+    def setup(self, problem) -> None:
+        super().setup(problem)
+
+        def short_arc():
+            y0 = problem.initial_state()
+            mode = problem.initial_mode(0.0, y0)
+            request = ArcRequest(problem, mode, 0.0, y0, 1e-3 * problem.time_scale, problem.guards(mode))
+            ScipyIntegrator.advance(self, request)  # this class's arc: a subclass's own advance is not run here
+
+        # the law's compiled functions and the step check load on a first arc: here, not in a timed one
+        self.warm_first_call(problem, short_arc)
+
     def advance(self, request: ArcRequest) -> ArcResult:
         return self._advance(request, 0)
 

@@ -46,6 +46,7 @@ class Smoothing(WholeSystem):
     """Regularised friction (arctan or tanh, sharpness eps) on scipy Radau/BDF or CVODE BDF, analytic Jacobian."""
 
     name = "smoothing"
+    WARM_IN_SETUP = True  # its first integrate loads the law's compiled functions: in setup, untimed
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
     capabilities = Capabilities(
         event_location="inferred-from-band",

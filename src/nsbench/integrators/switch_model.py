@@ -37,6 +37,7 @@ class SwitchModel(WholeSystem):
     """Leine's switch model: a stick band |v - v_belt| <= eta with force-based switching, on scipy or CVODE."""
 
     name = "switch-model"
+    WARM_IN_SETUP = True  # its first integrate loads the law's compiled functions: in setup, untimed
     COULOMB_ONLY = True  # its force law is built on fs alone: a weakening or Stribeck law is refused
     capabilities = Capabilities(
         event_location="inferred-from-status", order=None, adaptive=True, step_option="rtol", family="switch-model"

@@ -12,9 +12,11 @@ nsbench`` does not).
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import importlib
 import json
+import os
 import re
 import warnings
 from pathlib import Path
@@ -113,11 +115,90 @@ drop_stale_numba_caches()
 # the ones compiled without inlining: tests/hybrid/test_event_logs.py), and it
 # would print about 90 lines at every first compilation.
 warnings.filterwarnings("ignore", category=NumbaIRAssumptionWarning)
-jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+# ---------------------------------------------------------------------- compiled once per machine
+#: The lock files this process holds (a function compiled again inside its own compilation, for
+#: another signature, must not wait for itself).
+_HELD: set[str] = set()
+
+
+def _lock_path(dispatcher) -> str | None:
+    """The lock file of ``dispatcher`` beside its disk cache, or ``None`` (no disk cache)."""
+    cache = getattr(dispatcher, "_cache", None)
+    where = getattr(cache, "cache_path", None)
+    func = getattr(dispatcher, "py_func", None)
+    if not where or func is None:
+        return None
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{func.__qualname__}-{func.__code__.co_firstlineno}")
+    return os.path.join(where, f"{name}.nsbench-lock")
+
+
+def compiled_once(dispatcher):
+    """``dispatcher`` with its compilations serialised across processes by a lock file beside its cache.
+
+    Two bench workers that start on the same kernel would both compile it (minutes on a
+    fresh install, every announcement printed twice). With the lock the second waits while
+    the first compiles and saves to the disk cache, then finds it there: numba's
+    ``compile`` looks in the cache before it compiles. The lock is taken inside numba's own
+    compiler lock, so the threads of one process take the two in one order; a function's
+    compilation locks only the functions it calls, whose graph has no cycle, so processes
+    cannot wait for each other in a ring. Where the lock file cannot be made (a read-only
+    cache), the function compiles as numba alone would.
+    """
+    from numba.core.compiler_lock import global_compiler_lock
+
+    compile_one = dispatcher.compile
+
+    def compile(sig):
+        path = _lock_path(dispatcher)
+        with global_compiler_lock:
+            if path is None or path in _HELD or _known(dispatcher, sig):
+                return compile_one(sig)
+            try:
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+                fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
+            except OSError:
+                return compile_one(sig)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX)  # released when fd closes, or when the process ends
+                _HELD.add(path)
+                try:
+                    return compile_one(sig)
+                finally:
+                    _HELD.discard(path)
+            finally:
+                os.close(fd)
+
+    dispatcher.compile = compile
+    return dispatcher
+
+
+def _known(dispatcher, sig) -> bool:
+    """Whether ``dispatcher`` holds an overload for ``sig`` already (no compilation, so no lock)."""
+    from numba.core import sigutils
+
+    try:
+        args, _ = sigutils.normalize_signature(sig)
+    except Exception:  # a form numba itself must judge: let its compile decide
+        return False
+    return tuple(args) in dispatcher.overloads
+
+
+def _once(decorator):
+    """A numba decorator whose functions compile once per machine (:func:`compiled_once`)."""
+
+    def decorate(func):
+        return compiled_once(decorator(func))
+
+    return decorate
+
+
+jit = _once(numba.njit(cache=True, fastmath=False, nogil=True))
 #: Functions that allocate nothing: compiled without numba's reference counting.
-hot = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
+hot = _once(numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False))
 #: The smallest of them, inlined by numba itself (LLVM keeps some as calls otherwise).
-inline = numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False, inline="always")
+inline = _once(numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False, inline="always"))
 #: Functions with an object-mode block (a call back into Python): not ``nogil``, since they hold
 #: the GIL for the block (numba warns about object mode in a ``nogil`` function).
-with_gil = numba.njit(cache=True, fastmath=False, _nrt=False)
+with_gil = _once(numba.njit(cache=True, fastmath=False, _nrt=False))

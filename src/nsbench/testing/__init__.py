@@ -67,6 +67,14 @@ reported as expected failures with that reason. The checks (:data:`CHECKS`):
 - ``problem-config``: the problem the checks run on is rebuilt whole from its config
   (:func:`check_problem`, which a problem plug-in's own tests can call).
 
+**The first call's cost.** :func:`first_call_cost` times ``setup`` and then the
+same first ``advance`` (``integrate``) twice; a first call that costs more than
+``FIRST_CALL_RATIO`` (10) times the second, by more than ``FIRST_CALL_FLOOR``
+(0.25 s), is flagged: the integrator compiles or loads something there that
+``setup`` should. ``nsbench check`` runs it before the checks and prints it on a
+line of its own (``FLAG first call: ...``); it is a flag, never a failure, since a
+ratio of wall times is no property of the results.
+
 **Checking a problem.** :func:`check_problem` (``check_problem("thermostat")``)
 checks a registered problem, built-in or plug-in, without an integrator: at its
 default, at every case it names (``HybridProblem.cases``), in each unit system
@@ -88,6 +96,7 @@ from nsbench.testing._checks import (
     configured,
     step_levels,
 )
+from nsbench.testing._first_call import FIRST_CALL_FLOOR, FIRST_CALL_RATIO, FirstCall, first_call_cost
 from nsbench.testing._kit import (
     CheckResult,
     as_integrator,
@@ -105,6 +114,10 @@ __all__ = [
     "CheckResult",
     "check_integrator",
     "check_problem",
+    "first_call_cost",
+    "FirstCall",
+    "FIRST_CALL_RATIO",
+    "FIRST_CALL_FLOOR",
     "parametrize_with_checks",
     "run_check",
     "as_integrator",

@@ -225,12 +225,34 @@ def _compare_events(events, reference, bound: float, what: str, ran_with: str) -
     want = list(zip(reference["kind"], reference["block"]))
     if got != want:
         first = next((i for i, (a, b) in enumerate(zip(got, want)) if a != b), min(len(got), len(want)))
+        saw = got[first] if first < len(got) else "no event"
+        wanted = want[first] if first < len(want) else "no event"
         raise AssertionError(
-            f"at {ran_with}: event sequence differs from {what} at event {first}: {len(got)} events against {len(want)}"
+            f"at {ran_with}: event sequence differs from {what} at event {first}: got (kind, block) {saw}, "
+            f"{what} has {wanted}; {len(got)} events against {len(want)}"
         )
     err = float(np.max(np.abs(events["t"].to_numpy() - reference["t"].to_numpy()))) if got else 0.0
     assert err <= bound, f"at {ran_with}: event times differ from {what} by {err:.3g} > {bound:g}"
     return err
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal, two NaNs counting as equal (an event log holds NaN where a column does not apply)."""
+    both_nan = isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
+    return both_nan or a == b
+
+
+def _log_diff(first, other) -> str:
+    """Where two event logs part: their lengths and the first row that differs."""
+    if len(first) != len(other):
+        return f"{len(first)} events against {len(other)}"
+    for i in range(len(first)):
+        a, b = first.iloc[i].to_dict(), other.iloc[i].to_dict()
+        if a != b:
+            cols = {k: (a[k], b.get(k)) for k in a if not _same(a[k], b.get(k))}
+            if cols:
+                return f"event {i} differs in {cols}"
+    return "same rows, different columns or types"
 
 
 # ---------------------------------------------------------------------- the checks
@@ -239,14 +261,17 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     cls = type(integ)
     assert re.fullmatch(r"[a-z0-9]+(-[a-z0-9]+)*", cls.name or ""), f"name {cls.name!r} is not kebab-case"
     caps = cls.capabilities
-    assert isinstance(caps, Capabilities), "capabilities must be a Capabilities instance"
+    assert isinstance(caps, Capabilities), f"capabilities is a {type(caps).__name__}, not a Capabilities instance"
     assert caps.precision in PRECISIONS, f"precision {caps.precision!r} not in {PRECISIONS}"
-    assert caps.event_location, "capabilities.event_location is empty"
-    assert all(isinstance(o, Option) for o in cls.options.values()), "options must be Option declarations"
+    assert caps.event_location, f"capabilities.event_location is {caps.event_location!r}: say how events are located"
+    loose = {k: type(o).__name__ for k, o in cls.options.items() if not isinstance(o, Option)}
+    assert not loose, f"options {loose} are not Option declarations"
     if caps.step_option is not None:
         assert caps.step_option in cls.options, f"step_option {caps.step_option!r} is not an option"
     for level in cls.accuracy_levels:
-        assert set(level) <= set(cls.options), f"accuracy level {level} names unknown options"
+        assert set(level) <= set(cls.options), (
+            f"accuracy level {level} names unknown options {sorted(set(level) - set(cls.options))}"
+        )
         cls(**{**integ.settings, **level})
     problem = _problem(2)
     integ.setup(problem)
@@ -258,7 +283,8 @@ def check_protocol_and_counters(integ: Integrator) -> None:
     assert res.ok, f"run failed: {res.message}"
     c = res.counters
     assert c.nsteps > 0 or c.nfev > 0, "no work reported: nsteps and nfev are both 0"
-    assert c.nfev >= 0 and c.njev >= 0 and c.nsteps >= 0
+    negative = {k: v for k, v in (("nfev", c.nfev), ("njev", c.njev), ("nsteps", c.nsteps)) if v < 0}
+    assert not negative, f"negative counters {negative}: a counter counts work done, from 0"
     if caps.needs_jacobian and on_presets():
         # on the belt every such method evaluates it; elsewhere a method that takes a Jacobian only once
         # the problem turns stiff (LSODA on the falling ball) may rightly evaluate none
@@ -278,7 +304,7 @@ def _check_whole_protocol(integ, problem) -> None:
     request = SystemRequest(problem=problem, t0=0.0, y0=problem.initial_state(), t_end=5.0, t_eval=t_eval)
     res = integ.integrate(request)
     broken = check_result(type(integ).name, request, res, problem.n_states, problem.mode_size)
-    assert not broken, broken
+    assert not broken, f"integrate broke the SystemResult protocol: {broken}"
     assert res.status.ok, f"integrate failed over [0, 5]: {res.message}"
 
 
@@ -299,10 +325,14 @@ def _check_one_arc(integ, problem) -> None:
     )
     assert isinstance(arc, ArcResult), f"advance returned {type(arc).__name__}, not ArcResult"
     assert isinstance(arc.status, Status) and arc.status.ok, f"first arc failed: {arc.message}"
-    assert 0.0 < arc.t <= 5.0 and np.shape(arc.y) == (problem.n_states,), "bad stop time or state shape"
+    assert 0.0 < arc.t <= 5.0, f"first arc over [0, 5] stopped at t = {arc.t!r}, outside (0, 5]"
+    assert np.shape(arc.y) == (problem.n_states,), (
+        f"arc.y has shape {np.shape(arc.y)}, expected (n_states,) = ({problem.n_states},)"
+    )
     if on_presets():
         assert arc.fired is not None and 0 <= arc.fired < len(problem.guards(mode)), (
-            "the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067)"
+            f"the first arc of case 2 ends at a guard (block 2 sticks at t ~ 0.067); got fired = {arc.fired!r} "
+            f"at t = {arc.t:.6g} of {len(problem.guards(mode))} guards"
         )
     else:
         assert arc.fired is None or 0 <= arc.fired < len(problem.guards(mode)), f"fired = {arc.fired}: no such guard"
@@ -328,8 +358,12 @@ def check_determinism(integ: Integrator) -> None:
         _simulate(type(integ).from_config(integ.config()), problem, span),
     ]
     for other in runs[1:]:
-        assert other.events.equals(runs[0].events), "event logs differ between identical runs"
-        assert other.counters.as_dict() == runs[0].counters.as_dict(), "counters differ between identical runs"
+        assert other.events.equals(runs[0].events), (
+            f"event logs differ between identical runs: {_log_diff(runs[0].events, other.events)}"
+        )
+        a, b = runs[0].counters.as_dict(), other.counters.as_dict()
+        diff = {k: (a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)}
+        assert not diff, f"counters differ between identical runs (first run, other run): {diff}"
 
 
 def check_inputs_not_mutated(integ: Integrator) -> None:
@@ -346,8 +380,8 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
         from nsbench.integrators.whole import SystemRequest
 
         integ.integrate(SystemRequest(problem=problem, t0=0.0, y0=y0, t_end=3.0 * scale, t_eval=t_eval))
-        assert np.array_equal(y0, saved[0]), "integrate changed request.y0"
-        assert np.array_equal(t_eval, saved[1]), "integrate changed request.t_eval"
+        assert np.array_equal(y0, saved[0]), f"integrate changed request.y0 from {saved[0]} to {y0}"
+        assert np.array_equal(t_eval, saved[1]), f"integrate changed request.t_eval from {saved[1]} to {t_eval}"
         return
     mode = problem.initial_mode(0.0, y0)
     integ.advance(
@@ -355,8 +389,8 @@ def check_inputs_not_mutated(integ: Integrator) -> None:
             problem=problem, mode=mode, t0=0.0, y0=y0, t_end=3.0 * scale, guards=problem.guards(mode), t_eval=t_eval
         )
     )
-    assert np.array_equal(y0, saved[0]), "advance changed request.y0"
-    assert np.array_equal(t_eval, saved[1]), "advance changed request.t_eval"
+    assert np.array_equal(y0, saved[0]), f"advance changed request.y0 from {saved[0]} to {y0}"
+    assert np.array_equal(t_eval, saved[1]), f"advance changed request.t_eval from {saved[1]} to {t_eval}"
 
 
 def _smooth_error(integ: Integrator) -> float:
@@ -593,8 +627,12 @@ def check_failure_is_a_status(integ: Integrator) -> None:
             f"the whole run over [0, {span:g}] takes {res.counters.nsteps} steps: no budget of 3 to exhaust"
         )
     assert not res.ok, f"a budget of 3 steps did not stop a run over [0, {span:g}]"
-    assert res.status in (Status.BUDGET_EXHAUSTED, Status.INTEGRATOR_FAILURE), res.status
-    assert res.message and res.t_final < span
+    assert res.status in (Status.BUDGET_EXHAUSTED, Status.INTEGRATOR_FAILURE), (
+        f"a budget of 3 steps ended the run as {res.status.value!r}, expected "
+        f"{Status.BUDGET_EXHAUSTED.value!r} (or {Status.INTEGRATOR_FAILURE.value!r})"
+    )
+    assert res.message, f"the run ended as {res.status.value!r} with an empty message: say what stopped it"
+    assert res.t_final < span, f"the run ended as {res.status.value!r} at t_final = {res.t_final:g}, its end {span:g}"
 
 
 def check_config_round_trip(integ: Integrator) -> None:
@@ -603,7 +641,10 @@ def check_config_round_trip(integ: Integrator) -> None:
     for level in [{}, *cls.accuracy_levels]:
         one = cls(**{**integ.settings, **level})
         config = one.config()
-        assert config["name"] == cls.name and set(config["options"]) == set(cls.options)
+        assert config["name"] == cls.name, f"config() names {config['name']!r}, the class is {cls.name!r}"
+        assert set(config["options"]) == set(cls.options), (
+            f"config() has options {sorted(config['options'])}, the class declares {sorted(cls.options)}"
+        )
         text = json.dumps(config)
         again = cls.from_config(json.loads(text))
         assert type(again) is cls and again.config() == config, f"{config} does not round-trip"

@@ -166,7 +166,7 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
         if gap is not None:
             return CheckResult(cls.name, check.name, XFAIL, f"known gap: {gap}", seconds, runs=check.runs)
         detail = (
-            str(exc)
+            _assertion_note(exc)
             if isinstance(exc, AssertionError)
             else f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"
         )
@@ -175,6 +175,15 @@ def _run_check(integ: Integrator, check: Check) -> CheckResult:
     if gap is not None:
         return CheckResult(cls.name, check.name, XPASS, f"declared gap passes: {gap}", seconds, runs=check.runs)
     return CheckResult(cls.name, check.name, PASSED, check.doc, seconds, runs=check.runs)
+
+
+def _assertion_note(exc: AssertionError) -> str:
+    """A failed check's note: its message, or for a bare ``assert`` (a plug-in's own, inside its code) the
+    line that failed, so that no failure is reported with an empty note."""
+    if str(exc).strip():
+        return str(exc)
+    frame = traceback.extract_tb(exc.__traceback__)[-1]
+    return f"assertion failed without a message at {frame.filename}:{frame.lineno}: {frame.line}"
 
 
 def check_integrator(

@@ -220,6 +220,15 @@ class JobPool:
             self._factory.close()
             self._factory = None
 
+    def abort(self) -> None:
+        """End the pool at once: its factory process killed first, so that no worker is asked and waited
+        for (input refused before any job ran: the command's one line should not wait on a worker that is
+        still importing). Its workers then find the factory gone and leave; :meth:`close` collects them."""
+        if self._factory is not None and self._factory.proc.poll() is None:
+            self._factory.proc.kill()
+            self._factory.proc.wait()
+        self.close()
+
     # -------------------------------------------------------------------------------------------
     def outcomes(self) -> Iterator[Outcome]:
         """Outcomes in the order they happen, until no job is queued or running."""
@@ -446,9 +455,13 @@ def worker_cpu_seconds() -> float:
     return total
 
 
-def drop_shared(pool: JobPool) -> None:
-    """End ``pool``'s workers and forget it (after an exception left it mid-job)."""
-    pool.close()
+def drop_shared(pool: JobPool, at_once: bool = False) -> None:
+    """End ``pool``'s workers and forget it (after an exception left it mid-job); ``at_once`` when nothing
+    ran on it (:meth:`JobPool.abort`)."""
+    if at_once:
+        pool.abort()
+    else:
+        pool.close()
     for key, other in list(_SHARED.items()):
         if other is pool:
             del _SHARED[key]

@@ -3,6 +3,7 @@ runtime distributions (COCO style) and legends beside the data, on planted rows.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import matplotlib
@@ -165,3 +166,29 @@ def test_a_plugin_gets_its_own_colour_and_marker(plugins):
     # a plug-in in a known family shares its hue, told apart by shade and marker
     dense = [n for n in names if family(n) == "dense output"]
     assert "zz-dense" in dense and len({styles[n]["marker"] for n in dense}) == len(dense)
+
+
+@pytest.mark.parametrize(
+    "value, label",
+    [(1e-6, "10⁻⁶"), (1.0, "1"), (10.0, "10"), (1000.0, "1000"), (1e4, "10⁴"), (2e-6, "2e-06"), (0.0, "")],
+)
+def test_log_ticks_are_plain_text(value, label):
+    assert figures.plain_log_label(value) == label
+
+
+def test_no_log_axis_label_is_mathtext(tmp_path):
+    import matplotlib.pyplot as plt
+
+    fig, (wide, narrow, base2) = plt.subplots(1, 3)
+    wide.loglog([1e-12, 1e-3], [1e-4, 10.0])
+    narrow.semilogy([0.0, 1.0], [2e-6, 5e-6])  # less than a decade: labelled by its minor ticks
+    base2.plot([2, 16], [1.0, 1e3])
+    base2.set_xscale("log", base=2)
+    figures._plain_log_ticks(fig)
+    fig.canvas.draw()
+    labels = [t.get_text() for ax in fig.axes for t in ax.get_xticklabels() + ax.get_yticklabels(minor=True)]
+    labels += [t.get_text() for ax in fig.axes for t in ax.get_yticklabels()]
+    assert labels and not any("$" in t for t in labels)
+    assert any(re.fullmatch("10⁻[⁰¹²³⁴⁵⁶⁷⁸⁹]+", t) for t in labels)  # the wide axis' decades
+    assert "2×10⁻⁶" in labels and "16" in labels
+    plt.close(fig)

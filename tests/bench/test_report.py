@@ -38,7 +38,7 @@ def report(tmp_path_factory):
     return out, write_report(out)
 
 
-def test_every_figure_is_saved_as_png_and_svg(report):
+def test_every_figure_is_saved_as_png_and_on_request_as_svg_and_pdf(report):
     out, rep = report
     names = [f.name for f in rep.figures]
     assert names == [
@@ -50,10 +50,28 @@ def test_every_figure_is_saved_as_png_and_svg(report):
         "event_err_one-dof_1",
         "cost_two-dof_3",
     ]
-    for fig in rep.figures:
+    for fig in rep.figures:  # by default PNG alone: each further format is a full draw of every figure
         assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-        assert fig.svg.read_text().lstrip().startswith(("<?xml", "<svg"))
+        assert fig.svg is None and fig.files == (fig.png,)
+        assert not fig.png.with_suffix(".svg").exists() and not fig.png.with_suffix(".pdf").exists()
+    every = write_report(out, formats=("svg", "pdf"))  # png is always written
+    assert [f.name for f in every.figures] == names
+    for fig in every.figures:
+        assert fig.png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert fig.svg is not None and fig.svg.read_text().lstrip().startswith(("<?xml", "<svg"))
         assert fig.png.with_suffix(".pdf").read_bytes()[:5] == b"%PDF-"
+        assert [p.suffix for p in fig.files] == [".png", ".svg", ".pdf"]
+    write_report(out)  # back to PNG: the SVG and PDF of the earlier report would no longer match, so they go
+    assert not any(fig.svg.exists() or fig.png.with_suffix(".pdf").exists() for fig in every.figures)
+
+
+def test_a_bad_figure_format_is_refused_before_anything_runs(tmp_path, capsys):
+    from nsbench.cli import main
+
+    assert main(["run", "--out", str(tmp_path / "r"), "--formats", "png,jpeg"]) == 2
+    err = capsys.readouterr().err
+    assert "--formats: 'jpeg' not allowed; choose from png, svg, pdf" in err
+    assert not (tmp_path / "r" / "cases").exists()
 
 
 def test_html_is_self_contained_and_embeds_each_figure(report):

@@ -582,6 +582,26 @@ def test_a_bad_friction_law_exits_2_with_one_line(argv, fragment, capsys):
     assert fragment in _one_error_line(capsys)
 
 
+def test_a_run_that_ends_in_a_storm_says_so_on_stderr(capsys):
+    """A valid command whose run ends early exits with 1 and one line naming the failure: an integrator
+    that reports its first guard at every arc's start ends in an event storm within milliseconds (the
+    budget exhausted by exact below takes minutes, so it is the slow run's)."""
+    from nsbench import registry
+    from tests.test_engine import _AlwaysFires
+
+    registry.register("integrators", "test-always-fires", _AlwaysFires)
+    try:
+        argv = ["simulate", "two-dof", "--case", "1", "--t-end", "5", "--integrator", "test-always-fires"]
+        assert main(argv) == 1
+    finally:
+        registry.unregister("integrators", "test-always-fires")
+    out, err = capsys.readouterr()
+    assert "status      event storm (Zeno)" in out
+    (line,) = _messages(err)
+    assert line.startswith("nsbench: simulate: the run ended at t = ") and "of 5: event storm (Zeno)" in line
+
+
+@pytest.mark.slow  # exact spends its whole budget of 10^7 steps: about 2 min on an idle core
 def test_a_run_that_fails_says_so_on_stderr(capsys):
     """A valid command whose run ends early exits with 1 and one line naming the failure (issue 30: a
     forcing frequency of 1e300 exhausts exact's step budget, which said nothing on stderr)."""

@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import math
 import re
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
@@ -43,6 +46,36 @@ COST_AXES = {
 }
 
 
+#: The formats a report's figures can be written in. PNG always: the HTML page embeds it.
+REPORT_FORMATS = ("png", "svg", "pdf")
+#: The formats of the figures saved now (:func:`saving_as`); PNG alone by default, since each further
+#: format is a full draw of every figure (SVG for the web, PDF for LaTeX papers: ``--formats``).
+_FORMATS: ContextVar[tuple[str, ...]] = ContextVar("nsbench_figure_formats", default=("png",))
+
+
+def check_formats(formats: Sequence[str], what: str = "--formats") -> tuple[str, ...]:
+    """``formats`` as a tuple of :data:`REPORT_FORMATS`, PNG first and always; anything else a ``ConfigError``."""
+    from nsbench.errors import ConfigError
+
+    bad = [f for f in formats if f not in REPORT_FORMATS]
+    if bad or not formats:
+        raise ConfigError(
+            f"{what}: {', '.join(map(repr, bad)) or 'no format'} not allowed; choose from {', '.join(REPORT_FORMATS)} "
+            "(comma-separated; png is always written)"
+        )
+    return ("png", *[f for f in REPORT_FORMATS[1:] if f in formats])
+
+
+@contextmanager
+def saving_as(formats: Sequence[str]) -> Iterator[tuple[str, ...]]:
+    """Save the figures made inside this block in ``formats`` (see :func:`check_formats`)."""
+    token = _FORMATS.set(check_formats(formats))
+    try:
+        yield _FORMATS.get()
+    finally:
+        _FORMATS.reset(token)
+
+
 @dataclass(frozen=True)
 class Figure:
     """One saved figure: a stable ``name`` (file stem), title, caption and file paths."""
@@ -51,7 +84,10 @@ class Figure:
     title: str
     caption: str
     png: Path
-    svg: Path
+    #: The SVG file, when SVG was asked for (:func:`saving_as`), else ``None``.
+    svg: Path | None = None
+    #: Every file written, PNG first.
+    files: tuple[Path, ...] = ()
 
 
 def slug(text: str) -> str:
@@ -174,14 +210,65 @@ def _methods(group: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
     return methods, sorted(refs["integrator"].unique())
 
 
-def _save(fig, out: Path, name: str, title: str, caption: str) -> Figure:
+_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def plain_log_label(value: float, pos: int | None = None) -> str:
+    """A log axis' tick label as plain text: ``10⁻⁶`` with Unicode superscripts, ``1``, ``10``, ``100``,
+    ``1000`` as numbers, any other value as ``%g``. matplotlib's default labels are mathtext (``$10^{-6}$``),
+    whose parsing took about a quarter of a report's time; these are drawn as they are."""
+    if not (value > 0.0 and math.isfinite(value)):
+        return ""
+    exponent = math.log10(value)
+    n = round(exponent)
+    if abs(exponent - n) > 1e-9:
+        return f"{value:g}"
+    return f"{10**n:g}" if 0 <= n <= 3 else "10" + str(n).translate(_SUPERSCRIPT)
+
+
+def _plain_minor_label(value: float, pos: int | None = None) -> str:
+    """A minor tick's label on a log axis narrower than a decade: ``2×10⁻⁶`` (plain text, as above)."""
+    if not (value > 0.0 and math.isfinite(value)):
+        return ""
+    mantissa, exponent = f"{value:.1e}".split("e")
+    n = int(exponent)
+    return f"{float(mantissa) * 10**n:g}" if 0 <= n <= 3 else f"{float(mantissa):g}×10" + str(n).translate(_SUPERSCRIPT)
+
+
+def _plain_log_ticks(fig) -> None:
+    """Every log axis of ``fig`` labelled in plain text (:func:`plain_log_label`); a base-2 axis (the chain's
+    ``n``) by its numbers. Minor ticks are labelled only on an axis that spans less than a decade, where
+    the major ticks may be too few to read it by."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_scale() != "log":
+                continue
+            base = getattr(axis.get_transform(), "base", 10.0)
+            major = plain_log_label if base == 10.0 else (lambda v, pos=None: f"{v:g}")
+            axis.set_major_formatter(FuncFormatter(major))
+            lo, hi = sorted(abs(v) for v in axis.get_view_interval())
+            narrow = lo > 0.0 and hi / lo < base
+            axis.set_minor_formatter(FuncFormatter(_plain_minor_label) if narrow else NullFormatter())
+
+
+def _save(fig, out: Path, name: str, title: str, caption: str, formats: Sequence[str] | None = None) -> Figure:
+    """Write ``fig`` as ``out/name.<format>`` in ``formats`` (default: those of :func:`saving_as`)."""
     out.mkdir(parents=True, exist_ok=True)
-    png, svg = out / f"{name}.png", out / f"{name}.svg"
-    fig.savefig(png, dpi=110, bbox_inches="tight")
-    fig.savefig(svg, bbox_inches="tight")
-    fig.savefig(out / f"{name}.pdf", bbox_inches="tight")  # for LaTeX papers
+    _plain_log_ticks(fig)
+    wanted = _FORMATS.get() if formats is None else check_formats(formats)
+    files = []
+    for fmt in wanted:
+        path = out / f"{name}.{fmt}"
+        fig.savefig(path, bbox_inches="tight", **({"dpi": 110} if fmt == "png" else {}))
+        files.append(path)
+    for fmt in REPORT_FORMATS:  # a format not asked for this time: its file of an earlier report is out of date
+        if fmt not in wanted:
+            (out / f"{name}.{fmt}").unlink(missing_ok=True)
     _pyplot().close(fig)
-    return Figure(name, title, caption, png, svg)
+    svg = out / f"{name}.svg" if "svg" in wanted else None
+    return Figure(name, title, caption, files[0], svg, tuple(files))
 
 
 def _whiskers(ax, rows: pd.DataFrame, x: np.ndarray, y: np.ndarray, color) -> None:
@@ -436,6 +523,9 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
     styles = _styles(sorted(frame["integrator"].unique()))
     figures: list[Figure] = []
     for label, group in problem_groups(frame):
+        wall = pd.to_numeric(group.get("wall_time"), errors="coerce")
+        if not ((group["status"] == Status.SUCCESS) & wall.notna()).any():
+            continue  # nothing of this problem was timed (a partial run): no figure of empty axes
         if (group["reference_status"] == "ok").any():
             for cost in COST_AXES:
                 if (

@@ -532,4 +532,4 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     )
     from nsbench.bench.figures import _save
 
-    return _save(fig, Path(out), slug(name), "Cost and accuracy over commits", caption)
+    return _save(fig, Path(out), slug(name), "Cost and accuracy over commits", caption, ("png", "svg", "pdf"))

@@ -15,12 +15,20 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import pandas as pd
 
 from nsbench import render
 from nsbench.bench import classes, storage
-from nsbench.bench.figures import Figure, _styles, report_figures, runtime_distribution, scaling_report_figures
+from nsbench.bench.figures import (
+    Figure,
+    _styles,
+    report_figures,
+    runtime_distribution,
+    saving_as,
+    scaling_report_figures,
+)
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
 from nsbench.bench.summary import (
@@ -134,6 +142,62 @@ def latex_table(frame: pd.DataFrame, caption: str, label: str) -> str:
     return render.latex(_readable(frame), caption, label)
 
 
+@dataclass(frozen=True)
+class Completeness:
+    """How much of its suite a results folder holds: the suite's cases, and the labels of those it lacks."""
+
+    planned: int
+    missing: tuple[str, ...]
+    #: The command that computes the missing cases (recorded by the CLI), or ``''``.
+    resume: str = ""
+
+    @property
+    def held(self) -> int:
+        return self.planned - len(self.missing)
+
+    @property
+    def partial(self) -> bool:
+        return bool(self.missing)
+
+    def title(self) -> str:
+        """The report's title: ``nsbench report``, and when cases are missing, how many of how many it holds."""
+        if not self.partial:
+            return "nsbench report"
+        return f"nsbench report (partial: {self.held} of {self.planned} cases)"
+
+    def text(self, shown: int = 8) -> str:
+        """The sentence under the title of a partial report: what is missing and how to compute it."""
+        names = ", ".join(f"`{m}`" for m in self.missing[:shown])
+        more = f" and {len(self.missing) - shown} more" if len(self.missing) > shown else ""
+        how = (
+            f"`{self.resume}` computes only the missing cases and writes the report again"
+            if self.resume
+            else "running the same suite into this folder again computes only the missing cases"
+        )
+        return (
+            f"**Partial report.** This folder holds {self.held} of the suite's {self.planned} cases: the run was "
+            f"interrupted or failed before {len(self.missing)} of them ({names}{more}). Every table and figure "
+            f"below is of the cases held; {how}."
+        )
+
+
+def completeness(frame: pd.DataFrame, prov: dict) -> Completeness | None:
+    """The suite of ``prov`` (as the run recorded it) against the cases of ``frame``; ``None`` when the
+    provenance holds no suite or it can no longer be built (a plug-in gone, an older layout)."""
+    from nsbench.bench.suite import Suite
+    from nsbench.errors import NsbenchError
+
+    if not isinstance(prov.get("suite"), dict):
+        return None
+    try:
+        cases = {c.case_id: c for c in Suite.from_dict(prov["suite"]).cases()}
+    except (NsbenchError, TypeError, ValueError, KeyError):
+        return None
+    held = set(frame["case_id"]) if "case_id" in frame else set()
+    missing = tuple(c.label for key, c in cases.items() if key not in held)
+    return Completeness(len(cases), missing, str(prov.get("resume_command", "")))
+
+
 def _status_counts(frame: pd.DataFrame) -> pd.DataFrame:
     counts = frame.groupby("status").size().rename("cases").reset_index()
     return counts.sort_values("cases", ascending=False)
@@ -184,7 +248,19 @@ def _spread_table(frame: pd.DataFrame) -> pd.DataFrame:
     return table.head(SPREAD_ROWS).assign(_more=len(table) - min(len(table), SPREAD_ROWS))
 
 
+def _timed(frame: pd.DataFrame) -> pd.Series:
+    """The rows with a timed sample: a success with a wall time."""
+    wall = (
+        pd.to_numeric(frame["wall_time"], errors="coerce")
+        if "wall_time" in frame
+        else pd.Series(float("nan"), frame.index)
+    )
+    return (frame["status"] == Status.SUCCESS) & wall.notna()
+
+
 def _timing_text(frame: pd.DataFrame) -> str:
+    if not _timed(frame).any():
+        return "No case of this report was timed (none succeeded with a timed sample): it states no times."
     ok = frame[frame["status"] == Status.SUCCESS]
     reps = ok["n_repeats"].dropna()
     runs = (
@@ -277,8 +353,21 @@ COMPACT_CAPTION = (
 )
 
 
-def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> Report:
-    """Write the report of the results stored in ``directory`` (or of ``results``) into it."""
+def write_report(
+    directory: str | Path, results: pd.DataFrame | None = None, formats: Sequence[str] = ("png",)
+) -> Report:
+    """Write the report of the results stored in ``directory`` (or of ``results``) into it.
+
+    ``formats`` are the figures' file formats (:data:`nsbench.bench.figures.REPORT_FORMATS`):
+    PNG always, which the HTML page embeds; ``"svg"`` and ``"pdf"`` (for a LaTeX paper) on
+    request, each a further draw of every figure. A format not asked for loses its files of an
+    earlier report of the folder, which would no longer match.
+    """
+    with saving_as(formats):
+        return _write_report(directory, results)
+
+
+def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report:
     d = Path(directory)
     storage.check_no_links(d)  # what the report writes there replaces what is there: never through a link
     frame = with_engine_share(storage.load_results(d) if results is None else results)
@@ -301,7 +390,9 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
     bif_rows = bt.load_rows(d)
     bif_figs = bt.report_figures(bif_rows, d / "figures") if len(bif_rows) else []
 
-    blocks = _family_blocks(frame, targets) + _answer_blocks(
+    held = completeness(frame, prov)
+    blocks = [Block("p", held.text())] if held is not None and held.partial else []
+    blocks += _family_blocks(frame, targets) + _answer_blocks(
         frame, prov, summary, ecdf, classes.class_summary(frame, targets)
     )
     blocks += _context_blocks(frame, prov)
@@ -349,7 +440,7 @@ def write_report(directory: str | Path, results: pd.DataFrame | None = None) -> 
         Block("h2", "Provenance"),
         Block("pre", json.dumps(prov, indent=1, default=str)),
     ]
-    page = {"title": "nsbench report", "blocks": blocks, "provenance": prov}
+    page = {"title": "nsbench report" if held is None else held.title(), "blocks": blocks, "provenance": prov}
     (d / "report.md").write_text(render.page("report.md", **page))
     (d / "index.html").write_text(render.page("report.html", **page))
     (d / "table.tex").write_text(_latex(prov, summary, wide, rank, reference_costs(frame)))
@@ -428,10 +519,12 @@ def _context_blocks(frame: pd.DataFrame, prov: dict) -> list[Block]:
 def _spread_blocks(frame: pd.DataFrame) -> list[Block]:
     spread = _spread_table(frame)
     if not len(spread):
-        return [
-            Block("h2", "Timing spread"),
-            Block("p", f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median)."),
-        ]
+        said = (
+            f"Every timed case spreads by at most {WIDE_SPREAD:.0%} ((max - min) / median)."
+            if _timed(frame).any()
+            else "No case of this report was timed: there is no spread to report."
+        )
+        return [Block("h2", "Timing spread"), Block("p", said)]
     more = int(spread.pop("_more").iloc[0])
     caption = (
         f"Cases whose timed samples spread by more than {WIDE_SPREAD:.0%} ((max - min) / median), widest "

@@ -253,6 +253,13 @@ def run_suite(
     done -= storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})
     pending = [c for c in cases if c.case_id not in done]
     pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: the best start for the balance
+    if len(pending) < len(cases):  # say in words what a resumed run does, before it does it
+        print(
+            f"nsbench: resuming {out}: {len(pending)} of {len(cases)} cases to run, "
+            f"{len(cases) - len(pending)} stored (--fresh starts over)",
+            file=err,
+            flush=True,
+        )
     shareable, local = _components(pending, suite)
     workers = max(1, int(workers or os.cpu_count() or 1))
     prov["workers"] = 1 if local else min(workers, max(1, len(pending)))

@@ -449,3 +449,21 @@ def problem_from_args(args: argparse.Namespace):
     from nsbench.problems import get_problem
 
     return get_problem(args.problem, case=args.case, dimensional=args.dimensional, **shared_params(args))
+
+
+def add_report_formats(p) -> None:
+    """The ``--formats`` option of a command that writes a benchmark report."""
+    p.add_argument(
+        "--formats",
+        default="png",
+        metavar="LIST",
+        help="the report figures' formats, comma-separated from png, svg, pdf (default png; png is always "
+        "written, the HTML page embeds it; svg for the web, pdf for a LaTeX paper)",
+    )
+
+
+def parse_report_formats(text: str) -> tuple[str, ...]:
+    """``--formats png,svg`` as a tuple (:func:`nsbench.bench.figures.check_formats`): a bad one refused first."""
+    from nsbench.bench.figures import check_formats
+
+    return check_formats(tuple(f.strip().lower() for f in str(text).split(",") if f.strip()))

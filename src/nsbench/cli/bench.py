@@ -7,7 +7,10 @@ Exit status 1 when a case crashed or a reference could not be computed (see
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
+
+from nsbench.cli._common import add_report_formats
 
 
 def add_parser(sub) -> None:
@@ -24,27 +27,42 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-report", action="store_true", help="do not write the report afterwards")
+    add_report_formats(p)
     p.set_defaults(handler=main)
 
 
-def run_and_report(suite, out: str, workers: str | int | None, resume: bool, progress: bool, report: bool) -> int:
+def run_and_report(
+    suite,
+    out: str,
+    workers: str | int | None,
+    resume: bool,
+    progress: bool,
+    report: bool,
+    resume_command: str = "",
+    formats: str = "png",
+) -> int:
     """Shared by ``bench`` and ``run``: run, print a summary, write the report.
 
     ``workers`` is the ``--workers`` text (or a count). Bad input (workers, an
     unwritable ``out``, a bad suite, too many cases) is refused before anything runs.
+    ``resume_command`` is the command that computes what this run leaves missing: a partial
+    report names it (:func:`nsbench.bench.report.completeness`). ``formats`` is the ``--formats`` text.
 
     Returns 0, or 1 when a case crashed or a reference could not be computed
     (the results and the report are written all the same).
     """
     from nsbench.bench import load_suite, run_suite
-    from nsbench.cli._common import check_output_dir, parse_count
+    from nsbench.cli._common import check_output_dir, parse_count, parse_report_formats
+
+    figure_formats = parse_report_formats(formats)  # refused before anything runs
 
     if workers is not None:
         workers = parse_count(str(workers), "--workers", low=1, bound="MAX_WORKERS")
     check_output_dir(out, "--out")
     suite = load_suite(suite)
     suite.check_size()  # a grid of 10^9 cases is refused here, not expanded
-    summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress)
+    extra = {"resume_command": resume_command} if resume_command else None
+    summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress, provenance_extra=extra)
     counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
     print(
         f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "
@@ -56,8 +74,8 @@ def run_and_report(suite, out: str, workers: str | int | None, resume: bool, pro
 
         if progress:
             print("nsbench: writing the report (tables, figures)", file=sys.stderr, flush=True)
-        rep = write_report(summary.out, summary.results)
-        print(f"report  -> {rep.html} (and report.md, table.tex, figures/)")
+        rep = write_report(summary.out, summary.results, figure_formats)
+        print(f"report  -> {rep.html} (and report.md, table.tex, figures/ as {', '.join(figure_formats).upper()})")
     words = answer(summary.out, summary.results) if len(summary.results) else []
     if words:  # the report's first sentences: the answer, where a log shows it
         print("the answer:")
@@ -81,4 +99,17 @@ def answer(out, results) -> list[str]:
 
 
 def main(args: argparse.Namespace) -> int:
-    return run_and_report(args.suite, args.out, args.workers, not args.fresh, not args.no_progress, not args.no_report)
+    again = shlex.join(  # resuming is the default
+        ["nsbench", "bench", args.suite, "--out", args.out]
+        + (["--formats", args.formats] if args.formats != "png" else [])
+    )
+    return run_and_report(
+        args.suite,
+        args.out,
+        args.workers,
+        not args.fresh,
+        not args.no_progress,
+        not args.no_report,
+        again,
+        args.formats,
+    )

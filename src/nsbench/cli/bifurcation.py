@@ -167,11 +167,12 @@ def main(args: argparse.Namespace) -> int:
     try:
         _check_numbers(args)  # every number and count before any problem is built or value computed
         return _main(args, workers)
-    except BaseException:
+    except BaseException as exc:
         if pool is not None:  # started for this command, which failed: they are not kept
             from nsbench.jobs import drop_shared
 
-            drop_shared(pool)
+            # input refused before any value ran: end them at once, not after their imports
+            drop_shared(pool, at_once=isinstance(exc, ConfigError))
         raise
 
 

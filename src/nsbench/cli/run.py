@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 
+from nsbench.cli._common import add_report_formats
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser("run", help="run the default benchmark suite and write reports/latest (the main job)")
@@ -34,10 +36,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--resume", action="store_true", help=argparse.SUPPRESS)  # the default now; kept for scripts
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_report_formats(p)
     p.set_defaults(handler=main)
 
 
 def main(args: argparse.Namespace) -> int:
+    import shlex
     import time
 
     from nsbench.cli.bench import run_and_report
@@ -49,6 +53,11 @@ def main(args: argparse.Namespace) -> int:
         packaged = args.suite in packaged_suites() and args.suite != "default"
         out = f"reports/{args.suite}" if packaged else "reports/latest"
     tic = time.perf_counter()
-    code = run_and_report(args.suite, out, args.workers, not args.fresh, not args.no_progress, True)
+    again = ["nsbench", "run"] + (["--suite", args.suite] if args.suite != "default" else [])
+    again += ["--out", args.out] if args.out is not None else []
+    again += ["--formats", args.formats] if args.formats != "png" else []
+    code = run_and_report(
+        args.suite, out, args.workers, not args.fresh, not args.no_progress, True, shlex.join(again), args.formats
+    )
     print(f"nsbench run took {time.perf_counter() - tic:.0f} s")
     return code

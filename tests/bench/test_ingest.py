@@ -66,6 +66,18 @@ def test_ingest_round_trips_a_pytest_benchmark_file(bench_json, tmp_path):
     ]
 
 
+def test_ingest_over_stored_cases_says_how_many_it_replaced(bench_json, tmp_path, capsys):
+    from nsbench.cli import main
+
+    out = tmp_path / "ing"
+    assert main(["ingest", str(bench_json), "--out", str(out)]) == 0
+    assert "held" not in capsys.readouterr().err  # nothing there before
+    assert main(["ingest", str(bench_json), "--out", str(out)]) == 0
+    assert f"nsbench: {out} held 2 stored case(s); ingest replaced them with the 2 of {bench_json}" in (
+        capsys.readouterr().err
+    )
+
+
 def test_ingested_rows_match_the_runner_on_the_same_cases(bench_json, tmp_path):
     frame = ingest(bench_json, tmp_path / "ing")
     suite = Suite.from_dict(

@@ -258,3 +258,25 @@ def test_a_portrait_whose_plugin_hangs_costs_only_the_portrait(tmp_path, capsys)
     assert "locus and portrait at v0_0.16 failed: time limit" in printed and "ran past its limit of 3 s" in printed
     assert (out / "diagram.png").exists() and (out / "locus_v0_0.1.png").exists()
     assert not (out / "locus_v0_0.16.png").exists()
+
+
+def test_a_problem_without_presets_is_named_without_a_case(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # the default output folder lands here
+    argv = ["bifurcation", "bouncing-ball", "--sweep", "e=0.5:0.6:2", "--transient", "1", "--record", "2"]
+    assert main([*argv, "--no-progress", "--formats", "png", "--workers", "1"]) == 0
+    # the folder and the diagram's title name no case the bouncing ball does not have
+    assert [p.name for p in (tmp_path / "bifurcation").iterdir()] == ["bouncing-ball-e"]
+    from nsbench.cli.bifurcation import _case_text
+
+    class Spec:  # the two things _case_text reads of a sweep's spec
+        case, start = 1, 0.5
+
+        @staticmethod
+        def problem_at(value):
+            from nsbench.problems import get_problem
+
+            return get_problem("bouncing-ball", e=value)
+
+    assert _case_text(Spec) == ""
+    Spec.problem_at = staticmethod(lambda value: __import__("nsbench").get_problem("one-dof", case=1, v0=value))
+    assert _case_text(Spec) == " case 1"

@@ -104,3 +104,21 @@ def test_a_plugin_whose_setup_raises_is_one_line_not_a_traceback(tmp_path, capsy
         "RuntimeError: plug-in bug in setup"
     )
     assert not (tmp_path / "c").exists()  # nothing was written
+
+
+def test_a_diagram_with_a_chunk_deleted_is_named_as_partial(tmp_path, capsys):
+    from nsbench.cli.continuation import _diagram
+
+    sweep = tmp_path / "sweep"
+    argv = ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:4", "--transient", "10", "--record", "4"]
+    argv += ["--no-progress", "--formats", "png", "--out", str(sweep), "--workers", "1", "--integrator", "exact"]
+    assert main(argv) == 0
+    whole = _diagram(str(sweep), "v0")
+    assert "warning" not in capsys.readouterr().err
+    chunks = sorted((sweep / "points").glob("chunk-*.parquet"))
+    assert len(chunks) == 4
+    chunks[1].unlink()
+    part = _diagram(str(sweep), "v0")
+    err = capsys.readouterr().err
+    assert f"--diagram {sweep} holds 3 of its 4 values (1 missing" in err
+    assert len(part) < len(whole) and set(part["index"]) == {0, 2, 3}

@@ -150,6 +150,11 @@ def _spec(args, problem_probe, integrator: str, options: dict):
     )
 
 
+def _case_text(spec) -> str:
+    """``' case 1'`` for a problem with presets, ``''`` for one without (the bouncing ball has no case 1)."""
+    return f" case {spec.case}" if spec.problem_at(spec.start).cases else ""
+
+
 def _probe(problem: str, case: str):
     from nsbench.problems import get_problem
 
@@ -258,7 +263,8 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         if any(not 1 <= b <= problem.n_blocks for b in pair):
             raise ConfigError(f"--pair {args.pair or '1,2'}: {args.problem} has blocks 1 to {problem.n_blocks}")
     blocks = f"-n{int(specs[0].params['n'])}" if "n" in specs[0].params else ""
-    base = Path(args.out or f"bifurcation/{args.problem}{blocks}-case{specs[0].case}-{specs[0].name}")
+    case = f"-case{specs[0].case}" if _case_text(specs[0]) else ""
+    base = Path(args.out or f"bifurcation/{args.problem}{blocks}{case}-{specs[0].name}")
     check_output_dir(base, "--out")
     from nsbench.bench.storage import file_name
     from nsbench.files import refuse_links
@@ -317,7 +323,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         cands.to_csv(out / "candidates.csv", index=False)
         summary = points_summary(frame)
         title = (
-            f"{spec.problem} case {spec.case}: {spec.name} sweep, {spec.integrator}, "
+            f"{spec.problem}{_case_text(spec)}: {spec.name} sweep, {spec.integrator}, "
             f"{spec.section}, transient {spec.transient:g}, {spec.record} points"
         )
         written = figures.diagram(frame, out / "diagram", title=title, candidates=cands, formats=formats)
@@ -426,5 +432,5 @@ def _portrait(
         print(f"  locus and portrait at {tag} failed: {why}")
         return
     figures.locus(run, out / f"locus_{tag}", title=f"locus of sticking phase, {tag}", formats=formats)
-    figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem} case {spec.case}, {tag}", formats=formats)
+    figures.portrait(run, out / f"portrait_{tag}", title=f"{spec.problem}{_case_text(spec)}, {tag}", formats=formats)
     print(f"  locus and portrait at {tag} -> {out}")

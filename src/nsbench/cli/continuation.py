@@ -224,4 +224,13 @@ def _diagram(folder: str, name: str):
     store = SweepStore(path)
     if store.spec.name != name:
         raise ConfigError(f"--diagram {folder} sweeps {store.spec.name}, not {name}")
-    return store.load()
+    points = store.load()
+    missing = store.missing()
+    if missing:  # a deleted chunk or an unfinished sweep: the overlay is partial, and says so
+        print(
+            f"nsbench: warning: --diagram {folder} holds {store.spec.count - len(missing)} of its "
+            f"{store.spec.count} values ({len(missing)} missing: a chunk deleted or the sweep not finished); "
+            f"the figure overlays those; the same nsbench bifurcation command with --out {folder} computes the rest",
+            file=sys.stderr,
+        )
+    return points

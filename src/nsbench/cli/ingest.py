@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from nsbench.errors import ConfigError
 
@@ -26,8 +27,16 @@ def main(args: argparse.Namespace) -> int:
     check_output_dir(out, "--out")  # before resolve(): a symbolic-link loop is named, not raised
     if Path(out).resolve() == Path(args.file).resolve():
         raise ConfigError(f"--out {out} is the benchmark file itself; give --out DIR")
+    from nsbench.bench.storage import done_ids
+
+    held = len(done_ids(out))  # ingest replaces them: say how many, not silently
     frame = ingest(args.file, out)
     print(f"{len(frame)} benchmarks -> {Path(out) / 'results.parquet'} (and results.csv)")
+    if held:
+        print(
+            f"nsbench: {out} held {held} stored case(s); ingest replaced them with the {len(frame)} of {args.file}",
+            file=sys.stderr,
+        )
     if args.report:
         from nsbench.bench.report import write_report
 

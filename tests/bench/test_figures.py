@@ -192,3 +192,20 @@ def test_no_log_axis_label_is_mathtext(tmp_path):
     assert any(re.fullmatch("10⁻[⁰¹²³⁴⁵⁶⁷⁸⁹]+", t) for t in labels)  # the wide axis' decades
     assert "2×10⁻⁶" in labels and "16" in labels
     plt.close(fig)
+
+
+def test_the_families_hues_are_told_apart():
+    import itertools
+
+    from matplotlib.colors import to_rgb
+
+    bases = {fam: np.array(to_rgb(colour)) for fam, colour in FAMILIES}
+    # every two families' colours at least a quarter of the RGB cube's edge apart (the closest pair,
+    # reference grey against time-stepping brown, is 0.265; collocation and time-stepping were 0.056)
+    for (a, ca), (b, cb) in itertools.combinations(bases.items(), 2):
+        assert np.linalg.norm(ca - cb) > 0.25, (a, b)
+    styles = _styles(["ofapi", "moreau-jean", "mcpi", "exact"])
+    apart = np.linalg.norm(
+        np.array(to_rgba(styles["ofapi"]["color"])[:3]) - to_rgba(styles["moreau-jean"]["color"])[:3]
+    )
+    assert apart > 0.3

@@ -106,17 +106,21 @@ def _pyplot():
 #: Method families and their colour maps: members of a family share a hue, told apart by shade and
 #: marker. A family is what the integrator's capabilities say, never its name: reference-grade
 #: integrators, else its event location (``Capabilities.event_location``), labelled here.
+#: Each family's hue: matplotlib's qualitative ``tab10`` colours, made to be told apart (the sequential
+#: maps used before gave collocation's Oranges and time-stepping's YlOrBr, ofapi and moreau-jean, one hue).
 FAMILIES = (
-    ("reference", "Greys"),
-    ("dense output", "Blues"),
-    ("solver root finding", "Greens"),
-    ("Taylor", "Reds"),
-    ("collocation", "Oranges"),
-    ("Henon", "Purples"),
-    ("time-stepping", "YlOrBr"),
-    ("switch-model", "PuRd"),
-    ("smoothing", "BuGn"),
+    ("reference", "tab:gray"),
+    ("dense output", "tab:blue"),
+    ("solver root finding", "tab:green"),
+    ("Taylor", "tab:red"),
+    ("collocation", "tab:orange"),
+    ("Henon", "tab:purple"),
+    ("time-stepping", "tab:brown"),
+    ("switch-model", "tab:pink"),
+    ("smoothing", "tab:cyan"),
 )
+#: How far a family's lightest member is mixed towards white (its first member is the family's colour).
+_LIGHTEST = 0.4
 _EVENT_FAMILIES = {
     "dense-output-root": "dense output",
     "solver-rootfinding": "solver root finding",
@@ -127,18 +131,16 @@ _EVENT_FAMILIES = {
 #: Colours of integrators in no family above (a plug-in's own event location, or one not registered
 #: here): each its own, none of the families' hues.
 _OTHER_COLOURS = (
-    "tab:brown",
-    "tab:pink",
     "tab:olive",
-    "tab:cyan",
     "gold",
     "magenta",
-    "teal",
-    "navy",
+    "black",
     "lime",
     "maroon",
     "darkkhaki",
     "slateblue",
+    "navy",
+    "darkseagreen",
 )
 
 
@@ -165,13 +167,14 @@ def family(name: str) -> str:
 
 
 def _styles(names: list[str]) -> dict[str, dict]:
-    """Colour by family (a shade per member, dark to light) and a distinct marker per member.
+    """Colour by family (its hue, a lighter shade per further member) and a distinct marker per member.
 
     An integrator outside the known families (a plug-in that locates events its
     own way, or one not registered here) gets a colour of its own, none of the
     families' hues, and a marker of its own.
     """
-    plt = _pyplot()
+    from matplotlib.colors import to_rgb
+
     maps = dict(FAMILIES)
     members: dict[str, list[str]] = {}
     for n in sorted(names):
@@ -184,9 +187,10 @@ def _styles(names: list[str]) -> dict[str, dict]:
     for fam, group in members.items():
         for i, n in enumerate(group):
             if fam in maps:
-                shade = 0.9 - 0.45 * (i / max(len(group) - 1, 1)) if len(group) > 1 else 0.75
+                light = _LIGHTEST * i / max(len(group) - 1, 1)  # 0 for the first member
+                base = np.array(to_rgb(maps[fam]))
                 marker = _MARKERS[(i + start[fam]) % len(_MARKERS)]
-                styles[n] = {"color": plt.get_cmap(maps[fam])(shade), "marker": marker}
+                styles[n] = {"color": tuple(base + (1.0 - base) * light), "marker": marker}
             else:  # markers from the end of the list: unlike the families' first members
                 styles[n] = {
                     "color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)],

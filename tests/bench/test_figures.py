@@ -209,3 +209,12 @@ def test_the_families_hues_are_told_apart():
         np.array(to_rgba(styles["ofapi"]["color"])[:3]) - to_rgba(styles["moreau-jean"]["color"])[:3]
     )
     assert apart > 0.3
+
+
+def test_a_configuration_is_named_by_its_options_not_its_level():
+    from nsbench.bench.labels import configuration, options_text
+
+    assert configuration("henon-rk4", '{"h": 0.0001}') == "henon-rk4 (h=0.0001)"
+    assert configuration("henon-rk4", {"h": 0.0001}) == "henon-rk4 (h=0.0001)"
+    assert configuration("exact", "{}") == "exact"
+    assert options_text('{"rtol": 1e-09, "atol": 1e-11}') == "rtol=1e-09, atol=1e-11"

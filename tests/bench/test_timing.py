@@ -159,16 +159,25 @@ def test_noise_line_states_the_load_and_the_median_spread():
 def test_setup_is_charged_to_the_integrator_not_to_the_level_that_ran_first():
     # as measured on main at aca9a23: cvode-adams 16.3 s for the level whose warm-up compiled, 0.0007 s next
     rows = [
-        {"case_id": f"{n}{lv}", "integrator": n, "problem_label": "two-dof/1", "level": lv, "setup_time": t}
-        for n, lv, t in [
-            ("cvode-adams", 0, 0.0007),
-            ("cvode-adams", 1, 16.3),
-            ("cvode-adams", 2, 0.0009),
-            ("exact", 0, 0.002),
+        {
+            "case_id": f"{n}{lv}",
+            "integrator": n,
+            "problem_label": "two-dof/1",
+            "level": lv,
+            "options": options,
+            "setup_time": t,
+        }
+        for n, lv, options, t in [
+            ("cvode-adams", 0, '{"rtol": 1e-06}', 0.0007),
+            ("cvode-adams", 1, '{"rtol": 1e-09}', 16.3),
+            ("cvode-adams", 2, '{"rtol": 1e-12}', 0.0009),
+            ("exact", 0, "{}", 0.002),
         ]
     ]
     table = setup_table(to_frame(rows)).set_index("integrator")
-    assert table.loc["cvode-adams", "first_use"] == 16.3 and table.loc["cvode-adams", "on"] == "two-dof/1 level 1"
+    # the configuration named by its options, not by the index of its level
+    assert table.loc["cvode-adams", "first_use"] == 16.3 and table.loc["cvode-adams", "on"] == "two-dof/1 at rtol=1e-09"
+    assert table.loc["exact", "on"] == "two-dof/1 at defaults"
     assert table.loc["cvode-adams", "later"] == pytest.approx(0.0008) and table.loc["cvode-adams", "cases"] == 3
     assert math.isnan(table.loc["exact", "later"]) and list(table.index) == ["cvode-adams", "exact"]
 

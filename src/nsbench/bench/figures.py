@@ -21,6 +21,7 @@ from typing import Iterator, Sequence
 import numpy as np
 import pandas as pd
 
+from nsbench.bench.labels import configuration
 from nsbench.bench.tables import problem_groups
 from nsbench.status import Status
 
@@ -363,7 +364,7 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
             band = (np.asarray(best["event_t"], dtype=float)[: cert.size], np.maximum(cert, ERROR_FLOOR))
         t = np.asarray(best["event_t"], dtype=float)
         err = np.maximum(np.abs(np.asarray(best["event_err"], dtype=float)), ERROR_FLOOR)
-        curves.setdefault(family(name), []).append((name, int(best["level"]), t, err))
+        curves.setdefault(family(name), []).append((name, best.get("options"), t, err))
     order = [f for f, _ in FAMILIES if f in curves] + sorted(f for f in curves if f not in dict(FAMILIES))
     cols = min(3, max(len(order), 1))
     nrows = max(1, math.ceil(len(order) / cols))
@@ -375,11 +376,10 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
             ax.fill_between(
                 band[0], ERROR_FLOOR, band[1], color="0.85", step="mid", lw=0, label="reference's certified error"
             )
-        for name, level, t, err in curves[fam]:
+        for name, options, t, err in curves[fam]:
             st = styles[name]
-            ax.plot(
-                t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5, label=f"{name} (level {level})"
-            )
+            label = configuration(name, options)  # by its options, not by a level's index
+            ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5, label=label)
         ax.set_yscale("log")
         ax.set_title(fam, fontsize=9)
         ax.grid(True, alpha=0.3)

@@ -43,6 +43,7 @@ import pandas as pd
 
 from nsbench.bench import storage
 from nsbench.bench.compare import CONFIDENCE, FACTOR, compare_frames
+from nsbench.bench.labels import configuration
 from nsbench.errors import ConfigError
 
 #: Versions that make an environment (nsbench's own is the commit's).
@@ -472,7 +473,7 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
         for (integ, level), g in rows.groupby(["integrator", "level"], sort=True):
             g = g.sort_values("order")
             st = styles[integ]
-            tag = f"{integ} level {level}"
+            tag = configuration(integ, g["options"].iloc[0]) if "options" in g else f"{integ} level {level}"
             # an integrator's levels share its colour and marker: the line style tells them apart
             dash = LEVEL_LINES[int(level) % len(LEVEL_LINES)]
             ax_t.plot(g["order"], g["wall_time"], dash, marker=st["marker"], color=st["color"], ms=4, lw=1, label=tag)

@@ -29,6 +29,7 @@ from nsbench.bench.figures import (
     saving_as,
     scaling_report_figures,
 )
+from nsbench.bench.labels import options_text
 from nsbench.bench.reference import failed_status
 from nsbench.bench.scaling import SCALING_CAPTION, scaling_summary, scaling_table
 from nsbench.bench.summary import (
@@ -115,17 +116,6 @@ def _error_cells(frame: pd.DataFrame) -> list:
         f"<= {e:.2g} (at reference accuracy)" if flag is True and e == e else e
         for e, flag in zip(frame["switch_err_max"], at_ref.astype(object))
     ]
-
-
-def options_text(text) -> str:
-    """An options JSON cell for reading: ``rtol=1e-09, atol=1e-11`` (floats to 4 significant digits)."""
-    try:
-        options = json.loads(text) if isinstance(text, str) and text.startswith("{") else None
-    except ValueError:
-        options = None
-    if not isinstance(options, dict):
-        return "" if text is None or text is pd.NA else str(text)
-    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in options.items())
 
 
 def _readable(frame: pd.DataFrame) -> pd.DataFrame:

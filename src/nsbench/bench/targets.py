@@ -1025,7 +1025,7 @@ TABLE_CAPTION = (
 
 def report_table(rows: pd.DataFrame) -> pd.DataFrame:
     """The report's table: target, integrator, options, status, value, error, probes, cost."""
-    from nsbench.bench.report import options_text
+    from nsbench.bench.labels import options_text
 
     if rows.empty:
         return pd.DataFrame()

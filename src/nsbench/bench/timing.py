@@ -17,6 +17,7 @@ from typing import Iterable
 
 import pandas as pd
 
+from nsbench.bench.labels import options_text
 from nsbench.status import Status
 
 #: Fewest timed samples per case: a spread needs three (a suite asking for fewer gets three).
@@ -199,7 +200,9 @@ def setup_table(frame: pd.DataFrame) -> pd.DataFrame:
             {
                 "integrator": name,
                 "first_use": float(times.max()),
-                "on": f"{group.loc[top, 'problem_label']} level {group.loc[top, 'level']}",
+                "on": f"{group.loc[top, 'problem_label']} at {options_text(group.loc[top, 'options']) or 'defaults'}"
+                if "options" in group
+                else f"{group.loc[top, 'problem_label']} level {group.loc[top, 'level']}",
                 "later": float(rest.median()) if len(rest) else math.nan,
                 "cases": len(group),
             }

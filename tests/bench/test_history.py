@@ -267,3 +267,24 @@ def test_a_filter_that_matches_nothing_and_an_empty_machine_name_are_refused(sto
         history.add(_run(tmp_path / "r9", [_row("a")]), store, machine=" ", commit="c9")
     with pytest.raises(ConfigError, match="suite"):
         history.run_commits(tmp_path, "HEAD", store, suite="no-such-suite")
+
+
+def test_no_link_inside_the_store_or_the_show_folder_is_followed(store, tmp_path, capsys):
+    from nsbench.errors import ConfigError
+
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    # a linked machine folder: a new entry of that machine would be written through it
+    linked = tmp_path / "linked-store"
+    linked.mkdir()
+    (linked / "box").symlink_to(elsewhere, target_is_directory=True)
+    with pytest.raises(ConfigError, match="is a symbolic link"):
+        history.add(_run(tmp_path / "r-link", [_row("a")]), linked, machine="box", commit="c4" * 20)
+    assert list(elsewhere.iterdir()) == []
+    # show --out with its steps table linked elsewhere
+    out = tmp_path / "shown"
+    out.mkdir()
+    (out / "steps.csv").symlink_to(elsewhere / "steps.csv")
+    assert main(["history", "show", "--store", str(store), "--out", str(out)]) == 2
+    assert "steps.csv is a symbolic link" in capsys.readouterr().err
+    assert list(elsewhere.iterdir()) == []

@@ -122,3 +122,14 @@ def test_a_diagram_with_a_chunk_deleted_is_named_as_partial(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"--diagram {sweep} holds 3 of its 4 values (1 missing" in err
     assert len(part) < len(whole) and set(part["index"]) == {0, 2, 3}
+
+
+def test_a_link_inside_the_out_folder_is_not_followed(tmp_path, capsys):
+    out, elsewhere = tmp_path / "cont", tmp_path / "elsewhere"
+    out.mkdir()
+    elsewhere.mkdir()
+    (out / "branch.csv").symlink_to(elsewhere / "branch.csv")
+    argv = ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.2:0.28", "--steps", "16"]
+    assert main([*argv, "--origin", "0.16", "--out", str(out), "--formats", "png", "--no-progress"]) == 2
+    assert "branch.csv is a symbolic link" in capsys.readouterr().err
+    assert list(elsewhere.iterdir()) == []

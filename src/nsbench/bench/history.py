@@ -149,7 +149,12 @@ def add(
     environment, versions = environment_of(prov)
     name = _slug(machine or platform.node() or "machine", "machine name")
     added = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
-    folder = Path(store) / name / environment / _slug(commit, "commit") / added
+    parts = (name, environment, _slug(commit, "commit"))
+    from nsbench.files import refuse_links
+
+    for depth, part in enumerate(parts):  # a linked machine, environment or commit folder could lead anywhere
+        refuse_links(Path(store).joinpath(*parts[:depth]), (part,))
+    folder = Path(store).joinpath(*parts) / added
     folder.mkdir(parents=True, exist_ok=False)
     entry = Entry(
         machine=name,

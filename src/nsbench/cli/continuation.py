@@ -140,6 +140,9 @@ def main(args: argparse.Namespace) -> int:
     diagram = _diagram(args.diagram, name) if args.diagram else None
     out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
     check_output_dir(out, "--out")
+    from nsbench.files import refuse_links
+
+    refuse_links(out, WRITTEN)  # the tables and figures written there replace what is there: never through a link
 
     h_max = abs(stop - start) / steps
     bar = Progress(steps, label=name, enabled=not args.no_progress)
@@ -212,6 +215,18 @@ def main(args: argparse.Namespace) -> int:
         print(f"    {name} = {b.value:.12g}: {b.kind} ({b.category})")
     print(f"  figure -> {written[0]}")
     return 0
+
+
+#: What ``continuation`` writes in its ``--out`` folder (:func:`nsbench.periodic.output.write`, the figure).
+WRITTEN = (
+    "branch.csv",
+    "points.csv",
+    "bifurcations.csv",
+    "gaps.csv",
+    "meta.json",
+    "README.md",
+    "branches.*",
+)
 
 
 def _diagram(folder: str, name: str):

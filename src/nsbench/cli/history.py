@@ -105,6 +105,10 @@ def show(args: argparse.Namespace) -> int:
     factor, confidence = _settings(args)
     if args.out:
         check_output_dir(args.out, "--out")
+        from nsbench.files import refuse_links
+
+        # the tables and the figure written there replace what is there: never through a link
+        refuse_links(args.out, ("history.csv", "steps.csv", "history.png", "history.svg", "history.pdf"))
     found = history.entries(args.store, args.machine, args.environment)
     if not found:
         raise ConfigError(

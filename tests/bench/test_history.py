@@ -288,3 +288,18 @@ def test_no_link_inside_the_store_or_the_show_folder_is_followed(store, tmp_path
     assert main(["history", "show", "--store", str(store), "--out", str(out)]) == 2
     assert "steps.csv is a symbolic link" in capsys.readouterr().err
     assert list(elsewhere.iterdir()) == []
+
+
+def test_an_entrys_file_copied_over_anothers_is_refused_not_read_as_the_other_commit(store, capsys):
+    import shutil
+
+    runs = history.entries(store)
+    assert all(set(e.sha256 or {}) == {"results.parquet", "provenance.json"} for e in runs)
+    assert main(["history", "show", "--store", str(store)]) == 0
+    capsys.readouterr()
+    first, last = runs[0], runs[-1]
+    shutil.copyfile(Path(first.path) / "results.parquet", Path(last.path) / "results.parquet")  # valid by itself
+    assert main(["history", "show", "--store", str(store)]) == 2
+    err = capsys.readouterr().err
+    assert f"{Path(last.path) / 'results.parquet'} is not the file this entry was added with" in err
+    assert f"add the run of commit {last.short} again" in err

@@ -35,7 +35,7 @@ import shlex
 import subprocess
 import sys
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
@@ -72,6 +72,10 @@ class Entry:
     cpu: str = ""
     cores: int = 0
     versions: dict[str, Any] | None = None
+    #: SHA-256 of the entry's files (``results.parquet``, ``provenance.json``), checked on every read:
+    #: one entry's file copied over another's is refused, not read as the other commit's. ``None`` in an
+    #: entry added before the store kept them (read unchecked).
+    sha256: dict[str, str] | None = None
 
     @property
     def short(self) -> str:
@@ -169,8 +173,32 @@ def add(
     )
     storage.write_results(frame, folder / "results.parquet", prov)
     (folder / "provenance.json").write_text(json.dumps(prov, indent=1, default=str))
+    entry = replace(entry, sha256={name: _digest(folder / name) for name in CHECKED_FILES})
     (folder / ENTRY_FILE).write_text(json.dumps({k: v for k, v in asdict(entry).items() if k != "path"}, indent=1))
     return entry
+
+
+#: The files of an entry whose checksums its ``entry.json`` records.
+CHECKED_FILES = ("results.parquet", "provenance.json")
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def verify(entry: Entry) -> None:
+    """``ConfigError`` naming the first file of ``entry`` whose content is not the one it was added with."""
+    for name, wanted in (entry.sha256 or {}).items():
+        path = Path(entry.path) / name
+        try:
+            got = _digest(path)
+        except OSError as exc:
+            raise ConfigError(f"{path} cannot be read ({exc.strerror or exc}); delete its entry's folder") from None
+        if got != wanted:
+            raise ConfigError(
+                f"{path} is not the file this entry was added with (its checksum differs: copied from another "
+                f"entry, or edited); delete {entry.path} and add the run of commit {entry.short} again"
+            )
 
 
 def entries(store: str | Path, machine: str | None = None, environment: str | None = None) -> list[Entry]:
@@ -191,7 +219,8 @@ def entries(store: str | Path, machine: str | None = None, environment: str | No
 
 
 def load(entry: Entry) -> pd.DataFrame:
-    """The rows of one stored run."""
+    """The rows of one stored run, its files checked against the checksums it was added with (:func:`verify`)."""
+    verify(entry)
     return storage.load_results(Path(entry.path) / "results.parquet")
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import sys
 import textwrap
 from pathlib import Path
 
@@ -303,3 +304,54 @@ def test_an_entrys_file_copied_over_anothers_is_refused_not_read_as_the_other_co
     err = capsys.readouterr().err
     assert f"{Path(last.path) / 'results.parquet'} is not the file this entry was added with" in err
     assert f"add the run of commit {last.short} again" in err
+
+
+def _two_commit_repo(tmp_path):
+    repo = tmp_path / "r1"
+    repo.mkdir()
+    _git(repo, "init", "-q")
+    shas = []
+    for text in ("x", "y"):
+        (repo / "f").write_text(text)
+        _git(repo, "add", "f")
+        _git(repo, "commit", "-q", "-m", text)
+        shas.append(_git(repo, "rev-parse", "HEAD"))
+    return repo, shas
+
+
+def test_a_killed_runs_worktrees_and_folders_are_removed_by_the_next(tmp_path):
+    import tempfile
+
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    repo, (sha, _) = _two_commit_repo(tmp_path)
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()  # its pid names no process now: as a run killed with SIGKILL
+    left = Path(tempfile.gettempdir()) / f"{history.TEMP_PREFIX}{dead.pid}-test"
+    _git(repo, "worktree", "add", "--detach", str(left / "tree"), sha)
+    assert _git(repo, "worktree", "list").count("\n") == 1
+    assert left in history.clean_stale_runs(repo)
+    assert not left.exists() and _git(repo, "worktree", "list").count("\n") == 0
+
+
+def test_sigterm_ends_a_history_run_with_its_worktree_removed(tmp_path):
+    import os
+    import signal
+    import tempfile
+
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    repo, shas = _two_commit_repo(tmp_path)
+    suite = tmp_path / "plant.toml"
+    suite.write_text(SUITE)
+
+    def terminated(argv, env, cwd):
+        assert _git(repo, "worktree", "list").count("\n") == 1  # the commit's worktree, while its run runs
+        os.kill(os.getpid(), signal.SIGTERM)
+        return 0
+
+    with pytest.raises(KeyboardInterrupt):
+        history.run_commits(repo, ",".join(shas), tmp_path / "store", suite=str(suite), runner=terminated)
+    assert _git(repo, "worktree", "list").count("\n") == 0
+    assert not list(Path(tempfile.gettempdir()).glob(f"{history.TEMP_PREFIX}{os.getpid()}-*"))
+    assert signal.getsignal(signal.SIGTERM) is not None  # the previous handler is back

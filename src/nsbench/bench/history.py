@@ -35,6 +35,7 @@ import shlex
 import subprocess
 import sys
 import tempfile
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable
@@ -432,8 +433,9 @@ def run_commits(
     repo = Path(repo).resolve()
     shas = revisions(repo, spec)
     run = runner or _run_suite
-    added = []
-    with tempfile.TemporaryDirectory(prefix="nsbench-history-") as tmp:
+    added: list[Entry] = []
+    clean_stale_runs(repo, stream)
+    with _terminate_as_interrupt(), tempfile.TemporaryDirectory(prefix=f"{TEMP_PREFIX}{os.getpid()}-") as tmp:
         for i, sha in enumerate(shas, 1):
             tree = Path(tmp) / f"tree-{sha[:12]}"
             out = (Path(keep) / sha[:12]) if keep is not None else Path(tmp) / f"run-{sha[:12]}"
@@ -451,6 +453,63 @@ def run_commits(
             finally:
                 _git(repo, "worktree", "remove", "--force", str(tree))
     return added
+
+
+#: The temporary folders of ``history run`` are ``<tmp>/nsbench-history-<pid>-<random>``: the pid tells a
+#: later run whether the one that made it is gone (killed) and its worktrees are to be removed.
+TEMP_PREFIX = "nsbench-history-"
+
+
+def clean_stale_runs(repo: Path, stream=None) -> list[Path]:
+    """Remove what a killed ``history run`` left (:data:`TEMP_PREFIX` folders of processes that are gone, and
+    the worktrees of ``repo`` registered in them); the removed folders.
+
+    A run that ends in any other way (an error, Ctrl-C, SIGTERM) removes its own.
+    """
+    import shutil
+
+    gone = []
+    for folder in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*-*"):
+        pid = folder.name[len(TEMP_PREFIX) :].split("-", 1)[0]
+        if not pid.isdigit() or not folder.is_dir() or _alive(int(pid)):
+            continue
+        shutil.rmtree(folder, ignore_errors=True)
+        gone.append(folder)
+    if gone:
+        _git(repo, "worktree", "prune")  # the registrations of worktrees whose folders are gone
+        if stream is not None:
+            print(f"nsbench: history: removed {len(gone)} folder(s) left by a killed run: {gone[0]}", file=stream)
+    return gone
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process: alive
+        return True
+    return True
+
+
+@contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM ends the run as Ctrl-C does, through every ``finally`` (its worktrees removed), in the main thread."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _at_commit(

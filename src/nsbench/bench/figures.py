@@ -378,8 +378,8 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
             )
         for name, options, t, err in curves[fam]:
             st = styles[name]
-            label = configuration(name, options)  # by its options, not by a level's index
-            ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5, label=label)
+            named = configuration(name, options)  # by its options, not by a level's index
+            ax.plot(t, err, "-", color=st["color"], lw=0.8, marker=st["marker"], ms=2.5, label=named)
         ax.set_yscale("log")
         ax.set_title(fam, fontsize=9)
         ax.grid(True, alpha=0.3)

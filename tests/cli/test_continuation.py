@@ -133,3 +133,19 @@ def test_a_link_inside_the_out_folder_is_not_followed(tmp_path, capsys):
     assert main([*argv, "--origin", "0.16", "--out", str(out), "--formats", "png", "--no-progress"]) == 2
     assert "branch.csv is a symbolic link" in capsys.readouterr().err
     assert list(elsewhere.iterdir()) == []
+
+
+def test_a_bad_out_is_refused_before_the_flow_is_built(tmp_path, capsys, monkeypatch):
+    # building the flow sets its integrator up, which on a fresh install compiles for minutes and
+    # announces it on stderr: a bad --out must be refused before (CI at 99cfdc8 met it so)
+    import nsbench.periodic
+
+    def built(*args, **kwargs):
+        raise AssertionError("the flow was built before --out was checked")
+
+    monkeypatch.setattr(nsbench.periodic, "HybridFlow", built)
+    (tmp_path / "afile").write_text("x")
+    argv = ["continuation", "two-dof", "--case", "1", "--sweep", "v0=0.2:0.28", "--out", str(tmp_path / "afile" / "c")]
+    assert main(argv) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "is a file, not a folder" in line

@@ -124,6 +124,14 @@ def main(args: argparse.Namespace) -> int:
     section = args.section or ("strobe" if forced else "peaks")
     if section == "strobe" and not all(p.is_forced and p.forcing_frequency > 0 for p in ends):
         raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
+    # the output folder and the diagram before the flow is built: a bad --out is refused before anything
+    # compiles or runs (exit 2 means refused before anything ran)
+    out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
+    check_output_dir(out, "--out")
+    from nsbench.files import refuse_links
+
+    refuse_links(out, WRITTEN)  # the tables and figures written there replace what is there: never through a link
+    diagram = _diagram(args.diagram, name) if args.diagram else None
     from nsbench.periodic import HybridFlow
 
     try:
@@ -137,12 +145,6 @@ def main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 1
-    diagram = _diagram(args.diagram, name) if args.diagram else None
-    out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
-    check_output_dir(out, "--out")
-    from nsbench.files import refuse_links
-
-    refuse_links(out, WRITTEN)  # the tables and figures written there replace what is there: never through a link
 
     h_max = abs(stop - start) / steps
     bar = Progress(steps, label=name, enabled=not args.no_progress)

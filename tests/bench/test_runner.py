@@ -207,12 +207,19 @@ def test_resume_after_interrupt_computes_only_missing_cases(register, tmp_path, 
     whole = set(frame.loc[frame["n_repeats"] == 3, "case_id"])
     assert len(whole) < n  # the interrupting case never finished its rounds
     before = {p.name: p.read_bytes() for p in stored if p.name[: -len(".parquet")] in whole}
+    # the samples of the rounds that finished before the interrupt (the interrupted case: at least its first)
+    partial = {r.case_id: list(r.wall_times) for r in frame.itertuples() if r.n_repeats < 3}
+    assert partial
     monkeypatch.delenv("NSBENCH_TEST_INTERRUPT")
     summary = run_suite(suite, tmp_path, workers=1, progress=False)
     assert (summary.n_resumed, summary.n_computed) == (len(whole), n - len(whole))
     assert all((tmp_path / "cases" / name).read_bytes() == b for name, b in before.items())
     assert len(summary.results) == n and (summary.results["status"] == "success").all()
     assert (summary.results["n_repeats"] == 3).all()
+    # a case interrupted between its rounds keeps its samples: the resume times only the rounds it lacked
+    resumed = summary.results.set_index("case_id")
+    for case_id, samples in partial.items():
+        assert list(resumed.loc[case_id, "wall_times"])[: len(samples)] == samples, case_id
 
 
 def _ctrl_c_as_in_a_terminal() -> None:

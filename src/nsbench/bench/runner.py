@@ -249,17 +249,23 @@ def run_suite(
     done = storage.done_ids(out)
     if done:
         _warn_other_version(out, prov, err)
-    # a run interrupted between timing rounds left successful rows with fewer runs: time them again
-    done -= storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})
+    # a run interrupted between timing rounds left successful rows with fewer runs: their samples are
+    # kept, and only the rounds they lack are timed (after a warm-up, as any case)
+    short = storage.short_of_repeats(out, {c.case_id: c.repeats for c in cases if c.case_id in done})
+    done -= short.keys()
     pending = [c for c in cases if c.case_id not in done]
     pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: the best start for the balance
-    if len(pending) < len(cases):  # say in words what a resumed run does, before it does it
+    if len(pending) < len(cases) or short:  # say in words what a resumed run does, before it does it
+        kept = f" ({len(short)} of them keep the samples of their finished rounds)" if short else ""
         print(
-            f"nsbench: resuming {out}: {len(pending)} of {len(cases)} cases to run, "
+            f"nsbench: resuming {out}: {len(pending)} of {len(cases)} cases to run{kept}, "
             f"{len(cases) - len(pending)} stored (--fresh starts over)",
             file=err,
             flush=True,
         )
+    rounds_left = {
+        c.case_id: c.repeats - int(short[c.case_id]["n_repeats"]) if c.case_id in short else c.repeats for c in pending
+    }
     shareable, local = _components(pending, suite)
     workers = max(1, int(workers or os.cpu_count() or 1))
     prov["workers"] = 1 if local else min(workers, max(1, len(pending)))
@@ -268,7 +274,7 @@ def run_suite(
     # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
     warm_weight, weight, ref_weight = _weights(suite, pending, len(refs.todo), prov["workers"], out, err, progress)
     bar = Progress(
-        len(refs.todo) * ref_weight + sum(warm_weight(c) + c.repeats * weight(c) for c in pending),
+        len(refs.todo) * ref_weight + sum(warm_weight(c) + rounds_left[c.case_id] * weight(c) for c in pending),
         label="cases",
         stream=err,
         enabled=progress,
@@ -317,6 +323,7 @@ def run_suite(
                 on_warm=lambda case: bar.update(warm_weight(case), case.label),
                 on_phase=bar.phase,
                 on_extra=lambda case: bar.grow(weight(case)),
+                resumed=short,
             )
             timeline = scheduler.timeline
             loads = scheduler.loads

@@ -146,7 +146,7 @@ class Scheduler:
     Parameters
     ----------
     cases
-        Cases to run (none of them stored yet).
+        Cases to run (none of them stored yet, or stored short of their rounds: ``resumed``).
     references
         References to compute first.
     reference_of
@@ -164,6 +164,10 @@ class Scheduler:
         The first message of every worker (:func:`nsbench.bench.pool.hello`).
     suite
         Suite name stored in the rows.
+    resumed
+        Stored rows (by case id) of cases an interrupted run timed in fewer rounds than planned: such a
+        case starts from its row (its samples, metrics and runs per sample) and is timed only in the
+        rounds it lacks, after its warm-up.
     """
 
     def __init__(
@@ -179,8 +183,12 @@ class Scheduler:
         on_warm: Callable[[Case], None] | None = None,
         on_phase: Callable[[str], None] | None = None,
         on_extra: Callable[[Case], None] | None = None,
+        resumed: dict[str, dict[str, Any]] | None = None,
     ) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
+        for case_id, row in (resumed or {}).items():
+            if case_id in self.cases:  # one sample per round: its rounds are its samples
+                self.cases[case_id].row, self.cases[case_id].rounds = dict(row), int(row["n_repeats"])
         self.ref_queue = deque(references)
         self.queue = deque(c.case_id for c in cases)  # first warm-ups, in the runner's order
         self.reference_of, self.on_reference, self.on_row = reference_of, on_reference, on_row

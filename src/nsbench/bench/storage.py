@@ -394,22 +394,24 @@ def done_ids(out: str | Path) -> set[str]:
     return {p.name[: -len(".parquet")] for p in cases.glob("*.parquet")} if cases.is_dir() else set()
 
 
-def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> set[str]:
-    """Ids among ``repeats`` (case id -> timed runs wanted) stored as successes with fewer runs.
+def short_of_repeats(out: str | Path, repeats: dict[str, int]) -> dict[str, dict[str, Any]]:
+    """The stored rows, by id among ``repeats`` (case id -> timed runs wanted), of successes with fewer runs.
 
     Rows are stored after every timing round, so an interrupted run leaves such
-    rows; a resumed run times those cases again. An unreadable file is left to
-    the reader of the results to report.
+    rows; a resumed run keeps their samples and times only the rounds they lack
+    (:class:`nsbench.bench.scheduler.Scheduler`'s ``resumed``). An unreadable file is
+    left to the reader of the results to report.
     """
-    short = set()
+    short: dict[str, dict[str, Any]] = {}
     for case_id, wanted in repeats.items():
         try:
-            table = pq.read_table(case_path(out, case_id), columns=["status", "n_repeats"])
+            rows = pq.read_table(case_path(out, case_id)).to_pylist()
         except (OSError, ValueError, KeyError, pa.ArrowException, ConfigError):
             continue
-        for status, n in zip(table.column("status").to_pylist(), table.column("n_repeats").to_pylist()):
-            if status == Status.SUCCESS and n is not None and n < wanted:
-                short.add(case_id)
+        for row in rows:
+            n = row.get("n_repeats")
+            if row.get("status") == Status.SUCCESS and n is not None and n < wanted:
+                short[case_id] = row
     return short
 
 

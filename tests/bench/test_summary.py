@@ -235,3 +235,17 @@ def test_one_margin_is_said_once_not_as_a_range_from_itself(frame):
     words = " ".join(findings(problem_summary(both, (1e-9,)), wrong_sequences(both)))
     assert "a is the cheapest method on 2 of 2 problems; the next method costs 3 times as much" in words
     assert "3 to 3" not in words
+
+
+def _pair_frame(rows):
+    return to_frame([_row("exact", 0.001, 0.0), *rows])
+
+
+def test_a_method_that_counts_no_evaluations_shows_n_a_not_0():
+    from nsbench.bench.tables import fixed_target_wide
+
+    counted = _row("a", 0.1, 1e-10)
+    uncounted = {**_row("siconos-like", 0.2, 1e-10), "nfev": 0}  # a method that reports no count stores 0
+    wide = fixed_target_wide(fixed_target(_pair_frame([counted, uncounted]), (1e-9,))).set_index("integrator")
+    assert wide.loc["a", "1e-09"].endswith(" / 1000")
+    assert wide.loc["siconos-like", "1e-09"].endswith(" / n/a")

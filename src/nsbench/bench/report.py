@@ -43,7 +43,14 @@ from nsbench.bench.summary import (
     samples_of,
     wrong_sequences,
 )
-from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
+from nsbench.bench.tables import (
+    DEFAULT_TARGETS,
+    fixed_target,
+    fixed_target_wide,
+    problem_groups,
+    ranking,
+    work_text,
+)
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 from nsbench.status import Status
 
@@ -322,7 +329,10 @@ ENGINE_CAPTION = (
 
 FT_CAPTION = (
     "Fixed-target cost: for each switching-time error target, the cheapest configuration of each "
-    "integrator that reaches it (median warm wall time ± half its min-max range / nfev); '-' not "
+    "integrator that reaches it (median warm wall time ± half its min-max range / nfev, the evaluations of "
+    "the method's model: right-hand sides for the event-driven and smooth-model methods, for moreau-jean the "
+    "one-step problems of its steps, a stick/slip status solved and tested each; 'n/a' where the method counts "
+    "none); '-' not "
     "reached (a wrong event sequence never counts), 'no ref' no reference for that problem, "
     "'unsupported' the integrator refuses the problem, 'not graded' a target below the reference's "
     "certified error or the problem's double-precision floor, 'ref' the problem's reference itself "
@@ -422,7 +432,9 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     if len(failures):
         blocks += [Block("p", "Cases that did not succeed:"), _table(failures)]
     results_view = (
-        frame[_RESULT_COLUMNS].assign(switch_err_max=_error_cells(frame)).rename(columns={"problem_label": "problem"})
+        frame[_RESULT_COLUMNS]
+        .assign(switch_err_max=_error_cells(frame), nfev=frame["nfev"].map(work_text))  # 0 is no count: n/a
+        .rename(columns={"problem_label": "problem"})
     )
     blocks += [
         Block("h2", "All cases"),

@@ -172,11 +172,24 @@ def _time(row: pd.Series) -> str:
     return f"{row['wall_time']:.3g} s" + (f" {label}" if label else "")
 
 
+def work_text(nfev) -> str:
+    """``nfev`` as a table shows it: the count, or ``'n/a'`` where the method counts none.
+
+    A run that reached a target did some work, so a stored 0 (or nothing) is no count: the method
+    does not report one (``siconos`` hands back no evaluation count), and 0 would read as free.
+    """
+    try:
+        count = int(nfev)
+    except (TypeError, ValueError):  # NA, NaN, None
+        return "n/a"
+    return str(count) if count > 0 else "n/a"
+
+
 def _cell(row: pd.Series) -> str:
     if row["outcome"] == "reached":
-        return f"{_time(row)} / {int(row['nfev'])}"
+        return f"{_time(row)} / {work_text(row['nfev'])}"
     if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
-        return f"ref ({_time(row)} / {int(row['nfev'])})"
+        return f"ref ({_time(row)} / {work_text(row['nfev'])})"
     return {"no reference": "no ref", "unsupported": "unsupported", "not graded": "not graded"}.get(row["outcome"], "-")
 
 

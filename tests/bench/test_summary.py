@@ -241,6 +241,18 @@ def _pair_frame(rows):
     return to_frame([_row("exact", 0.001, 0.0), *rows])
 
 
+def test_a_ratio_to_the_fastest_is_never_below_1_even_for_a_tied_method():
+    # a's median is the smallest (1.0), b's is 1.02; but 10 of b's 25 pairwise ratios to a are below 0.7
+    # (a's two slow samples), so the median of the pairwise ratios (Hodges-Lehmann) is 0.95
+    a = _row("a", 1.0, 1e-10, spread=(1.0, 1.0, 1.0, 1.5, 1.5))
+    b = _row("b", 1.02, 1e-10, spread=(0.95 / 1.02, 0.95 / 1.02, 1.0, 1.0, 1.0))
+    s = problem_summary(_pair_frame([a, b]), (1e-9,)).iloc[0]
+    assert s["cheapest"] == "tied: a, b"  # a's samples span 1.0-1.5, b's 0.95-1.02: they overlap
+    assert s["ratio"] == pytest.approx(1.02 / 1.0)  # the ratio of the medians the answer compares
+    assert s["others"].startswith("b x1.02 [") and s["others"].endswith(" tied")
+    assert s["ratio_low"] == pytest.approx(0.95 / 1.5) and s["ratio_high"] == pytest.approx(1.02)  # Moses, 3rd of 25
+
+
 def test_a_method_that_counts_no_evaluations_shows_n_a_not_0():
     from nsbench.bench.tables import fixed_target_wide
 

@@ -279,8 +279,8 @@ def _timing_text(frame: pd.DataFrame) -> str:
         "that a case's samples are spread over the run and meet the machine's drifting speed instead of one "
         f"moment of it.{loops} '±' is half the min-max range of the samples relative to the median. An "
         "interval [a-b] of a time is the distribution-free interval of its median (order statistics; with 5 "
-        "samples the range, 94 %); of a cost ratio, the 95 % Moses interval of the Hodges-Lehmann ratio "
-        "(the median of the ratios of every pair of samples)."
+        "samples the range, 94 %); of a cost ratio (the ratio of the two medians), the 95 % Moses interval of "
+        "the scale factor between the two methods' times (from the ratios of every pair of samples)."
     )
 
 
@@ -575,7 +575,8 @@ CLASS_CAPTION = (
 ANSWER_CAPTION = (
     "For each switching-time error target: the cheapest method under test that reaches it (median "
     "warm wall time per run, with the interval of that median), every other method's cost as a ratio "
-    "to the fastest with the ratio's 95 % interval, and the methods that never reach it, with why. "
+    "to the fastest (the ratio of the median times, so never below 1: the fastest is the method of smallest "
+    "median) with the ratio's 95 % interval, and the methods that never reach it, with why. "
     "Methods whose times cannot be told apart from the fastest one's (the intervals of their medians "
     "overlap, or the ratio's interval holds 1) are tied: then the cheapest column names every tied "
     "method and 'tied' follows their ratios. A run with a wrong event sequence never reaches a "

@@ -253,6 +253,25 @@ def test_a_ratio_to_the_fastest_is_never_below_1_even_for_a_tied_method():
     assert s["ratio_low"] == pytest.approx(0.95 / 1.5) and s["ratio_high"] == pytest.approx(1.02)  # Moses, 3rd of 25
 
 
+def test_every_method_the_answer_calls_tied_for_the_cheapest_is_ranked_first():
+    # a is the fastest by the median but spread widely (1.0-1.4); b (1.25) and c (1.35) are tight:
+    # each is tied with a, while c is distinguishably slower than b
+    rows = [
+        _row("a", 1.2, 1e-10, spread=(1.0 / 1.2, 1.1 / 1.2, 1.0, 1.3 / 1.2, 1.4 / 1.2)),
+        _row("b", 1.25, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),
+        _row("c", 1.35, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),
+        _row("d", 3.0, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),  # distinguishably slower than all
+    ]
+    frame = _pair_frame(rows)
+    assert problem_summary(frame, (1e-9,)).iloc[0]["tied"] == "a, b, c"
+    long = fixed_target(frame, (1e-9,))
+    rank = ranking(long[long["integrator"] != "exact"], {r["case_id"]: r["wall_times"] for r in rows})
+    rank = rank.set_index("integrator")
+    assert rank.loc[["a", "b", "c"], "mean_rank"].tolist() == [1, 1, 1]
+    assert rank.loc[["a", "b", "c"], "rank"].tolist() == [1, 1, 1]
+    assert rank.loc["d", "mean_rank"] == 4 and rank.loc["d", "rank"] == 4  # behind the three of the first tier
+
+
 def test_a_method_that_counts_no_evaluations_shows_n_a_not_0():
     from nsbench.bench.tables import fixed_target_wide
 

@@ -339,11 +339,14 @@ FT_CAPTION = (
     "(its cost; its error is 0 by construction)."
 )
 RANK_CAPTION = (
-    "Ranking by time to reach each (problem, target): an integrator's rank there is 1 + the number of "
-    "integrators that reach it distinguishably faster (their timing intervals do not overlap, the rule of "
-    "the answer's ties), so integrators that cannot be told apart share a rank; one that does not reach a "
-    "target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator "
-    "refuses or is the reference of are left out, and reference-grade integrators are not ranked."
+    "Ranking by time to reach each (problem, target), in tiers by the rule of the answer's ties: the fastest "
+    "integrator there and every one whose timing cannot be told from it share rank 1 (the methods the answer "
+    "calls tied for the cheapest), the fastest of the rest and those tied with it share the next rank (1 + "
+    "the number ranked before them), and so on; one that does not reach a target is ranked last there. "
+    "mean_rank is over the (problem, target) pairs, and integrators with the same mean_rank and targets "
+    "reached share the same integer rank (the next rank skips as many). geo_mean_time is over the targets it "
+    "reached; problems an integrator refuses or is the reference of are left out, and reference-grade "
+    "integrators are not ranked."
 )
 COMPACT_CAPTION = (
     "Cheapest method under test reaching a switching-time error of {target} on each problem, or the "

@@ -395,7 +395,8 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
 
     held = completeness(frame, prov)
     blocks = [Block("p", held.text())] if held is not None and held.partial else []
-    blocks += _family_blocks(frame, targets) + _answer_blocks(
+    family_table = _families_table(frame, targets)
+    blocks += _family_blocks(family_table, targets) + _answer_blocks(
         frame, prov, summary, ecdf, classes.class_summary(frame, targets)
     )
     blocks += _context_blocks(frame, prov)
@@ -448,21 +449,27 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     page = {"title": "nsbench report" if held is None else held.title(), "blocks": blocks, "provenance": prov}
     (d / "report.md").write_text(render.page("report.md", **page))
     (d / "index.html").write_text(render.page("report.html", **page))
-    (d / "table.tex").write_text(_latex(prov, summary, wide, rank, reference_costs(frame)))
+    (d / "table.tex").write_text(_latex(prov, summary, wide, rank, reference_costs(frame), family_table))
     if len(scaling):
         (d / "scaling.csv").write_text(scaling.to_csv(index=False))
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
 
 
-def _family_blocks(frame: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:
-    """The answer per family of methods (:mod:`nsbench.bench.families`), when the results hold a whole-system
-    method (time-stepping, switch model, smoothing); nothing otherwise."""
+def _families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFrame:
+    """The per-family table (:func:`nsbench.bench.families.families_table`) when the results hold a
+    whole-system method (time-stepping, switch model, smoothing); an empty frame otherwise."""
     from nsbench.bench import families
 
     if not families.has_whole_system(frame):
-        return []
-    table = families.families_table(frame, targets)
+        return pd.DataFrame()
+    return families.families_table(frame, targets)
+
+
+def _family_blocks(table: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:
+    """The answer per family of methods (:mod:`nsbench.bench.families`) from its table; nothing when it is empty."""
+    from nsbench.bench import families
+
     if not len(table):
         return []
     return [
@@ -539,9 +546,17 @@ def _spread_blocks(frame: pd.DataFrame) -> list[Block]:
     return [Block("h2", "Timing spread"), Block("p", caption), _table(spread)]
 
 
-def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataFrame, refs: pd.DataFrame) -> str:
-    """``table.tex``: one page-sized table per target, then the references, the fixed-target table and the
-    ranking; ``\\input`` it after ``\\usepackage{booktabs,longtable,array}``."""
+def _latex(
+    prov: dict,
+    summary: pd.DataFrame,
+    wide: pd.DataFrame,
+    rank: pd.DataFrame,
+    refs: pd.DataFrame,
+    family_table: pd.DataFrame | None = None,
+) -> str:
+    """``table.tex``: one page-sized table per target, the per-family table (when the results hold a
+    whole-system method), then the references, the fixed-target table and the ranking; ``\\input`` it
+    after ``\\usepackage{booktabs,longtable,array}``."""
     meta = json.dumps({k: v for k, v in prov.items() if k != "suite"}, default=str)
     tex = ["% nsbench report tables; needs \\usepackage{booktabs,longtable,array}", f"% provenance: {meta}"]
     for target in summary["target"].unique():
@@ -551,6 +566,11 @@ def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataF
             ),
             "",
         ]
+    if family_table is not None and len(family_table):
+        from nsbench.bench.families import CAPTION as FAMILY_CAPTION
+
+        # the caption's `code` marks are Markdown: in LaTeX they would print as quotes
+        tex += [latex_table(family_table, FAMILY_CAPTION.replace("`", ""), "tab:nsbench-families"), ""]
     if len(refs):
         tex += [latex_table(refs, REFERENCE_CAPTION, "tab:nsbench-references"), ""]
     tex += [

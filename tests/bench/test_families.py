@@ -59,6 +59,23 @@ def test_the_table_reads_each_ladder_cost_order_and_creep():
     assert any("moreau-jean" in line and "order 2.00 on a smooth arc" in line for line in lines)
 
 
+def test_table_tex_holds_the_per_family_table():
+    from nsbench.bench.report import _latex
+
+    rows = [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 1e-3, wall=1e-3 / h) for h in (1e-2, 5e-3)]
+    rows.append(_row("moreau-jean", "time-stepping", {"h": 2e-2}, 1.0, 1.0, 1e-2, seq=False))
+    table = families_table(pd.DataFrame(rows), (1e-2, 1e-3))
+    tex = _latex({}, pd.DataFrame(columns=["target"]), pd.DataFrame(), pd.DataFrame(), pd.DataFrame(), table)
+    assert tex.count("\\label{tab:nsbench-families}") == 1
+    part = tex.split("\\label{tab:nsbench-families}")[1].split("\\end{table}")[0]
+    # the columns a time-stepping paper pastes: observed orders, creep, the sequence right in k of n
+    for column in ("order (switches)", "order (states)", "creep (loosest)", "creep (tightest)", "sequence ok"):
+        assert column in part
+    assert "2 of 3" in part and "h 0.02 .. 0.005" in part and "`" not in part
+    # without a whole-system method there is no such table
+    assert "nsbench-families" not in _latex({}, pd.DataFrame(columns=["target"]), *[pd.DataFrame()] * 3)
+
+
 @pytest.fixture(scope="module")
 def one_dof_reference():
     import numpy as np
@@ -140,6 +157,7 @@ def test_a_small_families_suite_reports_per_family(tmp_path):
     assert "The answer per family of methods" in text
     assert text.index("The answer per family") < text.index("Fixed-target table")
     assert "one-dof/1, time-stepping (moreau-jean)" in text and "one-dof/1, smoothing (smoothing)" in text
+    assert "\\label{tab:nsbench-families}" in (tmp_path / "table.tex").read_text()
 
 
 def test_a_whole_system_case_runs_in_process():

@@ -235,3 +235,48 @@ def test_one_margin_is_said_once_not_as_a_range_from_itself(frame):
     words = " ".join(findings(problem_summary(both, (1e-9,)), wrong_sequences(both)))
     assert "a is the cheapest method on 2 of 2 problems; the next method costs 3 times as much" in words
     assert "3 to 3" not in words
+
+
+def _pair_frame(rows):
+    return to_frame([_row("exact", 0.001, 0.0), *rows])
+
+
+def test_a_ratio_to_the_fastest_is_never_below_1_even_for_a_tied_method():
+    # a's median is the smallest (1.0), b's is 1.02; but 10 of b's 25 pairwise ratios to a are below 0.7
+    # (a's two slow samples), so the median of the pairwise ratios (Hodges-Lehmann) is 0.95
+    a = _row("a", 1.0, 1e-10, spread=(1.0, 1.0, 1.0, 1.5, 1.5))
+    b = _row("b", 1.02, 1e-10, spread=(0.95 / 1.02, 0.95 / 1.02, 1.0, 1.0, 1.0))
+    s = problem_summary(_pair_frame([a, b]), (1e-9,)).iloc[0]
+    assert s["cheapest"] == "tied: a, b"  # a's samples span 1.0-1.5, b's 0.95-1.02: they overlap
+    assert s["ratio"] == pytest.approx(1.02 / 1.0)  # the ratio of the medians the answer compares
+    assert s["others"].startswith("b x1.02 [") and s["others"].endswith(" tied")
+    assert s["ratio_low"] == pytest.approx(0.95 / 1.5) and s["ratio_high"] == pytest.approx(1.02)  # Moses, 3rd of 25
+
+
+def test_every_method_the_answer_calls_tied_for_the_cheapest_is_ranked_first():
+    # a is the fastest by the median but spread widely (1.0-1.4); b (1.25) and c (1.35) are tight:
+    # each is tied with a, while c is distinguishably slower than b
+    rows = [
+        _row("a", 1.2, 1e-10, spread=(1.0 / 1.2, 1.1 / 1.2, 1.0, 1.3 / 1.2, 1.4 / 1.2)),
+        _row("b", 1.25, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),
+        _row("c", 1.35, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),
+        _row("d", 3.0, 1e-10, spread=(0.99, 0.995, 1.0, 1.005, 1.01)),  # distinguishably slower than all
+    ]
+    frame = _pair_frame(rows)
+    assert problem_summary(frame, (1e-9,)).iloc[0]["tied"] == "a, b, c"
+    long = fixed_target(frame, (1e-9,))
+    rank = ranking(long[long["integrator"] != "exact"], {r["case_id"]: r["wall_times"] for r in rows})
+    rank = rank.set_index("integrator")
+    assert rank.loc[["a", "b", "c"], "mean_rank"].tolist() == [1, 1, 1]
+    assert rank.loc[["a", "b", "c"], "rank"].tolist() == [1, 1, 1]
+    assert rank.loc["d", "mean_rank"] == 4 and rank.loc["d", "rank"] == 4  # behind the three of the first tier
+
+
+def test_a_method_that_counts_no_evaluations_shows_n_a_not_0():
+    from nsbench.bench.tables import fixed_target_wide
+
+    counted = _row("a", 0.1, 1e-10)
+    uncounted = {**_row("siconos-like", 0.2, 1e-10), "nfev": 0}  # a method that reports no count stores 0
+    wide = fixed_target_wide(fixed_target(_pair_frame([counted, uncounted]), (1e-9,))).set_index("integrator")
+    assert wide.loc["a", "1e-09"].endswith(" / 1000")
+    assert wide.loc["siconos-like", "1e-09"].endswith(" / n/a")

@@ -38,7 +38,12 @@ COST_AXES = {
         "the time spent inside the integrator's own code (median over the timed runs; "
         "nsbench's event handling left out)",
     ),
-    "nfev": ("nfev", "right-hand-side evaluations (nfev)", "nfev"),
+    "nfev": (
+        "nfev",
+        "model evaluations (nfev)",
+        "nfev (right-hand-side evaluations; for moreau-jean the one-step problems it solves; methods that "
+        "count none, nfev 0, are not drawn)",
+    ),
     "nsteps": (
         "nsteps",
         "steps or segments (nsteps)",
@@ -301,7 +306,8 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     methods, left_out = _methods(group)
     dropped = int((methods["status"] != Status.SUCCESS).sum())
     for name, rows in methods.groupby("integrator", sort=True):
-        rows = rows[rows["switch_err_max"].notna() & rows[cost].notna() & (rows["status"] == Status.SUCCESS)]
+        counted = pd.to_numeric(rows[cost], errors="coerce") > 0  # a 0 nfev is no count (siconos): no point at 0
+        rows = rows[rows["switch_err_max"].notna() & counted & (rows["status"] == Status.SUCCESS)]
         rows = rows.sort_values("level")
         if rows.empty:
             continue
@@ -459,7 +465,7 @@ def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figur
 #: Cost axes of the runtime-distribution figure: (fixed-target column, axis label).
 ECDF_COSTS = {
     "wall_time": "warm wall time to reach the target (s)",
-    "nfev": "right-hand-side evaluations to reach the target (nfev)",
+    "nfev": "model evaluations to reach the target (nfev)",
 }
 
 
@@ -516,7 +522,9 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
         "(left) and by nfev (right). A pair is solved at the cost of the method's cheapest configuration "
         "that reaches the target with the reference's event sequence (the fixed-target rule); a curve "
         "ends (marker) at the share of pairs the method solves at all. Higher and further left is better. "
-        "Methods that count no right-hand-side evaluations (nfev = 0) have no curve on the right."
+        "nfev counts right-hand-side evaluations, and for moreau-jean the one-step problems it solves (a "
+        "stick/slip status solved and tested, one per step where the status holds, more at a switch); "
+        "methods that count none (nfev 0, siconos) have no curve on the right."
     )
     return _save(fig, out, "runtime_distribution", "Runtime distributions", caption)
 

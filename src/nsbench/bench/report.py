@@ -43,7 +43,14 @@ from nsbench.bench.summary import (
     samples_of,
     wrong_sequences,
 )
-from nsbench.bench.tables import DEFAULT_TARGETS, fixed_target, fixed_target_wide, problem_groups, ranking
+from nsbench.bench.tables import (
+    DEFAULT_TARGETS,
+    fixed_target,
+    fixed_target_wide,
+    problem_groups,
+    ranking,
+    work_text,
+)
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 from nsbench.status import Status
 
@@ -272,8 +279,8 @@ def _timing_text(frame: pd.DataFrame) -> str:
         "that a case's samples are spread over the run and meet the machine's drifting speed instead of one "
         f"moment of it.{loops} '±' is half the min-max range of the samples relative to the median. An "
         "interval [a-b] of a time is the distribution-free interval of its median (order statistics; with 5 "
-        "samples the range, 94 %); of a cost ratio, the 95 % Moses interval of the Hodges-Lehmann ratio "
-        "(the median of the ratios of every pair of samples)."
+        "samples the range, 94 %); of a cost ratio (the ratio of the two medians), the 95 % Moses interval of "
+        "the scale factor between the two methods' times (from the ratios of every pair of samples)."
     )
 
 
@@ -322,18 +329,24 @@ ENGINE_CAPTION = (
 
 FT_CAPTION = (
     "Fixed-target cost: for each switching-time error target, the cheapest configuration of each "
-    "integrator that reaches it (median warm wall time ± half its min-max range / nfev); '-' not "
+    "integrator that reaches it (median warm wall time ± half its min-max range / nfev, the evaluations of "
+    "the method's model: right-hand sides for the event-driven and smooth-model methods, for moreau-jean the "
+    "one-step problems of its steps, a stick/slip status solved and tested each; 'n/a' where the method counts "
+    "none); '-' not "
     "reached (a wrong event sequence never counts), 'no ref' no reference for that problem, "
     "'unsupported' the integrator refuses the problem, 'not graded' a target below the reference's "
     "certified error or the problem's double-precision floor, 'ref' the problem's reference itself "
     "(its cost; its error is 0 by construction)."
 )
 RANK_CAPTION = (
-    "Ranking by time to reach each (problem, target): an integrator's rank there is 1 + the number of "
-    "integrators that reach it distinguishably faster (their timing intervals do not overlap, the rule of "
-    "the answer's ties), so integrators that cannot be told apart share a rank; one that does not reach a "
-    "target is ranked last there. geo_mean_time is over the targets it reached; problems an integrator "
-    "refuses or is the reference of are left out, and reference-grade integrators are not ranked."
+    "Ranking by time to reach each (problem, target), in tiers by the rule of the answer's ties: the fastest "
+    "integrator there and every one whose timing cannot be told from it share rank 1 (the methods the answer "
+    "calls tied for the cheapest), the fastest of the rest and those tied with it share the next rank (1 + "
+    "the number ranked before them), and so on; one that does not reach a target is ranked last there. "
+    "mean_rank is over the (problem, target) pairs, and integrators with the same mean_rank and targets "
+    "reached share the same integer rank (the next rank skips as many). geo_mean_time is over the targets it "
+    "reached; problems an integrator refuses or is the reference of are left out, and reference-grade "
+    "integrators are not ranked."
 )
 COMPACT_CAPTION = (
     "Cheapest method under test reaching a switching-time error of {target} on each problem, or the "
@@ -382,7 +395,8 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
 
     held = completeness(frame, prov)
     blocks = [Block("p", held.text())] if held is not None and held.partial else []
-    blocks += _family_blocks(frame, targets) + _answer_blocks(
+    family_table = _families_table(frame, targets)
+    blocks += _family_blocks(family_table, targets) + _answer_blocks(
         frame, prov, summary, ecdf, classes.class_summary(frame, targets)
     )
     blocks += _context_blocks(frame, prov)
@@ -422,7 +436,9 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     if len(failures):
         blocks += [Block("p", "Cases that did not succeed:"), _table(failures)]
     results_view = (
-        frame[_RESULT_COLUMNS].assign(switch_err_max=_error_cells(frame)).rename(columns={"problem_label": "problem"})
+        frame[_RESULT_COLUMNS]
+        .assign(switch_err_max=_error_cells(frame), nfev=frame["nfev"].map(work_text))  # 0 is no count: n/a
+        .rename(columns={"problem_label": "problem"})
     )
     blocks += [
         Block("h2", "All cases"),
@@ -433,21 +449,27 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     page = {"title": "nsbench report" if held is None else held.title(), "blocks": blocks, "provenance": prov}
     (d / "report.md").write_text(render.page("report.md", **page))
     (d / "index.html").write_text(render.page("report.html", **page))
-    (d / "table.tex").write_text(_latex(prov, summary, wide, rank, reference_costs(frame)))
+    (d / "table.tex").write_text(_latex(prov, summary, wide, rank, reference_costs(frame), family_table))
     if len(scaling):
         (d / "scaling.csv").write_text(scaling.to_csv(index=False))
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
 
 
-def _family_blocks(frame: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:
-    """The answer per family of methods (:mod:`nsbench.bench.families`), when the results hold a whole-system
-    method (time-stepping, switch model, smoothing); nothing otherwise."""
+def _families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFrame:
+    """The per-family table (:func:`nsbench.bench.families.families_table`) when the results hold a
+    whole-system method (time-stepping, switch model, smoothing); an empty frame otherwise."""
     from nsbench.bench import families
 
     if not families.has_whole_system(frame):
-        return []
-    table = families.families_table(frame, targets)
+        return pd.DataFrame()
+    return families.families_table(frame, targets)
+
+
+def _family_blocks(table: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:
+    """The answer per family of methods (:mod:`nsbench.bench.families`) from its table; nothing when it is empty."""
+    from nsbench.bench import families
+
     if not len(table):
         return []
     return [
@@ -524,9 +546,17 @@ def _spread_blocks(frame: pd.DataFrame) -> list[Block]:
     return [Block("h2", "Timing spread"), Block("p", caption), _table(spread)]
 
 
-def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataFrame, refs: pd.DataFrame) -> str:
-    """``table.tex``: one page-sized table per target, then the references, the fixed-target table and the
-    ranking; ``\\input`` it after ``\\usepackage{booktabs,longtable,array}``."""
+def _latex(
+    prov: dict,
+    summary: pd.DataFrame,
+    wide: pd.DataFrame,
+    rank: pd.DataFrame,
+    refs: pd.DataFrame,
+    family_table: pd.DataFrame | None = None,
+) -> str:
+    """``table.tex``: one page-sized table per target, the per-family table (when the results hold a
+    whole-system method), then the references, the fixed-target table and the ranking; ``\\input`` it
+    after ``\\usepackage{booktabs,longtable,array}``."""
     meta = json.dumps({k: v for k, v in prov.items() if k != "suite"}, default=str)
     tex = ["% nsbench report tables; needs \\usepackage{booktabs,longtable,array}", f"% provenance: {meta}"]
     for target in summary["target"].unique():
@@ -536,6 +566,11 @@ def _latex(prov: dict, summary: pd.DataFrame, wide: pd.DataFrame, rank: pd.DataF
             ),
             "",
         ]
+    if family_table is not None and len(family_table):
+        from nsbench.bench.families import CAPTION as FAMILY_CAPTION
+
+        # the caption's `code` marks are Markdown: in LaTeX they would print as quotes
+        tex += [latex_table(family_table, FAMILY_CAPTION.replace("`", ""), "tab:nsbench-families"), ""]
     if len(refs):
         tex += [latex_table(refs, REFERENCE_CAPTION, "tab:nsbench-references"), ""]
     tex += [
@@ -563,7 +598,8 @@ CLASS_CAPTION = (
 ANSWER_CAPTION = (
     "For each switching-time error target: the cheapest method under test that reaches it (median "
     "warm wall time per run, with the interval of that median), every other method's cost as a ratio "
-    "to the fastest with the ratio's 95 % interval, and the methods that never reach it, with why. "
+    "to the fastest (the ratio of the median times, so never below 1: the fastest is the method of smallest "
+    "median) with the ratio's 95 % interval, and the methods that never reach it, with why. "
     "Methods whose times cannot be told apart from the fastest one's (the intervals of their medians "
     "overlap, or the ratio's interval holds 1) are tied: then the cheapest column names every tied "
     "method and 'tied' follows their ratios. A run with a wrong event sequence never reaches a "

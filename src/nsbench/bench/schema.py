@@ -38,7 +38,13 @@ COLUMNS: tuple[tuple[str, str], ...] = (
         "one advance per arc), kernel (the core's, a compiled arc kernel), whole-system",
     ),
     ("t_final", "where the run stopped"),
-    ("nfev", "right-hand-side evaluations (one per state)"),
+    (
+        "nfev",
+        "evaluations of the method's model: right-hand sides (one per state) for the event-driven, "
+        "switch-model and smoothing methods; one-step problems (a stick/slip status solved and tested "
+        "against the friction law) for moreau-jean; 0 where the method counts none (siconos), shown n/a "
+        "in the tables",
+    ),
     ("njev", "Jacobian evaluations"),
     ("nsteps", "steps or segments"),
     ("n_events", "events logged by the run"),

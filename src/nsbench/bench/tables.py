@@ -172,11 +172,24 @@ def _time(row: pd.Series) -> str:
     return f"{row['wall_time']:.3g} s" + (f" {label}" if label else "")
 
 
+def work_text(nfev) -> str:
+    """``nfev`` as a table shows it: the count, or ``'n/a'`` where the method counts none.
+
+    A run that reached a target did some work, so a stored 0 (or nothing) is no count: the method
+    does not report one (``siconos`` hands back no evaluation count), and 0 would read as free.
+    """
+    try:
+        count = int(nfev)
+    except (TypeError, ValueError):  # NA, NaN, None
+        return "n/a"
+    return str(count) if count > 0 else "n/a"
+
+
 def _cell(row: pd.Series) -> str:
     if row["outcome"] == "reached":
-        return f"{_time(row)} / {int(row['nfev'])}"
+        return f"{_time(row)} / {work_text(row['nfev'])}"
     if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
-        return f"ref ({_time(row)} / {int(row['nfev'])})"
+        return f"ref ({_time(row)} / {work_text(row['nfev'])})"
     return {"no reference": "no ref", "unsupported": "unsupported", "not graded": "not graded"}.get(row["outcome"], "-")
 
 
@@ -195,14 +208,18 @@ def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
 
 
 def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | None, confidence: float) -> pd.Series:
-    """Ranks within one (problem, target): 1 + the reaching methods distinguishably faster; last if not reached.
+    """Ranks within one (problem, target), in tiers of methods that cannot be told apart; last if not reached.
 
     Without ``samples`` (tables built from medians alone) a method's rank is
     1 + the reaching methods with a smaller median (equal medians share a rank).
-    With them, a faster method counts only when the two methods' timings can be
-    told apart (:func:`nsbench.bench.stats.tied_with`): methods whose intervals
-    overlap share a rank, so no single method gets rank 1 where the timings do
-    not single it out.
+    With them, the ranks come in tiers, as the answer names ties
+    (:func:`nsbench.bench.summary.problem_summary`): the fastest reaching method
+    and every one whose timing cannot be told from its
+    (:func:`nsbench.bench.stats.tied_with`) share rank 1; of the others, the
+    fastest and those tied with it share rank 1 + the number ranked before them;
+    and so on. So every method the answer calls tied for the cheapest is
+    ranked 1, and no single method gets rank 1 where the timings do not single
+    it out.
     """
     hit = group["outcome"] == "reached"
     t = group["wall_time"].where(hit, np.inf)
@@ -211,8 +228,18 @@ def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | No
         return t.rank(method="min").where(np.isfinite(t), last)
     own = {i: list(samples.get(group.at[i, "case_id"], ())) for i in group.index[hit & np.isfinite(t)]}
     out = pd.Series(last, index=group.index)
-    for i in own:
-        out[i] = 1.0 + sum(t[j] < t[i] and not tied_with(own[j], own[i], confidence) for j in own if j != i)
+    # tiers from the fastest down, each the fastest left and every method tied with it, as the answer
+    # names the methods tied for cheapest (summary.problem_summary): tiedness is not transitive, so
+    # counting faster methods pairwise could rank 2nd a method the answer calls tied for the cheapest
+    left = sorted(own, key=lambda i: (t[i], str(group.at[i, "integrator"])))
+    placed = 0
+    while left:
+        head = left[0]
+        tier = [i for i in left if i == head or tied_with(own[head], own[i], confidence)]
+        for i in tier:
+            out[i] = 1.0 + placed
+        placed += len(tier)
+        left = [i for i in left if i not in tier]
     return out
 
 
@@ -225,9 +252,9 @@ def ranking(
     number of reaching integrators that are faster; those that do not reach it
     are ranked last (the number of integrators in that group). ``samples``
     (``case_id`` -> the case's timed samples) makes the ranking honour the
-    timing noise: a faster integrator counts only when it is distinguishably
-    faster (:func:`nsbench.bench.stats.tied_with` at ``confidence``), so methods
-    whose intervals overlap share a rank. The table gives the mean rank, the
+    timing noise as the answer does: the methods tied with the fastest
+    (:func:`nsbench.bench.stats.tied_with` at ``confidence``) share its rank,
+    and so on down in tiers (:func:`_pair_ranks`). The table gives the mean rank, the
     targets reached out of those attempted, and the geometric mean time over
     reached ones; integrators with the same mean rank and targets reached share
     the table's ``rank``.

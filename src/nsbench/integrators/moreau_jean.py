@@ -19,6 +19,14 @@ Runs the friction family with linear springs (``one-dof``, ``two-dof``,
 (Newton's impact law at the velocity level, the impulses reported for the event
 inference: :func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); refuses cubic
 springs (the one-step problem would need a Newton iteration, not implemented).
+
+Counters: ``nsteps`` the steps; ``nfev`` the evaluations of the one-step problem, the
+work a step does in place of right-hand-side evaluations: each assembles the step's
+new velocities from the forces for one stick/slip status (a linear solve) and tests
+them against the friction law. A step whose previous status still holds costs one;
+a switching step costs one more per status the enumeration tries (or per solve of
+the active set). On the bouncing ball each step evaluates its contact law once:
+``nfev = nsteps``.
 """
 
 from __future__ import annotations
@@ -220,6 +228,7 @@ class MoreauJean(WholeSystem):
             y=Y,
             modes=modes,
             impulses=P.reshape(-1, 1),
+            nfev=n_run,  # one evaluation of the contact law (free flight or impact) per step
             nsteps=n_run,
             extra={"impulse_steps": int(np.count_nonzero(P))},
             status=status,
@@ -283,7 +292,8 @@ class MoreauJean(WholeSystem):
             t=T[: done + 1],
             y=Y[: done + 1],
             modes=modes[: done + 1],
-            nfev=0,
+            # the work of the steps is their one-step problems: every candidate status solved and tested
+            nfev=int(counters[kern.CANDIDATE_SOLVES]),
             njev=0,
             nsteps=int(done),
             extra=extra,

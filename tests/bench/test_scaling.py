@@ -116,6 +116,9 @@ def test_report_opens_with_the_scaling_section(tmp_path):
     rep = write_report(tmp_path, frame)
     md = rep.markdown.read_text()
     assert md.index("## Scaling with the number of blocks") < md.index("## Fixed-target table")
+    # a scaling study opens with its scaling (docs/bench.md): the first section, before the answer
+    assert md.index("## Scaling with the number of blocks") < md.index("## The answer")
+    assert [line for line in md.splitlines() if line.startswith("## ")][0] == "## Scaling with the number of blocks"
     assert "scaling_cost_chain_2.png" in md and (tmp_path / "figures" / "scaling_cost_chain_2.png").exists()
     assert (tmp_path / "scaling_summary.csv").exists()
     html = rep.html.read_text()

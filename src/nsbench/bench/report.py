@@ -396,15 +396,15 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     held = completeness(frame, prov)
     blocks = [Block("p", held.text())] if held is not None and held.partial else []
     family_table = _families_table(frame, targets)
-    blocks += _family_blocks(family_table, targets) + _answer_blocks(
-        frame, prov, summary, ecdf, classes.class_summary(frame, targets)
-    )
-    blocks += _context_blocks(frame, prov)
-    if len(scaling):
+    if len(scaling):  # a scaling study's question is how the cost grows with n: its answer comes first
         blocks += [Block("h2", "Scaling with the number of blocks"), Block("p", SCALING_CAPTION), _table(scaling_fit)]
         for fig in scaling_figs:
             blocks += _figure(fig, heading=False)
         blocks += [Block("p", SCALING_DETAIL_CAPTION), _table(_scaling_view(scaling))]
+    blocks += _family_blocks(family_table, targets) + _answer_blocks(
+        frame, prov, summary, ecdf, classes.class_summary(frame, targets)
+    )
+    blocks += _context_blocks(frame, prov)
     blocks += [Block("h2", "Fixed-target table"), Block("p", FT_CAPTION), _table(wide)]
     blocks += _spread_blocks(frame)
     blocks += [

@@ -255,6 +255,9 @@ def run_suite(
     done -= short.keys()
     pending = [c for c in cases if c.case_id not in done]
     pending.sort(key=lambda c: -c.level)  # tight (slow) levels first: the best start for the balance
+    shareable, local = _components(pending, suite)
+    if local:  # run in this process (run_case): a case is timed from its first round, its stored samples not kept
+        short = {}
     if len(pending) < len(cases) or short:  # say in words what a resumed run does, before it does it
         kept = f" ({len(short)} of them keep the samples of their finished rounds)" if short else ""
         print(
@@ -266,7 +269,6 @@ def run_suite(
     rounds_left = {
         c.case_id: c.repeats - int(short[c.case_id]["n_repeats"]) if c.case_id in short else c.repeats for c in pending
     }
-    shareable, local = _components(pending, suite)
     workers = max(1, int(workers or os.cpu_count() or 1))
     prov["workers"] = 1 if local else min(workers, max(1, len(pending)))
     refs = _References(suite, pending, out)

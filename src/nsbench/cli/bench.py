@@ -61,6 +61,16 @@ def run_and_report(
     check_output_dir(out, "--out")
     suite = load_suite(suite)
     suite.check_size()  # a grid of 10^9 cases is refused here, not expanded
+    # a plug-in problem's factory is built first in a worker under the suite's set-up limit: one that
+    # loops, crashes or raises costs its own rows (one line each), not the run
+    from nsbench.cli._probe import probe_suite
+
+    suite, left_out = probe_suite(suite)
+    for line in left_out:
+        print(f"nsbench: bench: {line}", file=sys.stderr, flush=True)
+    if left_out and not suite.problems:
+        print("INCOMPLETE: no problem of the suite could be built; nothing was run")
+        return 1
     extra = {"resume_command": resume_command} if resume_command else None
     summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress, provenance_extra=extra)
     counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
@@ -81,8 +91,8 @@ def run_and_report(
         print("the answer:")
         for line in words:
             print(f"  - {line}")
-    if not summary.ok:
-        print("INCOMPLETE: " + "; ".join(summary.problems()))
+    if not summary.ok or left_out:
+        print("INCOMPLETE: " + "; ".join([*left_out, *summary.problems()]))
         return 1
     return 0
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -164,6 +165,28 @@ def _probe(problem: str, case: str):
     return build
 
 
+def _probe_factory(args: argparse.Namespace, workers: int | None) -> str | None:
+    """A plug-in problem built first at both ends of the sweep in a worker, under ``--setup-limit``
+    (:func:`nsbench.cli._probe.probe_problem`): a factory that loops or raises is one line, not a
+    hang or a traceback of this process. ``None`` when it built (or the problem is built-in)."""
+    from nsbench.bifurcation.sweep import parse_sweep
+    from nsbench.cli._probe import is_plugin_problem, probe_problem
+
+    if not is_plugin_problem(args.problem):
+        return None
+    name, start, stop, _ = parse_sweep(args.sweep)
+    if name in ("case", "dimensional"):  # refused below, with its own line
+        return None
+    limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    calls = [{"case": args.case, **shared_params(args), name: value} for value in (start, stop)]
+    pool = None
+    if args.dask is None:  # the sweep's own kept workers, started already: no other to start
+        from nsbench.jobs import default_workers, shared_pool
+
+        pool = shared_pool(workers or default_workers())
+    return probe_problem(args.problem, calls, limit, pool)
+
+
 def main(args: argparse.Namespace) -> int:
     workers = None if args.workers is None else parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
     # the workers first (a bad number below ends them at once): the checks import numpy, a tenth
@@ -198,6 +221,10 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     from nsbench.bifurcation.storage import SweepStore, points_summary
     from nsbench.integrators import integrator_class
 
+    fault = _probe_factory(args, workers)
+    if fault is not None:
+        print(f"nsbench: bifurcation: {fault}; nothing was run", file=sys.stderr)
+        return 1
     probe = _probe(args.problem, args.case)
     names = args.integrator or [None]
     twice = sorted({n for n in args.integrator if args.integrator.count(n) > 1})

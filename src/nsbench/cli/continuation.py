@@ -6,12 +6,16 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from nsbench.cli._common import check_output_dir, parse_count, parse_number, parse_real, shared_params
-from nsbench.errors import ConfigError, NsbenchError
+from nsbench.errors import ConfigError
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
+#: Default hard limit of the whole continuation in its worker, in seconds (``--time-limit``).
+TIME_LIMIT = 3600.0
 
 
 def add_parser(sub) -> None:
@@ -63,6 +67,20 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--out", default=None, help="results folder (default continuation/<problem>-case<C>-<NAME>)")
     p.add_argument("--formats", default="png,svg,pdf", help="figure formats (default png,svg,pdf)")
+    p.add_argument(
+        "--time-limit",
+        default=f"{TIME_LIMIT:g}",
+        metavar="SECONDS",
+        help="hard limit of the whole continuation, which runs in a supervised worker: past it the worker "
+        f"is ended, the branches complete before are written and the run fails (default {TIME_LIMIT:g})",
+    )
+    p.add_argument(
+        "--setup-limit",
+        default="1800",
+        metavar="SECONDS",
+        help="hard limit of the flow's set-up (the integrator's construction and setup, compiling "
+        "included) and of a plug-in problem's factory (default 1800)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(handler=main)
 
@@ -82,13 +100,15 @@ def parse_range(text: str) -> tuple[str, float, float]:
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.figures import FORMATS
-    from nsbench.periodic import trace
-    from nsbench.periodic.output import figure, points_frame, write
+    from nsbench.cli._probe import probe_problem
+    from nsbench.periodic.output import figure, write
     from nsbench.problems import get_problem
     from nsbench.progress import Progress
     from nsbench.provenance import provenance
 
     name, start, stop = parse_range(args.sweep)
+    time_limit = parse_real(args.time_limit, "--time-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     steps = parse_count(args.steps, "--steps", low=1, high=100_000)
     transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     text = str(args.case).strip()
@@ -117,6 +137,13 @@ def main(args: argparse.Namespace) -> int:
     def problem_at(value: float):
         return get_problem(args.problem, case=case, **{**params, name: float(value)})
 
+    # a plug-in problem's factory is built first in a worker under the set-up limit: one that loops or
+    # raises is one line here, not a hang or a traceback of this process
+    values = [start, stop] + ([origin] if origin is not None else [])
+    fault = probe_problem(args.problem, [{"case": case, **params, name: float(v)} for v in values], setup_limit)
+    if fault is not None:
+        print(f"nsbench: continuation: {fault}; nothing was run", file=sys.stderr)
+        return 1
     ends = [problem_at(start), problem_at(stop)]  # a bad parameter or value fails here
     if origin is not None:
         problem_at(origin)
@@ -132,54 +159,40 @@ def main(args: argparse.Namespace) -> int:
 
     refuse_links(out, WRITTEN)  # the tables and figures written there replace what is there: never through a link
     diagram = _diagram(args.diagram, name) if args.diagram else None
-    from nsbench.periodic import HybridFlow
-
-    try:
-        flow = HybridFlow(ends[0], args.integrator)  # an unknown or refusing integrator: one line now
-    except NsbenchError:
-        raise
-    except Exception as exc:  # a plug-in's fault in its own set-up: a failed run in one line, not a traceback
+    run = {
+        "problem": args.problem,
+        "case": case,
+        "params": params,
+        "name": name,
+        "start": start,
+        "stop": stop,
+        "steps": steps,
+        "transient": transient,
+        "doubling": 0 if args.no_doubling else 2,
+        "origin": origin,
+        "integrator": args.integrator,
+        "section": section,
+    }
+    tic = time.perf_counter()
+    with Progress(steps, label=name, enabled=not args.no_progress) as bar:
+        traced = _supervised(run, bar, time_limit, setup_limit)
+    seconds = time.perf_counter() - tic
+    if traced.refused is not None:
+        raise ConfigError(traced.refused)
+    if traced.setup_failed is not None:
         which = args.integrator or "the default integrator"
         print(
-            f"nsbench: continuation: {which} failed in its set-up on {args.problem}: {type(exc).__name__}: {exc}",
+            f"nsbench: continuation: {which} failed in its set-up on {args.problem}: {traced.setup_failed}",
             file=sys.stderr,
         )
         return 1
-
-    h_max = abs(stop - start) / steps
-    bar = Progress(steps, label=name, enabled=not args.no_progress)
-    done = [0]
-
-    def on_step(value: float) -> None:
-        now = min(steps, int(round(abs(value - start) / h_max)))
-        if now > done[0]:
-            bar.update(now - done[0], note=f"{name} = {value:.6g}")
-            done[0] = now
-
-    tic = time.perf_counter()
-    with bar:
-        try:
-            result = trace(
-                problem_at,
-                name,
-                start,
-                stop,
-                steps=steps,
-                transient=transient,
-                doubling=0 if args.no_doubling else 2,
-                on_step=on_step,
-                origin=origin,
-                flow=flow,
-            )
-        except ArithmeticError as exc:  # the flow from rest stopped (a budget) before any orbit was sought
-            if isinstance(exc, NsbenchError):
-                raise
-            raise ConfigError(
-                f"no periodic orbit could be sought: {exc} (is --transient {transient:g} "
-                "longer than the flow's event budget allows?)"
-            ) from None
-    seconds = time.perf_counter() - tic
-    points = points_frame(flow, result, problem_at, section)
+    if traced.stopped is not None and not traced.result.branches:
+        print(
+            f"nsbench: continuation: stopped: {traced.stopped}; no branch was complete, nothing written",
+            file=sys.stderr,
+        )
+        return 1
+    result, points = traced.result, traced.points
     meta = {
         "problem": args.problem,
         "case": case,
@@ -191,14 +204,16 @@ def main(args: argparse.Namespace) -> int:
         "steps": steps,
         "section": section,
         "transient": transient,
-        "integrator": flow.integrator_name,
+        "integrator": traced.integrator,
         "newton_tolerance": 1e-11,
         "bisection_tolerance": 1e-11,
         "seconds": seconds,
         "provenance": provenance(),
     }
+    if traced.stopped is not None:  # what was computed before the stop is written, and says it is partial
+        meta["stopped"] = traced.stopped
     paths = write(out, result, points, meta)
-    title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {flow.integrator_name})"
+    title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {traced.integrator})"
     variable = ends[0].state_names[0]  # x1 of the friction problems and the relay, x of the impact oscillator
     written = figure(result, points, out / "branches", variable=variable, diagram=diagram, title=title, formats=formats)
     n_steps = sum(len(b.values) for b in result.branches)
@@ -216,6 +231,13 @@ def main(args: argparse.Namespace) -> int:
     for b in bifs:
         print(f"    {name} = {b.value:.12g}: {b.kind} ({b.category})")
     print(f"  figure -> {written[0]}")
+    if traced.stopped is not None:
+        print(
+            f"nsbench: continuation: stopped: {traced.stopped}; the {len(result.branches)} branch(es) complete "
+            f"before are written to {out}",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
@@ -229,6 +251,91 @@ WRITTEN = (
     "README.md",
     "branches.*",
 )
+
+
+@dataclass
+class _Traced:
+    """What the supervised continuation gave: the branches (and section points) received, and how it ended."""
+
+    result: Any
+    #: The section points of the branches received (a ``pandas.DataFrame``).
+    points: Any = None
+    integrator: str = ""
+    #: One line when the run stopped before its end (time limit, crash, an exception).
+    stopped: str | None = None
+    refused: str | None = None
+    setup_failed: str | None = None
+
+
+def _supervised(run: dict[str, Any], bar: Any, time_limit: float, setup_limit: float) -> _Traced:
+    """Run :func:`nsbench.periodic.supervised.continuation_job` in a worker of its own.
+
+    Why a worker: the flow runs the integrator, a plug-in's possibly, whose loop in ``setup`` or
+    ``advance`` cannot be stopped in this process and whose ``os._exit`` would end it with no
+    verdict. The branches it sends are kept whatever becomes of the worker.
+    """
+    import pandas as pd
+
+    from nsbench.jobs import Job, JobPool
+    from nsbench.periodic.continuation import Continuation
+
+    result = Continuation(run["name"], float(run["start"]), float(run["stop"]))
+    traced = _Traced(result)
+    frames: list[pd.DataFrame] = []
+    h_max = abs(run["stop"] - run["start"]) / run["steps"]
+    done = [0]
+    with JobPool(1) as pool:
+        pool.submit(Job("continuation", "nsbench.periodic.supervised:continuation_job", (run, setup_limit, time_limit)))
+        for o in pool.outcomes():
+            if o.kind == "partial":
+                _received(o.value, traced, frames, bar, run, h_max, done)
+            elif o.kind == "done":
+                kind, value = o.value
+                if kind == "done":
+                    result.gaps = [tuple(g) for g in value]
+                elif kind == "set-up failed":
+                    traced.setup_failed = value
+                elif kind == "no orbit":
+                    traced.refused = (
+                        f"no periodic orbit could be sought: {value} (is --transient {run['transient']:g} "
+                        "longer than the flow's event budget allows?)"
+                    )
+                else:
+                    traced.refused = value
+            else:
+                traced.stopped = _stop_reason(o, setup_limit, time_limit)
+    traced.points = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return traced
+
+
+def _received(item: tuple, traced: _Traced, frames: list, bar: Any, run: dict, h_max: float, done: list) -> None:
+    """One item the worker sent: the flow's integrator, an accepted step (progress) or complete branches."""
+    if item[0] == "flow":
+        traced.integrator = item[1]
+    elif item[0] == "step":
+        now = min(run["steps"], int(round(abs(item[1] - run["start"]) / h_max)))
+        if now > done[0]:
+            bar.update(now - done[0], note=f"{run['name']} = {item[1]:.6g}")
+            done[0] = now
+    elif item[0] == "branches":
+        _, branches, points, gaps = item
+        traced.result.branches.extend(branches)
+        traced.result.gaps = [tuple(g) for g in gaps]
+        if len(points):
+            frames.append(points)
+
+
+def _stop_reason(o: Any, setup_limit: float, time_limit: float) -> str:
+    """``time limit (N s) in <stage>``, ``crashed (exit code N) in <stage>`` or the job's exception."""
+    from nsbench.periodic.supervised import SETUP_STAGE
+
+    stage = o.stage or "worker start"
+    if o.kind == "time limit":
+        return f"time limit ({setup_limit if stage == SETUP_STAGE else time_limit:g} s) in {stage}"
+    if o.kind == "crashed":
+        head, sep, rest = o.reason.partition("(")
+        return f"crashed ({rest.split(')')[0] if sep else o.reason}) in {stage}"
+    return f"{o.reason} (in {stage})"
 
 
 def _diagram(folder: str, name: str):

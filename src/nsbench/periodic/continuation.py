@@ -246,6 +246,7 @@ def trace(
     on_step: Callable[[float], None] | None = None,
     origin: float | None = None,
     flow: HybridFlow | None = None,
+    on_branch: Callable[[Continuation], None] | None = None,
 ) -> Continuation:
     """Periodic orbits over ``[start, stop]``: the attractor reached from rest at ``start``, continued;
     where a branch ends, the attractor the motion settles on just beyond, continued; and so on.
@@ -268,6 +269,10 @@ def trace(
         ``origin`` to ``start`` first (not recorded).
     flow
         A set-up flow to use (it is rebound to each value); ``integrator`` is then ignored.
+    on_branch
+        Called with the result so far each time a branch and the branches switched from it
+        are complete (a supervised worker sends them on, so that a time limit keeps them).
+        It may rebind the flow: every use of the flow here rebinds it first.
     """
     from nsbench.periodic.shooting import find_orbit
 
@@ -323,6 +328,8 @@ def trace(
         result.branches.append(branch)
         if doubling:
             _switch(flow, problem_at, branch, stop, result, h_max, xtol, doubling)
+        if on_branch is not None:
+            on_branch(result)
         last = branch.values[-1]
         if direction * (stop - last) <= 1e-12 * max(1.0, abs(stop)):
             break

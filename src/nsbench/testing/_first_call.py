@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 from nsbench.integrators.base import ArcRequest
 from nsbench.integrators.whole import is_whole_system
@@ -65,7 +65,12 @@ class FirstCall:
         )
 
 
-def first_call_cost(obj: Any, problem: str | dict[str, Any] | None = None, options: dict[str, Any] | None = None):
+def first_call_cost(
+    obj: Any,
+    problem: str | dict[str, Any] | None = None,
+    options: dict[str, Any] | None = None,
+    stage: Callable[[str], None] | None = None,
+):
     """Time ``setup``, then the first and the second identical call of ``obj`` on the kit's problem.
 
     Parameters
@@ -75,6 +80,9 @@ def first_call_cost(obj: Any, problem: str | dict[str, Any] | None = None, optio
     problem
         As for :func:`~nsbench.testing.check_integrator`: the belt's case 2 (by
         default the 2-DOF oscillator's), or the problem as given.
+    stage
+        Called with ``'integrator set-up'`` before ``setup`` and ``'first call'`` before
+        the calls (a supervised worker announces each step with its own limit).
 
     Returns
     -------
@@ -97,6 +105,8 @@ def first_call_cost(obj: Any, problem: str | dict[str, Any] | None = None, optio
         # the protocol check's first arc: tau in [0, 5] on the belt, five time scales elsewhere
         t_end = 5.0 if on_presets() else 5.0 * prob.time_scale
     y0 = prob.initial_state()
+    announce = stage or (lambda what: None)
+    announce("integrator set-up")
     tic = time.perf_counter()
     integ.setup(prob)
     setup = time.perf_counter() - tic
@@ -117,6 +127,7 @@ def first_call_cost(obj: Any, problem: str | dict[str, Any] | None = None, optio
 
         kind = "advance"
     times = []
+    announce("first call")
     for _ in range(2):
         tic = time.perf_counter()
         call()

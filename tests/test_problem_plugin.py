@@ -88,3 +88,28 @@ def test_the_conformance_kit_passes_on_it(plugin_env, integrator):
     for check in ("protocol", "determinism", "inputs-not-mutated", "event-times", "failure-status", "problem-config"):
         assert "PASSED" in lines[check], lines[check]
     assert "presets (cases 1-4); thermostat has none" in lines["stuck-stays-stuck"]
+
+
+def test_it_is_swept_on_its_own_events_and_refused_a_section_it_has_no_state_for(plugin_env, tmp_path):
+    """`nsbench bifurcation thermostat`: peaks (the rate of a position) need a state the thermostat does not
+    have, so the default section is refused in one line that names the ones it has (``event:off``,
+    ``event:on``); swept on ``event:off``, every point is the switch-off level ``x_hi`` and the points are
+    one closed-form cycle apart: cooling from ``x_hi`` to ``x_lo`` takes ``ln(x_hi / x_lo) / a``, heating
+    back ``ln((b / a - x_lo) / (b / a - x_hi)) / a`` (``b = 2``, ``x_lo = 1``, ``x_hi = 1.5``: its defaults).
+    Before sections went by the problem's state names, every value failed with an ``IndexError``."""
+    import math
+
+    env, _ = plugin_env
+    sweep = ["bifurcation", "thermostat", "--sweep", "a=0.8:1.0:3", "--transient", "10", "--record", "4"]
+    refused = _nsbench(env, *sweep, "--out", str(tmp_path / "peaks"), "--workers", "1")
+    assert refused.returncode == 2, refused.stdout + refused.stderr
+    assert "use section event:off or event:on" in refused.stderr and "Traceback" not in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1
+    out = _nsbench(env, *sweep, "--section", "event:off", "--out", str(tmp_path / "off"), "--workers", "1")
+    assert out.returncode == 0, out.stdout + out.stderr
+    frame = pd.concat(pd.read_parquet(f) for f in sorted((tmp_path / "off" / "points").glob("*.parquet")))
+    assert (frame["status"] == "success").all() and len(frame) == 3 * 4
+    assert (frame["x"] - 1.5).abs().max() <= 1e-12
+    for a, rows in frame.groupby("value"):
+        cycle = math.log(1.5) / a + math.log((2 / a - 1.0) / (2 / a - 1.5)) / a
+        assert abs(rows["t"].diff().dropna() - cycle).max() <= 1e-10, (a, rows["t"].tolist())

@@ -86,11 +86,74 @@ class TimeSection:
 Section = Union[StateSection, TimeSection]
 
 
+#: Names a state's rate may have beside it, tried in this order: ``v1`` for ``x1`` (``v`` for ``x``),
+#: ``dy`` for ``y``, ``px`` for ``x`` (a Hamiltonian's momentum). A candidate counts only when the
+#: problem's own field confirms it (:func:`rate_state`): a name alone never decides.
+_RATE_NAMES = (lambda n: "v" + n[1:] if n.startswith("x") else "", lambda n: "d" + n, lambda n: "p" + n)
+
+
+def rate_state(problem, name: str) -> str | None:
+    """The state variable that is the time derivative of state ``name`` in ``problem``, or ``None``.
+
+    Candidates come from the names (``v1`` for ``x1``, ``dy`` for ``y``, ``px`` for ``x``) and are
+    confirmed on the problem's field: ``name``'s rate must equal the candidate at the initial
+    state and at two other states, in the initial mode (a position's rate is the velocity in every
+    mode of a mechanical problem; a first-order law such as a thermostat's ``x' = -a x + b`` has
+    no such state).
+    """
+    names = tuple(problem.state_names)
+    if name not in names:
+        raise ConfigError(f"unknown state variable {name!r}; allowed: {', '.join(names)}")
+    i = names.index(name)
+    candidates = [c for c in (rule(name) for rule in _RATE_NAMES) if c and c != name and c in names]
+    if not candidates:
+        return None
+    y0 = np.asarray(problem.initial_state(), dtype=float)
+    mode = problem.initial_mode(0.0, y0)
+    # three states, the initial one and two spread off it, so that a coincidence at one state does not count
+    states = [y0, y0 + 0.37 + 0.11 * np.arange(len(y0)), y0 - 0.23 * (1.0 + np.arange(len(y0)))]
+    rates = [np.asarray(problem.rhs(mode, 0.0, y), dtype=float) for y in states]
+    for c in candidates:
+        j = names.index(c)
+        if all(math.isclose(r[i], y[j], rel_tol=1e-12, abs_tol=1e-12) for r, y in zip(rates, states)):
+            return c
+    return None
+
+
+def peak_variables(problem) -> tuple[tuple[str, str], ...]:
+    """``(position, rate)`` for every state whose rate is another state (:func:`rate_state`), in state order:
+    the variables whose local maxima a ``peaks`` section can record."""
+    pairs = []
+    for name in problem.state_names:
+        rate = rate_state(problem, name)
+        if rate is not None:
+            pairs.append((name, rate))
+    return tuple(pairs)
+
+
 def peaks(problem: "FrictionOscillator", block: int = 1) -> StateSection:
-    """Local maxima of ``x_block``: ``v_block = 0`` crossed downward."""
+    """Local maxima of the ``block``-th position (``x_block`` of a friction oscillator): its rate ``= 0``
+    crossed downward.
+
+    The positions and their rates are found by the problem's own state names and field
+    (:func:`peak_variables`); a problem with none (a first-order law) is refused with a
+    ``ConfigError`` naming its states.
+    """
+    pairs = peak_variables(problem)
+    if not pairs:
+        raise ConfigError(
+            f"section peaks records the local maxima of a position whose rate is another state (v1 = 0 "
+            f"crossed downward for x1); no state of {problem.name} ({', '.join(problem.state_names)}) has "
+            "its rate among the states"
+        )
+    if not 1 <= block <= len(pairs):
+        raise ConfigError(
+            f"peaks of position {block}: {problem.name} has {len(pairs)} ({', '.join(p for p, _ in pairs)})"
+        )
+    position, rate = pairs[block - 1]
     coeffs = [0.0] * problem.n_states
-    coeffs[2 * (block - 1) + 1] = 1.0
-    return StateSection(f"peaks_x{block}", tuple(coeffs), 0.0, -1)
+    coeffs[problem.state_names.index(rate)] = 1.0
+    return StateSection(f"peaks_{position}", tuple(coeffs), 0.0, -1)
 
 
 def level_crossing(

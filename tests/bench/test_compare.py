@@ -35,6 +35,18 @@ def test_a_planted_slowdown_beyond_the_factor_is_slower():
     assert time_verdict(A, [1.3 * t for t in A], 1.5).verdict == "same"  # within the factor
 
 
+def test_the_p_value_is_given_within_the_factor_too_in_the_ratios_direction():
+    # `compare --all` printed an empty time_p column: the p-value was kept only beyond the factor
+    within = time_verdict(A, [1.3 * t for t in A], 1.5)
+    assert within.verdict == "same" and within.p == pytest.approx(1 / 252)  # every B above every A
+    quicker = time_verdict(A, [0.8 * t for t in A], 1.5)
+    assert quicker.verdict == "same" and quicker.ratio < 1 and quicker.p == pytest.approx(1 / 252)
+    # A against itself: half the pairs are ties, no evidence either way
+    assert time_verdict(A, A, 1.5).p >= 0.5
+    few = time_verdict([0.1, 0.11, 0.12], [0.3, 0.31, 0.32], 1.5)
+    assert few.verdict == "unverified" and few.p == pytest.approx(1 / 20)  # the smallest p with 3 a side
+
+
 def test_a_ratio_beyond_the_factor_that_the_test_does_not_support_is_noise():
     # ratio about 1.6, but one sample of B (0.103) falls below two of A's: U = 2, p = 4/252 = 0.016 > 0.01
     b = [0.103, 0.16, 0.17, 0.18, 0.19]

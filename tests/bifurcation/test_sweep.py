@@ -171,7 +171,7 @@ def test_bad_section_for_unforced_problem(tmp_path):
     "problem, name, integrator, section",
     [
         ("henon-heiles", "coupling", "henon-rk4", "peaks"),
-        ("relay-feedback", "rho", "exact", "peaks"),
+        ("relay-feedback", "rho", "exact", "event:exit"),  # no position: the states where it leaves sliding
         ("impact-oscillator", "F", "exact", "strobe"),  # forced: the command's default section
     ],
 )
@@ -202,6 +202,9 @@ def test_a_sweep_of_a_library_problem_records_its_sections_classifies_and_draws(
     p = spec.problem_at(float(spec.values[1]))
     if section == "peaks":
         ref = nsbench.simulate(p, integrator, 20.0 + spec.record_window, sections=[peaks(p)]).sections
+    elif section.startswith("event:"):
+        ref = nsbench.simulate(p, integrator, 20.0 + spec.record_window).events
+        ref = ref[ref["kind"] == section[len("event:") :]]
     else:
         times = strobe_times(p, 20.0, 3)
         ref = nsbench.simulate(p, integrator, float(times[-1]), t_eval=times).trajectory
@@ -314,3 +317,15 @@ def test_at_rest_means_an_equilibrium_of_the_problems_own_field(problem, state, 
 
     p = get_problem(problem)
     assert at_rest(p, (0,) * p.mode_size, 0.0, np.array(state)) is resting
+
+
+def test_event_sections_are_the_problems_own_kinds_and_peaks_need_a_position():
+    relay = dict(problem="relay-feedback", case=1, name="rho", start=0.1, stop=0.2, count=2, integrator="exact")
+    with pytest.raises(ConfigError, match="use section event:cross or event:slide or event:exit or event:touch"):
+        SweepSpec(**relay, section="peaks").check()
+    with pytest.raises(ConfigError, match="section event:stick records stick events; relay-feedback has none"):
+        SweepSpec(**relay, section="event:stick").check()
+    SweepSpec(**relay, section="event:exit").check()
+    for bad in ("event:", "event: ", "impacts"):
+        with pytest.raises(ConfigError, match="or event:KIND"):
+            SweepSpec(**relay, section=bad)

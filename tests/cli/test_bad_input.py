@@ -225,8 +225,29 @@ CASES = [
     ("lyapunov-smoothing", L + ["--integrator", "smoothing"], "a Lyapunov exponent needs an event-driven"),
     ("lyapunov-relay", ["lyapunov", "relay-feedback"], "relay-feedback has none (its event kinds: cross"),
     (
+        "bifurcation-peaks-of-a-relay",
+        ["bifurcation", "relay-feedback", "--sweep", "rho=0.1:0.2:2", "--out", "{d}/bif-rp"],
+        "no state of relay-feedback (x1, x2, x3) has its rate among the states; use section event:cross or",
+    ),
+    (
+        "bifurcation-unknown-section",
+        ["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:2", "--section", "event:", "--out", "{d}/bif-es"],
+        "section 'event:' is not allowed; choose one of peaks, strobe, stick, mapping, or event:KIND",
+    ),
+    (
         "bifurcation-portrait-of-a-relay",
-        ["bifurcation", "relay-feedback", "--sweep", "rho=0.1:0.2:2", "--portrait", "0.15", "--out", "{d}/bif-r"],
+        [
+            "bifurcation",
+            "relay-feedback",
+            "--sweep",
+            "rho=0.1:0.2:2",
+            "--section",
+            "event:exit",
+            "--portrait",
+            "0.15",
+            "--out",
+            "{d}/bif-r",
+        ],
         "--portrait draws the locus of sticking phase of a friction oscillator; relay-feedback is of the 'relay'",
     ),
     (

@@ -134,13 +134,17 @@ def time_verdict(
     def out(verdict: str, p: float = math.nan) -> TimeVerdict:
         return TimeVerdict(est.estimate, est.low, est.high, p, cpu_ratio, verdict)
 
+    # the one-sided p-value in the direction of the wall-clock ratio, for every case: within the factor too
+    # (how far the samples are from telling the runs apart), and where too few samples cannot reach the
+    # confidence (what they do say); it is the test of the verdict where the ratio is beyond the factor
+    p = slower_p(a, b) if est.estimate >= 1.0 else slower_p(b, a)
     # the wall clock's own reading, then the CPU clock's where it was recorded
     if 1.0 / factor <= est.estimate <= factor:
-        wall, p = "same", math.nan
+        wall = "same"
     elif smallest_p(a.size, b.size) > alpha:
-        wall, p = "unverified", math.nan
+        wall = "unverified"
     else:
-        _, p, wall = _direction(a, b, factor, alpha)
+        _, _, wall = _direction(a, b, factor, alpha)
     if not cpu:
         return out(wall, p)
     if smallest_p(ca.size, cb.size) > alpha and not 1.0 / factor <= cpu_ratio <= factor:
@@ -223,8 +227,9 @@ def compare_frames(
 
     Columns: :data:`COLUMNS`. ``time_ratio`` is the Hodges-Lehmann ratio ``B / A``
     of the wall-clock samples, ``[time_low, time_high]`` its interval at
-    ``confidence``, ``time_p`` the one-sided test's p-value (NaN when the ratio
-    is within the factor), ``cpu_ratio`` the same ratio on the CPU clock, where
+    ``confidence``, ``time_p`` the one-sided test's p-value in the direction of
+    the ratio (B slower when it is above 1, faster below; given within the factor
+    too), ``cpu_ratio`` the same ratio on the CPU clock, where
     the verdict is taken (:func:`time_verdict`).
     """
     _check(factor, confidence)

@@ -115,7 +115,7 @@ def classify(frame: pd.DataFrame, tol: float = 1e-6) -> pd.DataFrame:
 def _feature_columns(points: pd.DataFrame, section: str) -> tuple[list[str], bool]:
     """The columns of :func:`_features`, and whether ``10 * event_block`` joins them."""
     states = state_columns(points)
-    if section in ("stick", "mapping"):  # the positions of the blocks
+    if section in ("stick", "mapping") or section.startswith("event:"):  # at events: the positions of the blocks
         return positions_of(points)[: n_blocks_of(points)] or states[:1], True
     # peaks: the first position (x1: a section of v1); strobe: the whole state
     return (states[:1] if section == "peaks" else states), False

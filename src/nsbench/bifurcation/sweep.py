@@ -28,11 +28,65 @@ from nsbench.errors import ConfigError, NsbenchError
 from nsbench.status import Status
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
+#: A section of the states at every event of one kind of the problem: ``event:KIND`` (``stick`` is
+#: ``event:stick``, ``mapping`` is ``event:slip``): what a problem with neither a position nor a force
+#: (a thermostat, a relay) can be swept on.
+EVENT_SECTION = "event:"
 #: statuses of a value whose points are usable: ``rest`` is a motion that came to rest
 #: (pure sliding damped out) before ``record`` points: its final state is its one point
 OK_STATUSES = (Status.SUCCESS, Status.REST)
 REST_SPEED = 1e-9
 EVENT_COUNTS = (("stick", "sticks"), ("slip", "slips"), ("reverse", "reverses"))
+
+
+def section_event_kind(section: str) -> str | None:
+    """The event kind whose states a section records (``stick``, ``slip`` for ``mapping``, ``KIND`` for
+    ``event:KIND``), or ``None`` for ``peaks`` and ``strobe``."""
+    if section.startswith(EVENT_SECTION):
+        return section[len(EVENT_SECTION) :]
+    return {"stick": "stick", "mapping": "slip"}.get(section)
+
+
+def check_section_name(section: object) -> None:
+    """``ConfigError`` unless ``section`` is one of :data:`SECTIONS` or ``event:KIND``."""
+    allowed = f"one of {', '.join(SECTIONS)}, or event:KIND (the states at the problem's KIND events)"
+    if not isinstance(section, str):
+        raise ConfigError(f"section {section!r} is not allowed; choose {allowed}")
+    if section in SECTIONS or (section.startswith(EVENT_SECTION) and section[len(EVENT_SECTION) :].strip()):
+        return
+    raise ConfigError(f"section {section!r} is not allowed; choose {allowed}")
+
+
+def section_refusal(problem, section: str) -> str:
+    """Why ``section`` records nothing on ``problem`` (``''`` when it applies): peaks need a position whose
+    rate is a state (:func:`nsbench.sections.peaks`), strobe a harmonic force, an event section events
+    of its kind."""
+    from nsbench.sections import peaks
+
+    kind = section_event_kind(section)
+    if kind is not None:
+        if kind in problem.event_kinds:
+            return ""
+        return f"section {section} records {kind} events; {problem.name} has none (its event kinds: {', '.join(problem.event_kinds)})"
+    if section == "strobe":
+        return (
+            ""
+            if problem.is_forced and problem.forcing_frequency > 0
+            else f"section strobe needs a harmonic force (F > 0, Omega > 0); {problem.name} has none"
+        )
+    try:
+        peaks(problem)
+    except ConfigError as exc:
+        return str(exc)
+    return ""
+
+
+def usable_sections(problem) -> tuple[str, ...]:
+    """The sections a sweep of ``problem`` can record: of peaks, strobe, stick, mapping, and an
+    ``event:KIND`` per event kind of the problem, those :func:`section_refusal` lets through."""
+    named = [s for s in SECTIONS if not section_refusal(problem, s)]
+    covered = {section_event_kind(s) for s in named}
+    return (*named, *(EVENT_SECTION + k for k in problem.event_kinds if k not in covered))
 
 
 def counter_columns(n_blocks: int) -> tuple[str, ...]:
@@ -165,8 +219,7 @@ class SweepSpec:
                 f"start = stop = {self.start!r}: {count} values of a sweep would all be the same; "
                 "give a range, or count = 1"
             )
-        if self.section not in SECTIONS:
-            raise ConfigError(f"section {self.section!r} is not allowed; choose one of {', '.join(SECTIONS)}")
+        check_section_name(self.section)
         if not (math.isfinite(self.transient) and self.transient >= 0):
             raise ConfigError(f"transient = {self.transient!r} must be a finite number >= 0")
         if int(self.record) != self.record or self.record < 1:
@@ -223,11 +276,16 @@ class SweepSpec:
                     "section strobe needs a harmonic force (F > 0) in the sweep; use peaks, stick or mapping"
                 )
         problem = ends[0]
-        kind = {"stick": "stick", "mapping": "slip"}.get(self.section)
-        if kind is not None and kind not in problem.event_kinds:
+        refusal = section_refusal(problem, self.section) if self.section != "strobe" else ""
+        if refusal:
+            others = [s for s in usable_sections(problem) if s != self.section]
             raise ConfigError(
-                f"section {self.section} records {kind} events; {problem.name} has none (its event kinds: "
-                f"{', '.join(problem.event_kinds)}); use peaks or strobe"
+                f"{refusal}; "
+                + (
+                    f"use section {' or '.join(others)}"
+                    if others
+                    else f"no section of a sweep applies to {problem.name}"
+                )
             )
         # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
         integ = get_integrator(self.integrator, **self.options)
@@ -257,7 +315,9 @@ def check_in_caller(integ, problem, use: str = "a sweep") -> None:
 
 
 def default_section(*problems) -> str:
-    """``strobe`` if any of ``problems`` (e.g. both ends of a sweep) is forced, ``peaks`` otherwise."""
+    """``strobe`` if any of ``problems`` (e.g. both ends of a sweep) is forced, ``peaks`` otherwise (a problem
+    without a position, such as a thermostat, is then refused by :meth:`SweepSpec.check`, which names the
+    ``event:KIND`` sections it has: which event kind is worth recording is the user's choice)."""
     forced = any(p.is_forced for p in problems)
     return "strobe" if forced and all(p.forcing_frequency > 0 for p in problems) else "peaks"
 
@@ -425,7 +485,7 @@ def _point(spec: SweepSpec, problem, integ):
         t_end = float(times[-1])
         kwargs = dict(t_eval=times)
     else:
-        kwargs = dict(stop_kind="stick" if spec.section == "stick" else "slip", stop_count=spec.record)
+        kwargs = dict(stop_kind=section_event_kind(spec.section), stop_count=spec.record)
     raw = run(problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000, **kwargs)
     events = raw.events
     kinds, blocks_ev = events.kind, events.block

@@ -69,8 +69,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--section",
         default=None,
-        choices=("peaks", "strobe", "stick", "mapping"),
-        help="recorded points (default: strobe if forced, else peaks)",
+        metavar="SECTION",
+        help="recorded points: peaks, strobe, stick, mapping, or event:KIND (the states at the problem's KIND "
+        "events); default: strobe if forced, else peaks",
     )
     p.add_argument("--transient", default="1500", help="time integrated before recording (default 1500)")
     p.add_argument("--record", default="100", help="section points recorded per value (default 100)")

@@ -324,15 +324,16 @@ def free_components(problem, mode: Mode) -> np.ndarray:
 def section_points(flow: HybridFlow, orbit, section: str) -> np.ndarray:
     """States where one period of ``orbit`` crosses a sweep's section, shape ``(p, n)``, in time order.
 
-    ``section`` as in :mod:`nsbench.bifurcation.sweep`: ``peaks`` (local maxima of ``x1``),
-    ``strobe`` (``t = 2 pi k / Omega``), ``stick`` or ``mapping`` (slip events).
+    ``section`` as in :mod:`nsbench.bifurcation.sweep`: ``peaks`` (local maxima of the first position,
+    :func:`nsbench.sections.peaks`), ``strobe`` (``t = 2 pi k / Omega``), ``stick``, ``mapping`` (slip
+    events) or ``event:KIND`` (the problem's ``KIND`` events).
     """
     from nsbench.engine import run
     from nsbench.sections import peaks
 
     problem = flow.problem
-    if section in ("stick", "mapping"):
-        kind = "stick" if section == "stick" else "slip"
+    if section in ("stick", "mapping") or section.startswith("event:"):
+        kind = {"stick": "stick", "mapping": "slip"}.get(section) or section[len("event:") :]
         ys = [e.y for e in orbit.events if e.kind == kind]
         return np.array(ys).reshape(len(ys), problem.n_states)
     if section == "strobe":

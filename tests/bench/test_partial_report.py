@@ -60,6 +60,26 @@ def test_the_suite_is_read_from_the_provenance_and_an_unbuildable_one_is_no_clai
     assert completeness(frame, {"suite": {"name": "gone", "problems": [{"name": "no-such-problem"}]}}) is None
 
 
+def test_cases_are_planned_for_the_integrators_the_run_selected_not_those_registered_since():
+    from nsbench.bench.suite import Suite
+
+    suite = {"name": "all", "t_span": [0.0, 1.0], "problems": [{"name": "one-dof", "case": 1}], "reference": ["exact"]}
+    cases = Suite.from_dict(suite).cases()
+    names = sorted({c.integrator for c in cases})
+    assert len(names) > 3  # the suite takes every registered integrator
+    # the run saw every integrator but the last (registered after it, as lugre was after a committed run)
+    ran = [c for c in cases if c.integrator != names[-1]]
+    frame = pd.DataFrame({"case_id": [c.case_id for c in ran], "integrator": [c.integrator for c in ran]})
+    prov = {"suite": suite, "integrators_selected": names[:-1]}
+    held = completeness(frame, prov)
+    assert held is not None and not held.partial and held.planned == len(ran)
+    # a folder written before the record: the integrators of its rows stand for the run's selection
+    assert not completeness(frame, {"suite": suite}).partial
+    # a case of a selected integrator that is missing is still missing
+    short = completeness(frame.iloc[1:], prov)
+    assert short.partial and short.missing == (ran[0].label,) and short.planned == len(ran)
+
+
 def test_nothing_timed_states_no_times_and_draws_no_empty_figure(tmp_path):
     frame = pd.DataFrame(
         {

@@ -1129,6 +1129,13 @@ SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
         "tiny": "every set-up passes its limit of 1e-300 s: each value is kept with "
         "status 'time limit', the sweep itself completes"
     },
+    **{
+        ("check", opt): {
+            "tiny": "a limit of a plug-in integrator's supervised worker: the base's built-in integrator "
+            "runs in this process and its checks pass"
+        }
+        for opt in ("--time-limit", "--setup-limit")
+    },
     ("continuation", "--param"): dict.fromkeys(("zero", "huge", "tiny"), _UNFORCED),
     ("continuation", "--sweep"): {
         **dict.fromkeys(("zero", "tiny"), "v0 from 0 or 1e-300 to 0.17: valid values of v0"),
@@ -1144,6 +1151,8 @@ SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
 #: status 1 and one ``nsbench:`` line on stderr naming the failure (its details on stdout).
 FAILURES: dict[tuple[str, str], dict[str, str]] = {
     ("lyapunov", "--member-limit"): {"tiny": "every member passes a limit of 1e-300 s: no exponent"},
+    ("continuation", "--time-limit"): {"tiny": "the continuation passes its limit of 1e-300 s: no branch"},
+    ("continuation", "--setup-limit"): {"tiny": "the flow's set-up passes its limit of 1e-300 s: no branch"},
 }
 
 

@@ -180,7 +180,12 @@ class Completeness:
 
 def completeness(frame: pd.DataFrame, prov: dict) -> Completeness | None:
     """The suite of ``prov`` (as the run recorded it) against the cases of ``frame``; ``None`` when the
-    provenance holds no suite or it can no longer be built (a plug-in gone, an older layout)."""
+    provenance holds no suite or it can no longer be built (a plug-in gone, an older layout).
+
+    The planned cases are those of the integrators the run selected (``integrators_selected``): a suite
+    that takes every registered integrator would select, when the report is written, one registered
+    after the run too. A folder written before that record counts the integrators of its rows.
+    """
     from nsbench.bench.suite import Suite
     from nsbench.errors import NsbenchError
 
@@ -191,6 +196,10 @@ def completeness(frame: pd.DataFrame, prov: dict) -> Completeness | None:
     except (NsbenchError, TypeError, ValueError, KeyError):
         return None
     held = set(frame["case_id"]) if "case_id" in frame else set()
+    selected = prov.get("integrators_selected")
+    if not isinstance(selected, list):
+        selected = list(frame["integrator"].unique()) if "integrator" in frame else []
+    cases = {key: c for key, c in cases.items() if c.integrator in set(selected)}
     missing = tuple(c.label for key, c in cases.items() if key not in held)
     return Completeness(len(cases), missing, str(prov.get("resume_command", "")))
 

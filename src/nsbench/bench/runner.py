@@ -241,6 +241,9 @@ def run_suite(
     storage.make_out(out)
     cases = list({c.case_id: c for c in suite.cases()}.values())
     prov = {**provenance(), "suite": suite.to_dict(), **(provenance_extra or {})}
+    # the integrators this run selected: a report counts the cases the run planned, not those the suite
+    # would select among the integrators registered when the report is written (a plug-in added later)
+    prov["integrators_selected"] = sorted({c.integrator for c in cases})
     for name, reason in suite.unavailable().items():
         prov.setdefault("unavailable_integrators", {})[name] = reason
         print(f"nsbench: warning: integrator {name!r} left out: {reason}", file=err)

@@ -276,6 +276,10 @@ class SweepSpec:
                     "section strobe needs a harmonic force (F > 0) in the sweep; use peaks, stick or mapping"
                 )
         problem = ends[0]
+        # an integrator that refuses the problem (exact on cubic springs) fails here, not per point; it is
+        # checked before the section, whose peaks are confirmed on the problem's field (which compiles it)
+        integ = get_integrator(self.integrator, **self.options)
+        check_in_caller(integ, problem)
         refusal = section_refusal(problem, self.section) if self.section != "strobe" else ""
         if refusal:
             others = [s for s in usable_sections(problem) if s != self.section]
@@ -287,9 +291,6 @@ class SweepSpec:
                     else f"no section of a sweep applies to {problem.name}"
                 )
             )
-        # an integrator that refuses the problem (exact on cubic springs) fails here, not per point
-        integ = get_integrator(self.integrator, **self.options)
-        check_in_caller(integ, problem)
         refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
         if self.section == "peaks" and refusal:
             raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")
@@ -320,6 +321,18 @@ def default_section(*problems) -> str:
     ``event:KIND`` sections it has: which event kind is worth recording is the user's choice)."""
     forced = any(p.is_forced for p in problems)
     return "strobe" if forced and all(p.forcing_frequency > 0 for p in problems) else "peaks"
+
+
+def orbit_section(*problems) -> str:
+    """The section drawn along a continuation's periodic orbits by default: ``strobe`` if forced,
+    ``peaks`` where the problem has a position (:func:`nsbench.sections.peak_variables`), else
+    ``event:KIND`` for the problem's first event kind (the relay's ``cross``: the states where the orbit
+    crosses its switching surface). Unlike a sweep, which refuses a problem without a position and lets
+    the user pick the event kind, a continuation only draws these points beside its branches."""
+    section = default_section(*problems)
+    if section == "peaks" and section_refusal(problems[0], "peaks") and problems[0].event_kinds:
+        return EVENT_SECTION + problems[0].event_kinds[0]
+    return section
 
 
 def strobe_times(problem, transient: float, record: int) -> np.ndarray:

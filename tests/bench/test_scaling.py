@@ -119,6 +119,10 @@ def test_report_opens_with_the_scaling_section(tmp_path):
     # a scaling study opens with its scaling (docs/bench.md): the first section, before the answer
     assert md.index("## Scaling with the number of blocks") < md.index("## The answer")
     assert [line for line in md.splitlines() if line.startswith("## ")][0] == "## Scaling with the number of blocks"
+    # the problem a scaling row is of is headed "problem": "family" is a family of methods in the report
+    section = md.split("## Scaling with the number of blocks")[1].split("\n## ")[0]
+    headers = [line for line in section.splitlines() if line.startswith("| ")]
+    assert headers and headers[0].startswith("| problem ") and "| family" not in section
     assert "scaling_cost_chain_2.png" in md and (tmp_path / "figures" / "scaling_cost_chain_2.png").exists()
     assert (tmp_path / "scaling_summary.csv").exists()
     html = rep.html.read_text()

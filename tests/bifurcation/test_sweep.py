@@ -224,7 +224,16 @@ def test_a_sweep_of_a_library_problem_records_its_sections_classifies_and_draws(
 
 
 def test_a_section_of_events_the_problem_does_not_have_is_refused(tmp_path):
-    spec = SweepSpec(problem="henon-heiles", case=1, name="coupling", start=0.9, stop=1.0, count=3, section="mapping")
+    spec = SweepSpec(
+        problem="henon-heiles",
+        case=1,
+        name="coupling",
+        start=0.9,
+        stop=1.0,
+        count=3,
+        section="mapping",
+        integrator="reference",
+    )
     with pytest.raises(ConfigError, match="section mapping records slip events; henon-heiles has none"):
         run_sweep(spec, tmp_path / "s", workers=1, progress=False)
 

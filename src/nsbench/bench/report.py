@@ -406,7 +406,11 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     blocks = [Block("p", held.text())] if held is not None and held.partial else []
     family_table = _families_table(frame, targets)
     if len(scaling):  # a scaling study's question is how the cost grows with n: its answer comes first
-        blocks += [Block("h2", "Scaling with the number of blocks"), Block("p", SCALING_CAPTION), _table(scaling_fit)]
+        blocks += [
+            Block("h2", "Scaling with the number of blocks"),
+            Block("p", SCALING_CAPTION),
+            _table(_problem_column(scaling_fit)),
+        ]
         for fig in scaling_figs:
             blocks += _figure(fig, heading=False)
         blocks += [Block("p", SCALING_DETAIL_CAPTION), _table(_scaling_view(scaling))]
@@ -637,5 +641,11 @@ SCALING_DETAIL_CAPTION = (
 )
 
 
+def _problem_column(scaling: pd.DataFrame) -> pd.DataFrame:
+    """A scaling table as printed: its ``family`` (the problem without ``n``, such as ``chain/2``) headed
+    ``problem``, since the report's "family" is an integrator's family of methods."""
+    return scaling.rename(columns={"family": "problem"})
+
+
 def _scaling_view(scaling: pd.DataFrame) -> pd.DataFrame:
-    return scaling.drop(columns=["family"]) if scaling["family"].nunique() == 1 else scaling
+    return _problem_column(scaling.drop(columns=["family"]) if scaling["family"].nunique() == 1 else scaling)

@@ -221,7 +221,9 @@ def main(args: argparse.Namespace) -> int:
     if traced.stopped is not None:  # what was computed before the stop is written, and says it is partial
         meta["stopped"] = traced.stopped
     paths = write(out, result, points, meta)
-    title = f"{args.problem} case {case}: periodic orbits along {name} ({section} section, flow {traced.integrator})"
+    # "case 1" only where the problem has cases (a plug-in problem may have none)
+    where = f" case {case}" if ends[0].cases else ""
+    title = f"{args.problem}{where}: periodic orbits along {name} ({section} section, flow {traced.integrator})"
     variable = ends[0].state_names[0]  # x1 of the friction problems and the relay, x of the impact oscillator
     written = figure(result, points, out / "branches", variable=variable, diagram=diagram, title=title, formats=formats)
     n_steps = sum(len(b.values) for b in result.branches)

@@ -123,6 +123,28 @@ def test_relay_sliding_bifurcation_by_continuation_matches_the_closed_form():
     assert branch.orbits[-1].pattern == ("exit1", "slide1", "exit1", "slide1")
 
 
+def test_a_symmetric_orbit_is_started_off_its_switching_surface():
+    # The relay's symmetric orbit has two arcs of one half-period each. The guess starts at a crossing,
+    # and the arcs before its first and after its last event were taken for the two halves of one arc
+    # through the start: their "middle" was the crossing itself, the start sat on x1 = 0, and every
+    # continuation step from it stalled in Newton (two spurious branch ends near lam = 0.052, found
+    # with transient 300; other transients happened to start elsewhere).
+    def at(lam):
+        return get_problem("relay-feedback", lam=lam)
+
+    flow = HybridFlow(at(0.052))
+    orbit = find_orbit(flow, transient=300.0, window=200.0)
+    first = min(e.t for e in orbit.events) - orbit.t0
+    # the middle of an arc: a quarter period from the next crossing (to the shooting's precision)
+    assert abs(first - orbit.period / 4) <= 1e-9 * orbit.period
+    assert abs(orbit.y0[0]) > 0.1
+    branch = continue_orbit(flow, at, "lam", orbit, 0.052, 0.046, steps=3)
+    assert branch.end_reason == "reached lam = 0.046"
+    assert [b.kind for b in branch.bifurcations] == ["crossing-sliding"]
+    lam_star, _, _ = sliding_bifurcation((0.0487, 1.62, 5.27))
+    assert abs(branch.bifurcations[0].value - lam_star) <= branch.bifurcations[0].bracket + 1e-10
+
+
 @pytest.mark.parametrize("name", ["henon-heiles", "bouncing-ball"])
 def test_a_problem_without_event_linearisation_is_refused(name):
     from nsbench.errors import ConfigError

@@ -312,14 +312,25 @@ def anchor(flow: HybridFlow, orbit: PeriodicOrbit) -> tuple[float, np.ndarray, M
     return _anchor(flow, orbit.t0, orbit.y0, orbit.mode0, orbit.period, orbit.events)
 
 
-def _anchor(flow, t0, y0, mode0, period, events) -> tuple[float, np.ndarray, Mode]:
+def _anchor(flow, t0, y0, mode0, period, events, at_event: bool = False) -> tuple[float, np.ndarray, Mode]:
+    """The middle of the longest arc of one period from ``(t0, y0, mode0)``: a start off every guard.
+
+    ``at_event`` says that ``t0`` is itself an event (a guess starts at one): then the arcs before the
+    first event and after the last are two arcs, not the two halves of one arc through ``t0``. Joined,
+    their middle would be that event whenever they are equally long (the two half-periods of a
+    symmetric relay orbit), and a start on a switching surface makes the return map jump under any
+    change of the parameter (Newton stalls at every continuation step).
+    """
     if not events:
         return t0, y0, mode0
     t_end = t0 + period
     starts = [t0] + [e.t for e in events]
     ends = [e.t for e in events] + [t_end]
     k = int(np.argmax(np.subtract(ends, starts)))
-    if k == 0 or k == len(events):  # the arc through t0 wraps around the period
+    if at_event and k == 0:
+        p = flow.run(t0, y0, mode0, 0.5 * (ends[0] - t0))
+        return t0 + 0.5 * (ends[0] - t0), p.y, p.mode
+    if not at_event and (k == 0 or k == len(events)):  # the arc through t0 wraps around the period
         first, last = events[0].t - t0, t_end - events[-1].t
         half = 0.5 * (first + last)
         if half <= last:
@@ -420,7 +431,7 @@ def guess(
     begin = seen.events[-1 - q]
     period = last.t - begin.t
     whole = flow.run(begin.t, begin.y, begin.mode_after, period)
-    return (*_anchor(flow, begin.t, begin.y, begin.mode_after, period, whole.events), period)
+    return (*_anchor(flow, begin.t, begin.y, begin.mode_after, period, whole.events, at_event=True), period)
 
 
 def find_orbit(flow: HybridFlow, **kwargs) -> PeriodicOrbit:

@@ -38,6 +38,7 @@ from typing import Any, Hashable, Iterator
 from nsbench.bench import pool as wp
 from nsbench.bench import protocol as msg
 from nsbench.errors import NsbenchError
+from nsbench.status import OutcomeKind
 
 #: Seconds a new worker may take to import nsbench and answer.
 START_LIMIT = 300.0
@@ -74,7 +75,7 @@ class Outcome:
     """
 
     key: Hashable
-    kind: str
+    kind: OutcomeKind
     value: Any = None
     stage: str = ""
     reason: str = ""
@@ -82,7 +83,7 @@ class Outcome:
 
     @property
     def final(self) -> bool:
-        return self.kind != "partial"
+        return self.kind is not OutcomeKind.PARTIAL
 
 
 class _Slot:
@@ -281,7 +282,7 @@ class JobPool:
             slot.stage, slot.limit = m.what, m.limit
             slot.deadline = time.monotonic() + m.limit if m.limit is not None else None
         elif isinstance(m, msg.Partial):
-            yield Outcome(slot.job.key, "partial", m.item, slot.stage)
+            yield Outcome(slot.job.key, OutcomeKind.PARTIAL, m.item, slot.stage)
         elif isinstance(m, msg.Interrupted):
             raise KeyboardInterrupt
         elif isinstance(m, (msg.Done, msg.Failed)):
@@ -291,9 +292,9 @@ class JobPool:
             # with it (a sweep writes the chunk's table, a few ms) would otherwise leave the worker idle
             self._dispatch()
             if isinstance(m, msg.Done):
-                yield Outcome(job.key, "done", m.result, stage)
+                yield Outcome(job.key, OutcomeKind.DONE, m.result, stage)
             else:
-                yield Outcome(job.key, "failed", None, stage, m.error, m.detail)
+                yield Outcome(job.key, OutcomeKind.FAILED, None, stage, m.error, m.detail)
 
     def _lost(self, slot: _Slot) -> Iterator[Outcome]:
         job, stage = (None, "") if slot.preparing else (slot.job, slot.stage)
@@ -303,7 +304,9 @@ class JobPool:
         slot.worker, slot.ready, slot.job, slot.deadline = None, False, None, None
         if job is None:  # died before its first job: nothing to attribute it to
             raise NsbenchError(f"a worker process ended while starting ({reason})")
-        yield Outcome(job.key, "crashed", None, stage, f"worker process ended ({reason}) during {stage or 'start'}")
+        yield Outcome(
+            job.key, OutcomeKind.CRASHED, None, stage, f"worker process ended ({reason}) during {stage or 'start'}"
+        )
 
     def _expire(self, slot: _Slot) -> Iterator[Outcome]:
         job, stage, limit = (None, "", None) if slot.preparing else (slot.job, slot.stage, slot.limit)
@@ -313,7 +316,11 @@ class JobPool:
         if job is None:
             raise NsbenchError(f"a worker process did not start within {START_LIMIT:g} s")
         yield Outcome(
-            job.key, "time limit", None, stage, f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)"
+            job.key,
+            OutcomeKind.TIME_LIMIT,
+            None,
+            stage,
+            f"{stage or 'the job'} ran past its limit of {limit:g} s (worker ended)",
         )
 
 

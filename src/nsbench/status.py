@@ -7,6 +7,10 @@ limit``, on top of the run's own) and a value of a bifurcation sweep
 (``rest``, ``incomplete``). Its value is the text written in results,
 tables and reports; compare with the members, never with literal strings. The
 compiled core's outcome codes map to it one to one (:mod:`nsbench.hybrid.run`).
+
+:class:`OutcomeKind` says what became of a job in a supervised worker (:mod:`nsbench.jobs`):
+returned, raised, past its time limit, crashed; :attr:`OutcomeKind.status` is the case status
+each of them gives.
 """
 
 from __future__ import annotations
@@ -34,6 +38,27 @@ class Status(str, Enum):
     @property
     def ok(self) -> bool:
         return self is Status.SUCCESS
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class OutcomeKind(str, Enum):
+    """What became of a job (:attr:`Outcome.kind`); compare with the members, never with literal strings."""
+
+    PARTIAL = "partial"  # an emitted part of the result; more follow
+    DONE = "done"  # the job returned
+    FAILED = "failed"  # the job raised
+    TIME_LIMIT = "time limit"  # its step ran past its limit; the worker was ended
+    CRASHED = "crashed"  # the worker died during the step
+
+    @property
+    def status(self) -> Status:
+        """The case status of a job that ended this way: ``error``, ``time limit`` or ``crashed``
+        (``success`` for a job that returned; a partial outcome has none)."""
+        if self is OutcomeKind.PARTIAL:
+            raise ValueError("a partial outcome has no status: the job goes on")
+        return {OutcomeKind.DONE: Status.SUCCESS, OutcomeKind.FAILED: Status.ERROR}.get(self) or Status(self.value)
 
     def __str__(self) -> str:
         return self.value

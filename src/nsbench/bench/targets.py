@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.errors import ConfigError
-from nsbench.status import Status
+from nsbench.status import OutcomeKind, Status
 
 #: Keys of one ``[[bifurcation_targets]]`` table.
 TARGET_KEYS = {
@@ -978,7 +978,7 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
             if not o.final:
                 continue
             key = o.key[1]
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 got_reference(key, TargetReference.from_dict(o.value))
             else:
                 got_reference(key, TargetReference(key, f"{o.kind}: {o.reason}"))
@@ -1002,12 +1002,12 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
         for o in jobs.outcomes():
             if not o.final:
                 continue
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 got_row(o.value)
                 continue
             loc = by_id[o.key]
             row = base_row(loc, suite.name, refs[loc.target.key])
-            status = {"time limit": "time limit", "crashed": "crashed"}.get(o.kind, "error")
+            status = o.kind.status.value
             row.update(status=status, message=f"{o.reason} ({o.stage})" if o.stage else o.reason)
             got_row(finish(row))
 

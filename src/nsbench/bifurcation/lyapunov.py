@@ -62,7 +62,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nsbench.errors import ConfigError
-from nsbench.status import Status
+from nsbench.status import OutcomeKind, Status
 
 #: Family-wise false-alarm rate of the outlier test over all members.
 OUTLIER_ALPHA = 1e-3
@@ -371,7 +371,7 @@ def _run_members(integ, problem, integrator, options, seeds, params, workers, li
         for i, s in enumerate(seeds):
             pool.submit(Job(i, f"{__name__}:member_job", (problem, integrator, options, i, s, params, limit)))
         for o in pool.outcomes():
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 done[o.key] = o.value
             elif o.final:  # time limit, crash, or an exception the member did not turn into a message
                 done[o.key] = _lost_member(f"{o.kind}: {o.reason}")

@@ -38,7 +38,7 @@ from nsbench.bifurcation.sweep import (
 )
 from nsbench.jobs import SETUP_LIMIT
 from nsbench.progress import Progress
-from nsbench.status import Status
+from nsbench.status import OutcomeKind, Status
 
 if TYPE_CHECKING:  # pandas and the store are the calling process's: a worker never imports them
     import pandas as pd
@@ -208,7 +208,7 @@ def supervise(
         submit(part)
     try:
         for o in pool.outcomes():
-            if o.kind == "partial":
+            if o.kind is OutcomeKind.PARTIAL:
                 got[o.key].append(o.value)
                 left[o.key].remove(first_index(o.value))
                 advance(1)
@@ -222,8 +222,8 @@ def supervise(
                     log.add(label, o.reason, o.detail)
                 else:  # a Dask worker's own supervision: its log is its stderr
                     print(o.detail, file=sys.stderr, end="", flush=True)
-            if o.kind != "done" and rest:
-                status = {"failed": Status.ERROR.value}.get(o.kind, o.kind)  # "time limit", "crashed": Status values
+            if o.kind is not OutcomeKind.DONE and rest:
+                status = o.kind.status.value  # error, time limit or crashed
                 if o.stage.startswith("value"):  # that value's result; the rest of its chunk goes on
                     rows.append(failure_columns(spec, rest[0], status, o.reason))
                     advance(1)
@@ -376,7 +376,7 @@ def supervised(target: str, args: tuple, workers: int = 1, log: Any = None) -> t
     result, reason = None, ""
     try:
         for o in pool.outcomes():
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 result = o.value
             elif o.final:
                 reason = f"{o.kind}: {o.reason}"

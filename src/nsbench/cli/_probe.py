@@ -16,6 +16,7 @@ import dataclasses
 from typing import Any, Callable, Hashable
 
 from nsbench.errors import ConfigError, NsbenchError
+from nsbench.status import OutcomeKind
 
 #: The stage a probe runs in, named by the failure lines.
 STAGE = "the problem's factory"
@@ -85,13 +86,13 @@ def run_probes(jobs: dict[Hashable, tuple[str, tuple]], limit: float | None, poo
         for key, (target, args) in jobs.items():
             pool.submit(Job(key, target, args))
         for o in pool.outcomes():
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 found[o.key] = tuple(o.value)
-            elif o.kind == "failed":  # the job's own guard let it through (it should not)
+            elif o.kind is OutcomeKind.FAILED:  # the job's own guard let it through (it should not)
                 found[o.key] = ("raised", o.reason)
-            elif o.kind == "time limit":
+            elif o.kind is OutcomeKind.TIME_LIMIT:
                 found[o.key] = ("time limit", f"{limit:g} s")
-            elif o.kind == "crashed":
+            elif o.kind is OutcomeKind.CRASHED:
                 found[o.key] = ("crashed", _exit_of(o.reason))
     finally:
         if own:

@@ -12,6 +12,7 @@ from typing import Any
 
 from nsbench.cli._common import check_output_dir, parse_count, parse_number, parse_real, shared_params
 from nsbench.errors import ConfigError
+from nsbench.status import OutcomeKind
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
 #: Default hard limit of the whole continuation in its worker, in seconds (``--time-limit``).
@@ -297,9 +298,9 @@ def _supervised(run: dict[str, Any], bar: Any, time_limit: float, setup_limit: f
     with JobPool(1) as pool:
         pool.submit(Job("continuation", "nsbench.periodic.supervised:continuation_job", (run, setup_limit, time_limit)))
         for o in pool.outcomes():
-            if o.kind == "partial":
+            if o.kind is OutcomeKind.PARTIAL:
                 _received(o.value, traced, frames, bar, run, h_max, done)
-            elif o.kind == "done":
+            elif o.kind is OutcomeKind.DONE:
                 kind, value = o.value
                 if kind == "done":
                     result.gaps = [tuple(g) for g in value]
@@ -340,9 +341,9 @@ def _stop_reason(o: Any, setup_limit: float, time_limit: float) -> str:
     from nsbench.periodic.supervised import SETUP_STAGE
 
     stage = o.stage or "worker start"
-    if o.kind == "time limit":
+    if o.kind is OutcomeKind.TIME_LIMIT:
         return f"time limit ({setup_limit if stage == SETUP_STAGE else time_limit:g} s) in {stage}"
-    if o.kind == "crashed":
+    if o.kind is OutcomeKind.CRASHED:
         head, sep, rest = o.reason.partition("(")
         return f"crashed ({rest.split(')')[0] if sep else o.reason}) in {stage}"
     return f"{o.reason} (in {stage})"

@@ -20,6 +20,7 @@ from typing import Any, Callable
 from nsbench.integrators.base import Integrator
 from nsbench.testing._checks import CHECKS, Check, checking_on, checking_with
 from nsbench.testing._kit import FAILED, CheckResult, run_check
+from nsbench.status import OutcomeKind
 
 #: The stages a job announces (and a failure names).
 SETUP_STAGE, FIRST_CALL_STAGE = "integrator set-up", "first call"
@@ -121,7 +122,7 @@ def supervised_checks(
         pool.submit(Job("first call", f"{module}:first_call_job", (config, problem, given, setup_limit, time_limit)))
         first: Any = None
         for o in pool.outcomes():
-            first = o.value if o.kind == "done" else _reason(o, setup_limit, time_limit)
+            first = o.value if o.kind is OutcomeKind.DONE else _reason(o, setup_limit, time_limit)
         # a set-up that hung or crashed would do so again in every check that runs the integrator (at the
         # set-up limit each, half an hour by default): those fail at once with its reason, the others still run
         setup_fault = first if isinstance(first, str) and first.endswith(f"in {SETUP_STAGE}") else None
@@ -138,7 +139,7 @@ def supervised_checks(
         tic = time.monotonic()
         for o in pool.outcomes():
             name = str(o.key)
-            if o.kind == "done":
+            if o.kind is OutcomeKind.DONE:
                 results[name] = o.value
             elif o.final:
                 runs = next(c.runs for c in checks if c.name == name)
@@ -152,10 +153,10 @@ def _reason(o: Any, setup_limit: float, time_limit: float) -> str:
     """A job's end other than ``done`` in one line: ``time limit (2 s) in check protocol``,
     ``crashed (exit code 3) in first call``, or the exception of a job that raised."""
     stage = o.stage or "worker start"
-    if o.kind == "time limit":
+    if o.kind is OutcomeKind.TIME_LIMIT:
         limit = setup_limit if stage == SETUP_STAGE else time_limit
         return f"time limit ({limit:g} s) in {stage}"
-    if o.kind == "crashed":
+    if o.kind is OutcomeKind.CRASHED:
         head, sep, rest = o.reason.partition("(")
         return f"crashed ({rest.split(')')[0] if sep else o.reason}) in {stage}"
     return f"{o.reason} (in {stage})"

@@ -1,0 +1,53 @@
+"""One status vocabulary: what became of a supervised job is an :class:`OutcomeKind`, compared as a member."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import nsbench
+from nsbench.status import OutcomeKind, Status
+
+SRC = Path(nsbench.__file__).parent
+
+
+def test_each_ending_of_a_job_gives_its_case_status():
+    assert OutcomeKind.DONE.status is Status.SUCCESS
+    assert OutcomeKind.FAILED.status is Status.ERROR  # the job raised: the case is an error
+    assert OutcomeKind.TIME_LIMIT.status is Status.TIME_LIMIT
+    assert OutcomeKind.CRASHED.status is Status.CRASHED
+    with pytest.raises(ValueError, match="partial"):
+        OutcomeKind.PARTIAL.status
+    # the text written in logs and failure lines is the value
+    assert f"{OutcomeKind.TIME_LIMIT}: ran past" == "time limit: ran past"
+
+
+def _kind_compared_with_literal(tree: ast.AST) -> list[int]:
+    """Lines where ``<x>.kind`` is compared with a string that is an outcome kind's value."""
+    values = {k.value for k in OutcomeKind}
+    lines = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Compare):
+            continue
+        sides = [node.left, *node.comparators]
+        if any(isinstance(s, ast.Attribute) and s.attr == "kind" for s in sides) and any(
+            isinstance(s, ast.Constant) and s.value in values for s in sides
+        ):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_compares_a_job_outcome_with_a_literal_string():
+    found = {
+        str(path.relative_to(SRC)): lines
+        for path in sorted(SRC.rglob("*.py"))
+        if (lines := _kind_compared_with_literal(ast.parse(path.read_text())))
+    }
+    assert not found, f"compare Outcome.kind with OutcomeKind members: {found}"
+
+
+def test_the_walk_sees_a_literal_comparison():
+    # the check above can fail: a comparison written the old way is found
+    assert _kind_compared_with_literal(ast.parse('if o.kind == "done":\n    pass\n')) == [1]

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import base64
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -20,7 +19,7 @@ from typing import Sequence
 import pandas as pd
 
 from nsbench import render
-from nsbench.bench import classes, storage
+from nsbench.bench import classes, columns, storage
 from nsbench.bench.figures import (
     Figure,
     _styles,
@@ -54,25 +53,10 @@ from nsbench.bench.tables import (
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
 from nsbench.status import Status
 
-_RESULT_COLUMNS = [
-    "problem_label",
-    "integrator",
-    "options",
-    "status",
-    "wall_time",
-    "wall_spread",
-    "integrator_time",
-    "engine_share",
-    "n_repeats",
-    "loops",
-    "nfev",
-    "n_events",
-    "n_missed",
-    "n_extra",
-    "switch_err_max",
-    "switch_digits",
-    "state_err_l2",
-]
+#: The columns of the report's tables of result rows, from their declarations (nsbench.bench.columns).
+_RESULT_COLUMNS = list(columns.in_table(columns.CASES))
+_FAILURE_COLUMNS = list(columns.in_table(columns.FAILURES))
+_PROBLEM_ERROR_COLUMNS = list(columns.in_table(columns.PROBLEM_ERRORS))
 
 
 @dataclass
@@ -305,11 +289,7 @@ SETUP_CAPTION = (
 def with_engine_share(frame: pd.DataFrame) -> pd.DataFrame:
     """``frame`` with ``engine_share = 1 - integrator_time / wall_time``: the part of a run's wall
     time spent in nsbench's hybrid core (events, records, callbacks) rather than in the integrator."""
-    if "integrator_time" not in frame:
-        frame = frame.assign(integrator_time=math.nan)
-    wall = pd.to_numeric(frame["wall_time"], errors="coerce")
-    inner = pd.to_numeric(frame["integrator_time"], errors="coerce")
-    return frame.assign(engine_share=(1.0 - inner / wall).where(wall > 0).clip(lower=0.0))
+    return frame.assign(engine_share=columns.engine_share(frame))  # the column's own definition
 
 
 def engine_share_table(frame: pd.DataFrame) -> pd.DataFrame:
@@ -444,7 +424,7 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
         ]
         for fig in bif_figs:
             blocks += _figure(fig)
-    failures = frame[frame["status"] != Status.SUCCESS][["problem_label", "integrator", "options", "status", "message"]]
+    failures = frame[frame["status"] != Status.SUCCESS][_FAILURE_COLUMNS]
     blocks += [Block("h2", "Statuses"), _table(_status_counts(frame))]
     if len(failures):
         blocks += [Block("p", "Cases that did not succeed:"), _table(failures)]
@@ -453,9 +433,9 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
         .assign(switch_err_max=_error_cells(frame), nfev=frame["nfev"].map(work_text))  # 0 is no count: n/a
         .rename(columns={"problem_label": "problem"})
     )
+    blocks += [Block("h2", "All cases"), _table(results_view)]
+    blocks += _problem_errors(frame)
     blocks += [
-        Block("h2", "All cases"),
-        _table(results_view),
         Block("h2", "Provenance"),
         Block("pre", json.dumps(prov, indent=1, default=str)),
     ]
@@ -467,6 +447,21 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
         (d / "scaling.csv").write_text(scaling.to_csv(index=False))
         (d / "scaling_summary.csv").write_text(scaling_fit.to_csv(index=False))
     return Report(d / "report.md", d / "index.html", d / "table.tex", figures + bif_figs, long, rank)
+
+
+def _problem_errors(frame: pd.DataFrame) -> list[Block]:
+    """The errors some problems define (impacts: penetration, energy; friction: break-away times), one
+    row per case that has one, empty where the row's problem does not define it; nothing if no case has."""
+    measured = [c for c in _PROBLEM_ERROR_COLUMNS if columns.BY_NAME[c].dtype == columns.FLOAT]
+    rows = frame[frame[measured].notna().any(axis=1)] if measured else frame.iloc[:0]
+    if rows.empty:
+        return []
+    caption = "; ".join(f"`{c}`: {columns.BY_NAME[c].meaning}" for c in measured)
+    return [
+        Block("h2", "Problem-specific errors"),
+        _table(rows[_PROBLEM_ERROR_COLUMNS].rename(columns={"problem_label": "problem"})),
+        Block("p", f"Empty where the case's problem does not define the error. {caption}."),
+    ]
 
 
 def _families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataFrame:

@@ -25,6 +25,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from nsbench.bench import columns
 from nsbench.bench.schema import COLUMN_NAMES, JSON_COLUMNS, LIST_COLUMNS
 from nsbench.bench.tables import natural_key
 from nsbench.errors import ConfigError
@@ -88,55 +89,10 @@ def check_no_links(out: str | Path) -> None:
     refuse_links(out, WRITTEN, WRITTEN_FOLDERS)
 
 
-_INT = (
-    "case",
-    "level",
-    "nfev",
-    "njev",
-    "nsteps",
-    "n_events",
-    "n_repeats",
-    "loops",
-    "n_ref",
-    "n_prefix",
-    "n_matched",
-    "n_missed",
-    "n_extra",
-    "first_divergence_index",
-)
-_FLOAT = (
-    "step_value",
-    "t0",
-    "t_end",
-    "t_final",
-    "wall_time",
-    "wall_time_min",
-    "wall_time_max",
-    "wall_spread",
-    "integrator_time",
-    "cpu_time",
-    "setup_time",
-    "setup_time_timed",
-    "warmup_time",
-    "first_divergence_time",
-    "switch_err_max",
-    "switch_err_rms",
-    "switch_err_median",
-    "switch_digits",
-    "final_state_err",
-    "state_err_l2",
-    "stick_creep",
-    "stick_drift",
-    "breakaway_err_max",
-    "located_err_max",
-    "arc_err",
-    "penetration",
-    "energy_err",
-    "ref_conditioning",
-    "ref_double_floor",
-    "ref_certainty",
-)
-_BOOL = ("sequence_ok", "at_ref_accuracy")
+# the stored type of each column comes from its declaration (nsbench.bench.columns), never a list of its own
+_INT = columns.of_dtype(columns.INT)
+_FLOAT = columns.of_dtype(columns.FLOAT)
+_BOOL = columns.of_dtype(columns.BOOL)
 #: The integer, float and boolean columns of the schema (the others are text or lists).
 INT_COLUMNS, FLOAT_COLUMNS, BOOL_COLUMNS = _INT, _FLOAT, _BOOL
 
@@ -166,7 +122,21 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     for name in COLUMN_NAMES:
         if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS:
             frame[name] = frame[name].map(lambda v: "" if v is None else str(v)).astype("string")
+    for column in columns.DECLARED:  # derived ones always from the row's own values (an older folder gets them too)
+        if column.derive is not None:
+            frame[column.name] = column.derive(frame).astype(_PANDAS_DTYPE[column.dtype])
     return frame
+
+
+#: The pandas dtype a frame holds each kind of column in (:func:`to_frame`).
+_PANDAS_DTYPE = {
+    columns.INT: "Int64",
+    columns.FLOAT: "float64",
+    columns.BOOL: "boolean",
+    columns.TEXT: "string",
+    columns.JSON: "string",
+    columns.LIST: "object",
+}
 
 
 #: Schema metadata key of the SHA-256 of a stored table's values (a bit flipped in a value shows).

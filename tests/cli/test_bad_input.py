@@ -576,6 +576,14 @@ def _argv(template: list[str], d: str) -> list[str]:
         ),
         (["simulate", "one-dof", "--h", "0.1", "--option", "h=0.2", "--integrator", "henon-rk4"], "give it once"),
         (["lyapunov", "two-dof", "--d0", "1e-300"], "--d0 = 1e-300 must be a finite number >= 1e-12"),
+        (
+            ["continuation", "relay-feedback", "--sweep", "lam=0.052:0.046", "--section", "peaks"],
+            "--section: section peaks records the local maxima of a position whose rate is another state",
+        ),
+        (
+            ["continuation", "relay-feedback", "--sweep", "lam=0.052:0.046", "--section", "event:stick"],
+            "relay-feedback has none (its event kinds: cross, slide, exit, touch); use section event:cross",
+        ),
         (["lyapunov", "two-dof", "--member-limit", "1e300"], "MAX_TIME_LIMIT"),
         (["continuation", "two-dof", "--sweep", "v0=0.16:0.17", "--transient", "1e300"], "MAX_SPAN"),
         (["ingest", "{d}/good1.json", "--out", "{d}/loop"], "symbolic link that leads nowhere (a loop)"),

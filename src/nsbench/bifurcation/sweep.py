@@ -81,6 +81,16 @@ def section_refusal(problem, section: str) -> str:
     return ""
 
 
+def refuse_section(problem, section: str, what: str = "") -> None:
+    """``ConfigError`` (prefixed by ``what``, such as ``--section: ``) when ``section`` records nothing on
+    ``problem`` (:func:`section_refusal`), naming the sections it can record."""
+    refusal = section_refusal(problem, section)
+    if refusal:
+        others = [s for s in usable_sections(problem) if s != section]
+        use = f"use section {' or '.join(others)}" if others else f"no section of a sweep applies to {problem.name}"
+        raise ConfigError(f"{what}{refusal}; {use}")
+
+
 def usable_sections(problem) -> tuple[str, ...]:
     """The sections a sweep of ``problem`` can record: of peaks, strobe, stick, mapping, and an
     ``event:KIND`` per event kind of the problem, those :func:`section_refusal` lets through."""
@@ -280,17 +290,8 @@ class SweepSpec:
         # checked before the section, whose peaks are confirmed on the problem's field (which compiles it)
         integ = get_integrator(self.integrator, **self.options)
         check_in_caller(integ, problem)
-        refusal = section_refusal(problem, self.section) if self.section != "strobe" else ""
-        if refusal:
-            others = [s for s in usable_sections(problem) if s != self.section]
-            raise ConfigError(
-                f"{refusal}; "
-                + (
-                    f"use section {' or '.join(others)}"
-                    if others
-                    else f"no section of a sweep applies to {problem.name}"
-                )
-            )
+        if self.section != "strobe":  # strobe was checked at both ends above
+            refuse_section(problem, self.section)
         refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
         if self.section == "peaks" and refusal:
             raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")

@@ -150,16 +150,14 @@ def main(args: argparse.Namespace) -> int:
     ends = [problem_at(start), problem_at(stop)]  # a bad parameter or value fails here
     if origin is not None:
         problem_at(origin)
-    from nsbench.bifurcation.sweep import check_section_name, orbit_section, section_refusal, usable_sections
+    from nsbench.bifurcation.sweep import check_section_name, orbit_section, refuse_section
 
     section = args.section or orbit_section(*ends)
     check_section_name(section)
     if section == "strobe" and not all(p.is_forced and p.forcing_frequency > 0 for p in ends):
         raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
-    refusal = section_refusal(ends[0], section) if section != "strobe" else ""
-    if refusal:
-        others = [s for s in usable_sections(ends[0]) if s != section]
-        raise ConfigError(f"--section: {refusal}; use {' or '.join(others) or 'no section (none applies)'}")
+    if section != "strobe":  # strobe was checked at both ends just above
+        refuse_section(ends[0], section, "--section: ")
     # the output folder and the diagram before the flow is built: a bad --out is refused before anything
     # compiles or runs (exit 2 means refused before anything ran)
     out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import nsbench
-from nsbench.status import OutcomeKind, Status
+from nsbench.status import OutcomeKind, ReferenceStatus, Status
 
 SRC = Path(nsbench.__file__).parent
 
@@ -51,3 +51,48 @@ def test_no_module_compares_a_job_outcome_with_a_literal_string():
 def test_the_walk_sees_a_literal_comparison():
     # the check above can fail: a comparison written the old way is found
     assert _kind_compared_with_literal(ast.parse('if o.kind == "done":\n    pass\n')) == [1]
+
+
+def test_a_stored_reference_status_reads_as_its_kind():
+    assert ReferenceStatus.of("ok") is ReferenceStatus.OK
+    text = ReferenceStatus.failed("exact raised ValueError: no")
+    assert text == "reference failed: exact raised ValueError: no"
+    assert ReferenceStatus.of(text) is ReferenceStatus.FAILED
+    # no candidate accepts the problem: not a failure of the run, and nothing to grade against
+    assert ReferenceStatus.of("no reference available: exact refused the problem") is ReferenceStatus.UNAVAILABLE
+    # a frame's text column compares with the member
+    import pandas as pd
+
+    assert (pd.Series(["ok", text]) == ReferenceStatus.OK).tolist() == [True, False]
+
+
+def _status_compared_with_ok(tree: ast.AST) -> list[int]:
+    """Lines where a ``status`` (attribute, or a frame's ``reference_status`` column) is compared with ``"ok"``."""
+    lines = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Compare):
+            continue
+        sides = [node.left, *node.comparators]
+        named = any(
+            (isinstance(s, ast.Attribute) and s.attr == "status")
+            or (isinstance(s, ast.Name) and s.id == "status")
+            or (
+                isinstance(s, ast.Subscript)
+                and isinstance(s.slice, ast.Constant)
+                and s.slice.value == "reference_status"
+            )
+            for s in sides
+        )
+        if named and any(isinstance(s, ast.Constant) and s.value == "ok" for s in sides):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_compares_a_reference_status_with_a_literal_string():
+    found = {
+        str(path.relative_to(SRC)): lines
+        for path in sorted(SRC.rglob("*.py"))
+        if (lines := _status_compared_with_ok(ast.parse(path.read_text())))
+    }
+    assert not found, f"compare reference statuses with ReferenceStatus members: {found}"
+    assert _status_compared_with_ok(ast.parse('x = frame["reference_status"] == "ok"\n')) == [1]

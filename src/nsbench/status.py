@@ -34,6 +34,10 @@ class Status(str, Enum):
     # outcomes of a bifurcation-sweep value, beyond a run's own
     REST = "rest"  # the motion came to rest (sliding equilibrium) before its points: its final state is one point
     INCOMPLETE = "incomplete"  # fewer section points than asked within the recording window
+    # outcomes of locating a bifurcation target, beyond a run's own (nsbench.bench.targets)
+    NO_REFERENCE = "no reference"  # the target's reference could not be located
+    NO_BRACKET = "no bracket"  # the probes at the bracket's ends do not straddle the change of pattern
+    PROBE_BUDGET = "probe budget"  # the probes ran out with the bracket still wider than xtol
 
     @property
     def ok(self) -> bool:
@@ -59,6 +63,33 @@ class OutcomeKind(str, Enum):
         if self is OutcomeKind.PARTIAL:
             raise ValueError("a partial outcome has no status: the job goes on")
         return {OutcomeKind.DONE: Status.SUCCESS, OutcomeKind.FAILED: Status.ERROR}.get(self) or Status(self.value)
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class ReferenceStatus(str, Enum):
+    """What became of a reference (the ``reference_status`` of a result row, a bifurcation target's
+    reference): ``ok``, or a text that says why there is none. A failed one's text starts with
+    ``reference failed`` (:meth:`failed`); any other text (no candidate accepts the problem) is
+    :attr:`UNAVAILABLE`. Compare with the members (:meth:`of`), never with literal strings."""
+
+    OK = "ok"
+    FAILED = "reference failed"  # a candidate accepted the problem, and its run raised, failed or crashed
+    UNAVAILABLE = "unavailable"  # no candidate accepts the problem: nothing to grade against
+
+    @classmethod
+    def of(cls, text: object) -> "ReferenceStatus":
+        """The kind of a stored status text."""
+        text = str(text)
+        if text == cls.OK.value:
+            return cls.OK
+        return cls.FAILED if text.startswith(cls.FAILED.value) else cls.UNAVAILABLE
+
+    @staticmethod
+    def failed(reason: str) -> str:
+        """The status text of a reference that failed, with its reason."""
+        return f"{ReferenceStatus.FAILED.value}: {reason}"
 
     def __str__(self) -> str:
         return self.value

@@ -36,6 +36,7 @@ import pandas as pd
 from nsbench.bench.stats import Interval
 from nsbench.bench.summary import CONFIDENCE, samples_of, split_references, tied_with
 from nsbench.bench.tables import grading_floor, problem_groups, reached_mask
+from nsbench.status import ReferenceStatus
 
 #: Bootstrap resamples of the class cost ratios (seeded: the same results give the same report).
 BOOTSTRAP = 2000
@@ -148,14 +149,16 @@ def class_summary(frame: pd.DataFrame, targets) -> pd.DataFrame:
     for klass in sorted((c for c in methods["problem_class"].unique() if c), key=_order):
         group = methods[methods["problem_class"] == klass]
         problems = [
-            (label, rows_) for label, rows_ in problem_groups(group) if (rows_["reference_status"] == "ok").any()
+            (label, rows_)
+            for label, rows_ in problem_groups(group)
+            if (rows_["reference_status"] == ReferenceStatus.OK).any()
         ]
         for target in targets:
             costs: dict[str, dict[str, float]] = {}  # problem -> method -> cheapest reaching time
             samples: dict[str, dict[str, list[float]]] = {}  # ... and that run's timed samples
             graded = []
             for label, rows_ in problems:
-                limit, _ = grading_floor(rows_[rows_["reference_status"] == "ok"])
+                limit, _ = grading_floor(rows_[rows_["reference_status"] == ReferenceStatus.OK])
                 if target < limit:
                     continue
                 graded.append(label)

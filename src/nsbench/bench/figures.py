@@ -23,7 +23,7 @@ import pandas as pd
 
 from nsbench.bench.labels import configuration
 from nsbench.bench.tables import problem_groups
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 #: Errors below this are drawn at it (log axes cannot show 0).
 ERROR_FLOOR = 1e-16
@@ -538,7 +538,7 @@ def report_figures(frame: pd.DataFrame, out: str | Path) -> list[Figure]:
         wall = pd.to_numeric(group.get("wall_time"), errors="coerce")
         if not ((group["status"] == Status.SUCCESS) & wall.notna()).any():
             continue  # nothing of this problem was timed (a partial run): no figure of empty axes
-        if (group["reference_status"] == "ok").any():
+        if (group["reference_status"] == ReferenceStatus.OK).any():
             for cost in COST_AXES:
                 if (
                     cost not in ("integrator_time", "nsteps")

@@ -38,6 +38,7 @@ from nsbench.certify import (  # noqa: F401 - certified_errors, certainty_of: th
 )
 from nsbench.errors import UnsupportedProblemError
 from nsbench.files import write_atomic
+from nsbench.status import ReferenceStatus
 
 
 #: Size of the perturbation of the start positions that measures a case's conditioning.
@@ -47,14 +48,10 @@ EPS = float(np.finfo(float).eps)
 #: A case whose double-precision floor exceeds this cannot be graded in double over its span.
 DOUBLE_GRADABLE = 1e-10
 
-#: How the status of a reference that could not be computed begins (a failure of the run,
-#: unlike "no reference available": no candidate accepts the problem).
-FAILED = "reference failed"
-
 
 def failed_status(status: str) -> bool:
     """Whether a ``reference_status`` says the reference run failed (raised, failed, crashed)."""
-    return str(status).startswith(FAILED)
+    return ReferenceStatus.of(status) is ReferenceStatus.FAILED
 
 
 @dataclass
@@ -102,7 +99,7 @@ class Reference:
 
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status == ReferenceStatus.OK
 
 
 def candidates(names: tuple[str, ...] | list[str]) -> list[dict[str, Any]]:
@@ -160,7 +157,7 @@ def compute_reference(
             refused.append(config["name"])
             continue
         except Exception as exc:  # a broken reference must not end the suite
-            status = f"{FAILED}: {config['name']} raised {type(exc).__name__}: {exc}"
+            status = ReferenceStatus.failed(f"{config['name']} raised {type(exc).__name__}: {exc}")
             return Reference(
                 key,
                 config["name"],
@@ -173,7 +170,7 @@ def compute_reference(
                 failed=True,
             )
         if not res.ok:
-            status = f"{FAILED}: {config['name']} ended with {res.status.value}: {res.message}"
+            status = ReferenceStatus.failed(f"{config['name']} ended with {res.status.value}: {res.message}")
             return Reference(
                 key,
                 config["name"],
@@ -190,11 +187,13 @@ def compute_reference(
         cond, note = conditioning(problem, config, t0, t_end, res.events)
         events = res.events.copy()
         events[CERTIFIED], certify_note = certified_errors(problem, events, t0, t_end, reference=config["name"])
-        status = "ok"
+        status = ReferenceStatus.OK.value
         if NOT_CERTIFIED_FROM in certify_note:
             # its independent check logs other events: which one is right is not known here, so
             # grading against it could blame the integrators that agree with the check
-            status = f"{FAILED}: {config['name']} is not certified ({certify_note}); nothing is graded against it"
+            status = ReferenceStatus.failed(
+                f"{config['name']} is not certified ({certify_note}); nothing is graded against it"
+            )
         return Reference(
             key,
             config["name"],
@@ -205,7 +204,7 @@ def compute_reference(
             dense,
             res.y_final,
             res.wall_time + res.setup_time,
-            failed=status != "ok",
+            failed=status != ReferenceStatus.OK,
             conditioning=cond,
             conditioning_note=note,
             certify_note=certify_note,

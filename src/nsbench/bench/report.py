@@ -51,7 +51,7 @@ from nsbench.bench.tables import (
     work_text,
 )
 from nsbench.bench.timing import WIDE_SPREAD, noise_line, setup_table, wide_spread
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 #: The columns of the report's tables of result rows, from their declarations (nsbench.bench.columns).
 _RESULT_COLUMNS = list(columns.in_table(columns.CASES))
@@ -205,7 +205,7 @@ def _problems_text(frame: pd.DataFrame, prov: dict) -> list[str]:
         known = group[group["reference_status"].fillna("") != ""]  # rows of an old crash may lack it
         first = (known if len(known) else group).iloc[0]
         ref, status = first["reference"] or "none", first["reference_status"]
-        lines.append(f"- `{label}`: reference `{ref}`" + ("" if status == "ok" else f" ({status})"))
+        lines.append(f"- `{label}`: reference `{ref}`" + ("" if status == ReferenceStatus.OK else f" ({status})"))
     return lines
 
 

@@ -40,7 +40,7 @@ from nsbench.bench.reference import (
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, TaskRecord
 from nsbench.bench.suite import Case, Suite, load_suite
 from nsbench.errors import ConfigError
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 
 @dataclass
@@ -97,7 +97,7 @@ class RunSummary:
         ]
         if self.bifurcations is not None and len(self.bifurcations):
             b = self.bifurcations
-            bad = b[(b["reference_status"] != "ok") & (b["reference_status"] != "")]
+            bad = b[(b["reference_status"] != ReferenceStatus.OK) & (b["reference_status"] != "")]
             for name, why in dict(zip(bad["target"], bad["reference_status"])).items():
                 lines.append(f"the reference of bifurcation target {name} could not be computed: {why}")
             crashed = b[b["status"] == Status.CRASHED]

@@ -43,10 +43,10 @@ from nsbench.bench import protocol as msg
 from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row, merge_runs
 from nsbench.bench.timing import needs_more
 from nsbench.bench.pool import WorkerProcess, readable
-from nsbench.bench.reference import FAILED, Reference
+from nsbench.bench.reference import Reference
 from nsbench.bench.suite import Case
 from nsbench.errors import ConfigError
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 #: Seconds of setup (and more than its timing) above which a case is timed only where it
 #: was compiled (its home). The first case of a kind in a process pays the loading of
@@ -557,7 +557,7 @@ def _failed_reference(task: ReferenceTask, reason: str) -> Reference:
         task.key,
         None,
         None,
-        f"{FAILED}: {reason}",
+        ReferenceStatus.failed(reason),
         pd.DataFrame(columns=["t", "kind", "block"]),
         grid,
         np.empty((0, 0)),

@@ -27,7 +27,7 @@ import pandas as pd
 from nsbench.bench.stats import Interval, median_interval, ratio_interval, tied_with  # noqa: F401 (re-exported)
 from nsbench.bench.tables import first_known, grading_floor, natural_key, problem_groups, reached_mask
 from nsbench.bench.timing import spread_label
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 #: Confidence of the intervals of the report's times and cost ratios.
 CONFIDENCE = 0.95
@@ -119,9 +119,9 @@ def problem_summary(frame: pd.DataFrame, targets, confidence: float = CONFIDENCE
     methods, _ = split_references(frame)
     rows = []
     for label, group in problem_groups(methods):
-        if not (group["reference_status"] == "ok").any():
+        if not (group["reference_status"] == ReferenceStatus.OK).any():
             continue
-        limit, why = grading_floor(group[group["reference_status"] == "ok"])
+        limit, why = grading_floor(group[group["reference_status"] == ReferenceStatus.OK])
         for target in targets:
             row = {
                 "problem": label,
@@ -241,7 +241,7 @@ def wrong_sequences(frame: pd.DataFrame) -> pd.DataFrame:
     methods, _ = split_references(frame)
     bad = methods[
         (methods["status"] == Status.SUCCESS)
-        & (methods["reference_status"] == "ok")
+        & (methods["reference_status"] == ReferenceStatus.OK)
         & ~methods["sequence_ok"].fillna(False).astype(bool)
     ]
     table = bad.assign(missed_extra=[f"{_int(m)} / {_int(x)}" for m, x in zip(bad["n_missed"], bad["n_extra"])])
@@ -291,7 +291,7 @@ def conditioning_table(frame: pd.DataFrame) -> pd.DataFrame:
     rows = []
     if "ref_conditioning" not in frame:
         return pd.DataFrame(columns=columns)
-    for label, group in problem_groups(frame[frame["reference_status"] == "ok"]):
+    for label, group in problem_groups(frame[frame["reference_status"] == ReferenceStatus.OK]):
         cond, certainty = first_known(group, "ref_conditioning"), first_known(group, "ref_certainty")
         if cond != cond and certainty != certainty:
             continue

@@ -18,7 +18,7 @@ import pandas as pd
 from nsbench.bench.metrics import reaches
 from nsbench.bench.stats import tied_with
 from nsbench.bench.timing import spread_label
-from nsbench.status import Status
+from nsbench.status import ReferenceStatus, Status
 
 DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
 
@@ -104,7 +104,7 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
     """
     rows = []
     for (label, name), group in frame.groupby(["problem_label", "integrator"], sort=True):
-        has_ref = bool((group["reference_status"] == "ok").any())
+        has_ref = bool((group["reference_status"] == ReferenceStatus.OK).any())
         for target in targets:
             row = {
                 "problem_label": label,

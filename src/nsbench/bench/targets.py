@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.errors import ConfigError
-from nsbench.status import OutcomeKind, Status
+from nsbench.status import OutcomeKind, ReferenceStatus, Status
 
 #: Keys of one ``[[bifurcation_targets]]`` table.
 TARGET_KEYS = {
@@ -299,7 +299,7 @@ class TargetReference:
 
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status == ReferenceStatus.OK
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -328,11 +328,13 @@ def compute_target_reference(target: BifurcationTarget) -> TargetReference:
             xtol=REFERENCE_XTOL,
         )
     except Exception as exc:  # noqa: BLE001 - a reference that cannot be computed is a status
-        return TargetReference(target.key, f"failed: {type(exc).__name__}: {exc}", seconds=time.perf_counter() - tic)
+        return TargetReference(
+            target.key, ReferenceStatus.failed(f"{type(exc).__name__}: {exc}"), seconds=time.perf_counter() - tic
+        )
     value = float(getattr(orbit.problem.coefficients, target.param, math.nan))
     return TargetReference(
         key=target.key,
-        status="ok",
+        status=ReferenceStatus.OK.value,
         value=float(bif.value),
         kind=bif.kind,
         category=bif.category,
@@ -514,12 +516,16 @@ def locate_with(
 
     try:
         if not ref.ok:
-            return {**out, "status": "no reference", "message": f"the target's reference failed: {ref.status}"}
+            return {
+                **out,
+                "status": Status.NO_REFERENCE.value,
+                "message": f"the target's reference failed: {ref.status}",
+            }
         near = probe(near_value, start)
         if not near.near:
             return {
                 **out,
-                "status": "no bracket",
+                "status": Status.NO_BRACKET.value,
                 "message": (
                     f"at the near end {target.param} = {near_value:g} the last {WINDOW_PERIODS} periods do not repeat "
                     f"the reference pattern {' '.join(pattern)} ({near.n_events} events)"
@@ -529,7 +535,7 @@ def locate_with(
         if far.near:
             return {
                 **out,
-                "status": "no bracket",
+                "status": Status.NO_BRACKET.value,
                 "message": (
                     f"at the far end {target.param} = {far_value:g} the motion still repeats the near-side pattern "
                     f"{' '.join(pattern)}: no change of the pattern in the bracket"
@@ -555,7 +561,7 @@ def locate_with(
                 b = mid
         value = 0.5 * (a + b)
         width = abs(b - a)
-        status = STATUS_OK if width <= target.xtol or 0.5 * (a + b) in (a, b) else "probe budget"
+        status = STATUS_OK if width <= target.xtol or 0.5 * (a + b) in (a, b) else Status.PROBE_BUDGET.value
         out.update(
             bifurcation_value=value,
             bifurcation_error=abs(value - ref.value),
@@ -573,11 +579,11 @@ def locate_with(
     except ProbeFailed as exc:
         return {**out, "status": exc.status, "message": exc.message}
     except UnsupportedProblemError as exc:
-        return {**out, "status": "unsupported", "message": str(exc)}
+        return {**out, "status": Status.UNSUPPORTED.value, "message": str(exc)}
     except Exception as exc:  # noqa: BLE001 - a row, never a lost run
         return {
             **out,
-            "status": "error",
+            "status": Status.ERROR.value,
             "message": (
                 f"{type(exc).__name__}: {exc} | " + traceback.format_exc(limit=3).strip().splitlines()[-2].strip()
             ),
@@ -981,7 +987,7 @@ def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending
             if o.kind is OutcomeKind.DONE:
                 got_reference(key, TargetReference.from_dict(o.value))
             else:
-                got_reference(key, TargetReference(key, f"{o.kind}: {o.reason}"))
+                got_reference(key, TargetReference(key, ReferenceStatus.failed(f"{o.kind}: {o.reason}")))
         by_id = {loc.row_id: loc for loc in pending}
         for loc in pending:
             ref = refs[loc.target.key]

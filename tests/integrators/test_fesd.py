@@ -116,3 +116,33 @@ def test_without_nosnoc_it_is_listed_unavailable_with_the_install_command(monkey
     assert "UNAVAILABLE" in line and ".[fesd]" in line and "Traceback" not in line
     with pytest.raises(UnsupportedProblemError, match=r"pip install -e \"\.\[fesd\]\""):
         integrator_class("fesd")().setup(_pk())
+
+
+def test_simulate_says_how_many_events_the_method_located_itself():
+    import pandas as pd
+
+    from nsbench.cli.simulate import _located_line
+
+    log = pd.DataFrame({"t": [1.0, 2.0, 3.0], "t_located": [np.nan, 2.01, 2.99], "kind": ["exit", "slide", "slide"]})
+    assert _located_line(log) == (
+        "located     2 of 3 events by the integrator itself (slide: 2; the log's t_located, at most 0.01 from "
+        "the inferred t)"
+    )
+    assert _located_line(log.assign(t_located=np.nan)).startswith("located     0 of 3 events")
+
+
+@pytest.mark.slow
+def test_the_conformance_kit_on_the_relay_feedback_system():
+    # the kit's belt presets are friction problems, which fesd refuses (tests/testing/test_conformance.py leaves
+    # it out): its checks on the problem it runs; determinism (two whole runs per level) and event-times (the
+    # known gap of the exits) are run by `nsbench check fesd --problem relay-feedback` (docs/families.md)
+    pytest.importorskip("nosnoc")
+    from nsbench.testing import check_integrator
+
+    results = check_integrator(
+        "fesd",
+        problem="relay-feedback",
+        checks=["protocol", "inputs-not-mutated", "failure-status", "config-round-trip", "problem-config"],
+    )
+    bad = [(r.check, r.message) for r in results if r.status != "passed"]
+    assert not bad, bad

@@ -103,6 +103,7 @@ class Fesd(OptionalBackend, WholeSystem):
         event_location="switch-detection",
         order=None,
         adaptive=False,
+        supports_nonlinear=False,  # the relay only: cubic springs (friction) are refused with the rest
         step_option="h",
         family="time-stepping",
     )
@@ -122,7 +123,6 @@ class Fesd(OptionalBackend, WholeSystem):
     known_gaps = {
         "event-times": "an exit from sliding is a tangential change of the active set that FESD's elements "
         "need not resolve: it may stay on the step grid (an error of up to one step)",
-        "energy-balance": "the relay has no energy balance to close",
     }
 
     def smooth_order(self) -> int | None:

@@ -72,6 +72,7 @@ def test_default_suite_is_packaged_and_uses_accuracy_levels():
         "lugre",
         "siconos-moreau-jean",
         "siconos-event-driven",
+        "fesd",
     }
     for name in names:  # every level of every integrator, minus the ones the data skips
         levels = integrator_class(name).accuracy_levels or ({},)

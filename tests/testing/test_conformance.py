@@ -16,14 +16,15 @@ from nsbench.testing import CHECKS, check_integrator, parametrize_with_checks, r
 
 # siconos-moreau-jean runs only problems with one friction level (fs = fr), never the belt's presets,
 # siconos-event-driven the bouncing ball only, and both only where Siconos is installed: their conformance
-# is tests/integrators/test_siconos.py. The engines behind a pip extra (cyrk-*, diffrax-*) are checked
+# is tests/integrators/test_siconos.py; fesd runs the relay feedback system only (tests/integrators/test_fesd.py).
+# The engines behind a pip extra (cyrk-*, diffrax-*) are checked
 # where their extra is installed; without it they refuse every problem at setup, which the kit counts as a
 # failure on the belt's presets: that refusal, with the install command, is tested in
 # tests/integrators/test_optional_backends.py, and here they are skipped with it.
 ALL_BUILTINS = [
     e.name
     for e in registry.entries("integrators")
-    if e.distribution == "nsbench" and e.name not in ("siconos-moreau-jean", "siconos-event-driven")
+    if e.distribution == "nsbench" and e.name not in ("siconos-moreau-jean", "siconos-event-driven", "fesd")
 ]
 ABSENT = {name: why for name in ALL_BUILTINS if (why := registry.unavailable_reason("integrators", name))}
 BUILTINS = [name for name in ALL_BUILTINS if name not in ABSENT]

@@ -90,6 +90,8 @@ def main(args: argparse.Namespace) -> int:
     checks = samples if t_end > 0 else 0
     result = simulate(problem, integrator, t_end, t_eval=grid, max_steps=MAX_STEPS, check_points=checks)
     print(result.summary())
+    if "t_located" in result.events:  # a whole-system method that locates switches itself (fesd, Siconos's)
+        print(_located_line(result.events))
     if not result.ok:  # the reason is in the summary; one line on stderr says the run fell short
         print(
             f"nsbench: simulate: the run ended at t = {result.t_final:g} of {t_end:g}: {result.status.value}"
@@ -135,3 +137,17 @@ def _by_kind(kinds, errors: np.ndarray) -> str:
 
 def _write(frame, path: str) -> None:
     frame.to_csv(Path(path), index=False, float_format="%.17g")
+
+
+def _located_line(events) -> str:
+    """How many of the log's events the method located itself, by kind, and how far from the inferred times."""
+    own = np.isfinite(events["t_located"].to_numpy(dtype=float))
+    if not own.any():
+        return f"located     0 of {own.size} events by the integrator itself (the log's t_located)"
+    kinds = events["kind"][own].value_counts(sort=False)
+    by_kind = ", ".join(f"{kind}: {count}" for kind, count in kinds.items())
+    gap = float(np.max(np.abs(events["t_located"][own].to_numpy(float) - events["t"][own].to_numpy(float))))
+    return (
+        f"located     {int(own.sum())} of {own.size} events by the integrator itself ({by_kind}; the log's "
+        f"t_located, at most {gap:.2g} from the inferred t)"
+    )

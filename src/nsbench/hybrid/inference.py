@@ -50,6 +50,20 @@ trajectory get the same event times (to the rounding of the trajectory). The rul
    (The two time-stepping methods label a step resting by one rule of their
    trajectory and impulses: a positive impulse while ``e |v_k| <= g h``.)
 
+6. **Relay problems** (family ``relay``, one switching surface: the relay feedback
+   system): the method labels each step with its mode (``SystemResult.modes``: a side
+   of the surface, or sliding on it; without labels each step takes the model's start
+   rule at its state). An event is a change of label between steps ``k`` and ``k+1``:
+   ``cross`` (side to side), ``slide`` (a side to sliding), ``exit`` (sliding to a
+   side), placed at the zero of the line between the two steps of the guard of the
+   mode before that is nearest to firing at step ``k+1`` (the switching function
+   ``C x`` off the surface, a sliding limit ``1 -+ u_eq`` on it), kept within the step
+   (an entry into sliding: on the line through the last two steps before it, since
+   sliding holds ``C x`` at zero at step ``k+1`` whenever it began);
+   its state is the linear interpolation there, its mode the label after. A touch
+   (the surface reached tangentially, no change of side) changes no label and is not
+   inferred.
+
 **Switches a method locates itself** (``SystemResult.switch_times``, an FESD-type
 method or an event-driven scheme run through this protocol) are not used to place
 the events: each inferred event is paired with the nearest located switch of its
@@ -259,6 +273,57 @@ def _impact_events(
     )
 
 
+def _sliding_code(problem: "HybridProblem") -> int | None:
+    """The code of the problem's sliding mode (its mode named ``slide``), or ``None`` if it has none."""
+    names = getattr(problem, "mode_names", {})
+    return next((int(code) for code, name in names.items() if name == "slide"), None)
+
+
+def _relay_events(problem: "HybridProblem", t: np.ndarray, y: np.ndarray, modes: np.ndarray | None) -> InferredEvents:
+    """Rule 6 (the relay family, one switching surface): see the module docstring."""
+    k = len(t)
+    if modes is None:
+        m = np.array([problem.initial_mode(float(t[j]), y[j]) for j in range(k)], dtype=np.int64).reshape(k, -1)
+    else:
+        m = np.asarray(modes, dtype=np.int64).reshape(k, -1)
+    slide = _sliding_code(problem)
+    kinds = problem.event_kinds
+    out_t, out_k, out_y, out_m, out_s = [], [], [], [], []
+    for j in np.flatnonzero(m[1:, 0] != m[:-1, 0]) if k > 1 else ():
+        p, q = int(m[j, 0]), int(m[j + 1, 0])
+        kind = "exit" if p == slide else "slide" if q == slide else "cross"
+        t0, t1 = float(t[j]), float(t[j + 1])
+        # the guard of the mode before nearest to firing at the step's end: the one the switch went through
+        guards = problem.guards((p,))
+        margins = [(g.expected_sign * float(g.value(t1, y[j + 1])), g) for g in guards]
+        if margins:
+            guard = min(margins, key=lambda row: row[0])[1]
+            # sliding keeps the switching function at zero at step k+1, which says nothing of when it got
+            # there: an entry is placed on the line through the last two steps before it
+            ja = j - 1 if kind == "slide" and j > 0 and m[j - 1, 0] == p else j
+            a = guard.expected_sign * float(guard.value(float(t[ja]), y[ja]))
+            b = guard.expected_sign * float(guard.value(float(t[ja + 1]), y[ja + 1]))
+            te = _line_zero(float(t[ja]), a, float(t[ja + 1]), b, t0, t1)
+        else:
+            te = t1
+        frac = (te - t0) / (t1 - t0)
+        out_t.append(te)
+        out_k.append(kinds.index(kind))
+        out_y.append((1.0 - frac) * y[j] + frac * y[j + 1])
+        out_m.append(m[j + 1].copy())
+        out_s.append(int(j))
+    n, ms = y.shape[1], problem.mode_size
+    return InferredEvents(
+        t=np.array(out_t, dtype=float),
+        kind=np.array(out_k, dtype=np.int64),
+        block=np.zeros(len(out_t), np.int64),
+        y=np.array(out_y, dtype=float).reshape(-1, n),
+        mode=np.array(out_m, dtype=np.int64).reshape(-1, ms),
+        start_mode=m[0].copy() if k else np.zeros(ms, np.int64),
+        step=np.array(out_s, dtype=np.int64),
+    )
+
+
 def infer_events(
     problem: "HybridProblem",
     t: np.ndarray,
@@ -274,11 +339,13 @@ def infer_events(
     Parameters
     ----------
     problem
-        A problem of the friction family, or the bouncing ball.
+        A problem of the friction family, an impact problem (the bouncing ball) or of the
+        relay family (rule 6).
     t, y
         Step times ``(k,)`` and states ``(k, n_states)``.
     modes
-        Impact problems: the method's mode of each step ``(k, 1)`` (its resting contact, rule 5).
+        Impact problems: the method's mode of each step ``(k, 1)`` (its resting contact, rule 5);
+        relay problems: its side of the surface or sliding (rule 6).
         Not read for the friction family (rule 1 reads the phases off the trajectory).
     band
         The method's stick band ``b >= 0``.
@@ -294,6 +361,8 @@ def infer_events(
         raise ValueError(f"stick band {band!r} must be >= 0")
     if problem.family == "impact":
         ev = _impact_events(problem, t, y, modes, impulses)
+    elif problem.family == "relay":
+        ev = _relay_events(problem, t, y, modes)
     else:
         ev = _friction_events(problem, t, y, band)
     if switch_times is not None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import nsbench
-from nsbench.status import OutcomeKind, ReferenceStatus, Status
+from nsbench.status import OutcomeKind, ReferenceStatus, Status, TargetOutcome
 
 SRC = Path(nsbench.__file__).parent
 
@@ -96,3 +96,41 @@ def test_no_module_compares_a_reference_status_with_a_literal_string():
     }
     assert not found, f"compare reference statuses with ReferenceStatus members: {found}"
     assert _status_compared_with_ok(ast.parse('x = frame["reference_status"] == "ok"\n')) == [1]
+
+
+def test_a_target_outcome_says_whether_its_pair_is_graded():
+    graded = {o for o in TargetOutcome if o.graded}
+    # a refusal is graded: the method does not solve the pair (the ECDF counts it as unsolved)
+    assert graded == {TargetOutcome.REACHED, TargetOutcome.NOT_REACHED, TargetOutcome.UNSUPPORTED}
+    assert TargetOutcome("not graded") is TargetOutcome.NOT_GRADED
+
+
+def _outcome_compared_with_literal(tree: ast.AST) -> list[int]:
+    """Lines where a frame's ``outcome`` column (or a row's) is compared with, or matched against, a literal."""
+    values = {o.value for o in TargetOutcome}
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            column = any(
+                isinstance(s, ast.Subscript) and isinstance(s.slice, ast.Constant) and s.slice.value == "outcome"
+                for s in sides
+            )
+            if column and any(isinstance(s, ast.Constant) and s.value in values for s in sides):
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "isin":
+            listed = [a for a in node.args if isinstance(a, (ast.List, ast.Tuple, ast.Set))]
+            if any(isinstance(e, ast.Constant) and e.value in values for a in listed for e in a.elts):
+                lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_compares_a_target_outcome_with_a_literal_string():
+    found = {
+        str(path.relative_to(SRC)): lines
+        for path in sorted(SRC.rglob("*.py"))
+        if (lines := _outcome_compared_with_literal(ast.parse(path.read_text())))
+    }
+    assert not found, f"compare fixed-target outcomes with TargetOutcome members: {found}"
+    assert _outcome_compared_with_literal(ast.parse('x = row["outcome"] == "reached"\n')) == [1]
+    assert _outcome_compared_with_literal(ast.parse('x = s["outcome"].isin(["reference", "a"])\n')) == [1]

@@ -93,3 +93,24 @@ class ReferenceStatus(str, Enum):
 
     def __str__(self) -> str:
         return self.value
+
+
+class TargetOutcome(str, Enum):
+    """What one method did at one accuracy target on one problem (a cell of the fixed-target table:
+    :func:`nsbench.bench.tables.fixed_target`). Compare with the members, never with literal strings."""
+
+    REACHED = "reached"  # a configuration reached the target: its cheapest one's cost is the cell
+    NOT_REACHED = "not reached"
+    NOT_GRADED = "not graded"  # below what the reference can certify or double precision can resolve
+    NO_REFERENCE = "no reference"
+    UNSUPPORTED = "unsupported"  # the method refuses the problem
+    REFERENCE = "reference"  # the problem's reference itself: its cost is informative, its error 0
+
+    @property
+    def graded(self) -> bool:
+        """Whether the (problem, target) pair is graded at all: it has a reference that can grade the target,
+        and this is not the reference itself. A refused problem is graded (the method does not solve it)."""
+        return self not in (TargetOutcome.NO_REFERENCE, TargetOutcome.NOT_GRADED, TargetOutcome.REFERENCE)
+
+    def __str__(self) -> str:
+        return self.value

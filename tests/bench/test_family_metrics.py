@@ -112,7 +112,10 @@ def test_case_metrics_fill_the_new_columns():
     assert math.isnan(case_metrics(ref, run, None, None, None, None)["stick_creep"])
     # a method's own switch times: the largest |t_located - t_ref| of the prefix, beside the inferred errors
     own = run.assign(t_located=[1.02, np.nan])
-    assert case_metrics(ref, own, None, None, None, None)["located_err_max"] == pytest.approx(0.02)
+    located = case_metrics(ref, own, None, None, None, None)
+    assert located["located_err_max"] == pytest.approx(0.02)
+    assert located["n_located"] == 1  # of the prefix's two events, the method located the first
+    assert out["n_located"] is None  # no t_located column: no count, not a count of 0
 
 
 def test_impact_metrics_are_the_depth_below_ground_and_the_energy_left():

@@ -595,6 +595,16 @@ DECLARED: tuple[Column, ...] = (
         unit="problem time",
     ),
     Column(
+        "n_located",
+        INT,
+        (
+            "how many events of the matched prefix the method located itself (a finite t_located), of "
+            "n_prefix: FESD places its switches on finite-element boundaries and locates some, not all; "
+            "empty for a method that locates none of its own"
+        ),
+        unit="count",
+    ),
+    Column(
         "arc_err",
         FLOAT,
         (

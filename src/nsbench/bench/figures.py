@@ -23,7 +23,7 @@ import pandas as pd
 
 from nsbench.bench.labels import configuration
 from nsbench.bench.tables import problem_groups
-from nsbench.status import ReferenceStatus, Status
+from nsbench.status import ReferenceStatus, Status, TargetOutcome
 
 #: Errors below this are drawn at it (log axes cannot show 0).
 ERROR_FLOOR = 1e-16
@@ -480,7 +480,7 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
     cost (wall time, ``nfev``); each curve rises in steps to the share of pairs
     the method solves. ``None`` when no pair can be graded.
     """
-    graded = long[~long["outcome"].isin(["no reference", "not graded", "reference"])]
+    graded = long[long["outcome"].map(lambda o: TargetOutcome(o).graded)]
     pairs = graded[["problem_label", "target"]].drop_duplicates()
     if pairs.empty:
         return None
@@ -489,7 +489,7 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
     fig, axes = plt.subplots(1, len(ECDF_COSTS), figsize=(11.5, 4.4), sharey=True)
     for ax, (cost, label) in zip(axes, ECDF_COSTS.items()):
         for name, rows in graded.groupby("integrator", sort=True):
-            hit = pd.to_numeric(rows.loc[rows["outcome"] == "reached", cost], errors="coerce")
+            hit = pd.to_numeric(rows.loc[rows["outcome"] == TargetOutcome.REACHED, cost], errors="coerce")
             x = np.sort(hit[hit > 0].to_numpy(dtype=float))
             if x.size == 0:
                 continue

@@ -428,6 +428,14 @@ def located_error(reference: pd.DataFrame, events: pd.DataFrame, n_prefix: int) 
     return float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
 
 
+def located_count(events: pd.DataFrame, n_prefix: int) -> int | None:
+    """How many events of the matched prefix the method located itself (a finite ``t_located``),
+    ``None`` if the run has no ``t_located`` column (a method that locates none of its own)."""
+    if "t_located" not in events:
+        return None
+    return int(np.isfinite(events["t_located"].to_numpy(dtype=float)[:n_prefix]).sum())
+
+
 def impact_metrics(
     energy, dense: np.ndarray | None, ref_final: np.ndarray | None, final: np.ndarray | None
 ) -> tuple[float, float]:
@@ -487,7 +495,8 @@ def case_metrics(
     (:func:`stick_creep`; NaN without them: a problem without a belt), over the points
     where ``cone`` (:func:`in_cone` of the reference's dense states) holds.
     ``located_err_max`` is the largest ``|t_located - t_ref|`` over the matched prefix, from
-    the run's ``t_located`` column (a method that locates its own switches); NaN without it.
+    the run's ``t_located`` column (a method that locates its own switches); NaN without it;
+    ``n_located`` counts those events (NA without the column).
 
     Events of a tie group of the reference (:data:`TIE_TOL`) are compared in the
     reference's order (:func:`order_ties_as_reference`), and the impacts of a Zeno tail
@@ -524,6 +533,7 @@ def case_metrics(
         stick_drift=creep.drift,
         breakaway_err_max=breakaway_error(reference, dt, al.n_prefix),
         located_err_max=located_error(reference, events, al.n_prefix),
+        n_located=located_count(events, al.n_prefix),
         event_t=t_ref.tolist(),
         event_err=dt.tolist(),
         event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [],

@@ -18,7 +18,7 @@ import pandas as pd
 from nsbench.bench.metrics import reaches
 from nsbench.bench.stats import tied_with
 from nsbench.bench.timing import spread_label
-from nsbench.status import ReferenceStatus, Status
+from nsbench.status import ReferenceStatus, Status, TargetOutcome
 
 DEFAULT_TARGETS = (1e-6, 1e-9, 1e-12)
 
@@ -110,7 +110,7 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 "problem_label": label,
                 "integrator": name,
                 "target": float(target),
-                "outcome": "no reference",
+                "outcome": TargetOutcome.NO_REFERENCE.value,
                 "wall_time": math.nan,
                 "wall_spread": math.nan,
                 "nfev": pd.NA,
@@ -119,22 +119,22 @@ def fixed_target(frame: pd.DataFrame, targets=DEFAULT_TARGETS) -> pd.DataFrame:
                 "case_id": "",
             }
             if (group["status"] == Status.UNSUPPORTED).all():
-                row["outcome"] = "unsupported"
+                row["outcome"] = TargetOutcome.UNSUPPORTED.value
             elif has_ref and (group["reference"] == name).all():
                 # the reference against itself: its cost is informative, its error is 0 by construction
                 best = group.loc[group["wall_time"].idxmin()] if group["wall_time"].notna().any() else None
-                row["outcome"] = "reference"
+                row["outcome"] = TargetOutcome.REFERENCE.value
                 if best is not None:
                     row.update(_cost(best))
             elif has_ref and not graded(group, target):
-                row["outcome"] = "not graded"
+                row["outcome"] = TargetOutcome.NOT_GRADED.value
             elif has_ref:
                 ok = group[reached_mask(group, target)]
                 if len(ok):
                     best = ok.loc[ok["wall_time"].idxmin()]
-                    row.update(outcome="reached", **_cost(best))
+                    row.update(outcome=TargetOutcome.REACHED.value, **_cost(best))
                 else:
-                    row["outcome"] = "not reached"
+                    row["outcome"] = TargetOutcome.NOT_REACHED.value
             rows.append(row)
     table = pd.DataFrame(
         rows,
@@ -186,11 +186,16 @@ def work_text(nfev) -> str:
 
 
 def _cell(row: pd.Series) -> str:
-    if row["outcome"] == "reached":
+    if row["outcome"] == TargetOutcome.REACHED:
         return f"{_time(row)} / {work_text(row['nfev'])}"
-    if row["outcome"] == "reference" and pd.notna(row["wall_time"]):
+    if row["outcome"] == TargetOutcome.REFERENCE and pd.notna(row["wall_time"]):
         return f"ref ({_time(row)} / {work_text(row['nfev'])})"
-    return {"no reference": "no ref", "unsupported": "unsupported", "not graded": "not graded"}.get(row["outcome"], "-")
+    short = {
+        TargetOutcome.NO_REFERENCE: "no ref",
+        TargetOutcome.UNSUPPORTED: "unsupported",
+        TargetOutcome.NOT_GRADED: "not graded",
+    }
+    return short.get(row["outcome"], "-")  # a str member hashes and compares as its text
 
 
 def fixed_target_wide(long: pd.DataFrame) -> pd.DataFrame:
@@ -221,7 +226,7 @@ def _pair_ranks(group: pd.DataFrame, samples: Mapping[str, Sequence[float]] | No
     ranked 1, and no single method gets rank 1 where the timings do not single
     it out.
     """
-    hit = group["outcome"] == "reached"
+    hit = group["outcome"] == TargetOutcome.REACHED
     t = group["wall_time"].where(hit, np.inf)
     last = float(len(group))
     if samples is None:
@@ -259,7 +264,8 @@ def ranking(
     reached ones; integrators with the same mean rank and targets reached share
     the table's ``rank``.
     """
-    scored = long[~long["outcome"].isin(["no reference", "unsupported", "reference", "not graded"])]
+    # ranked: the graded pairs of the methods that run the problem (a refusal is no rank)
+    scored = long[long["outcome"].map(lambda o: TargetOutcome(o).graded and o != TargetOutcome.UNSUPPORTED)]
     if scored.empty:
         return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted", "geo_mean_time"])
     ranks = []
@@ -270,7 +276,7 @@ def ranking(
                 {
                     "integrator": group["integrator"],
                     "r": r,
-                    "hit": group["outcome"] == "reached",
+                    "hit": group["outcome"] == TargetOutcome.REACHED,
                     "t": group["wall_time"],
                 }
             )

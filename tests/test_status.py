@@ -134,3 +134,15 @@ def test_no_module_compares_a_target_outcome_with_a_literal_string():
     assert not found, f"compare fixed-target outcomes with TargetOutcome members: {found}"
     assert _outcome_compared_with_literal(ast.parse('x = row["outcome"] == "reached"\n')) == [1]
     assert _outcome_compared_with_literal(ast.parse('x = s["outcome"].isin(["reference", "a"])\n')) == [1]
+
+
+def test_an_empty_fixed_target_table_ranks_nothing_and_draws_nothing(tmp_path):
+    # the outcome masks stay boolean when the table is empty (an empty object mask would select columns)
+    import pandas as pd
+
+    from nsbench.bench.figures import runtime_distribution
+    from nsbench.bench.tables import ranking
+
+    long = pd.DataFrame(columns=["problem_label", "integrator", "target", "outcome", "wall_time", "nfev", "case_id"])
+    assert ranking(long).empty
+    assert runtime_distribution(long, {}, tmp_path) is None

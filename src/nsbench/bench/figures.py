@@ -480,7 +480,8 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
     cost (wall time, ``nfev``); each curve rises in steps to the share of pairs
     the method solves. ``None`` when no pair can be graded.
     """
-    graded = long[long["outcome"].map(lambda o: TargetOutcome(o).graded)]
+    # a boolean mask even when empty (an empty object Series would select columns)
+    graded = long[long["outcome"].map(lambda o: TargetOutcome(o).graded).astype(bool)]
     pairs = graded[["problem_label", "target"]].drop_duplicates()
     if pairs.empty:
         return None

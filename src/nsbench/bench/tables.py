@@ -265,7 +265,8 @@ def ranking(
     the table's ``rank``.
     """
     # ranked: the graded pairs of the methods that run the problem (a refusal is no rank)
-    scored = long[long["outcome"].map(lambda o: TargetOutcome(o).graded and o != TargetOutcome.UNSUPPORTED)]
+    ranked = long["outcome"].map(lambda o: TargetOutcome(o).graded and o != TargetOutcome.UNSUPPORTED)
+    scored = long[ranked.astype(bool)]  # a boolean mask even when empty (an object one would select columns)
     if scored.empty:
         return pd.DataFrame(columns=["rank", "integrator", "mean_rank", "reached", "attempted", "geo_mean_time"])
     ranks = []

@@ -290,11 +290,13 @@ class SweepSpec:
         # checked before the section, whose peaks are confirmed on the problem's field (which compiles it)
         integ = get_integrator(self.integrator, **self.options)
         check_in_caller(integ, problem)
-        if self.section != "strobe":  # strobe was checked at both ends above
-            refuse_section(problem, self.section)
         refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
         if self.section == "peaks" and refusal:
             raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")
+        # last: a section that applies is confirmed on the problem's field (peaks: which state is a
+        # position's rate), which compiles it; the refusals above run nothing
+        if self.section != "strobe":  # strobe was checked at both ends above
+            refuse_section(problem, self.section)
 
 
 def check_in_caller(integ, problem, use: str = "a sweep") -> None:

@@ -152,12 +152,8 @@ def main(args: argparse.Namespace) -> int:
         problem_at(origin)
     from nsbench.bifurcation.sweep import check_section_name, orbit_section, refuse_section
 
-    section = args.section or orbit_section(*ends)
-    check_section_name(section)
-    if section == "strobe" and not all(p.is_forced and p.forcing_frequency > 0 for p in ends):
-        raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
-    if section != "strobe":  # strobe was checked at both ends just above
-        refuse_section(ends[0], section, "--section: ")
+    if args.section is not None:
+        check_section_name(args.section)
     # the output folder and the diagram before the flow is built: a bad --out is refused before anything
     # compiles or runs (exit 2 means refused before anything ran)
     out = Path(args.out or f"continuation/{args.problem}-case{case}-{name}")
@@ -166,6 +162,13 @@ def main(args: argparse.Namespace) -> int:
 
     refuse_links(out, WRITTEN)  # the tables and figures written there replace what is there: never through a link
     diagram = _diagram(args.diagram, name) if args.diagram else None
+    # a section that applies is confirmed on the problem's field (peaks: which state is a position's
+    # rate), which compiles it: after the cheap refusals, so that a bad --out is refused before that
+    section = args.section or orbit_section(*ends)
+    if section == "strobe" and not all(p.is_forced and p.forcing_frequency > 0 for p in ends):
+        raise ConfigError("section strobe needs a harmonic force (F > 0, Omega > 0) at both ends of the range")
+    if section != "strobe":  # strobe was checked at both ends just above
+        refuse_section(ends[0], section, "--section: ")
     run = {
         "problem": args.problem,
         "case": case,

@@ -266,8 +266,6 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
                 SWEEP_MAX_STEPS,
                 given=type(integ).capabilities.step_option in spec.options,
             )
-    for spec in specs:  # every integrator refuses now what it would refuse later: not after a whole sweep
-        spec.check()
     pair = _pair(args.pair or "1,2")
     n_blocks = getattr(specs[0].problem_at(specs[0].start), "n_blocks", None)
     if args.pair is not None and n_blocks is None:
@@ -302,6 +300,10 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     refuse_links(base, WRITTEN + members)
     for name in members:
         refuse_links(base / name, WRITTEN)
+    # every integrator refuses now what it would refuse later: not after a whole sweep; after the checks
+    # of the arguments above, since confirming a peaks section on the problem's field compiles it
+    for spec in specs:
+        spec.check()
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}

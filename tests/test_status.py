@@ -24,6 +24,15 @@ def test_each_ending_of_a_job_gives_its_case_status():
     assert f"{OutcomeKind.TIME_LIMIT}: ran past" == "time limit: ran past"
 
 
+def _offending(walk) -> dict[str, list[int]]:
+    """``{module: lines}`` of every module of ``src/nsbench`` where ``walk`` finds a literal comparison."""
+    return {
+        str(path.relative_to(SRC)): lines
+        for path in sorted(SRC.rglob("*.py"))
+        if (lines := walk(ast.parse(path.read_text())))
+    }
+
+
 def _kind_compared_with_literal(tree: ast.AST) -> list[int]:
     """Lines where ``<x>.kind`` is compared with a string that is an outcome kind's value."""
     values = {k.value for k in OutcomeKind}
@@ -40,11 +49,7 @@ def _kind_compared_with_literal(tree: ast.AST) -> list[int]:
 
 
 def test_no_module_compares_a_job_outcome_with_a_literal_string():
-    found = {
-        str(path.relative_to(SRC)): lines
-        for path in sorted(SRC.rglob("*.py"))
-        if (lines := _kind_compared_with_literal(ast.parse(path.read_text())))
-    }
+    found = _offending(_kind_compared_with_literal)
     assert not found, f"compare Outcome.kind with OutcomeKind members: {found}"
 
 
@@ -89,11 +94,7 @@ def _status_compared_with_ok(tree: ast.AST) -> list[int]:
 
 
 def test_no_module_compares_a_reference_status_with_a_literal_string():
-    found = {
-        str(path.relative_to(SRC)): lines
-        for path in sorted(SRC.rglob("*.py"))
-        if (lines := _status_compared_with_ok(ast.parse(path.read_text())))
-    }
+    found = _offending(_status_compared_with_ok)
     assert not found, f"compare reference statuses with ReferenceStatus members: {found}"
     assert _status_compared_with_ok(ast.parse('x = frame["reference_status"] == "ok"\n')) == [1]
 
@@ -126,11 +127,7 @@ def _outcome_compared_with_literal(tree: ast.AST) -> list[int]:
 
 
 def test_no_module_compares_a_target_outcome_with_a_literal_string():
-    found = {
-        str(path.relative_to(SRC)): lines
-        for path in sorted(SRC.rglob("*.py"))
-        if (lines := _outcome_compared_with_literal(ast.parse(path.read_text())))
-    }
+    found = _offending(_outcome_compared_with_literal)
     assert not found, f"compare fixed-target outcomes with TargetOutcome members: {found}"
     assert _outcome_compared_with_literal(ast.parse('x = row["outcome"] == "reached"\n')) == [1]
     assert _outcome_compared_with_literal(ast.parse('x = s["outcome"].isin(["reference", "a"])\n')) == [1]

@@ -134,8 +134,10 @@ def test_failing_probe_and_refusal_are_rows(stick1, register):
     register("refusing-test", Refusing)
     refused = compute_row(Location(target, "refusing-test", {}, 0), ref, "t")
     assert refused["status"] == "unsupported" and "refuses" in refused["message"]
-    none = compute_row(Location(target, "henon-rk4", {}, 0), TargetReference("k", "failed: no orbit"), "t")
+    failed = TargetReference("k", "reference failed: ValueError: no orbit")  # as compute_target_reference writes it
+    none = compute_row(Location(target, "henon-rk4", {}, 0), failed, "t")
     assert none["status"] == "no reference"
+    assert none["message"] == "the target's reference failed: ValueError: no orbit"  # said once
 
 
 def test_no_bracket_when_the_pattern_does_not_change(stick1):

@@ -180,10 +180,12 @@ def completeness(frame: pd.DataFrame, prov: dict) -> Completeness | None:
     except (NsbenchError, TypeError, ValueError, KeyError):
         return None
     held = set(frame["case_id"]) if "case_id" in frame else set()
-    selected = prov.get("integrators_selected")
-    if not isinstance(selected, list):
-        selected = list(frame["integrator"].unique()) if "integrator" in frame else []
-    cases = {key: c for key, c in cases.items() if c.integrator in set(selected)}
+    recorded = prov.get("integrators_selected")
+    if isinstance(recorded, list):
+        selected = set(recorded)
+    else:
+        selected = set(frame["integrator"].unique()) if "integrator" in frame else set()
+    cases = {key: c for key, c in cases.items() if c.integrator in selected}
     missing = tuple(c.label for key, c in cases.items() if key not in held)
     return Completeness(len(cases), missing, str(prov.get("resume_command", "")))
 

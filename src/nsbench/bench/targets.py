@@ -519,7 +519,7 @@ def locate_with(
             return {
                 **out,
                 "status": Status.NO_REFERENCE.value,
-                "message": f"the target's reference failed: {ref.status}",
+                "message": f"the target's {ref.status}",  # its status reads "reference failed: why"
             }
         near = probe(near_value, start)
         if not near.near:

@@ -33,19 +33,27 @@ def _offending(walk) -> dict[str, list[int]]:
     }
 
 
-def _kind_compared_with_literal(tree: ast.AST) -> list[int]:
-    """Lines where ``<x>.kind`` is compared with a string that is an outcome kind's value."""
-    values = {k.value for k in OutcomeKind}
+def _literal_comparisons(tree: ast.AST, side, values: set[str]) -> list[int]:
+    """Lines of the comparisons in ``tree`` between an expression ``side`` accepts and a string of ``values``."""
     lines = []
     for node in ast.walk(tree):
-        if not isinstance(node, ast.Compare):
-            continue
-        sides = [node.left, *node.comparators]
-        if any(isinstance(s, ast.Attribute) and s.attr == "kind" for s in sides) and any(
-            isinstance(s, ast.Constant) and s.value in values for s in sides
-        ):
-            lines.append(node.lineno)
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any(side(s) for s in sides) and any(isinstance(s, ast.Constant) and s.value in values for s in sides):
+                lines.append(node.lineno)
     return lines
+
+
+def _column(name: str):
+    """Accepts ``<frame or row>["name"]``."""
+    return lambda s: isinstance(s, ast.Subscript) and isinstance(s.slice, ast.Constant) and s.slice.value == name
+
+
+def _kind_compared_with_literal(tree: ast.AST) -> list[int]:
+    """Lines where ``<x>.kind`` is compared with a string that is an outcome kind's value."""
+    return _literal_comparisons(
+        tree, lambda s: isinstance(s, ast.Attribute) and s.attr == "kind", {k.value for k in OutcomeKind}
+    )
 
 
 def test_no_module_compares_a_job_outcome_with_a_literal_string():
@@ -73,24 +81,15 @@ def test_a_stored_reference_status_reads_as_its_kind():
 
 def _status_compared_with_ok(tree: ast.AST) -> list[int]:
     """Lines where a ``status`` (attribute, or a frame's ``reference_status`` column) is compared with ``"ok"``."""
-    lines = []
-    for node in ast.walk(tree):
-        if not isinstance(node, ast.Compare):
-            continue
-        sides = [node.left, *node.comparators]
-        named = any(
+
+    def status(s: ast.AST) -> bool:
+        return (
             (isinstance(s, ast.Attribute) and s.attr == "status")
             or (isinstance(s, ast.Name) and s.id == "status")
-            or (
-                isinstance(s, ast.Subscript)
-                and isinstance(s.slice, ast.Constant)
-                and s.slice.value == "reference_status"
-            )
-            for s in sides
+            or _column("reference_status")(s)
         )
-        if named and any(isinstance(s, ast.Constant) and s.value == "ok" for s in sides):
-            lines.append(node.lineno)
-    return lines
+
+    return _literal_comparisons(tree, status, {"ok"})
 
 
 def test_no_module_compares_a_reference_status_with_a_literal_string():
@@ -109,21 +108,13 @@ def test_a_target_outcome_says_whether_its_pair_is_graded():
 def _outcome_compared_with_literal(tree: ast.AST) -> list[int]:
     """Lines where a frame's ``outcome`` column (or a row's) is compared with, or matched against, a literal."""
     values = {o.value for o in TargetOutcome}
-    lines = []
+    lines = _literal_comparisons(tree, _column("outcome"), values)
     for node in ast.walk(tree):
-        if isinstance(node, ast.Compare):
-            sides = [node.left, *node.comparators]
-            column = any(
-                isinstance(s, ast.Subscript) and isinstance(s.slice, ast.Constant) and s.slice.value == "outcome"
-                for s in sides
-            )
-            if column and any(isinstance(s, ast.Constant) and s.value in values for s in sides):
-                lines.append(node.lineno)
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "isin":
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "isin":
             listed = [a for a in node.args if isinstance(a, (ast.List, ast.Tuple, ast.Set))]
             if any(isinstance(e, ast.Constant) and e.value in values for a in listed for e in a.elts):
                 lines.append(node.lineno)
-    return lines
+    return sorted(lines)
 
 
 def test_no_module_compares_a_target_outcome_with_a_literal_string():

@@ -1,4 +1,4 @@
-"""Sections by the problem's own state names and field (``nsbench.sections``)."""
+"""Sections by the problem's own state names, declared rates and field (``nsbench.sections``)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 
 import nsbench
 from nsbench.errors import ConfigError
-from nsbench.sections import peak_variables, peaks, rate_state
+from nsbench.sections import peak_variables, peaks, rate_on_field, rate_state
 
 # The positions whose rate is a state, read off each problem's equations (its problem sheet in
 # docs/problems.md): x_i' = v_i for the blocks and the ball, q' = dq for the woodpecker's coordinates,
@@ -27,8 +27,28 @@ PAIRS = {
 
 
 @pytest.mark.parametrize("name", sorted(PAIRS))
-def test_positions_and_rates_are_found_on_the_field(name):
-    assert peak_variables(nsbench.get_problem(name)) == PAIRS[name]
+def test_positions_and_rates_are_declared_and_found_on_the_field(name):
+    problem = nsbench.get_problem(name)
+    assert peak_variables(problem) == PAIRS[name]  # from the declaration
+    on_field = tuple((n, r) for n in problem.state_names if (r := rate_on_field(problem, n)) is not None)
+    assert on_field == PAIRS[name]
+
+
+def test_a_problem_that_declares_nothing_has_its_rates_found_on_the_field(monkeypatch):
+    # a plug-in that leaves position_rates None: the field decides, as before the declaration
+    problem = nsbench.get_problem("henon-heiles")
+    monkeypatch.setattr(problem, "position_rates", None)
+    assert peak_variables(problem) == PAIRS["henon-heiles"]
+
+
+def test_a_declaration_is_read_without_running_the_field(monkeypatch):
+    problem = nsbench.get_problem("two-dof")
+
+    def refuse(*args):
+        raise AssertionError("the field ran")
+
+    monkeypatch.setattr(problem, "rhs", refuse)
+    assert peak_variables(problem) == PAIRS["two-dof"]
 
 
 def test_a_name_alone_does_not_make_a_rate():

@@ -95,15 +95,30 @@ _RATE_NAMES = (lambda n: "v" + n[1:] if n.startswith("x") else "", lambda n: "d"
 def rate_state(problem, name: str) -> str | None:
     """The state variable that is the time derivative of state ``name`` in ``problem``, or ``None``.
 
-    Candidates come from the names (``v1`` for ``x1``, ``dy`` for ``y``, ``px`` for ``x``) and are
-    confirmed on the problem's field: ``name``'s rate must equal the candidate at the initial
-    state and at two other states, in the initial mode (a position's rate is the velocity in every
-    mode of a mechanical problem; a first-order law such as a thermostat's ``x' = -a x + b`` has
-    no such state).
+    A problem that declares its ``position_rates`` answers from them: no field runs, so a command
+    checks a section without compiling anything. For one that does not (a plug-in may leave them
+    ``None``), see :func:`rate_on_field`.
     """
     names = tuple(problem.state_names)
     if name not in names:
         raise ConfigError(f"unknown state variable {name!r}; allowed: {', '.join(names)}")
+    declared = getattr(problem, "position_rates", None)
+    if declared is not None:
+        return declared.get(name)
+    return rate_on_field(problem, name)
+
+
+def rate_on_field(problem, name: str) -> str | None:
+    """The state that is the time derivative of state ``name``, found on ``problem``'s field.
+
+    Candidates come from the names (``v1`` for ``x1``, ``dy`` for ``y``, ``px`` for ``x``) and are
+    confirmed on the problem's field: ``name``'s rate must equal the candidate at the initial
+    state and at two other states, in the initial mode (a position's rate is the velocity in every
+    mode of a mechanical problem; a first-order law such as a thermostat's ``x' = -a x + b`` has
+    no such state). This runs the problem's (compiled) field; the conformance kit compares it with
+    a problem's declared ``position_rates``.
+    """
+    names = tuple(problem.state_names)
     i = names.index(name)
     candidates = [c for c in (rule(name) for rule in _RATE_NAMES) if c and c != name and c in names]
     if not candidates:
@@ -135,8 +150,8 @@ def peaks(problem: "FrictionOscillator", block: int = 1) -> StateSection:
     """Local maxima of the ``block``-th position (``x_block`` of a friction oscillator): its rate ``= 0``
     crossed downward.
 
-    The positions and their rates are found by the problem's own state names and field
-    (:func:`peak_variables`); a problem with none (a first-order law) is refused with a
+    The positions and their rates are the problem's declared ``position_rates`` (else found by its
+    state names and field: :func:`peak_variables`); a problem with none (a first-order law) is refused with a
     ``ConfigError`` naming its states.
     """
     pairs = peak_variables(problem)

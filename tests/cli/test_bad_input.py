@@ -37,6 +37,38 @@ from nsbench.cli import main
 
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
+#: Set in the fresh process of :func:`test_no_refusal_needs_compiled_code`: there every refusal below
+#: is watched for the compiled code it loads.
+_WATCH = "NSBENCH_TEST_WATCH_COMPILED"
+
+
+@pytest.fixture
+def loads_no_compiled_code(monkeypatch):
+    """In a watched process, fail a refusal that needed compiled code (loaded from the disk cache or compiled).
+
+    On a fresh install that code is compiled first, and a compilation longer than two seconds is
+    announced on stderr (:mod:`nsbench.compiling`): the refusal's one line would come after
+    notices. Whether a given case compiles in a test run depends on what ran before it in the same
+    process, so only a fresh process watching every case tells; a case that needs compiled code is
+    flagged there even though the disk cache is warm, since numba's ``Dispatcher.compile`` is
+    called on a process's first use whether it then loads or compiles.
+    """
+    if not os.environ.get(_WATCH):
+        yield
+        return
+    from numba.core.dispatcher import Dispatcher
+
+    used: list[str] = []
+    original = Dispatcher.compile
+
+    def compile(self, sig):
+        used.append(f"{self.py_func.__module__}.{self.py_func.__qualname__}")
+        return original(self, sig)
+
+    monkeypatch.setattr(Dispatcher, "compile", compile)
+    yield
+    assert not used, f"refused only after using compiled code: {sorted(set(used))}"
+
 
 def _pb(names: list[str]) -> dict:
     """A minimal pytest-benchmark JSON document."""
@@ -590,7 +622,7 @@ def _argv(template: list[str], d: str) -> list[str]:
         (["simulate", "one-dof", "--fresh"], "unrecognized arguments: --fresh"),
     ],
 )
-def test_the_issues_examples_exit_2_with_one_line(argv, fragment, d, capsys):
+def test_the_issues_examples_exit_2_with_one_line(argv, fragment, d, capsys, loads_no_compiled_code):
     """The invocations of issue 30 that ended in a traceback or succeeded silently."""
     assert main([a.replace("{d}", d) for a in argv]) == 2
     assert fragment in _one_error_line(capsys)
@@ -642,6 +674,43 @@ def test_a_run_that_fails_says_so_on_stderr(capsys):
     assert line.startswith("nsbench: simulate: the run ended at t = ") and "of 20: step budget exhausted" in line
 
 
+def test_no_refusal_needs_compiled_code():
+    """Every refusal above comes before any compiled code is used, so on a fresh install its one line
+    is the only line (no compile notice before it).
+
+    The cases run again in a fresh process that watches numba (:func:`loads_no_compiled_code`): in
+    this one, what earlier tests loaded hides what a case would have compiled.
+    """
+    tests = ["test_bad_input_exits_2_with_one_line", "test_the_issues_examples_exit_2_with_one_line"]
+    if not IS_ROOT:
+        tests.append("test_read_only_outputs_exit_2_with_one_line")
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            __file__,
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "-p",
+            "no:xdist",
+            "-k",
+            " or ".join(tests),
+        ],
+        env={**os.environ, _WATCH: "1"},
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    failed = [
+        line
+        for line in run.stdout.splitlines()
+        if line.startswith(("FAILED", "ERROR")) or "refused only after using compiled code" in line
+    ]
+    assert run.returncode == 0 and "passed" in run.stdout, "\n".join(failed) or run.stdout[-3000:] + run.stderr[-2000:]
+
+
 def test_the_list_covers_every_sub_command():
     from nsbench.cli import COMMANDS
 
@@ -651,7 +720,7 @@ def test_the_list_covers_every_sub_command():
 
 
 @pytest.mark.parametrize("argv, fragment", [pytest.param(a, f, id=i) for i, a, f in CASES])
-def test_bad_input_exits_2_with_one_line(argv, fragment, d, capsys):
+def test_bad_input_exits_2_with_one_line(argv, fragment, d, capsys, loads_no_compiled_code):
     assert main(_argv(argv, d)) == 2
     line = _one_error_line(capsys)
     if fragment is not None:
@@ -660,7 +729,7 @@ def test_bad_input_exits_2_with_one_line(argv, fragment, d, capsys):
 
 @pytest.mark.skipif(IS_ROOT, reason="root writes into read-only folders")
 @pytest.mark.parametrize("argv, fragment", [pytest.param(a, f, id=i) for i, a, f in READ_ONLY_CASES])
-def test_read_only_outputs_exit_2_with_one_line(argv, fragment, d, capsys):
+def test_read_only_outputs_exit_2_with_one_line(argv, fragment, d, capsys, loads_no_compiled_code):
     assert main(_argv(argv, d)) == 2
     assert fragment in _one_error_line(capsys)
 

@@ -130,6 +130,30 @@ def test_the_kit_finds_a_problem_that_loses_its_case(monkeypatch):
         check_problem("relay-feedback")
 
 
+def test_the_kit_finds_rates_its_field_contradicts(monkeypatch):
+    """A declared rate the field does not confirm (v for x of the impact oscillator, swapped) is reported,
+    and so is a position the field has that the declaration leaves out."""
+    from nsbench.problems.impact_oscillator import ImpactOscillator
+    from nsbench.testing import check_problem
+    from nsbench.testing._problem import rates_failure
+
+    assert rates_failure(nsbench.get_problem("impact-oscillator")) is None
+    original = ImpactOscillator.__init__
+
+    def init(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        self.position_rates = {"v": "x"}
+
+    monkeypatch.setattr(ImpactOscillator, "__init__", init)
+    with pytest.raises(AssertionError, match=r"position_rates declares \{'v': 'x'\}, its field gives \{'x': 'v'\}"):
+        check_problem("impact-oscillator")
+    problem = nsbench.get_problem("impact-oscillator")
+    problem.position_rates = {}
+    assert "its field gives {'x': 'v'}" in rates_failure(problem)
+    problem.position_rates = {"x": "w"}
+    assert "name w, not states (x, v)" in rates_failure(problem)
+
+
 def _config_of(problem):
     from nsbench.problems.base import HybridProblem
 

@@ -100,6 +100,7 @@ class Thermostat(HybridProblem):
         self.name, self.case, self.dimensional = "thermostat", None, False
         self.params, self.parameters = dict(params), dict(values)
         self.state_names = ("x",)
+        self.position_rates: dict[str, str] = {}  # first order: no state is another's rate (no peaks section)
         self.packed = LAYOUT.pack(values)
 
     def initial_state(self) -> np.ndarray:

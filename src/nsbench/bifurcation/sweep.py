@@ -270,9 +270,35 @@ class SweepSpec:
         return sweep_columns(self.state_names)
 
     def check(self) -> None:
-        """Fail early: build the problem at both ends and the integrator, check the section."""
-        from nsbench.integrators import get_integrator
+        """Fail early: build the problem at both ends and the integrator, check the section, then the
+        integrator on the problem."""
+        self.check_section()
+        self.check_integrator()
 
+    def check_integrator(self, setup: bool = True) -> None:
+        """The refusals of the integrator on the problem: a whole-system method, a peaks section it cannot
+        record and (``setup``) what its set-up refuses (exact on cubic springs, a step too long for
+        the problem's fastest rate). The set-up may evaluate the problem's compiled field, so a
+        command with several sweeps checks every one with ``setup=False`` first: each refusal
+        that needs no compiled code comes before any that does."""
+        from nsbench.integrators import get_integrator
+        from nsbench.integrators.base import require_event_driven
+
+        problem = self.problem_at(self.start)
+        integ = get_integrator(self.integrator, **self.options)
+        if setup:
+            check_in_caller(integ, problem)
+        else:
+            require_event_driven(integ, "a sweep")
+        refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
+        if self.section == "peaks" and refusal:
+            raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")
+
+    def check_section(self) -> None:
+        """The refusals of the section at both ends of the sweep (strobe needs a harmonic force; a section
+        that records nothing on the problem names those that do). They read the problem's declared
+        traits and run nothing (a plug-in problem that declares no ``position_rates`` has a peaks
+        section confirmed on its field)."""
         ends = [self.problem_at(v) for v in (self.start, self.stop)]
         if self.section == "strobe":
             # the forcing period must exist everywhere; F may be 0 at one end of an F sweep
@@ -285,18 +311,8 @@ class SweepSpec:
                 raise ConfigError(
                     "section strobe needs a harmonic force (F > 0) in the sweep; use peaks, stick or mapping"
                 )
-        problem = ends[0]
-        # an integrator that refuses the problem (exact on cubic springs) fails here, not per point; it is
-        # checked before the section, whose peaks are confirmed on the problem's field (which compiles it)
-        integ = get_integrator(self.integrator, **self.options)
-        check_in_caller(integ, problem)
-        refusal = integ.sections_refusal(problem) if type(integ).__module__.startswith("nsbench.") else ""
-        if self.section == "peaks" and refusal:
-            raise ConfigError(f"section peaks: {refusal}; use another integrator, or another section")
-        # last: a section that applies is confirmed on the problem's field (peaks: which state is a
-        # position's rate), which compiles it; the refusals above run nothing
         if self.section != "strobe":  # strobe was checked at both ends above
-            refuse_section(problem, self.section)
+            refuse_section(ends[0], self.section)
 
 
 def check_in_caller(integ, problem, use: str = "a sweep") -> None:

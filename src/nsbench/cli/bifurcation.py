@@ -300,10 +300,15 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     refuse_links(base, WRITTEN + members)
     for name in members:
         refuse_links(base / name, WRITTEN)
-    # every integrator refuses now what it would refuse later: not after a whole sweep; after the checks
-    # of the arguments above, since confirming a peaks section on the problem's field compiles it
+    # every integrator refuses now what it would refuse later: not after a whole sweep. What needs no
+    # compiled code first (sections, whole-system methods), for every integrator, then the set-ups,
+    # which may evaluate the problem's compiled field: no refusal follows a compile notice
     for spec in specs:
-        spec.check()
+        spec.check_section()
+    for spec in specs:
+        spec.check_integrator(setup=False)
+    for spec in specs:
+        spec.check_integrator()
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}

@@ -117,6 +117,13 @@ class HybridProblem:
         of one form; the round-trip check rebuilds every one of them.
     state_names
         Names of the state's entries.
+    position_rates
+        ``position -> rate`` for every state whose time derivative is another state (``x1 -> v1``
+        of a block, ``x -> px`` of a Hamiltonian), ``{}`` for a first-order law (a thermostat, a
+        relay's feedback loop): what a ``peaks`` section records, declared so that a command can
+        check a section without running the field. ``None`` (the default, for a plug-in that
+        does not say) lets :func:`nsbench.sections.rate_state` find them on the field; the
+        conformance kit checks a declaration against the field.
     packed
         The parameter vector of the law (a named layout of the family).
     """
@@ -135,16 +142,24 @@ class HybridProblem:
     params: dict[str, float]
     parameters: dict[str, float]
     state_names: tuple[str, ...]
+    position_rates: dict[str, str] | None = None
     packed: np.ndarray
 
     def _given(
-        self, name: str, params: dict[str, Any], parameters: dict[str, float], state_names: tuple[str, ...]
+        self,
+        name: str,
+        params: dict[str, Any],
+        parameters: dict[str, float],
+        state_names: tuple[str, ...],
+        position_rates: dict[str, str] | None = None,
     ) -> None:
         """Keep what every problem without presets or units holds: its name, the user's overrides, every
-        value by name, and its states' names."""
+        value by name, its states' names and (where declared) which state is which position's rate."""
         self.name, self.case, self.dimensional = name, None, False
         self.params, self.parameters = dict(params), dict(parameters)
         self.state_names = tuple(state_names)
+        if position_rates is not None:
+            self.position_rates = dict(position_rates)
 
     # ------------------------------------------------------------------ what a family implements
     def initial_state(self) -> np.ndarray:

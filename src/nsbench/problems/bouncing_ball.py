@@ -49,7 +49,7 @@ class BouncingBall(NamedModes, HybridProblem):
     mp_law = True
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self._given(NAME, params, parameters, state_names=("x", "v"))
+        self._given(NAME, params, parameters, state_names=("x", "v"), position_rates={"x": "v"})
         self.g, self.e = parameters["g"], parameters["e"]
         self.packed = spec.LAYOUT.pack({"g": self.g, "e": self.e})
 

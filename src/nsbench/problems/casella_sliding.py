@@ -57,7 +57,7 @@ class CasellaSliding(NamedModes, HybridProblem):
     mode_columns = ("side",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self._given(NAME, params, parameters, state_names=("x", "y"))
+        self._given(NAME, params, parameters, state_names=("x", "y"), position_rates={})
         self.a1, self.a2, self.b1, self.b2 = (parameters[k] for k in ("a1", "a2", "b1", "b2"))
         self.weight = filippov_weight(self.a1, self.a2, self.b1, self.b2)
         self.packed = spec.LAYOUT.pack(

@@ -67,7 +67,7 @@ class CircleOscillator(NamedModes, HybridProblem):
     nonlinear_reason = "a circular switching surface (the guard x1^2 + x2^2 - R^2 is quadratic)"
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self._given(NAME, params, parameters, state_names=("x1", "x2"))
+        self._given(NAME, params, parameters, state_names=("x1", "x2"), position_rates={})
         self.omega, self.radius = parameters["omega"], parameters["radius"]
         self.packed = spec.LAYOUT.pack({"omega": self.omega, "radius": self.radius})
 

@@ -46,7 +46,7 @@ class HenonHeiles(NamedModes, HybridProblem):
     mode_columns = ("side",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self._given(NAME, params, parameters, state_names=("x", "y", "px", "py"))
+        self._given(NAME, params, parameters, state_names=("x", "y", "px", "py"), position_rates={"x": "px", "y": "py"})
         self.coupling = parameters["coupling"]
         self.packed = spec.LAYOUT.pack({"coupling": self.coupling})
 

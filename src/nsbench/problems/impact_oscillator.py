@@ -56,7 +56,7 @@ class ImpactOscillator(NamedModes, HybridProblem):
     mp_law = True
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:
-        self._given(NAME, params, parameters, state_names=("x", "v"))
+        self._given(NAME, params, parameters, state_names=("x", "v"), position_rates={"x": "v"})
         self.zeta, self.F, self.w = parameters["zeta"], parameters["F"], parameters["w"]
         self.sigma, self.r = parameters["sigma"], parameters["r"]
         self.packed = spec.LAYOUT.pack({k: parameters[k] for k in ("zeta", "F", "w", "sigma", "r")})

@@ -122,6 +122,7 @@ class FrictionOscillator(HybridProblem):
         nb = coefficients.n_blocks
         self.n_blocks = nb
         self.state_names = tuple(f"{q}{i}" for i in range(1, nb + 1) for q in ("x", "v"))
+        self.position_rates = {f"x{i}": f"v{i}" for i in range(1, nb + 1)}
         self.mode_columns = tuple(f"phase{i}" for i in range(1, nb + 1))
         self._y0 = np.zeros(2 * nb) if y0 is None else np.array(y0, dtype=float)
         self.law_spec = law

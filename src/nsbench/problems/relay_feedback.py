@@ -87,7 +87,7 @@ class RelayFeedback(NamedModes, HybridProblem):
     cases = (1, *CASES)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float], case: int | str | None = None) -> None:
-        self._given(NAME, params, parameters, state_names=("x1", "x2", "x3"))
+        self._given(NAME, params, parameters, state_names=("x1", "x2", "x3"), position_rates={})
         self.case = case  # config() rebuilds the case's values from it (params holds the overrides only)
         self.A, self.B, self.C = plant(*(parameters[k] for k in ("zeta", "omega", "lam", "sigma", "rho")))
         values = dict(zip(spec.NAMES, [*self.A.ravel(), *self.B, *self.C]))

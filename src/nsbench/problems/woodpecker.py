@@ -257,7 +257,13 @@ class Woodpecker(NamedModes, HybridProblem):
     mode_columns = ("sleeve",)
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float], dimensional: bool) -> None:
-        self._given(NAME, params, parameters, state_names=STATE_NAMES)
+        self._given(
+            NAME,
+            params,
+            parameters,
+            state_names=STATE_NAMES,
+            position_rates={"y": "dy", "phiM": "dphiM", "phiS": "dphiS"},
+        )
         self.dimensional = dimensional
         self.units = units_of(parameters, dimensional)
         self.model = model_of(parameters, self.units)

@@ -1,4 +1,5 @@
-"""The conformance check of a problem, built-in or plug-in: its config rebuilds it.
+"""The conformance check of a problem, built-in or plug-in: its config rebuilds it, and what it declares
+of its states holds on its field.
 
 Every path that moves a problem between processes or files (bench workers, stored cases and
 references, resumed runs, sweeps) carries :meth:`~nsbench.problems.base.HybridProblem.config`
@@ -8,7 +9,8 @@ label, and nothing downstream can tell. :func:`config_round_trip` checks, at eve
 problem names (:attr:`~nsbench.problems.base.HybridProblem.cases`), in each unit system its
 factory accepts, and with a few parameter overrides, that the rebuilt problem has the same
 parameter vector (``packed``, bit for bit), start state and start mode, and that its config is
-JSON text and comes back unchanged.
+JSON text and comes back unchanged. :func:`rates_failure` checks a problem's declared
+``position_rates`` (which a ``peaks`` section reads without running the field) against the field.
 """
 
 from __future__ import annotations
@@ -130,8 +132,43 @@ def config_round_trip(name: str, shared: dict[str, Any] | None = None) -> list[s
     return failures
 
 
+def rates_failure(problem) -> str | None:
+    """Why ``problem``'s declared ``position_rates`` disagree with its field (``None``: they agree, or it
+    declares none).
+
+    The field's answer is :func:`nsbench.sections.rate_on_field` for every state: a declared pair must
+    be confirmed there, and a pair the field confirms must be declared (else a ``peaks`` section
+    would miss a position the field has).
+    """
+    from nsbench.sections import rate_on_field
+
+    declared = getattr(problem, "position_rates", None)
+    if declared is None:
+        return None
+    names = tuple(problem.state_names)
+    unknown = sorted((set(declared) | set(declared.values())) - set(names))
+    if unknown:
+        return f"{problem.name}: position_rates name {', '.join(unknown)}, not states ({', '.join(names)})"
+    found = {n: r for n in names if (r := rate_on_field(problem, n)) is not None}
+    if found != dict(declared):
+        return f"{problem.name}: position_rates declares {dict(declared)}, its field gives {found}"
+    return None
+
+
+def problem_failures(name: str, shared: dict[str, Any] | None = None) -> list[str]:
+    """Every variant whose config does not rebuild it (:func:`config_round_trip`) or whose declared
+    ``position_rates`` its field contradicts (:func:`rates_failure`); empty: none."""
+    failures = config_round_trip(name, shared)
+    for variant in variants(name, shared):
+        why = rates_failure(variant)
+        if why is not None:
+            failures.append(why)
+    return failures
+
+
 def check_problem(problem: str | dict[str, Any]) -> None:
-    """Check that a registered problem (built-in or plug-in) is rebuilt whole from its config.
+    """Check that a registered problem (built-in or plug-in) is rebuilt whole from its config, and that
+    its declared ``position_rates`` hold on its field (:func:`rates_failure`).
 
     Parameters
     ----------
@@ -142,7 +179,8 @@ def check_problem(problem: str | dict[str, Any]) -> None:
     Raises
     ------
     AssertionError
-        Listing every variant whose config does not rebuild it (:func:`config_round_trip`).
+        Listing every variant whose config does not rebuild it (:func:`config_round_trip`) or whose
+        declared rates its field contradicts.
     ConfigError
         The problem as given is refused.
     """
@@ -152,8 +190,6 @@ def check_problem(problem: str | dict[str, Any]) -> None:
         name, shared = problem["name"], {k: v for k, v in problem.items() if k != "name"}
     else:
         raise ConfigError(f"a problem to check is a registry name or a dict with 'name', got {problem!r}")
-    failures = config_round_trip(name, shared)
+    failures = problem_failures(name, shared)
     if failures:
-        raise AssertionError(
-            f"{len(failures)} config(s) of {name} do not rebuild their problem: " + "; ".join(failures)
-        )
+        raise AssertionError(f"{len(failures)} variant(s) of {name} fail the problem checks: " + "; ".join(failures))

@@ -296,9 +296,9 @@ class SweepSpec:
 
     def check_section(self) -> None:
         """The refusals of the section at both ends of the sweep (strobe needs a harmonic force; a section
-        that records nothing on the problem names those that do). They read the problem's declared
-        traits and run nothing (a plug-in problem that declares no ``position_rates`` has a peaks
-        section confirmed on its field)."""
+        that records nothing on the problem names those that do). They read what the problem
+        declares (its forcing, event kinds and ``position_rates``) and run nothing; a plug-in
+        problem that declares no ``position_rates`` has a peaks section confirmed on its field."""
         ends = [self.problem_at(v) for v in (self.start, self.stop)]
         if self.section == "strobe":
             # the forcing period must exist everywhere; F may be 0 at one end of an F sweep

@@ -158,11 +158,9 @@ def rates_failure(problem) -> str | None:
 def problem_failures(name: str, shared: dict[str, Any] | None = None) -> list[str]:
     """Every variant whose config does not rebuild it (:func:`config_round_trip`) or whose declared
     ``position_rates`` its field contradicts (:func:`rates_failure`); empty: none."""
-    failures = config_round_trip(name, shared)
-    for variant in variants(name, shared):
-        why = rates_failure(variant)
-        if why is not None:
-            failures.append(why)
+    failures = []
+    for variant in variants(name, shared):  # built once: a variant is both rebuilt and its rates checked
+        failures += [why for why in (round_trip_failure(variant), rates_failure(variant)) if why is not None]
     return failures
 
 

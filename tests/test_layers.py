@@ -229,3 +229,42 @@ def test_statuses_are_compared_with_the_members_never_with_their_text():
             if literal.search(line.split("#", 1)[0]):
                 offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
     assert not offenders, offenders
+
+
+def _problem_family(node: ast.AST) -> bool:
+    """``<problem>.family`` or ``getattr(<problem>, "family", ...)``: a problem's family label (an
+    integrator's ``caps.family`` of methods is another vocabulary, read from ``caps``/``self``)."""
+    if isinstance(node, ast.Attribute) and node.attr == "family":
+        owner = ast.unparse(node.value)
+        return "problem" in owner or owner in ("p", "prob")
+    if isinstance(node, ast.Call) and ast.unparse(node.func) == "getattr" and len(node.args) >= 2:
+        return isinstance(node.args[1], ast.Constant) and node.args[1].value == "family"
+    return False
+
+
+def test_no_problem_is_told_apart_by_its_family_or_its_name():
+    """Outside ``problems/``, what a problem is comes from its declared ``traits``
+    (:class:`nsbench.problems.base.Traits`): no comparison with its ``family`` label, and no
+    comparison of anything with the name of a built-in problem."""
+    from nsbench.problems import list_problems
+
+    names = set(list_problems())
+    # pi_groups(name) is the paper's Table 3 for its two named problems: a public function of the name
+    allowed = {"nsbench.units"}
+    found = []
+    for module, tree in MODULES.items():
+        if module.startswith("nsbench.problems") or module in allowed:
+            continue
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.Compare):
+                continue
+            sides = [node.left, *node.comparators]
+            literals = {
+                c.value
+                for side in sides
+                for c in ast.walk(side)
+                if isinstance(c, ast.Constant) and isinstance(c.value, str)
+            }
+            if any(_problem_family(side) for side in sides) or literals & names:
+                found.append(f"{module}:{node.lineno}: {ast.unparse(node)}")
+    assert not found, "\n".join(found)

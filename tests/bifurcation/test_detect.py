@@ -110,16 +110,21 @@ def test_classify_of_all_values_at_once_is_the_value_by_value_one():
 
 
 @pytest.mark.parametrize(
-    "family, words",
+    "problem, words",
     [
-        ("friction", ["block 1 starts sticking", "pure sliding ends", "sticking phases per cycle (0) -> (1)"]),
+        ("one-dof", ["block 1 starts sticking", "pure sliding ends", "sticking phases per cycle (0) -> (1)"]),
         (
-            "impact",
+            "impact-oscillator",
             ["the motion starts sticking", "motion without sticking ends", "sticking phases per cycle (0) -> (1)"],
         ),
     ],
 )
-def test_candidates_speak_of_the_problems_own_motion(family, words):
+def test_candidates_speak_of_the_problems_own_motion(problem, words):
+    # The wording follows the swept problem's declared traits, not a label passed by hand.
+    from nsbench.problems import get_problem
+    from nsbench.problems.base import problem_traits
+
+    blocks = problem_traits(get_problem(problem)).belt_blocks
     feats = pd.DataFrame(
         {
             "index": [0, 1],
@@ -134,6 +139,6 @@ def test_candidates_speak_of_the_problems_own_motion(family, words):
             "pure_sliding": [True, False],
         }
     )
-    cands = detect.candidates(feats, family)
+    cands = detect.candidates(feats, blocks)
     assert list(cands["description"]) == words
     assert list(cands["kind"]) == ["sliding", "sliding", "event-pattern"]

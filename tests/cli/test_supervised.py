@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+import re
 import time
 
 import pandas as pd
@@ -231,3 +232,24 @@ def test_bench_a_faulty_problem_factory_costs_only_its_rows(tmp_path):
     assert "INCOMPLETE: problem looping-problem-test" in done.stdout
     rows = pd.read_parquet(out / "results.parquet")
     assert set(rows["problem"]) == {"one-dof"} and len(rows) > 0
+
+
+# ------------------------------------------------------------------------------------------- list coverage
+def test_list_coverage_a_faulty_plugin_costs_its_own_column_or_row():
+    # the looping factory is ended at the limit, the raising one named; the plug-in integrators' own set-ups
+    # (one hangs, one crashes) are not run by the listing: their rows come from their capabilities
+    done, seconds = _run("list", "coverage", "--setup-limit", "3")
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr
+    out = done.stdout
+    assert (
+        "  looping-problem-test: problem looping-problem-test: its factory ran past the set-up limit of 3 s "
+        "(time limit; worker ended)"
+    ) in out
+    assert (
+        "  raising-problem-test: problem raising-problem-test: its factory raised RuntimeError: plug-in bug in "
+        "the problem factory"
+    ) in out
+    for name in (faulty.HangingSetup.name, faulty.Crashing.name):
+        assert re.search(rf"^  {re.escape(name)} +(yes|-)", out, re.M), name
+    assert seconds < TIMEOUT

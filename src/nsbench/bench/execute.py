@@ -372,7 +372,7 @@ def time_case(
         dense = None
         if lead.ok and len(lead.trajectory) == case.dense_points:
             dense = lead.trajectory[list(problem.state_names)].to_numpy().T
-        belt = problem.v0 if problem.family == "friction" else None  # the stick creep needs a belt
+        belt = problem.v0 if problem.traits.belt_blocks else None  # the stick creep needs a belt
         from nsbench.bench.metrics import creep_cone
 
         cone = None
@@ -390,7 +390,7 @@ def time_case(
             t_end=case.t_end,
             cone=cone,
         )
-        if problem.family == "impact" and hasattr(problem, "energy"):
+        if problem.traits.impacts and hasattr(problem, "energy"):
             from nsbench.bench.metrics import impact_metrics
 
             metrics["penetration"], metrics["energy_err"] = impact_metrics(

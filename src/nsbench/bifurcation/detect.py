@@ -174,13 +174,13 @@ def _p(p: int) -> str:
     return "none" if p == 0 else ("failed" if p < 0 else str(p))
 
 
-def candidates(features: pd.DataFrame, family: str = "friction") -> pd.DataFrame:
+def candidates(features: pd.DataFrame, blocks: bool = True) -> pd.DataFrame:
     """Candidate bifurcation points: where features change between neighbouring values.
 
-    Columns: ``kind, description, left, right, value`` (midpoint), ``width``. ``family`` is
-    the swept problem's (``problem.family``): the descriptions speak of blocks and pure sliding
-    for the friction oscillators, of the motion's sticking phases for the others (an impact
-    oscillator's mass sticking to its stop).
+    Columns: ``kind, description, left, right, value`` (midpoint), ``width``. ``blocks``
+    is whether the swept problem has blocks on a belt (its ``traits.belt_blocks``): the
+    descriptions speak of blocks and pure sliding for the friction oscillators, of the motion's
+    sticking phases for the others (an impact oscillator's mass sticking to its stop).
     """
     rows = []
     feats = features.sort_values("value").reset_index(drop=True)
@@ -188,7 +188,7 @@ def candidates(features: pd.DataFrame, family: str = "friction") -> pd.DataFrame
         a, b = feats.iloc[j], feats.iloc[j + 1]
         if a["status"] not in OK_STATUSES or b["status"] not in OK_STATUSES:
             continue
-        for kind, text in _changes(a, b, family == "friction"):
+        for kind, text in _changes(a, b, blocks):
             rows.append(
                 dict(
                     kind=kind,

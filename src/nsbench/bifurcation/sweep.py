@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 from nsbench.errors import ConfigError, NsbenchError
+from nsbench.problems.base import problem_traits
 from nsbench.status import Status
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
@@ -495,7 +496,7 @@ def at_rest(problem, mode, t: float, y: np.ndarray) -> bool:
     A friction oscillator keeps the rule its sweeps have always used: every block's velocity (its odd
     state variables) within :data:`REST_SPEED` of zero, pure sliding damped out (the accelerations decay
     with the velocities there; the rule is kept so that a stored sweep is computed again the same)."""
-    if getattr(problem, "family", "") == "friction":
+    if problem_traits(problem).belt_blocks:
         return float(np.max(np.abs(y[1::2]))) <= REST_SPEED
     rate = np.asarray(problem.rhs(tuple(int(m) for m in mode), t, np.asarray(y, float)), float)
     return bool(np.isfinite(rate).all()) and float(np.max(np.abs(rate), initial=0.0)) <= REST_SPEED

@@ -281,7 +281,9 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
                 "give a value inside it"
             )
         problem = specs[0].problem_at(value)
-        if getattr(problem, "family", "") != "friction":
+        from nsbench.problems.base import problem_traits
+
+        if not problem_traits(problem).belt_blocks:
             raise ConfigError(
                 f"--portrait draws the locus of sticking phase of a friction oscillator; {args.problem} is of "
                 f"the {getattr(problem, 'family', '') or 'other'!r} family"
@@ -336,7 +338,9 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         walls[spec.integrator] = time.perf_counter() - tic
         frames[spec.integrator] = frame
         feats = detect.classify(frame)
-        cands = detect.candidates(feats, getattr(spec.problem_at(spec.start), "family", "friction"))
+        from nsbench.problems.base import problem_traits
+
+        cands = detect.candidates(feats, problem_traits(spec.problem_at(spec.start)).belt_blocks)
         if args.refine and len(cands):
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []

@@ -359,9 +359,9 @@ def infer_events(
     y = np.asarray(y, dtype=float)
     if not band >= 0.0:
         raise ValueError(f"stick band {band!r} must be >= 0")
-    if problem.family == "impact":
+    if problem.traits.impacts:
         ev = _impact_events(problem, t, y, modes, impulses)
-    elif problem.family == "relay":
+    elif problem.traits.sliding:
         ev = _relay_events(problem, t, y, modes)
     else:
         ev = _friction_events(problem, t, y, band)

@@ -97,6 +97,7 @@ import numpy as np
 
 from nsbench.integrators._carry import reset_velocities
 from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option, SectionHit
+from nsbench.problems.base import problem_traits
 from nsbench.problems.modes import Mode
 from nsbench.problems.oscillator import FrictionOscillator
 from nsbench.status import Status
@@ -425,7 +426,7 @@ class _Search:
 
 # ---------------------------------------------------------------------- the problem in mp
 def _friction(problem) -> bool:
-    return getattr(problem, "family", "") == "friction"
+    return problem_traits(problem).belt_blocks
 
 
 def _forced(problem) -> bool:

@@ -98,7 +98,7 @@ class Fesd(OptionalBackend, WholeSystem):
     ecosystem = "nosnoc"
     backend_modules = ("nosnoc", "casadi")
     extra = "fesd"
-    INFERABLE = ("relay",)
+    INFERABLE = ("sliding",)
     capabilities = Capabilities(
         event_location="switch-detection",
         order=None,

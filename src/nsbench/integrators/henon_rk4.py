@@ -38,7 +38,7 @@ def fastest_rate(problem) -> float:
     Jacobian, every eigenvalue 0) still moves on the problem's own time scale.
     """
     y = np.asarray(problem.initial_state(), dtype=float)
-    if problem.family == "friction":
+    if problem.traits.belt_blocks:
         mode = (1,) * problem.n_blocks
     else:
         mode = problem.initial_mode(0.0, y)

@@ -61,6 +61,7 @@ from nsbench.integrators.base import (
     RunReport,
     RunRequest,
 )
+from nsbench.problems.base import problem_traits
 from nsbench.problems.modes import STICK
 from nsbench.status import Status
 
@@ -185,7 +186,7 @@ class HeyokaIntegrator(Integrator):
     @staticmethod
     def _written_symbolically(problem) -> bool:
         """Whether ``problem`` runs through its symbolic form (every family but friction's)."""
-        return getattr(problem, "family", "") != "friction"
+        return not problem_traits(problem).belt_blocks
 
     def check_problem(self, problem) -> None:
         """The refusals of :meth:`setup`, without compiling (and without keeping any state)."""

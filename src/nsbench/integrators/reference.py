@@ -52,6 +52,10 @@ class Reference(Integrator):
             from nsbench.integrators.heyoka_ import HeyokaQuad  # heavy import only when needed
 
             self.delegate = HeyokaQuad(tol=None, high_accuracy=True)
+        if getattr(self, "_checking", False):
+            # a check asks the delegate's own refusals, without its compiling or loading
+            self.delegate.check_problem(problem)
+            return
         self.delegate.setup(problem)
         self._problem = problem
 

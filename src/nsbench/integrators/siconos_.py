@@ -153,16 +153,17 @@ class SiconosMoreauJean(WholeSystem):
     def smooth_order(self) -> int:
         return 2 if self.settings["theta"] == 0.5 else 1
 
-    #: The friction family (one relay per block) and the bouncing ball (Siconos's classic).
-    INFERABLE = ("friction", "impact")
+    #: The friction oscillators (one relay per block) and the impact problems, of which it runs the
+    #: bouncing ball (Siconos's classic).
+    INFERABLE = ("belt_blocks", "impacts")
 
     def setup(self, problem) -> None:
         super().setup(problem)
-        if problem.family == "impact":
-            if problem.name != "bouncing-ball":
+        if problem.traits.impacts:
+            if not problem.traits.falling_mass:
                 raise UnsupportedProblemError(
                     f"{self.name}: of the impact problems it runs the bouncing ball only, "
-                    f"not {problem.name} (its contact moves with a driven table)"
+                    f"not {problem.name} (its contact is not a mass falling onto a fixed ground)"
                 )
             reason = unavailable_reason()
             if reason:
@@ -215,7 +216,7 @@ class SiconosMoreauJean(WholeSystem):
         n_steps, h = uniform_steps(request.t0, request.t_end, self.settings["h"])
         budget = n_steps > request.max_steps
         n_run = min(n_steps, int(request.max_steps))
-        if problem.family == "impact":
+        if problem.traits.falling_mass:
             return self._ball(request, n_steps, n_run, h, budget)
         c = problem.coefficients
         arrays = run_worker(
@@ -294,7 +295,7 @@ class SiconosEventDriven(WholeSystem):
         "event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
         "extrapolates the accumulation after four: the sequences differ in length"
     }
-    INFERABLE = ("friction", "impact")
+    INFERABLE = ("belt_blocks", "impacts")
 
     @classmethod
     def unavailable(cls) -> str | None:
@@ -303,12 +304,12 @@ class SiconosEventDriven(WholeSystem):
 
     def setup(self, problem) -> None:
         super().setup(problem)
-        if problem.name != "bouncing-ball":
+        if not problem.traits.falling_mass:
             why = (
                 "Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
                 "std::exception on the block on the ground)"
-                if problem.family == "friction"
-                else "its contact moves with a driven table"
+                if problem.traits.belt_blocks
+                else "its contact is not a mass falling onto a fixed ground"
             )
             raise UnsupportedProblemError(
                 f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "

@@ -63,6 +63,7 @@ from nsbench.integrators._sundials_loop import (
     forget_roots,
 )
 from nsbench.errors import UnsupportedProblemError
+from nsbench.problems.base import problem_traits
 from nsbench.integrators.base import (
     LOOP_OPTION,
     ArcRequest,
@@ -104,7 +105,7 @@ class SundialsIntegrator(Integrator):
     def check_problem(self, problem) -> None:
         """The refusals of :meth:`setup`, without compiling the callbacks."""
         Integrator.setup(self, problem)
-        if getattr(problem, "family", "") != "friction":
+        if not problem_traits(problem).belt_blocks:
             raise UnsupportedProblemError(
                 f"{self.name} integrates the friction family's formulation (the forcing as states; for ida the "
                 f"friction forces as algebraic variables); {problem!r} is of the {problem.family or 'other'!r} "

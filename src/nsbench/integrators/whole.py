@@ -27,6 +27,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import Integrator
+from nsbench.problems.base import problem_traits
 from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -142,14 +143,17 @@ class WholeSystem(Integrator):
     numerical failure as a ``Status``, never as an exception. It does not
     implement ``advance``: there are no frozen-mode arcs.
 
-    Which problems the event inference knows: the friction family (one-dof,
-    two-dof, chain, block-on-ground) and, for a method that reports ``impulses``, the
-    bouncing ball; a subclass widens :attr:`INFERABLE` to what it runs.
+    Which problems the event inference knows, by their declared
+    :class:`~nsbench.problems.base.Traits`: blocks on a belt (one-dof, two-dof,
+    chain, block-on-ground, den-hartog), impacts for a method that reports
+    ``impulses``, sliding for one that reports its side of each surface; a
+    subclass widens :attr:`INFERABLE` to what it runs.
     """
 
     whole_system: ClassVar[bool] = True
-    #: The problem families whose events :func:`nsbench.hybrid.inference.infer_events` can infer.
-    INFERABLE: ClassVar[tuple[str, ...]] = ("friction",)
+    #: The traits (:class:`~nsbench.problems.base.Traits` field names) of the problems whose events
+    #: :func:`nsbench.hybrid.inference.infer_events` infers for this method: it accepts a problem with any.
+    INFERABLE: ClassVar[tuple[str, ...]] = ("belt_blocks",)
 
     #: Whether the method's stick/slip law is Coulomb's only (it refuses the other friction laws at setup).
     COULOMB_ONLY: bool = False
@@ -159,10 +163,11 @@ class WholeSystem(Integrator):
 
     def setup(self, problem: "HybridProblem") -> None:
         super().setup(problem)
-        if problem.family not in self.INFERABLE:
+        traits = problem_traits(problem)
+        if not traits.has_any(self.INFERABLE):
             raise UnsupportedProblemError(
-                f"{self.name}: nsbench infers the events of whole-system methods on the "
-                f"{', '.join(self.INFERABLE)} family only; {problem.name} is of the {problem.family or '?'} family"
+                f"{self.name}: nsbench infers the events of whole-system methods on problems with "
+                f"{traits.words(self.INFERABLE)} only; {problem.name} declares none of these traits"
             )
         law = getattr(problem, "law_spec", None)
         if self.COULOMB_ONLY and law is not None and not law.is_coulomb:

@@ -29,6 +29,7 @@ import scipy.integrate
 import scipy.linalg
 
 from nsbench.errors import ConfigError
+from nsbench.problems.base import problem_traits
 from nsbench.problems.modes import STICK, Guard, Mode
 
 #: Integrator of the flow by default: exact event times for linear problems.
@@ -70,7 +71,7 @@ class Pass:
 
 def is_friction(problem) -> bool:
     """Whether ``problem`` is a friction oscillator (blocks with stick and slip phases)."""
-    return getattr(problem, "family", "") == "friction"
+    return problem_traits(problem).belt_blocks
 
 
 def guard_of(kind: str, block: int, problem, t: float, y: np.ndarray, mode_before: Mode) -> Guard:

@@ -27,6 +27,63 @@ import numpy as np
 Mode = tuple[int, ...]
 
 
+@dataclass(frozen=True)
+class Traits:
+    """What a problem is, declared as data: what integrators and apps ask of a problem instead of its
+    name or its ``family`` (a label for reports).
+
+    Every trait is ``False`` by default, so a plug-in problem that declares none runs through its
+    hybrid law only (rhs, guards, transitions): no integrator takes a path written for a
+    formulation the problem did not declare.
+
+    Attributes
+    ----------
+    belt_blocks
+        The friction oscillators' formulation: blocks (state ``x1, v1, x2, v2, ...``) on a belt
+        moving at ``v0``, one phase per block (``-1``, ``0`` stuck, ``+1``), and the
+        ``coefficients`` (masses, springs, friction levels) that the SUNDIALS, heyoka, mp and
+        time-stepping kernels read, with ``n_blocks`` and ``v0``.
+    impacts
+        Velocities jump at impacts (Newton's restitution) and a contact can rest on its stop: the
+        events of a time-stepper are inferred from its contact modes and impulses.
+    falling_mass
+        One point mass under constant gravity onto a fixed ground with Newton's restitution ``e``
+        (the bouncing ball): what the time-steppers' contact kernels (``moreau-jean``, Siconos)
+        are written for.
+    sliding
+        A first-order field that switches across surfaces and may slide on them (Filippov): the
+        events of a time-stepper are inferred from its side of each surface or its sliding.
+    """
+
+    belt_blocks: bool = False
+    impacts: bool = False
+    falling_mass: bool = False
+    sliding: bool = False
+
+    #: What each trait is, in the words of a refusal ("on problems with ...").
+    WORDS: ClassVar[dict[str, str]] = {
+        "belt_blocks": "blocks on a belt (the friction oscillators' formulation)",
+        "impacts": "impacts",
+        "falling_mass": "a mass falling onto a fixed ground (the bouncing ball)",
+        "sliding": "a switched first-order field with sliding (the relay family)",
+    }
+
+    def has_any(self, names: tuple[str, ...]) -> bool:
+        """Whether any of the traits ``names`` holds."""
+        return any(getattr(self, n) for n in names)
+
+    @classmethod
+    def words(cls, names: tuple[str, ...]) -> str:
+        """``names`` as a refusal names them (``"blocks on a belt (...) or impacts"``)."""
+        return " or ".join(cls.WORDS[n] for n in names)
+
+
+def problem_traits(problem: Any) -> Traits:
+    """``problem``'s declared :class:`Traits`; none (all ``False``) for an object that declares none."""
+    traits = getattr(problem, "traits", None)
+    return traits if isinstance(traits, Traits) else Traits()
+
+
 @dataclass(frozen=True, eq=False)
 class Guard:
     """A switching surface of the current mode.
@@ -92,7 +149,11 @@ class HybridProblem:
     Class attributes a family sets
     ------------------------------
     family
-        Short name of the family (``'friction'``, ``'impact'``), for reports.
+        Short name of the family (``'friction'``, ``'impact'``), a label for reports: nothing
+        branches on it (what integrators and apps ask is in ``traits``).
+    traits
+        What the problem is, as data (:class:`Traits`): the formulation integrators may have
+        kernels for, impacts, sliding.
     problem_class
         The class of non-smooth behaviour reports group problems by (``'friction'``,
         ``'impact'``, ``'sliding'``, ``'smooth'``, ``'impact-friction'``); empty: the family's name
@@ -129,6 +190,7 @@ class HybridProblem:
     """
 
     family: ClassVar[str] = ""
+    traits: ClassVar[Traits] = Traits()
     problem_class: ClassVar[str] = ""
     law_module: ClassVar[ModuleType | str]
     guard_kinds: ClassVar[tuple[str, ...]] = ()

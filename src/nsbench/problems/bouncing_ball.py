@@ -22,7 +22,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import bouncing_ball_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "bouncing-ball"
@@ -40,6 +40,7 @@ class BouncingBall(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "impact"
+    traits = Traits(impacts=True, falling_mass=True)
     law_module = "nsbench.problems.bouncing_ball_law"
     guard_kinds = spec.GUARD_KINDS
     event_kinds = spec.EVENT_KINDS

@@ -27,7 +27,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import casella_sliding_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "casella-sliding"
@@ -50,6 +50,7 @@ class CasellaSliding(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "relay"
+    traits = Traits(sliding=True)
     problem_class = "sliding"
     law_module = "nsbench.problems.casella_sliding_law"
     guard_kinds = spec.GUARD_KINDS

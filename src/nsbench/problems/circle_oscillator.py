@@ -30,7 +30,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import circle_oscillator_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "circle-oscillator"
@@ -58,6 +58,7 @@ class CircleOscillator(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "relay"
+    traits = Traits(sliding=True)
     problem_class = "sliding"
     law_module = "nsbench.problems.circle_oscillator_law"
     guard_kinds = spec.GUARD_KINDS

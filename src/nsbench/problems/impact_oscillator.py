@@ -24,7 +24,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import impact_oscillator_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "impact-oscillator"
@@ -46,6 +46,7 @@ class ImpactOscillator(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "impact"
+    traits = Traits(impacts=True)
     problem_class = "impact"
     law_module = "nsbench.problems.impact_oscillator_law"
     guard_kinds = spec.GUARD_KINDS

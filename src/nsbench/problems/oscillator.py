@@ -19,7 +19,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import friction_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode
+from nsbench.problems.base import Guard, HybridProblem, Mode, Traits
 from nsbench.problems.friction_laws import COULOMB_LAW, FrictionLaw, slip_level
 from nsbench.problems.modes import PHASE_NAMES, STICK, all_modes
 from nsbench.problems.parameters import Coefficients, Scales
@@ -93,6 +93,7 @@ class FrictionOscillator(HybridProblem):
     """
 
     family = "friction"
+    traits = Traits(belt_blocks=True)
     law_module = "nsbench.problems.friction_law"
     guard_kinds = spec.GUARD_KINDS
     event_kinds = spec.EVENT_KINDS

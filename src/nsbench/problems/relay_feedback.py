@@ -22,7 +22,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import relay_feedback_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "relay-feedback"
@@ -77,6 +77,7 @@ class RelayFeedback(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "relay"
+    traits = Traits(sliding=True)
     problem_class = "sliding"
     law_module = "nsbench.problems.relay_feedback_law"
     guard_kinds = spec.GUARD_KINDS

@@ -50,7 +50,7 @@ import numpy as np
 
 from nsbench.errors import ConfigError
 from nsbench.problems import woodpecker_spec as spec
-from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes
+from nsbench.problems.base import Guard, HybridProblem, Mode, NamedModes, Traits
 from nsbench.problems.parameters import Bound, check_values
 
 NAME = "woodpecker"
@@ -250,6 +250,7 @@ class Woodpecker(NamedModes, HybridProblem):
 
     mode_names = spec.MODE_NAMES
     family = "multibody"
+    traits = Traits(impacts=True)
     problem_class = "impact-friction"
     law_module = "nsbench.problems.woodpecker_law"
     guard_kinds = spec.GUARD_KINDS

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence, cast
 
 import numpy as np
 
@@ -50,6 +50,8 @@ from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
+
+    from nsbench.integrators.whole import WholeSystem
 
 # pandas is imported where the frames are made (simulate): the commands that read a run's buffers
 # (a sweep's workers, Lyapunov's) do not load it (about half a CPU second per process)
@@ -431,7 +433,13 @@ def run(
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     whole = is_whole_system(integ)
     if whole:
-        given = (t0_lo != 0.0, mode is not None, hit_from != -math.inf, hit_stop != -1, record_from != -math.inf)
+        given: tuple[bool, ...] = (
+            t0_lo != 0.0,
+            mode is not None,
+            hit_from != -math.inf,
+            hit_stop != -1,
+            record_from != -math.inf,
+        )
         given += (stop_kind is not None, stop_count != 0)
         asked = [name for name, on in zip(_CORE_ONLY, given) if on]
         if asked:
@@ -439,7 +447,14 @@ def run(
     tic, cpu_tic = time.perf_counter(), time.process_time()
     if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
         raw = run_whole(
-            problem, integ, t_end, t0=t0, y0=y, sections=tuple(sections), t_eval=dense_times, max_steps=max_steps
+            problem,
+            cast("WholeSystem", integ),
+            t_end,
+            t0=t0,
+            y0=y,
+            sections=tuple(sections),
+            t_eval=dense_times,
+            max_steps=max_steps,
         )
     else:
         raw = run_hybrid(
@@ -556,8 +571,9 @@ def _frames(
     k = len(rec.dense)
     states, times = rec.dense.y, rec.dense.t
     for j in range(k):
-        if strobe_names[j] is not None:
-            for sec_name in strobe_names[j].split("\n"):
+        label = strobe_names[j]
+        if label is not None:
+            for sec_name in label.split("\n"):
                 rows.append((sec_name, float(times[j]), *states[j]))
     sections = pd.DataFrame(rows, columns=["section", "t", *names])
     sections = sections.sort_values(["t"], kind="stable").reset_index(drop=True)
@@ -694,9 +710,9 @@ def simulate(
 
     # Dense requests: the trajectory grid plus stroboscopic times, merged.
     labels: dict[float, list[str]] = {}
-    for s in strobes:
-        for ts in s.times(t0, t_end):
-            labels.setdefault(float(ts), []).append(s.name)
+    for strobe in strobes:
+        for ts in strobe.times(t0, t_end):
+            labels.setdefault(float(ts), []).append(strobe.name)
     dense_times = np.union1d(grid, np.array(sorted(labels), dtype=float))
     traj_mask = np.isin(dense_times, grid)
     strobe_names = ["\n".join(labels[float(ts)]) if float(ts) in labels else None for ts in dense_times]

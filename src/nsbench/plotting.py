@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.oscillator import FrictionOscillator
     from nsbench.results import SimulationResult
 
 BLOCK_COLOURS = ("tab:blue", "tab:red")
@@ -26,7 +27,8 @@ def plot_simulation(result: "SimulationResult", path: str | Path):
     Returns the matplotlib figure (also saved to ``path``).
     """
     plt = _pyplot()
-    traj, events, problem = result.trajectory, result.events, result.problem
+    traj, events = result.trajectory, result.events
+    problem = cast("FrictionOscillator", result.problem)  # the blocks' time series and phase planes
     nb = problem.n_blocks
     fig, axes = plt.subplots(
         2, nb + 1, figsize=(4.2 * (nb + 1), 6.5), squeeze=False, gridspec_kw={"width_ratios": [2.0] + [1.0] * nb}

@@ -16,7 +16,7 @@ element the event's guard belongs to.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -28,6 +28,7 @@ __all__ = ["Status", "Counters", "SimulationResult", "event_columns"]
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
+    from nsbench.problems.base import HybridProblem
     from nsbench.problems.oscillator import FrictionOscillator
 
 
@@ -106,7 +107,7 @@ class SimulationResult:
         deflections ``z1 .. zn``), one row per step with its time ``t``; ``None`` for the others.
     """
 
-    problem: "FrictionOscillator"
+    problem: "HybridProblem"
     integrator: dict[str, Any]
     status: Status
     message: str
@@ -158,13 +159,15 @@ class SimulationResult:
 
         if not self.problem.dimensional:
             return self
-        s = self.problem.scales
+        # only the friction oscillators are built in dimensional units
+        problem = cast("FrictionOscillator", self.problem)
+        s = problem.scales
         y = np.array(self.y_final, dtype=float)
         y[0::2] /= s.length
         y[1::2] /= s.velocity
         return replace(
             self,
-            problem=dimensionless_problem(self.problem),
+            problem=dimensionless_problem(problem),
             events=to_dimensionless(self.events, s),
             sections=to_dimensionless(self.sections, s),
             trajectory=to_dimensionless(self.trajectory, s),

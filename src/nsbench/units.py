@@ -7,7 +7,7 @@ dimensionless form of MODEL.md section 2.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -25,6 +25,7 @@ from nsbench.problems.parameters import (
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.problems.oscillator import FrictionOscillator
+    from nsbench.problems.base import HybridProblem
 
 __all__ = ["pi_groups", "dimensionless_problem", "to_dimensionless", "to_dimensional", "Scales"]
 
@@ -51,13 +52,13 @@ def pi_groups(problem: str, **dimensional: float) -> dict[str, float]:
     raise ConfigError(f"pi groups are defined for 'one-dof' and 'two-dof', not {problem!r}")
 
 
-def dimensionless_problem(problem: "FrictionOscillator") -> "FrictionOscillator":
+def dimensionless_problem(problem: "FrictionOscillator") -> "HybridProblem":
     """The dimensionless problem equivalent to ``problem`` (itself if already dimensionless)."""
     from nsbench.problems import get_problem
 
     if not problem.dimensional:
         return problem
-    groups = pi_groups(problem.name, **problem.parameters)
+    groups: dict[str, Any] = pi_groups(problem.name, **problem.parameters)
     return get_problem(problem.name, case=problem.case, **groups)
 
 

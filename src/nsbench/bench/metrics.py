@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -66,7 +67,7 @@ def order_ties_as_reference(reference: pd.DataFrame, events: pd.DataFrame, tol: 
             continue
         if hi > len(sym) or sorted(sym[lo:hi]) != sorted(ref_sym[lo:hi]):
             break
-        pending = {}
+        pending: dict[Any, list[int]] = {}
         for j in range(lo, hi):
             pending.setdefault(sym[j], []).append(j)
         order[lo:hi] = [pending[s].pop(0) for s in ref_sym[lo:hi]]
@@ -250,13 +251,14 @@ def switching_errors(
 
 
 def state_errors(
-    ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray, final: np.ndarray
+    ref_dense: np.ndarray, dense: np.ndarray, ref_final: np.ndarray | None, final: np.ndarray | None
 ) -> tuple[float, float]:
     """``(final_state_err, state_err_l2)``.
 
     ``final_state_err`` is the max-norm of the state difference at the final time;
     ``state_err_l2`` the root mean square over the dense points of the Euclidean
-    norm of the difference. Both NaN if the run has fewer dense points than the reference.
+    norm of the difference. Both NaN if the run has fewer dense points than the reference;
+    ``final_state_err`` NaN if either final state is missing (``None``).
     """
     ref_dense, dense = np.asarray(ref_dense, float), np.asarray(dense, float)
     if dense.shape != ref_dense.shape or dense.size == 0:

@@ -16,7 +16,7 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, BinaryIO, Iterable, cast
 
 from nsbench.bench import protocol as msg
 
@@ -92,6 +92,10 @@ class WorkerProcess(_Asking):
             env=_environment(),
             close_fds=True,
         )
+        # both pipes exist: they were asked for (PIPE); bufsize=0 makes them raw binary streams
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self._stdin: BinaryIO = cast(BinaryIO, self.proc.stdin)
+        self._stdout: BinaryIO = cast(BinaryIO, self.proc.stdout)
         self.send(first)
 
     @property
@@ -99,15 +103,15 @@ class WorkerProcess(_Asking):
         return self.proc.pid
 
     def fileno(self) -> int:
-        return self.proc.stdout.fileno()
+        return self._stdout.fileno()
 
     def send(self, message: Any) -> None:
         """Send one message; ``BrokenPipeError`` if the worker is gone."""
-        msg.write_fd(self.proc.stdin.fileno(), message)
+        msg.write_fd(self._stdin.fileno(), message)
 
     def receive(self) -> Any:
         """The next message (blocks until it is complete); ``EOFError`` if the worker is gone."""
-        return msg.read_message(self.proc.stdout)
+        return msg.read_message(self._stdout)
 
     def exit_reason(self, timeout: float = 5.0) -> str:
         """How the (ending) process ended, waiting up to ``timeout`` seconds for it."""
@@ -134,7 +138,7 @@ class WorkerProcess(_Asking):
         self.kill()
 
     def _close(self) -> None:
-        for stream in (self.proc.stdin, self.proc.stdout):
+        for stream in (self._stdin, self._stdout):
             try:
                 stream.close()
             except OSError:

@@ -83,7 +83,7 @@ def problem_params() -> list:
     return [pytest.param(problem_config(name, case), id=f"{name}-{case}") for name, case in BENCH_PROBLEMS]
 
 
-def problem_config(name: str, case: int, **params: float) -> dict[str, Any]:
+def problem_config(name: str, case: int, **params: Any) -> dict[str, Any]:
     from nsbench.problems import get_problem
 
     return get_problem(name, case=case, **params).config()

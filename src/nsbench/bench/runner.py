@@ -285,7 +285,7 @@ def run_suite(
         enabled=progress,
         weighted=True,
     )
-    waiting: dict[str, list[dict[str, Any]]] = {}
+    waiting: dict[str, list[tuple[dict[str, Any], int]]] = {}
 
     def store(row: dict[str, Any], stored: bool = False, steps: int = 1) -> None:
         case = row_case[row["case_id"]]
@@ -337,10 +337,10 @@ def run_suite(
         bar.close()
         if timeline:  # kept after an interruption too: where did the time go
             storage.write_timeline(out, timeline)
-    kept = (
+    kept_timing = (
         storage.read_provenance(out, damaged_ok=True).get("timing") if not loads else None
     )  # nothing timed: keep the last
-    prov["timing"] = kept or timing_provenance(suite, prov["workers"], loads)
+    prov["timing"] = kept_timing or timing_provenance(suite, prov["workers"], loads)
     results = storage.export(out, prov) if (out / "cases").exists() else storage.to_frame([])
     bifurcations = None
     if suite.target_list():  # the bifurcation targets: after every case, never while a case is timed

@@ -111,8 +111,8 @@ def _got(value: Any) -> str:
     return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
 
 
-def _field(ok: bool, path: str, expected: str, value: Any) -> None:
-    """Raise ``suite field 'path' must be expected, got <type> <value>`` unless ``ok``."""
+def _field(ok: object, path: str, expected: str, value: Any) -> None:
+    """Raise ``suite field 'path' must be expected, got <type> <value>`` unless ``ok`` is true."""
     if not ok:
         raise ConfigError(f"suite field {path!r} must be {expected}, got {_got(value)}")
 
@@ -579,7 +579,8 @@ class Suite:
             self.check_size()
         out = []
         for p in self.problems:
-            span = tuple(float(v) for v in p.get("t_span", self.t_span))
+            t0, t_end = (float(v) for v in p.get("t_span", self.t_span))  # two numbers (checked on load)
+            span = (t0, t_end)
             cases = p.get("cases", [p.get("case", 1)])
             if not isinstance(cases, list):
                 cases = [cases]

@@ -58,6 +58,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
+from typing import Hashable
 
 import numpy as np
 
@@ -289,7 +290,9 @@ def _run_member(integ, problem, rng, iterations, transient, window, d0, spread, 
             "the motion has no slip events (pure sliding or permanent sticking)",
         )
     u = _free_direction(rng.normal(size=n + 1), ref[1], problem, forced)
-    logs, times, mismatches = [], [], 0
+    logs: list[float] = []
+    times: list[float] = []
+    mismatches = 0
     t_first = ref[0]
     for k in range(align + iterations):
         if k == align:  # the direction has aligned: count from here
@@ -365,7 +368,7 @@ def _run_members(integ, problem, integrator, options, seeds, params, workers, li
         return [_run_member(integ, problem, np.random.default_rng(s), **params) for s in seeds]
     from nsbench.jobs import Job, JobPool, WorkerLog
 
-    done: dict[int, _Member] = {}
+    done: dict[Hashable, _Member] = {}  # by job key: the member's index
     log = WorkerLog(log_path, f"the Lyapunov members with {integrator}")
     with JobPool(min(workers, len(seeds))) as pool:
         for i, s in enumerate(seeds):

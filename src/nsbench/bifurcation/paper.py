@@ -14,6 +14,7 @@ import time
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -252,7 +253,8 @@ def _locus(case: int, name: str, value: float, transient: float, out: Path) -> N
     from nsbench.bifurcation.locus import locus_run
     from nsbench.problems import get_problem
 
-    problem = get_problem("two-dof", case=case, **{name: value})
+    overrides: dict[str, Any] = {name: value}
+    problem = get_problem("two-dof", case=case, **overrides)
     run = locus_run(problem, transient=transient, duration=120.0, value=value)
     tag = f"case{case}-{name}-{value:.6g}"
     figures.locus(

@@ -259,7 +259,8 @@ class SweepSpec:
         """The problem at one parameter value (raises ``ConfigError`` on a bad value)."""
         from nsbench.problems import get_problem
 
-        return get_problem(self.problem, case=self.case, **{**self.params, self.name: float(value)})
+        overrides: dict[str, Any] = {**self.params, self.name: float(value)}
+        return get_problem(self.problem, case=self.case, **overrides)
 
     @property
     def state_names(self) -> tuple[str, ...]:

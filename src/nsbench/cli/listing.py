@@ -56,7 +56,7 @@ def main(args: argparse.Namespace) -> int:
     limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     if args.kind == "coverage":
         return _coverage(limit)
-    kinds = [args.kind] if args.kind else ["problems", "integrators"]
+    kinds: list[registry.Kind] = [args.kind] if args.kind else ["problems", "integrators"]
     for kind in kinds:
         print(f"{kind}:")
         for entry, reason in registry.availability(kind):

@@ -42,7 +42,7 @@ class Target(NamedTuple):
     signed by ``sign`` so that its valid side is positive."""
 
     kind: int
-    index: int
+    index: int  # type: ignore[assignment]  # shadows tuple.index: the kernels read it by name
     sign: float
     sec_coeffs: np.ndarray
     sec_levels: np.ndarray

@@ -198,7 +198,7 @@ class MoreauJean(WholeSystem):
 
     def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
         """The bouncing ball (:func:`nsbench.integrators._moreau_jean_kernel.mj_ball`); impacts as ``impulses``."""
-        problem = request.problem
+        problem: Any = request.problem  # a falling mass (its traits say so): it declares g and e
         T = np.empty(n_run + 1)
         Y = np.empty((n_run + 1, 2))
         modes = np.zeros((n_run + 1, 1), np.int64)
@@ -285,7 +285,7 @@ class MoreauJean(WholeSystem):
         # the second slot counts the steps whose first candidate failed: searched by enumeration or by the
         # active set, whichever the run used
         searched = "enumerations" if data.method == kern.ENUMERATION else "active_set_searches"
-        extra = {
+        extra: dict[str, float] = {
             "one_step_problems": int(counters[kern.ONE_STEP_PROBLEMS]),
             searched: int(counters[kern.ENUMERATIONS]),
             "candidate_solves": int(counters[kern.CANDIDATE_SOLVES]),

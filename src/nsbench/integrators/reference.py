@@ -23,7 +23,9 @@ the state at events had moved them by 1.2e-11.
 
 from __future__ import annotations
 
-from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator
+from typing import ClassVar
+
+from nsbench.integrators.base import ArcRequest, ArcResult, Capabilities, Integrator, Option
 from nsbench.integrators.exact import ExactIntegrator
 
 
@@ -42,7 +44,7 @@ class Reference(Integrator):
         reference_grade=True,
         checks_steps=True,
     )
-    options: dict = {}
+    options: ClassVar[dict[str, Option]] = {}
 
     def setup(self, problem) -> None:
         super().setup(problem)

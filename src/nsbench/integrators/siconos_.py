@@ -35,6 +35,7 @@ import os
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -43,6 +44,9 @@ from nsbench.integrators.base import Capabilities, Option
 from nsbench.integrators.moreau_jean import stiffness_matrix, uniform_steps
 from nsbench.integrators.whole import SystemRequest, SystemResult, WholeSystem
 from nsbench.status import Status
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.oscillator import FrictionOscillator
 
 WORKER = Path(__file__).with_name("_siconos_worker.py")
 _PROBE: dict[str, str | None] = {}
@@ -186,7 +190,7 @@ class SiconosMoreauJean(WholeSystem):
 
     def _ball(self, request: SystemRequest, n_steps: int, n_run: int, h: float, budget: bool) -> SystemResult:
         """Siconos's bouncing ball (``MoreauJeanOSI``, an LCP per step); the impulses go to the event inference."""
-        problem = request.problem
+        problem: Any = request.problem  # a falling mass (its traits say so): it declares g and e
         arrays = run_worker(
             {
                 "model": "ball",
@@ -218,7 +222,7 @@ class SiconosMoreauJean(WholeSystem):
         n_run = min(n_steps, int(request.max_steps))
         if problem.traits.falling_mass:
             return self._ball(request, n_steps, n_run, h, budget)
-        c = problem.coefficients
+        c = cast("FrictionOscillator", problem).coefficients  # blocks on a belt (its traits say so)
         arrays = run_worker(
             {
                 "m": list(c.m),
@@ -320,7 +324,7 @@ class SiconosEventDriven(WholeSystem):
             raise UnsupportedProblemError(f"{self.name}: {reason}")
 
     def integrate(self, request: SystemRequest) -> SystemResult:
-        problem = request.problem
+        problem: Any = request.problem  # a falling mass (its traits say so): it declares g and e
         arrays = run_worker(
             {
                 "model": "ball-event-driven",

@@ -81,7 +81,7 @@ class Sections(NamedTuple):
 class Hits(NamedTuple):
     """Buffer of section hits: section index, time, state."""
 
-    index: np.ndarray  # int64
+    index: np.ndarray  # type: ignore[assignment]  # int64; shadows tuple.index: the kernels read it by name
     t: np.ndarray  # float64
     y: np.ndarray  # float64 (capacity, n_states)
 
@@ -99,7 +99,7 @@ class Events(NamedTuple):
 
     t: np.ndarray  # float64
     kind: np.ndarray  # int64
-    index: np.ndarray  # int64
+    index: np.ndarray  # type: ignore[assignment]  # int64; shadows tuple.index: the kernels read it by name
     y: np.ndarray  # float64 (capacity, n_states)
     mode: np.ndarray  # int64 (capacity, mode size)
     err: np.ndarray  # float64, an extrapolated accumulation's error estimate (NaN for every other event)

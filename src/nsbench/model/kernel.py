@@ -133,6 +133,8 @@ def one_arc(
             size = 2 * hits.t.shape[0]
             hits = abi.Hits(np.empty(size, np.int64), np.empty(size), np.empty((size, n)))
         elif status == abi.K_NEED_MODE:
+            # only a kernel with prepare_mode asks for a mode (K_NEED_MODE)
+            assert kernel.prepare_mode is not None
             kd = kernel.prepare_mode(mode.copy())
         else:
             break

@@ -126,11 +126,12 @@ _DATA_CLASSES: dict[str, type] = {}
 
 
 def _new_data_class(name: str, law_module: str | None) -> type:
-    cls = NamedTuple(name, [("p", np.ndarray)])
+    # a class per law, named at run time (mypy wants a literal name: the class it builds is the same)
+    cls = NamedTuple(name, [("p", np.ndarray)])  # type: ignore[misc]
     cls.__module__ = __name__
     cls.__qualname__ = name
     cls.__doc__ = f"The parameter vector of a problem whose law is {law_module}."
-    cls.__law_module__ = law_module
+    setattr(cls, "__law_module__", law_module)  # noqa: B010 (a new attribute of a built class)
     return cls
 
 

@@ -44,13 +44,16 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, cast
 
 import numpy as np
 
 from nsbench.periodic import degenerate
 from nsbench.periodic.flow import HybridFlow, is_friction
 from nsbench.periodic.shooting import PeriodicOrbit, anchor, resolve
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.oscillator import FrictionOscillator
 
 
 @dataclass(frozen=True)
@@ -149,8 +152,11 @@ def locate(
                 # smooth, near-linear quantity; the bracket is the extrapolated distance.
                 value, a = extrapolate_end(flow, problem_at, orbit_a, key, value)
                 b = value
-    left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
-    kind, category, detail = classify(flow, left, right) if orbit_b is not None else classify(flow, orbit_a, None)
+    if orbit_b is not None:
+        left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
+        kind, category, detail = classify(flow, left, right)
+    else:
+        kind, category, detail = classify(flow, orbit_a, None)
     bif = Bifurcation(
         param,
         value,
@@ -352,7 +358,7 @@ def survey(flow: HybridFlow, orbit: PeriodicOrbit, samples: int = 65) -> list[tu
                 continue
             low, s_low = _dip(flow, g, t0, y0, mode, times[k - 1] - t0, times[k + 1] - t0, 1e-10 * max(1.0, dt))
             dips.append((low, g, fam, t0 + s_low, ("dip", arc, g.kind, g.block)))
-    out = []
+    out: list[tuple[float, str, str, tuple]] = []
     for v, g, fam, t, key in dips:
         rel = abs(v) / (value_scale[fam] or 1.0)
         if g.kind == "velocity":
@@ -441,7 +447,7 @@ def classify(flow: HybridFlow, near: PeriodicOrbit, far: PeriodicOrbit | None) -
     "gains" and "loses" read in the direction of a growing parameter.
     """
     friction = is_friction(near.problem)
-    nb = near.problem.n_blocks if friction else 0
+    nb = cast("FrictionOscillator", near.problem).n_blocks if friction else 0
     if far is not None and far.pattern == near.pattern:
         lost = near.multipliers if near.unstable_count < far.unstable_count else far.multipliers
         other = far.multipliers if lost is near.multipliers else near.multipliers

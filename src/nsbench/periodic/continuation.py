@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
@@ -302,7 +302,7 @@ def trace(
     while direction * (stop - value) > 1e-12 * max(1.0, abs(stop)) and len(result.branches) < max_branches:
         flow.rebind(problem_at(value))
         try:
-            kwargs = {} if seed is None else {"t0": seed[0], "y0": seed[1]}
+            kwargs: dict[str, Any] = {} if seed is None else {"t0": seed[0], "y0": seed[1]}
             orbit, first = (
                 (first, None) if first is not None else (find_orbit(flow, transient=transient, **kwargs), None)
             )

@@ -26,12 +26,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nsbench.errors import NsbenchError
 from nsbench.periodic.flow import Crossing, HybridFlow, Pass, free_components, is_friction
 from nsbench.problems.modes import Mode
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.base import HybridProblem
 
 
 class ShootingError(NsbenchError, ArithmeticError):
@@ -71,7 +75,7 @@ class PeriodicOrbit:
         Final periodicity residual (max norm) and Newton iterations.
     """
 
-    problem: object
+    problem: HybridProblem
     t0: float
     y0: np.ndarray
     mode0: Mode
@@ -245,7 +249,7 @@ def _shorter_period(problem, p: Pass, T: float, forced: bool, scale: float) -> f
         if n % d:
             continue
         q = n // d
-        if forced and abs(T / d / tf - round(T / d / tf)) > 1e-9:
+        if tf is not None and abs(T / d / tf - round(T / d / tf)) > 1e-9:
             continue
         if all(
             ev[k].kind == ev[k + q].kind
@@ -350,8 +354,9 @@ def resolve(flow: HybridFlow, orbit: PeriodicOrbit) -> PeriodicOrbit | None:
     The period of a forced orbit follows the forcing period of the new problem.
     """
     period = orbit.period
-    if orbit.forced:
-        period = orbit.forcing_periods * 2.0 * math.pi / flow.problem.forcing_frequency
+    p = orbit.forcing_periods
+    if p is not None:  # a forced orbit
+        period = p * 2.0 * math.pi / flow.problem.forcing_frequency
     try:
         return shoot(flow, orbit.t0, orbit.y0, orbit.mode0, period, forced=orbit.forced)
     except ShootingError:

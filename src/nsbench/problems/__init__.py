@@ -22,6 +22,7 @@ from nsbench.problems.modes import (
     Transition,
     mode_name,
 )
+from nsbench.problems.base import HybridProblem
 from nsbench.problems.oscillator import FrictionOscillator
 from nsbench.problems.parameters import Coefficients, Scales
 
@@ -43,9 +44,7 @@ __all__ = [
 ]
 
 
-def get_problem(
-    name: str, case: int | str | None = None, dimensional: bool = False, **params: float
-) -> FrictionOscillator:
+def get_problem(name: str, case: int | str | None = None, *, dimensional: bool = False, **params: Any) -> HybridProblem:
     """Build a registered problem by name.
 
     Parameters
@@ -82,7 +81,7 @@ def get_problem(
     return factory(case=case, dimensional=dimensional, **params)
 
 
-def problem_from_config(config: dict[str, Any]) -> FrictionOscillator:
+def problem_from_config(config: dict[str, Any]) -> HybridProblem:
     """Rebuild a problem from :meth:`FrictionOscillator.config`.
 
     Parameters go under ``params``; any other key is refused (a parameter put at

@@ -195,7 +195,7 @@ class HybridProblem:
     law_module: ClassVar[ModuleType | str]
     guard_kinds: ClassVar[tuple[str, ...]] = ()
     event_kinds: ClassVar[tuple[str, ...]] = ()
-    mode_columns: ClassVar[tuple[str, ...]] = ()
+    mode_columns: tuple[str, ...] = ()  # a class value, or per instance (the chain's one per block)
 
     name: str
     case: int | str | None = None

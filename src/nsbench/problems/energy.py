@@ -9,7 +9,7 @@ quadrature error of order ``dt^4`` for a trajectory sampled every ``dt``.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -18,6 +18,7 @@ from scipy.integrate import cumulative_simpson
 from nsbench.errors import ConfigError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from nsbench.problems.oscillator import FrictionOscillator
     from nsbench.results import SimulationResult
 
 COLUMNS = ["t", "energy_change", "work_friction", "work_damping", "work_force", "residual"]
@@ -44,7 +45,8 @@ def energy_balance(result: "SimulationResult") -> pd.DataFrame:
     ``t, energy_change, work_friction, work_damping, work_force, residual``
     (``residual = energy_change - works``).
     """
-    problem = result.problem
+    # energy and power are the friction oscillators' (a result of another problem has none)
+    problem = cast("FrictionOscillator", result.problem)
     traj = result.trajectory
     names = list(problem.state_names)
     if traj.empty:

@@ -12,6 +12,8 @@ forms have the same numbers (``r_f = 1``, ``v0 = 0.2``, ``delta = 3``).
 
 from __future__ import annotations
 
+from typing import Any
+
 from nsbench.errors import ConfigError
 from nsbench.problems.friction_laws import check_against_blocks, split_law
 from nsbench.problems.oscillator import FrictionOscillator, split_start
@@ -50,7 +52,7 @@ def _preset(case, dimensional: bool) -> tuple[int | str, dict[str, float], dict[
     return case_n, apply_case(table, case_n, ("h",)), {}
 
 
-def one_dof(case: int | str | None = None, dimensional: bool = False, **params: float) -> FrictionOscillator:
+def one_dof(case: int | str | None = None, dimensional: bool = False, **params: Any) -> FrictionOscillator:
     """Build the 1-DOF oscillator ``m x'' + c x' + k x + h x^3 = f + F cos(w t)``.
 
     Parameters

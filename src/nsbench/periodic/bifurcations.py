@@ -152,9 +152,9 @@ def locate(
                 # smooth, near-linear quantity; the bracket is the extrapolated distance.
                 value, a = extrapolate_end(flow, problem_at, orbit_a, key, value)
                 b = value
+    left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
     if orbit_b is not None:
-        left, right = (orbit_a, orbit_b) if a < b else (orbit_b, orbit_a)
-        kind, category, detail = classify(flow, left, right)
+        kind, category, detail = classify(flow, orbit_a if a < b else orbit_b, orbit_b if a < b else orbit_a)
     else:
         kind, category, detail = classify(flow, orbit_a, None)
     bif = Bifurcation(

@@ -17,7 +17,7 @@ import pytest
 
 import nsbench
 from nsbench import registry
-from nsbench.cli import listing
+from nsbench.cli import build_parser, listing
 from nsbench.errors import UnsupportedProblemError
 from nsbench.hybrid.inference import infer_events
 from nsbench.integrators import integrator_class
@@ -111,7 +111,7 @@ def test_without_nosnoc_it_is_listed_unavailable_with_the_install_command(monkey
     monkeypatch.setattr(importlib.util, "find_spec", absent)
     reason = registry.unavailable_reason("integrators", "fesd")
     assert reason is not None and 'pip install -e ".[fesd]"' in reason and "nosnoc" in reason
-    assert listing.main(type("Args", (), {"kind": "integrators"})()) == 0
+    assert listing.main(build_parser().parse_args(["list", "integrators"])) == 0
     line = next(row for row in capsys.readouterr().out.splitlines() if row.split()[:1] == ["fesd"])
     assert "UNAVAILABLE" in line and ".[fesd]" in line and "Traceback" not in line
     with pytest.raises(UnsupportedProblemError, match=r"pip install -e \"\.\[fesd\]\""):

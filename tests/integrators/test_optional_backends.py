@@ -12,7 +12,7 @@ import pytest
 
 from nsbench import registry
 from nsbench.bench.suite import Suite
-from nsbench.cli import listing
+from nsbench.cli import build_parser, listing
 from nsbench.errors import UnsupportedProblemError
 from nsbench.integrators import integrator_class
 from nsbench.problems import get_problem
@@ -46,7 +46,7 @@ def test_without_its_extra_it_is_unavailable_with_the_install_command(backends_a
     assert all(m in reason for m in modules)
     status = dict((e.name, why) for e, why in registry.availability("integrators"))
     assert status[name] == reason and status["exact"] is None
-    assert listing.main(type("Args", (), {"kind": "integrators"})()) == 0
+    assert listing.main(build_parser().parse_args(["list", "integrators"])) == 0
     line = next(row for row in capsys.readouterr().out.splitlines() if row.split()[:1] == [name])
     assert "UNAVAILABLE" in line and f".[{extra}]" in line and "Traceback" not in line
 

@@ -94,6 +94,7 @@ def test_a_problem_not_built_costs_its_own_column():
 
 def _page_rows() -> dict[str, list[str]]:
     lines = PAGE.read_text(encoding="utf-8").splitlines()
+    lines = lines[: lines.index("## What each side declares")]  # the matrix only
     header = next(ln for ln in lines if ln.startswith("| integrator |"))
     problems = [p.strip() for p in header.strip("|").split("|")[1:]]
     rows = {}
@@ -116,6 +117,8 @@ def test_the_docs_page_is_the_matrix_the_code_writes():
         assert rows[cell.integrator][cell.problem] == coverage._MARK[cell.status], cell
         if cell.status == coverage.REFUSED:
             assert f"- `{cell.integrator}` on `{cell.problem}`: {cell.why.replace('|', '/')}" in page
+    for line in coverage._declarations(names, problems):  # the traits and what each integrator accepts
+        assert line in page.splitlines(), line
 
 
 def test_nsbench_list_coverage_prints_the_matrix_and_every_refusal():

@@ -140,6 +140,40 @@ def text(cells: list[Cell], reasons: bool = True) -> str:
     return "\n".join(lines)
 
 
+def _declarations(integrators: list[str], problems: list[str]) -> list[str]:
+    """The traits each problem declares and the ones each integrator accepts (``Capabilities.accepts``):
+    the data the refusals follow, as the docs' page lists it."""
+    from nsbench.integrators.base import accepted_traits
+    from nsbench.problems import get_problem
+    from nsbench.problems.base import TRAIT_NAMES, problem_traits
+
+    lines = [
+        "A problem declares its traits (`nsbench.problems.base.Traits`); an integrator declares in",
+        "`Capabilities.accepts` the traits of the problems it runs (any of them): it refuses a",
+        "problem that declares none. An integrator not listed below accepts every problem, through",
+        "its hybrid law; its other refusals (a nonlinear field, a contact it has no kernel for) are",
+        "its own, with their reasons in the next section.",
+        "",
+        "| problem | " + " | ".join(f"`{t}`" for t in TRAIT_NAMES) + " |",
+        "|---|" + "---|" * len(TRAIT_NAMES),
+    ]
+    for name in problems:
+        try:
+            traits = problem_traits(get_problem(name))
+        except Exception:  # not built at its defaults: its cells say why
+            continue
+        lines.append(f"| `{name}` | " + " | ".join("yes" if getattr(traits, t) else "" for t in TRAIT_NAMES) + " |")
+    lines += ["", "| integrator | accepts problems with |", "|---|---|"]
+    for name in integrators:
+        try:
+            accepts = accepted_traits(registry.load("integrators", name))
+        except Exception:  # a plug-in that does not load: its row says why
+            continue
+        if accepts is not None:
+            lines.append(f"| `{name}` | " + " or ".join(f"`{t}`" for t in accepts) + " |")
+    return lines
+
+
 def markdown(cells: list[Cell]) -> str:
     """The docs' page: the matrix as a table and each refusal's reason, for the integrators installed
     where it was written (the others are named)."""
@@ -166,6 +200,8 @@ def markdown(cells: list[Cell]) -> str:
             "",
             "Not installed where this page was written (their extras): " + ", ".join(f"`{n}`" for n in absent) + ".",
         ]
+    out += ["", "## What each side declares", ""]
+    out += _declarations(present, problems)
     out += ["", "## Why a pair is refused", ""]
     for c in cells:
         if c.status == REFUSED and c.integrator in present:

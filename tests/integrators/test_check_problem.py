@@ -15,8 +15,13 @@ from nsbench.problems import get_problem
         ("exact", {}, dict(name="two-dof", case=3), "linear problems only"),  # capabilities
         ("henon-rk4", {"h": 5.0}, dict(name="two-dof", case=1), "stability limit"),  # its own setup's refusal
         ("heyoka", {}, dict(name="impact-oscillator"), "friction family"),
-        ("cvode-bdf", {}, dict(name="bouncing-ball"), "friction family"),
-        ("ida", {}, dict(name="bouncing-ball"), "friction family"),
+        (
+            "cvode-bdf",
+            {},
+            dict(name="bouncing-ball"),
+            r"blocks on a belt \(the friction oscillators' formulation\) only",
+        ),
+        ("ida", {}, dict(name="bouncing-ball"), r"blocks on a belt \(the friction oscillators' formulation\) only"),
         # the default refusal names the requirement, nothing of exact's method (exact-mp steps by Taylor series)
         ("exact-mp", {}, dict(name="henon-heiles"), r"piecewise-linear problems only \(<henon-heiles> is not"),
     ],

@@ -108,7 +108,7 @@ def test_the_ball_impacts_converge_to_the_closed_form():
 @pytest.mark.parametrize(
     "problem, match",
     [
-        (lambda: get_problem("impact-oscillator"), "bouncing ball only"),
+        (lambda: get_problem("impact-oscillator"), r"a mass falling onto a fixed ground \(the bouncing ball\) only"),
         (lambda: get_problem("one-dof"), "one friction level"),
         (lambda: get_problem("two-dof", case=2, r_f=1.0), "harmonic force"),
         (lambda: get_problem("two-dof", case=3), "cubic"),

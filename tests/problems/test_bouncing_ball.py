@@ -102,5 +102,7 @@ def test_integrators_without_a_form_for_it_refuse_at_setup():
 
     p = nsbench.get_problem("bouncing-ball")
     for name in ("cvode-bdf", "ida"):
-        with pytest.raises(UnsupportedProblemError, match="friction family"):
+        with pytest.raises(
+            UnsupportedProblemError, match=r"blocks on a belt \(the friction oscillators' formulation\) only"
+        ):
             nsbench.get_integrator(name).setup(p)

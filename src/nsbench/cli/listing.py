@@ -66,12 +66,17 @@ def main(args: argparse.Namespace) -> int:
             obj = registry.load(kind, entry.name)
             source = "" if entry.distribution in (None, "nsbench") else f"  [plug-in: {entry.distribution}]"
             if kind == "integrators":
+                from nsbench.integrators.base import accepted_traits
+
                 caps = obj.capabilities
                 order = caps.order if caps.order is not None else "-"
                 tags = (
                     f"family={caps.family}, events={caps.event_location}, order={order}, {stepping(caps)}, "
                     f"{caps.precision}"
                 )
+                accepts = accepted_traits(obj)
+                if accepts is not None:
+                    tags += f", problems with {' or '.join(accepts)}"
                 if not caps.supports_nonlinear:
                     tags += ", linear problems only"
                 if caps.reference_grade:

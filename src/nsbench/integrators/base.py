@@ -68,6 +68,15 @@ class Capabilities:
         (:func:`nsbench.engine.run`); an integrator that finds only the sign changes
         between step ends (the default, for a plug-in) is checked at evenly spaced
         states instead (docs/core.md, "Missed events").
+    accepts
+        The problems it runs, by their declared traits
+        (:class:`~nsbench.problems.base.Traits` field names): it accepts a problem that declares any
+        of them and refuses, at set-up and with the reason, one that declares none. ``None`` (the
+        default): every problem, through its hybrid law (``rhs``, guards, transitions). A
+        whole-system method (:class:`nsbench.integrators.whole.WholeSystem`) must name traits whose
+        events nsbench infers from its steps; with ``None`` it takes blocks on a belt only.
+        ``nsbench list coverage`` shows the problems each integrator accepts and why it refuses the
+        others.
     """
 
     event_location: str
@@ -80,10 +89,47 @@ class Capabilities:
     reference_grade: bool = False
     family: str = "event-driven"
     checks_steps: bool = False
+    accepts: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:
             raise ConfigError(f"capabilities: family {self.family!r} is not one of {', '.join(FAMILIES)}")
+        if self.accepts is not None:
+            from nsbench.problems.base import TRAIT_NAMES
+
+            ok = isinstance(self.accepts, tuple) and self.accepts and all(t in TRAIT_NAMES for t in self.accepts)
+            if not ok:
+                raise ConfigError(
+                    f"capabilities: accepts = {self.accepts!r} must be a non-empty tuple of trait names "
+                    f"({', '.join(TRAIT_NAMES)}), or None for every problem"
+                )
+
+
+#: What a whole-system method that declares no ``accepts`` runs: the friction oscillators, whose
+#: events :func:`nsbench.hybrid.inference.infer_events` infers from the blocks' phases.
+WHOLE_SYSTEM_ACCEPTS: tuple[str, ...] = ("belt_blocks",)
+
+
+def accepted_traits(integ: "Integrator | type[Integrator]") -> tuple[str, ...] | None:
+    """The traits of the problems ``integ`` runs (any of them), or ``None`` for every problem: its
+    :attr:`Capabilities.accepts`, or :data:`WHOLE_SYSTEM_ACCEPTS` for a whole-system method that
+    declares none."""
+    accepts = integ.capabilities.accepts
+    if accepts is None and getattr(integ, "whole_system", False):
+        return WHOLE_SYSTEM_ACCEPTS
+    return accepts
+
+
+def refuse_without_traits(integ: "Integrator", problem: "HybridProblem", accepts: tuple[str, ...]) -> None:
+    """Raise :class:`UnsupportedProblemError` unless ``problem`` declares one of the traits ``accepts``."""
+    from nsbench.problems.base import Traits, problem_traits
+
+    if problem_traits(problem).has_any(accepts):
+        return
+    raise UnsupportedProblemError(
+        f"{integ.name} runs problems with {Traits.words(accepts)} only (Capabilities.accepts); "
+        f"{problem.name} declares none of these traits"
+    )
 
 
 @dataclass(frozen=True)
@@ -465,7 +511,11 @@ class Integrator:
         return cls(**dict(config.get("options", {})))
 
     def setup(self, problem: "HybridProblem") -> None:
-        """Prepare for ``problem``; the default refuses nonlinear problems if not supported."""
+        """Prepare for ``problem``; the default refuses a problem without any of the accepted traits
+        (:attr:`Capabilities.accepts`) and nonlinear problems if not supported."""
+        accepts = accepted_traits(self)
+        if accepts is not None:
+            refuse_without_traits(self, problem, accepts)
         if not self.capabilities.supports_nonlinear and not problem.is_linear:
             reason = getattr(problem, "nonlinear_reason", "")
             what = f"has {reason}" if reason else "is not piecewise linear"

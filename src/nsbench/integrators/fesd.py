@@ -98,7 +98,6 @@ class Fesd(OptionalBackend, WholeSystem):
     ecosystem = "nosnoc"
     backend_modules = ("nosnoc", "casadi")
     extra = "fesd"
-    INFERABLE = ("sliding",)
     capabilities = Capabilities(
         event_location="switch-detection",
         order=None,
@@ -106,6 +105,7 @@ class Fesd(OptionalBackend, WholeSystem):
         supports_nonlinear=False,  # the relay only: cubic springs (friction) are refused with the rest
         step_option="h",
         family="time-stepping",
+        accepts=("sliding",),  # a switched first-order field: its side of each surface, or its sliding
     )
     options = {
         "h": Option(

@@ -93,6 +93,8 @@ class MoreauJean(WholeSystem):
         supports_nonlinear=False,
         step_option="h",
         family="time-stepping",
+        # the friction oscillators, and the bouncing ball (Newton's impact law at the velocity level)
+        accepts=("belt_blocks", "falling_mass"),
     )
     options = {
         "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
@@ -119,9 +121,6 @@ class MoreauJean(WholeSystem):
         "energy-balance": "time-stepping dissipates at switches (the impulse acts over a whole step): the energy "
         "balance closes to O(h), not to 1e-6",
     }
-
-    #: The friction family, and the bouncing ball (Newton's impact law at the velocity level).
-    INFERABLE = ("belt_blocks", "impacts")
 
     def check_settings(self) -> None:
         if self.settings["theta"] < 0.5:

@@ -138,6 +138,8 @@ class SiconosMoreauJean(WholeSystem):
         supports_nonlinear=False,
         step_option="h",
         family="time-stepping",
+        # the friction oscillators (one relay per block) and the bouncing ball (Siconos's classic)
+        accepts=("belt_blocks", "falling_mass"),
     )
     options = {
         "h": Option(1e-3, float, lower=0.0, doc="fixed step (rounded down so whole steps fill the span)"),
@@ -156,10 +158,6 @@ class SiconosMoreauJean(WholeSystem):
 
     def smooth_order(self) -> int:
         return 2 if self.settings["theta"] == 0.5 else 1
-
-    #: The friction oscillators (one relay per block) and the impact problems, of which it runs the
-    #: bouncing ball (Siconos's classic).
-    INFERABLE = ("belt_blocks", "impacts")
 
     def setup(self, problem) -> None:
         super().setup(problem)
@@ -285,6 +283,7 @@ class SiconosEventDriven(WholeSystem):
         supports_nonlinear=False,
         step_option=None,
         family="event-driven",
+        accepts=("falling_mass",),  # the bouncing ball: LsodarOSI takes Newton's impact law only
     )
     options = {
         "h": Option(
@@ -299,7 +298,6 @@ class SiconosEventDriven(WholeSystem):
         "event-times": "it resolves every impact LSODAR can see (a few dozen on the ball), where exact "
         "extrapolates the accumulation after four: the sequences differ in length"
     }
-    INFERABLE = ("belt_blocks", "impacts")
 
     @classmethod
     def unavailable(cls) -> str | None:
@@ -307,8 +305,7 @@ class SiconosEventDriven(WholeSystem):
         return unavailable_reason()
 
     def setup(self, problem) -> None:
-        super().setup(problem)
-        if not problem.traits.falling_mass:
+        if not problem.traits.falling_mass:  # before the generic refusal of the base: with Siconos's reason
             why = (
                 "Siconos's LsodarOSI takes Newton's impact law only (it refuses NewtonImpactFrictionNSL: a bare "
                 "std::exception on the block on the ground)"
@@ -319,6 +316,7 @@ class SiconosEventDriven(WholeSystem):
                 f"{self.name}: the bouncing ball only, not {problem.name}: {why}; "
                 "siconos-moreau-jean runs the friction problems with one friction level"
             )
+        super().setup(problem)
         reason = unavailable_reason()
         if reason:
             raise UnsupportedProblemError(f"{self.name}: {reason}")

@@ -62,8 +62,6 @@ from nsbench.integrators._sundials_loop import (
     InterpolatedOutput,
     forget_roots,
 )
-from nsbench.errors import UnsupportedProblemError
-from nsbench.problems.base import problem_traits
 from nsbench.integrators.base import (
     LOOP_OPTION,
     ArcRequest,
@@ -104,13 +102,7 @@ class SundialsIntegrator(Integrator):
 
     def check_problem(self, problem) -> None:
         """The refusals of :meth:`setup`, without compiling the callbacks."""
-        Integrator.setup(self, problem)
-        if not problem_traits(problem).belt_blocks:
-            raise UnsupportedProblemError(
-                f"{self.name} integrates the friction family's formulation (the forcing as states; for ida the "
-                f"friction forces as algebraic variables); {problem!r} is of the {problem.family or 'other'!r} "
-                "family"
-            )
+        Integrator.setup(self, problem)  # refuses a problem without blocks on a belt (capabilities.accepts)
 
     def setup(self, problem) -> None:
         self.check_problem(problem)
@@ -430,6 +422,9 @@ class CvodeBDF(CvodeIntegrator):
         precision="double",
         step_option="rtol",
         checks_steps=True,
+        # the friction oscillators' formulation: the forcing as states; for ida the friction forces as
+        # algebraic variables
+        accepts=("belt_blocks",),
     )
 
 
@@ -455,6 +450,9 @@ class Ida(SundialsIntegrator):
         precision="double",
         step_option="rtol",
         checks_steps=True,
+        # the friction oscillators' formulation: the forcing as states; for ida the friction forces as
+        # algebraic variables
+        accepts=("belt_blocks",),
     )
 
     def setup(self, problem) -> None:

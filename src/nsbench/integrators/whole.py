@@ -27,7 +27,6 @@ import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators.base import Integrator
-from nsbench.problems.base import problem_traits
 from nsbench.status import Status
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -143,17 +142,16 @@ class WholeSystem(Integrator):
     numerical failure as a ``Status``, never as an exception. It does not
     implement ``advance``: there are no frozen-mode arcs.
 
-    Which problems the event inference knows, by their declared
-    :class:`~nsbench.problems.base.Traits`: blocks on a belt (one-dof, two-dof,
-    chain, block-on-ground, den-hartog), impacts for a method that reports
-    ``impulses``, sliding for one that reports its side of each surface; a
-    subclass widens :attr:`INFERABLE` to what it runs.
+    Which problems it runs is declared in its capabilities
+    (:attr:`~nsbench.integrators.base.Capabilities.accepts`), by the problems'
+    :class:`~nsbench.problems.base.Traits` whose events
+    :func:`nsbench.hybrid.inference.infer_events` infers: blocks on a belt (one-dof,
+    two-dof, chain, block-on-ground, den-hartog;
+    :data:`~nsbench.integrators.base.WHOLE_SYSTEM_ACCEPTS`, when it declares none), impacts for a method that reports ``impulses``, sliding for one
+    that reports its side of each surface.
     """
 
     whole_system: ClassVar[bool] = True
-    #: The traits (:class:`~nsbench.problems.base.Traits` field names) of the problems whose events
-    #: :func:`nsbench.hybrid.inference.infer_events` infers for this method: it accepts a problem with any.
-    INFERABLE: ClassVar[tuple[str, ...]] = ("belt_blocks",)
 
     #: Whether the method's stick/slip law is Coulomb's only (it refuses the other friction laws at setup).
     COULOMB_ONLY: bool = False
@@ -162,13 +160,7 @@ class WholeSystem(Integrator):
     WARM_IN_SETUP: ClassVar[bool] = False
 
     def setup(self, problem: "HybridProblem") -> None:
-        super().setup(problem)
-        traits = problem_traits(problem)
-        if not traits.has_any(self.INFERABLE):
-            raise UnsupportedProblemError(
-                f"{self.name}: nsbench infers the events of whole-system methods on problems with "
-                f"{traits.words(self.INFERABLE)} only; {problem.name} declares none of these traits"
-            )
+        super().setup(problem)  # refuses a problem without one of the traits it accepts
         law = getattr(problem, "law_spec", None)
         if self.COULOMB_ONLY and law is not None and not law.is_coulomb:
             raise UnsupportedProblemError(

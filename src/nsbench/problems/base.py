@@ -18,7 +18,7 @@ entry point (``examples/problem_plugin`` is a complete example).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from types import ModuleType
 from typing import Any, ClassVar
 
@@ -76,6 +76,10 @@ class Traits:
     def words(cls, names: tuple[str, ...]) -> str:
         """``names`` as a refusal names them (``"blocks on a belt (...) or impacts"``)."""
         return " or ".join(cls.WORDS[n] for n in names)
+
+
+#: The names of the traits (what :attr:`nsbench.integrators.base.Capabilities.accepts` may name).
+TRAIT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Traits))
 
 
 def problem_traits(problem: Any) -> Traits:

@@ -192,9 +192,8 @@ def markdown(cells: list[Cell]) -> str:
         "| integrator | " + " | ".join(problems) + " |",
         "|---|" + "---|" * len(problems),
     ]
-    at = {(c.integrator, c.problem): c for c in cells}
-    for name in present:
-        out.append(f"| `{name}` | " + " | ".join(_MARK[at[(name, p)].status] for p in problems) + " |")
+    for name, *marks in _grid(cells, problems, present):
+        out.append(f"| `{name}` | " + " | ".join(marks) + " |")
     if absent:
         out += [
             "",

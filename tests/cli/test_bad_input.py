@@ -280,7 +280,8 @@ CASES = [
             "--out",
             "{d}/bif-r",
         ],
-        "--portrait draws the locus of sticking phase of a friction oscillator; relay-feedback is of the 'relay'",
+        "--portrait draws the locus of sticking phase of a friction oscillator (blocks on a belt); relay-feedback "
+        "does not declare the belt_blocks trait",
     ),
     (
         "bifurcation-peaks-of-henon-heiles-by-heyoka",

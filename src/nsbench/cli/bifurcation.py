@@ -285,8 +285,8 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
 
         if not problem_traits(problem).belt_blocks:
             raise ConfigError(
-                f"--portrait draws the locus of sticking phase of a friction oscillator; {args.problem} is of "
-                f"the {getattr(problem, 'family', '') or 'other'!r} family"
+                "--portrait draws the locus of sticking phase of a friction oscillator (blocks on a belt); "
+                f"{args.problem} does not declare the belt_blocks trait"
             )
         if any(not 1 <= b <= problem.n_blocks for b in pair):
             raise ConfigError(f"--pair {args.pair or '1,2'}: {args.problem} has blocks 1 to {problem.n_blocks}")

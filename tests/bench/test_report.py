@@ -183,6 +183,9 @@ def test_problem_labels_sort_by_their_numbers():
     assert [label for label, _ in problem_groups(frame)] == sorted(labels, key=natural_key)
 
 
+# 24 s (two benchmark modules run by an inner pytest): behind `slow`; tests/bench/test_ingest.py ingests a real
+# pytest-benchmark file on every default run
+@pytest.mark.slow
 def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
     """Cost-only rows without a problem config or accuracy level (a timed sweep) next to case rows."""
     import subprocess

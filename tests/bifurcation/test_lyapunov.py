@@ -68,6 +68,8 @@ def test_negative_exponent_on_a_periodic_case():
     assert abs(res.exponent - whole.exponent) <= 4 * combined_error(res, whole)
 
 
+# 12 s: behind `slow`; test_henon_rk4_agrees_with_exact compares two integrators' exponents on every default run
+@pytest.mark.slow
 def test_an_integrator_without_a_compiled_kernel_gives_the_same_exponent():
     # scipy's DOP853 runs arc by arc through the same core. Members of 30 iterations
     # cover 10 periods of the period-3 orbit, so both give the orbit's exponent; they

@@ -153,6 +153,9 @@ def test_a_problem_without_event_linearisation_is_refused(name):
         HybridFlow(get_problem(name))
 
 
+# 22 s: behind `slow`; the tests above continue both problems through the API, and
+# tests/cli/test_continuation.py runs the command on every default run
+@pytest.mark.slow
 def test_the_command_line_continues_both_problems(tmp_path, capsys):
     import pandas as pd
 

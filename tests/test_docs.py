@@ -108,15 +108,16 @@ def test_the_readme_stays_short():
 def test_the_readme_keeps_the_set_up_commands():
     # .ci/run runs the second one's pytest command; a newcomer copies the first
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    tests = 'python -m pip install -e ".[test]" && python -m pytest -n 3 --dist loadfile'
     for command in (
         "python -m pip install -e . && nsbench run",
-        'python -m pip install -e ".[test]" && python -m pytest -n 3 --dist loadfile',
+        tests,
         'python -m pip install -e ".[lint]" && ruff check . && ruff format --check . && mypy',
     ):
         assert f"\n{command}\n" in readme, command
     # and .ci/run runs the README's test command, not one of its own
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    assert "\npython -m pytest -n 3 --dist loadfile\n" in ci
+    assert f"\n{tests.split(' && ')[1]}\n" in ci
 
 
 def test_the_readmes_links_lead_to_files():

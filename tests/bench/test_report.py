@@ -184,7 +184,7 @@ def test_problem_labels_sort_by_their_numbers():
 
 
 # 24 s (two benchmark modules run by an inner pytest): behind `slow`; tests/bench/test_ingest.py ingests a real
-# pytest-benchmark file on every default run
+# pytest-benchmark file on every default run, but the cost-only rows of a timed sweep are checked only here
 @pytest.mark.slow
 def test_ingest_report_on_real_pytest_benchmark_output(tmp_path):
     """Cost-only rows without a problem config or accuracy level (a timed sweep) next to case rows."""

@@ -735,6 +735,29 @@ def simulate(
         accumulation=accumulation,
         check_points=check_points,
     )
+    return _result(problem, integ, rec, setup_time, traj_mask, strobe_names, state_sections)
+
+
+def result_of(problem: HybridProblem, integ: Integrator, rec: RunRecord, setup_time: float = 0.0) -> SimulationResult:
+    """The :class:`SimulationResult` of ``rec``, a run of :func:`run` without stroboscopic sections (its
+    ``t_eval`` states are the trajectory, its state sections' hits are not kept).
+
+    For a caller that repeats a run and reads only the clocks of all but one (the bench's timed samples):
+    building the event log and trajectory frames is nsbench's glue, milliseconds beside a run of one.
+    """
+    k = len(rec.dense)
+    return _result(problem, integ, rec, setup_time, np.ones(k, dtype=bool), [None] * k, ())
+
+
+def _result(
+    problem: HybridProblem,
+    integ: Integrator,
+    rec: RunRecord,
+    setup_time: float,
+    traj_mask: np.ndarray,
+    strobe_names: list[str | None],
+    state_sections: Sequence[StateSection],
+) -> SimulationResult:
     events, section_frame, trajectory = _frames(problem, rec, traj_mask, strobe_names, state_sections)
     return SimulationResult(
         problem=problem,

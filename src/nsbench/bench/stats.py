@@ -117,13 +117,22 @@ def median_interval(samples: Iterable[float], confidence: float = 0.95) -> Inter
         return NAN_INTERVAL
     if n == 1:
         return Interval(float(x[0]), float(x[0]), float(x[0]), 0.0)
-    from scipy.stats import binom
+    j, coverage = _median_order(n, float(confidence))
+    return Interval(float(np.median(x)), float(x[j - 1]), float(x[n - j]), coverage)
+
+
+@lru_cache(maxsize=None)
+def _median_order(n: int, confidence: float) -> tuple[int, float]:
+    """``(j, coverage)`` of :func:`median_interval` for ``n`` samples: the binomial sums in exact integers
+    (a report asks for hundreds of intervals of a few sample counts; scipy's ``binom.cdf`` took a few ms each)."""
+
+    def cdf(k: int) -> float:  # P(Bin(n, 1/2) <= k)
+        return sum(math.comb(n, i) for i in range(k + 1)) / 2**n
 
     j = 1
-    while j + 1 <= (n + 1) // 2 and 1.0 - 2.0 * binom.cdf(j, n, 0.5) >= confidence:
+    while j + 1 <= (n + 1) // 2 and 1.0 - 2.0 * cdf(j) >= confidence:
         j += 1
-    coverage = 1.0 - 2.0 * binom.cdf(j - 1, n, 0.5)
-    return Interval(float(np.median(x)), float(x[j - 1]), float(x[n - j]), float(coverage))
+    return j, 1.0 - 2.0 * cdf(j - 1)
 
 
 def _log_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -59,6 +59,29 @@ def test_the_table_reads_each_ladder_cost_order_and_creep():
     assert any("moreau-jean" in line and "order 2.00 on a smooth arc" in line for line in lines)
 
 
+def test_many_event_driven_methods_make_one_sentence_naming_the_cheapest_per_target():
+    """In a suite with several event-driven methods (the default) they are ranked in the tables; the answer
+    per family gives them one sentence, the cheapest to each target, and each other family its own."""
+    rows = [
+        _row("exact", "event-driven", {}, 1e-14, 1e-14, 0.0, wall=2e-3, step_option="rtol"),
+        _row("heyoka", "event-driven", {"rtol": 1e-6}, 1e-7, 1e-7, 0.0, wall=5e-4, step_option="rtol"),
+        _row("heyoka", "event-driven", {"rtol": 1e-12}, 1e-13, 1e-13, 0.0, wall=1e-3, step_option="rtol"),
+    ]
+    rows += [_row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h) for h in (1e-2, 1e-3)]
+    for r in rows:  # exact under test, as in the default suite's cases graded against `reference`
+        r["reference"] = "reference"
+    lines = families_answer(families_table(pd.DataFrame(rows), (1e-6, 1e-12, 1e-15)), (1e-6, 1e-12, 1e-15))
+    driven = [line for line in lines if "event-driven" in line]
+    assert driven == [
+        "one-dof/1, event-driven (2 methods, ranked with their ties in the answer below): the lowest median time "
+        "to 1e-06 by heyoka in 0.0005 s, 1e-12 by heyoka in 0.001 s, 1e-15 by none."
+    ]
+    assert any(line.startswith("one-dof/1, time-stepping (moreau-jean)") for line in lines) and len(lines) == 2
+    # one event-driven method (the families suite) keeps its own sentence with its order
+    one = families_answer(families_table(pd.DataFrame(rows[1:]), (1e-6,)), (1e-6,))
+    assert any(line.startswith("one-dof/1, event-driven (heyoka): reaches 1e-06 in 0.0005 s") for line in one)
+
+
 def test_table_tex_holds_the_per_family_table():
     from nsbench.bench.report import _latex
 

@@ -194,6 +194,39 @@ def test_no_log_axis_label_is_mathtext(tmp_path):
     plt.close(fig)
 
 
+def test_minor_ticks_only_on_log_axes_of_fewer_than_three_decades():
+    import matplotlib.pyplot as plt
+
+    fig, (wide, two, narrow) = plt.subplots(1, 3)
+    wide.semilogy([0.0, 1.0], [1e-16, 1e-2])
+    two.semilogy([0.0, 1.0], [1e-6, 5e-5])
+    narrow.semilogy([0.0, 1.0], [2e-6, 5e-6])
+    figures._plain_log_ticks(fig)
+    fig.canvas.draw()
+    assert wide.yaxis.get_minorticklocs().size == 0 and wide.yaxis.get_majorticklocs().size > 0
+    assert two.yaxis.get_minorticklocs().size > 0 and narrow.yaxis.get_minorticklocs().size > 0
+    plt.close(fig)
+
+
+def test_a_large_report_draws_its_figures_in_other_processes_the_same_files(tmp_path):
+    """Drawn in a pool of processes (spawned: nothing of this process inherited), the per-problem figures are the
+    serial ones, in report order, in the formats asked for."""
+    rows = []
+    for p in ("one-dof/1", "two-dof/1", "two-dof/2", "two-dof/3", "two-dof/4", "two-dof/5"):
+        rows += [
+            _row(p, "exact", 0, 0.001, 0, 0.0),
+            _row(p, "a", 0, 0.01, 1000, 1e-7),
+            _row(p, "a", 1, 0.04, 4000, 1e-10),
+        ]
+    frame = to_frame(rows)
+    serial = figures.report_figures(frame, tmp_path / "one", processes=1)
+    assert len(serial) >= figures.PARALLEL_FIGURES
+    with figures.saving_as(["png", "svg"]):
+        pooled = figures.report_figures(frame, tmp_path / "pool", processes=2)
+    assert [f.name for f in pooled] == [f.name for f in serial]
+    assert all(f.png.is_file() and f.svg is not None and f.svg.is_file() for f in pooled)
+
+
 def test_the_families_hues_are_told_apart():
     import itertools
 

@@ -23,7 +23,7 @@ from nsbench.bench import classes, columns, storage
 from nsbench.bench.figures import (
     Figure,
     _styles,
-    report_figures,
+    start_report_figures,
     runtime_distribution,
     saving_as,
     scaling_report_figures,
@@ -365,6 +365,7 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     d = Path(directory)
     storage.check_no_links(d)  # what the report writes there replaces what is there: never through a link
     frame = with_engine_share(storage.load_results(d) if results is None else results)
+    drawn = start_report_figures(frame, d / "figures")  # drawn in other processes while the tables are made
     prov = storage.read_provenance(d)
     targets = tuple(prov.get("suite", {}).get("targets", DEFAULT_TARGETS))
     long = fixed_target(frame, targets)
@@ -378,7 +379,7 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
     scaling_fit = scaling_summary(scaling)
     scaling_figs = scaling_report_figures(frame, scaling, scaling_fit, d / "figures") if len(scaling) else []
     ecdf = runtime_distribution(tested, _styles(sorted(frame["integrator"].unique())), d / "figures")
-    figures = scaling_figs + ([ecdf] if ecdf is not None else []) + report_figures(frame, d / "figures")
+    figures = scaling_figs + ([ecdf] if ecdf is not None else [])
     from nsbench.bench import targets as bt
 
     bif_rows = bt.load_rows(d)
@@ -414,7 +415,9 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
         _table(setup_table(frame)),
         Block("h2", "Figures"),
     ]
-    for fig in figures[len(scaling_figs) + (ecdf is not None) :]:
+    per_problem = drawn()
+    figures += per_problem
+    for fig in per_problem:
         blocks += _figure(fig)
     if len(bif_rows):
         blocks += [

@@ -59,6 +59,35 @@ def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers(
     assert busy.seconds == pytest.approx(work + 1.5 * (4.0 + 10.0))
 
 
+def test_a_suite_measured_apart_keeps_its_own_costs_in_the_time_scale_of_the_table():
+    """A suite merged in (``--merge``) keeps its own tasks and fixed costs: a case label names no span, so the
+    default suite's cases over [0, 100] never replace the full suite's of the same label over [0, 300]."""
+    cases = Suite.from_dict(SMALL).cases()
+    full = _table()
+    # the short suite measured on a machine twice as slow: its seconds halve into the table's scale
+    quick = CostTable(
+        calibration=0.04,
+        warm_up={cases[0].label: 0.2, cases[3].label: 1.0},
+        run={cases[0].label: 0.4, cases[3].label: 2.0},
+        target={"t exact[]": 6.0},
+        reference=1.0,
+        overhead=3.0,
+        report=2.0,
+        measured="later",
+    )
+    table = full.merged(quick, "small")
+    assert table.costs(cases[3].label, "small") == (0.5, 1.0, 1.0) and table.costs(cases[3].label) is None
+    assert table.costs(cases[0].label, "small") == (0.1, 0.2, 0.2)  # its own, over the same label's full one
+    assert table.costs(cases[0].label) == (0.5, 1.5, 1.0) and table.costs(cases[1].label, "small") == (0.5, 1.5, 1.0)
+    assert table.target_cost("t exact[]", "small") == 3.0 and table.target_cost("t exact[]") is None
+    assert table.fixed("small") == (1.5, 1.0, 0.5) and table.fixed("other") == table.fixed() == (4.0, 10.0, 2.0)
+    assert table.calibration == full.calibration and CostTable(**__import__("json").loads(table.to_json())) == table
+    on_its_own = plan(cases, workers=2, table=table, calibration=0.02, load=0.0, cores=2, suite="small")
+    as_another = plan(cases, workers=2, table=table, calibration=0.02, load=0.0, cores=2)
+    assert (on_its_own.n_unknown, as_another.n_unknown) == (1, 2) and on_its_own.seconds < as_another.seconds
+    assert full.suites == {}  # merged returns a new table
+
+
 def test_no_table_no_estimate(monkeypatch):
     monkeypatch.setattr(CostTable, "packaged", classmethod(lambda cls: None))
     cases = Suite.from_dict(SMALL).cases()
@@ -72,11 +101,11 @@ def test_the_packaged_table_knows_every_task_of_the_packaged_suites():
     assert table is not None and table.calibration > 0
     for name in ("default", "full"):
         suite = load_suite(name)
-        missing = [c.label for c in suite.cases() if table.costs(c.label) is None]
+        missing = [c.label for c in suite.cases() if table.costs(c.label, name) is None]
         missing += [
             loc
             for loc in locations(suite)
-            if location_label(loc.target.name, loc.integrator, loc.options) not in table.target
+            if table.target_cost(location_label(loc.target.name, loc.integrator, loc.options), name) is None
         ]
         assert not missing, f"suite {name!r}: no measured cost for {missing[:5]}"
 
@@ -128,3 +157,20 @@ def test_a_run_says_what_it_will_do_before_it_starts(tmp_path):
     first = err.getvalue().splitlines()[0]
     assert first.startswith("nsbench: suite 'small': 1 case(s): 5 timed samples after a warm-up each, on 1 worker(s)")
     assert "estimated about" in first
+
+
+def test_a_fresh_run_plans_every_target_location_though_earlier_rows_are_stored(tmp_path, monkeypatch):
+    """--fresh locates every bifurcation target again: its plan counts them, where a resumed run skips the stored."""
+    from nsbench.bench import runner, targets
+
+    suite = load_suite("default")
+    every = {loc.row_id for loc in locations(suite)}
+    monkeypatch.setattr(targets, "done_rows", lambda out: every)  # an earlier run's rows, all stored
+    cases = suite.cases()[:3]
+    said = {}
+    for resume in (True, False):
+        err = io.StringIO()
+        runner._weights(suite, cases, 0, 2, tmp_path, err, True, resume)
+        said[resume] = err.getvalue()
+    assert "bifurcation-target location" not in said[True]
+    assert f"then {len(every)} bifurcation-target location(s)" in said[False]

@@ -55,13 +55,38 @@ def test_toml_and_dict_give_the_same_cases(tmp_path):
     assert {p["case"] for p in two} == {1, 2} and all(p["params"] == {"v0": 0.1} for p in two)
 
 
-def test_default_suite_is_packaged_and_uses_accuracy_levels():
+def test_default_suite_is_packaged_and_keeps_every_class_and_family_at_accuracy_levels():
+    """The quick default (issue 49): every class of problem and every family of methods, the bifurcation
+    targets, each method at its accuracy levels minus the levels the data skips."""
+    from nsbench.bench.classes import CLASS_ORDER
+    from nsbench.bench.families import FAMILY_ORDER
+    from nsbench.integrators import integrator_class
+    from nsbench.problems import problem_from_config
+
     suite = load_suite("default")
+    assert suite.targets == (1e-3, 1e-6, 1e-9, 1e-12) and suite.target_list()
+    classes = {problem_from_config(p).behaviour() for p in suite.problem_configs()}
+    assert classes == set(CLASS_ORDER)
+    names = {c.integrator for c in suite.cases()}
+    assert {integrator_class(n).capabilities.family for n in names} == set(FAMILY_ORDER)
+    assert names == set(suite.integrators["only"])
+    for name in names:  # every level of every integrator, minus the ones the data skips
+        levels = integrator_class(name).accuracy_levels or ({},)
+        skip = suite.integrators.get("skip_levels", {}).get(name, {}).get("levels", [])
+        got = [c.options for c in suite.cases() if c.integrator == name and c.problem["name"] == "one-dof"]
+        assert got == [dict(o) for i, o in enumerate(levels) if i not in skip]
+    assert default_suite().to_dict() == suite.to_dict()
+
+
+def test_full_suite_is_the_earlier_default_at_every_level():
+    """``--suite full``: every registered event-driven integrator at every level (scipy-radau's slowest apart) on the
+    paper's five cases over [0, 300], as the default of earlier releases ran them, and the same targets."""
+    from nsbench.integrators import integrator_class, list_integrators
+
+    suite = load_suite("full")
     assert suite.t_span == (0.0, 300.0) and suite.targets == (1e-6, 1e-9, 1e-12)
     labels = {(p["name"], p["case"]) for p in suite.problem_configs()}
     assert labels == {("one-dof", 1), ("two-dof", 1), ("two-dof", 2), ("two-dof", 3), ("two-dof", 4)}
-    from nsbench.integrators import integrator_class, list_integrators
-
     names = {c.integrator for c in suite.cases()}
     # the whole-system families are graded by the families suite; the engines whose extra is not installed
     # here are left out (and named by suite.unavailable())
@@ -74,16 +99,12 @@ def test_default_suite_is_packaged_and_uses_accuracy_levels():
         "siconos-event-driven",
         "fesd",
     }
-    for name in names:  # every level of every integrator, minus the ones the data skips
+    for name in names:
         levels = integrator_class(name).accuracy_levels or ({},)
-        skip = suite.integrators.get("skip_levels", {}).get(name, {}).get("levels", [])
-        got = [
-            c.options
-            for c in suite.cases()
-            if c.integrator == name and c.problem["case"] == 1 and c.problem["name"] == "one-dof"
-        ]
-        assert got == [dict(o) for i, o in enumerate(levels) if i not in skip]
-    assert default_suite().to_dict() == suite.to_dict()
+        got = [c.options for c in suite.cases() if c.integrator == name and c.problem["name"] == "one-dof"]
+        expected = [dict(o) for i, o in enumerate(levels) if not (name == "scipy-radau" and i == 2)]
+        assert got == expected
+    assert [t.name for t in suite.target_list()] == [t.name for t in default_suite().target_list()]
 
 
 def test_case_ids_are_stable_and_distinct():

@@ -16,7 +16,10 @@ when long and short tasks mix and when the machine gets busier or quieter.
 
 ``python -m nsbench.bench.estimate OUT SECONDS`` writes the table from a
 finished run of ``nsbench run --suite full --fresh --out OUT`` on an idle
-machine with two workers, ``SECONDS`` its wall time without the report.
+machine with two workers, ``SECONDS`` its wall time without the report; with
+``--merge default`` after it, from a run of the default suite, it adds that run's
+tasks to the table and keeps its overhead and report time as the default's own
+(a short suite's fixed costs are not the full one's).
 """
 
 from __future__ import annotations
@@ -86,6 +89,11 @@ class CostTable:
     #: the rest of a run, not in any task: starting workers, the barriers between phases, the
     #: bifurcation targets' references (the measured run's time less its tasks over its workers)
     overhead: float = 0.0
+    #: suite name -> its own tables where it was measured apart: ``overhead`` and ``report`` (a short suite's
+    #: fixed costs are not the full one's) and ``warm_up``, ``first``, ``run``, ``target`` as above (a case
+    #: label names no span: the default suite's ``one-dof/1 exact[]`` over [0, 100] is not the full one's
+    #: over [0, 300]); the fields above stand for any other suite and any task a suite's own lack
+    suites: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @classmethod
     def packaged(cls) -> "CostTable | None":
@@ -99,15 +107,60 @@ class CostTable:
     def to_json(self) -> str:
         return json.dumps(self.__dict__, indent=1, sort_keys=True)
 
-    def costs(self, label: str) -> tuple[float, float, float] | None:
+    def costs(self, label: str, suite: str | None = None) -> tuple[float, float, float] | None:
         """Worker seconds of a case's warm-up, its first timing task and each later one, ``None`` if unknown.
 
-        A case measured with a warm-up and no timed sample (refused at ``setup``) costs only the warm-up.
+        ``suite``'s own measurement first, if it has one (:attr:`suites`). A case measured with a warm-up and no
+        timed sample (refused at ``setup``) costs only the warm-up.
         """
-        if label not in self.warm_up and label not in self.run:
-            return None
-        run = self.run.get(label, 0.0)
-        return self.warm_up.get(label, run), self.first.get(label, run), run
+        own = self.suites.get(suite or "", {})
+        for warm_up, first, runs in (
+            (own.get("warm_up", {}), own.get("first", {}), own.get("run", {})),
+            (self.warm_up, self.first, self.run),
+        ):
+            if label in warm_up or label in runs:
+                run = runs.get(label, 0.0)
+                return warm_up.get(label, run), first.get(label, run), run
+        return None
+
+    def target_cost(self, label: str, suite: str | None = None) -> float | None:
+        """Worker seconds of a bifurcation-target location (``suite``'s own first), ``None`` if unknown."""
+        own = self.suites.get(suite or "", {}).get("target", {})
+        return own.get(label, self.target.get(label))
+
+    def fixed(self, suite: str | None = None) -> tuple[float, float, float]:
+        """Seconds of a run of ``suite`` outside its tasks, of writing its report and of one reference run: its
+        own, else the table's."""
+        own = self.suites.get(suite or "", {})
+        return (
+            float(own.get("overhead", self.overhead)),
+            float(own.get("report", self.report)),
+            float(own.get("reference", self.reference)),
+        )
+
+    def merged(self, other: "CostTable", suite: str) -> "CostTable":
+        """This table with ``other``'s tasks (measured for ``suite``) added, in this table's time scale.
+
+        ``other``'s seconds are scaled by the ratio of the two calibrations (the machines' speeds), so that one
+        calibration holds for the whole table; its overhead and report become ``suite``'s own.
+        """
+        k = self.calibration / other.calibration
+
+        def scaled(d: dict[str, float], digits: int = 4) -> dict[str, float]:
+            return {label: round(v * k, digits) for label, v in d.items()}
+
+        out = CostTable(**json.loads(self.to_json()))
+        out.suites[suite] = {
+            "measured": other.measured,
+            "overhead": round(other.overhead * k, 1),
+            "report": round(other.report * k, 1),
+            "reference": round(other.reference * k, 3),
+            "warm_up": scaled(other.warm_up),
+            "first": scaled(other.first),
+            "run": scaled(other.run),
+            "target": scaled(other.target, 3),
+        }
+        return out
 
     def typical(self) -> tuple[float, float, float]:
         """The median warm-up, first timing task and later timed sample over the table's cases."""
@@ -181,11 +234,13 @@ def plan(
     load: float | None = None,
     cores: int | None = None,
     report: bool = True,
+    suite: str | None = None,
 ) -> Plan:
     """The :class:`Plan` of a run of ``cases`` (suite cases) and ``locations`` (bifurcation-target locations).
 
     ``calibration`` (:func:`calibrate` here), ``load`` and ``cores`` default to
-    this machine's; ``table`` to the packaged one.
+    this machine's; ``table`` to the packaged one. ``suite``: the suite's name, whose own overhead and report
+    time the table may hold (:meth:`CostTable.fixed`).
     """
     cases, locations = list(cases), list(locations)
     table = table if table is not None else CostTable.packaged()
@@ -215,8 +270,9 @@ def plan(
     share_workers = min(1.0, cores / (load + n_workers))
     speed = calibration / table.calibration
     unknown, weights, work, extra = 0, {}, 0.0, 0.0
+    overhead, report_time, reference = table.fixed(suite)
     for c in cases:
-        costs = table.costs(c.label)
+        costs = table.costs(c.label, suite)
         if costs is None:
             unknown += 1
             costs = table.typical()
@@ -232,16 +288,16 @@ def plan(
     )
     target_work = 0.0
     for loc in locations:
-        cost = table.target.get(location_label(loc.target.name, loc.integrator, loc.options))
+        cost = table.target_cost(location_label(loc.target.name, loc.integrator, loc.options), suite)
         if cost is None:
             unknown += 1
             cost = typical_target
         target_work += cost
-    work += n_references * table.reference
+    work += n_references * reference
     seconds = (work + target_work) * speed / (n_workers * share_workers)
-    seconds += table.overhead * speed / share_one
+    seconds += overhead * speed / share_one
     if report:
-        seconds += table.report * speed / share_one  # one process
+        seconds += report_time * speed / share_one  # one process
     seconds_most = seconds + extra * speed / (n_workers * share_workers)
     return Plan(
         len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights, seconds_most
@@ -296,12 +352,18 @@ def measure(out: str | Path, total: float, workers: int = 2, calibration: float 
 def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintainer's tool
     import sys
 
-    args = sys.argv[1:] if argv is None else argv
-    if len(args) != 2:
+    args = list(sys.argv[1:] if argv is None else argv)
+    merge = None
+    if "--merge" in args:  # --merge SUITE: add this run's tasks to the packaged table, with SUITE's own fixed costs
+        k = args.index("--merge")
+        merge = args[k + 1] if k + 1 < len(args) else ""
+        del args[k : k + 2]
+    if len(args) != 2 or merge == "":
         print(
-            "usage: python -m nsbench.bench.estimate OUT SECONDS\n  OUT: the folder of a finished "
+            "usage: python -m nsbench.bench.estimate OUT SECONDS [--merge SUITE]\n  OUT: the folder of a finished "
             "'nsbench run --suite full --fresh --workers 2' on an idle machine; SECONDS: its wall time "
-            "without the report",
+            "without the report\n  --merge SUITE: OUT is a run of SUITE; its tasks are added to the packaged table "
+            "and its overhead and report time kept as SUITE's own",
             file=sys.stderr,
         )
         return 2
@@ -312,11 +374,18 @@ def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a maintain
     tic = time.perf_counter()
     write_report(args[0], load_results(args[0]))
     table.report = round(time.perf_counter() - tic, 1)
+    if merge:
+        packaged = CostTable.packaged()
+        if packaged is None:
+            print("no packaged cost table to merge into: measure the full suite first", file=sys.stderr)
+            return 2
+        table = packaged.merged(table, merge)
     path = Path(__file__).resolve().parents[1] / "suites" / COSTS_FILE
     path.write_text(table.to_json() + "\n")
+    overhead, report, _ = table.fixed(merge)
     print(
         f"{path}: {len(table.run)} cases, {len(table.target)} locations, calibration {table.calibration:.4f} s, "
-        f"overhead {table.overhead} s, report {table.report} s"
+        f"overhead {overhead} s, report {report} s" + (f" (suite {merge!r})" if merge else "")
     )
     return 0
 

@@ -277,7 +277,9 @@ def run_suite(
     refs = _References(suite, pending, out)
     # One step per reference, and per case one for its first warm-up and one per timing round,
     # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
-    warm_weight, weight, ref_weight = _weights(suite, pending, len(refs.todo), prov["workers"], out, err, progress)
+    warm_weight, weight, ref_weight = _weights(
+        suite, pending, len(refs.todo), prov["workers"], out, err, progress, resume
+    )
     bar = Progress(
         len(refs.todo) * ref_weight + sum(warm_weight(c) + rounds_left[c.case_id] * weight(c) for c in pending),
         label="cases",
@@ -399,7 +401,14 @@ def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any
 
 
 def _weights(
-    suite: Suite, pending: list[Case], n_references: int, workers: int, out: Path, err: TextIO, announce: bool
+    suite: Suite,
+    pending: list[Case],
+    n_references: int,
+    workers: int,
+    out: Path,
+    err: TextIO,
+    announce: bool,
+    resume: bool = True,
 ):
     """The weights of the progress bar's steps: ``(warm-up of a case, timed run of a case, reference)``,
     each the expected worker seconds; with ``announce``, say first what the run will do and how long
@@ -410,9 +419,9 @@ def _weights(
     from nsbench.bench.targets import done_rows, locations
 
     table = estimate.CostTable.packaged()
-    done = done_rows(out) if suite.target_list() else set()
+    done = done_rows(out) if suite.target_list() and resume else set()  # a fresh run locates every target again
     todo = [loc for loc in locations(suite) if loc.row_id not in done] if suite.target_list() else []
-    plan = estimate.plan(pending, todo, n_references, workers, table=table)
+    plan = estimate.plan(pending, todo, n_references, workers, table=table, suite=suite.name)
     print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
     typical = (table.typical()[0], table.typical()[2]) if table else (1.0, 1.0)
     return (

@@ -73,13 +73,18 @@ def test_many_event_driven_methods_make_one_sentence_naming_the_cheapest_per_tar
     lines = families_answer(families_table(pd.DataFrame(rows), (1e-6, 1e-12, 1e-15)), (1e-6, 1e-12, 1e-15))
     driven = [line for line in lines if "event-driven" in line]
     assert driven == [
-        "one-dof/1, event-driven (2 methods, ranked with their ties in the answer below): the lowest median time "
+        "one-dof/1, event-driven (2 methods, ranked with their ties in the answer above): the lowest median time "
         "to 1e-06 by heyoka in 0.0005 s, 1e-12 by heyoka in 0.001 s, 1e-15 by none."
     ]
     assert any(line.startswith("one-dof/1, time-stepping (moreau-jean)") for line in lines) and len(lines) == 2
     # one event-driven method (the families suite) keeps its own sentence with its order
     one = families_answer(families_table(pd.DataFrame(rows[1:]), (1e-6,)), (1e-6,))
     assert any(line.startswith("one-dof/1, event-driven (heyoka): reaches 1e-06 in 0.0005 s") for line in one)
+    # and the report opens with the answer per family only then (the families suite)
+    from nsbench.bench.report import answer_leads
+
+    assert answer_leads(families_table(pd.DataFrame(rows), (1e-6,)))
+    assert not answer_leads(families_table(pd.DataFrame(rows[1:]), (1e-6,)))
 
 
 def test_table_tex_holds_the_per_family_table():

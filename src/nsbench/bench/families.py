@@ -198,7 +198,7 @@ def _event_driven_line(problem: str, rows: pd.DataFrame, targets: tuple[float, .
         else:
             parts.append(f"{t:g} by none")
     return (
-        f"{problem}, event-driven ({len(rows)} methods, ranked with their ties in the answer below): the lowest "
+        f"{problem}, event-driven ({len(rows)} methods, ranked with their ties in the answer above): the lowest "
         "median time to " + ", ".join(parts) + "."
     )
 

@@ -397,9 +397,9 @@ def _write_report(directory: str | Path, results: pd.DataFrame | None) -> Report
         for fig in scaling_figs:
             blocks += _figure(fig, heading=False)
         blocks += [Block("p", SCALING_DETAIL_CAPTION), _table(_scaling_view(scaling))]
-    blocks += _family_blocks(family_table, targets) + _answer_blocks(
-        frame, prov, summary, ecdf, classes.class_summary(frame, targets)
-    )
+    family_blocks = _family_blocks(family_table, targets)
+    answer_blocks = _answer_blocks(frame, prov, summary, ecdf, classes.class_summary(frame, targets))
+    blocks += answer_blocks + family_blocks if answer_leads(family_table) else family_blocks + answer_blocks
     blocks += _context_blocks(frame, prov)
     blocks += [Block("h2", "Fixed-target table"), Block("p", FT_CAPTION), _table(wide)]
     blocks += _spread_blocks(frame)
@@ -477,6 +477,19 @@ def _families_table(frame: pd.DataFrame, targets: tuple[float, ...]) -> pd.DataF
     if not families.has_whole_system(frame):
         return pd.DataFrame()
     return families.families_table(frame, targets)
+
+
+def answer_leads(family_table: pd.DataFrame) -> bool:
+    """Whether the report opens with the answer (the cheapest method per target) before the answer per family.
+
+    The families suite's question is what each family costs and leaves: its answer per family comes first. A
+    suite with several event-driven methods on a problem beside the other families (the default) asks first
+    which method is cheapest, with its ties.
+    """
+    if not len(family_table):
+        return True
+    driven = (family_table["family"] == "event-driven").groupby(family_table["problem"]).sum()
+    return int(driven.max()) > 1
 
 
 def _family_blocks(table: pd.DataFrame, targets: tuple[float, ...]) -> list[Block]:

@@ -239,8 +239,8 @@ def plan(
     """The :class:`Plan` of a run of ``cases`` (suite cases) and ``locations`` (bifurcation-target locations).
 
     ``calibration`` (:func:`calibrate` here), ``load`` and ``cores`` default to
-    this machine's; ``table`` to the packaged one. ``suite``: the suite's name, whose own overhead and report
-    time the table may hold (:meth:`CostTable.fixed`).
+    this machine's; ``table`` to the packaged one. ``suite``: the suite's name, whose own task costs,
+    overhead, report and reference times the table may hold (:attr:`CostTable.suites`).
     """
     cases, locations = list(cases), list(locations)
     table = table if table is not None else CostTable.packaged()

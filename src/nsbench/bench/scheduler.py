@@ -231,9 +231,11 @@ class Scheduler:
                 self._wait()
             self._flush()
         except BaseException:
-            self._drain()
-            self._flush()  # every round that came back is stored before the interruption goes on
-            self._end_all()
+            try:
+                self._drain()
+                self._flush()  # every round that came back is stored before the interruption goes on
+            finally:
+                self._end_all()  # the workers end even when storing a row fails
             raise
         finally:
             self.log.report()

@@ -106,7 +106,7 @@ def _spec(name: str, count: int) -> SweepSpec:
 
 def _cpu() -> float:
     """CPU seconds of this process, its reaped children and the live workers of the kept sweep pool."""
-    from nsbench.jobs import worker_cpu_seconds
+    from nsbench.workers.jobs import worker_cpu_seconds
 
     own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime + worker_cpu_seconds()
@@ -120,7 +120,7 @@ def _timed_sweep(benchmark, tmp_path_factory, name: str, rounds: int):
     frame, wall, cpu
         The rows of the last round, its wall seconds (median of the rounds) and the
         CPU seconds per round of the sweep's processes (this one and its workers,
-        which stay alive between sweeps: :func:`nsbench.jobs.worker_cpu_seconds`).
+        which stay alive between sweeps: :func:`nsbench.workers.jobs.worker_cpu_seconds`).
     """
     count = COUNT if compiled(name) else SUBSET
     run_sweep(_spec(name, 1), tmp_path_factory.mktemp("warm"), workers=1, progress=False)

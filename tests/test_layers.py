@@ -4,10 +4,14 @@ Layers, from the ground up: ``model`` (the compiled ground floor: the law ABI,
 the generic rules, the loop) below ``problems`` and ``integrators``, below the
 core's driver ``hybrid``, below ``engine`` (``simulate`` and ``run``), below
 ``certify`` (checking a reference log), below the apps (``bench``,
-``bifurcation``, ``periodic``, ``testing``), below ``cli``. Only the engine and
-the integrators reach the core's driver: every app runs a problem through the
-engine, under its defaults and its checks. The test reads every module's
-imports (deferred ones inside functions included) with ``ast``.
+``bifurcation``, ``periodic``, ``testing``), below ``cli``. The supervised
+worker processes (``workers``) are a floor of their own that imports no app:
+the apps' tasks are calls into their packages. Only the engine and the
+integrators reach the core's driver: every app runs a problem through the
+engine, under its defaults and its checks. No import circle anywhere, type-only
+imports included, and no module imports a private name of another package. The
+test reads every module's imports (deferred ones inside functions included)
+with ``ast``.
 """
 
 from __future__ import annotations
@@ -94,6 +98,7 @@ def _package_edges() -> dict[tuple[str, str], list[str]]:
         ("certify", "periodic"),
         ("certify", "testing"),
         ("certify", "cli"),
+        *(("workers", app) for app in ("bench", "bifurcation", "periodic", "testing", "certify", "cli", "engine")),
     ],
 )
 def test_a_lower_layer_never_imports_a_higher_one(lower, upper):
@@ -268,3 +273,97 @@ def test_no_problem_is_told_apart_by_its_family_or_its_name():
             if any(_problem_family(side) for side in sides) or literals & names:
                 found.append(f"{module}:{node.lineno}: {ast.unparse(node)}")
     assert not found, "\n".join(found)
+
+
+def _all_imports(tree: ast.Module) -> set[str]:
+    """Every module ``tree`` imports, type-only imports included; ``from P import sub`` names ``P.sub``
+    alone where ``sub`` is a module (a parent package's ``__init__`` runs first for every import of a
+    submodule, which is no circle)."""
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nsbench"):
+            subs = [f"{node.module}.{a.name}" for a in node.names if f"{node.module}.{a.name}" in MODULES]
+            found.update(subs)
+            if len(subs) < len(node.names):
+                found.add(node.module)
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.startswith("nsbench"))
+    return {name for name in found if name in MODULES}
+
+
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one node (Tarjan's algorithm, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    out.append(sorted(component))
+    return out
+
+
+def test_the_circle_finder_finds_a_circle():
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_circle_anywhere_type_only_imports_included():
+    graph = {name: _all_imports(tree) - {name} for name, tree in MODULES.items()}
+    circles = _circles(graph)
+    detail = [[f"{m} -> {sorted(graph[m] & set(c))}" for m in c] for c in circles]
+    assert not circles, detail
+    packages: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        packages.setdefault(_layer(name), set()).update(_layer(t) for t in targets if _layer(t) != _layer(name))
+    assert not _circles(packages), _circles(packages)
+
+
+def test_no_module_imports_a_private_name_of_another_package():
+    # within a package its modules share private helpers; across packages only the public names
+    def package(module: str) -> str:
+        return ".".join(module.split(".")[:2])
+
+    found = []
+    for name, tree in MODULES.items():
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nsbench")):
+                continue
+            if package(node.module) == package(name):
+                continue
+            private_module = any(part.startswith("_") for part in node.module.split(".")[1:])
+            for alias in node.names:
+                private = alias.name.startswith("_") and not alias.name.startswith("__")
+                if private_module or private:
+                    found.append(f"{name}: from {node.module} import {alias.name}")
+    assert not found, found

@@ -4,7 +4,7 @@ A quarter of each case's sets sit on the fs = fr edge of block 1 (``rf1 = 1``), 
 quarter on block 2's (``rf2 = rho2``), a quarter on both; case 1 adds sets a
 relative 1e-5..1e-3 from its two grazing-sliding values (block 2's sticking phase
 vanishes at v0 ~ 0.27442, block 1 starts sticking at v0 ~ 0.10042). Each set runs
-in a supervised worker (:mod:`nsbench.jobs`: a hard limit per step, crash
+in a supervised worker (:mod:`nsbench.workers.jobs`: a hard limit per step, crash
 isolation): its reference with its independent certification
 (:func:`compute_reference`), then six integrators among those that accept it
 (:func:`assign`), so that every integrator available runs on about 90 sets, the
@@ -174,7 +174,7 @@ def study_set(
 @pytest.mark.slow
 def test_random_parameter_sets_every_integrator_no_fault_and_no_unflagged_wrong_sequence():
     from nsbench.integrators import integrator_class, list_integrators
-    from nsbench.jobs import Job, JobPool
+    from nsbench.workers.jobs import Job, JobPool
 
     sets = parameter_sets()
     # every integrator that can run on this machine (an optional external one may be missing)

@@ -134,17 +134,17 @@ def certified_errors(
 
 def _mp_check(problem) -> bool:
     """Whether the reference of ``problem`` is certified by a whole hybrid run in mp
-    (:mod:`nsbench.integrators._mp_hybrid`): a small piecewise-linear problem whose law runs on mpmath
+    (:mod:`nsbench.integrators.mp_hybrid`): a small piecewise-linear problem whose law runs on mpmath
     numbers (``problem.mp_law``: the impact problems, whose resets and Zeno accumulations an arc-by-arc
     check through the double core would take from the double run)."""
     return bool(getattr(problem, "mp_law", False)) and problem.is_linear and problem.n_states <= MP_CHECK_STATES
 
 
 def _certified_in_mp(problem, events: pd.DataFrame, t0: float, t_end: float, y0) -> tuple[np.ndarray, str]:
-    """:func:`certified_errors` through :func:`nsbench.integrators._mp_hybrid.certify`: a bound per
+    """:func:`certified_errors` through :func:`nsbench.integrators.mp_hybrid.certify`: a bound per
     event, NaN from where the check cannot certify, with the reason in the note."""
     from nsbench.engine import event_labels, extrapolated_events
-    from nsbench.integrators._mp_hybrid import certify
+    from nsbench.integrators.mp_hybrid import certify
 
     times = events["t"].to_numpy(dtype=float)
     cert = certify(problem, times, event_labels(events), extrapolated_events(events), t0, t_end, y0)

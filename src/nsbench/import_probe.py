@@ -86,7 +86,7 @@ def check_import(what: str, target: str) -> None:
 
 
 def _describe(returncode: int) -> str:
-    """``'exit code 3'`` or ``'signal 11 (SIGSEGV)'`` (as :func:`nsbench.bench.pool.describe_exit`)."""
+    """``'exit code 3'`` or ``'signal 11 (SIGSEGV)'`` (as :func:`nsbench.workers.pool.describe_exit`)."""
     import signal
 
     if returncode >= 0:

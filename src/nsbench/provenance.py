@@ -33,7 +33,7 @@ def cpu_name() -> str:
 
 #: Options that keep git from running programs a repository's own config names
 #: (``core.fsmonitor``, hooks) while nsbench asks it for the commit.
-_SAFE_GIT = ("git", "-c", "core.fsmonitor=false", "-c", "core.hooksPath=/dev/null", "--no-optional-locks")
+SAFE_GIT = ("git", "-c", "core.fsmonitor=false", "-c", "core.hooksPath=/dev/null", "--no-optional-locks")
 
 
 def source_checkout(package: str | Path | None = None) -> Path | None:
@@ -76,10 +76,10 @@ def git_commit(package: str | Path | None = None) -> str | None:
         env.pop(key, None)
     try:
         sha = subprocess.run(
-            [*_SAFE_GIT, "rev-parse", "HEAD"], cwd=top, capture_output=True, env=env, text=True, timeout=5, check=True
+            [*SAFE_GIT, "rev-parse", "HEAD"], cwd=top, capture_output=True, env=env, text=True, timeout=5, check=True
         ).stdout.strip()
         dirty = subprocess.run(
-            [*_SAFE_GIT, "status", "--porcelain", "--untracked-files=no"],
+            [*SAFE_GIT, "status", "--porcelain", "--untracked-files=no"],
             cwd=top,
             capture_output=True,
             text=True,

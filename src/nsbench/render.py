@@ -29,6 +29,13 @@ def cell(value: Any) -> str:
 Format = Callable[[Any], str]
 
 
+def four_digits(value: Any) -> str:
+    """The text of a cell of the sweep and continuation reports: floats to 4 significant digits, NaN as '-'."""
+    if isinstance(value, float):
+        return "-" if math.isnan(value) else f"{value:.4g}"
+    return str(value)
+
+
 def _texts(frame: pd.DataFrame, fmt: Format = cell) -> pd.DataFrame:
     return frame.map(fmt) if len(frame.columns) else frame
 

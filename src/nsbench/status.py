@@ -8,7 +8,7 @@ limit``, on top of the run's own) and a value of a bifurcation sweep
 tables and reports; compare with the members, never with literal strings. The
 compiled core's outcome codes map to it one to one (:mod:`nsbench.hybrid.run`).
 
-:class:`OutcomeKind` says what became of a job in a supervised worker (:mod:`nsbench.jobs`):
+:class:`OutcomeKind` says what became of a job in a supervised worker (:mod:`nsbench.workers.jobs`):
 returned, raised, past its time limit, crashed; :attr:`OutcomeKind.status` is the case status
 each of them gives.
 """

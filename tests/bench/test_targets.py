@@ -16,10 +16,10 @@ from nsbench.bench.targets import (
     load_rows,
     locate_with,
     near_side,
-    parse_target,
     run_targets,
     save_target_reference,
 )
+from nsbench.bench.target_spec import parse_target
 from nsbench.errors import ConfigError
 
 #: Case 1, block 1 starts sticking as v0 decreases (v0 ~ 0.10042); cheap (about 1 s) on the reference flow.

@@ -270,10 +270,10 @@ CHATTER = {"zeta": 0.0, "w": 4.2, "sigma": -0.25, "r": 0.5, "F": 1.0}
 
 def test_the_whole_hybrid_run_in_mp_matches_an_independent_solution():
     # tests/impact_reference.py (60 digits, closed-form flights, its own root finder and Zeno tail,
-    # written without this code) against _mp_hybrid.hybrid_run at 40 digits, resets and accumulations
+    # written without this code) against mp_hybrid.hybrid_run at 40 digits, resets and accumulations
     # in mp. The run's accumulations are accepted at a tail estimate of 1e-24 t; measured 1.1e-24 at
     # the sticks, 1e-30 elsewhere: 1e-22 leaves a factor 100 and is 1e6 below a double's resolution.
-    from nsbench.integrators._mp_hybrid import hybrid_run
+    from nsbench.integrators.mp_hybrid import hybrid_run
     from nsbench.model.streaks import pair_events
     from tests.impact_reference import impact_oscillator_events
 
@@ -296,7 +296,7 @@ def test_the_whole_hybrid_run_in_mp_matches_an_independent_solution():
 def test_the_law_runs_as_plain_python_on_mp_numbers():
     # the resets of the mp run are the law's own transition, run on mpmath numbers: on doubles it must
     # give what the compiled law gives, and on mp numbers keep their precision
-    from nsbench.integrators._mp_hybrid import python_law
+    from nsbench.integrators.mp_hybrid import python_law
 
     p = nsbench.get_problem("impact-oscillator", **CHATTER)
     law = python_law(p)

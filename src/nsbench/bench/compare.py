@@ -209,7 +209,8 @@ COLUMNS = [
 ]
 
 
-def _check(factor: float, confidence: float) -> None:
+def check_thresholds(factor: float, confidence: float) -> None:
+    """Refuse a factor that is not a finite number > 1 or a confidence outside [0.5, 1)."""
     if not (isinstance(factor, (int, float)) and factor > 1.0 and math.isfinite(factor)):
         raise ConfigError(f"factor = {factor!r} must be a finite number > 1")
     if not (isinstance(confidence, (int, float)) and 0.5 <= confidence < 1.0):
@@ -232,7 +233,7 @@ def compare_frames(
     too), ``cpu_ratio`` the same ratio on the CPU clock, where
     the verdict is taken (:func:`time_verdict`).
     """
-    _check(factor, confidence)
+    check_thresholds(factor, confidence)
     merged = a.merge(b, on="case_id", suffixes=("_a", "_b"))
     rows = []
     for _, r in merged.iterrows():
@@ -338,7 +339,7 @@ def compare(
     Returns the per-case table (:func:`compare_frames`) and counts: cases in
     both, only in A, only in B, flagged.
     """
-    _check(factor, confidence)
+    check_thresholds(factor, confidence)
     fa, fb = read_results(a), read_results(b)
     table = compare_frames(fa, fb, factor, confidence)
     ids_a, ids_b = set(fa["case_id"]), set(fb["case_id"])

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import gc
-import json
 import math
 import time
 import traceback
@@ -27,6 +26,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from nsbench.bench.keys import jsonable as _jsonable
+from nsbench.bench.keys import problem_label as problem_label  # re-exported: labels are named here too
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
@@ -77,28 +78,6 @@ class TimeLimited(Integrator):
                 message=f"wall-clock limit of {self.limit:g} s reached at t = {request.t0:.6g}",
             )
         return self.inner.advance(request)
-
-
-def _jsonable(obj: Any) -> str:
-    return json.dumps(obj, sort_keys=True, default=float)
-
-
-def problem_label(config: dict[str, Any]) -> str:
-    """``'two-dof/2'`` plus any parameter overrides; a problem without cases by its name (``'bouncing-ball'``).
-
-    ``dimensional`` is said only of a problem with presets: one without cases has one form.
-    """
-    case = config.get("case")
-    label = config["name"] if case is None else f"{config['name']}/{case}"
-    if config.get("dimensional") and case is not None:
-        label += " dimensional"
-    params = config.get("params") or {}
-    if params:
-        label += " " + " ".join(
-            f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}"  # law=weakening
-            for k, v in sorted(params.items())
-        )
-    return label
 
 
 def base_row(case: Case, suite: str) -> dict[str, Any]:

@@ -99,13 +99,13 @@ def environment_of(provenance: dict[str, Any]) -> tuple[str, dict[str, Any]]:
 
 
 def _git(repo: Path, *args: str) -> str:
-    from nsbench.provenance import _SAFE_GIT
+    from nsbench.provenance import SAFE_GIT
 
     env = {**os.environ, "GIT_OPTIONAL_LOCKS": "0"}
     env.pop("GIT_DIR", None)
     env.pop("GIT_WORK_TREE", None)
     try:
-        done = subprocess.run([*_SAFE_GIT, *args], cwd=repo, capture_output=True, text=True, timeout=60, env=env)
+        done = subprocess.run([*SAFE_GIT, *args], cwd=repo, capture_output=True, text=True, timeout=60, env=env)
     except (OSError, subprocess.SubprocessError) as exc:
         raise ConfigError(f"git {' '.join(args)} in {str(repo)!r} failed: {exc}") from None
     if done.returncode != 0:

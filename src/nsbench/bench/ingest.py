@@ -19,7 +19,7 @@ import pandas as pd
 
 from nsbench.bench import storage
 from nsbench.bench.schema import COLUMN_NAMES, LIST_COLUMNS, RUNNER_STATUSES
-from nsbench.bench.suite import stable_key
+from nsbench.bench.keys import stable_key
 from nsbench.errors import ConfigError
 from nsbench.results import Status
 

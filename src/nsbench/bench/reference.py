@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nsbench.bench.suite import stable_key
+from nsbench.bench.keys import stable_key
 from nsbench.certify import (  # noqa: F401 - certified_errors, certainty_of: the bench's names for them too
     CERTIFIED,
     CERTIFY_CHECKS,

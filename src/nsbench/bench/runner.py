@@ -1,7 +1,7 @@
 """The suite runner: expand a suite into cases, run the missing ones, store each row as it
 finishes, export the results.
 
-The cases run in worker processes (:mod:`nsbench.bench.worker`, started with
+The cases run in worker processes (:mod:`nsbench.workers.worker`, started with
 :mod:`subprocess`, so the user's script is never re-imported), in the phases of
 :mod:`nsbench.bench.scheduler`: references and warm-ups (compilation, first use)
 first, then the timed repeats, never both at once. Even with ``workers=1`` the
@@ -26,7 +26,7 @@ import pandas as pd
 
 from nsbench.bench import storage
 from nsbench.bench.execute import run_case
-from nsbench.bench.pool import importable
+from nsbench.workers.pool import importable
 from nsbench.progress import Progress
 from nsbench.bench.reference import (
     Reference,
@@ -229,7 +229,7 @@ def run_suite(
         Counts, the results, and :attr:`RunSummary.ok`: ``False`` when a case
         crashed or a reference could not be computed (the CLI then exits with 1).
     """
-    from nsbench.jobs import check_count
+    from nsbench.workers.jobs import check_count
     from nsbench.provenance import provenance
 
     check_count("workers", workers, 1)
@@ -383,7 +383,7 @@ def run_suite(
 
 def _identity(case: Case) -> dict[str, Any]:
     """The columns of a stored row that say which computation it is (see ``execute.base_row``)."""
-    from nsbench.bench.execute import _jsonable
+    from nsbench.bench.keys import jsonable as _jsonable
 
     return {
         "problem_config": _jsonable(case.problem),
@@ -395,7 +395,7 @@ def _identity(case: Case) -> dict[str, Any]:
 
 
 def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any]):
-    from nsbench.bench.pool import hello
+    from nsbench.workers.pool import hello
 
     return hello(components, out, prov)
 

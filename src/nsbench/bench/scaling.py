@@ -52,7 +52,7 @@ def _family_and_n(config_json: str) -> tuple[str, int | None]:
 def _family_label(key: str) -> str:
     if not key:
         return ""
-    from nsbench.bench.execute import problem_label
+    from nsbench.bench.keys import problem_label
 
     return problem_label(json.loads(key))
 

@@ -39,10 +39,11 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from nsbench.bench import protocol as msg
+from nsbench.bench import tasks
+from nsbench.workers import protocol as msg
 from nsbench.bench.execute import WARMUP_FRACTION, WarmResult, base_row, complete_row, merge_runs
 from nsbench.bench.timing import needs_more
-from nsbench.bench.pool import WorkerProcess, readable
+from nsbench.workers.pool import WorkerProcess, readable
 from nsbench.bench.reference import Reference
 from nsbench.bench.suite import Case
 from nsbench.errors import ConfigError
@@ -161,7 +162,7 @@ class Scheduler:
         accounts for, one per warm-up or timing round, the rounds a case will
         not need counted at its last call).
     hello
-        The first message of every worker (:func:`nsbench.bench.pool.hello`).
+        The first message of every worker (:func:`nsbench.workers.pool.hello`).
     suite
         Suite name stored in the rows.
     resumed
@@ -196,7 +197,7 @@ class Scheduler:
         self.on_phase = on_phase or (lambda text: None)
         self.on_extra = on_extra or (lambda case: None)
         self.hello, self.suite = hello, suite
-        from nsbench.jobs import WORKER_LOG, WorkerLog
+        from nsbench.workers.jobs import WORKER_LOG, WorkerLog
 
         #: the tracebacks of tasks that raised, in the output folder (a worker prints nothing itself)
         self.log = WorkerLog(os.path.join(hello.out, WORKER_LOG), f"suite {suite}")
@@ -272,7 +273,7 @@ class Scheduler:
                     slot,
                     "reference",
                     ref,
-                    msg.ComputeReference(0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points),
+                    tasks.ComputeReference(0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points),
                     ref.key,
                 )
             while self.queue:
@@ -295,7 +296,7 @@ class Scheduler:
             if free:
                 # earliest round first (runs interleaved in time), then longest first: the best balance
                 state = max(free, key=lambda s: (-s.rounds, s.order))
-                message = msg.TimeCase(
+                message = tasks.TimeCase(
                     0,
                     state.case,
                     self.suite,
@@ -366,7 +367,7 @@ class Scheduler:
         slot.record = self._record(slot, "start", "worker start")
 
     def _send_warm(self, slot: _Slot, state: _CaseState) -> None:
-        self._send(slot, "warm-up", state, msg.WarmUp(0, state.case, self.suite), state.case.label)
+        self._send(slot, "warm-up", state, tasks.WarmUp(0, state.case, self.suite), state.case.label)
 
     def _send(self, slot: _Slot, kind: str, payload: Any, message: Any, label: str) -> None:
         self._next_task += 1

@@ -8,9 +8,7 @@ per-case limits and the fixed targets. :meth:`Suite.cases` expands it into
 
 from __future__ import annotations
 
-import hashlib
 import itertools
-import json
 import math
 import tomllib
 from dataclasses import asdict, dataclass, field
@@ -18,6 +16,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from nsbench.bench.keys import got as _got
+from nsbench.bench.keys import stable_key as stable_key  # re-exported: the suite's keys are named here too
 from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_REPEATS, MIN_SAMPLE_TIME
 from nsbench.errors import ConfigError
 
@@ -51,12 +51,6 @@ MAX_REPEATS = 1000
 MAX_DENSE_POINTS = 1_000_000
 #: Largest step budget per run (``max_steps``; compiled kernels count in 64-bit integers).
 MAX_STEPS = 10**12
-
-
-def stable_key(obj: Any) -> str:
-    """A short hash of a JSON-serialisable object (sorted keys), stable across processes."""
-    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=float)
-    return hashlib.sha1(text.encode()).hexdigest()[:16]
 
 
 @dataclass(frozen=True)
@@ -103,12 +97,6 @@ class Case:
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-
-def _got(value: Any) -> str:
-    """``int 5``, ``str 'abc'``: the type and (shortened) value of a bad field."""
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
 
 
 def _field(ok: object, path: str, expected: str, value: Any) -> None:
@@ -378,7 +366,7 @@ class Suite:
         _check_integrators(self.integrators)
         self._check_reference()
         self._check_selection()
-        from nsbench.bench.targets import parse_targets
+        from nsbench.bench.target_spec import parse_targets
 
         if self.bifurcation_targets is None:
             self.bifurcation_targets = []
@@ -386,7 +374,7 @@ class Suite:
         self.bifurcation_targets = [dict(t) for t in self.bifurcation_targets]
 
     def target_list(self):
-        """The bifurcation targets, checked (:class:`nsbench.bench.targets.BifurcationTarget`)."""
+        """The bifurcation targets, checked (:class:`nsbench.bench.target_spec.BifurcationTarget`)."""
         return list(self._bif_targets)
 
     def _check_reference(self) -> None:

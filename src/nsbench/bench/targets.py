@@ -47,38 +47,16 @@ import math
 import statistics
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
 import numpy as np
 import pandas as pd
 
-from nsbench.errors import ConfigError
+from nsbench.bench.target_spec import REFERENCE_XTOL, BifurcationTarget  # the specification: parse_targets
 from nsbench.status import OutcomeKind, ReferenceStatus, Status
 
-#: Keys of one ``[[bifurcation_targets]]`` table.
-TARGET_KEYS = {
-    "name",
-    "problem",
-    "case",
-    "params",
-    "dimensional",
-    "param",
-    "origin",
-    "bracket",
-    "kind",
-    "periods",
-    "max_probes",
-    "xtol",
-    "exclude",
-}
-#: Defaults of the location settings (per target in the TOML).
-DEFAULT_PERIODS = 8
-DEFAULT_MAX_PROBES = 40
-DEFAULT_XTOL = 1e-10
-#: Tolerance of the reference location (``locate_target``'s bisection).
-REFERENCE_XTOL = 1e-11
 #: Wall-clock seconds the reference of one target may take in a worker.
 REFERENCE_LIMIT = 600.0
 #: Periods of the last probe window compared with the reference pattern.
@@ -87,197 +65,6 @@ WINDOW_PERIODS = 2
 STATUS_OK = Status.SUCCESS.value
 
 
-def _known_kinds() -> tuple[str, ...]:
-    from nsbench.periodic.bifurcations import CATEGORY
-
-    return tuple(CATEGORY)
-
-
-# ---------------------------------------------------------------------- the target
-@dataclass(frozen=True)
-class BifurcationTarget:
-    """One ``[[bifurcation_targets]]`` entry, validated (see :func:`parse_target`)."""
-
-    name: str
-    problem: str
-    case: Any
-    param: str
-    origin: float
-    low: float
-    high: float
-    params: dict[str, float] = field(default_factory=dict)
-    dimensional: bool = False
-    kind: str | None = None
-    periods: int = DEFAULT_PERIODS
-    max_probes: int = DEFAULT_MAX_PROBES
-    xtol: float = DEFAULT_XTOL
-    exclude: tuple[str, ...] = ()
-
-    def config_at(self, value: float) -> dict[str, Any]:
-        """The problem config (``problem_from_config``) with ``param = value``."""
-        return {
-            "name": self.problem,
-            "case": self.case,
-            "dimensional": self.dimensional,
-            "params": {**self.params, self.param: float(value)},
-        }
-
-    def problem_at(self, value: float):
-        from nsbench.problems import problem_from_config
-
-        return problem_from_config(self.config_at(value))
-
-    @property
-    def near_is_low(self) -> bool:
-        """The origin (the side of the reference orbit) is below the bracket."""
-        return self.origin <= self.low
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @property
-    def key(self) -> str:
-        """Stable id of the reference computation."""
-        from nsbench.bench.suite import stable_key
-
-        d = self.as_dict()
-        for k in ("name", "periods", "max_probes", "xtol", "exclude"):
-            d.pop(k)
-        return stable_key({**d, "ref_xtol": REFERENCE_XTOL})
-
-    def label(self) -> str:
-        from nsbench.bench.execute import problem_label
-
-        return problem_label(
-            {"name": self.problem, "case": self.case, "dimensional": self.dimensional, "params": self.params}
-        )
-
-
-def _bad(where: str, text: str) -> ConfigError:
-    return ConfigError(f"suite field {where!r} {text}")
-
-
-def _number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def parse_target(spec: Any, i: int) -> BifurcationTarget:
-    """Check one ``[[bifurcation_targets]]`` table; the target.
-
-    Raises
-    ------
-    ConfigError
-        A missing or unknown key, a value of the wrong type, a bracket that is not
-        ``[low, high]`` with ``low < high``, an origin inside the bracket, an
-        unknown problem, case or parameter, an unknown kind.
-    """
-    from nsbench.bench.suite import _got
-
-    where = f"bifurcation_targets[{i}]"
-    if not isinstance(spec, dict):
-        raise _bad(where, f"must be a table (name, problem, param, origin, bracket, ...), got {_got(spec)}")
-    bad = sorted(set(spec) - TARGET_KEYS)
-    if bad:
-        raise ConfigError(f"{where}: unknown key(s) {', '.join(bad)}; allowed: {', '.join(sorted(TARGET_KEYS))}")
-    missing = [k for k in ("name", "problem", "param", "origin", "bracket") if k not in spec]
-    if missing:
-        raise ConfigError(
-            f"{where}: missing key(s) {', '.join(missing)} (a target needs name, problem, param, "
-            "origin and bracket = [low, high])"
-        )
-    for key in ("name", "problem", "param"):
-        if not isinstance(spec[key], str) or not spec[key]:
-            raise _bad(f"{where}.{key}", f"must be a non-empty string, got {_got(spec[key])}")
-    where = f"bifurcation_targets[{i}] ({spec['name']})"
-    if not _number(spec["origin"]):
-        raise _bad(f"{where}.origin", f"must be a finite number, got {_got(spec['origin'])}")
-    br = spec["bracket"]
-    if not (isinstance(br, (list, tuple)) and len(br) == 2 and all(_number(v) for v in br)):
-        raise _bad(f"{where}.bracket", f"must be [low, high], two finite numbers, got {_got(br)}")
-    low, high, origin = float(br[0]), float(br[1]), float(spec["origin"])
-    if not low < high:
-        raise ConfigError(f"{where}: bracket [{low:g}, {high:g}] must have low < high")
-    if low <= origin <= high:
-        raise ConfigError(
-            f"{where}: origin {origin:g} lies in the bracket [{low:g}, {high:g}]; the origin is "
-            "where the orbit is found from rest, outside the bracket (on its near side)"
-        )
-    params = spec.get("params", {})
-    if not isinstance(params, dict) or not all(isinstance(k, str) and _number(v) for k, v in params.items()):
-        raise _bad(f"{where}.params", f"must be a table of parameter = number, got {_got(params)}")
-    if spec["param"] in params:
-        raise ConfigError(f"{where}: param {spec['param']!r} is also fixed in params")
-    case = spec.get("case", 1)
-    if not (isinstance(case, str) or (isinstance(case, int) and not isinstance(case, bool))):
-        raise _bad(f"{where}.case", f"must be a case number (1..4) or name, got {_got(case)}")
-    dimensional = spec.get("dimensional", False)
-    if not isinstance(dimensional, bool):
-        raise _bad(f"{where}.dimensional", f"must be true or false, got {_got(dimensional)}")
-    kind = spec.get("kind")
-    if kind is not None and kind not in _known_kinds():
-        raise _bad(f"{where}.kind", f"must be one of {', '.join(_known_kinds())}, got {_got(kind)}")
-    periods = spec.get("periods", DEFAULT_PERIODS)
-    if isinstance(periods, bool) or not isinstance(periods, int) or not 3 <= periods <= 10_000:
-        raise _bad(f"{where}.periods", f"must be an integer from 3 to 10000, got {_got(periods)}")
-    max_probes = spec.get("max_probes", DEFAULT_MAX_PROBES)
-    if isinstance(max_probes, bool) or not isinstance(max_probes, int) or not 3 <= max_probes <= 1000:
-        raise _bad(f"{where}.max_probes", f"must be an integer from 3 to 1000, got {_got(max_probes)}")
-    xtol = spec.get("xtol", DEFAULT_XTOL)
-    if not _number(xtol) or xtol <= 0:
-        raise _bad(f"{where}.xtol", f"must be a positive number, got {_got(xtol)}")
-    exclude = spec.get("exclude", [])
-    if not (isinstance(exclude, list) and all(isinstance(x, str) for x in exclude)):
-        raise _bad(f"{where}.exclude", f"must be a list of integrator names, got {_got(exclude)}")
-    from nsbench.integrators import canonical_name, list_integrators
-
-    unknown = [x for x in exclude if canonical_name(x) not in list_integrators()]
-    if unknown:
-        raise ConfigError(f"{where}: exclude names unknown integrator(s) {', '.join(unknown)}")
-    target = BifurcationTarget(
-        exclude=tuple(canonical_name(x) for x in exclude),
-        name=spec["name"],
-        problem=spec["problem"],
-        case=case,
-        param=spec["param"],
-        origin=origin,
-        low=low,
-        high=high,
-        params={k: float(v) for k, v in params.items()},
-        dimensional=dimensional,
-        kind=kind,
-        periods=periods,
-        max_probes=max_probes,
-        xtol=float(xtol),
-    )
-    # the problem, case and parameter must exist: build the problem at both ends and at the origin
-    for value in (origin, low, high):
-        try:
-            problem = target.problem_at(value)
-        except ConfigError as exc:
-            raise ConfigError(f"{where}: {exc}") from None
-        except Exception as exc:  # noqa: BLE001 - a problem's own check, in words
-            raise ConfigError(f"{where}: problem {spec['problem']!r} at {spec['param']} = {value:g}: {exc}") from None
-    names = set(getattr(problem.coefficients, "__dataclass_fields__", {}) or ())
-    if names and target.param not in names and target.param not in ("r_f", "omega_r", "inv_omega_r"):
-        raise ConfigError(
-            f"{where}: {target.problem!r} has no parameter {target.param!r}; parameters: {', '.join(sorted(names))}"
-        )
-    return target
-
-
-def parse_targets(specs: Any) -> list[BifurcationTarget]:
-    """Every ``[[bifurcation_targets]]`` table checked; names must be unique."""
-    if not isinstance(specs, (list, tuple)):
-        raise ConfigError(f"suite field 'bifurcation_targets' must be a list of tables, got {type(specs).__name__}")
-    targets = [parse_target(s, i) for i, s in enumerate(specs)]
-    names = [t.name for t in targets]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise ConfigError(f"bifurcation_targets: name(s) {', '.join(dup)} used more than once")
-    return targets
-
-
-# ---------------------------------------------------------------------- the reference
 @dataclass(frozen=True)
 class TargetReference:
     """The reference bifurcation of a target, and the orbit on its near side (as plain data)."""
@@ -351,7 +138,7 @@ def compute_target_reference(target: BifurcationTarget) -> TargetReference:
 
 
 def reference_job(target: dict[str, Any], *, stage: Callable = None, emit: Callable = None) -> dict[str, Any]:
-    """A :mod:`nsbench.jobs` job: the reference of ``target`` (a :class:`BifurcationTarget` as a dict)."""
+    """A :mod:`nsbench.workers.jobs` job: the reference of ``target`` (a :class:`BifurcationTarget` as a dict)."""
     if stage is not None:
         stage("reference location", REFERENCE_LIMIT)
     return compute_target_reference(BifurcationTarget(**target)).as_dict()
@@ -664,7 +451,7 @@ class Location:
 
     @property
     def row_id(self) -> str:
-        from nsbench.bench.suite import stable_key
+        from nsbench.bench.keys import stable_key
 
         target = {k: v for k, v in self.target.as_dict().items() if k != "exclude"}
         return stable_key(
@@ -673,7 +460,7 @@ class Location:
 
 
 def base_row(loc: Location, suite: str, ref: TargetReference | None) -> dict[str, Any]:
-    from nsbench.bench.execute import _jsonable
+    from nsbench.bench.keys import jsonable as _jsonable
     from nsbench.integrators import get_integrator, integrator_class
 
     t = loc.target
@@ -758,7 +545,7 @@ def location_job(
     stage: Callable = None,
     emit: Callable = None,
 ) -> dict[str, Any]:
-    """A :mod:`nsbench.jobs` job: the row of ``loc``, each probe a stage limited to ``time_limit`` seconds
+    """A :mod:`nsbench.workers.jobs` job: the row of ``loc``, each probe a stage limited to ``time_limit`` seconds
     (the integrator's setup to ``setup_limit``)."""
     return compute_row(
         loc,
@@ -889,7 +676,7 @@ def run_targets(
     """The runner's last phase: every missing bifurcation-target row of ``suite``, stored as it finishes.
 
     References first (cached per target in ``OUT/bifurcation_references``), then
-    one job per row in supervised worker processes (:mod:`nsbench.jobs`): each
+    one job per row in supervised worker processes (:mod:`nsbench.workers.jobs`): each
     probe may take ``suite.time_limit`` seconds; a worker that crashes or is
     ended gives a ``crashed`` or ``time limit`` row. ``in_process`` runs
     everything here (components defined in ``__main__``). Returns every stored row.
@@ -972,8 +759,8 @@ def _location_weights(pending: list[Location]) -> dict[str, float]:
 
 
 def _run_pooled(suite, out: Path, provenance, workers, components, todo, pending, refs, got_reference, got_row) -> None:
-    from nsbench.bench import pool as wp
-    from nsbench.jobs import Job, JobPool
+    from nsbench.workers import pool as wp
+    from nsbench.workers.jobs import Job, JobPool
 
     hello = wp.hello(components, out, provenance)
     n = max(1, min(int(workers), max(len(todo), len(pending))))

@@ -104,14 +104,6 @@ def report(frames: dict[str, pd.DataFrame], walls: dict[str, float] | None = Non
 
 def _table(frame: pd.DataFrame) -> str:
     """A Markdown table of the sweep reports (:func:`nsbench.render.markdown`, numbers to 4 digits)."""
-    from nsbench.render import markdown
+    from nsbench.render import markdown, four_digits
 
-    return markdown(frame, fmt=_fmt)
-
-
-def _fmt(v) -> str:
-    if isinstance(v, float):
-        if np.isnan(v):
-            return "-"
-        return f"{v:.4g}"
-    return str(v)
+    return markdown(frame, fmt=four_digits)

@@ -6,88 +6,17 @@ matplotlib is imported here on first use. Every figure is written as PNG
 
 from __future__ import annotations
 
-import threading
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 
+# the writing of figures is shared with continuation and simulate; the commands name these here too
+from nsbench.plotting import FORMATS, pyplot, save
+from nsbench.plotting import preload as preload
+
 BLUE, RED = "tab:blue", "tab:red"
-FORMATS = ("png", "svg", "pdf")
-
-
-#: The thread of :func:`preload`, if one was started: drawing waits for it (matplotlib is not thread-safe).
-_PRELOAD: Any = None
-
-
-def _plt():
-    if _PRELOAD is not None and _PRELOAD.ident != threading.get_ident():
-        _PRELOAD.join()
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def preload(formats: Sequence[str] = FORMATS) -> None:
-    """Import matplotlib and the writers of ``formats``, and draw a small figure in each, in a
-    background thread: a command that draws after a long computation then pays the imports and
-    the first use of the fonts and writers while its workers compute, not afterwards (about half a
-    second, of which the first drawing is a fifth). Figures drawn later wait for the thread."""
-    global _PRELOAD
-
-    def load() -> None:
-        try:
-            _plt()
-            import importlib
-            import io
-
-            from matplotlib.figure import Figure
-
-            small = Figure(figsize=(2.0, 1.5))  # not pyplot's: nothing shared with the figures drawn later
-            ax = small.add_subplot()
-            ax.set_xlabel("v0")
-            small.suptitle("warm-up", fontsize=9)
-            for fmt in formats:
-                if fmt in ("svg", "pdf"):
-                    importlib.import_module(f"matplotlib.backends.backend_{fmt}")
-                small.savefig(io.BytesIO(), format=fmt, bbox_inches="tight")
-        except Exception:  # nothing lost: the figure drawn later meets the same problem and reports it
-            pass
-
-    if _PRELOAD is None:
-        _PRELOAD = threading.Thread(target=load, name="nsbench-import-matplotlib", daemon=True)
-        _PRELOAD.start()
-
-
-def save(fig, base: str | Path, formats: Sequence[str] = FORMATS, dpi: int = 100) -> list[Path]:
-    """Write ``fig`` as ``base.<fmt>`` for every format; close it; return the paths.
-
-    The saved area is the figure's tight bounding box, so a legend placed beside the
-    axes (where it covers no data) is kept whole. It is found once, on one drawing
-    without output: asked for as ``"tight"``, every format would draw the figure
-    twice, once for the box (a third of a second for a diagram in three formats).
-    """
-    plt = _plt()
-    base = Path(base)
-    base.parent.mkdir(parents=True, exist_ok=True)
-    from matplotlib.layout_engine import PlaceHolderLayoutEngine
-
-    fig.draw_without_rendering()  # the ticks and texts where they will be drawn
-    box = fig.get_tightbbox(fig.canvas.get_renderer()).padded(plt.rcParams["savefig.pad_inches"])
-    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
-        # what tight_layout() leaves: it does nothing, but with any engine savefig draws once more first
-        fig.set_layout_engine(None)
-    out = []
-    for fmt in formats:
-        path = base.parent / f"{base.name}.{fmt}"  # not with_suffix: names may hold dots
-        fig.savefig(path, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None, bbox_inches=box)
-        out.append(path)
-    plt.close(fig)
-    return out
 
 
 def diagram(
@@ -106,7 +35,7 @@ def diagram(
     Failed or incomplete values are marked along the bottom; candidate
     bifurcation points (if given) as faint vertical lines.
     """
-    plt = _plt()
+    plt = pyplot()
     from nsbench.bifurcation.storage import positions_of, state_columns
 
     if variables is None:
@@ -191,7 +120,7 @@ def locus(
     """
     from nsbench.bifurcation.locus import region_masks
 
-    plt = _plt()
+    plt = pyplot()
     problem = run.problem
     traj = run.trajectory
     a, b = run.pair
@@ -233,7 +162,7 @@ def locus(
 
 def portrait(run, base: str | Path, title: str = "", formats: Sequence[str] = FORMATS) -> list[Path]:
     """Time series of the pair's positions and their phase portraits ``(x_i, v_i)`` over the recording window."""
-    plt = _plt()
+    plt = pyplot()
     traj = run.trajectory
     blocks = run.pair if run.problem.n_blocks >= 2 else (1,)  # the locus's pair of a longer chain
     nb = len(blocks)

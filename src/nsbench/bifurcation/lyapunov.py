@@ -346,7 +346,7 @@ def member_job(
     stage,
     emit,
 ) -> _Member:
-    """Member ``index`` in a supervised worker (:mod:`nsbench.jobs`), the integrator set up once per worker."""
+    """Member ``index`` in a supervised worker (:mod:`nsbench.workers.jobs`), the integrator set up once per worker."""
     from nsbench.integrators import get_integrator
 
     key = repr((problem, integrator, sorted(options.items())))
@@ -366,7 +366,7 @@ def _lost_member(reason: str) -> _Member:
 def _run_members(integ, problem, integrator, options, seeds, params, workers, limit, log_path=None) -> list[_Member]:
     if workers == 0:
         return [_run_member(integ, problem, np.random.default_rng(s), **params) for s in seeds]
-    from nsbench.jobs import Job, JobPool, WorkerLog
+    from nsbench.workers.jobs import Job, JobPool, WorkerLog
 
     done: dict[Hashable, _Member] = {}  # by job key: the member's index
     log = WorkerLog(log_path, f"the Lyapunov members with {integrator}")
@@ -463,7 +463,7 @@ def largest_exponent(
     from nsbench.integrators import get_integrator
 
     _check(iterations, members, d0, transient, window, spread, align, tol, confidence, workers, seed)
-    from nsbench.jobs import check_limit
+    from nsbench.workers.jobs import check_limit
 
     check_limit("member_limit", member_limit)
     if integrator is None:

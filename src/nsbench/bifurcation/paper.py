@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from nsbench.bifurcation import detect, figures
-from nsbench.bifurcation.paper_report import TABLE_COLUMNS, html_report, markdown_report
+from nsbench.bifurcation.paper_report import LOCUS_VALUES, TABLE_COLUMNS, html_report, markdown_report
 from nsbench.bifurcation.parallel import run_sweep
 from nsbench.bifurcation.sweep import OK_STATUSES, SweepSpec
 
@@ -62,21 +62,6 @@ SWEEPS: tuple[PaperSweep, ...] = (
     *(PaperSweep(4, n, a, b) for n, a, b, _ in _COMMON),
     PaperSweep(4, "F", 0.02, 0.8, "range not stated in the paper"),
     PaperSweep(4, "Omega", 0.05, 2.5, "the paper starts at 0; the stroboscopic section needs Omega > 0"),
-)
-
-# parameter values the paper discusses: locus of sticking phase and portraits drawn there
-LOCUS_VALUES: tuple[tuple[int, str, float], ...] = (
-    (1, "v0", 1 / 12),
-    (2, "v0", 0.35),
-    (2, "v0", 0.43),
-    (2, "inv_omega_r", 5.0),
-    (2, "F", 0.135),
-    (2, "F", 0.1355),
-    (2, "F", 0.1417),
-    (3, "h1", 1.34),
-    (4, "v0", 0.45),
-    (4, "F", 0.38),
-    (4, "F", 0.61),
 )
 
 

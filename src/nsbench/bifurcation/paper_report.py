@@ -27,6 +27,21 @@ TABLE_COLUMNS = [
     "statement",
 ]
 
+# parameter values the paper discusses: locus of sticking phase and portraits drawn there
+LOCUS_VALUES: tuple[tuple[int, str, float], ...] = (
+    (1, "v0", 1 / 12),
+    (2, "v0", 0.35),
+    (2, "v0", 0.43),
+    (2, "inv_omega_r", 5.0),
+    (2, "F", 0.135),
+    (2, "F", 0.1355),
+    (2, "F", 0.1417),
+    (3, "h1", 1.34),
+    (4, "v0", 0.45),
+    (4, "F", 0.38),
+    (4, "F", 0.61),
+)
+
 
 def _intro(points, transient, record, total) -> list[str]:
     import nsbench
@@ -142,8 +157,6 @@ def markdown_report(sweeps, table, found, points, transient, record, total, cont
         "blue band, II the red band (drawn at the stroboscopic phase when forced), III their overlap.",
         "",
     ]
-    from nsbench.bifurcation.paper import LOCUS_VALUES
-
     for case, name, value in LOCUS_VALUES:
         tag = f"case{case}-{name}-{value:.6g}"
         if (case, name) in found:
@@ -191,8 +204,6 @@ def html_report(sweeps, table, found, points, transient, record, total, continue
             f"<img src='figures/diagram-{r.slug}.png'><p>{html.escape(r.note)}</p>"
         )
     parts.append("<h2>Locus of sticking phase</h2>")
-    from nsbench.bifurcation.paper import LOCUS_VALUES
-
     for case, name, value in LOCUS_VALUES:
         tag = f"case{case}-{name}-{value:.6g}"
         if (case, name) in found:

@@ -3,7 +3,7 @@
 Only the values missing from the store are computed; each finished chunk is
 written at once, so an interrupted run loses at most the values in flight.
 
-Every value runs in a supervised process (:mod:`nsbench.jobs`), locally and on
+Every value runs in a supervised process (:mod:`nsbench.workers.jobs`), locally and on
 a Dask cluster alike (there each Dask worker keeps its own supervised process):
 every value has a hard time limit (``point_limit``), and a value whose
 integrator never returns or whose process dies (segfault, ``os._exit``, out of
@@ -36,7 +36,7 @@ from nsbench.bifurcation.sweep import (
     point_columns,
     rows_frame,
 )
-from nsbench.jobs import SETUP_LIMIT
+from nsbench.workers.jobs import SETUP_LIMIT
 from nsbench.progress import Progress
 from nsbench.status import OutcomeKind, Status
 
@@ -73,7 +73,7 @@ def chunks(indices: list[int], workers: int, size: int | None = None) -> list[li
 
 def default_workers() -> int:
     """Local workers by default: one per core this process may run on."""
-    from nsbench.jobs import default_workers as cores
+    from nsbench.workers.jobs import default_workers as cores
 
     return cores()
 
@@ -115,7 +115,7 @@ def run_sweep(
     """
     from nsbench.bifurcation.storage import SweepStore
     from nsbench.errors import ConfigError
-    from nsbench.jobs import check_count, check_limit
+    from nsbench.workers.jobs import check_count, check_limit
 
     if not isinstance(spec, SweepSpec):
         raise ConfigError(f"spec must be a SweepSpec, got {type(spec).__name__} {spec!r}"[:300])
@@ -146,7 +146,7 @@ def run_sweep(
     n_workers = workers if workers is not None else default_workers()
     parts = chunks(todo, n_workers if dask is None else 8, chunk_size)
     bar = Progress(len(todo), label=f"{spec.name}", enabled=progress)
-    from nsbench.jobs import WORKER_LOG, WorkerLog
+    from nsbench.workers.jobs import WORKER_LOG, WorkerLog
 
     log = WorkerLog(Path(out) / WORKER_LOG, f"the {spec.name} sweep with {spec.integrator}")
     try:
@@ -159,7 +159,7 @@ def run_sweep(
                 store.write(compute_chunk(spec.to_dict(), part))
                 bar.update(len(part))
         else:
-            from nsbench.jobs import drop_shared, shared_pool
+            from nsbench.workers.jobs import drop_shared, shared_pool
 
             pool = shared_pool(n_workers)  # warm workers of an earlier sweep in this process are reused
             try:
@@ -183,7 +183,7 @@ def supervise(
     advance: Callable[[int], Any] = lambda n: None,
     log: Any = None,
 ) -> None:
-    """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.jobs.JobPool` ``pool``.
+    """Run the chunks ``parts`` of ``spec`` on the :class:`~nsbench.workers.jobs.JobPool` ``pool``.
 
     ``write`` receives the rows of each chunk as it ends, as columns (and, after an
     interruption, every row received), ``advance`` the number of values done.
@@ -191,9 +191,9 @@ def supervise(
     stored as one row with that status and reason, and the rest of its chunk
     goes on in a fresh process. A set-up that does so fails every value not yet
     computed: it would fail again for each of them. The traceback of a job that raised
-    goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`), or, without one, to stderr.
+    goes to ``log`` (a :class:`~nsbench.workers.jobs.WorkerLog`), or, without one, to stderr.
     """
-    from nsbench.jobs import Job
+    from nsbench.workers.jobs import Job
 
     spec_dict = spec.to_dict()
     left: dict[int, list[int]] = {}  # job -> its values not yet received, in computing order
@@ -246,7 +246,7 @@ def supervise(
 
 def prepare_job(*, stage: Callable[[str, float | None], None], emit: Callable[[Any], None]) -> None:
     """What every sweep worker loads before its first value, run as it starts (see
-    :meth:`nsbench.jobs.JobPool.start`), while the command is still preparing the sweep:
+    :meth:`nsbench.workers.jobs.JobPool.start`), while the command is still preparing the sweep:
     the hybrid core with numba, the integrators, and numba's own start (its registries of
     compiled operations, read on the first use of any compiled function). About 0.8 s of
     a worker's 1 s set-up, otherwise spent after the command sends the first chunk."""
@@ -274,7 +274,7 @@ def sweep_job(
     stage: Callable[[str, float | None], None],
     emit: Callable[[Any], None],
 ) -> int:
-    """A chunk of values in a supervised worker (:mod:`nsbench.jobs`): each value's rows emitted at once.
+    """A chunk of values in a supervised worker (:mod:`nsbench.workers.jobs`): each value's rows emitted at once.
 
     The integrator's set-up (construction, ``setup``, loading or compiling the
     core) runs under ``setup_limit``; everything that runs the integrator (the
@@ -368,8 +368,8 @@ def locus_job(
 def supervised(target: str, args: tuple, workers: int = 1, log: Any = None) -> tuple[Any, str]:
     """``(result, '')`` of the job ``target(*args)`` on the kept pool, or ``(None, reason)`` if it raised,
     ran past a limit it announced, or its worker died: a plug-in's fault costs that result only.
-    The traceback of a job that raised goes to ``log`` (a :class:`~nsbench.jobs.WorkerLog`)."""
-    from nsbench.jobs import Job, drop_shared, shared_pool
+    The traceback of a job that raised goes to ``log`` (a :class:`~nsbench.workers.jobs.WorkerLog`)."""
+    from nsbench.workers.jobs import Job, drop_shared, shared_pool
 
     pool = shared_pool(max(1, workers))
     pool.submit(Job("call", f"{__name__}:{target}", args))
@@ -407,7 +407,7 @@ def _run_dask(
 
     from nsbench import registry
     from nsbench.errors import NsbenchError
-    from nsbench.jobs import shareable
+    from nsbench.workers.jobs import shareable
 
     own = not isinstance(dask, Client)
     client = Client(dask, set_as_default=False) if own else dask
@@ -492,7 +492,7 @@ def dask_chunk(
     import atexit
 
     from nsbench import registry
-    from nsbench.jobs import JobPool
+    from nsbench.workers.jobs import JobPool
 
     for kind, objs in (pickle.loads(components) if components else {}).items():
         for name, obj in objs.items():

@@ -4,7 +4,7 @@
 problem that is foreign code, and the commands called it in their own process before
 any worker ran: a factory that loops hung ``bench``, ``bifurcation``, ``check`` and
 ``continuation``, one that raised printed a traceback. Each of them first builds the
-problems it will need in a worker of :mod:`nsbench.jobs` (a *probe*), so that a loop is
+problems it will need in a worker of :mod:`nsbench.workers.jobs` (a *probe*), so that a loop is
 ended at the set-up limit and a fault is one line naming the problem, and goes on as
 before once the probe has built them all. A built-in problem (its factory's module is
 under ``nsbench.``) is the project's own tested code and needs no probe.
@@ -75,7 +75,7 @@ def run_probes(jobs: dict[Hashable, tuple[str, tuple]], limit: float | None, poo
     Returns ``key: (kind, text)``: ``kind`` ``'ok'``, ``'refused'`` or ``'raised'``
     (as :func:`build_job`), ``'time limit'`` or ``'crashed'`` (``text``: the exit code or signal).
     """
-    from nsbench.jobs import Job, JobPool
+    from nsbench.workers.jobs import Job, JobPool
 
     if not jobs:
         return {}
@@ -127,7 +127,7 @@ def probe_problem(name: str, calls: list[dict[str, Any]], limit: float | None, p
     limit
         Seconds the factory may take for all of them (the command's set-up limit).
     pool
-        A :class:`nsbench.jobs.JobPool` to run in (default a new pool of one worker).
+        A :class:`nsbench.workers.jobs.JobPool` to run in (default a new pool of one worker).
 
     Returns
     -------

@@ -182,7 +182,7 @@ def _probe_factory(args: argparse.Namespace, workers: int | None) -> str | None:
     calls = [{"case": args.case, **shared_params(args), name: value} for value in (start, stop)]
     pool = None
     if args.dask is None:  # the sweep's own kept workers, started already: no other to start
-        from nsbench.jobs import default_workers, shared_pool
+        from nsbench.workers.jobs import default_workers, shared_pool
 
         pool = shared_pool(workers or default_workers())
     return probe_problem(args.problem, calls, limit, pool)
@@ -198,7 +198,7 @@ def main(args: argparse.Namespace) -> int:
         return _main(args, workers)
     except BaseException as exc:
         if pool is not None:  # started for this command, which failed: they are not kept
-            from nsbench.jobs import drop_shared
+            from nsbench.workers.jobs import drop_shared
 
             # input refused before any value ran: end them at once, not after their imports
             drop_shared(pool, at_once=isinstance(exc, ConfigError))
@@ -210,7 +210,7 @@ def _start_workers(workers: int | None):
     compiled core while this process prepares (about a second of a short sweep's wall time).
     Returns the pool if this call started them, ``None`` if they were running (kept from an
     earlier sweep of this process)."""
-    from nsbench.jobs import Job, default_workers, shared_pool  # no more: the sooner they start, the better
+    from nsbench.workers.jobs import Job, default_workers, shared_pool  # no more: the sooner they start, the better
 
     pool = shared_pool(workers or default_workers())
     return pool if pool.start(Job("prepare", "nsbench.bifurcation.parallel:prepare_job")) else None
@@ -344,7 +344,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         if args.refine and len(cands):
             # in a supervised worker: a plug-in that hangs or dies there costs that refinement only
             refined = []
-            from nsbench.jobs import WORKER_LOG, WorkerLog
+            from nsbench.workers.jobs import WORKER_LOG, WorkerLog
 
             log = WorkerLog(out / WORKER_LOG, f"the refinements of the {spec.name} sweep")
             for r in cands.itertuples():
@@ -457,7 +457,7 @@ def _portrait(
 
     tag = f"{spec.name}_{value:g}"
     # the run in a supervised worker, the figures here: a plug-in's fault costs this portrait only
-    from nsbench.jobs import SETUP_LIMIT, WORKER_LOG, WorkerLog
+    from nsbench.workers.jobs import SETUP_LIMIT, WORKER_LOG, WorkerLog
 
     log = WorkerLog(out / WORKER_LOG, f"the locus and portrait at {tag}")
     run, why = supervised(

@@ -76,8 +76,8 @@ def _first_call_line(first) -> str:
 def main(args: argparse.Namespace) -> int:
     from nsbench.cli._probe import probe_problem
     from nsbench.testing import check_integrator, configure, plan
-    from nsbench.testing._kit import checks_for
-    from nsbench.testing._supervised import is_plugin
+    from nsbench.testing import checks_for
+    from nsbench.testing import is_plugin
 
     time_limit = parse_real(args.time_limit, "--time-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
@@ -101,7 +101,7 @@ def main(args: argparse.Namespace) -> int:
         # a plug-in runs in a supervised worker, one job per check: a loop or an os._exit costs its check,
         # not the command. Built-in integrators stay in this process: they are the project's own tested
         # code, and a worker would add its start and a second compile of their kernels to every check run.
-        from nsbench.testing._supervised import supervised_checks
+        from nsbench.testing import supervised_checks
 
         first, results = supervised_checks(integ, given, selected, problem, time_limit, setup_limit)
         print(f"  {_first_call_line(first)}")

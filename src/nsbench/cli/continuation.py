@@ -288,7 +288,7 @@ def _supervised(run: dict[str, Any], bar: Any, time_limit: float, setup_limit: f
     """
     import pandas as pd
 
-    from nsbench.jobs import Job, JobPool
+    from nsbench.workers.jobs import Job, JobPool
     from nsbench.periodic.continuation import Continuation
 
     result = Continuation(run["name"], float(run["start"]), float(run["stop"]))

@@ -86,11 +86,11 @@ def add(args: argparse.Namespace) -> int:
 
 
 def _settings(args: argparse.Namespace) -> tuple[float, float]:
-    from nsbench.bench.compare import _check
+    from nsbench.bench.compare import check_thresholds
     from nsbench.cli._common import parse_number
 
     factor, confidence = parse_number(args.factor, "--factor"), parse_number(args.confidence, "--confidence")
-    _check(factor, confidence)
+    check_thresholds(factor, confidence)
     return factor, confidence
 
 

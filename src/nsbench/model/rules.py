@@ -131,7 +131,7 @@ def tail_estimate(t0, t1, t2, t3, ratio_max):
     ``d3 ((r + delta) / (1 - r - delta) - r / (1 - r))`` of the estimate, the error estimate returned. It
     also covers the rounding of the times, which shows in ``r - r_before``. Not counted: the errors of
     the event times themselves, which ``t_Z`` inherits through ``t3``. Written for doubles and for
-    mpmath numbers alike (the check of :mod:`nsbench.integrators._mp_hybrid` runs it in mp).
+    mpmath numbers alike (the check of :mod:`nsbench.integrators.mp_hybrid` runs it in mp).
 
     Returns ``(NaN, inf, NaN)`` if the intervals do not shrink (ratios outside ``(0, ratio_max)``),
     ``(t_Z, inf, r)`` if the ratios move too much for a bound (``r + delta >= 1``).

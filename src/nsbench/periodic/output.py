@@ -72,7 +72,10 @@ def write(out: str | Path, result: Continuation, points: pd.DataFrame, meta: dic
 
 def summary(result: Continuation, meta: dict[str, Any]) -> str:
     """A page a reader can open first: what was continued, the branches, the bifurcations."""
-    from nsbench.bifurcation.compare import _table
+    from nsbench.render import four_digits, markdown
+
+    def _table(frame: pd.DataFrame) -> str:
+        return markdown(frame, fmt=four_digits)
 
     p = meta.get("provenance", {})
     lines = [
@@ -141,7 +144,7 @@ def figure(
     formats: Sequence[str] = ("png", "svg", "pdf"),
 ) -> list[Path]:
     """Section points of every branch against the parameter; stable solid, unstable dashed (:func:`draw`)."""
-    from nsbench.bifurcation.figures import save
+    from nsbench.plotting import save
 
     return save(draw(result, points, variable=variable, diagram=diagram, title=title), base, formats)
 
@@ -166,9 +169,9 @@ def draw(
     """
     from matplotlib.lines import Line2D
 
-    from nsbench.bifurcation.figures import _plt
+    from nsbench.plotting import pyplot
 
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.8), constrained_layout=True)
     handles: list = []
     if diagram is not None and len(diagram) and variable in diagram:

@@ -3,7 +3,7 @@
 The flow runs an integrator, a plug-in's possibly: one whose ``setup`` or ``advance``
 never returns cannot be stopped inside Python, and one that calls ``os._exit`` ends
 its process. ``nsbench continuation`` therefore runs :func:`continuation_job` in a
-worker of :mod:`nsbench.jobs`: the flow is built under the set-up limit, the trace
+worker of :mod:`nsbench.workers.jobs`: the flow is built under the set-up limit, the trace
 under the time limit, and each branch is sent on (with its section points) as soon
 as it is complete, so that a time limit or a crash keeps what was computed before.
 """

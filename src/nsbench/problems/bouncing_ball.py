@@ -46,7 +46,7 @@ class BouncingBall(NamedModes, HybridProblem):
     event_kinds = spec.EVENT_KINDS
     mode_columns = ("contact",)
     #: Its law runs on mpmath numbers (arithmetic; ``math`` only in sign tests): the reference is certified by
-    #: a whole hybrid run in mp (:mod:`nsbench.integrators._mp_hybrid`), resets and accumulations included.
+    #: a whole hybrid run in mp (:mod:`nsbench.integrators.mp_hybrid`), resets and accumulations included.
     mp_law = True
 
     def __init__(self, params: dict[str, Any], parameters: dict[str, float]) -> None:

@@ -101,12 +101,14 @@ from nsbench.testing._kit import (
     CheckResult,
     as_integrator,
     check_integrator,
+    checks_for,
     configure,
     parametrize_with_checks,
     plan,
     run_check,
 )
 from nsbench.testing._problem import check_problem
+from nsbench.testing._supervised import is_plugin, supervised_checks
 
 __all__ = [
     "CHECKS",
@@ -114,6 +116,9 @@ __all__ = [
     "CheckResult",
     "check_integrator",
     "check_problem",
+    "checks_for",
+    "is_plugin",
+    "supervised_checks",
     "first_call_cost",
     "FirstCall",
     "FIRST_CALL_RATIO",

@@ -607,7 +607,7 @@ def check_stuck_block_stays_stuck(integ: Integrator) -> None:
 
 def check_energy_balance(integ: Integrator) -> None:
     """Energy change equals the work of friction, damping and force along case 2's trajectory."""
-    from nsbench.problems.energy import energy_balance
+    from nsbench.energy import energy_balance
 
     problem = _problem(2)
     run, ran_with = configured(integ)

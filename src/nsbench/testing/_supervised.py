@@ -4,7 +4,7 @@ A plug-in's ``setup`` or ``advance`` that never returns cannot be stopped inside
 Python, and one that calls ``os._exit`` ends the process it runs in: run in the
 command's own process, either left ``nsbench check`` hanging or ended without a
 verdict. Here the first-call measurement and then each check are jobs of
-:class:`nsbench.jobs.JobPool` (one worker, so the checks run one after another as in
+:class:`nsbench.workers.jobs.JobPool` (one worker, so the checks run one after another as in
 process and the first call is the worker's first use of the integrator). Each job
 announces its set-up under ``setup_limit`` and its check under ``time_limit``; a job
 past its limit or whose worker dies is a *failed* check with that reason
@@ -114,7 +114,7 @@ def supervised_checks(
         The :class:`~nsbench.testing.FirstCall`, or a one-line reason it was not measured;
         and one :class:`~nsbench.testing.CheckResult` per check, in order.
     """
-    from nsbench.jobs import Job, JobPool
+    from nsbench.workers.jobs import Job, JobPool
 
     config = integ.config()
     module = __name__

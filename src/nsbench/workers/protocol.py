@@ -1,12 +1,17 @@
-"""The messages between the runner and its worker processes, and their framing.
+"""The messages between a parent and its worker processes, and their framing.
 
-A worker is our own child (:mod:`nsbench.bench.worker`), so messages are
+A worker is our own child (:mod:`nsbench.workers.worker`), so messages are
 pickled objects: an 8-byte big-endian length, then the pickle. Classes travel by
 reference, so a worker can unpickle only what it can import (hence the runner's
 rule on components defined in ``__main__``).
 
-Parent to worker: :class:`Hello` (once), then :class:`ComputeReference`,
-:class:`WarmUp`, :class:`TimeCase`, :class:`Call`, :class:`Stop`. Worker to
+This floor knows no app: a task is either a :class:`Call` (a function named by
+its module, as the sweeps, Lyapunov ensembles, the conformance kit and
+continuation send) or any message with a ``task`` number and a
+``perform(context)`` method (:class:`Task`; the suite runner's own tasks live in
+:mod:`nsbench.bench.tasks`), which the worker imports when it unpickles it.
+
+Parent to worker: :class:`Hello` (once), then tasks and :class:`Stop`. Worker to
 parent: :class:`Ready` or :class:`InitFailed` (once), then any number of
 :class:`Stage` and :class:`Partial` per task and exactly one :class:`Done`,
 :class:`Failed` or :class:`Interrupted`. A worker forked from a factory gets no
@@ -23,12 +28,7 @@ import os
 import pickle
 import struct
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, BinaryIO
-
-if TYPE_CHECKING:  # a worker of a sweep never imports the suite runner's modules (pandas, ...)
-    from nsbench.bench.execute import WarmResult
-    from nsbench.bench.reference import Reference
-    from nsbench.bench.suite import Case
+from typing import Any, BinaryIO, Protocol
 
 _HEADER = struct.Struct(">Q")
 
@@ -50,51 +50,32 @@ class Hello:
     provenance: dict[str, Any]
 
 
-@dataclass(frozen=True)
-class ComputeReference:
-    task: int
-    problem: dict[str, Any]
-    candidates: list[dict[str, Any]]
-    t0: float
-    t_end: float
-    dense_points: int
+class Context(Protocol):
+    """What a worker hands a :class:`Task`'s ``perform``."""
+
+    hello: Hello
+
+    def stage(self, what: str, limit: float | None) -> None:
+        """Announce the step ``what`` and the wall-clock seconds it may take (``None``: not limited)."""
+
+    def emit(self, item: Any) -> None:
+        """Send ``item``, a finished part of the result, at once (kept if the task is stopped later)."""
 
 
-@dataclass(frozen=True)
-class WarmUp:
-    """Set up ``case`` and run it once, short and untimed (compilation, first use)."""
-
-    task: int
-    case: Case
-    suite: str
-
-
-@dataclass(frozen=True)
-class TimeCase:
-    """Time ``runs`` warm samples of ``case`` in timing round ``round``; return the row.
-
-    Round 0 gives the full row (metrics against ``reference``, and ``loops``, the
-    runs per sample its calibration run chose), which the worker stores; a later
-    round gives only its timings, taken with the ``loops`` of round 0, which the
-    runner joins to it. ``warm`` is the case's first warm-up (its cold setup and
-    warm-up times go in the row).
-    """
+class Task(Protocol):
+    """A task message an app defines: its number, and what the worker does with it."""
 
     task: int
-    case: Case
-    suite: str
-    reference: Reference
-    warm: WarmResult
-    round: int = 0
-    runs: int = 1
-    loops: int | None = None
+
+    def perform(self, context: Context) -> Any:
+        """Do the task in the worker; the return value goes back in :class:`Done`."""
 
 
 @dataclass(frozen=True)
 class Call:
     """Run ``target(*args, stage=..., emit=...)``, ``target`` given as ``'module:function'``.
 
-    The generic task of :mod:`nsbench.jobs` (sweep values, Lyapunov members):
+    The generic task of :mod:`nsbench.workers.jobs` (sweep values, Lyapunov members):
     ``stage(what, limit)`` announces a step and its hard limit, ``emit(item)``
     sends a finished part of the result at once (kept if the task is stopped later).
     """
@@ -173,8 +154,8 @@ class Interrupted:
 MAX_CONTROL_RECORD = 1 << 22
 
 
-# A worker factory (:mod:`nsbench.bench.factory`) imports and prepares once, then forks the
-# workers of :mod:`nsbench.jobs`; these travel on its control socket, one record each.
+# A worker factory (:mod:`nsbench.workers.factory`) imports and prepares once, then forks the
+# workers of :mod:`nsbench.workers.jobs`; these travel on its control socket, one record each.
 @dataclass(frozen=True)
 class Fork:
     """Start a worker from the factory: its channels are the two file descriptors sent with this
@@ -193,7 +174,7 @@ class Kill:
 
 @dataclass(frozen=True)
 class Exited:
-    """Factory to parent: the worker ``token`` has ended; ``reason`` as :func:`nsbench.bench.pool.describe_exit`
+    """Factory to parent: the worker ``token`` has ended; ``reason`` as :func:`nsbench.workers.pool.describe_exit`
     words it (``'exit code 3'``, ``'signal 11 (SIGSEGV)'``), or why it could not be started."""
 
     token: int

@@ -1,4 +1,4 @@
-"""Workers forked from a worker factory (nsbench.bench.factory): loaded once, isolated as workers started alone."""
+"""Workers forked from a worker factory (nsbench.workers.factory): loaded once, isolated as workers started alone."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import types
 
 import pytest
 
-from nsbench.bench.pool import can_fork
-from nsbench.jobs import Job, JobPool
+from nsbench.workers.pool import can_fork
+from nsbench.workers.jobs import Job, JobPool
 
 pytestmark = pytest.mark.skipif(not can_fork(), reason="workers are forked on Linux only")
 
@@ -65,7 +65,7 @@ def test_a_factory_that_dies_costs_its_running_jobs_and_the_pool_goes_on_with_a_
 
 
 def test_a_factory_that_cannot_take_the_runners_registrations_says_so(monkeypatch):
-    from nsbench.bench import pool as wp
+    from nsbench.workers import pool as wp
     from nsbench.errors import NsbenchError
 
     monkeypatch.setenv("NSBENCH_FORK_WORKERS", "1")
@@ -95,7 +95,7 @@ def test_the_factory_and_its_workers_leave_when_the_runner_is_killed(tmp_path):
             f"""
             import os, signal, sys
             sys.path.insert(0, {os.path.dirname(__file__)!r})
-            from nsbench.jobs import Job, JobPool
+            from nsbench.workers.jobs import Job, JobPool
             pool = JobPool(2)
             pool.start()
             for k in range(2):
@@ -127,7 +127,7 @@ def family_then_wait(*, stage, emit):
 
 
 def test_a_pool_whose_factory_cannot_start_starts_its_workers_alone(monkeypatch):
-    from nsbench.bench import pool as wp
+    from nsbench.workers import pool as wp
 
     monkeypatch.setenv("NSBENCH_FORK_WORKERS", "1")
     # provenance too large for one record of the factory's socket: the factory is refused at once

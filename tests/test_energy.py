@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import nsbench
-from nsbench.problems.energy import energy_balance
+from nsbench.energy import energy_balance
 
 GRID = np.linspace(0.0, 60.0, 6001)  # dt = 0.01: Simpson quadrature error ~1e-9
 

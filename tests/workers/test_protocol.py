@@ -8,8 +8,8 @@ import signal
 
 import pytest
 
-from nsbench.bench import protocol as msg
-from nsbench.bench.pool import describe_exit
+from nsbench.workers import protocol as msg
+from nsbench.workers.pool import describe_exit
 
 
 def test_messages_round_trip_through_a_pipe():

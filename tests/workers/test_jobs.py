@@ -1,4 +1,4 @@
-"""Supervised jobs (nsbench.jobs): parts kept, hard limits, crashes cost only their job."""
+"""Supervised jobs (nsbench.workers.jobs): parts kept, hard limits, crashes cost only their job."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from nsbench.jobs import Job, JobPool
+from nsbench.workers.jobs import Job, JobPool
 
 TARGET = f"{__name__}:"
 
@@ -16,7 +16,7 @@ TARGET = f"{__name__}:"
 @pytest.fixture(autouse=True, params=["forked", "started"])
 def how_workers_start(request, monkeypatch):
     """Every behaviour holds for workers forked from a factory and for workers started on their own."""
-    from nsbench.bench.pool import can_fork
+    from nsbench.workers.pool import can_fork
 
     if request.param == "forked" and not can_fork():
         pytest.skip("workers are forked on Linux only")
@@ -115,7 +115,7 @@ def pid(*, stage, emit):
 
 
 def test_the_kept_pool_reuses_its_warm_worker_and_starts_clean_after_a_drop():
-    from nsbench.jobs import drop_shared, shared_pool
+    from nsbench.workers.jobs import drop_shared, shared_pool
 
     def one(pool):
         pool.submit(Job("p", TARGET + "pid"))

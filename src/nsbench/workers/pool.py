@@ -1,6 +1,6 @@
-"""The parent's handle on one worker process (:mod:`nsbench.bench.worker`).
+"""The parent's handle on one worker process (:mod:`nsbench.workers.worker`).
 
-A worker is ``python -m nsbench.bench.worker`` started with :mod:`subprocess`:
+A worker is ``python -m nsbench.workers.worker`` started with :mod:`subprocess`:
 it never imports the user's ``__main__``. The parent writes to its stdin and
 reads its stdout (unbuffered, so that ``select`` sees every pending message);
 its stderr is the parent's. The parent can end it at any time (time limit,
@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any, BinaryIO, Iterable, cast
 
-from nsbench.bench import protocol as msg
+from nsbench.workers import protocol as msg
 
 
 def hello(components: dict[str, dict[str, Any]], out: str | Path, provenance: dict[str, Any]) -> msg.Hello:
@@ -85,7 +85,7 @@ class WorkerProcess(_Asking):
 
     def __init__(self, first: msg.Hello) -> None:
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "nsbench.bench.worker"],
+            [sys.executable, "-m", "nsbench.workers.worker"],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             bufsize=0,
@@ -153,7 +153,7 @@ def readable(workers: Iterable[WorkerProcess], timeout: float | None) -> list[Wo
 
 # ------------------------------------------------------------------------- forked workers
 def can_fork() -> bool:
-    """Whether workers may be forked from a factory (:mod:`nsbench.bench.factory`): on Linux, unless
+    """Whether workers may be forked from a factory (:mod:`nsbench.workers.factory`): on Linux, unless
     ``NSBENCH_FORK_WORKERS=0`` asks for every worker to be started on its own."""
     return sys.platform.startswith("linux") and os.environ.get("NSBENCH_FORK_WORKERS", "1") != "0"
 
@@ -164,7 +164,7 @@ class WorkerFactory:
     Parameters
     ----------
     first
-        The :class:`~nsbench.bench.protocol.Hello` every forked worker has had.
+        The :class:`~nsbench.workers.protocol.Hello` every forked worker has had.
     """
 
     def __init__(self, first: msg.Hello) -> None:
@@ -173,7 +173,7 @@ class WorkerFactory:
         mine, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "nsbench.bench.factory", str(theirs.fileno())],
+                [sys.executable, "-m", "nsbench.workers.factory", str(theirs.fileno())],
                 stdin=subprocess.DEVNULL,
                 env=_environment(),
                 close_fds=True,

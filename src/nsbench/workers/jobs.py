@@ -3,8 +3,8 @@
 Sweeps (:mod:`nsbench.bifurcation.parallel`) and Lyapunov ensembles
 (:mod:`nsbench.bifurcation.lyapunov`) hand their work here. A job is a call
 ``target(*args, stage=..., emit=...)`` (``target`` named ``'module:function'``)
-that runs in a worker process of the suite runner (:mod:`nsbench.bench.worker`).
-On Linux the workers are forked from a worker factory (:mod:`nsbench.bench.factory`),
+that runs in a worker process of the suite runner (:mod:`nsbench.workers.worker`).
+On Linux the workers are forked from a worker factory (:mod:`nsbench.workers.factory`),
 itself started with :mod:`subprocess` (so neither ever imports the user's
 ``__main__``): the factory imports nsbench and runs the pool's preparation once,
 and each worker starts with all of it loaded, instead of every worker importing
@@ -35,8 +35,8 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any, Hashable, Iterator
 
-from nsbench.bench import pool as wp
-from nsbench.bench import protocol as msg
+from nsbench.workers import pool as wp
+from nsbench.workers import protocol as msg
 from nsbench.errors import NsbenchError
 from nsbench.status import OutcomeKind
 
@@ -167,7 +167,7 @@ class JobPool:
 
     def _usable_factory(self) -> wp.WorkerFactory | None:
         """The worker factory (started now if there is none, or a new one if it has ended); ``None`` where
-        workers are not forked (:func:`nsbench.bench.pool.can_fork`) or a factory could not be started."""
+        workers are not forked (:func:`nsbench.workers.pool.can_fork`) or a factory could not be started."""
         if not wp.can_fork() or self._no_factory:
             return None
         if self._factory is not None and not self._factory.alive():

@@ -1,9 +1,9 @@
-"""A worker process of the suite runner: ``python -m nsbench.bench.worker``.
+"""A worker process: ``python -m nsbench.workers.worker``.
 
 The runner starts workers with :mod:`subprocess`, never with ``multiprocessing``,
 so a worker never imports the user's ``__main__`` (a script without a
 ``if __name__ == "__main__":`` guard would otherwise run again in every worker).
-The worker speaks :mod:`nsbench.bench.protocol` on private duplicates of its
+The worker speaks :mod:`nsbench.workers.protocol` on private duplicates of its
 stdin and stdout; file descriptor 1 is then pointed at stderr, so whatever an
 integrator prints (Python or C) cannot corrupt the protocol.
 
@@ -27,7 +27,7 @@ import time
 import traceback
 from typing import Any, BinaryIO
 
-from nsbench.bench import protocol as msg
+from nsbench.workers import protocol as msg
 
 #: The process that started this worker (set by :func:`main`); ``None`` when served in-process (tests).
 _PARENT: int | None = None
@@ -76,48 +76,37 @@ def register(hello: msg.Hello) -> None:
             registry.register(kind, name, obj)  # the parent's runtime registrations follow the work
 
 
+class _Context:
+    """A task's :class:`~nsbench.workers.protocol.Context`: its stages and parts go to the parent at once."""
+
+    def __init__(self, task: int, out: BinaryIO, hello: msg.Hello) -> None:
+        self.task, self.out, self.hello = task, out, hello
+
+    def stage(self, what: str, limit: float | None) -> None:
+        _send(self.out, msg.Stage(self.task, what, limit))
+
+    def emit(self, item: Any) -> None:
+        _send(self.out, msg.Partial(self.task, item))
+
+
 def _handle(task: Any, out: BinaryIO, hello: msg.Hello) -> Any:
     # each kind of task imports what it needs: a sweep's worker (``Call``) never needs the suite
     # runner's modules, whose pandas alone is a quarter of a second of every worker's start
-    def stage(what: str, limit: float | None) -> None:
-        _send(out, msg.Stage(task.task, what, limit))
-
+    context = _Context(task.task, out, hello)
     if isinstance(task, msg.Call):
         import importlib
 
         module, _, name = task.target.partition(":")
         target = getattr(importlib.import_module(module), name)
-        return target(*task.args, stage=stage, emit=lambda item: _send(out, msg.Partial(task.task, item)))
-    if isinstance(task, msg.ComputeReference):
-        from nsbench.bench.reference import compute_reference
-
-        return compute_reference(task.problem, task.candidates, task.t0, task.t_end, task.dense_points)
-    from nsbench.bench import storage
-    from nsbench.bench.execute import complete_row, time_case, warm_up
-
-    if isinstance(task, msg.WarmUp):
-        return warm_up(task.case, task.suite, stage)
-    if isinstance(task, msg.TimeCase):
-        if task.round > 0:  # timings only: the runner joins them to the stored row
-            return time_case(
-                task.case,
-                task.reference,
-                task.suite,
-                stage,
-                count=task.runs,
-                metrics=False,
-                first_run=task.round,
-                loops=task.loops,
-            )
-        row = complete_row(time_case(task.case, task.reference, task.suite, stage, count=task.runs), task.warm)
-        stage("storing the row", None)  # raises ParentGone if the parent died meanwhile: then no row
-        storage.append_row(hello.out, row, hello.provenance)  # here, not in the busy parent
-        return row
-    raise TypeError(f"unknown task {task!r}")
+        return target(*task.args, stage=context.stage, emit=context.emit)
+    perform = getattr(task, "perform", None)
+    if perform is None:
+        raise TypeError(f"unknown task {task!r}: neither a Call nor a message with perform(context)")
+    return perform(context)
 
 
 def serve(inp: BinaryIO, out: BinaryIO) -> None:
-    """Answer tasks until :class:`~nsbench.bench.protocol.Stop` or the end of the input."""
+    """Answer tasks until :class:`~nsbench.workers.protocol.Stop` or the end of the input."""
     try:
         hello = msg.read_message(inp)
         register(hello)
@@ -129,7 +118,7 @@ def serve(inp: BinaryIO, out: BinaryIO) -> None:
 
 
 def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
-    """Answer tasks until :class:`~nsbench.bench.protocol.Stop` or the end of the input (after the Ready)."""
+    """Answer tasks until :class:`~nsbench.workers.protocol.Stop` or the end of the input (after the Ready)."""
     while True:
         try:
             task = msg.read_message(inp)
@@ -183,7 +172,7 @@ def main() -> None:
 
 
 def run_forked(inp_fd: int, out_fd: int, hello: msg.Hello, init_error: str = "") -> None:
-    """Serve as a worker forked from a factory (:mod:`nsbench.bench.factory`), on the channels the parent
+    """Serve as a worker forked from a factory (:mod:`nsbench.workers.factory`), on the channels the parent
     sent it; never returns. The factory is this process's parent: once it is gone (it leaves when the
     runner does) the worker ends, as a worker started by the runner ends with the runner."""
     code = 0

@@ -13,8 +13,9 @@ import sys
 import time
 
 from nsbench.bench import Suite, load_results, run_suite
-from nsbench.bench import pool as wp
-from nsbench.bench import protocol as msg
+from nsbench.workers import pool as wp
+from nsbench.workers import protocol as msg
+from nsbench.bench import tasks
 from nsbench.bench.execute import WarmResult
 from nsbench.bench.reference import candidates, compute_reference
 from tests.procs import alive, children_of
@@ -29,7 +30,7 @@ def test_a_task_whose_parent_stopped_reading_stores_no_row(tmp_path):
     worker = wp.WorkerProcess(wp.hello({}, tmp_path, {}))
     assert isinstance(worker.receive(), msg.Ready)
     worker.proc.stdout.close()  # the parent reads no more: every message of the worker now fails
-    worker.send(msg.TimeCase(1, case, "s", ref, WarmResult(0.0, 0.0)))
+    worker.send(tasks.TimeCase(1, case, "s", ref, WarmResult(0.0, 0.0)))
     worker.proc.stdin.close()
     assert worker.proc.wait(timeout=120) == 0  # it ends quietly (no traceback, no error exit)
     assert not (tmp_path / "cases").exists() or not any((tmp_path / "cases").iterdir())

@@ -1,25 +1,25 @@
-"""A worker factory: ``python -m nsbench.bench.factory FD``, which imports and prepares once, then forks workers.
+"""A worker factory: ``python -m nsbench.workers.factory FD``, which imports and prepares once, then forks workers.
 
-A supervised pool (:mod:`nsbench.jobs`) needs several workers that have each
+A supervised pool (:mod:`nsbench.workers.jobs`) needs several workers that have each
 imported numpy, numba and the hybrid core (about half a CPU second apiece) before
 their first job. Started from the shell on two cores, those imports compete with
 each other and with the command itself. The factory does them once: it is started
 with :mod:`subprocess` like a worker (so it never imports the user's
 ``__main__``), runs the pool's preparation, and then forks each worker the pool
 asks for. A forked worker starts with everything loaded, in a few milliseconds,
-and is a full worker (:func:`nsbench.bench.worker.run_forked`): its own process,
+and is a full worker (:func:`nsbench.workers.worker.run_forked`): its own process,
 its own channels to the runner, ended alone at a time limit, dying alone.
 
 The factory is the workers' parent, so it is what learns how one ended; it reports
-that (:class:`~nsbench.bench.protocol.Exited`) on its control socket, where the
-runner sends :class:`~nsbench.bench.protocol.Hello`, a preparation
-(:class:`~nsbench.bench.protocol.Call`), :class:`~nsbench.bench.protocol.Fork`
-(with the worker's two pipe ends), :class:`~nsbench.bench.protocol.Kill` and
-:class:`~nsbench.bench.protocol.Stop`. It runs no job itself, so it is never busy
+that (:class:`~nsbench.workers.protocol.Exited`) on its control socket, where the
+runner sends :class:`~nsbench.workers.protocol.Hello`, a preparation
+(:class:`~nsbench.workers.protocol.Call`), :class:`~nsbench.workers.protocol.Fork`
+(with the worker's two pipe ends), :class:`~nsbench.workers.protocol.Kill` and
+:class:`~nsbench.workers.protocol.Stop`. It runs no job itself, so it is never busy
 when a worker ends. It leaves when the runner does (its end of the socket closes);
 its workers then leave within a second.
 
-Linux only (:func:`nsbench.bench.pool.can_fork`): forking a process that has
+Linux only (:func:`nsbench.workers.pool.can_fork`): forking a process that has
 loaded compiled libraries is not safe on macOS, and Windows has no fork.
 """
 
@@ -35,12 +35,12 @@ import traceback
 import warnings
 from typing import Any
 
-from nsbench.bench import protocol as msg
-from nsbench.bench.worker import register, run_forked
+from nsbench.workers import protocol as msg
+from nsbench.workers.worker import register, run_forked
 
 
 def _describe(status: int) -> str:
-    from nsbench.bench.pool import describe_exit
+    from nsbench.workers.pool import describe_exit
 
     return describe_exit(os.waitstatus_to_exitcode(status))
 

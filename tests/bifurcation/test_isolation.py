@@ -147,7 +147,13 @@ def test_the_command_bounds_a_setup_that_never_ends_by_its_setup_limit(tmp_path)
         text=True,
         timeout=600,
     )
-    assert done.returncode == 0, done.stderr
+    # every value stopped at the set-up limit: the diagram is written, and the exit status says it fell short
+    assert done.returncode == 1, done.stderr
+    assert (
+        done.stderr.strip()
+        .splitlines()[-1]
+        .startswith(f"nsbench: bifurcation: values failed or incomplete ({faulty.HangingSetup.name} 3 of 3)")
+    ), done.stderr
     assert time.monotonic() - tic < 300  # the limit, a worker's start and the import: far below 1800 s
     frame = SweepStore(out).load()
     assert (frame["status"] == "time limit").all() and len(frame) == 3
@@ -470,10 +476,14 @@ def test_a_setup_that_raises_leaves_its_tracebacks_in_a_log_and_one_line_on_stde
     out = tmp_path / "s"
     argv = ["bifurcation", "two-dof", "--sweep", "v0=0.1:0.2:3", "--integrator", faulty.BrokenSetup.name]
     argv += ["--transient", "10", "--record", "2", "--workers", "2", "--formats", "png", "--out", str(out)]
-    assert main([*argv, "--no-progress"]) == 0
+    assert main([*argv, "--no-progress"]) == 1  # every value failed: exit 1, the folder still written
     err = capfd.readouterr().err  # the file descriptor: the workers' own stderr is the command's
     assert "Traceback" not in err
-    (line,) = _stderr_lines(err)
+    line, last = _stderr_lines(err)
+    assert last == (
+        f"nsbench: bifurcation: values failed or incomplete ({faulty.BrokenSetup.name} 3 of 3); each value's "
+        "status is in the sweep's features.csv"
+    )
     assert line.startswith("nsbench: warning: ") and "RuntimeError: plug-in bug in setup" in line
     assert str(out / "worker-errors.log") in line
     log = (out / "worker-errors.log").read_text()

@@ -109,11 +109,21 @@ def test_check_a_plugin_whose_setup_hangs_fails_the_checks_that_run_it_once():
     assert seconds < TIMEOUT
 
 
-@pytest.mark.parametrize("flag", ["--time-limit", "--setup-limit"])
-@pytest.mark.parametrize("command", ["check", "continuation"])
+@pytest.mark.parametrize(
+    "command, flag",
+    [
+        *((c, f) for c in ("check", "continuation") for f in ("--time-limit", "--setup-limit")),
+        ("simulate", "--setup-limit"),  # simulate and lyapunov run in their own process: no --time-limit
+        ("lyapunov", "--setup-limit"),
+    ],
+)
 def test_a_bad_limit_is_refused_with_one_line(command, flag, tmp_path, capsys):
-    argv = ["check", "exact"] if command == "check" else ["continuation", "two-dof", "--sweep", "v0=0.1:0.2"]
-    argv += ["--out", str(tmp_path / "c")] if command == "continuation" else []
+    argv = {
+        "check": ["check", "exact"],
+        "continuation": ["continuation", "two-dof", "--sweep", "v0=0.1:0.2", "--out", str(tmp_path / "c")],
+        "simulate": ["simulate", "two-dof", "--events-out", str(tmp_path / "c")],
+        "lyapunov": ["lyapunov", "two-dof", "--out", str(tmp_path / "c")],
+    }[command]
     for text in ("0", "-1", "nan", "inf", "soon"):
         assert main([*argv, flag, text]) == 2
         (line,) = capsys.readouterr().err.strip().splitlines()
@@ -178,18 +188,22 @@ def test_continuation_a_crash_keeps_the_branches_computed_before(tmp_path):
         ("raising-problem-test", "its factory raised RuntimeError: plug-in bug in the problem factory"),
     ],
 )
-@pytest.mark.parametrize("command", ["check", "bifurcation", "continuation"])
+@pytest.mark.parametrize("command", ["check", "bifurcation", "continuation", "simulate", "lyapunov"])
 def test_a_faulty_problem_factory_is_one_line(command, problem, fault, tmp_path):
+    # simulate and lyapunov built the problem in their own process: the looping factory hung them
     out = ["--out", str(tmp_path / "o"), "--no-progress"]
     argv = {
         "check": ["check", "exact", "--problem", problem, "--check", "protocol"],
         "bifurcation": ["bifurcation", problem, "--sweep", "v0=0.1:0.2:3", "--workers", "1", *out],
         "continuation": ["continuation", problem, "--sweep", "v0=0.1:0.2", *out],
+        "simulate": ["simulate", problem, "--t-end", "1", "--events-out", str(tmp_path / "o")],
+        "lyapunov": ["lyapunov", problem, "--workers", "1", "--out", str(tmp_path / "o")],
     }[command]
     done, seconds = _run(*argv, "--setup-limit", "3")
     assert done.returncode == 1, done.stderr
     (line,) = done.stderr.strip().splitlines()
     assert line.startswith(f"nsbench: {command}: problem {problem}: {fault}; "), line
+    assert "Traceback" not in done.stderr
     assert not (tmp_path / "o").exists() and seconds < TIMEOUT
 
 

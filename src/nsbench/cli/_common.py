@@ -445,10 +445,36 @@ def shared_params(args: argparse.Namespace) -> dict[str, Any]:
     return params
 
 
+def problem_arguments(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``get_problem`` keyword arguments of ``--case``, ``--dimensional``, ``--param`` and ``--n``."""
+    return {"case": args.case, "dimensional": args.dimensional, **shared_params(args)}
+
+
 def problem_from_args(args: argparse.Namespace):
     from nsbench.problems import get_problem
 
-    return get_problem(args.problem, case=args.case, dimensional=args.dimensional, **shared_params(args))
+    return get_problem(args.problem, **problem_arguments(args))
+
+
+def add_factory_limit(p) -> None:
+    """The ``--setup-limit`` of a command that builds its problem in its own process (simulate, lyapunov)."""
+    p.add_argument(
+        "--setup-limit",
+        default="1800",
+        metavar="SECONDS",
+        help="hard limit of a plug-in problem's factory, which is built first in a worker: past it, or if "
+        "the factory crashes or raises, the command says so in one line and exits 1 (default 1800)",
+    )
+
+
+def factory_fault(args: argparse.Namespace) -> str | None:
+    """A plug-in problem built first in a supervised worker under ``--setup-limit``
+    (:func:`nsbench.cli._probe.probe_problem`): ``None``, or one line naming its fault (a loop past
+    the limit, a crash, an exception). A built-in problem is not probed."""
+    from nsbench.cli._probe import probe_problem
+
+    limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    return probe_problem(args.problem, [problem_arguments(args)], limit)
 
 
 def add_report_formats(p) -> None:

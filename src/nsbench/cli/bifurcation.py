@@ -314,6 +314,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     # a closed port, a bad address or a cluster without workers: one line now, not a hang later
     dask = connect_dask(args.dask) if args.dask is not None else None
     frames, walls = {}, {}
+    short: dict[str, tuple[int, int]] = {}  # integrator -> (values failed or incomplete, values)
     from nsbench.bifurcation.parallel import default_workers
 
     local_workers = workers or default_workers()  # refinements and portraits reuse the sweep's kept workers
@@ -371,6 +372,8 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         from nsbench.bifurcation.sweep import OK_STATUSES
 
         n_bad = int((~summary["status"].isin(OK_STATUSES)).sum())
+        if n_bad:
+            short[spec.integrator] = (n_bad, len(summary))
         print(
             f"{spec.integrator}: {len(summary)} values ({n_bad} failed or incomplete) in {walls[spec.integrator]:.1f} s "
             f"-> {out}"
@@ -381,6 +384,8 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
             for r in cands.itertuples():
                 ref = f" refined {r.refined_value:.6g}" if "refined_value" in cands else ""
                 print(f"    {spec.name} in [{r.left:.6g}, {r.right:.6g}]{ref}: {r.kind}: {r.description}")
+        elif n_bad == len(summary):
+            print("  no value ended in success or rest: nothing to read along the sweep")
         else:
             print("  no qualitative change along the sweep")
         SweepStore(out)  # the folder is complete and readable
@@ -392,6 +397,13 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
         print(f"comparison -> {base / 'compare.md'}")
     if dask is not None:
         dask.close()
+    if short:  # the diagrams are written, but some values fell short: exit 1, as bench does for a failed case
+        detail = ", ".join(f"{name} {bad} of {n}" for name, (bad, n) in short.items())
+        print(
+            f"nsbench: bifurcation: values failed or incomplete ({detail}); each value's status is in the sweep's features.csv",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 

@@ -7,9 +7,11 @@ import sys
 
 from nsbench.cli._common import (
     MIN_D0,
+    add_factory_limit,
     add_problem_arguments,
     check_fixed_step,
     check_output_file,
+    factory_fault,
     parse_count,
     parse_real,
     problem_from_args,
@@ -20,6 +22,7 @@ from nsbench.status import Status
 def add_parser(sub) -> None:
     p = sub.add_parser("lyapunov", help="largest Lyapunov exponent of the mapping points (ensemble of Benettin runs)")
     add_problem_arguments(p)
+    add_factory_limit(p)
     p.add_argument(
         "--integrator",
         default=None,
@@ -73,6 +76,12 @@ def main(args: argparse.Namespace) -> int:
     member_limit = parse_real(args.member_limit, "--member-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
     if args.out:
         check_output_file(args.out, "--out")
+    # a plug-in problem's factory runs first in a worker under --setup-limit: one that loops, crashes or
+    # raises is one line and exit 1, never a hang or a traceback of this process
+    fault = factory_fault(args)
+    if fault is not None:
+        print(f"nsbench: lyapunov: {fault}; nothing was run", file=sys.stderr)
+        return 1
     problem = problem_from_args(args)
     name = args.integrator or ("exact" if problem.is_linear else "henon-rk4")
     from nsbench.integrators import get_integrator

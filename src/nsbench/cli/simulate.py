@@ -9,9 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from nsbench.cli._common import (
+    add_factory_limit,
     add_problem_arguments,
     check_figure_path,
     check_output_file,
+    factory_fault,
     check_fixed_step,
     parse_count,
     parse_options,
@@ -28,6 +30,7 @@ MAX_STEPS = 5_000_000
 def add_parser(sub) -> None:
     p = sub.add_parser("simulate", help="integrate one problem with one integrator through every event")
     add_problem_arguments(p)
+    add_factory_limit(p)
     p.add_argument(
         "--integrator",
         default=None,
@@ -69,6 +72,12 @@ def main(args: argparse.Namespace) -> int:
             check_output_file(getattr(args, flag), "--" + flag.replace("_", "-"))
     if args.plot:
         check_figure_path(args.plot, "--plot")
+    # a plug-in problem's factory runs first in a worker under --setup-limit: one that loops, crashes or
+    # raises is one line and exit 1, never a hang or a traceback of this process
+    fault = factory_fault(args)
+    if fault is not None:
+        print(f"nsbench: simulate: {fault}; nothing was run", file=sys.stderr)
+        return 1
     problem = problem_from_args(args)
     name = args.integrator or ("exact" if problem.is_linear else "scipy-dop853")
     from nsbench.engine import simulate

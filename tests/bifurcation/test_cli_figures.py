@@ -203,7 +203,13 @@ def test_a_failing_member_of_several_integrators_is_compared(tmp_path, capsys):
         )
     finally:
         registry.unregister("integrators", faulty.ExitingAt.name)
-    assert code == 0, capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 1, err  # a value failed: the folders and the comparison are written, the exit status says so
+    assert (
+        err.strip()
+        .splitlines()[-1]
+        .startswith(f"nsbench: bifurcation: values failed or incomplete ({faulty.ExitingAt.name} 1 of 8)")
+    ), err
     stored = SweepStore(out / faulty.ExitingAt.name).load()
     assert stored["wall_time"].dtype == float and (stored["status"] == "crashed").sum() == 1  # v0 = 0.16
     text = (out / "compare.md").read_text()
@@ -254,7 +260,7 @@ def test_a_portrait_whose_plugin_hangs_costs_only_the_portrait(tmp_path, capsys)
     finally:
         registry.unregister("integrators", faulty.HangingAt.name)
     printed = capsys.readouterr().out
-    assert code == 0
+    assert code == 1  # the value at 0.16 hangs in the sweep too: kept with status 'time limit'
     assert "locus and portrait at v0_0.16 failed: time limit" in printed and "ran past its limit of 3 s" in printed
     assert (out / "diagram.png").exists() and (out / "locus_v0_0.1.png").exists()
     assert not (out / "locus_v0_0.16.png").exists()

@@ -1214,6 +1214,13 @@ SUCCESSES: dict[tuple[str, str], dict[str, str]] = {
         }
         for opt in ("--time-limit", "--setup-limit")
     },
+    **{
+        (command, "--setup-limit"): {
+            "tiny": "the limit of a plug-in problem's factory, built first in a worker: a built-in problem is "
+            "built in this process, under no limit"
+        }
+        for command in ("simulate", "lyapunov")
+    },
     ("list", "--setup-limit"): {
         "tiny": "the limit of a plug-in problem's factory under 'list coverage': the plain listing builds no problem"
     },

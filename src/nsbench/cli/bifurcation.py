@@ -6,7 +6,9 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from nsbench.cli._common import (
     check_fixed_step,
@@ -122,22 +124,15 @@ def add_parser(sub) -> None:
     p.set_defaults(handler=main)
 
 
-def _spec(args, problem_probe, integrator: str, options: dict):
-    from nsbench.bifurcation.sweep import SweepSpec, default_section, parse_sweep
+def _spec(request: _Request, section: str | None, problem_probe, integrator: str, options: dict):
+    from nsbench.bifurcation.sweep import SweepSpec, default_section
 
-    name, start, stop, count = parse_sweep(args.sweep)
-    params = shared_params(args)
-    _check_swept_name(name)
-    window = (
-        parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
-        if args.window is not None
-        else None
-    )
-    record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
-    section = args.section or default_section(problem_probe(name, start, params), problem_probe(name, stop, params))
+    name, start, stop, count = request.sweep
+    params = request.params
+    section = section or default_section(problem_probe(name, start, params), problem_probe(name, stop, params))
     return SweepSpec(
-        problem=args.problem,
-        case=int(parse_number(args.case, "--case")),
+        problem=request.problem,
+        case=request.case,
         name=name,
         start=start,
         stop=stop,
@@ -145,9 +140,9 @@ def _spec(args, problem_probe, integrator: str, options: dict):
         integrator=integrator,
         options=options,
         section=section,
-        transient=parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN"),
-        record=record,
-        window=window,
+        transient=request.transient,
+        record=request.record,
+        window=request.window,
         params=params,
     )
 
@@ -157,7 +152,7 @@ def _case_text(spec) -> str:
     return f" case {spec.case}" if spec.problem_at(spec.start).cases else ""
 
 
-def _probe(problem: str, case: str):
+def _probe(problem: str, case: int):
     from nsbench.problems import get_problem
 
     def build(name, value, params):
@@ -166,26 +161,22 @@ def _probe(problem: str, case: str):
     return build
 
 
-def _probe_factory(args: argparse.Namespace, workers: int | None) -> str | None:
+def _probe_factory(request: _Request, dask: bool) -> str | None:
     """A plug-in problem built first at both ends of the sweep in a worker, under ``--setup-limit``
     (:func:`nsbench.cli._probe.probe_problem`): a factory that loops or raises is one line, not a
     hang or a traceback of this process. ``None`` when it built (or the problem is built-in)."""
-    from nsbench.bifurcation.sweep import parse_sweep
     from nsbench.cli._probe import is_plugin_problem, probe_problem
 
-    if not is_plugin_problem(args.problem):
+    if not is_plugin_problem(request.problem):
         return None
-    name, start, stop, _ = parse_sweep(args.sweep)
-    if name in ("case", "dimensional"):  # refused below, with its own line
-        return None
-    limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-    calls = [{"case": args.case, **shared_params(args), name: value} for value in (start, stop)]
+    name, start, stop, _ = request.sweep
+    calls = [{"case": request.case, **request.params, name: value} for value in (start, stop)]
     pool = None
-    if args.dask is None:  # the sweep's own kept workers, started already: no other to start
+    if not dask:  # the sweep's own kept workers, started already: no other to start
         from nsbench.workers.jobs import default_workers, shared_pool
 
-        pool = shared_pool(workers or default_workers())
-    return probe_problem(args.problem, calls, limit, pool)
+        pool = shared_pool(request.workers or default_workers())
+    return probe_problem(request.problem, calls, request.setup_limit, pool)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -194,8 +185,8 @@ def main(args: argparse.Namespace) -> int:
     # of a second in which the workers start instead
     pool = _start_workers(workers) if args.dask is None else None
     try:
-        _check_numbers(args)  # every number and count before any problem is built or value computed
-        return _main(args, workers)
+        request = _request(args, workers)  # every option once, before any problem is built or value computed
+        return _main(args, request)
     except BaseException as exc:
         if pool is not None:  # started for this command, which failed: they are not kept
             from nsbench.workers.jobs import drop_shared
@@ -216,42 +207,28 @@ def _start_workers(workers: int | None):
     return pool if pool.start(Job("prepare", "nsbench.bifurcation.parallel:prepare_job")) else None
 
 
-def _main(args: argparse.Namespace, workers: int | None) -> int:
+def _main(args: argparse.Namespace, request: _Request) -> int:
     from nsbench.bifurcation import detect, figures
     from nsbench.bifurcation.parallel import run_sweep, supervised
     from nsbench.bifurcation.storage import SweepStore, points_summary
     from nsbench.integrators import integrator_class
 
-    fault = _probe_factory(args, workers)
+    fault = _probe_factory(request, dask=args.dask is not None)
     if fault is not None:
         print(f"nsbench: bifurcation: {fault}; nothing was run", file=sys.stderr)
         return 1
-    probe = _probe(args.problem, args.case)
-    names = args.integrator or [None]
-    twice = sorted({n for n in args.integrator if args.integrator.count(n) > 1})
-    if twice:  # the same sweep twice, and a comparison of a method with itself
-        raise ConfigError(f"--integrator {twice[0]} is given twice; give each integrator once")
-    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
-    bad = [f for f in formats if f not in figures.FORMATS]
-    if bad:
-        raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
-    extra = parse_options(args.option)
-    if args.h is not None:
-        if "h" in extra:
-            raise ConfigError("--h and --option h=... are both given; give it once")
-        extra["h"] = parse_real(args.h, "--h", low=0.0, low_open=True)
+    probe = _probe(request.problem, request.case)
+    names, extra, formats, workers = request.integrators, request.options, request.formats, request.workers
     specs = []
     for name in names:
         if name is None:
-            from nsbench.bifurcation.sweep import parse_sweep
-
-            sw, start, _, _ = parse_sweep(args.sweep)
+            sw, start, _, _ = request.sweep
             name = "exact" if probe(sw, start, {}).is_linear else "henon-rk4"
         allowed = integrator_class(name).options
         unknown = [k for k in extra if all(k not in integrator_class(n).options for n in names if n)]
         if unknown:
             raise ConfigError(f"option(s) {', '.join(unknown)} belong to none of the integrators")
-        specs.append(_spec(args, probe, name, {k: v for k, v in extra.items() if k in allowed}))
+        specs.append(_spec(request, args.section, probe, name, {k: v for k, v in extra.items() if k in allowed}))
     for spec in specs:  # a fixed step the span or the force cannot take: one line now, not a sweep of failures
         from nsbench.integrators import get_integrator
 
@@ -266,13 +243,13 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
                 SWEEP_MAX_STEPS,
                 given=type(integ).capabilities.step_option in spec.options,
             )
-    pair = _pair(args.pair or "1,2")
+    pair = request.pair or (1, 2)
     n_blocks = getattr(specs[0].problem_at(specs[0].start), "n_blocks", None)
     if args.pair is not None and n_blocks is None:
         raise ConfigError(f"--pair {args.pair} names blocks of a friction oscillator; {args.problem} has none")
     if args.pair is not None and n_blocks is not None and any(not 1 <= b <= n_blocks for b in pair):
         raise ConfigError(f"--pair {args.pair}: {args.problem} has blocks 1 to {n_blocks}")
-    portraits = [parse_real(text, "--portrait") for text in args.portrait]
+    portraits = request.portraits
     low, high = sorted((specs[0].start, specs[0].stop))
     for value in portraits:  # a bad portrait value or block pair fails now, not after the sweep
         if not low <= value <= high:
@@ -324,8 +301,7 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
 
         out = base if len(specs) == 1 else base / file_name(spec.integrator, "integrator name")
         tic = time.perf_counter()
-        point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-        setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+        point_limit, setup_limit = request.point_limit, request.setup_limit
         frame = run_sweep(
             spec,
             out,
@@ -407,31 +383,79 @@ def _main(args: argparse.Namespace, workers: int | None) -> int:
     return 0
 
 
-def _check_numbers(args: argparse.Namespace) -> None:
-    """The sweep text and every numeric option, so that bad input fails before anything runs."""
+@dataclass(frozen=True)
+class _Request:
+    """The command line of one ``nsbench bifurcation``, every option parsed and checked once (:func:`_request`)."""
+
+    problem: str
+    case: int
+    sweep: tuple[str, float, float, int]  # name, start, stop, count
+    params: dict[str, Any]
+    integrators: tuple[str | None, ...]  # None: the default for the problem (exact or henon-rk4)
+    options: dict[str, Any]  # --option and --h
+    formats: tuple[str, ...]
+    record: int
+    transient: float
+    window: float | None
+    workers: int | None
+    point_limit: float
+    setup_limit: float
+    portraits: tuple[float, ...]
+    pair: tuple[int, int] | None  # None: not given (the locus takes blocks 1 and 2)
+
+
+def _request(args: argparse.Namespace, workers: int | None) -> _Request:
+    """Every option of ``args`` parsed and checked once, before any problem is built or value computed."""
+    from nsbench.bifurcation import figures
     from nsbench.bifurcation.sweep import parse_sweep
 
-    _check_swept_name(parse_sweep(args.sweep)[0])
+    sweep = parse_sweep(args.sweep)
+    _check_swept_name(sweep[0])
     try:
         whole = float(args.case).is_integer()
     except ValueError:
         whole = False
     if not whole:
         raise ConfigError(f"--case = {args.case!r} must be a case number such as 1, 2, 3 or 4")
-    parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
-    parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
+    record = parse_count(args.record, "--record", low=1, bound="MAX_RECORD")
+    transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
+    window = None
     if args.window is not None:
-        parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
+        window = parse_real(args.window, "--window", low=0.0, low_open=True, bound="MAX_SPAN")
+    options = parse_options(args.option)
     if args.h is not None:
-        parse_real(args.h, "--h", low=0.0, low_open=True)
-    if args.workers is not None:
-        parse_count(args.workers, "--workers", low=1, bound="MAX_WORKERS")
-    parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-    parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-    for text in args.portrait:
-        parse_real(text, "--portrait")
-    if args.pair is not None:
-        _pair(args.pair)
+        h = parse_real(args.h, "--h", low=0.0, low_open=True)
+        if "h" in options:
+            raise ConfigError("--h and --option h=... are both given; give it once")
+        options["h"] = h
+    point_limit = parse_real(args.point_limit, "--point-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    setup_limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
+    portraits = tuple(parse_real(text, "--portrait") for text in args.portrait)
+    pair = _pair(args.pair) if args.pair is not None else None
+    twice = sorted({n for n in args.integrator if args.integrator.count(n) > 1})
+    if twice:  # the same sweep twice, and a comparison of a method with itself
+        raise ConfigError(f"--integrator {twice[0]} is given twice; give each integrator once")
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    bad = [f for f in formats if f not in figures.FORMATS]
+    if bad:
+        raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(figures.FORMATS)}")
+    return _Request(
+        problem=args.problem,
+        case=int(parse_number(args.case, "--case")),
+        sweep=sweep,
+        params=shared_params(args),
+        integrators=tuple(args.integrator) or (None,),
+        options=options,
+        formats=formats,
+        record=record,
+        transient=transient,
+        window=window,
+        workers=workers,
+        point_limit=point_limit,
+        setup_limit=setup_limit,
+        portraits=portraits,
+        pair=pair,
+    )
 
 
 def _check_swept_name(name: str) -> None:

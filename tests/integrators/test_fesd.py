@@ -79,7 +79,7 @@ def test_every_switch_of_exacts_log_is_found_with_fesds_own_times(exact_run, fes
 def test_the_end_state_error_falls_with_the_step(exact_run, fesd_runs):
     errors = [float(np.max(np.abs(fesd_runs[h].y_final - exact_run.y_final))) for h in (0.05, 0.025)]
     # measured 1.2e-5 and 7.5e-7: observed order 4.0 (three-stage Radau IIA is of order 5 on a smooth arc;
-    # the exits, tangential, and the relaxation's floor, about 4 sqrt(comp_tol), hold it lower: 5.9e-7 at
+    # the exits, tangential, and the relaxation's floor, of order sqrt(comp_tol), hold it lower: 5.9e-7 at
     # h = 0.0125); bounds with a margin of 8 and of 2 on the order: below 1e-4 at h = 0.05, order above 2
     # (the earlier default, n_s = 2 and comp_tol = 1e-6, measured 6.8e-4 and 4.1e-4, order 0.74)
     assert errors[0] < 1e-4
@@ -99,7 +99,7 @@ def test_every_switch_from_the_cases_own_start_is_found_with_fesds_own_times():
     kinds = list(ref["kind"])
     assert len(kinds) == 22 and list(ev["kind"]) == kinds  # the sequence, not a prefix
     t_ref = ref["t"].to_numpy()
-    # inferred times: measured at most 5.0e-5 (the crossings 4.5e-7); bound 10 times that. It fails the earlier
+    # inferred times: measured at most 5.0e-5 (the crossings 1.7e-7); bound 10 times that. It fails the earlier
     # default (n_s = 2, comp_tol = 1e-6: the first exit one step, 0.026, late, and 20 events) and a relaxation
     # floor of comp_tol = 1e-10 (7.8e-4 at the exit after the long sliding episode)
     assert np.max(np.abs(ev["t"].to_numpy() - t_ref)) < 5e-4

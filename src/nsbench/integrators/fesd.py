@@ -33,8 +33,8 @@ its oscillator's order study) and ``comp_tol = 1e-12`` (nosnoc's order experimen
 1e-6), with nosnoc's homotopy floor ``sigma_N`` lowered to ``comp_tol`` (else it stops at 1e-8 whatever
 ``comp_tol`` says). Measured on the relay (docs/families.md): with two stages the crossing arcs
 (``omega = 25``) leave a state error near 5e-2 that no ``comp_tol`` removes, and the relaxation leaves an
-end-state error of about ``4 sqrt(comp_tol)`` that no step removes (4e-3 at 1e-6); both are needed for every
-switch of ``exact``'s log from the case's own start at ``h = 0.025``.
+end-state error of the order of ``sqrt(comp_tol)`` that no step removes (4e-3 at 1e-6); both are needed for
+every switch of ``exact``'s log from the case's own start at ``h = 0.025``.
 
 **Failures.** A step whose program does not converge (IPOPT's status, or a non-finite
 state) is retried as two steps of half the length, down to ``h / 8``; if that fails too the

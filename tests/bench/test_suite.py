@@ -195,6 +195,41 @@ def test_list_valued_params_are_a_grid_of_problems():
     assert len({case.case_id for case in suite.cases()}) == 4
 
 
+def test_families_suite_runs_the_relay_and_its_refusals_are_setup_refusals():
+    """The families suite (issue 51): four problems, the relay feedback system the one fesd maps; on the relay
+    the methods written for blocks on a belt refuse at setup (a row with the reason), they do not crash."""
+    from nsbench.errors import UnsupportedProblemError
+    from nsbench.integrators import integrator_class
+    from nsbench.problems import problem_from_config
+
+    suite = load_suite("families")
+    spans = [((c["name"], c["case"]), span) for c, span in suite.problem_spans()]
+    assert spans == [
+        (("one-dof", 1), (0.0, 100.0)),
+        (("two-dof", 1), (0.0, 100.0)),
+        (("one-dof", "leine"), (0.0, 100.0)),
+        (("relay-feedback", "piiroinen-kuznetsov"), (0.0, 2.0)),
+    ]
+    # configurations per problem, counted from the ladders in families.toml: henon-rk4 5 h, moreau-jean 11 h,
+    # switch-model 4 eta, smoothing 4 eps, lugre 2 tolerances, and the optional engines installed here
+    # (fesd 3 h, cyrk-vern7 4 and diffrax-tsit5 4 tolerances)
+    ladders = {"henon-rk4": 5, "moreau-jean": 11, "switch-model": 4, "smoothing": 4, "lugre": 2}
+    ladders.update(
+        {k: v for k, v in {"fesd": 3, "cyrk-vern7": 4, "diffrax-tsit5": 4}.items() if k not in suite.unavailable()}
+    )
+    assert len(suite.cases()) == 4 * sum(ladders.values())
+    relay = problem_from_config(suite.problem_configs()[-1])
+    runs = set()
+    for name in ladders:
+        try:
+            integrator_class(name)().setup(relay)
+        except UnsupportedProblemError as exc:
+            assert name in str(exc) and "relay-feedback" in str(exc)
+        else:
+            runs.add(name)
+    assert runs == {"henon-rk4"} | ({"fesd", "cyrk-vern7", "diffrax-tsit5"} & set(ladders))
+
+
 def test_packaged_suites_by_name():
     from nsbench.bench.suite import packaged_suites
 

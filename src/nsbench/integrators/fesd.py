@@ -28,6 +28,14 @@ boundary: neither is a located switch). The events are inferred
 from the labels (:mod:`nsbench.hybrid.inference`, rule 6) and the located times reported
 beside them (the event log's ``t_located``).
 
+**Defaults.** Radau IIA with ``n_s = 3`` stages (order 5; nosnoc's own examples use 2 for the relay, 3 for
+its oscillator's order study) and ``comp_tol = 1e-12`` (nosnoc's order experiments; its relay example uses
+1e-6), with nosnoc's homotopy floor ``sigma_N`` lowered to ``comp_tol`` (else it stops at 1e-8 whatever
+``comp_tol`` says). Measured on the relay (docs/families.md): with two stages the crossing arcs
+(``omega = 25``) leave a state error near 5e-2 that no ``comp_tol`` removes, and the relaxation leaves an
+end-state error of the order of ``sqrt(comp_tol)`` that no step removes (4e-3 at 1e-6); both are needed for
+every switch of ``exact``'s log from the case's own start at ``h = 0.025``.
+
 **Failures.** A step whose program does not converge (IPOPT's status, or a non-finite
 state) is retried as two steps of half the length, down to ``h / 8``; if that fails too the
 run stops with ``Status.INTEGRATOR_FAILURE`` at the last good state.
@@ -112,12 +120,12 @@ class Fesd(OptionalBackend, WholeSystem):
             0.05, float, lower=0.0, doc="step: the span of one nosnoc program (rounded so whole steps fill the span)"
         ),
         "n_fe": Option(2, int, lower=1, lower_inclusive=True, doc="finite elements per step"),
-        "n_s": Option(2, int, lower=1, lower_inclusive=True, upper=9, doc="stages of the IRK scheme"),
+        "n_s": Option(3, int, lower=1, lower_inclusive=True, upper=9, doc="stages of the IRK scheme"),
         "scheme": Option("radau-iia", str, choices=tuple(SCHEMES), doc="the IRK scheme"),
         "switch_detection": Option(
             True, bool, doc="FESD's element lengths as unknowns (False: nosnoc's plain IRK on fixed elements)"
         ),
-        "comp_tol": Option(1e-6, float, lower=0.0, upper=1e-2, doc="complementarity tolerance of the homotopy"),
+        "comp_tol": Option(1e-12, float, lower=0.0, upper=1e-2, doc="complementarity tolerance of the homotopy"),
     }
     accuracy_levels = ({"h": 0.1}, {"h": 0.05}, {"h": 0.025})
     known_gaps = {
@@ -169,6 +177,7 @@ class Fesd(OptionalBackend, WholeSystem):
         opts.n_s = int(s["n_s"])
         opts.N_finite_elements = int(s["n_fe"])
         opts.comp_tol = float(s["comp_tol"])
+        opts.sigma_N = min(opts.sigma_N, opts.comp_tol)  # the homotopy's floor (nosnoc's 1e-8): comp_tol reachable
         opts.terminal_time = float(h)
         opts.print_level = 0
         opts.homotopy_update_rule = nosnoc.HomotopyUpdateRule.SUPERLINEAR

@@ -28,7 +28,11 @@ def tiny(tmp_path_factory):
 def test_bench_report_compare(tiny, capsys):
     out = tiny / "out"
     assert main(["bench", str(tiny / "tiny.toml"), "--out", str(out), "--workers", "1", "--no-progress"]) == 0
-    text = capsys.readouterr().out
+    printed = capsys.readouterr()
+    text = printed.out
+    # --no-progress hides the bar, not the plan: a log or a script gets what the run will do and how long
+    (plan,) = [line for line in printed.err.splitlines() if line.startswith("nsbench: suite 'tiny': ")]
+    assert "4 case(s): 12 timed samples after a warm-up each" in plan and "estimated about" in plan, plan
     assert "4 cases: 4 computed, 0 already stored" in text and "index.html" in text
     for name in ("results.parquet", "results.csv", "report.md", "index.html", "table.tex", "provenance.json"):
         assert (out / name).exists(), name

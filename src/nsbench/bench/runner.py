@@ -206,6 +206,7 @@ def run_suite(
     progress: bool = True,
     stream: TextIO | None = None,
     provenance_extra: dict[str, Any] | None = None,
+    plan: bool | None = None,
 ) -> RunSummary:
     """Run every case of ``suite`` that ``out`` does not hold yet, and export the results.
 
@@ -222,6 +223,10 @@ def run_suite(
         Keep the cases already stored in ``out`` (default); ``False`` discards them first.
     progress, stream
         Show a progress bar and warnings on ``stream`` (default stderr).
+    plan
+        Say first, in one line on ``stream``, what the run will do and how long it should take
+        (:mod:`nsbench.bench.estimate`; default: as ``progress``). The commands always say it,
+        ``--no-progress`` or not.
 
     Returns
     -------
@@ -278,7 +283,7 @@ def run_suite(
     # One step per reference, and per case one for its first warm-up and one per timing round,
     # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
     warm_weight, weight, ref_weight = _weights(
-        suite, pending, len(refs.todo), prov["workers"], out, err, progress, resume
+        suite, pending, len(refs.todo), prov["workers"], out, err, progress if plan is None else plan, resume
     )
     bar = Progress(
         len(refs.todo) * ref_weight + sum(warm_weight(c) + rounds_left[c.case_id] * weight(c) for c in pending),

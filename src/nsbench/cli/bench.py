@@ -72,7 +72,10 @@ def run_and_report(
         print("INCOMPLETE: no problem of the suite could be built; nothing was run")
         return 1
     extra = {"resume_command": resume_command} if resume_command else None
-    summary = run_suite(suite, out, workers=workers, resume=resume, progress=progress, provenance_extra=extra)
+    # the plan line is said with or without the bar: a log or a script wants it too
+    summary = run_suite(
+        suite, out, workers=workers, resume=resume, progress=progress, provenance_extra=extra, plan=True
+    )
     counts = summary.results["status"].value_counts().to_dict() if len(summary.results) else {}
     print(
         f"{summary.n_cases} cases: {summary.n_computed} computed, {summary.n_resumed} already stored; "

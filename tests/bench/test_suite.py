@@ -316,7 +316,7 @@ def test_a_henon_grid_with_an_infinite_step_is_refused_when_expanded():
 
 
 def test_a_friction_law_is_a_name_in_a_suite_and_in_the_labels():
-    from nsbench.bench.execute import problem_label
+    from nsbench.bench.keys import problem_label
 
     suite = Suite(
         problems=[

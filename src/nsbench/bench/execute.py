@@ -26,8 +26,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from nsbench.bench.keys import jsonable as _jsonable
-from nsbench.bench.keys import problem_label as problem_label  # re-exported: labels are named here too
+from nsbench.bench.keys import jsonable, problem_label
 from nsbench.bench.metrics import case_metrics
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
@@ -98,11 +97,11 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         problem=case.problem["name"],
         case=case.problem.get("case"),
         problem_label=problem_label(case.problem),
-        problem_config=_jsonable(case.problem),
+        problem_config=jsonable(case.problem),
         integrator=case.integrator,
         family=cls.capabilities.family,
-        integrator_config=_jsonable(config),
-        options=_jsonable(case.options),
+        integrator_config=jsonable(config),
+        options=jsonable(case.options),
         level=case.level,
         step_option=step_option or "",
         step_value=float(step_value) if isinstance(step_value, (int, float)) else math.nan,
@@ -292,7 +291,7 @@ def time_case(
     from nsbench.engine import simulate
 
     row = base_row(case, suite)
-    row.update(reference_config=_jsonable(reference.config), **reference.columns())
+    row.update(reference_config=jsonable(reference.config), **reference.columns())
     grid = np.linspace(case.t0, case.t_end, case.dense_points)
     samples: list[_Sample] = []
     n_samples = case.repeats if count is None else int(count)
@@ -349,7 +348,7 @@ def time_case(
         njev=int(counters["njev"]),
         nsteps=int(counters["nsteps"]),
         n_events=int(counters["n_events"]),
-        counters_extra=_jsonable(extra),
+        counters_extra=jsonable(extra),
         wall_times=wall,
         n_repeats=len(wall),
         integrator_times=inner,

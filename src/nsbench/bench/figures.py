@@ -23,6 +23,7 @@ import pandas as pd
 
 from nsbench.bench.labels import configuration
 from nsbench.bench.tables import problem_groups
+from nsbench.plotting import pyplot
 from nsbench.status import ReferenceStatus, Status, TargetOutcome
 
 #: Errors below this are drawn at it (log axes cannot show 0).
@@ -98,15 +99,6 @@ class Figure:
 
 def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.=-]+", "_", text).strip("_")
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 #: Method families and their colour maps: members of a family share a hue, told apart by shade and
@@ -285,7 +277,7 @@ def _save(fig, out: Path, name: str, title: str, caption: str, formats: Sequence
     for fmt in REPORT_FORMATS:  # a format not asked for this time: its file of an earlier report is out of date
         if fmt not in wanted:
             (out / f"{name}.{fmt}").unlink(missing_ok=True)
-    _pyplot().close(fig)
+    pyplot().close(fig)
     svg = out / f"{name}.svg" if "svg" in wanted else None
     return Figure(name, title, caption, files[0], svg, tuple(files))
 
@@ -310,7 +302,7 @@ def work_precision(group: pd.DataFrame, label: str, cost: str, styles: dict, out
     that did not succeed (time limit, failure) is not drawn: the error of its
     partial prefix is no point of the curve. References are left out.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     methods, left_out = _methods(group)
     dropped = int((methods["status"] != Status.SUCCESS).sum())
@@ -365,7 +357,7 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
     most a family's few members share a panel instead of every integrator
     overlapping in one.
     """
-    plt = _pyplot()
+    plt = pyplot()
     methods, _ = _methods(group)
     curves: dict[str, list] = {}
     band = (np.empty(0), np.empty(0))  # the reference's certified error along the longest matched prefix
@@ -431,7 +423,7 @@ def event_error_along(group: pd.DataFrame, label: str, styles: dict, out: Path) 
 
 def cost_only(group: pd.DataFrame, label: str, styles: dict, out: Path) -> Figure:
     """Wall time per configuration, for a problem that has no reference."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     for name, rows in group.groupby("integrator", sort=True):
         rows = rows[rows["wall_time"].notna()].sort_values("level")
@@ -495,7 +487,7 @@ def runtime_distribution(long: pd.DataFrame, styles: dict, out: Path) -> Figure 
     if pairs.empty:
         return None
     n_pairs = len(pairs)
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(ECDF_COSTS), figsize=(11.5, 4.4), sharey=True)
     for ax, (cost, label) in zip(axes, ECDF_COSTS.items()):
         for name, rows in graded.groupby("integrator", sort=True):
@@ -649,7 +641,7 @@ def scaling_figures(table: pd.DataFrame, summary: pd.DataFrame, family: str, sty
     """
     from nsbench.bench.scaling import COSTS, SCALING_TARGET
 
-    plt = _pyplot()
+    plt = pyplot()
     rows = table[table["family"] == family]
     fits = summary[summary["family"] == family].set_index("integrator")
     fig, axes = plt.subplots(1, len(COSTS), figsize=(15, 4.8))

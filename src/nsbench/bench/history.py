@@ -553,9 +553,10 @@ def figure(tab: pd.DataFrame, found: pd.DataFrame, out: str | Path, name: str = 
     against commit, one row of panels per problem; flagged steps circled in red. Saved as PNG, SVG, PDF."""
     import numpy as np
 
-    from nsbench.bench.figures import ERROR_FLOOR, _pyplot, _styles, slug
+    from nsbench.bench.figures import ERROR_FLOOR, _styles, slug
+    from nsbench.plotting import pyplot
 
-    plt = _pyplot()
+    plt = pyplot()
     problems = sorted(tab["problem"].unique())
     styles = _styles(sorted(tab["integrator"].unique()))
     fig, axes = plt.subplots(len(problems), 2, figsize=(12, 3.2 * len(problems)), squeeze=False, sharex=True)

@@ -388,12 +388,12 @@ def run_suite(
 
 def _identity(case: Case) -> dict[str, Any]:
     """The columns of a stored row that say which computation it is (see ``execute.base_row``)."""
-    from nsbench.bench.keys import jsonable as _jsonable
+    from nsbench.bench.keys import jsonable
 
     return {
-        "problem_config": _jsonable(case.problem),
+        "problem_config": jsonable(case.problem),
         "integrator": case.integrator,
-        "options": _jsonable(case.options),
+        "options": jsonable(case.options),
         "t0": float(case.t0),
         "t_end": float(case.t_end),
     }

@@ -240,7 +240,7 @@ def clear_cases(out: str | Path) -> None:
     cases.rmdir()
 
 
-#: A case id nsbench makes (:func:`nsbench.bench.suite.stable_key`): 16 hexadecimal digits.
+#: A case id nsbench makes (:func:`nsbench.bench.keys.stable_key`): 16 hexadecimal digits.
 _STABLE_KEY = re.compile(r"[0-9a-f]{16}")
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from nsbench.bench.keys import got as _got
-from nsbench.bench.keys import stable_key as stable_key  # re-exported: the suite's keys are named here too
+from nsbench.bench.keys import stable_key
 from nsbench.bench.timing import DEFAULT_SAMPLES, MIN_REPEATS, MIN_SAMPLE_TIME
 from nsbench.errors import ConfigError
 

@@ -460,7 +460,7 @@ class Location:
 
 
 def base_row(loc: Location, suite: str, ref: TargetReference | None) -> dict[str, Any]:
-    from nsbench.bench.keys import jsonable as _jsonable
+    from nsbench.bench.keys import jsonable
     from nsbench.integrators import get_integrator, integrator_class
 
     t = loc.target
@@ -483,8 +483,8 @@ def base_row(loc: Location, suite: str, ref: TargetReference | None) -> dict[str
         bracket_high=t.high,
         origin=t.origin,
         integrator=loc.integrator,
-        integrator_config=_jsonable(config),
-        options=_jsonable(loc.options),
+        integrator_config=jsonable(config),
+        options=jsonable(loc.options),
         level=loc.level,
         step_option=step_option or "",
         step_value=float(step) if isinstance(step, (int, float)) else math.nan,
@@ -868,12 +868,13 @@ def reference_table(rows: pd.DataFrame) -> pd.DataFrame:
 
 def report_figures(rows: pd.DataFrame, out: str | Path) -> list:
     """Per target: bifurcation-point error against cost (log-log), one marker per configuration."""
-    from nsbench.bench.figures import ERROR_FLOOR, Figure, _legend_outside, _pyplot, _save, _styles, slug
+    from nsbench.bench.figures import ERROR_FLOOR, Figure, _legend_outside, _save, _styles, slug
+    from nsbench.plotting import pyplot
 
     figures: list[Figure] = []
     if rows.empty:
         return figures
-    plt = _pyplot()
+    plt = pyplot()
     styles = _styles(sorted(rows["integrator"].unique()))
     for target, group in rows.groupby("target", sort=True):
         fig, ax = plt.subplots(figsize=(6.4, 4.6))

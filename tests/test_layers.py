@@ -99,6 +99,10 @@ def _package_edges() -> dict[tuple[str, str], list[str]]:
         ("certify", "testing"),
         ("certify", "cli"),
         *(("workers", app) for app in ("bench", "bifurcation", "periodic", "testing", "certify", "cli", "engine")),
+        # an app runs a request; the command line builds it: no app imports the command line
+        *((app, "cli") for app in ("bench", "bifurcation", "periodic", "testing")),
+        # the checked inputs and the factory probe, shared by the apps and the command line
+        *((leaf, upper) for leaf in ("inputs", "factory_probe") for upper in ("bench", "bifurcation", "cli")),
     ],
 )
 def test_a_lower_layer_never_imports_a_higher_one(lower, upper):

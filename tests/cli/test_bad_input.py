@@ -748,7 +748,7 @@ def test_read_only_outputs_as_seen_by_os_access(argv, fragment, d, capsys, monke
 def test_dask_scheduler_without_workers(d, capsys, monkeypatch):
     from distributed import LocalCluster
 
-    from nsbench.cli import _dask
+    from nsbench.bifurcation import cluster as _dask
 
     monkeypatch.setattr(_dask, "WORKER_TIMEOUT", 1.0)
     with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster:
@@ -902,7 +902,7 @@ def test_bad_numbers_exit_2_with_one_line(command, data, d, capsys):
 @given(count=BAD["count"], seed=BAD["seed"], nonneg=BAD["nonneg"], positive=BAD["positive"], finite=BAD["finite"])
 def test_the_parsers_refuse_every_bad_kind(count, seed, nonneg, positive, finite):
     """The strategies against the parsers directly: each draw is refused (no value slips through)."""
-    from nsbench.cli._common import parse_count, parse_real
+    from nsbench.inputs import parse_count, parse_real
     from nsbench.errors import ConfigError
 
     for call in (

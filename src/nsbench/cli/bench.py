@@ -52,7 +52,8 @@ def run_and_report(
     (the results and the report are written all the same).
     """
     from nsbench.bench import load_suite, run_suite
-    from nsbench.cli._common import check_output_dir, parse_count, parse_report_formats
+    from nsbench.cli._common import parse_report_formats
+    from nsbench.inputs import check_output_dir, parse_count
 
     figure_formats = parse_report_formats(formats)  # refused before anything runs
 
@@ -63,7 +64,7 @@ def run_and_report(
     suite.check_size()  # a grid of 10^9 cases is refused here, not expanded
     # a plug-in problem's factory is built first in a worker under the suite's set-up limit: one that
     # loops, crashes or raises costs its own rows (one line each), not the run
-    from nsbench.cli._probe import probe_suite
+    from nsbench.factory_probe import probe_suite
 
     suite, left_out = probe_suite(suite)
     for line in left_out:

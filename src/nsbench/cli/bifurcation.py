@@ -10,16 +10,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nsbench.cli._common import (
-    check_fixed_step,
-    check_output_dir,
-    parse_count,
-    parse_number,
-    parse_options,
-    parse_real,
-    shared_params,
-)
-from nsbench.cli._dask import connect as connect_dask
+from nsbench.bifurcation.cluster import connect as connect_dask
+from nsbench.cli._common import shared_params
+from nsbench.inputs import check_fixed_step, check_output_dir, parse_count, parse_number, parse_options, parse_real
 from nsbench.errors import ConfigError
 
 
@@ -163,9 +156,9 @@ def _probe(problem: str, case: int):
 
 def _probe_factory(request: _Request, dask: bool) -> str | None:
     """A plug-in problem built first at both ends of the sweep in a worker, under ``--setup-limit``
-    (:func:`nsbench.cli._probe.probe_problem`): a factory that loops or raises is one line, not a
+    (:func:`nsbench.factory_probe.probe_problem`): a factory that loops or raises is one line, not a
     hang or a traceback of this process. ``None`` when it built (or the problem is built-in)."""
-    from nsbench.cli._probe import is_plugin_problem, probe_problem
+    from nsbench.factory_probe import is_plugin_problem, probe_problem
 
     if not is_plugin_problem(request.problem):
         return None

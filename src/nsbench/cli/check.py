@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from nsbench.cli._common import parse_options, parse_real, shared_params
+from nsbench.cli._common import shared_params
+from nsbench.inputs import parse_options, parse_real
 
 #: Default hard limit of one check of a plug-in integrator, in seconds (``--time-limit``).
 TIME_LIMIT = 600.0
@@ -74,7 +75,7 @@ def _first_call_line(first) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from nsbench.cli._probe import probe_problem
+    from nsbench.factory_probe import probe_problem
     from nsbench.testing import check_integrator, configure, plan
     from nsbench.testing import checks_for
     from nsbench.testing import is_plugin

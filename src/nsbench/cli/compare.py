@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.compare import compare
     from nsbench.bench.report import markdown_table
-    from nsbench.cli._common import check_output_file, parse_number
+    from nsbench.inputs import check_output_file, parse_number
     from nsbench.errors import ConfigError
 
     factor = parse_number(args.factor, "--factor")  # its range (finite, > 1) is checked by compare

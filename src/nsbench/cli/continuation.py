@@ -10,8 +10,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nsbench.cli._common import check_output_dir, parse_count, parse_number, parse_real, shared_params
+from nsbench.cli._common import shared_params
 from nsbench.errors import ConfigError
+from nsbench.inputs import check_output_dir, parse_count, parse_number, parse_real
 from nsbench.status import OutcomeKind
 
 SECTIONS = ("peaks", "strobe", "stick", "mapping")
@@ -103,7 +104,7 @@ def parse_range(text: str) -> tuple[str, float, float]:
 
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.figures import FORMATS
-    from nsbench.cli._probe import probe_problem
+    from nsbench.factory_probe import probe_problem
     from nsbench.periodic.output import figure, write
     from nsbench.problems import get_problem
     from nsbench.progress import Progress

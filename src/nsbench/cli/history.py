@@ -74,7 +74,7 @@ def _store(p: argparse.ArgumentParser) -> None:
 
 def add(args: argparse.Namespace) -> int:
     from nsbench.bench import history
-    from nsbench.cli._common import check_output_dir
+    from nsbench.inputs import check_output_dir
 
     check_output_dir(args.store, "--store")
     entry = history.add(args.run, args.store, machine=args.machine, commit=args.commit, repo=args.repo)
@@ -87,7 +87,7 @@ def add(args: argparse.Namespace) -> int:
 
 def _settings(args: argparse.Namespace) -> tuple[float, float]:
     from nsbench.bench.compare import check_thresholds
-    from nsbench.cli._common import parse_number
+    from nsbench.inputs import parse_number
 
     factor, confidence = parse_number(args.factor, "--factor"), parse_number(args.confidence, "--confidence")
     check_thresholds(factor, confidence)
@@ -99,7 +99,7 @@ def show(args: argparse.Namespace) -> int:
 
     from nsbench.bench import history
     from nsbench.bench.report import markdown_table
-    from nsbench.cli._common import check_output_dir
+    from nsbench.inputs import check_output_dir
     from nsbench.errors import ConfigError
 
     factor, confidence = _settings(args)
@@ -171,7 +171,7 @@ def show(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from nsbench.bench import history
-    from nsbench.cli._common import check_output_dir, parse_count
+    from nsbench.inputs import check_output_dir, parse_count
 
     check_output_dir(args.store, "--store")
     if args.keep:

@@ -20,7 +20,7 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from nsbench.bench.ingest import ingest, read_benchmark_json
-    from nsbench.cli._common import check_output_dir
+    from nsbench.inputs import check_output_dir
 
     out = args.out or str(Path(args.file).with_suffix(""))
     read_benchmark_json(args.file)  # a missing, binary or malformed file is named before --out is checked

@@ -50,7 +50,7 @@ def stepping(caps) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from nsbench.cli._common import parse_real
+    from nsbench.inputs import parse_real
 
     # checked whatever KIND is, so that a bad value is refused before anything is listed
     limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
@@ -92,7 +92,7 @@ def main(args: argparse.Namespace) -> int:
 def _coverage(limit: float) -> int:
     """The coverage matrix; each plug-in problem is built first in a supervised worker (a factory that
     loops or raises costs its own column, with the reason, never the listing)."""
-    from nsbench.cli._probe import is_plugin_problem, probe_problem
+    from nsbench.factory_probe import is_plugin_problem, probe_problem
     from nsbench.coverage import coverage_matrix, text
     from nsbench.problems import list_problems
 

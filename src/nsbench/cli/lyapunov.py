@@ -5,17 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from nsbench.cli._common import (
-    MIN_D0,
-    add_factory_limit,
-    add_problem_arguments,
-    check_fixed_step,
-    check_output_file,
-    factory_fault,
-    parse_count,
-    parse_real,
-    problem_from_args,
-)
+from nsbench.cli._common import add_factory_limit, add_problem_arguments, factory_fault, problem_from_args
+from nsbench.inputs import MIN_D0, check_fixed_step, check_output_file, parse_count, parse_real
 from nsbench.status import Status
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from nsbench.cli._common import check_output_dir, parse_count, parse_real
+from nsbench.bifurcation import MAX_SWEEP_POINTS
+from nsbench.inputs import check_output_dir, parse_count, parse_real
 
 
 def add_parser(sub) -> None:
@@ -27,7 +28,9 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bifurcation.paper import run_paper
 
-    points = parse_count(args.points, "--points", low=2, bound="MAX_SWEEP_POINTS")
+    points = parse_count(
+        args.points, "--points", low=2, high=MAX_SWEEP_POINTS, bound="nsbench.bifurcation.MAX_SWEEP_POINTS"
+    )
     record = parse_count(args.record, "--record", low=4, bound="MAX_RECORD")
     transient = parse_real(args.transient, "--transient", low=0.0, bound="MAX_SPAN")
     case = parse_count(args.case, "--case", low=1, high=4) if args.case is not None else None

@@ -19,7 +19,8 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.compare import read_results
     from nsbench.bench.report import write_report
-    from nsbench.cli._common import check_output_dir, parse_report_formats
+    from nsbench.cli._common import parse_report_formats
+    from nsbench.inputs import check_output_dir
 
     formats = parse_report_formats(args.formats)
     if not Path(args.directory).is_dir():

@@ -12,14 +12,10 @@ from nsbench.cli._common import (
     add_factory_limit,
     add_problem_arguments,
     check_figure_path,
-    check_output_file,
     factory_fault,
-    check_fixed_step,
-    parse_count,
-    parse_options,
-    parse_real,
     problem_from_args,
 )
+from nsbench.inputs import check_fixed_step, check_output_file, parse_count, parse_options, parse_real
 from nsbench.errors import ConfigError
 
 

@@ -1,4 +1,4 @@
-"""``--dask ADDRESS``: connect to a Dask scheduler up front, with a bounded wait and one clear line.
+"""A sweep's ``--dask ADDRESS``: connect to a Dask scheduler up front, with a bounded wait and one clear line.
 
 Without this check a closed port blocks for distributed's default connect
 timeout and then ends in a traceback, and a scheduler without workers leaves

@@ -272,7 +272,7 @@ def test_a_problem_without_presets_is_named_without_a_case(tmp_path, monkeypatch
     assert main([*argv, "--no-progress", "--formats", "png", "--workers", "1"]) == 0
     # the folder and the diagram's title name no case the bouncing ball does not have
     assert [p.name for p in (tmp_path / "bifurcation").iterdir()] == ["bouncing-ball-e"]
-    from nsbench.cli.bifurcation import _case_text
+    from nsbench.bifurcation.sweep_command import case_text as _case_text
 
     class Spec:  # the two things _case_text reads of a sweep's spec
         case, start = 1, 0.5

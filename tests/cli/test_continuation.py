@@ -107,7 +107,7 @@ def test_a_plugin_whose_setup_raises_is_one_line_not_a_traceback(tmp_path, capsy
 
 
 def test_a_diagram_with_a_chunk_deleted_is_named_as_partial(tmp_path, capsys):
-    from nsbench.cli.continuation import _diagram
+    from nsbench.bifurcation.continuation_command import _diagram
 
     sweep = tmp_path / "sweep"
     argv = ["bifurcation", "one-dof", "--sweep", "v0=0.5:1.0:4", "--transient", "10", "--record", "4"]

@@ -24,6 +24,7 @@ import numpy as np
 if TYPE_CHECKING:
     import pandas as pd
 
+from nsbench.bifurcation.request import parse_sweep  # noqa: F401 - the grammar of a sweep, its request parses it
 from nsbench.errors import ConfigError, NsbenchError
 from nsbench.problems.base import problem_traits
 from nsbench.status import Status
@@ -143,40 +144,6 @@ def sweep_columns(state_names: tuple[str, ...]) -> tuple[str, ...]:
         *counter_columns(n_blocks),
         "wall_time",
     )
-
-
-def parse_sweep(text: str) -> tuple[str, float, float, int]:
-    """``NAME=START:STOP:COUNT`` as ``(name, start, stop, count)``.
-
-    START and STOP must be finite, different numbers, COUNT a whole number from 1 to
-    1 000 000 (``1e3`` reads as 1000); anything else is a ``ConfigError``
-    naming the bad part and what is allowed.
-    """
-    from nsbench.bifurcation import MAX_SWEEP_POINTS as max_count
-
-    name, sep, rng = text.partition("=")
-    parts = [p.strip() for p in rng.split(":")]
-    if not sep or not name.strip() or len(parts) != 3:
-        raise ConfigError(f"--sweep expects NAME=START:STOP:COUNT, got {text!r}")
-    try:
-        start, stop = float(parts[0]), float(parts[1])
-    except ValueError:
-        raise ConfigError(f"--sweep {text!r}: START and STOP must be numbers") from None
-    if not (math.isfinite(start) and math.isfinite(stop)):
-        raise ConfigError(f"--sweep {text!r}: START and STOP must be finite")
-    if start == stop:
-        raise ConfigError(
-            f"--sweep {text!r}: START and STOP are equal; a sweep needs a range of values "
-            "(for one value, use nsbench simulate)"
-        )
-    allowed = f"a whole number between 1 and {max_count}"
-    try:
-        count = float(parts[2])
-    except ValueError:
-        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]!r} is not a number; expected {allowed}") from None
-    if not (math.isfinite(count) and count.is_integer() and 1 <= count <= max_count):
-        raise ConfigError(f"--sweep {text!r}: COUNT = {parts[2]} must be {allowed} (split a longer sweep into several)")
-    return name.strip(), start, stop, int(count)
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +19,7 @@ from nsbench.errors import ConfigError
 
 if TYPE_CHECKING:  # pragma: no cover
     from nsbench.integrators.base import Integrator
-    from nsbench.problems.oscillator import FrictionOscillator
+    from nsbench.problems.base import HybridProblem
 
 
 # Upper bounds of counts given on the command line: they keep a typo (1e12) from
@@ -215,7 +216,7 @@ def _is_loop(link: Path) -> bool:
 
 
 def check_fixed_step(
-    integrator: "Integrator", problem: "FrictionOscillator", span: float, what: str, max_steps: int, given: bool = False
+    integrator: "Integrator", problem: "HybridProblem", span: float, what: str, max_steps: int, given: bool = False
 ) -> None:
     """Refuse a fixed step that cannot run ``problem`` over ``span``.
 
@@ -369,3 +370,48 @@ def parse_options(texts: list[str], flag: str = "--option") -> dict[str, Any]:
             raise ConfigError(f"{flag} {key}={value}: an option value must be a finite number")
         options[key] = parsed
     return options
+
+
+def options_given(options: Any) -> dict[str, Any]:
+    """Integrator options as given to a request: ``--option NAME=VALUE`` texts parsed
+    (:func:`parse_options`), or a mapping kept as it is once every number in it is checked finite."""
+    if not isinstance(options, Mapping):
+        return parse_options(list(options))
+    for key, value in options.items():
+        try:
+            finite = isinstance(value, bool) or not isinstance(value, (int, float)) or math.isfinite(float(value))
+        except OverflowError:  # an integer beyond any float
+            finite = False
+        if not finite:
+            raise ConfigError(f"--option {key}={value}: an option value must be a finite number")
+    return dict(options)
+
+
+#: Figure formats refused although matplotlib lists them: pgf needs a LaTeX
+#: installation, raw and rgba are not image files.
+_UNSAFE_FIGURE_FORMATS = {"pgf", "raw", "rgba"}
+
+
+def figure_formats() -> tuple[str, ...]:
+    """File extensions a figure can be saved as (those matplotlib writes, minus pgf, raw and rgba)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(sorted(set(FigureCanvasBase.get_supported_filetypes()) - _UNSAFE_FIGURE_FORMATS))
+
+
+def check_figure_path(path: str, flag: str) -> Path:
+    """Fail early unless ``path`` ends in a figure format (png, pdf, svg, ...) and can be written.
+
+    Raises
+    ------
+    ConfigError
+        Unknown or missing extension (the message lists the allowed ones), or
+        see :func:`check_output_file`.
+    """
+    check_output_file(path, flag)
+    suffix = Path(path).suffix.lower().lstrip(".")
+    allowed = figure_formats()
+    if suffix not in allowed:
+        what = f"extension .{suffix} is not a figure format" if suffix else "the file name has no extension"
+        raise ConfigError(f"{flag} {path}: {what}; use one of {', '.join(allowed)}")
+    return Path(path)

@@ -140,3 +140,53 @@ def test_the_command_lines_defaults_are_the_requests(argv, default):
 
     args = build_parser(argv[0]).parse_args(argv)
     assert importlib.import_module(f"nsbench.cli.{argv[0]}").request(args) == default
+
+
+def test_a_lyapunov_estimate_runs_from_python_as_the_command_runs_it(tmp_path, capsys):
+    # the same members, seed and integrator: the same estimate as largest_exponent called directly
+    from nsbench.bifurcation.lyapunov import largest_exponent
+    from nsbench.bifurcation.lyapunov_command import run_lyapunov
+    from nsbench.bifurcation.request import LyapunovRequest
+    from nsbench.problems import get_problem
+
+    out = tmp_path / "logs.csv"
+    request = LyapunovRequest(
+        problem="two-dof", case="1", params={"v0": 0.1}, iterations="200", members="4", seed="3", out=str(out)
+    )
+    outcome = run_lyapunov(request)
+    assert outcome.failure is None and outcome.exit_code == 0 and outcome.result is not None
+    direct = largest_exponent(get_problem("two-dof", case=1, v0=0.1), "exact", iterations=200, members=4, seed=3)
+    assert outcome.result.exponent == direct.exponent  # deterministic: seeded members on a linear case
+    logs = pd.read_csv(out)
+    assert len(logs) == 200 and logs["log_growth"].tolist() == pytest.approx(direct.logs.ravel().tolist())
+    assert f"log growth per member and iteration -> {out}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"members": 2}, "--members = 2 must be >= 4"),
+        ({"iterations": "1e4.5"}, "--iterations"),
+        ({"seed": 0.5}, "--seed"),
+        ({"d0": 0.5}, "--d0"),
+        ({"h": 0}, "--h = 0"),
+        ({"member_limit": -1}, "--member-limit"),
+        ({"transient": float("inf")}, "--transient = inf must be a finite number"),
+    ],
+)
+def test_a_bad_lyapunov_request_is_refused_at_its_construction(kwargs, message):
+    from nsbench.bifurcation.request import LyapunovRequest
+
+    with pytest.raises(ConfigError) as info:
+        LyapunovRequest(**{"problem": "two-dof", **kwargs})
+    assert message in str(info.value)
+
+
+def test_the_lyapunov_command_lines_defaults_are_the_requests():
+    from nsbench.bifurcation.request import LyapunovRequest
+    from nsbench.cli import build_parser
+    from nsbench.cli.lyapunov import request
+
+    args = build_parser("lyapunov").parse_args(["lyapunov", "two-dof", "--case", "1"])
+    assert request(args) == LyapunovRequest(problem="two-dof", case="1")
+    assert LyapunovRequest(problem="two-dof", h="0.01").options == {"h": 0.01}

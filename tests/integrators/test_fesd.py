@@ -153,14 +153,14 @@ def test_without_nosnoc_it_is_listed_unavailable_with_the_install_command(monkey
 def test_simulate_says_how_many_events_the_method_located_itself():
     import pandas as pd
 
-    from nsbench.cli.simulate import _located_line
+    from nsbench.simulation import located_line
 
     log = pd.DataFrame({"t": [1.0, 2.0, 3.0], "t_located": [np.nan, 2.01, 2.99], "kind": ["exit", "slide", "slide"]})
-    assert _located_line(log) == (
+    assert located_line(log) == (
         "located     2 of 3 events by the integrator itself (slide: 2; the log's t_located, at most 0.01 from "
         "the inferred t)"
     )
-    assert _located_line(log.assign(t_located=np.nan)).startswith("located     0 of 3 events")
+    assert located_line(log.assign(t_located=np.nan)).startswith("located     0 of 3 events")
 
 
 @pytest.mark.slow

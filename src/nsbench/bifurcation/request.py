@@ -14,12 +14,11 @@ defaults when it builds its parser.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from nsbench.errors import ConfigError
-from nsbench.inputs import parse_count, parse_number, parse_options, parse_real
+from nsbench.inputs import MIN_D0, check_output_file, options_given, parse_count, parse_number, parse_real
 from nsbench.plotting import FORMATS
 
 #: Default hard limit of the whole continuation in its worker, in seconds (``--time-limit``).
@@ -126,9 +125,7 @@ class SweepRequest:
     pair_text: str | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        def keep(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)
-
+        keep = _keeper(self)
         if self.workers is not None:  # the command's first check
             keep("workers", parse_count(str(self.workers), "--workers", low=1, bound="MAX_WORKERS"))
         keep("sweep", parse_sweep(_sweep_text(self.sweep)))
@@ -138,7 +135,7 @@ class SweepRequest:
         keep("transient", parse_real(str(self.transient), "--transient", low=0.0, bound="MAX_SPAN"))
         if self.window is not None:
             keep("window", parse_real(str(self.window), "--window", low=0.0, low_open=True, bound="MAX_SPAN"))
-        keep("options", _options(self.options))
+        keep("options", options_given(self.options))
         if self.h is not None:
             h = parse_real(str(self.h), "--h", low=0.0, low_open=True)
             if "h" in self.options:
@@ -162,12 +159,29 @@ class SweepRequest:
         keep("integrators", tuple(names) or (None,))
 
 
+def _keeper(request: Any):
+    """A setter of a frozen request's fields, for its ``__post_init__`` (which keeps each parsed value)."""
+
+    def keep(name: str, value: Any) -> None:
+        object.__setattr__(request, name, value)
+
+    return keep
+
+
 def _sweep_text(sweep: Any) -> str:
     """``sweep`` as ``NAME=START:STOP:COUNT`` (a parsed tuple written back, so that it is checked alike)."""
     if isinstance(sweep, str):
         return sweep
     name, start, stop, count = sweep
     return f"{name}={start!r}:{stop!r}:{count}"
+
+
+def _range_text(sweep: Any) -> str:
+    """``sweep`` as ``NAME=START:STOP`` (a parsed tuple written back, so that it is checked alike)."""
+    if isinstance(sweep, str):
+        return sweep
+    name, start, stop = sweep
+    return f"{name}={start!r}:{stop!r}"
 
 
 def _case(case: Any) -> int:
@@ -181,26 +195,15 @@ def _case(case: Any) -> int:
     return int(parse_number(text, "--case"))
 
 
-def _options(options: Any) -> dict[str, Any]:
-    """``--option NAME=VALUE`` texts parsed, or a mapping checked as they are (every number finite)."""
-    if not isinstance(options, Mapping):
-        return parse_options(list(options))
-    for key, value in options.items():
-        try:
-            finite = isinstance(value, bool) or not isinstance(value, (int, float)) or math.isfinite(float(value))
-        except OverflowError:  # an integer beyond any float
-            finite = False
-        if not finite:
-            raise ConfigError(f"--option {key}={value}: an option value must be a finite number")
-    return dict(options)
-
-
-def _formats(formats: Any) -> tuple[str, ...]:
+def _formats(formats: Any, *, empty: bool = True) -> tuple[str, ...]:
+    """``--formats`` as text (``"png, svg"``) or as names, each one of the figure formats; none at all
+    only where ``empty`` allows it."""
     given = formats.split(",") if isinstance(formats, str) else formats
     chosen = tuple(f.strip() for f in given if f.strip())
     bad = [f for f in chosen if f not in FORMATS]
-    if bad:
-        raise ConfigError(f"--formats: {', '.join(bad)} not allowed; choose from {', '.join(FORMATS)}")
+    if bad or not (chosen or empty):
+        what = f"{', '.join(bad)} not allowed" if bad else "none given"
+        raise ConfigError(f"--formats: {what}; choose from {', '.join(FORMATS)}")
     return chosen
 
 
@@ -290,11 +293,8 @@ class ContinuationRequest:
     progress: bool = True
 
     def __post_init__(self) -> None:
-        def keep(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)
-
-        sweep = self.sweep
-        keep("sweep", parse_range(sweep if isinstance(sweep, str) else f"{sweep[0]}={sweep[1]!r}:{sweep[2]!r}"))
+        keep = _keeper(self)
+        keep("sweep", parse_range(_range_text(self.sweep)))
         for name, flag in (("time_limit", "--time-limit"), ("setup_limit", "--setup-limit")):
             keep(name, parse_real(str(getattr(self, name)), flag, low=0.0, low_open=True, bound="MAX_TIME_LIMIT"))
         keep("steps", parse_count(str(self.steps), "--steps", low=1, high=MAX_STEPS))
@@ -308,12 +308,7 @@ class ContinuationRequest:
         if name == "n":
             raise ConfigError("the number of blocks n cannot be continued (it changes the state)")
         keep("params", dict(self.params))
-        given = self.formats.split(",") if isinstance(self.formats, str) else self.formats
-        formats = tuple(f.strip() for f in given if f.strip())
-        bad = [f for f in formats if f not in FORMATS]
-        if bad or not formats:
-            raise ConfigError(f"--formats: {', '.join(bad) or 'none given'}; choose from {', '.join(FORMATS)}")
-        keep("formats", formats)
+        keep("formats", _formats(self.formats, empty=False))  # the branches' figure is what it is run for
 
 
 def _case_or_name(case: Any) -> int | str:
@@ -328,3 +323,75 @@ def _case_or_name(case: Any) -> int | str:
         return int(number)
     except (ValueError, OverflowError):
         raise ConfigError(f"--case = {case!r} must be a case number such as 1, 2, 3 or 4, or a case name") from None
+
+
+@dataclass(frozen=True)
+class LyapunovRequest:
+    """The largest Lyapunov exponent of a problem's mapping points (``nsbench lyapunov``), as asked.
+
+    Each value may be given as the command line's text (``members="32"``, ``h="0.01"``) or as a
+    Python value; the construction parses and checks each once, in the order of the command's
+    checks, and keeps the parsed value. A message names the command's option. What needs the
+    problem (the integrator and its fixed step against the transient) is checked by
+    :func:`nsbench.bifurcation.lyapunov_command.run_lyapunov` before any member runs.
+
+    Attributes
+    ----------
+    problem, case, params, dimensional
+        Registered problem, its preset (``None``: the problem's default), parameter overrides
+        (``--param``, ``--n``), dimensional units.
+    integrator, h
+        Registered integrator (``None``: ``exact`` for a linear problem, ``henon-rk4``
+        otherwise); the step of a fixed-step integrator.
+    transient, iterations, members, d0, seed
+        Time each member runs before its first mapping point used; return-map iterations in all,
+        split over the members; independent estimates (at least 4); the renormalised
+        separation; the seed of the start perturbations.
+    workers, member_limit, setup_limit
+        Processes running members at once; hard limits (seconds) of one member's run and of a
+        plug-in problem's factory.
+    out
+        A CSV of ``log(d/d0)`` per member and iteration (and ``OUT.worker-errors.log``).
+    """
+
+    problem: str
+    case: int | str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    dimensional: bool = False
+    integrator: str | None = None
+    h: float | None = None
+    transient: float = 1000.0
+    iterations: int = 10000
+    members: int = 32
+    d0: float = 1e-8
+    seed: int = 0
+    workers: int = 1
+    member_limit: float = 1800.0
+    setup_limit: float = 1800.0
+    out: str | None = None
+
+    def __post_init__(self) -> None:
+        keep = _keeper(self)
+        keep("transient", parse_real(str(self.transient), "--transient", low=0.0, bound="MAX_SPAN"))  # inf never ends
+        keep("members", parse_count(str(self.members), "--members", low=4, bound="MAX_MEMBERS"))
+        keep("iterations", parse_count(str(self.iterations), "--iterations", low=1, bound="MAX_ITERATIONS"))
+        keep("d0", parse_real(str(self.d0), "--d0", low=MIN_D0, high=0.01, high_open=True))
+        keep("seed", parse_count(str(self.seed), "--seed", low=0, bound="MAX_SEED"))
+        keep("workers", parse_count(str(self.workers), "--workers", low=1, bound="MAX_WORKERS"))
+        if self.h is not None:
+            keep("h", parse_real(str(self.h), "--h", low=0.0, low_open=True))
+        for name, flag in (("member_limit", "--member-limit"), ("setup_limit", "--setup-limit")):
+            keep(name, parse_real(str(getattr(self, name)), flag, low=0.0, low_open=True, bound="MAX_TIME_LIMIT"))
+        if self.out:
+            check_output_file(self.out, "--out")
+        keep("params", dict(self.params))
+
+    @property
+    def problem_arguments(self) -> dict[str, Any]:
+        """The ``get_problem`` keyword arguments: the preset, the units and the overrides."""
+        return {"case": self.case, "dimensional": self.dimensional, **self.params}
+
+    @property
+    def options(self) -> dict[str, Any]:
+        """The integrator's options: the step, if given."""
+        return {"h": self.h} if self.h is not None else {}

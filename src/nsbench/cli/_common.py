@@ -1,7 +1,7 @@
-"""Argument helpers shared by sub-commands: the problem's arguments, the report formats, figure paths.
+"""Argument helpers shared by sub-commands: the problem's arguments and the report formats.
 
 The values themselves are parsed and checked in :mod:`nsbench.inputs` (counts, reals, options,
-output paths), where the apps' requests check theirs too. Each check raises a
+output paths, figure paths), where the apps' requests check theirs too. Each check raises a
 :class:`~nsbench.errors.ConfigError` whose message names the option, the bad value and what is
 allowed; ``nsbench.cli.main`` prints it as one line and exits with status 2.
 """
@@ -9,40 +9,10 @@ allowed; ``nsbench.cli.main`` prints it as one line and exits with status 2.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 from nsbench.errors import ConfigError
-from nsbench.inputs import check_output_file, parse_assignment, parse_number, parse_real
-
-#: Figure formats refused although matplotlib lists them: pgf needs a LaTeX
-#: installation, raw and rgba are not image files.
-_UNSAFE_FIGURE_FORMATS = {"pgf", "raw", "rgba"}
-
-
-def figure_formats() -> tuple[str, ...]:
-    """File extensions a figure can be saved as (those matplotlib writes, minus pgf, raw and rgba)."""
-    from matplotlib.backend_bases import FigureCanvasBase
-
-    return tuple(sorted(set(FigureCanvasBase.get_supported_filetypes()) - _UNSAFE_FIGURE_FORMATS))
-
-
-def check_figure_path(path: str, flag: str) -> Path:
-    """Fail early unless ``path`` ends in a figure format (png, pdf, svg, ...) and can be written.
-
-    Raises
-    ------
-    ConfigError
-        Unknown or missing extension (the message lists the allowed ones), or
-        see :func:`check_output_file`.
-    """
-    check_output_file(path, flag)
-    suffix = Path(path).suffix.lower().lstrip(".")
-    allowed = figure_formats()
-    if suffix not in allowed:
-        what = f"extension .{suffix} is not a figure format" if suffix else "the file name has no extension"
-        raise ConfigError(f"{flag} {path}: {what}; use one of {', '.join(allowed)}")
-    return Path(path)
+from nsbench.inputs import parse_assignment, parse_number
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
@@ -87,17 +57,6 @@ def shared_params(args: argparse.Namespace) -> dict[str, Any]:
     return params
 
 
-def problem_arguments(args: argparse.Namespace) -> dict[str, Any]:
-    """The ``get_problem`` keyword arguments of ``--case``, ``--dimensional``, ``--param`` and ``--n``."""
-    return {"case": args.case, "dimensional": args.dimensional, **shared_params(args)}
-
-
-def problem_from_args(args: argparse.Namespace):
-    from nsbench.problems import get_problem
-
-    return get_problem(args.problem, **problem_arguments(args))
-
-
 def add_factory_limit(p) -> None:
     """The ``--setup-limit`` of a command that builds its problem in its own process (simulate, lyapunov)."""
     p.add_argument(
@@ -107,16 +66,6 @@ def add_factory_limit(p) -> None:
         help="hard limit of a plug-in problem's factory, which is built first in a worker: past it, or if "
         "the factory crashes or raises, the command says so in one line and exits 1 (default 1800)",
     )
-
-
-def factory_fault(args: argparse.Namespace) -> str | None:
-    """A plug-in problem built first in a supervised worker under ``--setup-limit``
-    (:func:`nsbench.factory_probe.probe_problem`): ``None``, or one line naming its fault (a loop past
-    the limit, a crash, an exception). A built-in problem is not probed."""
-    from nsbench.factory_probe import probe_problem
-
-    limit = parse_real(args.setup_limit, "--setup-limit", low=0.0, low_open=True, bound="MAX_TIME_LIMIT")
-    return probe_problem(args.problem, [problem_arguments(args)], limit)
 
 
 def add_report_formats(p) -> None:

@@ -85,88 +85,21 @@ def add(args: argparse.Namespace) -> int:
     return 0
 
 
-def _settings(args: argparse.Namespace) -> tuple[float, float]:
-    from nsbench.bench.compare import check_thresholds
-    from nsbench.inputs import parse_number
-
-    factor, confidence = parse_number(args.factor, "--factor"), parse_number(args.confidence, "--confidence")
-    check_thresholds(factor, confidence)
-    return factor, confidence
-
-
 def show(args: argparse.Namespace) -> int:
-    from pathlib import Path
+    from nsbench.bench.history_show import HistoryShowRequest, show_history
 
-    from nsbench.bench import history
-    from nsbench.bench.report import markdown_table
-    from nsbench.inputs import check_output_dir
-    from nsbench.errors import ConfigError
-
-    factor, confidence = _settings(args)
-    if args.out:
-        check_output_dir(args.out, "--out")
-        from nsbench.files import refuse_links
-
-        # the tables and the figure written there replace what is there: never through a link
-        refuse_links(args.out, ("history.csv", "steps.csv", "history.png", "history.svg", "history.pdf"))
-    found = history.entries(args.store, args.machine, args.environment)
-    if not found:
-        raise ConfigError(
-            f"history store {args.store!r} holds no run"
-            + (" of that machine and environment" if args.machine or args.environment else "")
-        )
-    listing = [
-        {
-            "machine": e.machine,
-            "environment": e.environment,
-            "commit": e.short,
-            "commit time": e.commit_time,
-            "added": e.added,
-            "cpu": e.cpu,
-        }
-        for e in found
-    ]
-    import pandas as pd
-
-    print(markdown_table(pd.DataFrame(listing)))
-    filters = dict(machine=args.machine, environment=args.environment, problem=args.problem, integrator=args.integrator)
-    tab = history.table(args.store, **filters)
-    flagged = history.steps(args.store, factor=factor, confidence=confidence, **filters)
-    print(f"\n{len(flagged)} flagged step(s) (factor {factor:g}, confidence {confidence:g})")
-    if len(flagged):
-        print(
-            markdown_table(
-                flagged[
-                    [
-                        "commit",
-                        "previous",
-                        "problem",
-                        "integrator",
-                        "options",
-                        "time_ratio",
-                        "cpu_ratio",
-                        "nfev_ratio",
-                        "err_ratio",
-                        "flags",
-                    ]
-                ]
-            )
-        )
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        tab.to_csv(out / "history.csv", index=False)
-        flagged.to_csv(out / "steps.csv", index=False)
-        written = [out / "history.csv", out / "steps.csv"]
-        if len(tab):
-            fig = history.figure(tab, flagged, out)
-            written += [fig.png, fig.svg]
-        print("written: " + ", ".join(str(p) for p in written))
-    if args.check and len(flagged):
-        newest = {(e.machine, e.environment): e.short for e in found}
-        if any(newest.get((r.machine, r.environment)) == r.commit for r in flagged.itertuples()):
-            return 1
-    return 0
+    request = HistoryShowRequest(
+        store=args.store,
+        machine=args.machine,
+        environment=args.environment,
+        problem=args.problem,
+        integrator=args.integrator,
+        factor=args.factor,
+        confidence=args.confidence,
+        out=args.out,
+        check=args.check,
+    )
+    return show_history(request).exit_code
 
 
 def run(args: argparse.Namespace) -> int:

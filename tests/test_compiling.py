@@ -51,3 +51,14 @@ def test_a_short_or_cached_compilation_says_nothing():
         func(2.0)  # compiled already: no event at all
     assert out.getvalue() == "" and time.monotonic() - tic < 60.0  # the reporter did not hold the run up
     assert notice.done == 2
+
+
+def test_a_watcher_is_told_when_the_outermost_compilation_starts_and_ends():
+    told = []
+    notice = _Notice(stream=io.StringIO(), delay=60.0)
+    notice.watchers.append(told.append)
+    func = _fresh()
+    with event.install_listener("numba:compile", listener(notice)):
+        func(1.0)  # outer and the inner it calls: one compilation, nested
+        func(2.0)  # compiled already: nothing
+    assert told == [True, False] and notice.done == 2

@@ -8,7 +8,9 @@ from the disk cache broadcasts nothing), and :func:`announce` listens to them:
 a compilation that is still running after :data:`DELAY` seconds is announced on
 stderr with what is being compiled, followed by a progress line (rewritten in
 place on a terminal; every :data:`EVERY` seconds in a log or a pipe) and a last
-line with the time it took. A warm run prints nothing.
+line with the time it took. A warm run prints nothing. :func:`watch` tells a callback when
+this process starts and ends compiling (a worker tells its parent, which holds the task's
+time limit meanwhile).
 
 Importing this module is light; :func:`announce` imports numba (call it where
 numba is imported anyway).
@@ -20,7 +22,7 @@ import os
 import sys
 import threading
 import time
-from typing import TextIO
+from typing import Callable, TextIO
 
 from nsbench.progress import clock
 
@@ -47,7 +49,13 @@ class _Notice:
         self.delay, self.every = delay, every
         self.depth = 0
         self.lock = threading.Lock()
+        #: Told ``True`` when the outermost compilation starts, ``False`` when it ends (:func:`watch`).
+        self.watchers: list[Callable[[bool], None]] = []
         self._reset()
+
+    def _tell(self, active: bool) -> None:
+        for watcher in list(self.watchers):
+            watcher(active)
 
     def _reset(self) -> None:
         self.top = ""
@@ -64,13 +72,16 @@ class _Notice:
     # ------------------------------------------------------------------ numba's events
     def on_start(self, name: str) -> None:
         with self.lock:
-            if self.depth == 0:
+            outermost = self.depth == 0
+            if outermost:
                 self._reset()
                 self.top, self.start = name, time.monotonic()
                 self.thread = threading.Thread(target=self._report, name="nsbench-compile-notice", daemon=True)
                 self.thread.start()
             self.depth += 1
             self.current = name
+        if outermost:
+            self._tell(True)
 
     def on_end(self) -> None:
         with self.lock:
@@ -80,6 +91,7 @@ class _Notice:
                 return
             self.finished.set()
             thread, announced = self.thread, self.announced
+        self._tell(False)
         if thread is not None:
             thread.join()
         if announced:
@@ -140,6 +152,15 @@ def listener(notice: _Notice):
             notice.on_end()
 
     return Listener()
+
+
+def watch(callback: Callable[[bool], None]) -> None:
+    """Call ``callback(True)`` when this process starts compiling with numba and ``callback(False)``
+    when it is done (nested compilations count once; loading from the disk cache is not compiling).
+    The callback runs in the compiling thread and should be quick; what it raises reaches the code
+    that triggered the compilation."""
+    if callback not in _NOTICE.watchers:
+        _NOTICE.watchers.append(callback)
 
 
 def announce() -> None:

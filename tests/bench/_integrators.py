@@ -187,3 +187,26 @@ class UnevenRK45(ScipyRK45):
         for _ in range(3 if type(self).runs % 2 else 0):
             super().advance(request)
         return super().advance(request)
+
+
+class CompilingRK45(ScipyRK45):
+    """Compiles for 1.5 s on its first arc in each process, as a kernel numba compiles on first use:
+    the compile notice is told as numba's listener tells it (:mod:`nsbench.compiling`), around a
+    sleep, so that the compilation outlasts a 1 s limit on any machine. The arcs themselves take
+    milliseconds."""
+
+    name = "compiling-rk45-test"
+    accuracy_levels = ({"rtol": 1e-6, "atol": 1e-8},)
+    compiled = False
+
+    def advance(self, request):
+        if not CompilingRK45.compiled:
+            from nsbench.compiling import _NOTICE
+
+            _NOTICE.on_start(f"{__name__}.CompilingRK45.advance")
+            try:
+                time.sleep(1.5)
+            finally:
+                _NOTICE.on_end()
+            CompilingRK45.compiled = True
+        return super().advance(request)

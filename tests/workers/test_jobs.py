@@ -52,6 +52,25 @@ def dies_at(n, bad, how, *, stage, emit):
     return n
 
 
+def compiles_then_returns(seconds, *, stage, emit):
+    """A stage of 1 s that compiles for ``seconds`` first (the notice told as numba's listener tells it)."""
+    from nsbench.compiling import _NOTICE
+
+    stage("run", 1.0)
+    _NOTICE.on_start("a first-use compilation")
+    try:
+        time.sleep(seconds)
+    finally:
+        _NOTICE.on_end()
+    return seconds
+
+
+def sleeps_then_returns(seconds, *, stage, emit):
+    stage("run", 1.0)
+    time.sleep(seconds)
+    return seconds
+
+
 def raises(*, stage, emit):
     raise TypeError("a bug in the job")
 
@@ -90,6 +109,20 @@ def test_a_job_that_never_returns_is_stopped_and_the_others_finish():
     assert [o.value for o in hang if o.kind == "partial"] == [0, 1]  # what came before is kept
     assert hang[-1].kind == "time limit" and hang[-1].stage == "item 2" and "limit of 2 s" in hang[-1].reason
     assert sorted(o.key for o in out if o.kind == "done") == [0, 1, 2]
+
+
+def test_a_compilation_holds_the_stages_clock_and_a_run_does_not():
+    # compiling is nsbench's first-use cost: the parent holds a stage's limit while the worker says it
+    # compiles (nsbench.workers.protocol.Compiling) and gives the stage back what it had left after it
+    out = _run(
+        [
+            Job("compiles", TARGET + "compiles_then_returns", (2.0,)),
+            Job("sleeps", TARGET + "sleeps_then_returns", (2.0,)),
+        ]
+    )
+    ends = {o.key: o for o in out if o.final}
+    assert ends["compiles"].kind == "done" and ends["compiles"].value == 2.0
+    assert ends["sleeps"].kind == "time limit" and "limit of 1 s" in ends["sleeps"].reason
 
 
 @pytest.mark.parametrize("how, reason", [("exit", "exit code 9"), ("segv", "signal 11 (SIGSEGV)")])

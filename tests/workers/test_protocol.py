@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import math
 import os
 import signal
 
@@ -41,3 +42,16 @@ def test_exit_descriptions():
     assert describe_exit(3) == "exit code 3"
     assert describe_exit(-signal.SIGSEGV) == "signal 11 (SIGSEGV)"
     assert describe_exit(None) == "still running"
+
+
+def test_a_stage_is_held_while_it_compiles():
+    from nsbench.workers.protocol import COMPILE_LIMIT, Compiling, held
+
+    start, end = Compiling(1, True), Compiling(1, False)
+    deadline, left = held(110.0, None, start, now=100.0)  # 10 s left when the compilation began
+    assert deadline == 100.0 + COMPILE_LIMIT and left == 10.0
+    assert held(deadline, left, start, now=150.0) == (deadline, 10.0)  # one hold at a time
+    assert held(deadline, left, end, now=400.0) == (410.0, None)  # what it had left, from the end
+    assert held(None, None, start, now=100.0) == (None, None)  # an unlimited stage stays so
+    assert held(math.inf, None, start, now=100.0) == (math.inf, None)
+    assert held(110.0, None, end, now=100.0) == (110.0, None)  # an end without a start changes nothing

@@ -13,7 +13,7 @@ continuation send) or any message with a ``task`` number and a
 
 Parent to worker: :class:`Hello` (once), then tasks and :class:`Stop`. Worker to
 parent: :class:`Ready` or :class:`InitFailed` (once), then any number of
-:class:`Stage` and :class:`Partial` per task and exactly one :class:`Done`,
+:class:`Stage`, :class:`Compiling` and :class:`Partial` per task and exactly one :class:`Done`,
 :class:`Failed` or :class:`Interrupted`. A worker forked from a factory gets no
 :class:`Hello` (the factory had it) and starts with its :class:`Ready`.
 
@@ -24,6 +24,7 @@ factory to parent: :class:`Exited`.
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import struct
@@ -112,6 +113,44 @@ class Stage:
     task: int
     what: str
     limit: float | None
+
+
+#: Longest wall-clock time a compilation holds a stage's clock (seconds): past it the parent stops the
+#: worker as it would past the stage's own limit. Compiling the whole core once takes minutes on a
+#: busy machine; this bounds only a compilation that never ends.
+COMPILE_LIMIT = 1800.0
+
+
+@dataclass(frozen=True)
+class Compiling:
+    """The worker's task starts (``active``) or ends compiling with numba.
+
+    Compilation is nsbench's first-use cost, not the task's: the parent holds the stage's clock
+    while it lasts (:func:`held`), so that a warm-up run, a sweep value or a Lyapunov member that
+    compiles on a fresh install is not stopped by a limit meant for the method's run.
+    """
+
+    task: int
+    active: bool
+
+
+def held(
+    deadline: float | None, left: float | None, message: Compiling, now: float
+) -> tuple[float | None, float | None]:
+    """A stage's deadline and the seconds it had left, across a :class:`Compiling` message.
+
+    ``deadline`` is the stage's (``None`` or ``inf``: not limited), ``left`` the seconds it had
+    when a compilation began (``None``: none holds it). When a compilation begins the deadline
+    becomes :data:`COMPILE_LIMIT` from ``now`` and what the stage had left is kept; when it ends
+    the stage gets back what it had left. An unlimited stage stays unlimited.
+    """
+    if message.active:
+        if left is None and deadline is not None and math.isfinite(deadline):
+            return now + COMPILE_LIMIT, max(0.0, deadline - now)
+        return deadline, left
+    if left is not None:
+        return now + left, None
+    return deadline, None
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,8 @@ from nsbench.workers import protocol as msg
 
 #: The process that started this worker (set by :func:`main`); ``None`` when served in-process (tests).
 _PARENT: int | None = None
+#: The task in hand and the stream to its parent, while :func:`serve_tasks` runs one (for :func:`_compiling`).
+_IN_HAND: tuple[int, BinaryIO] | None = None
 
 
 class ParentGone(BaseException):
@@ -117,8 +119,19 @@ def serve(inp: BinaryIO, out: BinaryIO) -> None:
     serve_tasks(inp, out, hello)
 
 
+def _compiling(active: bool) -> None:
+    """Tell the parent that the task in hand starts or ends compiling: it holds the stage's limit meanwhile."""
+    if _IN_HAND is not None:
+        task, out = _IN_HAND
+        _send(out, msg.Compiling(task, active))
+
+
 def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
     """Answer tasks until :class:`~nsbench.workers.protocol.Stop` or the end of the input (after the Ready)."""
+    global _IN_HAND
+    from nsbench import compiling
+
+    compiling.watch(_compiling)
     while True:
         try:
             task = msg.read_message(inp)
@@ -127,6 +140,7 @@ def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
         if isinstance(task, msg.Stop):
             return
         try:
+            _IN_HAND = (task.task, out)
             result = _handle(task, out, hello)
         except ParentGone:
             return
@@ -136,6 +150,8 @@ def serve_tasks(inp: BinaryIO, out: BinaryIO, hello: msg.Hello) -> None:
         except Exception as exc:  # a bug outside the task's own guard: report it (with its traceback), keep serving
             msg.write_message(out, msg.Failed(task.task, f"{type(exc).__name__}: {exc}", traceback.format_exc()))
             continue
+        finally:
+            _IN_HAND = None
         msg.write_message(out, msg.Done(task.task, result))
 
 

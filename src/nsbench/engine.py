@@ -517,15 +517,8 @@ def _checked(
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     whole = is_whole_system(integ)
     if whole:
-        given: tuple[bool, ...] = (
-            t0_lo != 0.0,
-            mode is not None,
-            hit_from != -math.inf,
-            hit_stop != -1,
-            record_from != -math.inf,
-        )
-        given += (stop_kind is not None, stop_count != 0)
-        asked = [name for name, on in zip(_CORE_ONLY, given) if on]
+        given = (t0_lo != 0.0, mode is not None, hit_from != -math.inf, hit_stop != -1, record_from != -math.inf)
+        asked = [name for name, on in zip(_CORE_ONLY, (*given, stop_kind is not None, stop_count != 0)) if on]
         if asked:
             require_event_driven(integ, f"a run with {', '.join(asked)}")
     hybrid = dict(

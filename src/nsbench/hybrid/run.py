@@ -246,7 +246,6 @@ def _prepare(
     accumulation,
 ) -> _Prepared:
     """The bundles of a run of :func:`run_hybrid` (its arguments, in its order), before any loop."""
-    from nsbench.model.rules import STREAK_TIMES
 
     n = problem.n_states
     kernel = integ.kernel(problem)
@@ -262,23 +261,7 @@ def _prepare(
     # a run that stops at its hit_stop-th hit never holds more: sized for them, the loop is not left
     # to grow the buffer (a sweep value's 100 peaks overran the 64 rows it starts with: one re-entry per value)
     rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), HITS_AT_START), MAX_HITS_AHEAD))
-    g = max(problem.max_guards, 1)
-    st = abi.RunState(
-        y=y,
-        mode=mode_arr,
-        fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
-        gk=np.zeros(g, np.int64),
-        gi=np.zeros(g, np.int64),
-        gs=np.zeros(g, np.int64),
-        ring=np.full(max(int(zeno_events), 1), -np.inf),
-        acc=np.zeros(STREAK_TIMES),
-        sf=np.zeros(abi.N_SF),
-        si=np.zeros(abi.N_SI, np.int64),
-        cnt=np.zeros(abi.N_COUNTERS, np.int64),
-        y_arc=np.empty(n),
-        dy=np.empty(n),
-        iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
-    )
+    st = _run_state(problem, y, mode_arr, zeno_events)
     st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
     if stop_kind is not None and stop_kind not in problem.event_kinds:
         from nsbench.errors import ConfigError
@@ -301,6 +284,29 @@ def _prepare(
     start_mode = tuple(int(v) for v in mode_arr)
     budgets = (int(max_steps), int(max_events), int(zeno_events))
     return _Prepared(problem, kernel, y, mode_arr, grid, sec, rec, st, lim, start_mode, float(t0), budgets)
+
+
+def _run_state(problem, y: np.ndarray, mode_arr: np.ndarray, zeno_events: int) -> abi.RunState:
+    """A fresh :class:`~nsbench.model.abi.RunState` of a run from ``y`` in ``mode_arr``."""
+    from nsbench.model.rules import STREAK_TIMES
+
+    n, g = problem.n_states, max(problem.max_guards, 1)
+    return abi.RunState(
+        y=y,
+        mode=mode_arr,
+        fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
+        gk=np.zeros(g, np.int64),
+        gi=np.zeros(g, np.int64),
+        gs=np.zeros(g, np.int64),
+        ring=np.full(max(int(zeno_events), 1), -np.inf),
+        acc=np.zeros(STREAK_TIMES),
+        sf=np.zeros(abi.N_SF),
+        si=np.zeros(abi.N_SI, np.int64),
+        cnt=np.zeros(abi.N_COUNTERS, np.int64),
+        y_arc=np.empty(n),
+        dy=np.empty(n),
+        iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
+    )
 
 
 def _native_raw(p: _Prepared, report) -> RawRun:

@@ -1,4 +1,4 @@
-"""``fesd``: finite elements with switch detection (FESD) through nosnoc, on the relay feedback system.
+"""``fesd``: finite elements with switch detection (FESD) through nosnoc, on the Filippov problems.
 
 FESD (Nurkanovic, Sperl, Albrecht and Diehl, "Finite elements with switch detection for
 direct optimal control of nonsmooth systems", Numerische Mathematik 156 (2024)) writes a
@@ -11,22 +11,30 @@ root finder. nosnoc (PyPI ``nosnoc`` 0.2.0, nosnoc_py, with casadi and IPOPT) bu
 solves that program; nsbench runs it step by step in its simulation mode (one program of
 span ``h`` per step, the next started from the last state).
 
-**What is mapped.** The relay feedback system (``relay-feedback``): ``x' = A x + B`` where
-``C x < 0`` (region 1, ``u = +1``) and ``A x - B`` where ``C x > 0`` (region 2), one
-switching function ``c(x) = C x``; Filippov sliding on ``C x = 0`` is the convex
-combination ``theta``. Other problems are refused at setup with the reason.
+**What is mapped.** :mod:`nsbench.integrators.fesd_models` writes each problem as a nosnoc
+model: the relay feedback system, Casella's sliding test, the circle oscillator and the
+friction oscillators with ``fs = fr`` on every block (one switching function ``v_i - v0`` per
+block; Filippov sliding on it is the stick, and a stuck block's reported state is snapped to
+``v_i = v0``). Stiction (``fs < fr``) is not a Filippov system and is refused at setup with
+each block's values, as is every problem not mapped. ``n_fe`` defaults to the number of
+switching functions and one more (several blocks may switch within one step).
 
 **What it returns.** The states at every finite-element end (``t`` the accumulated
 element lengths: nosnoc's ``switch_times`` output holds element lengths, not times), the
 mode of each element read off its ``theta`` at the element's end (sliding where
 ``min theta > sqrt(comp_tol)``, the complementarity residual's scale, else the region of
-the larger ``theta``) and, with ``switch_detection``, the element boundaries inside a step
-where that label changes as :attr:`~nsbench.integrators.whole.SystemResult.switch_times`,
-if every stage of the element after is in its new mode (a change on the step grid is the
-grid's, and one inside an element, its first stages in the old mode, is not at the
-boundary: neither is a located switch). The events are inferred
-from the labels (:mod:`nsbench.hybrid.inference`, rule 6) and the located times reported
-beside them (the event log's ``t_located``).
+the larger ``theta``; per switching function) and, with ``switch_detection``, the element
+boundaries inside a step where a label changes as
+:attr:`~nsbench.integrators.whole.SystemResult.switch_times` (with the switching function as
+``switch_elements``), if every stage of the element after is in its new mode (a change on
+the step grid is the grid's, and one inside an element, its first stages in the old mode,
+is not at the boundary: neither is a located switch). An exit from sliding (the relay's
+exit, a block's break-away) is never a located switch: it leaves the surface tangentially,
+and the boundary where its label flips is where ``theta`` passes the label's floor, up to
+4e-4 before the state leaves (measured on the relay). The events are inferred from the
+labels (the relay family, :mod:`nsbench.hybrid.inference` rule 6) or from the snapped
+velocities (the friction family, rules 1-4) and the located times reported beside them (the
+event log's ``t_located``).
 
 **Defaults.** Radau IIA with ``n_s = 3`` stages (order 5; nosnoc's own examples use 2 for the relay, 3 for
 its oscillator's order study) and ``comp_tol = 1e-12`` (nosnoc's order experiments; its relay example uses

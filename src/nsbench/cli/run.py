@@ -5,12 +5,14 @@ cases 1-4, tau in [0, 300], but the tightest levels of the slowest methods, whic
 how many runs it will time and how long that should take. Like ``bench``
 and ``bifurcation`` it resumes: only cases missing from the folder are computed
 (``--fresh`` starts over). Exit status 1 when a case crashed or a reference could not
-be computed."""
+be computed. The arguments map onto one :class:`nsbench.bench.command.RunRequest` and one call of
+:func:`nsbench.bench.command.run_main_job`."""
 
 from __future__ import annotations
 
 import argparse
 
+from nsbench.bench.command import RunRequest
 from nsbench.cli._common import add_report_formats
 
 
@@ -41,23 +43,21 @@ def add_parser(sub) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    import shlex
-    import time
+    from nsbench.bench.command import run_main_job
 
-    from nsbench.cli.bench import run_and_report
+    outcome = run_main_job(request(args))
+    if outcome.failure is not None:
+        print(f"INCOMPLETE: {outcome.failure}")
+    return outcome.exit_code
 
-    from nsbench.bench.suite import packaged_suites
 
-    out = args.out
-    if out is None:
-        packaged = args.suite in packaged_suites() and args.suite != "default"
-        out = f"reports/{args.suite}" if packaged else "reports/latest"
-    tic = time.perf_counter()
-    again = ["nsbench", "run"] + (["--suite", args.suite] if args.suite != "default" else [])
-    again += ["--out", args.out] if args.out is not None else []
-    again += ["--formats", args.formats] if args.formats != "png" else []
-    code = run_and_report(
-        args.suite, out, args.workers, not args.fresh, not args.no_progress, True, shlex.join(again), args.formats
+def request(args: argparse.Namespace) -> RunRequest:
+    """The main job the command line asks for (``--out`` unset: the suite's default folder)."""
+    return RunRequest(
+        args.suite,
+        args.out,
+        args.workers,
+        fresh=args.fresh,
+        progress=not args.no_progress,
+        formats=args.formats,
     )
-    print(f"nsbench run took {time.perf_counter() - tic:.0f} s")
-    return code

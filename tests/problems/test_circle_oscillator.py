@@ -75,3 +75,28 @@ def test_conformance_on_the_circle_oscillator(integrator, check):
 def test_builtin_conformance_on_the_circle_oscillator(integrator, check):
     """Every built-in integrator: runs the checks, or is refused at setup with its reason."""
     check(integrator)
+
+
+def test_the_kit_runs_it_to_e_cubed_past_the_crossing_and_other_problems_sixty_time_scales():
+    """The radius grows as e^t: the kit's span ends where it is e^3 times the circle's (from the closed
+    form), not at the default 60 time scales (e^59)."""
+    from nsbench.problems.base import CHECK_TIME_SCALES
+
+    p = nsbench.get_problem("circle-oscillator")
+    assert p.check_span == pytest.approx(crossing_time(p) + 3.0, abs=1e-15) and p.check_span == pytest.approx(4.0)
+    radius = float(np.hypot(*closed_form(p, p.check_span)))
+    assert radius == pytest.approx(math.exp(3.0) * p.radius, rel=1e-13)
+    outside = nsbench.get_problem("circle-oscillator", x1_0=1.2)  # no crossing: three time units
+    assert outside.check_span == 3.0
+    for name in ("casella-sliding", "bouncing-ball", "relay-feedback"):
+        other = nsbench.get_problem(name)
+        assert other.check_span == CHECK_TIME_SCALES * other.time_scale
+
+
+def test_the_kit_takes_the_span_the_problem_declares():
+    from nsbench.testing._checks import _span, checking_on
+
+    with checking_on("circle-oscillator"):
+        assert _span(nsbench.get_problem("circle-oscillator"), 60.0) == pytest.approx(4.0)
+    with checking_on("two-dof"):  # on the belt's presets the check's own span
+        assert _span(nsbench.get_problem("two-dof"), 60.0) == 60.0

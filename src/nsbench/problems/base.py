@@ -78,6 +78,9 @@ class Traits:
         return " or ".join(cls.WORDS[n] for n in names)
 
 
+#: Span of the conformance kit's event checks on a problem without the belt's presets, in its time
+#: scales (:attr:`HybridProblem.check_span`), as ``tau`` in [0, 60] on the belt.
+CHECK_TIME_SCALES = 60.0
 #: The names of the traits (what :attr:`nsbench.integrators.base.Capabilities.accepts` may name).
 TRAIT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Traits))
 
@@ -272,6 +275,16 @@ class HybridProblem:
     def time_scale(self) -> float:
         """The problem's unit of time in the dimensionless form (event storms are judged in it)."""
         return 1.0
+
+    @property
+    def check_span(self) -> float:
+        """The span the conformance kit's event checks integrate over on this problem
+        (:mod:`nsbench.testing`, off the belt's presets): :data:`CHECK_TIME_SCALES` time scales.
+
+        A problem whose state grows or decays without bound over that span declares a shorter one,
+        so that the kit measures the method and not the range of a double.
+        """
+        return CHECK_TIME_SCALES * self.time_scale
 
     def config(self) -> dict[str, Any]:
         """The small dict that rebuilds this problem with :func:`nsbench.get_problem`."""

@@ -78,6 +78,20 @@ class CircleOscillator(NamedModes, HybridProblem):
     def guard_name(self, guard: Guard) -> str:
         return guard.kind
 
+    #: Time the conformance kit integrates past the crossing: the radius grows to e^3 (20 times R).
+    CHECK_GROWTH = 3.0
+
+    @property
+    def check_span(self) -> float:
+        """The crossing time plus :attr:`CHECK_GROWTH` (4 from nosnoc's start: four turns, one crossing).
+
+        The radius grows as ``e^t`` on both sides, so the kit's default of 60 time units would end at
+        ``|x| = e^59`` (about 4e25): a test of the range of a double, where an absolute tolerance
+        (IPOPT's in ``fesd``) leaves a method nothing to meet.
+        """
+        t1 = crossing_time(self)
+        return (0.0 if math.isnan(t1) else t1) + self.CHECK_GROWTH
+
     @property
     def max_guards(self) -> int:
         return 1

@@ -53,9 +53,6 @@ FAMILY: ContextVar[tuple[str, dict[str, Any]]] = ContextVar("nsbench_check_famil
 #: The options the user gave for this run of the kit (:func:`given_options`): every check
 #: runs with them. Set for a run by :func:`checking_with`.
 GIVEN: ContextVar[dict[str, Any]] = ContextVar("nsbench_check_given", default={})
-#: Span of the event checks on a problem without the belt's presets, in its time scale
-#: (``time_scale()``), as ``tau`` in [0, 60] on the belt.
-SPAN = 60.0
 
 
 def problem_family(spec: str | dict[str, Any] | None) -> tuple[str, dict[str, Any]]:
@@ -123,8 +120,9 @@ def _problem(case: int):
 
 
 def _span(problem, belt: float) -> float:
-    """``belt`` on the belt oscillators, :data:`SPAN` time scales on any other problem."""
-    return belt if on_presets() else SPAN * problem.time_scale
+    """``belt`` on the belt oscillators, the problem's own :attr:`~nsbench.problems.base.HybridProblem.check_span`
+    (60 time scales unless it declares a shorter one) on any other problem."""
+    return belt if on_presets() else problem.check_span
 
 
 def _simulate(integ: Integrator, problem, t_end: float, **kwargs):
@@ -397,8 +395,8 @@ def _smooth_error(integ: Integrator) -> float:
     """End-state error of one smooth arc, against the closed form.
 
     Without the belt's presets: the problem's first arc from its start state,
-    over half the time ``reference`` takes to its first guard (or :data:`SPAN`
-    time scales), against ``reference``. On the belt: case 1 over 4 time units,
+    over half the time ``reference`` takes to its first guard (or its
+    ``check_span``), against ``reference``. On the belt: case 1 over 4 time units,
     against ``exact``; every block slips backwards near the mode's equilibrium (spring ``i`` carries
     the kinetic friction of blocks ``i..n``: for two blocks x1 = rf1 + rf2,
     x2 = x1 + rf2) with speeds well below the belt's, so no guard fires.
@@ -442,7 +440,7 @@ def _first_arc_error(integ: Integrator) -> float:
     ref = _reference_for(problem)
     y0 = problem.initial_state()
     mode = problem.initial_mode(0.0, y0)
-    span = SPAN * problem.time_scale
+    span = problem.check_span
     first = ref.advance(ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=span, guards=problem.guards(mode)))
     t_end = span if first.fired is None else 0.5 * first.t
     request = ArcRequest(problem=problem, mode=mode, t0=0.0, y0=y0, t_end=t_end, guards=problem.guards(mode))
@@ -542,7 +540,7 @@ def check_convergence(integ: Integrator) -> None:
 
 def check_event_times(integ: Integrator) -> None:
     """Event sequence and times of case 2 over [0, 60] within :data:`EVENT_BOUND` of ``exact`` (:func:`configured`);
-    without the belt's presets, of the problem over :data:`SPAN` time scales against ``reference``."""
+    without the belt's presets, of the problem over its ``check_span`` against ``reference``."""
     from nsbench.integrators.exact import ExactIntegrator
 
     problem = _problem(2)

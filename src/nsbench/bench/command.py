@@ -7,8 +7,9 @@ the suite and its size, in that order) in, one :class:`BenchOutcome` out: the ru
 line saying why the command exits 1 (a case crashed, a reference could not be computed, or a plug-in
 problem could not be built). Refused input raises a :class:`~nsbench.errors.ConfigError` before
 anything runs (the command exits 2). The command lines (:mod:`nsbench.cli.bench`,
-:mod:`nsbench.cli.run`) map their arguments onto the request and print the failure line; the plan,
-the counts, the paths written and the answer are printed here, as they come.
+:mod:`nsbench.cli.run`) map their arguments onto the request and exit with the outcome's code; the plan,
+the counts, the paths written, the answer and the failure line (``INCOMPLETE: ...``) are printed
+here, as they come.
 """
 
 from __future__ import annotations
@@ -124,7 +125,7 @@ def run_bench(request: BenchRequest) -> BenchOutcome:
     for line in left_out:
         print(f"nsbench: bench: {line}", file=sys.stderr, flush=True)
     if left_out and not suite.problems:
-        return BenchOutcome(None, failure="no problem of the suite could be built; nothing was run")
+        return _said(BenchOutcome(None, failure="no problem of the suite could be built; nothing was run"))
     extra = {"resume_command": request.resume_command} if request.resume_command else None
     # the plan line is said with or without the bar: a log or a script wants it too
     summary = run_suite(
@@ -157,7 +158,14 @@ def run_bench(request: BenchRequest) -> BenchOutcome:
         for line in words:
             print(f"  - {line}")
     short = [*left_out, *summary.problems()] if not summary.ok or left_out else []
-    return BenchOutcome(summary, page, words, "; ".join(short) if short else None)
+    return _said(BenchOutcome(summary, page, words, "; ".join(short) if short else None))
+
+
+def _said(outcome: BenchOutcome) -> BenchOutcome:
+    """The outcome, its failure said as the command says it (the log's last word on a short run)."""
+    if outcome.failure is not None:
+        print(f"INCOMPLETE: {outcome.failure}")
+    return outcome
 
 
 def answer(out: str | Path, results: pd.DataFrame) -> list[str]:

@@ -36,10 +36,7 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.command import run_bench
 
-    outcome = run_bench(request(args))
-    if outcome.failure is not None:
-        print(f"INCOMPLETE: {outcome.failure}")
-    return outcome.exit_code
+    return run_bench(request(args)).exit_code
 
 
 def request(args: argparse.Namespace) -> BenchRequest:

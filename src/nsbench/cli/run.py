@@ -45,10 +45,7 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.command import run_main_job
 
-    outcome = run_main_job(request(args))
-    if outcome.failure is not None:
-        print(f"INCOMPLETE: {outcome.failure}")
-    return outcome.exit_code
+    return run_main_job(request(args)).exit_code
 
 
 def request(args: argparse.Namespace) -> RunRequest:

@@ -33,14 +33,6 @@ if TYPE_CHECKING:  # pragma: no cover
 DEFAULT_FORMATS = "png"
 
 
-def _formats(text: str | tuple[str, ...]) -> tuple[str, ...]:
-    """``png,svg`` (or a tuple of names) checked against the formats matplotlib can write."""
-    from nsbench.bench.figures import check_formats
-
-    names = text.split(",") if isinstance(text, str) else text
-    return check_formats(tuple(f.strip().lower() for f in names if f.strip()))
-
-
 @dataclass(frozen=True)
 class BenchRequest:
     """One suite run into one folder, then its report, as asked.
@@ -80,12 +72,13 @@ class BenchRequest:
     formats: str | tuple[str, ...] = DEFAULT_FORMATS
 
     def __post_init__(self) -> None:
+        from nsbench.bench.figures import parse_formats
         from nsbench.bench.suite import load_suite
 
         def keep(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
-        keep("formats", _formats(self.formats))
+        keep("formats", parse_formats(self.formats))
         if self.workers is not None:
             keep("workers", parse_count(str(self.workers), "--workers", low=1, bound="MAX_WORKERS"))
         check_output_dir(self.out, "--out")

@@ -73,6 +73,12 @@ def check_formats(formats: Sequence[str], what: str = "--formats") -> tuple[str,
     return ("png", *[f for f in REPORT_FORMATS[1:] if f in formats])
 
 
+def parse_formats(text: str | Sequence[str], what: str = "--formats") -> tuple[str, ...]:
+    """``"png, SVG"`` (the ``--formats`` text) or a sequence of names, as :func:`check_formats` keeps them."""
+    names = text.split(",") if isinstance(text, str) else text
+    return check_formats(tuple(f.strip().lower() for f in names if f.strip()), what)
+
+
 @contextmanager
 def saving_as(formats: Sequence[str]) -> Iterator[tuple[str, ...]]:
     """Save the figures made inside this block in ``formats`` (see :func:`check_formats`)."""

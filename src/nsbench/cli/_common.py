@@ -77,10 +77,3 @@ def add_report_formats(p) -> None:
         help="the report figures' formats, comma-separated from png, svg, pdf (default png; png is always "
         "written, the HTML page embeds it; svg for the web, pdf for a LaTeX paper)",
     )
-
-
-def parse_report_formats(text: str) -> tuple[str, ...]:
-    """``--formats png,svg`` as a tuple (:func:`nsbench.bench.figures.check_formats`): a bad one refused first."""
-    from nsbench.bench.figures import check_formats
-
-    return check_formats(tuple(f.strip().lower() for f in str(text).split(",") if f.strip()))

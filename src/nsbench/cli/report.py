@@ -19,10 +19,10 @@ def add_parser(sub) -> None:
 def main(args: argparse.Namespace) -> int:
     from nsbench.bench.compare import read_results
     from nsbench.bench.report import write_report
-    from nsbench.cli._common import parse_report_formats
+    from nsbench.bench.figures import parse_formats
     from nsbench.inputs import check_output_dir
 
-    formats = parse_report_formats(args.formats)
+    formats = parse_formats(args.formats)
     if not Path(args.directory).is_dir():
         raise ConfigError(f"{args.directory!r} is not a directory")
     results = read_results(args.directory)  # another tool's folder or an empty one: one line, exit 2

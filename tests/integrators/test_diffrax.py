@@ -45,13 +45,14 @@ def test_exacts_sequence_on_the_forced_two_dof(name, bound):
 
 
 def test_the_balls_impacts_match_the_closed_form():
-    # a flight is a quadratic in time, which Tsit5 follows to rounding: measured 2.8e-14; bound 1e-11
+    # a flight is a quadratic in time, which Tsit5 follows to rounding: measured 2.8e-14; bound 1e-11. How
+    # many impacts precede the rest is the core's Zeno rule's (by the tail's accuracy): at least four
     p = nsbench.get_problem("bouncing-ball")
     res = nsbench.simulate(p, "diffrax-tsit5", 6.0, options={"rtol": 1e-12, "atol": 1e-14})
     assert res.ok, res.message
     impacts = res.events[res.events["kind"] == "impact"]["t"].to_numpy()
-    assert len(impacts) == 9
-    assert np.max(np.abs(impacts - p.impact_times(9))) <= 1e-11
+    assert list(res.events["kind"]) == ["impact"] * len(impacts) + ["rest"] and len(impacts) >= 4
+    assert np.max(np.abs(impacts - p.impact_times(len(impacts)))) <= 1e-11
     assert abs(res.events["t"].iloc[-1] - p.accumulation_time()) <= 1e-9
 
 

@@ -29,6 +29,18 @@ def _row(integrator, family, options, err, l2, creep, seq=True, wall=1.0, step_o
     }
 
 
+def test_a_smoothing_method_without_eps_is_fitted_along_its_own_tolerance():
+    # lugre (family smoothing) varies rtol, not eps: a tolerance tightens as it shrinks, so an arc error
+    # ~ rtol is order +1 along it (fitted against 1/rtol, as for eps, it came out -1)
+    rows = [
+        _row("lugre", "smoothing", {"rtol": r}, 2.0 * r, 3.0 * r, 1e-6, step_option="rtol", arc=5.0 * r)
+        for r in (1e-6, 1e-7, 1e-8)
+    ]
+    row = families_table(pd.DataFrame(rows), (1e-3,)).set_index("integrator").loc["lugre"]
+    assert row["order (switches)"] == pytest.approx(1.0) and row["order (smooth arcs)"] == pytest.approx(1.0)
+    assert row["ladder"] == "rtol 1e-06 .. 1e-08"
+
+
 def test_the_table_reads_each_ladder_cost_order_and_creep():
     rows = [
         _row("moreau-jean", "time-stepping", {"h": h}, 0.5 * h, 2.0 * h, 0.0, wall=1e-3 / h, arc=3.0 * h * h)

@@ -80,7 +80,10 @@ def _ladder(rows: pd.DataFrame, family: str) -> tuple[str, list[float], bool]:
     options = [json.loads(o) if isinstance(o, str) and o else {} for o in rows["options"]]
     name, sharpens = LADDERS.get(family, ("", False))
     if not name or not any(name in o for o in options):
+        # the method's own step option (lugre, of the smoothing family, varies rtol, not eps): a step or a
+        # tolerance, which tightens as it shrinks, so it is fitted as it is, never as 1/value
         name = str(rows["step_option"].iloc[0]) if "step_option" in rows else ""
+        sharpens = False
     values = [float(o.get(name, math.nan)) if isinstance(o.get(name), (int, float)) else math.nan for o in options]
     return name, values, sharpens
 

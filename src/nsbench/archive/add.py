@@ -1,0 +1,133 @@
+"""``nsbench archive add RUN --to ARCHIVE``: a results folder added after re-grading it.
+
+Every row's switching-time errors are graded again (:mod:`nsbench.archive.regrade`); if any row's
+submitted errors disagree with the re-grading, nothing is added and the outcome names every such
+row. Rows that cannot be graded here (a problem or reference integrator this nsbench does not
+know, a case that did not run) are kept and marked, and so are rows of an integrator plug-in not
+installed here (graded all the same: the grading needs only the reference and the log).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from nsbench.archive import layout
+from nsbench.archive.regrade import REGRADED, Graded, disagreement, grade_row, no_events
+from nsbench.bench import storage
+from nsbench.bench.history import environment_of
+from nsbench.errors import ConfigError
+from nsbench.status import ReferenceStatus, Status
+
+
+@dataclass(frozen=True)
+class AddOutcome:
+    """What ``archive add`` did: the run added (or found already there), or the rows refused."""
+
+    run: layout.Run | None
+    refused: list[str] = field(default_factory=list)
+    already: bool = False
+
+
+def machine_of(provenance: dict[str, Any]) -> str:
+    """A run's machine when none is named: its CPU and core count, as a folder-safe name."""
+    text = f"{provenance.get('cpu') or 'unknown-cpu'}-{provenance.get('cpu_count') or 0}cores"
+    cleaned = "".join(c if c.isalnum() or c in "._+-" else "-" for c in text).strip("-.")
+    return cleaned[:100] or "unknown"
+
+
+def _check_kept_logs(frame: pd.DataFrame, run: Path) -> None:
+    """``ConfigError`` if a case that ran has no event log: the folder predates nsbench keeping them."""
+    ran = frame["status"].astype(str) == Status.SUCCESS.value
+    missing = frame[ran & (frame["event_log"].fillna("").astype(str) == "")]
+    if len(missing):
+        raise ConfigError(
+            f"{str(run)!r} keeps no event log for case {missing['case_id'].iloc[0]} (and {len(missing) - 1} more): "
+            "it was made by an nsbench that did not keep them, so it cannot be re-graded; run its suite again"
+        )
+
+
+def _row_label(row: pd.Series) -> str:
+    return f"{row['case_id']} ({row['integrator']} level {row['level']} on {row['problem_label']})"
+
+
+def _grade_all(frame: pd.DataFrame, references: Path) -> tuple[list[Graded], list[str]]:
+    graded, refused = [], []
+    for _, row in frame.iterrows():
+        g = grade_row(row, references)
+        graded.append(g)
+        if g.graded:
+            why = disagreement(row, g.values)
+            if why:
+                refused.append(f"{_row_label(row)}: {why}")
+    return graded, refused
+
+
+def _mark(row: pd.Series, g: Graded) -> str:
+    if not g.graded:
+        return g.mark
+    own = ReferenceStatus.of(str(row["reference_status"])) is ReferenceStatus.OK
+    notes = [g.note] if g.note else []
+    if not own:
+        notes.append("graded by the archive only (the run had no reference)")
+    return "; ".join(notes)
+
+
+def _tables(frame: pd.DataFrame, graded: list[Graded], rid: str) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The archive's rows (the re-graded columns in place of the submitted ones) and event table."""
+    records, events = [], []
+    for (_, row), g in zip(frame.iterrows(), graded):
+        record = row.to_dict()
+        record.update({k: v for k, v in g.values.items() if k in REGRADED})
+        records.append(record)
+        if len(g.events):
+            events.append(g.events.assign(run_id=rid, case_id=str(row["case_id"])))
+    rows = storage.to_frame(records)
+    rows["run_id"] = pd.array([rid] * len(rows), dtype="string")
+    rows["graded"] = pd.array([g.graded for g in graded], dtype="boolean")
+    rows["mark"] = pd.array([_mark(r, g) for (_, r), g in zip(frame.iterrows(), graded)], dtype="string")
+    table = pd.concat(events, ignore_index=True) if events else no_events().assign(run_id="", case_id="")
+    table = table[list(layout.EVENT_COLUMNS)].astype({"run_id": "string", "case_id": "string", "kind": "string"})
+    return rows, table
+
+
+def add_run(run: str | Path, archive: str | Path, machine: str | None = None) -> AddOutcome:
+    """Re-grade the results folder ``run`` and add it to ``archive`` (created if absent).
+
+    Raises ``ConfigError`` for a folder that cannot be read or re-graded (damaged, no event logs)
+    and for an archive of another schema.
+    """
+    run, archive = Path(run), Path(archive)
+    frame = storage.load_results(run)
+    prov = storage.read_provenance(run)
+    _check_kept_logs(frame, run)
+    rid = layout.run_id(frame)
+    layout.create(archive)
+    present = {r.run_id: r for r in layout.runs(archive)}
+    if rid in present:
+        return AddOutcome(present[rid], already=True)
+    graded, refused = _grade_all(frame, archive / layout.REFERENCES)
+    if refused:
+        return AddOutcome(None, refused=refused)
+    rows, events = _tables(frame, graded, rid)
+    environment, versions = environment_of(prov)
+    marks = sorted({m for m in rows["mark"].astype(str) if m})
+    entry = layout.Run(
+        run_id=rid,
+        machine=machine or machine_of(prov),
+        environment=environment,
+        commit=str(prov.get("git_commit") or "unknown"),
+        suite=",".join(sorted(set(frame["suite"].astype(str)))),
+        added=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        source=str(run.resolve()),
+        n_rows=len(rows),
+        n_graded=int(rows["graded"].sum()),
+        marks=marks,
+        versions=json.loads(json.dumps(versions, default=str)),
+    )
+    return AddOutcome(layout.write_run(archive, entry, rows, events, prov))

@@ -19,6 +19,10 @@ Figures in ``extra_info`` (each round a fresh output folder, so nothing is resum
     over it: 1 would be a command whose wall time is its workers' computing alone.
 ``ratio_to_exact`` (other integrators)
     ``wall_s`` over ``exact``'s, timed in the same session.
+``batch_lanes``
+    The values a worker runs together (:func:`nsbench.engine.batch_size`): heyoka's SIMD lanes,
+    so ``heyoka``'s ratio is that of its batch mode (:mod:`nsbench.integrators._heyoka_batch`,
+    each lane a value); 1 for an integrator that runs value by value.
 
 The primary figure is a ratio measured in one run (``wall_over_values``; ``ratio_to_exact``
 for the other integrators), so that the baseline holds on a machine of another speed.
@@ -147,7 +151,15 @@ def test_sweep_command_end_to_end(benchmark, request, nsbench_baseline, tmp_path
     if name != "exact" and "exact" in _walls:
         figures["ratio_to_exact"] = wall / _walls["exact"]
         primary = "ratio_to_exact"
-    benchmark.extra_info.update(values=COUNT, transient=TRANSIENT, record=RECORD, workers=WORKERS, bytecode_cached=True)
+    from nsbench.engine import batch_size
+    from nsbench.integrators import get_integrator
+
+    lanes = batch_size(get_integrator(name))
+    if name == "heyoka":  # the sweep goes through heyoka's batch mode: what this figure is about
+        assert lanes > 1
+    benchmark.extra_info.update(
+        values=COUNT, transient=TRANSIENT, record=RECORD, workers=WORKERS, bytecode_cached=True, batch_lanes=lanes
+    )
     nsbench_baseline.record(
         request,
         benchmark,

@@ -285,6 +285,9 @@ class RunRecord:
     internal
         A whole-system method's own states beside the problem's, one row per step (a DataFrame,
         ``SimulationResult.internal``); ``None`` for the others.
+    batch
+        The lanes of the batch the run went through with others (:func:`run_batch`: heyoka's
+        batch mode, ``loop`` ``'native'``); 0: it ran alone.
     """
 
     status: Status
@@ -310,6 +313,7 @@ class RunRecord:
     loop: str = "per-arc"
     loop_note: str = ""
     internal: Any = None
+    batch: int = 0
 
     @property
     def ok(self) -> bool:
@@ -405,6 +409,86 @@ def run(
         Bad input, or a control only the hybrid core has (``mode``, the stops, ``record_from``)
         asked of a whole-system method.
     """
+    a = _checked(
+        problem,
+        integ,
+        t_end,
+        t0,
+        t0_lo,
+        y0,
+        mode,
+        sections,
+        t_eval,
+        hit_from,
+        hit_stop,
+        record_from,
+        stop_kind,
+        stop_count,
+        max_steps,
+        max_events,
+        zeno_events,
+        zeno_span,
+        accumulation,
+        check_points,
+    )
+    tic, cpu_tic = time.perf_counter(), time.process_time()
+    if a.whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
+        raw = run_whole(
+            problem,
+            cast("WholeSystem", integ),
+            a.t_end,
+            t0=a.hybrid["t0"],
+            y0=a.hybrid["y0"],
+            sections=a.hybrid["sections"],
+            t_eval=a.hybrid["t_eval"],
+            max_steps=max_steps,
+        )
+    else:
+        raw = run_hybrid(problem, integ, a.t_end, **a.hybrid)
+    # tables built for modes visited for the first time are first use (setup), not the run
+    wall = time.perf_counter() - tic - raw.prepare_time
+    # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts
+    # the time other programs held the core, the CPU clock only the work done (nsbench.bench.compare)
+    cpu = max(0.0, time.process_time() - cpu_tic - raw.prepare_time)
+    return _record(a, integ, raw, wall, cpu)
+
+
+@dataclass(frozen=True)
+class _Checked:
+    """The checked arguments of one :func:`run`: the core's keyword arguments (``hybrid``, of
+    :func:`~nsbench.hybrid.run.run_hybrid`), the requested grid and the merged one with check points."""
+
+    t_end: float
+    hybrid: dict[str, Any]
+    grid: np.ndarray
+    merged: np.ndarray | None
+    check_points: int
+    whole: bool
+
+
+def _checked(
+    problem,
+    integ,
+    t_end,
+    t0,
+    t0_lo,
+    y0,
+    mode,
+    sections,
+    t_eval,
+    hit_from,
+    hit_stop,
+    record_from,
+    stop_kind,
+    stop_count,
+    max_steps,
+    max_events,
+    zeno_events,
+    zeno_span,
+    accumulation,
+    check_points,
+) -> _Checked:
+    """:func:`run`'s checks of its input (its arguments in its order) and its defaults."""
     _check_budgets(max_steps, max_events, zeno_events, zeno_span, accumulation)
     if check_points is None:
         check_points = check_points_for(integ)
@@ -433,57 +517,34 @@ def run(
     span = zeno_span if zeno_span is not None else 1e-9 * max(1.0, problem.time_scale)
     whole = is_whole_system(integ)
     if whole:
-        given: tuple[bool, ...] = (
-            t0_lo != 0.0,
-            mode is not None,
-            hit_from != -math.inf,
-            hit_stop != -1,
-            record_from != -math.inf,
-        )
-        given += (stop_kind is not None, stop_count != 0)
-        asked = [name for name, on in zip(_CORE_ONLY, given) if on]
+        given = (t0_lo != 0.0, mode is not None, hit_from != -math.inf, hit_stop != -1, record_from != -math.inf)
+        asked = [name for name, on in zip(_CORE_ONLY, (*given, stop_kind is not None, stop_count != 0)) if on]
         if asked:
             require_event_driven(integ, f"a run with {', '.join(asked)}")
-    tic, cpu_tic = time.perf_counter(), time.process_time()
-    if whole:  # time-stepping, switch model, smoothing: events inferred from the steps (nsbench.hybrid.inference)
-        raw = run_whole(
-            problem,
-            cast("WholeSystem", integ),
-            t_end,
-            t0=t0,
-            y0=y,
-            sections=tuple(sections),
-            t_eval=dense_times,
-            max_steps=max_steps,
-        )
-    else:
-        raw = run_hybrid(
-            problem,
-            integ,
-            t_end,
-            t0=t0,
-            t0_lo=t0_lo,
-            y0=y,
-            mode=mode,
-            sections=tuple(sections),
-            t_eval=dense_times,
-            hit_from=hit_from,
-            hit_stop=hit_stop,
-            record_from=record_from,
-            stop_kind=stop_kind,
-            stop_count=stop_count,
-            max_steps=max_steps,
-            max_events=max_events,
-            zeno_events=zeno_events,
-            zeno_span=span,
-            accumulation=accumulation,
-        )
-    # tables built for modes visited for the first time are first use (setup), not the run
-    wall = time.perf_counter() - tic - raw.prepare_time
-    # the process's CPU clock over the same stretch: on a shared machine the wall clock also counts
-    # the time other programs held the core, the CPU clock only the work done (nsbench.bench.compare)
-    cpu = max(0.0, time.process_time() - cpu_tic - raw.prepare_time)
-    events, hits, dense = _records(raw, grid, merged)
+    hybrid = dict(
+        t0=t0,
+        t0_lo=t0_lo,
+        y0=y,
+        mode=mode,
+        sections=tuple(sections),
+        t_eval=dense_times,
+        hit_from=hit_from,
+        hit_stop=hit_stop,
+        record_from=record_from,
+        stop_kind=stop_kind,
+        stop_count=stop_count,
+        max_steps=max_steps,
+        max_events=max_events,
+        zeno_events=zeno_events,
+        zeno_span=span,
+        accumulation=accumulation,
+    )
+    return _Checked(t_end, hybrid, grid, merged, int(check_points), whole)
+
+
+def _record(a: _Checked, integ: Integrator, raw, wall: float, cpu: float) -> RunRecord:
+    """The :class:`RunRecord` of a core run ``raw`` of the checked arguments ``a``."""
+    events, hits, dense = _records(raw, a.grid, a.merged)
     return RunRecord(
         status=raw.status,
         message=raw.message,
@@ -503,12 +564,110 @@ def run(
         cpu_time=cpu,
         integrator_time=raw.integrator_time,
         prepare_time=raw.prepare_time,
-        check_points=int(check_points),
-        checked_steps=bool(not whole and integ.capabilities.checks_steps),
-        loop="whole-system" if whole else raw.loop,
-        loop_note="" if whole else raw.loop_note,
+        check_points=a.check_points,
+        checked_steps=bool(not a.whole and integ.capabilities.checks_steps),
+        loop="whole-system" if a.whole else raw.loop,
+        loop_note="" if a.whole else raw.loop_note,
         internal=getattr(raw, "internal", None),
+        batch=int(getattr(raw, "batch", 0)),
     )
+
+
+#: :func:`run`'s keyword arguments in :func:`_checked`'s order, and their defaults.
+_RUN_NAMES = (
+    "t0",
+    "t0_lo",
+    "y0",
+    "mode",
+    "sections",
+    "t_eval",
+    "hit_from",
+    "hit_stop",
+    "record_from",
+    "stop_kind",
+    "stop_count",
+    "max_steps",
+    "max_events",
+    "zeno_events",
+    "zeno_span",
+    "accumulation",
+    "check_points",
+)
+_RUN_DEFAULTS: dict[str, Any] = dict(run.__kwdefaults__ or {})
+
+
+def batch_size(integ: Integrator) -> int:
+    """How many runs :func:`run_batch` makes together with ``integ`` at most (its batch mode's lanes; 1
+    for an integrator without one): a caller that hands out runs in groups sizes them so."""
+    size = getattr(integ, "batch_size", None)
+    return max(1, int(size())) if callable(size) and callable(getattr(integ, "run_batch", None)) else 1
+
+
+class Each:
+    """One value per problem for an argument of :func:`run_batch` (``Each([...])``: the i-th for the i-th
+    problem); an argument given plainly is every problem's."""
+
+    def __init__(self, values: Iterable[Any]) -> None:
+        self.values = list(values)
+
+    def __repr__(self) -> str:
+        return f"Each({self.values!r})"
+
+
+def _per_problem(n: int, t_end: Any, kwargs: dict[str, Any]) -> list[dict[str, Any]]:
+    """The arguments of each of ``n`` runs (``t_end`` among them) from :func:`run_batch`'s."""
+    given = dict(kwargs, t_end=t_end)
+    for name, value in given.items():
+        if isinstance(value, Each) and len(value.values) != n:
+            raise ConfigError(f"{name} = Each(...) has {len(value.values)} values for {n} problems")
+    return [{k: (v.values[i] if isinstance(v, Each) else v) for k, v in given.items()} for i in range(n)]
+
+
+def run_batch(
+    problems: Sequence[HybridProblem], integ: Integrator, t_end: "float | Each", **kwargs: Any
+) -> list[RunRecord]:
+    """:func:`run` of each problem with ``integ`` (the same arguments: plain, or :class:`Each` for one per
+    problem), made together where the integrator has a batch mode that takes them.
+
+    The problems differ only in runtime parameters (a sweep's values: ``v0``, the forcing) and each
+    must run on the integrator's own loop (``native``); heyoka (double precision) then runs up to
+    its SIMD width of them at once, one per lane (:mod:`nsbench.integrators._heyoka_batch`), each
+    with its own records, budgets and checks, so that each record means what :func:`run` of that
+    problem gives (``RunRecord.batch``: the lanes; its ``wall_time`` and ``cpu_time``: the batch's
+    shared evenly). Otherwise (another integrator, a configuration or a problem that runs per
+    arc, structures that differ) each problem is set up and run in turn by :func:`run`: the same
+    records, with ``batch`` 0. The checks of :func:`run` are made on every run's arguments first.
+
+    Returns
+    -------
+    list[RunRecord]
+        One per problem, in order.
+    """
+    from nsbench.hybrid.run import batch_refusal, run_hybrid_batch
+
+    each = _per_problem(len(problems), t_end, kwargs)
+    names = ("t_end", *_RUN_NAMES)
+    bad = sorted(set(kwargs) - set(names))
+    if bad:
+        raise ConfigError(f"run_batch: unknown argument {bad[0]!r}; run takes {', '.join(names)}")
+    checked = [
+        _checked(p, integ, a["t_end"], *[a.get(name, _RUN_DEFAULTS[name]) for name in _RUN_NAMES])
+        for p, a in zip(problems, each)
+    ]
+    runs = [dict(c.hybrid, t_end=c.t_end) for c in checked]
+    if len(problems) < 2 or any(c.whole for c in checked) or batch_refusal(problems, integ, runs):
+        out = []
+        for p, a in zip(problems, each):
+            if len(problems) > 1:
+                integ.setup(p)
+            out.append(run(p, integ, **a))
+        return out
+    tic, cpu_tic = time.perf_counter(), time.process_time()
+    raws = run_hybrid_batch(problems, integ, runs)
+    prepared = sum(r.prepare_time for r in raws)
+    wall = (time.perf_counter() - tic - prepared) / len(raws)
+    cpu = max(0.0, time.process_time() - cpu_tic - prepared) / len(raws)
+    return [_record(c, integ, raw, wall, cpu) for c, raw in zip(checked, raws)]
 
 
 def prepare(problem: HybridProblem, integ: Integrator) -> None:

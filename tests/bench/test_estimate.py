@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from nsbench.bench import Suite, load_suite, run_suite
-from nsbench.bench.estimate import CostTable, calibrate, location_label, measure, plan
+from nsbench.bench.estimate import TASK_SECONDS, CostTable, Probe, calibrate, location_label, measure, plan
+from nsbench.bench.execute import WarmResult
 from nsbench.bench.targets import locations
 
 SMALL = {
@@ -39,12 +40,13 @@ def test_the_estimate_adds_the_measured_tasks_and_spreads_them_over_the_workers(
     assert len(cases) == 4 and all(c.repeats == 5 for c in cases)
     p = plan(cases, n_references=1, workers=2, table=_table(), calibration=0.02, load=0.0, cores=2)
     # two known cases: warm-up 0.5, the first timing task 1.5 (calibration run, a sample, the metrics),
-    # 4 more samples of 1.0 each; two unknown ones counted as the median known case
+    # 4 more samples of 1.0 each; two unknown ones counted as the cheapest known case (here alike)
     work = 4 * (0.5 + 1.5 + 4 * 1.0) + 2.0
     assert p.n_unknown == 2 and p.n_runs == 20 and p.speed == pytest.approx(1.0)
     assert p.seconds == pytest.approx(work / 2 + 4.0 + 10.0)
+    assert (p.prepare, p.timing, p.after) == pytest.approx(((4 * 0.5 + 2.0) / 2 + 4.0, 4 * 5.5 / 2, 10.0))
     assert p.weights[cases[0].label] == pytest.approx((0.5, (1.5 + 4 * 1.0) / 5))  # per timing round
-    assert "4 case(s): 20 timed samples" in p.statement() and "2 task(s) of unmeasured cost" in p.statement()
+    assert "4 case(s): 20 timed samples" in p.statement() and "2 case(s) of unmeasured cost" in p.statement()
     # at most: every case's samples spread, so each gets max_repeats (twice repeats by default) samples
     assert all(c.max_repeats == 10 for c in cases)
     assert p.seconds_most == pytest.approx(p.seconds + 4 * 5 * 1.0 / 2)
@@ -170,7 +172,95 @@ def test_a_fresh_run_plans_every_target_location_though_earlier_rows_are_stored(
     said = {}
     for resume in (True, False):
         err = io.StringIO()
-        runner._weights(suite, cases, 0, 2, tmp_path, err, True, resume)
+        runner._Costs.of(suite, cases, 0, 2, tmp_path, err, True, resume)
         said[resume] = err.getvalue()
     assert "bifurcation-target location" not in said[True]
     assert f"then {len(every)} bifurcation-target location(s)" in said[False]
+
+
+def _uneven_table() -> CostTable:
+    """The two exact/scipy-rk45 cases of SMALL measured, one cheap and one dear; the other two not."""
+    cases = Suite.from_dict(SMALL).cases()
+    return CostTable(
+        calibration=0.02,
+        warm_up={cases[0].label: 0.2, cases[1].label: 3.0},
+        run={cases[0].label: 0.1, cases[1].label: 2.0},
+        first={cases[0].label: 0.3, cases[1].label: 4.0},
+        reference=2.0,
+        report=10.0,
+        overhead=4.0,
+    )
+
+
+def test_an_unmeasured_case_counts_as_the_cheapest_measured_one_and_the_plan_says_at_least():
+    cases = Suite.from_dict(SMALL).cases()
+    p = plan(cases, workers=2, table=_uneven_table(), calibration=0.02, load=0.0, cores=2)
+    cheap, dear = 0.2 + 0.3 + 4 * 0.1, 3.0 + 4.0 + 4 * 2.0
+    assert p.unmeasured == (cases[2].label, cases[3].label) and p.n_unknown == 2
+    assert p.seconds == pytest.approx((3 * cheap + dear) / 2 + 4.0 + 10.0)  # the median would be the dear one's
+    said = p.statement()
+    assert "estimated at least about " in said and "2 case(s) of unmeasured cost" in said
+    assert "a revised plan follows as the timing starts" in said and "up to" not in said and "typical" not in said
+    known = plan(cases[:2], workers=2, table=_uneven_table(), calibration=0.02, load=0.0, cores=2).statement()
+    assert "estimated about " in known and "at least" not in known and "unmeasured" not in known
+    assert "preparing about " in known and "timing about " in known
+
+
+def test_a_probe_costs_its_runs_per_sample_and_the_first_task_its_calibration_and_metrics():
+    # a probe of a tenth of the span: 0.02 s of the engine in a call of 0.025 s (0.005 s of set-up and result)
+    slow = Probe.of(WarmResult(1.0, 0.5, probe_span=0.1, probe_wall=0.02, probe_call=0.025))
+    assert slow == Probe(call=pytest.approx(0.205), wall=pytest.approx(0.2))
+    first, later = slow.costs(0.05)  # a run of 0.2 s is a sample on its own: its calibration run is the first
+    assert later == pytest.approx(0.205 + TASK_SECONDS) and first == pytest.approx(later + 0.5 * 0.205)
+    # a run of 0.012 s is looped 5 times into a 50 ms sample, and the first task has its calibration run
+    fast = Probe.of(WarmResult(1.0, 0.5, probe_span=1.0, probe_wall=0.012, probe_call=0.012))
+    first, later = fast.costs(0.05)
+    assert later == pytest.approx(5 * 0.012 + TASK_SECONDS) and first == pytest.approx(later + 1.5 * 0.012)
+    assert Probe.of(WarmResult(1.0, 0.5)) is None  # a warm-up without a probe
+
+
+def test_a_plan_with_probes_costs_the_unmeasured_cases_by_them_and_says_the_revision():
+    cases = Suite.from_dict(SMALL).cases()
+    table = _uneven_table()
+    probe = Probe(call=0.4, wall=0.4)
+    probes = {cases[2].label: probe, cases[3].label: probe}
+    p = plan(cases, workers=2, table=table, calibration=0.02, load=0.0, cores=2, probes=probes)
+    first, later = probe.costs(cases[2].min_sample_time)
+    probed = first + 4 * later  # measured here and now: not scaled by the speed or the load
+    assert p.unmeasured == () and p.n_probed == 2 and p.n_unknown == 0
+    assert p.timing == pytest.approx((0.3 + 4 * 0.1 + 4.0 + 4 * 2.0 + 2 * probed) / 2)
+    assert p.weights[cases[3].label] == pytest.approx((0.0, probed / 5))  # its warm-up has run
+    # on a machine twice as slow and loaded, the table's cases cost more; the probed ones as measured
+    busy = plan(cases, workers=2, table=table, calibration=0.04, load=2.0, cores=2, probes=probes)
+    assert busy.timing == pytest.approx((0.3 + 4 * 0.1 + 4.0 + 4 * 2.0) * 2 * 2 / 2 + probed)
+    line = p.revision(elapsed=100.0)
+    total = 100.0 + p.timing + p.after
+    assert line.startswith(f"revised with the probes of 2 case(s): about {total / 60:.0f} min in all")
+    assert "timing about " in line and "1:40 so far" in line
+    # a probe that did not come back: its case stays at the cheapest, and the line says so
+    one = plan(cases, workers=2, table=table, calibration=0.02, load=0.0, cores=2, probes={cases[2].label: probe})
+    assert "1 case(s) without one counted as the cheapest measured" in one.revision(10.0)
+
+
+def test_a_run_with_an_unmeasured_case_probes_it_and_revises_its_plan(tmp_path):
+    """A case at options the table has not measured: the first line says at least, its warm-up probes it, and
+    the revised line comes as the timing starts, with the probe's cost in the bar's weights."""
+    suite = Suite.from_dict(
+        {
+            **SMALL,
+            "repeats": 3,
+            "integrators": {
+                "only": ["scipy-rk45"],
+                "grids": {"scipy-rk45": {"options": [{"rtol": 3e-5, "atol": 1e-8}]}},
+            },
+        }
+    )
+    assert CostTable.packaged().costs(suite.cases()[0].label, suite.name) is None
+    err = io.StringIO()
+    summary = run_suite(suite, tmp_path, workers=1, progress=True, stream=err)
+    lines = err.getvalue().splitlines()
+    assert "estimated at least about" in lines[0] and "1 case(s) of unmeasured cost" in lines[0]
+    revised = [line for line in lines if "revised with the probes of 1 case(s): about" in line]
+    timing = [k for k, line in enumerate(lines) if line.startswith("nsbench: timing:")]
+    assert len(revised) == 1 and lines.index(revised[0]) == timing[0] + 1, lines
+    assert summary.ok and summary.results["n_repeats"].tolist() == [3]

@@ -62,3 +62,26 @@ def test_a_run_that_fails_inside_a_sample_ends_it_with_its_own_result():
     assert not sample.run.ok and "plug-in bug" in sample.run.message
     assert sample.run.t_final < 10.0 and len(sample.run.trajectory) <= len(grid)
     assert sample.wall == pytest.approx(float(sample.run.wall_time))  # the failed run's clocks, not a mean
+
+
+def test_a_probed_warm_up_times_a_warm_stretch_of_the_span_and_an_unprobed_one_none():
+    from nsbench.bench import Suite
+    from nsbench.bench.estimate import Probe
+    from nsbench.bench.execute import warm_up
+
+    case = Suite.from_dict(
+        {
+            "name": "p",
+            "t_span": [0.0, 20.0],
+            "problems": [{"name": "one-dof", "case": 1}],
+            "integrators": {"only": ["exact"]},
+        }
+    ).cases()[0]
+    plain = warm_up(case)
+    assert plain.row is None and np.isnan(plain.probe_span) and Probe.of(plain) is None
+    stages = []
+    probed = warm_up(case, stage=lambda what, limit: stages.append(what), probe=True)
+    assert probed.row is None and stages == ["setup", "warm-up run", "probe run"]
+    assert 0 < probed.probe_span <= 1 and 0 < probed.probe_wall <= probed.probe_call
+    probe = Probe.of(probed)
+    assert probe.wall == probed.probe_wall / probed.probe_span and probe.call >= probe.wall

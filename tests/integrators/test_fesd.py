@@ -104,14 +104,14 @@ def test_every_switch_from_the_cases_own_start_is_found_with_fesds_own_times():
     # floor of comp_tol = 1e-10 (7.8e-4 at the exit after the long sliding episode)
     assert np.max(np.abs(ev["t"].to_numpy() - t_ref)) < 5e-4
     # FESD's own times (t_located): every crossing and entry into sliding, the transversal switches its elements
-    # resolve, measured at most 5.0e-5 (bound 5e-4, as above); an exit, tangential, is located only where the
-    # label flips at an element boundary (3 of 8, measured at most 4.1e-4 early; bound 5 times that, 2e-3)
+    # resolve, measured at most 5.0e-5 (bound 5e-4, as above); an exit, tangential, is never reported located:
+    # where its label flips at an element boundary that boundary was up to 4.1e-4 early (the label's floor on
+    # theta, not a switch the elements resolved), so it is inferred only (NaN)
     located = ev["t_located"].to_numpy()
     transversal = np.isin(np.array(kinds), ["cross", "slide"])
     assert np.all(np.isfinite(located[transversal]))
     assert np.max(np.abs(located[transversal] - t_ref[transversal])) < 5e-4
-    exits = ~transversal & np.isfinite(located)
-    assert np.all(np.abs(located[exits] - t_ref[exits]) < 2e-3)
+    assert np.all(np.isnan(located[~transversal]))
 
 
 def test_a_short_run_keeps_the_protocol():
@@ -127,11 +127,14 @@ def test_a_short_run_keeps_the_protocol():
     assert int(res.modes[1, 0]) == 2
 
 
-def test_a_friction_problem_is_refused_at_setup_with_the_reason():
+def test_a_problem_it_does_not_map_is_refused_at_setup_with_the_reason():
+    # the friction problems with fs < fr: tests/integrators/test_fesd_friction.py
     if registry.unavailable_reason("integrators", "fesd") is not None:
         pytest.skip("without nosnoc every problem is refused for that reason (the next test)")
-    with pytest.raises(UnsupportedProblemError, match="relay feedback system.*one-dof.*friction family"):
-        integrator_class("fesd")().setup(nsbench.get_problem("one-dof", case=1))
+    with pytest.raises(
+        UnsupportedProblemError, match="sliding.*blocks on a belt.*bouncing-ball declares none of these traits"
+    ):
+        integrator_class("fesd")().setup(nsbench.get_problem("bouncing-ball"))
 
 
 def test_without_nosnoc_it_is_listed_unavailable_with_the_install_command(monkeypatch, capsys):

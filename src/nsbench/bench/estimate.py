@@ -7,12 +7,19 @@ and each later timed sample, each reference, each bifurcation-target location,
 and the report). Before a run, a short fixed workload (:func:`calibrate`) says how much
 slower or faster this machine is, and the load average says how many of its
 cores other programs hold; the measured costs scaled by both, spread over the
-workers, are the estimate. A task the table does not know (a plug-in, a suite
-of one's own) counts as the median known task and is named in the statement.
+workers, are the estimate. A case the table does not know (a plug-in, a suite
+of one's own) counts as the cheapest known case until its *probe* measures it: a short
+warm run after its warm-up (:func:`nsbench.bench.execute.probe_run`, :class:`Probe`), so the
+first statement says "at least" and names how many such cases there are, and a revised one
+(:meth:`Plan.revision`) follows as the timing starts, when every probe has come back. The
+plan has three phases, said apart: preparing (references and warm-ups), timing, then the
+bifurcation targets and the report; a compilation the compiled core still needs on this
+machine is its own, said as it happens (:mod:`nsbench.compiling`).
 
-The same costs weigh the steps of the progress bar, so that its estimate of the
-time left (the work left over the rate at which work got done so far) holds
-when long and short tasks mix and when the machine gets busier or quieter.
+The same costs weigh the steps of the progress bar (worker seconds on this machine now), so
+that its estimate of the time left holds when long and short tasks mix; the bar gives a
+time left only for the timing phase (:meth:`nsbench.progress.Progress.begin`), never
+extrapolating from the warm-ups, whose time is mostly compilation and first use.
 
 ``python -m nsbench.bench.remeasure OUT SECONDS`` writes the table from a
 finished run of ``nsbench run --suite full --fresh --out OUT`` on an idle
@@ -33,6 +40,8 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, Iterable
+
+from nsbench.progress import clock
 
 #: The table of measured costs shipped with the packaged suites.
 COSTS_FILE = "costs.json"
@@ -162,6 +171,17 @@ class CostTable:
         }
         return out
 
+    def cheapest(self) -> tuple[float, float, float]:
+        """The least warm-up, first timing task and later timed sample over the table's cases: what a case the
+        table does not know costs at least (a plan counting it so is a lower bound)."""
+        if not self.run:
+            return 0.0, TASK_SECONDS, TASK_SECONDS
+        return (
+            min(self.warm_up.get(k, v) for k, v in self.run.items()),
+            min(self.first.get(k, v) for k, v in self.run.items()),
+            min(self.run.values()),
+        )
+
     def typical(self) -> tuple[float, float, float]:
         """The median warm-up, first timing task and later timed sample over the table's cases."""
         if not self.run:
@@ -179,6 +199,51 @@ def location_label(target: str, integrator: str, options: dict[str, Any]) -> str
     return f"{target} {integrator}[{opts}]"
 
 
+#: Seconds of a worker per timing task beyond its runs (sending it, collecting the garbage, the row): the
+#: cheapest task of the packaged table, a 50 ms sample, costs 58 ms.
+TASK_SECONDS = 0.01
+
+
+@dataclass(frozen=True)
+class Probe:
+    """The cost of a case the table does not know, from a short warm run after its warm-up.
+
+    ``call``: seconds of one whole warm run over the case's span (the engine's run and what surrounds
+    it, the warm integrator's set-up and the result), on this machine now, beside the load the run
+    meets; ``wall``: of it, the engine's run clock, which sets the runs per timed sample.
+    """
+
+    call: float
+    wall: float
+
+    @classmethod
+    def of(cls, warm: Any) -> "Probe | None":
+        """The probe of a warm-up result (:class:`nsbench.bench.execute.WarmResult`), ``None`` without one.
+
+        The probe ran ``probe_span`` of the span in ``probe_wall`` engine seconds and a call of
+        ``probe_call``: the run scales with the span, the call's remainder (set-up, result) does not.
+        """
+        span, wall, call = (float(getattr(warm, k, math.nan)) for k in ("probe_span", "probe_wall", "probe_call"))
+        if not (span > 0 and math.isfinite(wall) and math.isfinite(call) and wall >= 0):
+            return None
+        run = wall / span
+        return cls(call=max(0.0, call - wall) + run, wall=run)
+
+    def costs(self, min_sample_time: float) -> tuple[float, float]:
+        """Worker seconds of the case's first timing task and of each later one.
+
+        A sample is ``loops`` runs (:func:`nsbench.bench.timing.loops_for`), the first task adds the
+        calibration run where it is not itself a sample, and half a run for the metrics (the order on a
+        smooth arc reruns a part of the span).
+        """
+        from nsbench.bench.timing import loops_for
+
+        loops = loops_for(self.wall, min_sample_time)
+        sample = loops * self.call + TASK_SECONDS
+        calibration = self.call if loops > 1 else 0.0
+        return calibration + sample + 0.5 * self.call, sample
+
+
 @dataclass
 class Plan:
     """What a run will do and how long it should take (see :func:`plan`)."""
@@ -186,18 +251,26 @@ class Plan:
     n_cases: int
     n_runs: int  # timed samples (the warm-ups, calibration runs and references come on top)
     n_locations: int
-    n_unknown: int  # tasks the cost table does not know (counted as its median)
+    n_unknown: int  # tasks the cost table does not know (see ``unmeasured``)
     workers: int
     seconds: float  # the estimate on this machine now
     speed: float  # this machine's time for the calibration workload / the table's
     load: float  # other programs' runnable processes
     cores: int
-    #: case label -> worker seconds of its warm-up and of one timing round, the mean of its rounds
-    #: (the table's, or typical ones)
+    #: case label -> worker seconds of its warm-up and of one timing round, the mean of its rounds, on this
+    #: machine now (the table's scaled to it, or the probe's)
     weights: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: the estimate if every case's samples spread widely and each gets its extra samples, up to its
     #: ``max_repeats`` (what a machine whose load changes during the run may cost); NaN without a table
     seconds_most: float = math.nan
+    #: labels of the cases neither the table nor a probe measured: counted at the cheapest measured case's
+    #: costs, so that ``seconds`` is a lower bound
+    unmeasured: tuple[str, ...] = ()
+    n_probed: int = 0  # cases costed from their probes
+    #: seconds of the phases: preparing (references, warm-ups), timing, then the targets and the report
+    prepare: float = math.nan
+    timing: float = math.nan
+    after: float = math.nan
 
     def statement(self) -> str:
         """One sentence for the user before the run starts."""
@@ -210,18 +283,96 @@ class Plan:
         why = f"this machine takes {self.speed:.2g}x the time of the one the costs were measured on"
         if self.load >= 0.5:
             why += f", load {self.load:.1f} on {self.cores} cores"
-        unknown = f"; {self.n_unknown} task(s) of unmeasured cost counted as typical" if self.n_unknown else ""
-        most = ""
-        if math.isfinite(self.seconds_most) and _duration(self.seconds_most) != _duration(self.seconds):
-            upper = _duration(self.seconds_most).removesuffix(" (long)").replace("about ", "up to about ")
-            most = f", {upper} if the timings spread"
-        return f"{head}; estimated {_duration(self.seconds)}{most} ({why}{unknown})"
+        n_targets = self.n_unknown - len(self.unmeasured)
+        if n_targets:
+            why += f"; {n_targets} target location(s) of unmeasured cost counted as typical"
+        phases = (
+            f"preparing {_duration(self.prepare)} (references and warm-ups, without a compilation the compiled "
+            f"core may still need here), timing {_duration(self.timing)}, then {_duration(self.after)}"
+        )
+        if self.unmeasured:
+            return (
+                f"{head}; estimated at least {_duration(self.seconds)}: {phases} ({why}); "
+                f"{len(self.unmeasured)} case(s) of unmeasured cost, counted as the cheapest measured one "
+                "until a short probe after each one's warm-up measures it: a revised plan follows as the timing starts"
+            )
+        return f"{head}; estimated {_duration(self.seconds)}{self._most()}: {phases} ({why})"
+
+    def _most(self, seconds: float | None = None) -> str:
+        low = self.seconds if seconds is None else seconds
+        most = low + self.seconds_most - self.seconds
+        if not math.isfinite(most) or _duration(most) == _duration(low):
+            return ""
+        return (
+            ", " + _duration(most).removesuffix(" (long)").replace("about ", "up to about ") + " if the timings spread"
+        )
+
+    def revision(self, elapsed: float) -> str:
+        """The line said as the timing starts, ``elapsed`` seconds into the run: this plan (of the timing and
+        what follows it, made with the probes) and the run's whole time."""
+        total = elapsed + self.timing + self.after
+        probed = f" with the probes of {self.n_probed} case(s)" if self.n_probed else ""
+        if self.unmeasured:
+            probed += f", {len(self.unmeasured)} case(s) without one counted as the cheapest measured"
+        return (
+            f"revised{probed}: {_duration(total)} in all{self._most(total)} "
+            f"(timing {_duration(self.timing)} from now, then {_duration(self.after)}; {clock(elapsed)} so far)"
+        )
 
 
 def _duration(seconds: float) -> str:
     if seconds < 90:
         return f"about {max(5, round(seconds / 5) * 5):.0f} s"
     return f"about {seconds / 60:.0f} min" if seconds < 600 else f"about {seconds / 60:.0f} min (long)"
+
+
+@dataclass
+class _Work:
+    """Worker seconds of the cases, by phase, on this machine now (see :func:`_case_work`)."""
+
+    warm: float = 0.0
+    timing: float = 0.0
+    extra: float = 0.0  # the samples up to max_repeats
+    unmeasured: list[str] = field(default_factory=list)
+    probed: int = 0
+    weights: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+
+def _case_work(cases: list, table: CostTable, suite: str | None, scale: float, probes: dict[str, Probe]) -> _Work:
+    """The cases' work: the table's costs times ``scale`` (this machine's speed over a worker's share of the
+    cores), a probe's as measured, the cheapest measured case's for the rest (a lower bound)."""
+    work, cheapest = _Work(), table.cheapest()
+    for c in cases:
+        costs = table.costs(c.label, suite)
+        probe = probes.get(c.label)
+        if costs is not None:
+            warm, first, later = (x * scale for x in costs)
+        elif probe is not None:
+            first, later = probe.costs(float(getattr(c, "min_sample_time", 0.05)))
+            warm, work.probed = 0.0, work.probed + 1  # its warm-up has run: the probe came with it
+        else:
+            work.unmeasured.append(c.label)
+            warm, first, later = (x * scale for x in cheapest)
+        timing = first + (c.repeats - 1) * later
+        work.weights[c.label] = (warm, timing / max(1, c.repeats))
+        work.warm += warm
+        work.timing += timing
+        # a case whose samples spread gets more of them, one per round, up to max_repeats
+        work.extra += max(0, (getattr(c, "max_repeats", None) or c.repeats) - c.repeats) * later
+    return work
+
+
+def _target_work(locations: list, table: CostTable, suite: str | None) -> tuple[float, int]:
+    """Table seconds of the bifurcation-target locations and how many the table does not know (its median)."""
+    known = list(table.target.values())
+    typical = statistics.median(known) if known else (table.typical()[0] + table.typical()[2]) * 4
+    seconds, unknown = 0.0, 0
+    for loc in locations:
+        cost = table.target_cost(location_label(loc.target.name, loc.integrator, loc.options), suite)
+        if cost is None:
+            unknown, cost = unknown + 1, typical
+        seconds += cost
+    return seconds, unknown
 
 
 def plan(
@@ -235,12 +386,14 @@ def plan(
     cores: int | None = None,
     report: bool = True,
     suite: str | None = None,
+    probes: dict[str, Probe] | None = None,
 ) -> Plan:
     """The :class:`Plan` of a run of ``cases`` (suite cases) and ``locations`` (bifurcation-target locations).
 
     ``calibration`` (:func:`calibrate` here), ``load`` and ``cores`` default to
     this machine's; ``table`` to the packaged one. ``suite``: the suite's name, whose own task costs,
-    overhead, report and reference times the table may hold (:attr:`CostTable.suites`).
+    overhead, report and reference times the table may hold (:attr:`CostTable.suites`). ``probes``: case
+    label -> the :class:`Probe` of a case the table does not know (its warm-up done: it costs its timing).
     """
     cases, locations = list(cases), list(locations)
     table = table if table is not None else CostTable.packaged()
@@ -248,59 +401,50 @@ def plan(
     n_workers = max(1, min(int(workers), cores))
     n_runs = sum(c.repeats for c in cases)
     if table is None:
-        return Plan(
-            len(cases),
-            n_runs,
-            len(locations),
-            len(cases) + len(locations),
-            n_workers,
-            math.inf,
-            math.nan,
-            math.nan,
-            cores,
-        )
+        n = len(cases) + len(locations)
+        return Plan(len(cases), n_runs, len(locations), n, n_workers, math.inf, math.nan, math.nan, cores)
     load = other_load(cores) if load is None else max(0.0, load)
     calibration = calibrate() if calibration is None else calibration
     # The calibration is the best of many 30 ms repeats: one of them runs within a scheduler time
     # slice even beside other programs, so it measures the core's own speed, not the share the load
     # leaves (measured on 2 cores kept busy by two loops, load 2.2: the best repeat took the idle
     # time). Scale the table by that speed, then by the share of the cores that the workers (or the
-    # one process that starts them and writes the report) will get beside the load.
+    # one process that starts them and writes the report) will get beside the load. A probe ran
+    # beside that load already: its seconds stand as measured.
     share_one = min(1.0, cores / (load + 1.0))
     share_workers = min(1.0, cores / (load + n_workers))
     speed = calibration / table.calibration
-    unknown, weights, work, extra = 0, {}, 0.0, 0.0
+    work = _case_work(cases, table, suite, speed / share_workers, probes or {})
     overhead, report_time, reference = table.fixed(suite)
-    for c in cases:
-        costs = table.costs(c.label, suite)
-        if costs is None:
-            unknown += 1
-            costs = table.typical()
-        warm, first, later = costs
-        timing = first + (c.repeats - 1) * later
-        weights[c.label] = (warm, timing / max(1, c.repeats))
-        work += warm + timing
-        # a case whose samples spread gets more of them, one per round, up to max_repeats
-        extra += max(0, (getattr(c, "max_repeats", None) or c.repeats) - c.repeats) * later
-    known_targets = list(table.target.values())
-    typical_target = (
-        statistics.median(known_targets) if known_targets else (table.typical()[0] + table.typical()[2]) * 4
-    )
-    target_work = 0.0
-    for loc in locations:
-        cost = table.target_cost(location_label(loc.target.name, loc.integrator, loc.options), suite)
-        if cost is None:
-            unknown += 1
-            cost = typical_target
-        target_work += cost
-    work += n_references * reference
-    seconds = (work + target_work) * speed / (n_workers * share_workers)
-    seconds += overhead * speed / share_one
-    if report:
-        seconds += report_time * speed / share_one  # one process
-    seconds_most = seconds + extra * speed / (n_workers * share_workers)
+    if (suite or "") not in table.suites and table.run:
+        # a suite of one's own: the fixed costs of the measured run (worker starts, the barriers between phases,
+        # an idle tail; its report's tables and figures) grow with its cases, so a suite of a few cases gets its
+        # share of them (measured: an 18-case plug-in suite's report took 6 s where the full suite's takes 23 s)
+        share = min(1.0, len(cases) / len(table.run))
+        overhead, report_time = overhead * share, report_time * share
+    target_work, unknown_targets = _target_work(locations, table, suite)
+    prepare = (work.warm + n_references * reference * speed / share_workers) / n_workers
+    prepare += overhead * speed / share_one
+    timing = work.timing / n_workers
+    after = target_work * speed / (n_workers * share_workers) + (report_time * speed / share_one if report else 0.0)
+    seconds = prepare + timing + after
     return Plan(
-        len(cases), n_runs, len(locations), unknown, n_workers, seconds, speed, load, cores, weights, seconds_most
+        len(cases),
+        n_runs,
+        len(locations),
+        len(work.unmeasured) + unknown_targets,
+        n_workers,
+        seconds,
+        speed,
+        load,
+        cores,
+        work.weights,
+        seconds + work.extra / n_workers,
+        tuple(work.unmeasured),
+        work.probed,
+        prepare,
+        timing,
+        after,
     )
 
 

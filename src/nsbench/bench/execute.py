@@ -154,6 +154,11 @@ class WarmResult:
     setup_time: float
     warmup_time: float
     row: dict[str, Any] | None = None
+    #: the probe (:func:`probe_run`), NaN without one: the share of the span it ran, its engine run time
+    #: and its whole call (set-up of the warm integrator and the result included)
+    probe_span: float = math.nan
+    probe_wall: float = math.nan
+    probe_call: float = math.nan
 
 
 def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
@@ -169,13 +174,17 @@ def _components(case: Case, limit: float | None) -> tuple[Any, Integrator]:
     return problem_from_config(case.problem), (TimeLimited(integ, limit) if limited else integ)
 
 
-def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet, in_process: bool = False) -> WarmResult:
+def warm_up(
+    case: Case, suite: str = "suite", stage: StageCallback = _quiet, in_process: bool = False, probe: bool = False
+) -> WarmResult:
     """Set ``case`` up and run the first :data:`WARMUP_FRACTION` of its span, untimed.
 
     The setup compiles what the integrator compiles (numba kernels into numba's
     disk cache, heyoka models into heyoka's per-process cache); the short run
     pays every other first-use cost, so the timed runs that follow are warm.
     ``in_process`` checks the time limit between arcs (a worker is stopped by its parent instead).
+    ``probe``: then time a warm stretch of the span too (:func:`probe_run`), the cost of a case the
+    plan has no measured cost for.
     """
     from nsbench.engine import simulate
 
@@ -201,7 +210,45 @@ def warm_up(case: Case, suite: str = "suite", stage: StageCallback = _quiet, in_
             status="time limit", message=f"{res.message} (warm-up run)", t_final=res.t_final, setup_time=setup_time
         )
         return WarmResult(setup_time, res.wall_time, _finish(row))
-    return WarmResult(setup_time, res.wall_time)
+    if not (probe and res.ok):
+        return WarmResult(setup_time, res.wall_time)
+    try:
+        stage("probe run", case.time_limit)
+        span, wall, call = probe_run(problem, integ, case, grid, float(res.wall_time))
+    except Exception:  # the probe only informs the plan: the case is timed (and fails, if it does) as any other
+        return WarmResult(setup_time, res.wall_time)
+    return WarmResult(setup_time, res.wall_time, probe_span=span, probe_wall=wall, probe_call=call)
+
+
+#: Seconds a probe run aims at: long enough for a rate (hundreds of scheduler slices), short next to
+#: a suite's timing (a hundred unmeasured cases cost 20 s of workers more).
+PROBE_SECONDS = 0.2
+
+
+def probe_run(problem, integ, case: Case, grid: np.ndarray, warm_wall: float) -> tuple[float, float, float]:
+    """``(share of the span, engine run seconds, whole call seconds)`` of a warm run of about
+    :data:`PROBE_SECONDS` from ``case.t0``.
+
+    Its share of the span comes from the warm-up run (``warm_wall`` over :data:`WARMUP_FRACTION`), which
+    may hold first-use costs (a lazy compilation in the first step) and so overstate the rate: a probe
+    far shorter than aimed at runs once more, longer, from its own rate (at most three runs, each aimed
+    at :data:`PROBE_SECONDS`). No compilation is in it: the warm-up paid for it.
+    """
+    from nsbench.engine import simulate
+
+    span, length = WARMUP_FRACTION, case.t_end - case.t0
+    rate = max(float(warm_wall), 1e-6) / span  # engine seconds per whole span
+    for _ in range(3):
+        span = min(1.0, PROBE_SECONDS / rate, 20.0 * span)
+        t_end = case.t0 + span * length
+        tic = time.perf_counter()
+        res = simulate(problem, integ, t_end, t0=case.t0, t_eval=grid[grid <= t_end], max_steps=case.max_steps)
+        call = time.perf_counter() - tic
+        wall = float(res.wall_time)
+        if not res.ok or span >= 1.0 or call >= PROBE_SECONDS / 4:
+            break
+        rate = max(wall, 1e-6) / span
+    return span, wall, call
 
 
 @dataclass

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -238,6 +239,7 @@ def run_suite(
     from nsbench.provenance import provenance
 
     check_count("workers", workers, 1)
+    started = time.monotonic()
     err = stream or sys.stderr
     suite = load_suite(suite)
     out = storage.check_out(out)
@@ -282,9 +284,10 @@ def run_suite(
     refs = _References(suite, pending, out)
     # One step per reference, and per case one for its first warm-up and one per timing round,
     # each weighted by its expected seconds (so the time left holds when long and short tasks mix).
-    warm_weight, weight, ref_weight = _weights(
+    costs = _Costs.of(
         suite, pending, len(refs.todo), prov["workers"], out, err, progress if plan is None else plan, resume
     )
+    warm_weight, weight, ref_weight = costs.warm, costs.round, costs.ref
     bar = Progress(
         len(refs.todo) * ref_weight + sum(warm_weight(c) + rounds_left[c.case_id] * weight(c) for c in pending),
         label="cases",
@@ -292,6 +295,8 @@ def run_suite(
         enabled=progress,
         weighted=True,
     )
+    if not local:  # the warm-ups are mostly compilation and first use: no time left from them
+        bar.hold("preparing", len(refs.todo) + len(pending))
     waiting: dict[str, list[tuple[dict[str, Any], int]]] = {}
 
     def store(row: dict[str, Any], stored: bool = False, steps: int = 1) -> None:
@@ -306,9 +311,18 @@ def run_suite(
 
     def reference_done(key: str, ref: Reference) -> None:
         refs.add(key, ref)
-        bar.update(ref_weight, "reference")
+        bar.update(ref_weight, "reference", tick=True)
         for row, steps in waiting.pop(key, []):
             store(row, steps=steps)
+
+    def timing_starts(warm: dict[str, Any]) -> None:
+        """Every warm-up and probe is done: re-plan the timing with the probes, and count it in the bar."""
+        left = [row_case[i] for i in warm]
+        revised = costs.revise(left, warm)
+        bar.reweigh(sum(rounds_left[c.case_id] * weight(c) for c in left))
+        bar.begin(1.0 / prov["workers"] if costs.plan is not None else None)  # a weight is a worker's seconds
+        if revised is not None:
+            bar.say(f"nsbench: suite {suite.name!r}: {revised.revision(time.monotonic() - started)}")
 
     row_case = {c.case_id: c for c in pending}
     timeline: list[TaskRecord] = []
@@ -332,10 +346,12 @@ def run_suite(
                 _hello(shareable, out, prov),
                 prov["workers"],
                 suite.name,
-                on_warm=lambda case: bar.update(warm_weight(case), case.label),
+                on_warm=lambda case: bar.update(warm_weight(case), case.label, tick=True),
                 on_phase=bar.phase,
                 on_extra=lambda case: bar.grow(weight(case)),
                 resumed=short,
+                probe={c.case_id for c in pending if c.label in costs.unmeasured},
+                on_timing=timing_starts,
             )
             timeline = scheduler.timeline
             loads = scheduler.loads
@@ -405,35 +421,83 @@ def _hello(components: dict[str, dict[str, Any]], out: Path, prov: dict[str, Any
     return hello(components, out, prov)
 
 
-def _weights(
-    suite: Suite,
-    pending: list[Case],
-    n_references: int,
-    workers: int,
-    out: Path,
-    err: TextIO,
-    announce: bool,
-    resume: bool = True,
-):
-    """The weights of the progress bar's steps: ``(warm-up of a case, timed run of a case, reference)``,
-    each the expected worker seconds; with ``announce``, say first what the run will do and how long
-    it should take (:mod:`nsbench.bench.estimate`)."""
-    if not (announce and pending):
-        return (lambda case: 1.0), (lambda case: 1.0), 1.0
-    from nsbench.bench import estimate
-    from nsbench.bench.targets import done_rows, locations
+@dataclass
+class _Costs:
+    """The weights of the progress bar's steps, each the expected worker seconds on this machine now (a
+    case's warm-up, one of its timing rounds, a reference; 1 each without a plan), and the plan they come
+    from, revised by the probes as the timing starts (:meth:`revise`)."""
 
-    table = estimate.CostTable.packaged()
-    done = done_rows(out) if suite.target_list() and resume else set()  # a fresh run locates every target again
-    todo = [loc for loc in locations(suite) if loc.row_id not in done] if suite.target_list() else []
-    plan = estimate.plan(pending, todo, n_references, workers, table=table, suite=suite.name)
-    print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
-    typical = (table.typical()[0], table.typical()[2]) if table else (1.0, 1.0)
-    return (
-        (lambda case: plan.weights.get(case.label, typical)[0]),
-        (lambda case: plan.weights.get(case.label, typical)[1]),
-        (table.reference if table else 1.0),
-    )
+    plan: Any = None  # the estimate.Plan said first, None when nothing was planned
+    weights: dict[str, tuple[float, float]] = field(default_factory=dict)
+    ref: float = 1.0
+    again: dict[str, Any] = field(default_factory=dict)  # the arguments of the revised plan
+
+    @property
+    def unmeasured(self) -> set[str]:
+        return set(self.plan.unmeasured) if self.plan is not None else set()
+
+    def warm(self, case: Case) -> float:
+        return self.weights.get(case.label, (1.0, 1.0))[0]
+
+    def round(self, case: Case) -> float:
+        return self.weights.get(case.label, (1.0, 1.0))[1]
+
+    @classmethod
+    def of(
+        cls,
+        suite: Suite,
+        pending: list[Case],
+        n_references: int,
+        workers: int,
+        out: Path,
+        err: TextIO,
+        announce: bool,
+        resume: bool = True,
+    ) -> "_Costs":
+        """With ``announce``, say first what the run will do and how long it should take
+        (:mod:`nsbench.bench.estimate`); the weights come from that plan."""
+        if not (announce and pending):
+            return cls()
+        from nsbench.bench import estimate
+        from nsbench.bench.targets import done_rows, locations
+
+        table = estimate.CostTable.packaged()
+        done = done_rows(out) if suite.target_list() and resume else set()  # a fresh run locates every target again
+        todo = [loc for loc in locations(suite) if loc.row_id not in done] if suite.target_list() else []
+        plan = estimate.plan(pending, todo, n_references, workers, table=table, suite=suite.name)
+        print(f"nsbench: suite {suite.name!r}: {plan.statement()}", file=err, flush=True)
+        if table is None:
+            return cls(plan)
+        share = min(1.0, plan.cores / (plan.load + plan.workers))  # as the plan's for the workers
+        # the revision keeps this plan's machine: the load average then counts the run's own workers
+        again = dict(
+            locations=todo,
+            workers=workers,
+            table=table,
+            calibration=plan.speed * table.calibration,
+            load=plan.load,
+            cores=plan.cores,
+            suite=suite.name,
+        )
+        return cls(plan, dict(plan.weights), table.fixed(suite.name)[2] * plan.speed / share, again)
+
+    def revise(self, left: list[Case], warm: dict[str, Any]):
+        """The plan of the timing of ``left`` (and what follows it) with the probes in ``warm`` (case id ->
+        its first warm-up): its weights replace the planned ones; the plan, where the first one had
+        unmeasured cases (else ``None``: the first plan stands)."""
+        if self.plan is None or not self.again:
+            return None
+        from nsbench.bench import estimate
+
+        probes = {}
+        for case in left:
+            probe = estimate.Probe.of(warm[case.case_id])
+            if probe is not None and case.label in self.unmeasured:
+                probes[case.label] = probe
+        revised = estimate.plan(left, probes=probes, **self.again)
+        for label, (_, timing) in revised.weights.items():
+            self.weights[label] = (self.weights.get(label, (0.0, 0.0))[0], timing)
+        return revised if self.plan.unmeasured else None
 
 
 def _run_in_process(

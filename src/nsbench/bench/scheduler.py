@@ -170,6 +170,12 @@ class Scheduler:
         Stored rows (by case id) of cases an interrupted run timed in fewer rounds than planned: such a
         case starts from its row (its samples, metrics and runs per sample) and is timed only in the
         rounds it lacks, after its warm-up.
+    probe
+        Case ids whose first warm-up also probes the case's cost (:func:`nsbench.bench.execute.probe_run`):
+        the cases the plan has no measured cost for.
+    on_timing
+        Called once as the timing starts (every warm-up and probe done), with the first warm-up of every
+        case still to time (case id -> :class:`~nsbench.bench.execute.WarmResult`).
     """
 
     def __init__(
@@ -186,8 +192,12 @@ class Scheduler:
         on_phase: Callable[[str], None] | None = None,
         on_extra: Callable[[Case], None] | None = None,
         resumed: dict[str, dict[str, Any]] | None = None,
+        probe: set[str] | frozenset[str] = frozenset(),
+        on_timing: Callable[[dict[str, WarmResult]], None] | None = None,
     ) -> None:
         self.cases = {c.case_id: _CaseState(c) for c in cases}
+        self.probe = set(probe)
+        self.on_timing = on_timing or (lambda warm: None)
         for case_id, row in (resumed or {}).items():
             if case_id in self.cases:  # one sample per round: its rounds are its samples
                 self.cases[case_id].row, self.cases[case_id].rounds = dict(row), int(row["n_repeats"])
@@ -258,6 +268,7 @@ class Scheduler:
             runs = sum(s.case.repeats - s.rounds for s in self.cases.values() if not s.done)
             rounds = max((s.case.repeats - s.rounds for s in self.cases.values() if not s.done), default=0)
             self.on_phase(f"timing: every worker is warm; {runs} timed sample(s) in {rounds} round(s)")
+            self.on_timing({i: s.warm for i, s in self.cases.items() if not s.done and s.warm is not None})
         for slot in self.slots:
             if self._finished():
                 return
@@ -368,7 +379,8 @@ class Scheduler:
         slot.record = self._record(slot, "start", "worker start")
 
     def _send_warm(self, slot: _Slot, state: _CaseState) -> None:
-        self._send(slot, "warm-up", state, tasks.WarmUp(0, state.case, self.suite), state.case.label)
+        probe = state.warm is None and state.case.case_id in self.probe  # its first warm-up only
+        self._send(slot, "warm-up", state, tasks.WarmUp(0, state.case, self.suite, probe), state.case.label)
 
     def _send(self, slot: _Slot, kind: str, payload: Any, message: Any, label: str) -> None:
         self._next_task += 1
@@ -487,7 +499,9 @@ class Scheduler:
         slot.warm.add(state.case.case_id)
         if state.warm is None:
             state.warm, state.home = warm, slot.index
-            state.estimate = state.case.repeats * warm.warmup_time / WARMUP_FRACTION
+            # a probe's warm run, where there is one, over the warm-up's (which may hold first-use costs)
+            run = warm.probe_wall / warm.probe_span if warm.probe_span > 0 else warm.warmup_time / WARMUP_FRACTION
+            state.estimate = state.case.repeats * run
 
     # ------------------------------------------------------------------ losses
     def _time_out(self, slot: _Slot) -> None:

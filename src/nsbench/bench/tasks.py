@@ -36,16 +36,18 @@ class ComputeReference:
 
 @dataclass(frozen=True)
 class WarmUp:
-    """Set up ``case`` and run it once, short and untimed (compilation, first use)."""
+    """Set up ``case`` and run it once, short and untimed (compilation, first use); with ``probe``, then time
+    a short warm run too (the cost of a case the plan has no measure of, :func:`nsbench.bench.execute.probe_run`)."""
 
     task: int
     case: Case
     suite: str
+    probe: bool = False
 
     def perform(self, context: Context) -> WarmResult:
         from nsbench.bench.execute import warm_up
 
-        return warm_up(self.case, self.suite, context.stage)
+        return warm_up(self.case, self.suite, context.stage, probe=self.probe)
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from nsbench.bifurcation.sweep import (
     failure_columns,
     first_index,
     join_columns,
-    point_columns,
+    points_columns,
     rows_frame,
 )
 from nsbench.workers.jobs import SETUP_LIMIT
@@ -57,9 +57,14 @@ def compute_chunk(spec_dict: dict, indices: list[int]) -> pd.DataFrame:
     """Rows of several parameter values (the unit of work sent to a worker)."""
     from nsbench.integrators import get_integrator
 
+    from nsbench.engine import batch_size
+
     spec = SweepSpec.from_dict(spec_dict)
     integ = get_integrator(spec.integrator, **spec.options)
-    return rows_frame([point_columns(spec, i, integ) for i in indices])
+    size = batch_size(integ)
+    return rows_frame(
+        [c for g in range(0, len(indices), size) for c in points_columns(spec, indices[g : g + size], integ)]
+    )
 
 
 def chunks(indices: list[int], workers: int, size: int | None = None) -> list[list[int]]:
@@ -283,22 +288,32 @@ def sweep_job(
     from nsbench.engine import prepare
     from nsbench.integrators import get_integrator
 
+    from nsbench.engine import batch_size
+
     spec = SweepSpec.from_dict(spec_dict)
     key = json.dumps([spec.integrator, spec.options], sort_keys=True, default=str)
     integ = _WARM.get(key)
-    for n, i in enumerate(indices):
-        label = f"value {i} ({spec.name} = {spec.values[i]:.10g})"
-        if integ is None:
-            stage(SETUP_STAGE, setup_limit)
-            integ = get_integrator(spec.integrator, **spec.options)
-            problem = spec.problem_at(spec.values[i])
-            prepare(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
-            stage(f"{label}, a first short run", point_limit)
-            point_columns(replace(spec, transient=0.0, record=1, window=None), i, integ)  # first use
-            _WARM.clear()
-            _WARM[key] = integ
-        stage(label, point_limit)
-        emit(point_columns(spec, i, integ))
+    if integ is None and indices:
+        i = indices[0]
+        stage(SETUP_STAGE, setup_limit)
+        integ = get_integrator(spec.integrator, **spec.options)
+        problem = spec.problem_at(spec.values[i])
+        prepare(problem, integ)  # the compiled core, loaded or compiled: set-up, not the value's time
+        stage(f"value {i} ({spec.name} = {spec.values[i]:.10g}), a first short run", point_limit)
+        first = replace(spec, transient=0.0, record=1, window=None)
+        points_columns(first, indices[: batch_size(integ)][:2], integ)  # first use (of the batch mode too)
+        _WARM.clear()
+        _WARM[key] = integ
+    # a batch integrator runs its lanes' values together: the group's limit is theirs summed
+    size = batch_size(integ) if integ is not None else 1
+    for g in range(0, len(indices), size):
+        group = indices[g : g + size]
+        label = f"value {group[0]} ({spec.name} = {spec.values[group[0]]:.10g})"
+        if len(group) > 1:
+            label = f"values {group[0]} to {group[-1]} ({spec.name} = {spec.values[group[0]]:.10g} to {spec.values[group[-1]]:.10g})"
+        stage(label, None if point_limit is None else point_limit * len(group))
+        for columns in points_columns(spec, group, integ):
+            emit(columns)
     return len(indices)
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -474,9 +474,17 @@ def _point(spec: SweepSpec, problem, integ):
     """One value through the engine (:func:`nsbench.engine.run`, with its defaults and its missed-crossing
     check): the recorded points, status and counters of the recording window."""
     from nsbench.engine import run
-    from nsbench.sections import peaks
 
     integ.setup(problem)
+    t_end, kwargs = _run_arguments(spec, problem)
+    return _read_point(spec, problem, run(problem, integ, t_end, **kwargs), kwargs)
+
+
+def _run_arguments(spec: SweepSpec, problem) -> tuple[float, dict[str, Any]]:
+    """The span and the arguments of :func:`nsbench.engine.run` of one value: the sections or stops of the
+    sweep's section, the transient, the sweep's budgets."""
+    from nsbench.sections import peaks
+
     t_end = spec.transient + spec.record_window
     kwargs: dict[str, Any] = {}
     if spec.section == "peaks":
@@ -487,7 +495,44 @@ def _point(spec: SweepSpec, problem, integ):
         kwargs = dict(t_eval=times)
     else:
         kwargs = dict(stop_kind=section_event_kind(spec.section), stop_count=spec.record)
-    raw = run(problem, integ, t_end, record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000, **kwargs)
+    kwargs.update(record_from=spec.transient, max_steps=50_000_000, max_events=5_000_000)
+    return t_end, kwargs
+
+
+def points_columns(spec: SweepSpec, indices: Sequence[int], integ) -> list[Columns]:
+    """:func:`point_columns` of several values with the set-up-able ``integ``, run together through
+    :func:`nsbench.engine.run_batch` (heyoka's batch mode where it takes them; else one by one): the same
+    rows, each value's ``wall_time`` its share of the batch's. A value whose problem cannot be built, or a
+    batch that raises, is run alone (its error row is its own)."""
+    from nsbench.engine import Each, run_batch
+
+    tic = time.perf_counter()
+    problems = []
+    for i in indices:
+        try:
+            problems.append(spec.problem_at(float(spec.values[i])))
+        except (NsbenchError, ArithmeticError, ValueError, RuntimeError):
+            return [point_columns(spec, i, integ) for i in indices]
+    if len(indices) < 2:
+        return [point_columns(spec, i, integ, p) for i, p in zip(indices, problems)]
+    args = [_run_arguments(spec, p) for p in problems]
+    keys = sorted(set().union(*(a[1] for a in args)))
+    per = {k: Each([a[1][k] for a in args]) for k in keys}
+    try:
+        integ.setup(problems[0])
+        raws = run_batch(problems, integ, Each([a[0] for a in args]), **per)
+        read = [_read_point(spec, p, raw, a[1]) for p, raw, a in zip(problems, raws, args)]
+    except (NsbenchError, ArithmeticError, ValueError, RuntimeError):
+        return [point_columns(spec, i, integ, p) for i, p in zip(indices, problems)]
+    wall = (time.perf_counter() - tic) / len(indices)
+    return [
+        _columns(spec, p.state_names, i, float(spec.values[i]), t, y, blocks, status, message, counters, wall)
+        for i, p, (t, y, blocks, status, message, counters) in zip(indices, problems, read)
+    ]
+
+
+def _read_point(spec: SweepSpec, problem, raw, kwargs: dict[str, Any]):
+    """The recorded points, status and counters of one value's run ``raw`` (a :class:`~nsbench.engine.RunRecord`)."""
     events = raw.events
     kinds, blocks_ev = events.kind, events.block
     counters: dict[str, int] = {

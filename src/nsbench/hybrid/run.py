@@ -74,6 +74,8 @@ class RawRun:
     #: a whole-system method's own time of each event (``SystemResult.switch_times``), NaN where it located
     #: none; ``None``: it locates none (the event log then has no ``t_located`` column)
     located_t: np.ndarray | None = None
+    #: the SIMD lanes of the batch the run went through (:func:`run_hybrid_batch`); 0: it ran alone
+    batch: int = 0
 
 
 _NO_KERNEL: dict[str, Any] = {}
@@ -135,80 +137,39 @@ def run_hybrid(
     """
     from nsbench.integrators.base import require_event_driven
     from nsbench.model import loop
-    from nsbench.model.rules import STREAK_TIMES
 
     require_event_driven(integ)
-    n = problem.n_states
-    prob = problem.data
-    kernel = integ.kernel(problem)
+    p = _prepare(
+        problem,
+        integ,
+        t_end,
+        t0,
+        t0_lo,
+        y0,
+        mode,
+        sections,
+        t_eval,
+        hit_from,
+        hit_stop,
+        record_from,
+        stop_kind,
+        stop_count,
+        max_steps,
+        max_events,
+        zeno_events,
+        zeno_span,
+        accumulation,
+    )
+    kernel, y, mode_arr, grid, sec, rec, st, lim = p.kernel, p.y, p.mode, p.grid, p.sec, p.rec, p.st, p.lim
+    prob, start_mode = problem.data, p.start_mode
     if kernel is not None:
         table, kd, fo = kernel.table, kernel.data_for(len(sections)), kernel.options
     else:
         table, kd, fo = _no_kernel()
-    y = problem.initial_state() if y0 is None else np.array(y0, dtype=float)
-    y = np.ascontiguousarray(y, dtype=float)
-    mode_arr = np.zeros(problem.mode_size, np.int64)
-    if mode is None:
-        problem.law.initial_mode(prob.p, float(t0), y, mode_arr)
-    else:
-        mode_arr[:] = np.asarray(mode, dtype=np.int64)
-    grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
-    sec = section_bundle(sections, n, hit_from, hit_stop)
-    # a run that stops at its hit_stop-th hit never holds more: sized for them, the loop is not left
-    # to grow the buffer (a sweep value's 100 peaks overran the 64 rows it starts with: one re-entry per value)
-    rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), HITS_AT_START), MAX_HITS_AHEAD))
-    g = max(problem.max_guards, 1)
-    st = abi.RunState(
-        y=y,
-        mode=mode_arr,
-        fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
-        gk=np.zeros(g, np.int64),
-        gi=np.zeros(g, np.int64),
-        gs=np.zeros(g, np.int64),
-        ring=np.full(max(int(zeno_events), 1), -np.inf),
-        acc=np.zeros(STREAK_TIMES),
-        sf=np.zeros(abi.N_SF),
-        si=np.zeros(abi.N_SI, np.int64),
-        cnt=np.zeros(abi.N_COUNTERS, np.int64),
-        y_arc=np.empty(n),
-        dy=np.empty(n),
-        iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
-    )
-    st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
-    if stop_kind is not None and stop_kind not in problem.event_kinds:
-        from nsbench.errors import ConfigError
-
-        raise ConfigError(
-            f"stop_kind {stop_kind!r}: {problem.name} has no such events; its event kinds: "
-            f"{', '.join(problem.event_kinds)}"
-        )
-    kind_code = -1 if stop_kind is None else problem.event_kinds.index(stop_kind)
-    lim = abi.RunLimits(
-        float(t_end),
-        int(max_steps),
-        int(max_events),
-        float(zeno_span),
-        float(record_from),
-        int(kind_code),
-        int(stop_count),
-        float(accumulation),
-    )
-    start_mode = tuple(int(v) for v in mode_arr)
     prepare_time = 0.0
     path, note = choose_loop(problem, integ, kernel)
     if path == "native":
-        report = _run_native(problem, integ, sections, lim, sec, rec, st)
-        status, message = _outcome(problem, st, report.message, None, max_steps, max_events, zeno_events, rec)
-        cnt, si = st.cnt, st.si
-        counters = Counters(
-            nfev=int(cnt[abi.NFEV]),
-            njev=int(cnt[abi.NJEV]),
-            nsteps=int(cnt[abi.NSTEPS]),
-            n_events=int(si[abi.SI_EVENTS]),
-            extra=dict(report.extra),
-        )
-        args = (status, message, st, y, mode_arr, rec, counters, report.integrator_time, t0, start_mode)
-        return _raw(*args, report.prepare_time, "native")
+        return _native_raw(p, _run_native(problem, integ, sections, lim, sec, rec, st))
     py = _PythonArcs(
         problem, integ, sections, grid, float(t_end), int(max_steps), float(hit_from), int(hit_stop), rec, st
     )
@@ -243,6 +204,221 @@ def run_hybrid(
         counters.extra.update(py.extra)
         integ_time = py.seconds
     return _raw(status, message, st, y, mode_arr, rec, counters, integ_time, t0, start_mode, prepare_time, path, note)
+
+
+@dataclass
+class _Prepared:
+    """A run's bundles before its loop, and what its outcome is read with."""
+
+    problem: Any
+    kernel: Any
+    y: np.ndarray
+    mode: np.ndarray
+    grid: np.ndarray
+    sec: abi.Sections
+    rec: Records
+    st: abi.RunState
+    lim: abi.RunLimits
+    start_mode: tuple[int, ...]
+    t0: float
+    budgets: tuple[int, int, int]  # max_steps, max_events, zeno_events
+
+
+def _prepare(
+    problem,
+    integ,
+    t_end,
+    t0,
+    t0_lo,
+    y0,
+    mode,
+    sections,
+    t_eval,
+    hit_from,
+    hit_stop,
+    record_from,
+    stop_kind,
+    stop_count,
+    max_steps,
+    max_events,
+    zeno_events,
+    zeno_span,
+    accumulation,
+) -> _Prepared:
+    """The bundles of a run of :func:`run_hybrid` (its arguments, in its order), before any loop."""
+
+    n = problem.n_states
+    kernel = integ.kernel(problem)
+    y = problem.initial_state() if y0 is None else np.array(y0, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    mode_arr = np.zeros(problem.mode_size, np.int64)
+    if mode is None:
+        problem.law.initial_mode(problem.data.p, float(t0), y, mode_arr)
+    else:
+        mode_arr[:] = np.asarray(mode, dtype=np.int64)
+    grid = np.ascontiguousarray(np.empty(0) if t_eval is None else t_eval, dtype=float)
+    sec = section_bundle(sections, n, hit_from, hit_stop)
+    # a run that stops at its hit_stop-th hit never holds more: sized for them, the loop is not left
+    # to grow the buffer (a sweep value's 100 peaks overran the 64 rows it starts with: one re-entry per value)
+    rec = Records(n, problem.mode_size, grid, hits=min(max(int(hit_stop), HITS_AT_START), MAX_HITS_AHEAD))
+    st = _run_state(problem, y, mode_arr, zeno_events)
+    st.sf[abi.SF_T], st.sf[abi.SF_TLO] = float(t0), float(t0_lo)
+    if stop_kind is not None and stop_kind not in problem.event_kinds:
+        from nsbench.errors import ConfigError
+
+        raise ConfigError(
+            f"stop_kind {stop_kind!r}: {problem.name} has no such events; its event kinds: "
+            f"{', '.join(problem.event_kinds)}"
+        )
+    kind_code = -1 if stop_kind is None else problem.event_kinds.index(stop_kind)
+    lim = abi.RunLimits(
+        float(t_end),
+        int(max_steps),
+        int(max_events),
+        float(zeno_span),
+        float(record_from),
+        int(kind_code),
+        int(stop_count),
+        float(accumulation),
+    )
+    start_mode = tuple(int(v) for v in mode_arr)
+    budgets = (int(max_steps), int(max_events), int(zeno_events))
+    return _Prepared(problem, kernel, y, mode_arr, grid, sec, rec, st, lim, start_mode, float(t0), budgets)
+
+
+def _run_state(problem, y: np.ndarray, mode_arr: np.ndarray, zeno_events: int) -> abi.RunState:
+    """A fresh :class:`~nsbench.model.abi.RunState` of a run from ``y`` in ``mode_arr``."""
+    from nsbench.model.rules import STREAK_TIMES
+
+    n, g = problem.n_states, max(problem.max_guards, 1)
+    return abi.RunState(
+        y=y,
+        mode=mode_arr,
+        fresh=np.zeros(max(problem.n_elements, 1), np.bool_),
+        gk=np.zeros(g, np.int64),
+        gi=np.zeros(g, np.int64),
+        gs=np.zeros(g, np.int64),
+        ring=np.full(max(int(zeno_events), 1), -np.inf),
+        acc=np.zeros(STREAK_TIMES),
+        sf=np.zeros(abi.N_SF),
+        si=np.zeros(abi.N_SI, np.int64),
+        cnt=np.zeros(abi.N_COUNTERS, np.int64),
+        y_arc=np.empty(n),
+        dy=np.empty(n),
+        iw=np.zeros(abi.N_COUNTERS + 2, np.int64),
+    )
+
+
+def _native_raw(p: _Prepared, report) -> RawRun:
+    """The :class:`RawRun` of a native run (the integrator's own loop) from its report."""
+    st, rec = p.st, p.rec
+    status, message = _outcome(p.problem, st, report.message, None, *p.budgets, rec)
+    cnt, si = st.cnt, st.si
+    counters = Counters(
+        nfev=int(cnt[abi.NFEV]),
+        njev=int(cnt[abi.NJEV]),
+        nsteps=int(cnt[abi.NSTEPS]),
+        n_events=int(si[abi.SI_EVENTS]),
+        extra=dict(report.extra),
+    )
+    args = (status, message, st, p.y, p.mode, rec, counters, report.integrator_time, p.t0, p.start_mode)
+    return _raw(*args, report.prepare_time, "native")
+
+
+#: The arguments of :func:`run_hybrid` after ``t_end``, in the order :func:`_prepare` takes them.
+_RUN_ARGS = (
+    "t0",
+    "t0_lo",
+    "y0",
+    "mode",
+    "sections",
+    "t_eval",
+    "hit_from",
+    "hit_stop",
+    "record_from",
+    "stop_kind",
+    "stop_count",
+    "max_steps",
+    "max_events",
+    "zeno_events",
+    "zeno_span",
+    "accumulation",
+)
+
+
+def batch_refusal(problems: Sequence["HybridProblem"], integ: "Integrator", runs: Sequence[dict]) -> str:
+    """Why the runs ``run_hybrid(problems[i], integ, **runs[i])`` do not go through ``integ``'s batch mode
+    together (:func:`run_hybrid_batch`); ``''`` if they do: the integrator has one, each run takes its
+    native path (:func:`choose_loop`), the runs share their sections' structure, and the integrator
+    accepts the problems together (its ``batch_refusal``)."""
+    refuse = getattr(integ, "batch_refusal", None)
+    if refuse is None or not callable(getattr(integ, "run_batch", None)):
+        return f"{integ.name} has no batch mode"
+    if len(problems) != len(runs) or not problems:
+        return "one set of run arguments per problem is needed"
+    for problem in problems:
+        if integ.kernel(problem) is not None:
+            return f"{integ.name} runs {problem.name} with a compiled arc kernel"
+        path, note = choose_loop(problem, integ)
+        if path != "native":
+            return note or f"{integ.name} runs {problem.name} per arc"
+    shapes = {tuple((len(s.coeffs), int(s.direction)) for s in r.get("sections", ())) for r in runs}
+    if len(shapes) > 1:
+        return "the runs' sections differ in number or direction"
+    return str(refuse(problems, tuple(runs[0].get("sections", ()))))
+
+
+def run_hybrid_batch(problems: Sequence["HybridProblem"], integ: "Integrator", runs: Sequence[dict]) -> list[RawRun]:
+    """``[run_hybrid(p, integ, **r) for p, r in zip(problems, runs)]``, the runs that get past their start
+    made together in ``integ``'s batch mode (``integ.run_batch``, groups of ``integ.batch_size()``), where
+    :func:`batch_refusal` accepts them; one by one otherwise. ``runs[i]`` holds ``t_end`` and the keyword
+    arguments of :func:`run_hybrid`. A batch's exception ends each of its runs as an integrator failure."""
+    if batch_refusal(problems, integ, runs):
+        return [run_hybrid(p, integ, **r) for p, r in zip(problems, runs)]
+    from nsbench.integrators.base import RunReport, RunRequest
+    from nsbench.model import native
+
+    defaults = dict(run_hybrid.__kwdefaults__ or {})
+    prepared = [
+        _prepare(p, integ, r["t_end"], *[r.get(a, defaults[a]) for a in _RUN_ARGS]) for p, r in zip(problems, runs)
+    ]
+    reports: list[Any] = [RunReport(integrator_time=0.0) for _ in prepared]
+    live = []
+    for k, p in enumerate(prepared):
+        while True:
+            code = native.begin(p.problem.data, p.lim, p.rec.dense, p.rec.events, p.st)
+            if code != native.NEED_EVENTS:
+                break
+            p.rec.grow_events(int(p.st.si[abi.SI_RECORDED]))
+        if code == native.GO_ON:  # else the start alone ended the run
+            live.append(k)
+    size = max(1, int(getattr(integ, "batch_size")()))
+    batched: set[int] = set()
+    for g in range(0, len(live), size):
+        group = live[g : g + size]
+        sections = [tuple(runs[k].get("sections", ())) for k in group]
+        requests = [
+            RunRequest(
+                prepared[k].problem, sections[j], prepared[k].lim, prepared[k].sec, prepared[k].rec, prepared[k].st
+            )
+            for j, k in enumerate(group)
+        ]
+        try:
+            got = getattr(integ, "run_batch")(requests)
+        except Exception as exc:  # noqa: BLE001 - the runs' outcome, never lost runs
+            for k in group:
+                prepared[k].st.si[abi.SI_STATUS], prepared[k].st.si[abi.SI_DETAIL] = abi.RUN_FAILURE, _PY_FAILURE
+                reports[k] = RunReport(message=f"{type(exc).__name__}: {exc}")
+            continue
+        for k, report in zip(group, got):
+            reports[k] = report
+            batched.add(k)
+    out = []
+    for k, (p, report) in enumerate(zip(prepared, reports)):
+        raw = _native_raw(p, report)
+        raw.batch = size if k in batched else 0
+        out.append(raw)
+    return out
 
 
 def _raw(

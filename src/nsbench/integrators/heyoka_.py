@@ -41,12 +41,13 @@ left the state alone.
 from __future__ import annotations
 
 import time
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
 from nsbench.errors import ConfigError, UnsupportedProblemError
 from nsbench.integrators import _heyoka_crossing as crossing
+from nsbench.integrators import _heyoka_batch as batch_heyoka
 from nsbench.integrators import _heyoka_model as model
 from nsbench.integrators import _heyoka_native as native_heyoka
 from nsbench.integrators import _heyoka_symbolic as symbolic
@@ -282,6 +283,68 @@ class HeyokaIntegrator(Integrator):
         report = native_heyoka.run(m, request, np.zeros(0) if self._symbolic else self._coefficients)
         report.prepare_time += prepared
         return report
+
+    def batch_size(self) -> int:
+        """Runs one batch takes (heyoka's SIMD lanes for doubles; :meth:`run_batch`)."""
+        return batch_heyoka.lanes()
+
+    def batch_refusal(self, problems: Sequence, sections: tuple = ()) -> str:
+        """Why ``problems`` (with these sections) do not run together in heyoka's batch mode; ``''`` if they do.
+
+        A batch takes problems of one structure (:class:`~nsbench.integrators._heyoka_model.Structure`:
+        blocks, cubic springs, forcing, friction law; the same sections) that differ only in the
+        runtime parameters, each of which this configuration runs natively (:meth:`native_refusal`), in
+        double precision (a long double or quad run rounds the core's step to doubles: value by value).
+        """
+        if self.precision != "double":
+            return f"{self.name} runs value by value: heyoka's batch mode here is double precision only"
+        if self.settings.get("loop", "auto") == "per-arc":
+            return "loop = 'per-arc'"
+        if not problems:
+            return "no problems"
+        first = None
+        for problem in problems:
+            if self._written_symbolically(problem):
+                return f"{problem.name} is written symbolically; its native run has no batch form"
+            refusal = self.native_refusal(problem)
+            if refusal:
+                return refusal
+            key = (model.Structure.of(problem, len(sections)), type(problem.data), problem.mode_size)
+            if first is None:
+                first = key
+            elif key != first:
+                return f"{problem.name} differs in structure from {problems[0].name} ({key[0]} vs {first[0]})"
+        return ""
+
+    def _batch_model(self, sections: tuple):
+        """The batch integrator for these sections (compiled once per structure and directions, kept)."""
+        st = model.Structure.of(self._problem, len(sections))
+        directions = tuple(int(sec.direction) for sec in sections)
+        compact = bool(self.settings["compact_mode"])
+        key = ("batch", st, directions, self.settings["tol"], self.settings["high_accuracy"], compact)
+        own = self.__dict__.setdefault("_own_models", {})
+        if key in own:
+            return own[key], 0.0
+        ta, seconds = batch_heyoka.compiled(st, directions, *key[3:])
+        own[key] = batch_heyoka.BatchModel(st, ta)
+        return own[key], seconds
+
+    def run_batch(self, requests: Sequence[RunRequest]) -> list[RunReport]:
+        """Whole runs of up to :meth:`batch_size` problems that :meth:`batch_refusal` accepts, one per SIMD
+        lane of one heyoka integrator (:mod:`._heyoka_batch`): a report each, as :meth:`run` gives."""
+        problem = requests[0].problem
+        if getattr(self, "_problem", None) is not problem:
+            self.setup(problem)
+        tic = time.perf_counter()
+        bm, seconds = self._batch_model(requests[0].sections)
+        batch_heyoka.entries(problem)
+        native_heyoka.warm_up(problem, "double")
+        self.compile_time += seconds
+        prepared = time.perf_counter() - tic
+        coefficients = [np.array(model.coefficient_values(r.problem), dtype=float) for r in requests]
+        reports = batch_heyoka.run(bm, requests, coefficients)
+        reports[0].prepare_time += prepared
+        return reports
 
     def setup(self, problem) -> None:
         self.check_problem(problem)

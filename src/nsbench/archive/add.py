@@ -22,6 +22,7 @@ from nsbench.archive.regrade import REGRADED, Graded, disagreement, grade_row, n
 from nsbench.bench import storage
 from nsbench.bench.history import environment_of
 from nsbench.errors import ConfigError
+from nsbench.files import refuse_links
 from nsbench.status import ReferenceStatus, Status
 
 
@@ -108,6 +109,7 @@ def add_run(run: str | Path, archive: str | Path, machine: str | None = None) ->
     _check_kept_logs(frame, run)
     rid = layout.run_id(frame)
     layout.create(archive)
+    refuse_links(archive, (layout.RUNS, layout.REFERENCES), (layout.RUNS, layout.REFERENCES))
     present = {r.run_id: r for r in layout.runs(archive)}
     if rid in present:
         return AddOutcome(present[rid], already=True)
@@ -131,3 +133,66 @@ def add_run(run: str | Path, archive: str | Path, machine: str | None = None) ->
         versions=json.loads(json.dumps(versions, default=str)),
     )
     return AddOutcome(layout.write_run(archive, entry, rows, events, prov))
+
+
+@dataclass(frozen=True)
+class ArchiveAddRequest:
+    """What ``archive add`` asks for, checked at its construction (a :class:`~nsbench.errors.ConfigError`
+    naming the value before anything is read or written).
+
+    Attributes
+    ----------
+    run
+        A results folder of ``nsbench bench`` or ``nsbench run`` (or its ``results.parquet``).
+    to
+        The archive: an archive folder, or a folder to make one (absent or empty).
+    machine
+        The machine's name in the archive (``None``: the run's CPU and core count).
+    """
+
+    run: str
+    to: str
+    machine: str | None = None
+
+    def __post_init__(self) -> None:
+        if not str(self.run).strip() or not Path(self.run).exists():
+            raise ConfigError(f"RUN {str(self.run)!r} does not exist: give the results folder of nsbench bench")
+        layout.check_target(Path(self.to), "--to")
+        if self.machine is not None and (not self.machine.strip() or not self.machine.isprintable()):
+            raise ConfigError(f"--machine {self.machine!r}: give a non-empty name of printable characters")
+
+
+@dataclass(frozen=True)
+class ArchiveAddResult:
+    """The outcome of ``archive add``: exit status 1 when the run was refused."""
+
+    outcome: AddOutcome
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.outcome.refused else 0
+
+
+def add_to_archive(request: ArchiveAddRequest) -> ArchiveAddResult:
+    """Re-grade and add the request's run (:func:`add_run`); print what was done, or every refused row."""
+    import sys
+
+    outcome = add_run(request.run, request.to, machine=request.machine)
+    if outcome.refused:
+        print(
+            f"nsbench: archive add: {request.run} refused: {len(outcome.refused)} row(s) disagree with the "
+            "archive's re-grading from their event logs (nothing was added):",
+            file=sys.stderr,
+        )
+        for line in outcome.refused:
+            print(f"  {line}", file=sys.stderr)
+    elif outcome.run is not None:
+        run = outcome.run
+        head = "already in" if outcome.already else "added to"
+        print(
+            f"{request.run} {head} {request.to} as run {run.run_id} (machine {run.machine}, environment "
+            f"{run.environment}, commit {run.commit[:10]}): {run.n_graded} of {run.n_rows} rows re-graded"
+        )
+        for mark in run.marks:
+            print(f"  marked: {mark}")
+    return ArchiveAddResult(outcome)

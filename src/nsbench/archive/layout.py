@@ -19,6 +19,7 @@ as every nsbench table does (:func:`nsbench.bench.storage.content_digest`).
 
 from __future__ import annotations
 
+import datetime as _dt
 import hashlib
 import json
 from dataclasses import asdict, dataclass, field
@@ -83,22 +84,30 @@ def run_folder(archive: Path, rid: str) -> Path:
     return archive / RUNS / storage.file_name(rid, "run id")
 
 
-def create(archive: Path) -> None:
-    """Make ``archive`` an archive (its ``archive.json``) if it is not one yet; refuse a folder of
-    another schema or a file."""
-    if archive.exists() and not archive.is_dir():
-        raise ConfigError(f"archive {str(archive)!r} is a file; give a folder")
+def check_target(archive: Path, flag: str = "ARCHIVE") -> None:
+    """``ConfigError`` (naming ``flag``) unless ``archive`` is an archive of :data:`SCHEMA` or can be made
+    one: a folder that does not exist yet or is empty. Nothing is written."""
+    from nsbench.inputs import check_output_dir
+
+    check_output_dir(archive, flag)
     if (archive / ARCHIVE_FILE).exists():
         check_schema(archive)
+    elif archive.is_dir() and any(archive.iterdir()):
+        raise ConfigError(
+            f"{flag} {str(archive)!r} is not empty and holds no {ARCHIVE_FILE}: it is no nsbench archive; "
+            "give an archive or a new folder"
+        )
+
+
+def create(archive: Path) -> None:
+    """Make ``archive`` an archive (its ``archive.json``) if it is not one yet (:func:`check_target` first)."""
+    check_target(archive)
+    if (archive / ARCHIVE_FILE).exists():
         return
-    if archive.is_dir() and any(archive.iterdir()):
-        raise ConfigError(f"{str(archive)!r} is not empty and holds no {ARCHIVE_FILE}: it is no nsbench archive")
     try:
         archive.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(f"archive {str(archive)!r} cannot be created: {exc.strerror or exc}") from None
-    import datetime as _dt
-
     created = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     write_atomic(archive / ARCHIVE_FILE, json.dumps({"schema": SCHEMA, "created": created}, indent=1))
 
@@ -107,7 +116,9 @@ def check_schema(archive: Path) -> None:
     """``ConfigError`` unless ``archive`` is an archive of :data:`SCHEMA`."""
     path = archive / ARCHIVE_FILE
     if not path.is_file():
-        raise ConfigError(f"{str(archive)!r} is no nsbench archive (no {ARCHIVE_FILE}; make one with nsbench archive add)")
+        raise ConfigError(
+            f"{str(archive)!r} is no nsbench archive (no {ARCHIVE_FILE}; make one with nsbench archive add)"
+        )
     try:
         schema = json.loads(path.read_text(encoding="utf-8")).get("schema")
     except (OSError, ValueError, AttributeError) as exc:
@@ -172,7 +183,7 @@ def write_run(archive: Path, run: Run, rows: pd.DataFrame, events: pd.DataFrame,
     """Store one run's three files and then its manifest (the mark of a complete addition); the
     manifest as written, with the files' checksums."""
     folder = run_folder(archive, run.run_id)
-    refuse_links(archive, (RUNS,), (RUNS,))
+    refuse_links(archive, (RUNS, REFERENCES), (RUNS, REFERENCES))
     folder.mkdir(parents=True, exist_ok=True)
     write_table(rows, folder / ROWS, prov)
     write_table(events, folder / EVENTS, prov)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from nsbench.archive import layout
+from nsbench.files import refuse_links
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ def merge_archives(sources: tuple[str | Path, ...], target: str | Path) -> Merge
             layout.verify(source, run)
         checked.append((source, found))
     layout.create(to)
+    refuse_links(to, (layout.RUNS, layout.REFERENCES), (layout.RUNS, layout.REFERENCES))
     present = {r.run_id for r in layout.runs(to)}
     copied = duplicates = 0
     for source, found in checked:
@@ -68,3 +70,43 @@ def merge_archives(sources: tuple[str | Path, ...], target: str | Path) -> Merge
             copied += 1
         _copy_references(source, to)
     return MergeOutcome(copied, duplicates)
+
+
+@dataclass(frozen=True)
+class ArchiveMergeRequest:
+    """What ``archive merge`` asks for, checked at its construction (a :class:`~nsbench.errors.ConfigError`
+    naming the value before anything is read or written).
+
+    Attributes
+    ----------
+    sources
+        Two or more archives (schema ``nsbench-results/1``).
+    to
+        The merged archive: one of the sources (the others are merged into it), another archive, or
+        a folder to make one (absent or empty).
+    """
+
+    sources: tuple[str, ...]
+    to: str
+
+    def __post_init__(self) -> None:
+        from nsbench.errors import ConfigError
+
+        object.__setattr__(self, "sources", tuple(str(s) for s in self.sources))
+        if len(self.sources) < 2:
+            raise ConfigError(f"archive merge takes two or more archives, got {len(self.sources)}")
+        for source in self.sources:
+            if not source.strip():
+                raise ConfigError("ARCHIVE expects an archive folder, got ''")
+            layout.check_schema(Path(source))
+        layout.check_target(Path(self.to), "--to")
+
+
+def merge(request: ArchiveMergeRequest) -> MergeOutcome:
+    """Merge the request's archives (:func:`merge_archives`) and print what was copied."""
+    outcome = merge_archives(request.sources, request.to)
+    print(
+        f"merged {', '.join(request.sources)} into {request.to}: {outcome.copied} run(s) copied, "
+        f"{outcome.duplicates} already there"
+    )
+    return outcome

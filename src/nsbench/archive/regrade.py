@@ -21,6 +21,7 @@ import pandas as pd
 
 from nsbench.bench import metrics
 from nsbench.bench.reference import Reference, compute_reference, load_reference, reference_key, save_reference
+from nsbench.errors import NsbenchError
 from nsbench.status import ReferenceStatus
 
 #: Dense points of an archive reference: its ends only (the switching times do not depend on the
@@ -30,9 +31,9 @@ DENSE_POINTS = 2
 #: the span's largest time (``ULPS * eps * max(|t0|, |t_end|, 1)``). On one machine the two gradings
 #: are the same computation on the same log and agree bit for bit; a reference computed on another
 #: machine may round its switching times differently (FMA contraction, another libm), by a few
-#: ulps of the times themselves, which moves every ``t - t_ref`` by as much. 16 ulps of a span
-#: of 40 is 1.4e-13: ten times below the finest leaderboard target (1e-12), so no row changes
-#: target by the tolerance.
+#: ulps of the times themselves, which moves every ``t - t_ref`` by as much. The tolerance only
+#: decides whether a submission is refused: the archive keeps the re-graded errors, never the
+#: submitted ones, so a difference within it changes no entry of the leaderboard.
 ULPS = 16
 #: The columns re-graded from the event log (they replace the submitted ones in the archive).
 REGRADED = (
@@ -73,7 +74,9 @@ class Graded:
         return not self.mark
 
 
-def archive_reference(folder: Path, problem: dict[str, Any], config: dict[str, Any], t0: float, t_end: float):
+def archive_reference(
+    folder: Path, problem: dict[str, Any], config: dict[str, Any], t0: float, t_end: float
+) -> Reference:
     """The archive's certified reference of ``problem`` by the integrator ``config`` over ``[t0, t_end]``:
     loaded from ``folder`` (checksums checked) or computed and stored there."""
     key = reference_key(problem, [config], t0, t_end, DENSE_POINTS)
@@ -84,25 +87,27 @@ def archive_reference(folder: Path, problem: dict[str, Any], config: dict[str, A
     return ref
 
 
-def unknown_parts(row: pd.Series) -> str:
-    """What of a row this nsbench does not know ('' if nothing): its problem, integrator or reference."""
+def unknown_parts(row: pd.Series) -> tuple[list[str], list[str]]:
+    """What of a row this nsbench does not know: ``(blocking, noted)``. A problem or reference integrator
+    it does not know blocks the re-grading (no reference can be computed here); an integrator under
+    test it does not know (a plug-in not installed here) does not: the grading needs only the log."""
     from nsbench.integrators import list_integrators
     from nsbench.problems import list_problems
 
-    out = []
+    blocking, noted = [], []
     if str(row["problem"]) not in list_problems():
-        out.append(f"unknown problem {row['problem']}")
-    if str(row["integrator"]) not in list_integrators():
-        out.append(f"unknown integrator {row['integrator']} (a plug-in not installed here)")
+        blocking.append(f"unknown problem {row['problem']}")
     ref = _json(row["reference_config"])
     if isinstance(ref, dict) and ref.get("name") not in list_integrators():
-        out.append(f"unknown reference integrator {ref.get('name')}")
-    return "; ".join(out)
+        blocking.append(f"unknown reference integrator {ref.get('name')}")
+    if str(row["integrator"]) not in list_integrators():
+        noted.append(f"unknown integrator {row['integrator']} (a plug-in not installed here)")
+    return blocking, noted
 
 
 def _json(text: Any) -> Any:
     try:
-        return json.loads(str(text)) if text is not None and str(text) else None
+        return json.loads(str(text)) if text is not None and not pd.isna(text) and str(text) else None
     except ValueError:
         return None
 
@@ -112,22 +117,25 @@ def grade_row(row: pd.Series, references: Path) -> Graded:
     log_text = "" if pd.isna(row["event_log"]) else str(row["event_log"])
     if not log_text:
         return Graded({}, no_events(), mark=f"not re-graded: the case did not run ({row['status']})")
-    unknown = unknown_parts(row)
-    ref_config = _json(row["reference_config"])
-    if not isinstance(ref_config, dict):
+    blocking, noted = unknown_parts(row)
+    if blocking:
+        return Graded({}, no_events(), mark=f"not re-graded: {'; '.join(blocking)}")
+    ref_config, problem = _json(row["reference_config"]), _json(row["problem_config"])
+    if not isinstance(ref_config, dict) or not isinstance(problem, dict):
         return Graded({}, no_events(), mark="not re-graded: the run had no reference integrator")
-    if unknown and ("problem" in unknown or "reference" in unknown):
-        return Graded({}, no_events(), mark=f"not re-graded: {unknown}")
-    ref = archive_reference(references, _json(row["problem_config"]), ref_config, float(row["t0"]), float(row["t_end"]))
-    if ReferenceStatus.of(ref.status) is not ReferenceStatus.OK:
-        return Graded({}, no_events(), mark=f"not re-graded: the archive's reference: {ref.status}")
     try:
         events = metrics.event_log_frame(log_text)
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:
         return Graded({}, no_events(), mark=f"not re-graded: its event_log is damaged ({exc})")
+    try:
+        ref = archive_reference(references, problem, ref_config, float(row["t0"]), float(row["t_end"]))
+    except NsbenchError as exc:  # a problem or reference configuration this nsbench refuses
+        return Graded({}, no_events(), mark=f"not re-graded: the archive's reference cannot be computed ({exc})")
+    if ReferenceStatus.of(ref.status) is not ReferenceStatus.OK:
+        return Graded({}, no_events(), mark=f"not re-graded: the archive's reference: {ref.status}")
     values, table = _grade(ref, events)
     # an unknown integrator plug-in: graded all the same (the grading needs no integrator), and marked
-    return Graded(values, table, note=unknown)
+    return Graded(values, table, note="; ".join(noted))
 
 
 def _grade(ref: Reference, events: pd.DataFrame) -> tuple[dict[str, Any], pd.DataFrame]:

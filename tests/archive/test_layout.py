@@ -86,6 +86,10 @@ def test_an_archive_reads_with_pyarrow_and_the_standard_library_alone(archive):
             assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest
         rows = pq.read_table(folder / "rows.parquet")
         events = pq.read_table(folder / "events.parquet")
+        for table in (rows, events):  # and the SHA-256 of each table's values, in its metadata
+            values = {name: table.column(name).to_pylist() for name in table.column_names}
+            text = json.dumps(values, sort_keys=True, default=str).encode()
+            assert hashlib.sha256(text).hexdigest() == table.schema.metadata[b"nsbench.sha256"].decode()
         assert set(rows.column("run_id").to_pylist()) == {run["run_id"]}
         assert rows.num_rows == run["n_rows"] and sum(rows.column("graded").to_pylist()) == run["n_graded"]
         for column in ("case_id", "problem_label", "integrator", "level", "status", "wall_time", "wall_times"):

@@ -77,8 +77,8 @@ def test_each_action_builds_one_request_and_calls_one_app_function():
     # the pattern tests/test_layers.py checks for single-action commands, action by action
     tree = ast.parse(Path(__file__).parents[2].joinpath("src/nsbench/cli/archive.py").read_text())
     functions = {node.name: node for node in tree.body if isinstance(node, ast.FunctionDef)}
-    assert set(functions) == {"add_parser", "add", "show", "merge"}
-    for name in ("add", "show", "merge"):
+    assert set(functions) == {"add_parser", "add", "show", "merge", "site"}
+    for name in ("add", "show", "merge", "site"):
         imported = {
             a.asname or a.name for n in ast.walk(functions[name]) if isinstance(n, ast.ImportFrom) for a in n.names
         }

@@ -398,6 +398,7 @@ CASES = [
     ("archive-add-missing", ["archive", "add", "{d}/missing", "--to", "{d}/arch"], "does not exist"),
     ("archive-show-no-archive", ["archive", "show", "{d}/missing"], "is no nsbench archive"),
     ("archive-merge-one", ["archive", "merge", "{d}/missing", "--to", "{d}/arch"], "two or more archives"),
+    ("archive-site-no-archive", ["archive", "site", "{d}/missing", "--out", "{d}/web"], "is no nsbench archive"),
     ("history-show-no-store", ["history", "show", "--store", "{d}/missing"], "history store"),
     ("history-add-missing", ["history", "add", "{d}/missing", "--store", "{d}/hist"], "do not exist"),
     ("history-factor-nan", ["history", "show", "--store", "{d}/missing", "--factor", "nan"], "factor = nan"),

@@ -3,7 +3,8 @@
 ``add`` re-grades a results folder against the archive's own references and adds it (exit
 status 1, nothing added, when a row's submitted errors disagree: the rows are named on stderr);
 ``show`` prints the archive's runs and its leaderboard per (problem, target); ``merge`` joins two
-or more archives into one (``--to`` may be one of them), each run once. Each action maps its
+or more archives into one (``--to`` may be one of them), each run once; ``site`` writes the
+leaderboard and the runtime distributions as a static HTML page. Each action maps its
 arguments onto one request of :mod:`nsbench.archive` (every value checked there) and calls one
 app function.
 """
@@ -35,6 +36,11 @@ def add_parser(sub) -> None:
     m.add_argument("--to", required=True, metavar="ARCHIVE", help="the merged archive (may be one of the sources)")
     m.set_defaults(handler=merge)
 
+    w = actions.add_parser("site", help="the leaderboard and runtime distributions as a static HTML page")
+    w.add_argument("archive", metavar="ARCHIVE", help="the archive")
+    w.add_argument("--out", required=True, metavar="DIR", help="folder for index.html and figures/ (made if absent)")
+    w.set_defaults(handler=site)
+
 
 def add(args: argparse.Namespace) -> int:
     from nsbench.archive.add import ArchiveAddRequest, add_to_archive
@@ -54,3 +60,9 @@ def merge(args: argparse.Namespace) -> int:
 
     merge_archives(ArchiveMergeRequest(sources=tuple(args.sources), to=args.to))
     return 0
+
+
+def site(args: argparse.Namespace) -> int:
+    from nsbench.archive.site import ArchiveSiteRequest, build_site
+
+    return build_site(ArchiveSiteRequest(archive=args.archive, out=args.out)).exit_code

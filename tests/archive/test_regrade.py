@@ -31,14 +31,14 @@ def test_a_damaged_event_log_is_refused(text):
 def test_every_stored_row_re_grades_from_its_own_log_to_its_own_errors(runs, tmp_path):
     frame = storage.load_results(runs["b"])
     for _, row in frame.iterrows():
-        graded = regrade.grade_row(row, tmp_path / "references")
+        graded = regrade.grade_row(row, tmp_path / "references", 100)
         assert graded.graded and regrade.disagreement(row, graded.values) == ""
         assert graded.values["switch_err_max"] == row["switch_err_max"]
 
 
 def test_a_changed_count_or_error_is_a_disagreement(runs, tmp_path):
     row = storage.load_results(runs["b"]).iloc[0]
-    values = regrade.grade_row(row, tmp_path / "references").values
+    values = regrade.grade_row(row, tmp_path / "references", 100).values
     changed = row.copy()
     changed["n_prefix"] = int(row["n_prefix"]) - 1
     assert regrade.disagreement(changed, values).startswith(f"n_prefix {int(row['n_prefix']) - 1} submitted")
@@ -64,3 +64,11 @@ def test_a_submission_within_the_tolerance_is_added_with_the_re_graded_errors_no
     assert kept.loc[sent.index].tolist() == sent.tolist()  # the archive's own grading, bit for bit
     row = pd.Series({"t0": 0.0, "t_end": 20.0})
     assert regrade.tolerance(row) == regrade.ULPS * np.finfo(float).eps * 20.0 and math.isfinite(regrade.tolerance(row))
+
+
+@pytest.mark.parametrize(
+    "provenance, expected",
+    [({"suite": {"dense_points": 100}}, 100), ({}, regrade.DENSE_POINTS), ({"suite": {"dense_points": "many"}}, 2)],
+)
+def test_the_archive_reference_uses_the_runs_own_grid(provenance, expected):
+    assert regrade.dense_points_of(provenance) == expected

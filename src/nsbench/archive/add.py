@@ -18,7 +18,7 @@ from typing import Any
 import pandas as pd
 
 from nsbench.archive import layout
-from nsbench.archive.regrade import REGRADED, Graded, disagreement, grade_row, no_events
+from nsbench.archive.regrade import REGRADED, Graded, dense_points_of, disagreement, grade_row, no_events
 from nsbench.bench import storage
 from nsbench.bench.history import environment_of
 from nsbench.errors import ConfigError
@@ -57,10 +57,10 @@ def _row_label(row: pd.Series) -> str:
     return f"{row['case_id']} ({row['integrator']} level {row['level']} on {row['problem_label']})"
 
 
-def _grade_all(frame: pd.DataFrame, references: Path) -> tuple[list[Graded], list[str]]:
+def _grade_all(frame: pd.DataFrame, references: Path, dense_points: int) -> tuple[list[Graded], list[str]]:
     graded, refused = [], []
     for _, row in frame.iterrows():
-        g = grade_row(row, references)
+        g = grade_row(row, references, dense_points)
         graded.append(g)
         if g.graded:
             why = disagreement(row, g.values)
@@ -113,7 +113,7 @@ def add_run(run: str | Path, archive: str | Path, machine: str | None = None) ->
     present = {r.run_id: r for r in layout.runs(archive)}
     if rid in present:
         return AddOutcome(present[rid], already=True)
-    graded, refused = _grade_all(frame, archive / layout.REFERENCES)
+    graded, refused = _grade_all(frame, archive / layout.REFERENCES, dense_points_of(prov))
     if refused:
         return AddOutcome(None, refused=refused)
     rows, events = _tables(frame, graded, rid)

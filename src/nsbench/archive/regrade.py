@@ -24,8 +24,11 @@ from nsbench.bench.reference import Reference, compute_reference, load_reference
 from nsbench.errors import NsbenchError
 from nsbench.status import ReferenceStatus
 
-#: Dense points of an archive reference: its ends only (the switching times do not depend on the
-#: dense grid; the state errors, which do, are not re-graded in this version).
+#: Dense points of an archive reference when the run's provenance does not give its suite's
+#: ``dense_points``. With the run's own number the archive's reference is the very computation the
+#: bench graded against (the same problem, integrator, span and grid); the grid is kept because a
+#: reference integrator that steps to its output times would place its events a few ulps apart on
+#: another grid. The state errors, which need the run's dense states, are not re-graded.
 DENSE_POINTS = 2
 #: Agreement allowed between a submitted error and the re-graded one, in units of the rounding of
 #: the span's largest time (``ULPS * eps * max(|t0|, |t_end|, 1)``). On one machine the two gradings
@@ -75,14 +78,14 @@ class Graded:
 
 
 def archive_reference(
-    folder: Path, problem: dict[str, Any], config: dict[str, Any], t0: float, t_end: float
+    folder: Path, problem: dict[str, Any], config: dict[str, Any], t0: float, t_end: float, dense_points: int
 ) -> Reference:
     """The archive's certified reference of ``problem`` by the integrator ``config`` over ``[t0, t_end]``:
     loaded from ``folder`` (checksums checked) or computed and stored there."""
-    key = reference_key(problem, [config], t0, t_end, DENSE_POINTS)
+    key = reference_key(problem, [config], t0, t_end, dense_points)
     ref = load_reference(folder, key)
     if ref is None:
-        ref = compute_reference(problem, [config], t0, t_end, DENSE_POINTS)
+        ref = compute_reference(problem, [config], t0, t_end, dense_points)
         save_reference(folder, ref)
     return ref
 
@@ -112,8 +115,9 @@ def _json(text: Any) -> Any:
         return None
 
 
-def grade_row(row: pd.Series, references: Path) -> Graded:
-    """Re-grade one tidy row (see the module's docstring); a row that cannot be is kept, marked."""
+def grade_row(row: pd.Series, references: Path, dense_points: int = DENSE_POINTS) -> Graded:
+    """Re-grade one tidy row (see the module's docstring) against the reference of ``dense_points``
+    (the run's suite's); a row that cannot be is kept, marked."""
     log_text = "" if pd.isna(row["event_log"]) else str(row["event_log"])
     if not log_text:
         return Graded({}, no_events(), mark=f"not re-graded: the case did not run ({row['status']})")
@@ -128,7 +132,8 @@ def grade_row(row: pd.Series, references: Path) -> Graded:
     except (ValueError, TypeError) as exc:
         return Graded({}, no_events(), mark=f"not re-graded: its event_log is damaged ({exc})")
     try:
-        ref = archive_reference(references, problem, ref_config, float(row["t0"]), float(row["t_end"]))
+        t0, t_end = float(row["t0"]), float(row["t_end"])
+        ref = archive_reference(references, problem, ref_config, t0, t_end, dense_points)
     except NsbenchError as exc:  # a problem or reference configuration this nsbench refuses
         return Graded({}, no_events(), mark=f"not re-graded: the archive's reference cannot be computed ({exc})")
     if ReferenceStatus.of(ref.status) is not ReferenceStatus.OK:
@@ -217,3 +222,11 @@ def _close(a: float, b: float, tol: float) -> bool:
     if math.isnan(a) or math.isnan(b):
         return math.isnan(a) and math.isnan(b)
     return abs(a - b) <= tol
+
+
+def dense_points_of(provenance: dict[str, Any]) -> int:
+    """The run's suite's ``dense_points`` from its provenance (:data:`DENSE_POINTS` if it has none)."""
+    value = (provenance.get("suite") or {}).get("dense_points") if isinstance(provenance, dict) else None
+    return (
+        int(value) if isinstance(value, int) and not isinstance(value, bool) and 2 <= value <= 10**6 else DENSE_POINTS
+    )

@@ -119,3 +119,19 @@ def test_a_folder_without_event_logs_cannot_be_re_graded(runs, tmp_path):
     with pytest.raises(ConfigError, match="keeps no event log for case .* run its suite again"):
         add_run(edited_run(runs["a"], tmp_path / "old", edit), tmp_path / "arch")
     assert not (tmp_path / "arch").exists()
+
+
+def test_a_plug_in_of_another_version_is_graded_and_marked(runs, tmp_path):
+    import shutil
+
+    folder = tmp_path / "other"
+    shutil.copytree(runs["b"], folder)
+    prov = json.loads((folder / "provenance.json").read_text())
+    prov["plugins"] = [{"kind": "integrator", "name": "ofapi", "distribution": "ofapi-fast", "version": "9.9"}]
+    (folder / "provenance.json").write_text(json.dumps(prov))
+    outcome = add_run(folder, tmp_path / "arch")
+    assert outcome.run is not None and outcome.run.marks == ["plug-in ofapi 9.9 in the run, not a plug-in here"]
+    rows = load(tmp_path / "arch").rows
+    assert rows["graded"].all()
+    assert set(rows.loc[rows["integrator"] == "ofapi", "mark"]) == {outcome.run.marks[0]}
+    assert set(rows.loc[rows["integrator"] != "ofapi", "mark"]) == {""}

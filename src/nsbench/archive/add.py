@@ -69,17 +69,38 @@ def _grade_all(frame: pd.DataFrame, references: Path, dense_points: int) -> tupl
     return graded, refused
 
 
-def _mark(row: pd.Series, g: Graded) -> str:
+def plugin_versions(provenance: dict[str, Any]) -> dict[str, str]:
+    """``{component name: note}`` for each plug-in of the run's provenance whose version here is
+    another (or that is nsbench's own here): its rows are kept and marked with the note."""
+    from nsbench.provenance import plugins
+
+    here = {(p["kind"], p["name"]): p.get("version") for p in plugins()}
+    notes = {}
+    for entry in provenance.get("plugins") or []:
+        if not isinstance(entry, dict) or "name" not in entry:
+            continue
+        key, version = (str(entry.get("kind")), str(entry["name"])), entry.get("version")
+        if key not in here:
+            notes[key[1]] = f"plug-in {key[1]} {version} in the run, not a plug-in here"
+        elif here[key] != version:
+            notes[key[1]] = f"plug-in {key[1]} {version} in the run, {here[key]} here"
+    return notes
+
+
+def _mark(row: pd.Series, g: Graded, versions: dict[str, str]) -> str:
     if not g.graded:
         return g.mark
     own = ReferenceStatus.of(str(row["reference_status"])) is ReferenceStatus.OK
     notes = [g.note] if g.note else []
+    notes += [versions[name] for name in (str(row["integrator"]), str(row["problem"])) if name in versions]
     if not own:
         notes.append("graded by the archive only (the run had no reference)")
     return "; ".join(notes)
 
 
-def _tables(frame: pd.DataFrame, graded: list[Graded], rid: str) -> tuple[pd.DataFrame, pd.DataFrame]:
+def _tables(
+    frame: pd.DataFrame, graded: list[Graded], rid: str, versions: dict[str, str]
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The archive's rows (the re-graded columns in place of the submitted ones) and event table."""
     records, events = [], []
     for (_, row), g in zip(frame.iterrows(), graded):
@@ -91,7 +112,7 @@ def _tables(frame: pd.DataFrame, graded: list[Graded], rid: str) -> tuple[pd.Dat
     rows = storage.to_frame(records)
     rows["run_id"] = pd.array([rid] * len(rows), dtype="string")
     rows["graded"] = pd.array([g.graded for g in graded], dtype="boolean")
-    rows["mark"] = pd.array([_mark(r, g) for (_, r), g in zip(frame.iterrows(), graded)], dtype="string")
+    rows["mark"] = pd.array([_mark(r, g, versions) for (_, r), g in zip(frame.iterrows(), graded)], dtype="string")
     table = pd.concat(events, ignore_index=True) if events else no_events().assign(run_id="", case_id="")
     table = table[list(layout.EVENT_COLUMNS)].astype({"run_id": "string", "case_id": "string", "kind": "string"})
     return rows, table
@@ -116,7 +137,7 @@ def add_run(run: str | Path, archive: str | Path, machine: str | None = None) ->
     graded, refused = _grade_all(frame, archive / layout.REFERENCES, dense_points_of(prov))
     if refused:
         return AddOutcome(None, refused=refused)
-    rows, events = _tables(frame, graded, rid)
+    rows, events = _tables(frame, graded, rid, plugin_versions(prov))
     environment, versions = environment_of(prov)
     marks = sorted({m for m in rows["mark"].astype(str) if m})
     entry = layout.Run(

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 
 import nsbench.archive
 from nsbench.archive import layout
 from nsbench.bench import storage
+from nsbench.errors import ConfigError
+from tests.archive.conftest import copy
 
 
 def test_load_gives_rows_events_and_runs_in_the_bench_dtypes(archive, runs):
@@ -34,3 +37,13 @@ def test_an_empty_archive_loads_as_empty_tables(tmp_path):
     assert tables.rows.empty and tables.events.empty and tables.runs.empty
     assert "switch_err_max" in tables.rows and list(tables.events.columns) == list(layout.EVENT_COLUMNS)
     assert nsbench.archive.leaderboard(tables).empty
+
+
+def test_without_events_the_event_tables_are_checked_not_read(archive, tmp_path):
+    tables = nsbench.archive.load(archive, events=False)
+    assert tables.events.empty and len(tables.rows) == 11
+    path = copy(archive, tmp_path / "arch")
+    events = sorted((path / layout.RUNS).iterdir())[0] / layout.EVENTS
+    events.write_bytes(events.read_bytes()[:-1] + b"\x00")
+    with pytest.raises(ConfigError, match="events.parquet is damaged"):
+        nsbench.archive.load(path, events=False)

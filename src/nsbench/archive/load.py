@@ -46,23 +46,27 @@ def run_frame(found: list[layout.Run]) -> pd.DataFrame:
     return pd.DataFrame(records, columns=columns)
 
 
-def load(path: str | Path) -> Tables:
+def load(path: str | Path, events: bool = True) -> Tables:
     """The archive at ``path`` as :class:`Tables`.
 
-    Every run's files are checked against the SHA-256 its manifest records and each table against
-    the checksum of its values: a damaged file is a ``ConfigError`` naming it, never read as data.
+    Every run's files are checked against the SHA-256 its manifest records and each table read
+    against the checksum of its values: a damaged file is a ``ConfigError`` naming it, never read as
+    data. With ``events=False`` the event tables are checked by their SHA-256 alone and not read
+    (``events`` is then empty): the leaderboard needs only the rows, and the events are most of a
+    large archive's values.
     """
     archive = Path(path)
     found = layout.runs(archive)
-    rows, events = [], []
+    rows, tables = [], []
     for run in found:
         layout.verify(archive, run)
         folder = layout.run_folder(archive, run.run_id)
         rows.append(layout.read_table(folder / layout.ROWS))
-        events.append(layout.read_table(folder / layout.EVENTS))
+        if events:
+            tables.append(layout.read_table(folder / layout.EVENTS))
     # one conversion to the bench's dtypes for all runs: per run it cost 40 ms, most of a large load
     table = (
         pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=[*COLUMN_NAMES, *layout.ARCHIVE_COLUMNS])
     )
-    all_events = pd.concat(events, ignore_index=True) if events else pd.DataFrame(columns=list(layout.EVENT_COLUMNS))
+    all_events = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame(columns=list(layout.EVENT_COLUMNS))
     return Tables(_rows(table), all_events, run_frame(found))

@@ -195,7 +195,7 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     """Print the archive's runs and its leaderboard (every file checked on read: ``ConfigError`` if damaged)."""
     from nsbench.archive.load import load
 
-    tables = load(request.archive)
+    tables = load(request.archive, events=False)  # the leaderboard reads only the rows
     if request.problem is not None and request.problem not in set(tables.rows["problem_label"].astype(str)):
         known = ", ".join(sorted(set(tables.rows["problem_label"].astype(str)))) or "none"
         raise ConfigError(f"--problem {request.problem!r} is in no run of {request.archive!r} (it holds: {known})")

@@ -168,7 +168,7 @@ def build_site(request: ArchiveSiteRequest) -> ArchiveSiteOutcome:
     from nsbench.archive.load import load
     from nsbench.files import write_atomic
 
-    tables = load(request.archive)
+    tables = load(request.archive, events=False)  # the page shows only the rows
     out = Path(request.out)
     out.mkdir(parents=True, exist_ok=True)
     text, figures = page(tables, out)

@@ -103,10 +103,22 @@ def _package_edges() -> dict[tuple[str, str], list[str]]:
         ("certify", "cli"),
         *(
             ("workers", app)
-            for app in ("bench", "bifurcation", "periodic", "simulation", "testing", "certify", "cli", "engine")
+            for app in (
+                "archive",
+                "bench",
+                "bifurcation",
+                "periodic",
+                "simulation",
+                "testing",
+                "certify",
+                "cli",
+                "engine",
+            )
         ),
         # an app runs a request; the command line builds it: no app imports the command line
-        *((app, "cli") for app in ("bench", "bifurcation", "periodic", "simulation", "testing")),
+        *((app, "cli") for app in ("archive", "bench", "bifurcation", "periodic", "simulation", "testing")),
+        # the archive is an app above the bench: nothing below it imports it
+        *((lower, "archive") for lower in ("model", "problems", "integrators", "hybrid", "engine", "certify", "bench")),
         # the checked inputs and the factory probe, shared by the apps and the command line
         *(
             (leaf, upper)
@@ -384,7 +396,7 @@ def test_no_module_imports_a_private_name_of_another_package():
 
 
 #: The packages whose functions are the apps' entry points.
-APPS = ("bench", "bifurcation", "periodic", "simulation", "testing")
+APPS = ("archive", "bench", "bifurcation", "periodic", "simulation", "testing")
 #: Commands whose whole pipeline lives in an app: the module declares its arguments (``add_parser``),
 #: maps them onto one request (``request``) and calls one app function on it (``main``).
 REQUEST_COMMANDS = ("bench", "bifurcation", "continuation", "lyapunov", "run", "simulate")

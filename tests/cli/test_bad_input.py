@@ -395,6 +395,10 @@ CASES = [
     ("compare-out-is-dir", R + ["--out", "{d}/emptydir"], "it is a folder"),
     ("compare-out-missing-dir", R + ["--out", "{d}/missing/x.csv"], "does not exist"),
     # ---- history
+    ("archive-add-missing", ["archive", "add", "{d}/missing", "--to", "{d}/arch"], "does not exist"),
+    ("archive-show-no-archive", ["archive", "show", "{d}/missing"], "is no nsbench archive"),
+    ("archive-merge-one", ["archive", "merge", "{d}/missing", "--to", "{d}/arch"], "two or more archives"),
+    ("archive-site-no-archive", ["archive", "site", "{d}/missing", "--out", "{d}/web"], "is no nsbench archive"),
     ("history-show-no-store", ["history", "show", "--store", "{d}/missing"], "history store"),
     ("history-add-missing", ["history", "add", "{d}/missing", "--store", "{d}/hist"], "do not exist"),
     ("history-factor-nan", ["history", "show", "--store", "{d}/missing", "--factor", "nan"], "factor = nan"),
@@ -1160,7 +1164,7 @@ SWEEP_BASES = {
     ],
 }
 #: Sub-commands with actions of their own, covered by hand-written cases instead of the generated sweep.
-NESTED = {"history"}
+NESTED = {"history", "archive"}
 #: Where the value of NAME=VALUE options goes (a real name of the base's problem or integrator).
 ASSIGNMENTS = {"--param": "Omega={v}", "--option": "h={v}", "--sweep": None}
 SWEEP_FORMS = {"bifurcation": "v0={v}:1.0:2", "continuation": "v0={v}:0.17"}

@@ -654,6 +654,15 @@ DECLARED: tuple[Column, ...] = (
         unit="problem time",
     ),
     Column(
+        "event_log",
+        JSON,
+        (
+            "JSON: the run's own event log as graded, {column: [values]} with t, kind, block (and t_located, "
+            "accumulation_error where the run has them); empty if the case did not run. An archive re-grades "
+            "the switching-time errors from it (nsbench archive add)"
+        ),
+    ),
+    Column(
         "timestamp",
         TEXT,
         "UTC time the case finished",

@@ -541,3 +541,47 @@ def case_metrics(
         event_cert=certainty(reference, al.n_prefix).tolist() if CERTIFIED in reference else [],
     )
     return out
+
+
+#: The columns of an event log the metrics read (:func:`case_metrics`): what a stored log keeps.
+GRADED_LOG_COLUMNS = ("t", "kind", "block", "t_located", "accumulation_error")
+
+
+def event_log_text(events: pd.DataFrame) -> str:
+    """An event log's graded columns (:data:`GRADED_LOG_COLUMNS`, those it has) as JSON text.
+
+    Floats are written by their ``repr`` (``json``), so :func:`event_log_frame` reads back the very
+    same values: grading the stored log again gives the stored errors bit for bit.
+    """
+    import json
+
+    kept = {}
+    for name in GRADED_LOG_COLUMNS:
+        if name in events:
+            values = events[name].tolist()
+            kept[name] = [int(v) for v in values] if name == "block" else values
+    return json.dumps(kept, default=float)
+
+
+def event_log_frame(text: str) -> pd.DataFrame:
+    """The event log stored by :func:`event_log_text`, as the frame the metrics take.
+
+    Raises ``ValueError`` if ``text`` is not such a log (not JSON, no ``t``/``kind``/``block``,
+    columns of different lengths).
+    """
+    import json
+
+    data = json.loads(text)
+    if not isinstance(data, dict) or not {"t", "kind", "block"} <= set(data):
+        raise ValueError("not an event log (a JSON table with t, kind and block)")
+    lengths = {len(v) for v in data.values()}
+    if len(lengths) > 1:
+        raise ValueError("its columns have different lengths")
+    frame = pd.DataFrame({k: data[k] for k in GRADED_LOG_COLUMNS if k in data})
+    frame["t"] = frame["t"].astype(float)
+    frame["block"] = frame["block"].astype(np.int64)
+    frame["kind"] = frame["kind"].astype(str)
+    for name in ("t_located", "accumulation_error"):
+        if name in frame:
+            frame[name] = pd.to_numeric(frame[name], errors="coerce").astype(float)
+    return frame

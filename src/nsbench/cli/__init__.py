@@ -23,6 +23,7 @@ COMMANDS = (
     "report",
     "compare",
     "history",
+    "archive",
     "ingest",
     "bifurcation",
     "continuation",

@@ -1,0 +1,193 @@
+"""The archive's layout and schema ``nsbench-results/1``: its folders, manifests and checksums.
+
+An archive is a folder::
+
+    ARCHIVE/archive.json                       {"schema": "nsbench-results/1", "created": ...}
+    ARCHIVE/runs/<run id>/rows.parquet         the run's tidy rows, re-graded, plus run_id, graded, mark
+    ARCHIVE/runs/<run id>/events.parquet       one row per graded event of the matched prefix
+    ARCHIVE/runs/<run id>/provenance.json      the run's provenance, as its results folder recorded it
+    ARCHIVE/runs/<run id>/run.json             the run's manifest: identity, marks, SHA-256 of the three files
+    ARCHIVE/references/<key>.json ...          the archive's own certified references (the bench's cache format)
+
+A run's id is a hash of its rows' content (:func:`run_id`), so the same run added twice, or
+found in both archives of a merge, has the same folder. The manifest is written last: a run
+folder without one was never completely added and is ignored on read. Every read checks each
+file against the SHA-256 its manifest records (as the history store does,
+:func:`nsbench.bench.history.verify`), and the Parquet files carry the checksum of their values
+as every nsbench table does (:func:`nsbench.bench.storage.content_digest`).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from nsbench.bench import storage
+from nsbench.errors import ConfigError
+from nsbench.files import refuse_links, write_atomic
+
+#: The schema this version of nsbench writes and reads.
+SCHEMA = "nsbench-results/1"
+ARCHIVE_FILE = "archive.json"
+RUNS = "runs"
+REFERENCES = "references"
+MANIFEST = "run.json"
+ROWS, EVENTS, PROVENANCE = "rows.parquet", "events.parquet", "provenance.json"
+#: The files of a run whose checksums its manifest records.
+CHECKED = (ROWS, EVENTS, PROVENANCE)
+#: The columns the archive adds to the bench's tidy rows (:mod:`nsbench.bench.schema`).
+ARCHIVE_COLUMNS = ("run_id", "graded", "mark")
+#: The columns of the event table, in order.
+EVENT_COLUMNS = ("run_id", "case_id", "event", "kind", "block", "t", "t_ref", "abs_dt", "certified_error")
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run in an archive: what its manifest ``run.json`` records."""
+
+    run_id: str
+    machine: str
+    environment: str
+    commit: str
+    suite: str
+    added: str
+    source: str
+    n_rows: int
+    n_graded: int
+    marks: list[str] = field(default_factory=list)
+    versions: dict[str, Any] = field(default_factory=dict)
+    sha256: dict[str, str] = field(default_factory=dict)
+    schema: str = SCHEMA
+
+
+def digest(path: Path) -> str:
+    """SHA-256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def run_id(rows: pd.DataFrame) -> str:
+    """A run's id: the first 16 hex digits of the checksum of its tidy rows' values (case ids and
+    timestamps included), so two additions of one run have one id."""
+    table = pa.Table.from_pandas(storage.to_frame(rows.to_dict("records")), preserve_index=False)
+    return storage.content_digest(table)[:16]
+
+
+def run_folder(archive: Path, rid: str) -> Path:
+    return archive / RUNS / storage.file_name(rid, "run id")
+
+
+def check_target(archive: Path, flag: str = "ARCHIVE") -> None:
+    """``ConfigError`` (naming ``flag``) unless ``archive`` is an archive of :data:`SCHEMA` or can be made
+    one: a folder that does not exist yet or is empty. Nothing is written."""
+    from nsbench.inputs import check_output_dir
+
+    check_output_dir(archive, flag)
+    if (archive / ARCHIVE_FILE).exists():
+        check_schema(archive)
+    elif archive.is_dir() and any(archive.iterdir()):
+        raise ConfigError(
+            f"{flag} {str(archive)!r} is not empty and holds no {ARCHIVE_FILE}: it is no nsbench archive; "
+            "give an archive or a new folder"
+        )
+
+
+def create(archive: Path) -> None:
+    """Make ``archive`` an archive (its ``archive.json``) if it is not one yet (:func:`check_target` first)."""
+    check_target(archive)
+    if (archive / ARCHIVE_FILE).exists():
+        return
+    try:
+        archive.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"archive {str(archive)!r} cannot be created: {exc.strerror or exc}") from None
+    created = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    write_atomic(archive / ARCHIVE_FILE, json.dumps({"schema": SCHEMA, "created": created}, indent=1))
+
+
+def check_schema(archive: Path) -> None:
+    """``ConfigError`` unless ``archive`` is an archive of :data:`SCHEMA`."""
+    path = archive / ARCHIVE_FILE
+    if not path.is_file():
+        raise ConfigError(
+            f"{str(archive)!r} is no nsbench archive (no {ARCHIVE_FILE}; make one with nsbench archive add)"
+        )
+    try:
+        schema = json.loads(path.read_text(encoding="utf-8")).get("schema")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise ConfigError(f"{path} is damaged ({type(exc).__name__}: {exc})") from None
+    if schema != SCHEMA:
+        raise ConfigError(f"{path}: schema {schema!r}; this nsbench reads {SCHEMA!r}")
+
+
+def runs(archive: Path) -> list[Run]:
+    """The runs of ``archive`` (those whose manifest was written), by id."""
+    check_schema(archive)
+    found = []
+    for path in sorted((archive / RUNS).glob(f"*/{MANIFEST}")):
+        try:
+            run = Run(**json.loads(path.read_text(encoding="utf-8")))
+        except (OSError, ValueError, TypeError) as exc:
+            raise ConfigError(f"{path} is damaged ({type(exc).__name__}: {exc}); delete its folder") from None
+        if run.run_id != path.parent.name:
+            raise ConfigError(f"{path} names run {run.run_id!r}, not its folder's {path.parent.name!r}")
+        found.append(run)
+    return found
+
+
+def verify(archive: Path, run: Run) -> None:
+    """``ConfigError`` naming the first file of ``run`` that is not the one it was added with."""
+    folder = run_folder(archive, run.run_id)
+    for name in CHECKED:
+        path = folder / name
+        try:
+            got = digest(path)
+        except OSError as exc:
+            raise ConfigError(f"{path} cannot be read ({exc.strerror or exc}): the archive is damaged") from None
+        if got != run.sha256.get(name):
+            raise ConfigError(
+                f"{path} is damaged: its SHA-256 is not the one recorded in {folder / MANIFEST} (edited or "
+                "corrupted since it was added); delete the run's folder and add the run again"
+            )
+
+
+def write_table(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
+    """``frame`` as Parquet with nsbench's provenance and value checksum in its metadata, atomically."""
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[storage.PROVENANCE_KEY] = json.dumps(provenance, default=str).encode()
+    meta[storage.CONTENT_KEY] = storage.content_digest(table).encode()
+    tmp = path.with_name(path.name + ".tmp")
+    pq.write_table(table.replace_schema_metadata(meta), tmp)
+    tmp.replace(path)
+
+
+def read_table(path: Path) -> pd.DataFrame:
+    """A table of a run, its values checked against their checksum (``ConfigError`` naming it if damaged)."""
+    try:
+        return storage.read_table_checked(path).to_pandas()
+    except storage.DamagedFile as exc:
+        raise ConfigError(f"{path} is damaged ({exc})") from None
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise ConfigError(f"{path} is damaged (not a readable Parquet file: {exc})") from None
+
+
+def write_run(archive: Path, run: Run, rows: pd.DataFrame, events: pd.DataFrame, prov: dict[str, Any]) -> Run:
+    """Store one run's three files and then its manifest (the mark of a complete addition); the
+    manifest as written, with the files' checksums."""
+    folder = run_folder(archive, run.run_id)
+    refuse_links(archive, (RUNS, REFERENCES), (RUNS, REFERENCES))
+    folder.mkdir(parents=True, exist_ok=True)
+    write_table(rows, folder / ROWS, prov)
+    write_table(events, folder / EVENTS, prov)
+    write_atomic(folder / PROVENANCE, json.dumps(prov, indent=1, sort_keys=True, default=str))
+    done = Run(**{**asdict(run), "sha256": {name: digest(folder / name) for name in CHECKED}})
+    write_atomic(folder / MANIFEST, json.dumps(asdict(done), indent=1, sort_keys=True))
+    return done

@@ -1,0 +1,49 @@
+"""``nsbench.archive.load``: an archive as pandas tables, ready to set a notebook's own run beside."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+import nsbench.archive
+from nsbench.archive import layout
+from nsbench.bench import storage
+from nsbench.errors import ConfigError
+from tests.archive.conftest import copy
+
+
+def test_load_gives_rows_events_and_runs_in_the_bench_dtypes(archive, runs):
+    rows, events, runs_table = nsbench.archive.load(archive)
+    assert list(rows.columns)[-3:] == list(layout.ARCHIVE_COLUMNS)
+    mine = storage.load_results(runs["a"])
+    for name in mine.columns:  # the bench's columns keep the bench's dtypes
+        assert rows[name].dtype == mine[name].dtype, name
+    assert events["event"].dtype == "int64" and events["abs_dt"].dtype == "float64"
+    assert set(runs_table["run_id"]) == set(rows["run_id"]) == set(events["run_id"])
+    assert {"machine", "environment", "commit", "suite", "added", "n_rows", "n_graded", "marks"} <= set(runs_table)
+    assert (runs_table["suite"] == "tiny").all()
+
+
+def test_a_notebooks_own_run_goes_beside_the_archived_ones_in_two_lines(archive, runs):
+    # what docs/how-to/archive.md shows: the archive's rows and one's own results in one frame
+    rows = nsbench.archive.load(archive).rows
+    both = pd.concat([rows, storage.load_results(runs["a"]).assign(run_id="mine")], ignore_index=True)
+    assert len(both) == len(rows) + 4 and (both["run_id"] == "mine").sum() == 4
+
+
+def test_an_empty_archive_loads_as_empty_tables(tmp_path):
+    layout.create(tmp_path / "empty")
+    tables = nsbench.archive.load(tmp_path / "empty")
+    assert tables.rows.empty and tables.events.empty and tables.runs.empty
+    assert "switch_err_max" in tables.rows and list(tables.events.columns) == list(layout.EVENT_COLUMNS)
+    assert nsbench.archive.leaderboard(tables).empty
+
+
+def test_without_events_the_event_tables_are_checked_not_read(archive, tmp_path):
+    tables = nsbench.archive.load(archive, events=False)
+    assert tables.events.empty and len(tables.rows) == 11
+    path = copy(archive, tmp_path / "arch")
+    events = sorted((path / layout.RUNS).iterdir())[0] / layout.EVENTS
+    events.write_bytes(events.read_bytes()[:-1] + b"\x00")
+    with pytest.raises(ConfigError, match="events.parquet is damaged"):
+        nsbench.archive.load(path, events=False)

@@ -1,10 +1,16 @@
 """``archive site``: a static page that opens from the disk, the leaderboard and the ECDF first.
 
-(Not tested in headless Chromium: no browser on this machine. The page is read with the standard
-library's HTML parser: what it shows first, and that it names only files beside it.)"""
+The page is read with the standard library's HTML parser (what comes first, that it names only files
+beside it) and opened in headless Chromium where one is installed (`.ci/run` installs it with
+apt-get where it can; elsewhere that test skips, saying so): there the first leaderboard table and
+the ECDF figure, loaded, must lie on the first screen of a 1280 x 800 window."""
 
 from __future__ import annotations
 
+import json
+import re
+import shutil
+import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -81,3 +87,56 @@ def test_site_on_the_command_line_and_its_bad_input(archive, tmp_path, capsys):
     with pytest.raises(ConfigError, match="is no nsbench archive"):
         ArchiveSiteRequest(archive=str(tmp_path / "web"), out=str(tmp_path / "web2"))
     assert not (tmp_path / "web2").exists()
+
+
+#: Where the page's first table and first image lie once Chromium has laid it out and loaded the image.
+_PROBE = """<script>
+window.addEventListener("load", () => {
+  const box = (e) => { const r = e.getBoundingClientRect(); return [r.top, r.bottom, r.left, r.right]; };
+  const img = document.querySelector("img"), table = document.querySelector("table");
+  const out = document.createElement("pre");
+  out.id = "probe";
+  out.textContent = JSON.stringify({img: box(img), loaded: img.complete && img.naturalWidth > 0,
+    table: box(table), rows: table.rows.length, height: window.innerHeight, width: window.innerWidth});
+  document.body.appendChild(out);
+});
+</script>"""
+
+
+def _browser() -> str | None:
+    return next((b for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)
+
+
+@pytest.mark.skipif(_browser() is None, reason="no Chromium on this machine (.ci/run installs it with apt-get)")
+def test_in_headless_chromium_the_leaderboard_and_the_ecdf_are_on_the_first_screen(site, tmp_path):
+    page = (site / "index.html").read_text(encoding="utf-8")
+    probed = site / "probed.html"  # beside the page, so that its figure paths resolve as the page's
+    probed.write_text(page.replace("</body>", _PROBE + "</body>"), encoding="utf-8")
+    try:
+        done = subprocess.run(
+            [
+                _browser(),
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--window-size=1280,800",
+                f"--user-data-dir={tmp_path / 'profile'}",
+                "--virtual-time-budget=5000",
+                "--dump-dom",
+                probed.as_uri(),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        probed.unlink()
+    found = re.search(r'<pre id="probe">(.*?)</pre>', done.stdout, re.S)
+    assert found, f"Chromium did not run the probe (exit {done.returncode}): {done.stderr[-2000:]}"
+    seen = json.loads(found.group(1).replace("&quot;", '"'))
+    assert seen["loaded"], seen  # the ECDF figure, a file beside the page, opened without a server
+    assert seen["rows"] > 1, seen
+    screen = seen["height"]
+    for what in ("img", "table"):
+        top, bottom, left, right = seen[what]
+        assert 0 <= top < screen and right > left, (what, seen)  # its top is on the first screen

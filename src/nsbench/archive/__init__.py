@@ -7,6 +7,7 @@ notebook, :func:`load`::
 
     import nsbench.archive
     rows, events, runs = nsbench.archive.load("nsbench-archive")
+    bifurcations = nsbench.archive.load("nsbench-archive").bifurcations  # the bifurcation-target rows
 
 The layout and every column are documented in ``docs/reference/archive-schema.md``: another tool
 reads an archive with pandas or pyarrow alone.
@@ -18,6 +19,6 @@ from nsbench.archive.add import add_run
 from nsbench.archive.layout import SCHEMA
 from nsbench.archive.load import Tables, load
 from nsbench.archive.merge import merge_archives
-from nsbench.archive.show import leaderboard
+from nsbench.archive.show import bifurcation_board, leaderboard
 
-__all__ = ["SCHEMA", "Tables", "add_run", "leaderboard", "load", "merge_archives"]
+__all__ = ["SCHEMA", "Tables", "add_run", "bifurcation_board", "leaderboard", "load", "merge_archives"]

@@ -5,6 +5,10 @@ submitted errors disagree with the re-grading, nothing is added and the outcome 
 row. Rows that cannot be graded here (a problem or reference integrator this nsbench does not
 know, a case that did not run) are kept and marked, and so are rows of an integrator plug-in not
 installed here (graded all the same: the grading needs only the reference and the log).
+
+The run's bifurcation-target rows (``bifurcation_targets.parquet``, :mod:`nsbench.bench.targets`),
+if it has any, are kept as submitted, NOT re-graded: locating a bifurcation again takes the
+integrator's own probes (seconds to minutes per row), which the archive does not run.
 """
 
 from __future__ import annotations
@@ -118,6 +122,18 @@ def _tables(
     return rows, table
 
 
+def bifurcation_rows(run: Path, rid: str) -> pd.DataFrame | None:
+    """The run's bifurcation-target rows as submitted (the bench's columns, then ``run_id``), ``None``
+    if it has none."""
+    from nsbench.bench import targets
+
+    frame = targets.load_rows(run if run.is_dir() else run.parent)
+    if frame.empty:
+        return None
+    frame["run_id"] = pd.array([rid] * len(frame), dtype="string")
+    return frame
+
+
 def add_run(run: str | Path, archive: str | Path, machine: str | None = None) -> AddOutcome:
     """Re-grade the results folder ``run`` and add it to ``archive`` (created if absent).
 
@@ -153,7 +169,7 @@ def add_run(run: str | Path, archive: str | Path, machine: str | None = None) ->
         marks=marks,
         versions=json.loads(json.dumps(versions, default=str)),
     )
-    return AddOutcome(layout.write_run(archive, entry, rows, events, prov))
+    return AddOutcome(layout.write_run(archive, entry, rows, events, prov, bifurcation_rows(run, rid)))
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,8 @@ An archive is a folder::
     ARCHIVE/runs/<run id>/rows.parquet         the run's tidy rows, re-graded, plus run_id, graded, mark
     ARCHIVE/runs/<run id>/events.parquet       one row per graded event of the matched prefix
     ARCHIVE/runs/<run id>/provenance.json      the run's provenance, as its results folder recorded it
-    ARCHIVE/runs/<run id>/run.json             the run's manifest: identity, marks, SHA-256 of the three files
+    ARCHIVE/runs/<run id>/bifurcations.parquet the run's bifurcation-target rows as submitted (only if it has any)
+    ARCHIVE/runs/<run id>/run.json             the run's manifest: identity, marks, SHA-256 of its files
     ARCHIVE/references/<key>.json ...          the archive's own certified references (the bench's cache format)
 
 A run's id is a hash of its rows' content (:func:`run_id`), so the same run added twice, or
@@ -41,8 +42,12 @@ RUNS = "runs"
 REFERENCES = "references"
 MANIFEST = "run.json"
 ROWS, EVENTS, PROVENANCE = "rows.parquet", "events.parquet", "provenance.json"
-#: The files of a run whose checksums its manifest records.
+#: The bifurcation-target rows of a run (optional: written only for a run that has some).
+BIFURCATIONS = "bifurcations.parquet"
+#: The files every run has, whose checksums its manifest records.
 CHECKED = (ROWS, EVENTS, PROVENANCE)
+#: The optional files of a run, checked when its manifest records them.
+OPTIONAL = (BIFURCATIONS,)
 #: The columns the archive adds to the bench's tidy rows (:mod:`nsbench.bench.schema`).
 ARCHIVE_COLUMNS = ("run_id", "graded", "mark")
 #: The columns of the event table, in order.
@@ -142,10 +147,15 @@ def runs(archive: Path) -> list[Run]:
     return found
 
 
+def files_of(run: Run) -> tuple[str, ...]:
+    """The files of ``run``: :data:`CHECKED` and the optional ones its manifest records."""
+    return (*CHECKED, *(name for name in OPTIONAL if name in run.sha256))
+
+
 def verify(archive: Path, run: Run) -> None:
     """``ConfigError`` naming the first file of ``run`` that is not the one it was added with."""
     folder = run_folder(archive, run.run_id)
-    for name in CHECKED:
+    for name in files_of(run):
         path = folder / name
         try:
             got = digest(path)
@@ -179,15 +189,26 @@ def read_table(path: Path) -> pd.DataFrame:
         raise ConfigError(f"{path} is damaged (not a readable Parquet file: {exc})") from None
 
 
-def write_run(archive: Path, run: Run, rows: pd.DataFrame, events: pd.DataFrame, prov: dict[str, Any]) -> Run:
-    """Store one run's three files and then its manifest (the mark of a complete addition); the
-    manifest as written, with the files' checksums."""
+def write_run(
+    archive: Path,
+    run: Run,
+    rows: pd.DataFrame,
+    events: pd.DataFrame,
+    prov: dict[str, Any],
+    bifurcations: pd.DataFrame | None = None,
+) -> Run:
+    """Store one run's files (its bifurcation-target rows only if it has some) and then its manifest
+    (the mark of a complete addition); the manifest as written, with the files' checksums."""
     folder = run_folder(archive, run.run_id)
     refuse_links(archive, (RUNS, REFERENCES), (RUNS, REFERENCES))
     folder.mkdir(parents=True, exist_ok=True)
     write_table(rows, folder / ROWS, prov)
     write_table(events, folder / EVENTS, prov)
     write_atomic(folder / PROVENANCE, json.dumps(prov, indent=1, sort_keys=True, default=str))
-    done = Run(**{**asdict(run), "sha256": {name: digest(folder / name) for name in CHECKED}})
+    names = list(CHECKED)
+    if bifurcations is not None and len(bifurcations):
+        write_table(bifurcations, folder / BIFURCATIONS, prov)
+        names.append(BIFURCATIONS)
+    done = Run(**{**asdict(run), "sha256": {name: digest(folder / name) for name in names}})
     write_atomic(folder / MANIFEST, json.dumps(asdict(done), indent=1, sort_keys=True))
     return done

@@ -1,4 +1,4 @@
-"""``nsbench.archive.load(PATH)``: an archive as three pandas tables, every file checked on read."""
+"""``nsbench.archive.load(PATH)``: an archive as pandas tables, every file checked on read."""
 
 from __future__ import annotations
 
@@ -14,14 +14,42 @@ from nsbench.bench import storage
 from nsbench.bench.schema import COLUMN_NAMES
 
 
-class Tables(NamedTuple):
-    """An archive's tables: ``rows`` (the tidy rows of every run, re-graded, with ``run_id``,
-    ``graded`` and ``mark``), ``events`` (one row per graded event) and ``runs`` (one per run:
-    machine, environment, commit, suite, added, source, counts, marks)."""
-
+class _Three(NamedTuple):
     rows: pd.DataFrame
     events: pd.DataFrame
     runs: pd.DataFrame
+
+
+class Tables(_Three):
+    """An archive's tables: ``rows`` (the tidy rows of every run, re-graded, with ``run_id``,
+    ``graded`` and ``mark``), ``events`` (one row per graded event) and ``runs`` (one per run:
+    machine, environment, commit, suite, added, source, counts, marks); and, as an attribute
+    outside the tuple (so that ``rows, events, runs = load(path)`` keeps working),
+    ``bifurcations``: the bifurcation-target rows of every run that has some, as submitted (the
+    bench's columns, :data:`nsbench.bench.targets.COLUMNS`, then ``run_id``)."""
+
+    bifurcations: pd.DataFrame
+
+    def __new__(
+        cls,
+        rows: pd.DataFrame,
+        events: pd.DataFrame,
+        runs: pd.DataFrame,
+        bifurcations: pd.DataFrame | None = None,
+    ) -> "Tables":
+        self = super().__new__(cls, rows, events, runs)
+        self.bifurcations = bifurcation_frame([]) if bifurcations is None else bifurcations
+        return self
+
+
+def bifurcation_frame(tables: list[pd.DataFrame]) -> pd.DataFrame:
+    """Stored bifurcation-target tables as one, in the bench's dtypes, ``run_id`` last."""
+    from nsbench.bench import targets
+
+    records = [r for t in tables for r in t.to_dict("records")]
+    frame = targets.to_frame(records)
+    frame["run_id"] = pd.array([str(r.get("run_id", "")) for r in records], dtype="string")
+    return frame
 
 
 def _rows(table: pd.DataFrame) -> pd.DataFrame:
@@ -53,20 +81,22 @@ def load(path: str | Path, events: bool = True) -> Tables:
     against the checksum of its values: a damaged file is a ``ConfigError`` naming it, never read as
     data. With ``events=False`` the event tables are checked by their SHA-256 alone and not read
     (``events`` is then empty): the leaderboard needs only the rows, and the events are most of a
-    large archive's values.
+    large archive's values. The bifurcation-target rows (``Tables.bifurcations``) are always read.
     """
     archive = Path(path)
     found = layout.runs(archive)
-    rows, tables = [], []
+    rows, tables, bifurcations = [], [], []
     for run in found:
         layout.verify(archive, run)
         folder = layout.run_folder(archive, run.run_id)
         rows.append(layout.read_table(folder / layout.ROWS))
         if events:
             tables.append(layout.read_table(folder / layout.EVENTS))
+        if layout.BIFURCATIONS in run.sha256:
+            bifurcations.append(layout.read_table(folder / layout.BIFURCATIONS))
     # one conversion to the bench's dtypes for all runs: per run it cost 40 ms, most of a large load
     table = (
         pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=[*COLUMN_NAMES, *layout.ARCHIVE_COLUMNS])
     )
     all_events = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame(columns=list(layout.EVENT_COLUMNS))
-    return Tables(_rows(table), all_events, run_frame(found))
+    return Tables(_rows(table), all_events, run_frame(found), bifurcation_frame(bifurcations))

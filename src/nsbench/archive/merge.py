@@ -26,7 +26,7 @@ class MergeOutcome:
 def _copy_run(source: Path, target: Path, run: layout.Run) -> None:
     src, dst = layout.run_folder(source, run.run_id), layout.run_folder(target, run.run_id)
     dst.mkdir(parents=True, exist_ok=True)
-    for name in (*layout.CHECKED, layout.MANIFEST):  # the manifest last: it marks a complete copy
+    for name in (*layout.files_of(run), layout.MANIFEST):  # the manifest last: it marks a complete copy
         shutil.copyfile(src / name, dst / name)
 
 

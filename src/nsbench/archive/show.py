@@ -10,6 +10,13 @@ and so on down in tiers). Each entry carries its median wall time's distribution
 (:func:`nsbench.bench.stats.median_interval`). Reference-grade integrators and each problem's own
 reference are not ranked, as in the report. Times of different machines or environments are never
 compared: each (machine, environment) is ranked on its own.
+
+The bifurcation targets (:func:`bifurcation_board`) are shown as the report shows them: the
+report's table of those rows (:func:`nsbench.bench.targets.report_table`: each configuration's
+status, located value, error against the reference's location, probes and cost), one table per
+(problem, bifurcation target, machine, environment), in the report's order (integrator, level).
+The report does not rank these rows (one location each, no timing samples to tell ties by), so
+neither does the archive. They are kept as submitted, not re-graded.
 """
 
 from __future__ import annotations
@@ -118,6 +125,51 @@ def leaderboard(tables: Tables, targets: tuple[float, ...] = TARGETS, problem: s
     )
 
 
+#: The columns of :func:`bifurcation_board` before the report's table's own (its ``target`` first among them).
+BIF_KEYS = ("problem", "machine", "environment")
+BIF_AFTER = ("commit", "run_id")
+
+
+def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFrame:
+    """The archive's bifurcation-target rows as the report's table
+    (:func:`nsbench.bench.targets.report_table`), with problem, machine and environment before it and
+    commit and run id after, sorted by (problem, target, machine, environment) and, within each,
+    in the report's order (integrator, level)."""
+    from nsbench.bench.targets import report_table
+
+    runs = tables.runs[["run_id", "machine", "environment", "commit"]]
+    rows = tables.bifurcations.merge(runs, on="run_id", how="left")
+    if problem is not None:
+        rows = rows[rows["problem_label"].astype(str) == problem]
+    if rows.empty:
+        return pd.DataFrame(columns=[*BIF_KEYS, *BIF_AFTER])
+    order = ["problem_label", "target", "machine", "environment", "integrator", "level", "run_id"]
+    rows = rows.sort_values(order, kind="stable", ignore_index=True)
+    view = report_table(rows)  # the report's columns and formatting, row for row
+    front = rows[["problem_label", "machine", "environment"]].rename(columns={"problem_label": "problem"})
+    return pd.concat([front, view, rows[list(BIF_AFTER)].astype(str)], axis=1)
+
+
+def render_bifurcations(board: pd.DataFrame) -> str:
+    """The bifurcation-target tables as text, one per (problem, target, machine, environment)."""
+    if board.empty:
+        return ""
+    lines = ["Bifurcation targets (as submitted, not re-graded; listed as the report lists them, not ranked)"]
+    lines.append("each row: the bifurcation value the configuration locates with its own flow, and its error")
+    for (problem, target, machine, env), block in board.groupby(
+        ["problem", "target", "machine", "environment"], sort=False
+    ):
+        lines += ["", f"{problem}, bifurcation target {target} ({machine}, {env})"]
+        lines.append("method                level  status         value            error     probes  cost s    run")
+        for _, e in block.iterrows():
+            error = f"{e['bifurcation_error']:.3g}" if e["bifurcation_error"] == e["bifurcation_error"] else "-"
+            lines.append(
+                f"{e['integrator']:<22}{e['level']!s:>5}  {e['status']:<13}  {e['bifurcation_value']:<15}  "
+                f"{error:<8}  {e['probes']!s:>6}  {_seconds(float(e['cost (s)'])):<8}  {e['run_id']}"
+            )
+    return "\n".join(lines)
+
+
 def _seconds(x: float) -> str:
     return f"{x:.3g}" if math.isfinite(x) else "-"
 
@@ -185,9 +237,10 @@ class ArchiveShowRequest:
 
 @dataclass(frozen=True)
 class ArchiveShowOutcome:
-    """The leaderboard printed."""
+    """The leaderboard printed, and the bifurcation-target tables."""
 
     board: pd.DataFrame
+    bifurcations: pd.DataFrame | None = None
     exit_code: int = 0
 
 
@@ -196,8 +249,9 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     from nsbench.archive.load import load
 
     tables = load(request.archive, events=False)  # the leaderboard reads only the rows
-    if request.problem is not None and request.problem not in set(tables.rows["problem_label"].astype(str)):
-        known = ", ".join(sorted(set(tables.rows["problem_label"].astype(str)))) or "none"
+    labels = set(tables.rows["problem_label"].astype(str)) | set(tables.bifurcations["problem_label"].astype(str))
+    if request.problem is not None and request.problem not in labels:
+        known = ", ".join(sorted(labels)) or "none"
         raise ConfigError(f"--problem {request.problem!r} is in no run of {request.archive!r} (it holds: {known})")
     print(f"{len(tables.runs)} run(s) in {request.archive}:")
     for run in tables.runs.itertuples():
@@ -208,4 +262,8 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     board = leaderboard(tables, request.targets, request.problem)
     print()
     print(render(board))
-    return ArchiveShowOutcome(board)
+    bifurcations = bifurcation_board(tables, request.problem)
+    if len(bifurcations):
+        print()
+        print(render_bifurcations(bifurcations))
+    return ArchiveShowOutcome(board, bifurcations)

@@ -6,7 +6,9 @@ holds its style sheet. First on the page are, for the first machine and environm
 runtime distributions (ECDFs, the report's figure :func:`nsbench.bench.figures.runtime_distribution`
 over every archived method under test of that machine and environment) and its leaderboard tables
 (:func:`nsbench.archive.show.leaderboard`); then the other machines' blocks, then the runs. Costs are
-compared only within one machine and environment, and the page says so.
+compared only within one machine and environment, and the page says so. After the blocks, the
+bifurcation targets: the report's table of those rows per (problem, bifurcation target, machine,
+environment) (:func:`nsbench.archive.show.bifurcation_board`), as submitted, not ranked.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from nsbench.archive.load import Tables
-from nsbench.archive.show import NOTE, TARGETS, leaderboard
+from nsbench.archive.show import NOTE, TARGETS, bifurcation_board, leaderboard
 from nsbench.errors import ConfigError
 
 #: What ``--out`` receives, each replaced, never written through a link.
@@ -137,6 +139,33 @@ def _block(rows: pd.DataFrame, board: pd.DataFrame, out: Path, first: bool) -> t
     return f"{head}{figure}{body}", png
 
 
+BIF_NOTE = (
+    "Each configuration's bifurcation value, located with its own flow, and its error against the reference's "
+    "location, as the run submitted them (not re-graded by the archive), listed as the report lists them "
+    "(not ranked: one location each, no timing samples to tell ties by)."
+)
+
+
+def _bifurcation_section(tables: Tables) -> str:
+    """The bifurcation-target tables, one per (problem, target, machine, environment); '' if none."""
+    from nsbench.render import html as html_table
+
+    board = bifurcation_board(tables)
+    if board.empty:
+        return ""
+    parts = [f"<h2>Bifurcation targets</h2><p>{html.escape(BIF_NOTE)}</p>"]
+    for (problem, target, machine, env), block in board.groupby(
+        ["problem", "target", "machine", "environment"], sort=False
+    ):
+        shown = block.drop(columns=["problem", "target", "machine", "environment", "message"])
+        parts.append(
+            f"<h3>{html.escape(str(problem))}, bifurcation target {html.escape(str(target))} "
+            f"({html.escape(str(machine))}, environment {html.escape(str(env))})</h3>"
+            f'<div class="box">{html_table(shown.assign(commit=shown["commit"].str[:10]))}</div>'
+        )
+    return "".join(parts)
+
+
 def page(tables: Tables, out: Path) -> tuple[str, list[Path]]:
     """The site's HTML and the figures it shows (written to ``out/figures``)."""
     from nsbench.render import html as html_table
@@ -157,6 +186,7 @@ def page(tables: Tables, out: Path) -> tuple[str, list[Path]]:
         f"<h1>nsbench archive: leaderboard</h1><p>{html.escape(NOTE)} Ties (=): the timings of the entries of one "
         "rank cannot be told apart (the report's rule).</p>"
         + ("".join(blocks) or "<p>The archive holds no graded run.</p>")
+        + _bifurcation_section(tables)
         + f"<h2>Runs</h2>{html_table(listed)}"
     )
     head = f'<meta charset="utf-8"><title>nsbench archive</title><style>{STYLE}</style>'

@@ -2,9 +2,10 @@
 
 ``add`` re-grades a results folder against the archive's own references and adds it (exit
 status 1, nothing added, when a row's submitted errors disagree: the rows are named on stderr);
-``show`` prints the archive's runs and its leaderboard per (problem, target); ``merge`` joins two
-or more archives into one (``--to`` may be one of them), each run once; ``site`` writes the
-leaderboard and the runtime distributions as a static HTML page. Each action maps its
+``show`` prints the archive's runs, its leaderboard per (problem, target) and its
+bifurcation-target tables (as submitted, not re-graded); ``merge`` joins two or more archives
+into one (``--to`` may be one of them), each run once; ``site`` writes the leaderboard, the
+runtime distributions and the bifurcation-target tables as a static HTML page. Each action maps its
 arguments onto one request of :mod:`nsbench.archive` (every value checked there) and calls one
 app function.
 """

@@ -1,0 +1,166 @@
+"""The bifurcation targets in the archive: a real ``nsbench bench`` run of a suite with one target,
+its rows kept by ``add`` (as submitted, checksummed), returned by ``load``, listed by ``show`` and
+``site`` as the report lists them, carried by ``merge``; a damaged file refused on read."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from nsbench.archive import add_run, layout, load, merge_archives
+from nsbench.archive.show import bifurcation_board
+from nsbench.bench import targets
+from nsbench.cli import main
+from nsbench.errors import ConfigError
+from tests.archive.conftest import copy
+
+#: One problem, the reference and two cheap methods under test at one level each, one bifurcation
+#: target (the default suite's case1-stick1-starts, with a coarse xtol and few periods: 6 probes each).
+SUITE = """
+name = "tinybif"
+t_span = [0, 5]
+repeats = 3
+min_sample_time = 0
+problems = [{ name = "two-dof", case = 1 }]
+[integrators]
+only = ["exact", "ofapi", "henon-rk4"]
+[integrators.grids.ofapi]
+options = [{}]
+[integrators.grids.henon-rk4]
+options = [{ h = 0.01 }]
+
+[[bifurcation_targets]]
+name = "stick1"
+problem = "two-dof"
+case = 1
+param = "v0"
+origin = 0.16
+bracket = [0.0995, 0.101]
+kind = "grazing-sliding"
+periods = 3
+max_probes = 12
+xtol = 1e-4
+"""
+
+
+@pytest.fixture(scope="module")
+def bif_run(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("bifrun")
+    (d / "bif.toml").write_text(SUITE)
+    argv = ["bench", str(d / "bif.toml"), "--out", str(d / "out"), "--workers", "1", "--no-progress", "--no-report"]
+    assert main(argv) == 0
+    return d / "out"
+
+
+@pytest.fixture(scope="module")
+def bif_archive(bif_run, tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("bifarch") / "arch"
+    outcome = add_run(bif_run, path)
+    assert outcome.run is not None and not outcome.refused, outcome
+    return path
+
+
+def _folder(archive: Path) -> Path:
+    (folder,) = sorted((archive / layout.RUNS).iterdir())
+    return folder
+
+
+def test_the_run_located_the_target_near_the_default_suites_value(bif_run):
+    rows = targets.load_rows(bif_run)
+    assert sorted(rows["integrator"]) == ["henon-rk4", "ofapi"] and (rows["status"] == "success").all()
+    # the default suite's comment: block 1 starts sticking at v0 ~ 0.10042 (located there independently)
+    assert (abs(rows["reference_value"] - 0.10042) < 1e-5).all()
+    assert ((rows["bifurcation_value"] - rows["reference_value"]).abs() == rows["bifurcation_error"]).all()
+    assert (rows["bifurcation_error"] <= rows["xtol"]).all()  # the bisection's resolution, 1e-4
+
+
+def test_add_keeps_the_rows_as_submitted_under_the_manifests_checksum(bif_archive, bif_run):
+    folder = _folder(bif_archive)
+    manifest = json.loads((folder / layout.MANIFEST).read_text())
+    assert manifest["sha256"][layout.BIFURCATIONS] == layout.digest(folder / layout.BIFURCATIONS)
+    kept = layout.read_table(folder / layout.BIFURCATIONS)  # checked against its values' checksum
+    sent = targets.load_rows(bif_run)
+    assert list(kept.columns) == [*targets.COLUMN_NAMES, "run_id"] and set(kept["run_id"]) == {folder.name}
+    for name in ("row_id", "integrator", "bifurcation_value", "bifurcation_error", "integrator_time", "n_probes"):
+        assert kept[name].tolist() == sent[name].tolist(), name
+
+
+def test_a_run_without_targets_has_no_bifurcation_file_and_loads_none(archive):
+    for folder in (archive / layout.RUNS).iterdir():
+        assert not (folder / layout.BIFURCATIONS).exists()
+        assert layout.BIFURCATIONS not in json.loads((folder / layout.MANIFEST).read_text())["sha256"]
+    tables = load(archive)
+    assert tables.bifurcations.empty and "bifurcation_error" in tables.bifurcations
+    assert bifurcation_board(tables).empty
+
+
+def test_load_returns_them_beside_the_three_tables(bif_archive, bif_run):
+    rows, events, runs = load(bif_archive)  # the three-table shape still unpacks
+    tables = load(bif_archive, events=False)
+    bif = tables.bifurcations
+    sent = targets.load_rows(bif_run)
+    for name in sent.columns:  # the bench's dtypes
+        assert bif[name].dtype == sent[name].dtype, name
+    assert len(bif) == 2 and set(bif["run_id"]) == set(runs["run_id"]) == set(rows["run_id"])
+    assert len(rows) == 3  # the suite's three cases
+
+
+def test_show_lists_them_with_the_reports_table_per_machine(bif_archive, bif_run, tmp_path, capsys):
+    board = bifurcation_board(load(bif_archive))
+    report = targets.report_table(targets.load_rows(bif_run))
+    assert board["integrator"].tolist() == report["integrator"].tolist() == ["henon-rk4", "ofapi"]
+    for name in report.columns:  # the report's own table, value for value
+        assert board[name].tolist() == report[name].tolist(), name
+    assert set(board["problem"]) == {"two-dof/1"} and len(set(board["machine"])) == 1
+    assert main(["archive", "show", str(bif_archive), "--problem", "two-dof/1"]) == 0
+    out = capsys.readouterr().out
+    assert "two-dof/1, bifurcation target stick1 (" in out and "not re-graded" in out
+    for _, e in board.iterrows():
+        assert f"{e['integrator']:<22}" in out and e["bifurcation_value"] in out
+    # a second machine's copy of the run is listed in a block of its own
+    two = copy(bif_archive, tmp_path / "two")
+    edited = tmp_path / "b"
+    edited.mkdir()
+    for name in ("provenance.json", "bifurcation_targets.parquet"):
+        (edited / name).write_bytes((bif_run / name).read_bytes())
+    frame = pd.read_parquet(bif_run / "results.parquet")
+    frame["timestamp"] = "2026-01-01T00:00:00+00:00"  # another run: other rows, another id
+    frame.to_parquet(edited / "results.parquet", index=False)
+    assert add_run(edited, two, machine="laptop").run is not None
+    blocks = bifurcation_board(load(two)).groupby("machine")["integrator"].apply(list)
+    assert blocks.to_dict() == {m: ["henon-rk4", "ofapi"] for m in blocks.index} and "laptop" in blocks.index
+
+
+def test_site_shows_them(bif_archive, tmp_path):
+    assert main(["archive", "site", str(bif_archive), "--out", str(tmp_path / "site")]) == 0
+    text = (tmp_path / "site" / "index.html").read_text()
+    assert "<h2>Bifurcation targets</h2>" in text and "two-dof/1, bifurcation target stick1" in text
+    for value in bifurcation_board(load(bif_archive))["bifurcation_value"]:
+        assert value in text
+
+
+def test_merge_carries_them(bif_archive, archive, tmp_path):
+    outcome = merge_archives((bif_archive, archive), tmp_path / "merged")
+    assert outcome.copied == 3
+    merged = load(tmp_path / "merged")
+    assert merged.bifurcations.drop(columns="run_id").equals(load(bif_archive).bifurcations.drop(columns="run_id"))
+    assert (tmp_path / "merged" / layout.RUNS / _folder(bif_archive).name / layout.BIFURCATIONS).is_file()
+
+
+@pytest.mark.parametrize("how", ["flip", "delete"])
+def test_a_damaged_bifurcation_file_is_refused_on_read(bif_archive, tmp_path, how):
+    path = copy(bif_archive, tmp_path / "arch")
+    target = _folder(path) / layout.BIFURCATIONS
+    if how == "flip":
+        data = bytearray(target.read_bytes())
+        data[len(data) // 2] ^= 0x01
+        target.write_bytes(bytes(data))
+    else:
+        target.unlink()
+    with pytest.raises(ConfigError, match="bifurcations.parquet"):
+        load(path, events=False)
+    with pytest.raises(ConfigError, match="bifurcations.parquet"):
+        merge_archives((path, bif_archive), tmp_path / "merged")

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nsbench.model.compile import hot, inline
+from nsbench.model.compile import hot, inline, small
 from nsbench.problems.friction_spec import (  # noqa: F401 - the family's vocabulary, re-exported
     C,
     COULOMB,
@@ -59,24 +59,24 @@ _NF = len(LAYOUT.fields)
 
 
 # ---------------------------------------------------------------------- the layout, by name
-@inline
+@small
 def n_blocks(p):
     return int(p[N_BLOCKS])
 
 
-@inline
+@small
 def block(p, field, i):
     """Field ``field`` (``M``, ``C``, ...) of block ``i`` (0-based)."""
     return p[_HEAD + field * int(p[N_BLOCKS]) + i]
 
 
-@inline
+@small
 def scalar(p, which):
     """Tail scalar ``which`` (``F_AMP``, ``F_FREQ``, ``V0``)."""
     return p[_HEAD + _NF * int(p[N_BLOCKS]) + which]
 
 
-@inline
+@small
 def v0_of(p):
     return scalar(p, V0)
 
@@ -129,13 +129,13 @@ def restoring_rate(p, t, y, dy, i):
 
 
 # ---------------------------------------------------------------------- the friction law of a slip
-@inline
+@small
 def law_of(p):
     """The friction law's code (``COULOMB``, ``WEAKENING``, ``STRIBECK``)."""
     return int(scalar(p, LAW))
 
 
-@inline
+@small
 def slip_level(p, i, u):
     """Magnitude of block i's slip friction at slip speed ``u = s (v - v0)`` (``|v - v0|`` in the phase).
 
@@ -153,7 +153,7 @@ def slip_level(p, i, u):
     return fk + (fs - fk) * np.exp(-q * q) + block(p, CV, i) * u
 
 
-@inline
+@small
 def slip_slope(p, i, u):
     """``d slip_level / du`` (0 for Coulomb)."""
     law = law_of(p)
@@ -168,7 +168,7 @@ def slip_slope(p, i, u):
     return -2.0 * (block(p, FS, i) - block(p, FK, i)) * q / vs * np.exp(-q * q) + block(p, CV, i)
 
 
-@inline
+@small
 def slip_force(p, i, phase, v):
     """Friction force on slipping block i (phase ``s = +-1``): ``-s slip_level(s (v - v0))``."""
     return -slip_level(p, i, phase * (v - v0_of(p))) * phase

@@ -16,21 +16,21 @@ import math
 from numba import types
 from numba.extending import intrinsic
 
-from nsbench.model.compile import hot, inline
+from nsbench.model.compile import hot, small
 
 # ln 2 and pi/2 to double-double
 LN2_HI, LN2_LO = 0.6931471805599453, 2.3190468138462996e-17
 PIO2_HI, PIO2_LO = 1.5707963267948966, 6.123233995736766e-17
 
 
-@inline
+@small
 def two_sum(a, b):
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-@inline
+@small
 def quick_two_sum(a, b):  # |a| >= |b|
     s = a + b
     return s, b - (s - a)
@@ -50,7 +50,7 @@ def fma(typingctx, a, b, c):
     return sig, codegen
 
 
-@inline
+@small
 def two_prod(a, b):
     """``a * b`` as ``(p, e)`` with ``p + e`` exact: ``e = fma(a, b, -p)`` is exact, so it is the double
     Dekker's splitting (``2^27 + 1``) gives (no overflow or underflow), in one instruction."""
@@ -58,7 +58,7 @@ def two_prod(a, b):
     return p, fma(a, b, -p)
 
 
-@inline
+@small
 def add(ah, al, bh, bl):
     s, e = two_sum(ah, bh)
     t, f = two_sum(al, bl)
@@ -68,28 +68,28 @@ def add(ah, al, bh, bl):
     return quick_two_sum(s, e)
 
 
-@inline
+@small
 def add_d(ah, al, b):
     s, e = two_sum(ah, b)
     e += al
     return quick_two_sum(s, e)
 
 
-@inline
+@small
 def mul(ah, al, bh, bl):
     p, e = two_prod(ah, bh)
     e += ah * bl + al * bh
     return quick_two_sum(p, e)
 
 
-@inline
+@small
 def mul_d(ah, al, b):
     p, e = two_prod(ah, b)
     e += al * b
     return quick_two_sum(p, e)
 
 
-@inline
+@small
 def div_d(ah, al, b):
     """A double-double divided by a double."""
     q1 = ah / b
@@ -115,7 +115,7 @@ def cmul(a0, a1, a2, a3, b0, b1, b2, b3):
 # (:func:`cexp`, :func:`cos_sin2`): each argument goes through exactly the operations, in the same order,
 # of its own evaluation (the same doubles), but their chains of dependent divisions and products overlap
 # in the processor instead of following one another.
-@inline
+@small
 def _exp_reduce(xh, xl):
     """``k`` and ``r / 2^8`` with ``x = k ln2 + r``."""
     k = math.floor(xh / LN2_HI + 0.5)
@@ -124,7 +124,7 @@ def _exp_reduce(xh, xl):
     return k, rh * 2.0**-8, rl * 2.0**-8
 
 
-@inline
+@small
 def _exp_term(j, rh, rl, th, tl, sh, sl):
     """The term ``r^j / j!`` from the previous one, added to the sum."""
     th, tl = mul(th, tl, rh, rl)
@@ -133,14 +133,14 @@ def _exp_term(j, rh, rl, th, tl, sh, sl):
     return th, tl, sh, sl
 
 
-@inline
+@small
 def _exp_square(sh, sl):
     """``(1 + s)^2 - 1 = 2 s + s^2`` (keeps the small part exact)."""
     qh, ql = mul(sh, sl, sh, sl)
     return add(2.0 * sh, 2.0 * sl, qh, ql)
 
 
-@inline
+@small
 def _exp_finish(k, sh, sl):
     eh, el = add_d(sh, sl, 1.0)
     scale = 2.0**k
@@ -165,7 +165,7 @@ def exp(xh, xl):
     return _exp_finish(k, sh, sl)
 
 
-@inline
+@small
 def _cs_reduce(xh, xl):
     """``k``, ``r / 8`` and its square, with ``x = k pi/2 + r``."""
     k = math.floor(xh / PIO2_HI + 0.5)
@@ -176,7 +176,7 @@ def _cs_reduce(xh, xl):
     return k, rh, rl, r2h, r2l
 
 
-@inline
+@small
 def _cs_term(j, r2h, r2l, uh, ul, ch, cl, th, tl, sh, sl):
     """The ``j``-th terms of the cosine and sine series from the previous ones, added to the sums."""
     uh, ul = mul(uh, ul, r2h, r2l)
@@ -188,7 +188,7 @@ def _cs_term(j, r2h, r2l, uh, ul, ch, cl, th, tl, sh, sl):
     return uh, ul, ch, cl, th, tl, sh, sl
 
 
-@inline
+@small
 def _cs_double(ch, cl, sh, sl):
     """``cos 2a = 1 - 2 sin^2 a``, ``sin 2a = 2 sin a cos a``."""
     s2h, s2l = mul(sh, sl, sh, sl)
@@ -197,7 +197,7 @@ def _cs_double(ch, cl, sh, sl):
     return ch, cl, 2.0 * nsh, 2.0 * nsl
 
 
-@inline
+@small
 def _cs_quadrant(k, ch, cl, sh, sl):
     q = int(k) % 4
     if q == 0:

@@ -105,7 +105,7 @@ from nsbench.model.abi import (
     X1,
     X2,
 )
-from nsbench.model.compile import hot, inline
+from nsbench.model.compile import hot, inline, small
 from nsbench.model.law import rhs
 from nsbench.model.records import copy_into, record_hit, section_crossed, sort_hits
 
@@ -210,7 +210,7 @@ def _curvature(wr, tf, mi, j, ns, n, ma, mb):
     return 1.01 * m + 1e-300
 
 
-@inline
+@small
 def _lower_bound(fa, pa, fb, pb, h, m):
     """A lower bound of ``f`` on ``[a, a + h]`` from its end values and slopes and ``|f''| <= m``.
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from nsbench.model.abi import SI_NHITS, Dense, Events, Hits
-from nsbench.model.compile import hot, inline
+from nsbench.model.compile import hot, inline, small
 
 
 @inline
@@ -64,7 +64,7 @@ def linear_section_rate(coeffs, dy):
     return out
 
 
-@inline
+@small
 def section_crossed(direction, before, after):
     """:meth:`nsbench.sections.StateSection.crossed` compiled (``direction`` -1, 0 or +1)."""
     if before == 0.0 or (after != 0.0 and (before < 0.0) == (after < 0.0)):

@@ -30,7 +30,7 @@ import numpy as np
 
 from nsbench.model import law
 from nsbench.model.abi import SF_T, SF_TLO, SI_ACC_KEY, SI_ACC_N, SI_EVENTS, SI_RECORDED, SI_RING, SI_STOP_SEEN
-from nsbench.model.compile import hot, inline
+from nsbench.model.compile import hot, inline, small
 
 #: Outcomes of :func:`settle`.
 SETTLED, STORM, EVENT_BUDGET = 0, 1, 2
@@ -119,7 +119,7 @@ def _storm(st, lim, t):
     return full and t - oldest <= lim.zeno_span
 
 
-@inline
+@small
 def tail_estimate(t0, t1, t2, t3, ratio_max):
     """The accumulation time ``t_Z`` of four consecutive event times of a streak, its error estimate and ratio.
 
@@ -157,7 +157,7 @@ def _estimate_back(times, newest, back):
     return tail_estimate(times[(e - 3) % m], times[(e - 2) % m], times[(e - 1) % m], times[e % m], ACCUMULATION_RATIO)
 
 
-@inline
+@small
 def rounding_error(t, ratio, unit):
     """How far ``t_Z`` of :func:`tail_estimate` moves when each time moves by ``unit max(1, |t|)``.
 

@@ -1,6 +1,7 @@
 """The bifurcation targets in the archive: a real ``nsbench bench`` run of a suite with one target,
-its rows kept by ``add`` (as submitted, checksummed), returned by ``load``, listed by ``show`` and
-``site`` as the report lists them, carried by ``merge``; a damaged file refused on read."""
+its rows kept by ``add`` (as submitted, checksummed), returned by ``load``, ranked by cost by ``show``
+and ``site`` (the configurations that did not locate it listed after, with the reason), carried by
+``merge``; a damaged file refused on read."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pandas as pd
 import pytest
 
 from nsbench.archive import add_run, layout, load, merge_archives
-from nsbench.archive.show import bifurcation_board
+from nsbench.archive.show import bifurcation_board, render_bifurcations
 from nsbench.bench import targets
 from nsbench.cli import main
 from nsbench.errors import ConfigError
@@ -111,13 +112,14 @@ def test_load_returns_them_beside_the_three_tables(bif_archive, bif_run):
 def test_show_lists_them_with_the_reports_table_per_machine(bif_archive, bif_run, tmp_path, capsys):
     board = bifurcation_board(load(bif_archive))
     report = targets.report_table(targets.load_rows(bif_run))
-    assert board["integrator"].tolist() == report["integrator"].tolist() == ["henon-rk4", "ofapi"]
+    assert report["integrator"].tolist() == ["henon-rk4", "ofapi"]
+    in_report_order = board.sort_values(["integrator", "level"], ignore_index=True)
     for name in report.columns:  # the report's own table, value for value
-        assert board[name].tolist() == report[name].tolist(), name
+        assert in_report_order[name].tolist() == report[name].tolist(), name
     assert set(board["problem"]) == {"two-dof/1"} and len(set(board["machine"])) == 1
     assert main(["archive", "show", str(bif_archive), "--problem", "two-dof/1"]) == 0
     out = capsys.readouterr().out
-    assert "two-dof/1, bifurcation target stick1 (" in out and "not re-graded" in out
+    assert "two-dof/1, bifurcation target stick1 (" in out and "not re-graded" in out and "no interval" in out
     for _, e in board.iterrows():
         assert f"{e['integrator']:<22}" in out and e["bifurcation_value"] in out
     # a second machine's copy of the run is listed in a block of its own
@@ -130,14 +132,81 @@ def test_show_lists_them_with_the_reports_table_per_machine(bif_archive, bif_run
     frame["timestamp"] = "2026-01-01T00:00:00+00:00"  # another run: other rows, another id
     frame.to_parquet(edited / "results.parquet", index=False)
     assert add_run(edited, two, machine="laptop").run is not None
-    blocks = bifurcation_board(load(two)).groupby("machine")["integrator"].apply(list)
+    blocks = bifurcation_board(load(two)).groupby("machine")["integrator"].apply(sorted)
     assert blocks.to_dict() == {m: ["henon-rk4", "ofapi"] for m in blocks.index} and "laptop" in blocks.index
+
+
+#: The suite above with two more henon-rk4 steps, too coarse to locate the bifurcation within xtol
+#: (h = 0.3: located 2.2e-4 away; h = 1.0: its far end still repeats the near-side pattern, no bracket).
+COARSE = SUITE.replace("options = [{ h = 0.01 }]", "options = [{ h = 0.01 }, { h = 0.3 }, { h = 1.0 }]")
+
+
+@pytest.fixture(scope="module")
+def coarse_run(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("coarse")
+    (d / "bif.toml").write_text(COARSE)
+    argv = ["bench", str(d / "bif.toml"), "--out", str(d / "out"), "--workers", "1", "--no-progress", "--no-report"]
+    assert main(argv) == 0
+    return d / "out"
+
+
+def _again(run: Path, to: Path, when: str) -> Path:
+    """The run's results as another run (another timestamp: another id), its bifurcation rows the same."""
+    to.mkdir()
+    for name in ("provenance.json", "bifurcation_targets.parquet"):
+        (to / name).write_bytes((run / name).read_bytes())
+    frame = pd.read_parquet(run / "results.parquet")
+    frame["timestamp"] = when
+    frame.to_parquet(to / "results.parquet", index=False)
+    return to
+
+
+def test_the_configurations_that_located_it_are_ranked_by_cost_the_others_listed_after(coarse_run, tmp_path):
+    assert add_run(coarse_run, tmp_path / "arch").run is not None
+    board = bifurcation_board(load(tmp_path / "arch"))
+    sent = targets.load_rows(coarse_run)
+    assert len(board) == len(sent) == 4 and len(set(board["run_id"])) == 1
+    # located within xtol: success and an error within it (by the rows themselves, not the board's code)
+    located = sent[(sent["status"] == "success") & (sent["bifurcation_error"] <= sent["xtol"])]
+    assert sorted(located["options"]) == ['{"h": 0.01}', "{}"]  # henon-rk4 h = 0.01 and ofapi
+    ranked = board[board["rank"].notna()]
+    assert len(ranked) == len(located) and (ranked["reason"] == "").all()
+    costs = ranked["cost (s)"].tolist()
+    for rank, cost in zip(ranked["rank"], costs):  # 1 + the located configurations strictly cheaper
+        assert rank == 1 + sum(c < cost for c in costs)
+    assert board.index[board["rank"].notna()].tolist() == [0, 1]  # ranked first, cheapest first
+    after = board[board["rank"].isna()]
+    assert after["options"].tolist() == ["h=0.3", "h=1"] and not after["tie"].any()
+    assert after["reason"].iloc[0].startswith("located 0.000218 from the reference's location, beyond its xtol 0.0001")
+    assert after["reason"].iloc[1].startswith("no bracket: at the far end v0 = 0.0995")
+    text = render_bifurcations(board)
+    assert "   -  henon-rk4" in text and "(not ranked: no bracket" in text and "no interval" in text
+
+
+def test_equal_costs_tie_and_another_machine_is_ranked_apart(coarse_run, tmp_path):
+    # the same submission added again as another run (another id): each configuration's recorded cost
+    # equals its copy's, so the two share a rank; a third copy, of another machine, is ranked on its own
+    arch = tmp_path / "arch"
+    assert add_run(coarse_run, arch).run is not None
+    assert add_run(_again(coarse_run, tmp_path / "b", "2026-01-01T00:00:00+00:00"), arch).run is not None
+    laptop = _again(coarse_run, tmp_path / "c", "2026-01-02T00:00:00+00:00")
+    assert add_run(laptop, arch, machine="laptop").run is not None
+    board = bifurcation_board(load(arch))
+    here = board[board["machine"] != "laptop"]
+    ranked = here[here["rank"].notna()]
+    assert ranked["rank"].tolist() == [1, 1, 3, 3] and ranked["tie"].all()
+    for _, pair in ranked.groupby("rank"):
+        assert len(set(pair["run_id"])) == 2 and len(set(pair["cost (s)"])) == 1
+    other = board[board["machine"] == "laptop"]
+    assert other["rank"].dropna().tolist() == [1, 2] and not other["tie"].any()
+    assert "= tied: equal costs" in render_bifurcations(board)
 
 
 def test_site_shows_them(bif_archive, tmp_path):
     assert main(["archive", "site", str(bif_archive), "--out", str(tmp_path / "site")]) == 0
     text = (tmp_path / "site" / "index.html").read_text()
     assert "<h2>Bifurcation targets</h2>" in text and "two-dof/1, bifurcation target stick1" in text
+    assert "no interval" in text and "<th>rank</th>" in text
     for value in bifurcation_board(load(bif_archive))["bifurcation_value"]:
         assert value in text
 

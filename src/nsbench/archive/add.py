@@ -1,8 +1,9 @@
 """``nsbench archive add RUN --to ARCHIVE``: a results folder added after re-grading it.
 
-Every row's switching-time errors are graded again (:mod:`nsbench.archive.regrade`); if any row's
-submitted errors disagree with the re-grading, nothing is added and the outcome names every such
-row. Rows that cannot be graded here (a problem or reference integrator this nsbench does not
+Every row's switching-time errors are graded again (:mod:`nsbench.archive.regrade`), and its state
+errors from the dense states the run keeps (a run made before nsbench kept them: its state errors
+kept as submitted, ``states_graded`` false and the row marked); if any row's submitted errors
+disagree with the re-grading, nothing is added and the outcome names every such row. Rows that cannot be graded here (a problem or reference integrator this nsbench does not
 know, a case that did not run) are kept and marked, and so are rows of an integrator plug-in not
 installed here (graded all the same: the grading needs only the reference and the log).
 
@@ -22,7 +23,15 @@ from typing import Any
 import pandas as pd
 
 from nsbench.archive import layout
-from nsbench.archive.regrade import REGRADED, Graded, dense_points_of, disagreement, grade_row, no_events
+from nsbench.archive.regrade import (
+    REGRADED,
+    STATE_REGRADED,
+    Graded,
+    dense_points_of,
+    disagreement,
+    grade_row,
+    no_events,
+)
 from nsbench.bench import storage
 from nsbench.bench.history import environment_of
 from nsbench.errors import ConfigError
@@ -67,7 +76,7 @@ def _grade_all(frame: pd.DataFrame, references: Path, dense_points: int) -> tupl
         g = grade_row(row, references, dense_points)
         graded.append(g)
         if g.graded:
-            why = disagreement(row, g.values)
+            why = disagreement(row, g.values, g.allowed if g.states else None)
             if why:
                 refused.append(f"{_row_label(row)}: {why}")
     return graded, refused
@@ -95,7 +104,7 @@ def _mark(row: pd.Series, g: Graded, versions: dict[str, str]) -> str:
     if not g.graded:
         return g.mark
     own = ReferenceStatus.of(str(row["reference_status"])) is ReferenceStatus.OK
-    notes = [g.note] if g.note else []
+    notes = [n for n in (g.note, g.states_note) if n]
     notes += [versions[name] for name in (str(row["integrator"]), str(row["problem"])) if name in versions]
     if not own:
         notes.append("graded by the archive only (the run had no reference)")
@@ -109,13 +118,14 @@ def _tables(
     records, events = [], []
     for (_, row), g in zip(frame.iterrows(), graded):
         record = row.to_dict()
-        record.update({k: v for k, v in g.values.items() if k in REGRADED})
+        record.update({k: v for k, v in g.values.items() if k in REGRADED or (g.states and k in STATE_REGRADED)})
         records.append(record)
         if len(g.events):
             events.append(g.events.assign(run_id=rid, case_id=str(row["case_id"])))
     rows = storage.to_frame(records)
     rows["run_id"] = pd.array([rid] * len(rows), dtype="string")
     rows["graded"] = pd.array([g.graded for g in graded], dtype="boolean")
+    rows["states_graded"] = pd.array([g.graded and g.states for g in graded], dtype="boolean")
     rows["mark"] = pd.array([_mark(r, g, versions) for (_, r), g in zip(frame.iterrows(), graded)], dtype="string")
     table = pd.concat(events, ignore_index=True) if events else no_events().assign(run_id="", case_id="")
     table = table[list(layout.EVENT_COLUMNS)].astype({"run_id": "string", "case_id": "string", "kind": "string"})

@@ -48,8 +48,12 @@ BIFURCATIONS = "bifurcations.parquet"
 CHECKED = (ROWS, EVENTS, PROVENANCE)
 #: The optional files of a run, checked when its manifest records them.
 OPTIONAL = (BIFURCATIONS,)
-#: The columns the archive adds to the bench's tidy rows (:mod:`nsbench.bench.schema`).
-ARCHIVE_COLUMNS = ("run_id", "graded", "mark")
+#: The columns the archive adds to the bench's tidy rows (:mod:`nsbench.bench.schema`). ``states_graded``
+#: came later (an optional column of the schema): a rows table without it is read as all false (its
+#: state errors were not re-graded).
+ARCHIVE_COLUMNS = ("run_id", "graded", "mark", "states_graded")
+#: The bench's column added after archives were first written (left out of an id when empty: :func:`run_id`).
+NEWER_COLUMN = "dense_states"
 #: The columns of the event table, in order.
 EVENT_COLUMNS = ("run_id", "case_id", "event", "kind", "block", "t", "t_ref", "abs_dt", "certified_error")
 
@@ -80,8 +84,15 @@ def digest(path: Path) -> str:
 
 def run_id(rows: pd.DataFrame) -> str:
     """A run's id: the first 16 hex digits of the checksum of its tidy rows' values (case ids and
-    timestamps included), so two additions of one run have one id."""
-    table = pa.Table.from_pandas(storage.to_frame(rows.to_dict("records")), preserve_index=False)
+    timestamps included), so two additions of one run have one id.
+
+    A run without dense states (made before the bench kept them) is hashed without that column, as
+    it was before the column existed: its id is the one an earlier nsbench gave it, so adding it
+    again to an archive made then finds it there."""
+    frame = storage.to_frame(rows.to_dict("records"))
+    if (frame[NEWER_COLUMN].fillna("") == "").all():
+        frame = frame.drop(columns=NEWER_COLUMN)
+    table = pa.Table.from_pandas(frame, preserve_index=False)
     return storage.content_digest(table)[:16]
 
 

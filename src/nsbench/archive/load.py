@@ -22,7 +22,7 @@ class _Three(NamedTuple):
 
 class Tables(_Three):
     """An archive's tables: ``rows`` (the tidy rows of every run, re-graded, with ``run_id``,
-    ``graded`` and ``mark``), ``events`` (one row per graded event) and ``runs`` (one per run:
+    ``graded``, ``mark`` and ``states_graded``), ``events`` (one row per graded event) and ``runs`` (one per run:
     machine, environment, commit, suite, added, source, counts, marks); and, as an attribute
     outside the tuple (so that ``rows, events, runs = load(path)`` keeps working),
     ``bifurcations``: the bifurcation-target rows of every run that has some, as submitted (the
@@ -58,6 +58,9 @@ def _rows(table: pd.DataFrame) -> pd.DataFrame:
     frame["run_id"] = table["run_id"].astype("string").to_numpy()
     frame["graded"] = table["graded"].astype("boolean").to_numpy()
     frame["mark"] = table["mark"].astype("string").to_numpy()
+    # an archive written before the state errors were re-graded has no such column: none of them was
+    states = table["states_graded"] if "states_graded" in table else pd.Series(False, index=table.index)
+    frame["states_graded"] = pd.array(states.astype("boolean").fillna(False).to_numpy(dtype=bool), dtype="boolean")
     return frame
 
 

@@ -4,15 +4,18 @@ Each row's switching-time errors are computed again from the event log its resul
 keeps (the ``event_log`` column, :func:`nsbench.bench.metrics.event_log_text`) against a
 certified reference the archive computes itself (:func:`nsbench.bench.reference.compute_reference`,
 cached under ``ARCHIVE/references/`` in the bench's checksummed format), with the bench's own
-grading (:func:`nsbench.bench.metrics.case_metrics`). The submitted error columns are only
-compared with the result, never used.
+grading (:func:`nsbench.bench.metrics.case_metrics`). The state errors (:data:`STATE_REGRADED`)
+are computed again the same way from the run's own dense states (the ``dense_states`` column,
+:func:`nsbench.bench.metrics.dense_states_text`) against the same reference's dense states; a run
+made before nsbench kept them has its state errors kept as submitted and marked (:class:`Graded`).
+The submitted error columns are only compared with the result, never used.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +31,8 @@ from nsbench.status import ReferenceStatus
 #: ``dense_points``. With the run's own number the archive's reference is the very computation the
 #: bench graded against (the same problem, integrator, span and grid); the grid is kept because a
 #: reference integrator that steps to its output times would place its events a few ulps apart on
-#: another grid. The state errors, which need the run's dense states, are not re-graded.
+#: another grid. The run's dense states (``dense_states``) are on that grid, so the state errors are
+#: compared point by point, as the bench compared them.
 DENSE_POINTS = 2
 #: Agreement allowed between a submitted error and the re-graded one, in units of the rounding of
 #: the span's largest time (``ULPS * eps * max(|t0|, |t_end|, 1)``). On one machine the two gradings
@@ -60,6 +64,12 @@ REGRADED = (
     "event_err",
     "event_cert",
 )
+#: The state columns re-graded from the run's dense states (``dense_states``), when it keeps them, with
+#: the bench's own grading: :func:`nsbench.bench.metrics.state_errors` and
+#: :func:`nsbench.bench.metrics.stick_creep` (``stick_drift`` is the creep's companion, one call).
+#: ``penetration`` and ``energy_err`` (impact problems) and ``arc_err`` (a separate run) are kept as
+#: submitted.
+STATE_REGRADED = ("final_state_err", "state_err_l2", "stick_creep", "stick_drift")
 
 
 @dataclass(frozen=True)
@@ -71,6 +81,12 @@ class Graded:
     mark: str = ""
     #: Graded, but with something this nsbench does not know (an integrator plug-in not installed here).
     note: str = ""
+    #: The state columns (:data:`STATE_REGRADED`) were re-graded too; if not (``states_note`` says why)
+    #: they are kept as submitted.
+    states: bool = False
+    states_note: str = ""
+    #: The agreement allowed for each re-graded state column (:func:`state_allowances`).
+    allowed: dict[str, float] = field(default_factory=dict)
 
     @property
     def graded(self) -> bool:
@@ -138,16 +154,84 @@ def grade_row(row: pd.Series, references: Path, dense_points: int = DENSE_POINTS
         return Graded({}, no_events(), mark=f"not re-graded: the archive's reference cannot be computed ({exc})")
     if ReferenceStatus.of(ref.status) is not ReferenceStatus.OK:
         return Graded({}, no_events(), mark=f"not re-graded: the archive's reference: {ref.status}")
-    values, table = _grade(ref, events)
+    states, why = run_states(row, problem, ref)
+    values, table = _grade(ref, events, states)
     # an unknown integrator plug-in: graded all the same (the grading needs no integrator), and marked
-    return Graded(values, table, note="; ".join(noted))
+    if why:
+        return Graded(values, table, note="; ".join(noted), states_note=why)
+    allowed = state_allowances(ref, values, None if states is None else states.dense)
+    return Graded(values, table, note="; ".join(noted), states=True, allowed=allowed)
 
 
-def _grade(ref: Reference, events: pd.DataFrame) -> tuple[dict[str, Any], pd.DataFrame]:
+@dataclass(frozen=True)
+class States:
+    """What the bench computed a row's state errors from: the problem, the run's dense states and final state."""
+
+    problem: Any
+    dense: np.ndarray
+    final: np.ndarray
+    t_end: float
+
+
+#: The mark of a row whose state errors are kept as submitted because its run keeps no dense states.
+NO_STATES = (
+    "state errors as submitted, not re-graded: the run keeps no dense states (made by an nsbench before the "
+    "dense_states column, or the column was emptied)"
+)
+
+
+def run_states(row: pd.Series, problem: dict[str, Any], ref: Reference) -> tuple[States | None, str]:
+    """The row's dense states to grade (``None``: none, the bench's state errors are then NaN), and why its
+    state errors cannot be re-graded ('' if they can).
+
+    A row that did not succeed has none (the bench grades no state of a failed run: its state errors
+    are NaN, and so are the archive's). A successful row without them was made by an nsbench that did
+    not keep them (or they were stripped): its state errors are kept as submitted, and marked.
+    """
+    from nsbench.problems import problem_from_config
+    from nsbench.status import Status
+
+    text = "" if pd.isna(row.get("dense_states")) else str(row.get("dense_states") or "")
+    if not text:
+        return None, (NO_STATES if str(row["status"]) == Status.SUCCESS.value else "")
+    try:
+        dense, final = metrics.dense_states_arrays(text)
+    except (ValueError, TypeError) as exc:
+        return None, f"state errors as submitted, not re-graded: its dense_states is damaged ({exc})"
+    if dense.shape != ref.y_dense.shape:
+        return None, (
+            f"state errors as submitted, not re-graded: its dense states are {dense.shape[0]} x {dense.shape[1]}, "
+            f"the archive's reference's {ref.y_dense.shape[0]} x {ref.y_dense.shape[1]} (another grid)"
+        )
+    try:
+        built = problem_from_config(problem)
+    except NsbenchError as exc:
+        return None, f"state errors as submitted, not re-graded: its problem cannot be built here ({exc})"
+    return States(built, dense, final, float(row["t_end"])), ""
+
+
+def _grade(ref: Reference, events: pd.DataFrame, states: States | None) -> tuple[dict[str, Any], pd.DataFrame]:
     from nsbench.engine import match_accumulation_tails
 
-    out = metrics.case_metrics(ref.events, events, None, None, None, None)
-    values = {name: out[name] for name in REGRADED if name in out}
+    if states is None:
+        out = metrics.case_metrics(ref.events, events, None, None, None, None)
+    else:  # the bench's own call (nsbench.bench.execute.time_case), on the run's stored states
+        problem = states.problem
+        belt = problem.v0 if problem.traits.belt_blocks else None  # the stick creep needs a belt
+        cone = metrics.creep_cone(problem, ref.t_dense, ref.y_dense, states.dense) if belt is not None else None
+        out = metrics.case_metrics(
+            ref.events,
+            events,
+            ref.y_dense,
+            states.dense,
+            ref.y_final,
+            states.final,
+            times=ref.t_dense,
+            v_belt=belt,
+            t_end=states.t_end,
+            cone=cone,
+        )
+    values = {name: out[name] for name in (*REGRADED, *STATE_REGRADED) if name in out}
     values["n_ref"] = len(ref.events)
     # the events the grading paired, as it paired them (a Zeno tail cut, ties in the reference's order)
     reference, run = match_accumulation_tails(ref.events, events)
@@ -186,8 +270,56 @@ def tolerance(row: pd.Series) -> float:
     return ULPS * float(np.finfo(float).eps) * scale
 
 
-def disagreement(row: pd.Series, values: dict[str, Any]) -> str:
-    """How the submitted row's errors differ from the re-graded ``values`` ('' if they agree).
+#: Ulps of the states a reference computed on another machine may differ by (as :data:`ULPS` of the times).
+STATE_ULPS = ULPS
+
+
+def state_allowances(ref: Reference, values: dict[str, Any], dense: np.ndarray | None) -> dict[str, float]:
+    """The agreement allowed between each submitted state column and the re-graded one.
+
+    On one machine the two gradings are the same computation on the same states and agree bit for
+    bit. A reference computed on another machine may differ by a few ulps of the states
+    (:data:`STATE_ULPS` ulps of ``S``, the largest magnitude of its dense and final states: an ulp
+    of one component, carried along the flow, reaches the others), and another numpy may sum in
+    another order. With ``eps`` the machine epsilon, ``n`` states and ``m`` dense points:
+
+    - ``final_state_err``, a maximum over states of ``|y_i - r_i|``, moves by at most the change of
+      one ``r_i`` plus the rounding of the subtraction: ``STATE_ULPS eps S + eps |value|``;
+    - ``state_err_l2``, ``sqrt(mean_j sum_i d_ij**2)``, is a norm, so it moves by at most the same
+      norm of the reference's change, ``sqrt(n) STATE_ULPS eps S``, plus the rounding of a sum of
+      ``n m`` squares in any order (relative ``(n m - 1) eps``): ``... + n m eps |value|``;
+    - ``stick_creep`` and ``stick_drift`` are computed from the run's own states alone; the
+      reference only decides which dense points count (a discrete choice a few ulps change only at
+      a point within ulps of a switch or of the cone's edge: then the honest submission disagrees
+      and is refused, naming the row). Their elementwise arithmetic is correctly rounded on every
+      IEEE machine (the grid too: ``numpy.linspace`` is ``start + k * step`` elementwise, each
+      operation rounded once, in every numpy 2); what may differ is the order of the two sums of
+      at most ``m`` non-negative terms whose ratio the creep is: ``2 m eps |value|`` (the drift, a
+      maximum, has no sum: the same allowance is generous for it).
+
+    The allowance only decides whether a submission is refused: the archive keeps its own values.
+    """
+    eps = float(np.finfo(float).eps)
+    states = np.concatenate([np.ravel(ref.y_dense), np.ravel(ref.y_final)])
+    finite = np.abs(states[np.isfinite(states)])
+    scale = float(finite.max()) if finite.size else 0.0
+    n, m = (dense.shape[0], dense.shape[1]) if dense is not None else (0, 0)
+
+    def size(name: str) -> float:
+        v = float(values.get(name, math.nan))
+        return abs(v) if math.isfinite(v) else 0.0
+
+    return {
+        "final_state_err": STATE_ULPS * eps * scale + eps * size("final_state_err"),
+        "state_err_l2": math.sqrt(n) * STATE_ULPS * eps * scale + n * m * eps * size("state_err_l2"),
+        "stick_creep": 2 * m * eps * size("stick_creep"),
+        "stick_drift": 2 * m * eps * size("stick_drift"),
+    }
+
+
+def disagreement(row: pd.Series, values: dict[str, Any], allowed: dict[str, float] | None = None) -> str:
+    """How the submitted row's errors differ from the re-graded ``values`` ('' if they agree); with
+    ``allowed`` (:func:`state_allowances`: the state columns were re-graded) its state errors too.
 
     A row the submitter could not grade (its reference failed) has nothing to compare.
     """
@@ -208,6 +340,12 @@ def disagreement(row: pd.Series, values: dict[str, Any]) -> str:
     if bad:
         i = bad[0]
         return f"event_err[{i}] {sent[i]!r} submitted, {mine[i]!r} re-graded ({len(bad)} events differ)"
+    if allowed is None:  # the state columns were not re-graded: nothing of theirs to compare
+        return ""
+    for name in STATE_REGRADED:
+        got, want = float(row[name]), float(values[name])
+        if not _close(got, want, allowed[name]):
+            return f"{name} {got!r} submitted, {want!r} re-graded (allowed: {allowed[name]:.2g})"
     return ""
 
 

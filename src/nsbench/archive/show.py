@@ -11,12 +11,16 @@ and so on down in tiers). Each entry carries its median wall time's distribution
 reference are not ranked, as in the report. Times of different machines or environments are never
 compared: each (machine, environment) is ranked on its own.
 
-The bifurcation targets (:func:`bifurcation_board`) are shown as the report shows them: the
-report's table of those rows (:func:`nsbench.bench.targets.report_table`: each configuration's
-status, located value, error against the reference's location, probes and cost), one table per
-(problem, bifurcation target, machine, environment), in the report's order (integrator, level).
-The report does not rank these rows (one location each, no timing samples to tell ties by), so
-neither does the archive. They are kept as submitted, not re-graded.
+The bifurcation targets (:func:`bifurcation_board`) have a leaderboard of their own, one block per
+(problem, bifurcation target, machine, environment), each row the report's table of that row
+(:func:`nsbench.bench.targets.report_table`: status, located value, error against the reference's
+location, probes, cost). The configurations that located the bifurcation within its ``xtol`` of the
+reference's location are ranked by their cost, the integrator's own time summed over the probes
+(``integrator_time``, the report's ``cost (s)``), with the same ranking code as above
+(:func:`nsbench.bench.tables.ranking`). That table records one cost per configuration and no timing
+samples, so no interval: the ranking is the one ``ranking`` gives without samples, entries sharing a
+rank only when their costs are equal. The other configurations are listed after, unranked, each with
+the reason. These rows are kept as submitted, not re-graded.
 """
 
 from __future__ import annotations
@@ -102,6 +106,15 @@ def _entry(problem: str, target: float, entry: pd.Series, row: pd.Series, rank: 
     }
 
 
+def ties(frame: pd.DataFrame, keys: list[str]) -> pd.Series:
+    """True for an entry that shares its ``rank`` with another of its block (``keys``); false for an
+    unranked one (``rank`` missing)."""
+    if frame.empty:
+        return pd.Series([], dtype=bool, index=frame.index)
+    size = frame.groupby([*keys, "rank"], dropna=True)["rank"].transform("size")
+    return (size.fillna(0) > 1).astype(bool)
+
+
 def leaderboard(tables: Tables, targets: tuple[float, ...] = TARGETS, problem: str | None = None) -> pd.DataFrame:
     """The leaderboard of an archive's tables (:data:`COLUMNS`), one block per (problem, target,
     machine, environment), ranked as the module's docstring says; ``tie`` is true for an entry that
@@ -115,7 +128,7 @@ def leaderboard(tables: Tables, targets: tuple[float, ...] = TARGETS, problem: s
         records += _block(block.reset_index(drop=True), targets)
     frame = pd.DataFrame(records, columns=[c for c in COLUMNS if c != "tie"])
     keys = ["problem", "target", "machine", "environment"]
-    frame["tie"] = frame.groupby([*keys, "rank"])["method"].transform("size") > 1 if len(frame) else []
+    frame["tie"] = ties(frame, keys)
     frame = frame[list(COLUMNS)]
     return frame.sort_values(
         [*keys, "rank", "wall_time"],
@@ -125,16 +138,72 @@ def leaderboard(tables: Tables, targets: tuple[float, ...] = TARGETS, problem: s
     )
 
 
-#: The columns of :func:`bifurcation_board` before the report's table's own (its ``target`` first among them).
-BIF_KEYS = ("problem", "machine", "environment")
-BIF_AFTER = ("commit", "run_id")
+#: The columns of :func:`bifurcation_board` before the report's table's own, and after them.
+BIF_KEYS = ("problem", "machine", "environment", "rank", "tie")
+BIF_AFTER = ("xtol", "reason", "commit", "run_id")
+#: What the bifurcation-target leaderboard ranks by, and why without an interval.
+BIF_RANKING = (
+    "Ranked by cost: the integrator's own time summed over the probes (cost (s), as the report's table records it), "
+    "within one machine and environment. The bifurcation-target table records one cost per configuration and no "
+    "timing samples, so no interval: entries share a rank (=) only when their costs are equal. Configurations that "
+    "did not locate the bifurcation within its xtol of the reference's location are listed after, unranked, with "
+    "the reason."
+)
+
+
+def not_located(row: pd.Series) -> str:
+    """Why a bifurcation-target row is not ranked ('' if it located the bifurcation within its ``xtol``
+    of the reference's location and records a cost)."""
+    from nsbench.status import ReferenceStatus, Status
+
+    if str(row["status"]) != Status.SUCCESS.value:
+        message = "" if pd.isna(row["message"]) else str(row["message"])
+        return f"{row['status']}: {message}" if message else str(row["status"])
+    if ReferenceStatus.of(str(row["reference_status"])) is not ReferenceStatus.OK:
+        return f"no reference location ({row['reference_status']})"
+    error, xtol = float(row["bifurcation_error"]), float(row["xtol"])
+    if not math.isfinite(error):
+        return "no error against the reference's location"
+    if not error <= xtol:
+        return f"located {error:.3g} from the reference's location, beyond its xtol {xtol:g}"
+    cost = float(row["integrator_time"])
+    if not (math.isfinite(cost) and cost > 0):
+        return "located, but no cost recorded (the integrator has no clock of its own)"
+    return ""
+
+
+def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
+    """Each row's rank in its block (missing for the rows :func:`not_located` names), by the leaderboard's
+    ranking code (:func:`nsbench.bench.tables.ranking`) without timing samples: by cost, equal costs tied."""
+    from nsbench.bench.tables import ranking
+    from nsbench.status import TargetOutcome
+
+    ranks = pd.Series(pd.NA, index=rows.index, dtype="Int64")
+    located = rows[rows["reason"] == ""]
+    for _, block in located.groupby(["problem_label", "target", "machine", "environment"], sort=False):
+        # one entry per configuration: its own key as the "integrator" the ranking ranks
+        key = block["run_id"].astype(str) + _KEY + block["row_id"].astype(str)
+        long = pd.DataFrame(
+            {
+                "problem_label": block["problem_label"].astype(str),
+                "target": block["target"].astype(str),
+                "integrator": key,
+                "case_id": key,
+                "outcome": TargetOutcome.REACHED,
+                "wall_time": block["integrator_time"].astype(float),
+            }
+        )
+        mean = ranking(long).set_index("integrator")["mean_rank"]
+        ranks.loc[block.index] = [int(round(mean[k])) for k in key]
+    return ranks
 
 
 def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFrame:
-    """The archive's bifurcation-target rows as the report's table
-    (:func:`nsbench.bench.targets.report_table`), with problem, machine and environment before it and
-    commit and run id after, sorted by (problem, target, machine, environment) and, within each,
-    in the report's order (integrator, level)."""
+    """The bifurcation-target leaderboard (module docstring): problem, machine, environment, rank and
+    tie, then the report's table (:func:`nsbench.bench.targets.report_table`) row for row, then xtol,
+    the reason a row is not ranked ('' if it is), commit and run id. Sorted by (problem, target,
+    machine, environment); within each, the ranked rows by rank and cost, then the others in the
+    report's order (integrator, level)."""
     from nsbench.bench.targets import report_table
 
     runs = tables.runs[["run_id", "machine", "environment", "commit"]]
@@ -143,30 +212,49 @@ def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFram
         rows = rows[rows["problem_label"].astype(str) == problem]
     if rows.empty:
         return pd.DataFrame(columns=[*BIF_KEYS, *BIF_AFTER])
-    order = ["problem_label", "target", "machine", "environment", "integrator", "level", "run_id"]
+    rows = rows.reset_index(drop=True)
+    rows["reason"] = [not_located(r) for _, r in rows.iterrows()]
+    rows["rank"] = _bif_ranks(rows)
+    rows["tie"] = ties(rows, ["problem_label", "target", "machine", "environment"])
+    # within a block the ranked rows by rank (then cost), then the unranked ones in the report's order
+    # (integrator, level): their cost is no rank
+    rows["_unranked"] = rows["rank"].isna()
+    rows["_rank"] = rows["rank"].astype("Float64").fillna(math.inf).astype(float)
+    rows["_cost"] = rows["integrator_time"].astype(float).where(~rows["_unranked"], 0.0)
+    order = ["problem_label", "target", "machine", "environment", "_rank", "_cost", "integrator", "level", "run_id"]
     rows = rows.sort_values(order, kind="stable", ignore_index=True)
     view = report_table(rows)  # the report's columns and formatting, row for row
-    front = rows[["problem_label", "machine", "environment"]].rename(columns={"problem_label": "problem"})
-    return pd.concat([front, view, rows[list(BIF_AFTER)].astype(str)], axis=1)
+    front = rows[["problem_label", "machine", "environment", "rank", "tie"]].rename(
+        columns={"problem_label": "problem"}
+    )
+    return pd.concat([front, view, rows[["xtol", "reason"]], rows[["commit", "run_id"]].astype(str)], axis=1)
 
 
 def render_bifurcations(board: pd.DataFrame) -> str:
-    """The bifurcation-target tables as text, one per (problem, target, machine, environment)."""
+    """The bifurcation-target leaderboard as text, one table per (problem, target, machine, environment)."""
     if board.empty:
         return ""
-    lines = ["Bifurcation targets (as submitted, not re-graded; listed as the report lists them, not ranked)"]
-    lines.append("each row: the bifurcation value the configuration locates with its own flow, and its error")
+    lines = [
+        "Bifurcation targets (as submitted, not re-graded): each configuration locates the bifurcation with its own flow"
+    ]
+    lines.append(BIF_RANKING)
     for (problem, target, machine, env), block in board.groupby(
         ["problem", "target", "machine", "environment"], sort=False
     ):
         lines += ["", f"{problem}, bifurcation target {target} ({machine}, {env})"]
-        lines.append("method                level  status         value            error     probes  cost s    run")
+        lines.append(
+            "rank  method                level  status         value            error     probes  cost s    run"
+        )
         for _, e in block.iterrows():
             error = f"{e['bifurcation_error']:.3g}" if e["bifurcation_error"] == e["bifurcation_error"] else "-"
+            rank = "   -  " if pd.isna(e["rank"]) else f"{int(e['rank']):>4}{' =' if e['tie'] else '  '}"
+            why = f"  (not ranked: {e['reason']})" if e["reason"] else ""
             lines.append(
-                f"{e['integrator']:<22}{e['level']!s:>5}  {e['status']:<13}  {e['bifurcation_value']:<15}  "
-                f"{error:<8}  {e['probes']!s:>6}  {_seconds(float(e['cost (s)'])):<8}  {e['run_id']}"
+                f"{rank}{e['integrator']:<22}{e['level']!s:>5}  {e['status']:<13}  {e['bifurcation_value']:<15}  "
+                f"{error:<8}  {e['probes']!s:>6}  {_seconds(float(e['cost (s)'])):<8}  {e['run_id']}{why}"
             )
+    if board["tie"].any():
+        lines += ["", "= tied: equal costs (no interval is recorded for a bifurcation target's cost)"]
     return "\n".join(lines)
 
 

@@ -7,8 +7,9 @@ runtime distributions (ECDFs, the report's figure :func:`nsbench.bench.figures.r
 over every archived method under test of that machine and environment) and its leaderboard tables
 (:func:`nsbench.archive.show.leaderboard`); then the other machines' blocks, then the runs. Costs are
 compared only within one machine and environment, and the page says so. After the blocks, the
-bifurcation targets: the report's table of those rows per (problem, bifurcation target, machine,
-environment) (:func:`nsbench.archive.show.bifurcation_board`), as submitted, not ranked.
+bifurcation targets' leaderboard, one table per (problem, bifurcation target, machine, environment)
+(:func:`nsbench.archive.show.bifurcation_board`): ranked by cost, the page saying that no interval is
+recorded, and the configurations that did not locate the bifurcation listed after with the reason.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 import pandas as pd
 
 from nsbench.archive.load import Tables
-from nsbench.archive.show import NOTE, TARGETS, bifurcation_board, leaderboard
+from nsbench.archive.show import BIF_RANKING, NOTE, TARGETS, bifurcation_board, leaderboard
 from nsbench.errors import ConfigError
 
 #: What ``--out`` receives, each replaced, never written through a link.
@@ -140,14 +141,13 @@ def _block(rows: pd.DataFrame, board: pd.DataFrame, out: Path, first: bool) -> t
 
 
 BIF_NOTE = (
-    "Each configuration's bifurcation value, located with its own flow, and its error against the reference's "
-    "location, as the run submitted them (not re-graded by the archive), listed as the report lists them "
-    "(not ranked: one location each, no timing samples to tell ties by)."
+    "Each configuration's bifurcation value, located with its own flow, its error against the reference's "
+    "location and its cost, as the run submitted them (not re-graded by the archive). " + BIF_RANKING
 )
 
 
 def _bifurcation_section(tables: Tables) -> str:
-    """The bifurcation-target tables, one per (problem, target, machine, environment); '' if none."""
+    """The bifurcation-target leaderboard, one table per (problem, target, machine, environment); '' if none."""
     from nsbench.render import html as html_table
 
     board = bifurcation_board(tables)
@@ -158,6 +158,10 @@ def _bifurcation_section(tables: Tables) -> str:
         ["problem", "target", "machine", "environment"], sort=False
     ):
         shown = block.drop(columns=["problem", "target", "machine", "environment", "message"])
+        shown = shown.assign(
+            rank=shown["rank"].map(lambda r: "" if pd.isna(r) else str(int(r))),
+            tie=shown["tie"].map({True: "=", False: ""}),
+        ).rename(columns={"tie": "tied", "reason": "not ranked because"})
         parts.append(
             f"<h3>{html.escape(str(problem))}, bifurcation target {html.escape(str(target))} "
             f"({html.escape(str(machine))}, environment {html.escape(str(env))})</h3>"

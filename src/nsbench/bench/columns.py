@@ -663,6 +663,17 @@ DECLARED: tuple[Column, ...] = (
         ),
     ),
     Column(
+        "dense_states",
+        JSON,
+        (
+            "JSON: the run's own states on the suite's dense grid (numpy.linspace(t0, t_end, dense_points)) and "
+            "its final state, the states the state errors and the stick creep were computed from: "
+            '{"encoding": "float64-le-base64", "n_states", "n_points", "dense", "final"}, each array\'s '
+            "little-endian doubles, row-major, in base64 (nsbench.bench.metrics.dense_states_text); empty where "
+            "the run has none (the case did not succeed). An archive re-grades the state errors from it"
+        ),
+    ),
+    Column(
         "timestamp",
         TEXT,
         "UTC time the case finished",

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 from nsbench.bench.keys import jsonable, problem_label
-from nsbench.bench.metrics import case_metrics, event_log_text
+from nsbench.bench.metrics import case_metrics, dense_states_text, event_log_text
 from nsbench.bench.reference import Reference
 from nsbench.bench.schema import COLUMN_NAMES
 from nsbench.bench.timing import loops_for, loops_within, needs_more, summarize
@@ -119,6 +119,7 @@ def base_row(case: Case, suite: str) -> dict[str, Any]:
         event_err=[],
         event_cert=[],
         event_log="",
+        dense_states="",
     )
     return row
 
@@ -406,10 +407,11 @@ def time_case(
         setup_time_timed=max(float(s.setup) for s in samples),
         **summarize(wall, inner, cpu),
     )
+    dense = None
+    if lead.ok and len(lead.trajectory) == case.dense_points:
+        dense = lead.trajectory[list(problem.state_names)].to_numpy().T
+        row["dense_states"] = dense_states_text(dense, lead.y_final)  # an archive re-grades the state errors
     if metrics and reference.ok:
-        dense = None
-        if lead.ok and len(lead.trajectory) == case.dense_points:
-            dense = lead.trajectory[list(problem.state_names)].to_numpy().T
         belt = problem.v0 if problem.traits.belt_blocks else None  # the stick creep needs a belt
         from nsbench.bench.metrics import creep_cone
 

@@ -585,3 +585,59 @@ def event_log_frame(text: str) -> pd.DataFrame:
         if name in frame:
             frame[name] = pd.to_numeric(frame[name], errors="coerce").astype(float)
     return frame
+
+
+#: How :func:`dense_states_text` writes its arrays: IEEE 754 doubles, little-endian, row-major, in base64.
+DENSE_ENCODING = "float64-le-base64"
+
+
+def dense_states_text(dense: np.ndarray, final: np.ndarray) -> str:
+    """A run's dense states ``(n_states, n_points)`` on the suite's grid and its final state, as JSON text.
+
+    ``{"encoding": "float64-le-base64", "n_states": n, "n_points": m, "dense": ..., "final": ...}``:
+    each array's IEEE 754 doubles, little-endian, row-major (state by state), in base64, so
+    :func:`dense_states_arrays` reads back the very same bits (NaN and infinities included) in about
+    11 characters a value. The grid is not stored: it is the suite's, ``numpy.linspace(t0, t_end, m)``.
+    """
+    import base64
+    import json
+
+    dense = np.ascontiguousarray(dense, dtype="<f8")
+    final = np.ascontiguousarray(final, dtype="<f8").reshape(-1)
+    if dense.ndim != 2 or final.size != dense.shape[0]:
+        raise ValueError(f"dense states of shape {dense.shape} and a final state of {final.size} values do not fit")
+    return json.dumps(
+        {
+            "encoding": DENSE_ENCODING,
+            "n_states": int(dense.shape[0]),
+            "n_points": int(dense.shape[1]),
+            "dense": base64.b64encode(dense.tobytes()).decode("ascii"),
+            "final": base64.b64encode(final.tobytes()).decode("ascii"),
+        }
+    )
+
+
+def dense_states_arrays(text: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(dense, final)`` stored by :func:`dense_states_text`, bit for bit.
+
+    Raises ``ValueError`` if ``text`` is not such a record (not JSON, another encoding, arrays of
+    another length than their shape).
+    """
+    import base64
+    import binascii
+    import json
+
+    data = json.loads(text)
+    if not isinstance(data, dict) or data.get("encoding") != DENSE_ENCODING:
+        raise ValueError(f"not dense states (a JSON object of encoding {DENSE_ENCODING!r})")
+    n, m = data.get("n_states"), data.get("n_points")
+    if not (isinstance(n, int) and isinstance(m, int) and n >= 1 and m >= 0):
+        raise ValueError(f"n_states {n!r} and n_points {m!r} must be whole numbers, n_states at least 1")
+    try:
+        dense = np.frombuffer(base64.b64decode(str(data.get("dense")), validate=True), dtype="<f8")
+        final = np.frombuffer(base64.b64decode(str(data.get("final")), validate=True), dtype="<f8")
+    except (binascii.Error, ValueError) as exc:
+        raise ValueError(f"its arrays are not base64 doubles ({exc})") from None
+    if dense.size != n * m or final.size != n:
+        raise ValueError(f"{dense.size} dense and {final.size} final values for {n} states at {m} points")
+    return dense.reshape(n, m).astype(float), final.astype(float)

@@ -197,7 +197,8 @@ def _once(decorator):
 jit = _once(numba.njit(cache=True, fastmath=False, nogil=True))
 #: Functions that allocate nothing: compiled without numba's reference counting.
 hot = _once(numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False))
-#: The smallest of them, inlined by numba itself (LLVM keeps some as calls otherwise).
+#: The smallest of them that take arrays, inlined by numba itself (LLVM keeps them as calls unless forced:
+#: ``small`` below, for functions of scalars).
 inline = _once(numba.njit(cache=True, fastmath=False, nogil=True, _nrt=False, inline="always"))
 #: Small functions of scalars called from many places (a law's parameter lookups): inlined by LLVM
 #: (``alwaysinline``) where numba's own inliner would type their IR again at every call site, nested

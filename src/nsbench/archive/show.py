@@ -193,8 +193,8 @@ def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
                 "wall_time": block["integrator_time"].astype(float),
             }
         )
-        mean = ranking(long).set_index("integrator")["mean_rank"]
-        ranks.loc[block.index] = [int(round(mean[k])) for k in key]
+        rank = ranking(long).set_index("integrator")["rank"]  # the ranking's own rank, ties sharing the best
+        ranks.loc[block.index] = [int(rank[k]) for k in key]
     return ranks
 
 

@@ -51,7 +51,6 @@ from nsbench.model import abi, native
 from nsbench.model.abi import SF_T, SF_TLO, SI_ARC_IEVAL, SI_IEVAL
 from nsbench.model.compile import jit
 from nsbench.model.records import copy_into
-from nsbench.problems.friction_spec import GUARD_KINDS
 
 _SLOTS = len(model.GUARD_SLOT)
 #: Slots of a lane's table after the scalar run's (:data:`~nsbench.integrators._heyoka_native.S_MODES`):
@@ -240,11 +239,11 @@ def compiled(
         hit = _CACHE.get(key)
         if hit is None:
             tic = time.perf_counter()
-            sys, guards, sections = model.system(st)
+            sys, guards, sections = model.native_guards(st)
             neg = hy.event_direction.negative
             events = [
-                hy.t_event_batch(g - NUDGE, callback=_Event(e % _SLOTS, e // _SLOTS), direction=neg, cooldown=0.0)
-                for e, g in enumerate(guards)
+                hy.t_event_batch(g - NUDGE, callback=_Event(code, block), direction=neg, cooldown=0.0)
+                for g, code, block in guards
             ]
             events += [
                 hy.t_event_batch(s, callback=_SectionEvent(0, q), direction=scalar._DIRECTIONS[d])
@@ -508,11 +507,8 @@ def _after_stop(b: _Batch, lane: _Lane, cb: _Event, d_sgn: int) -> None:
             b.freeze(k)
             return
         elif code == BAD_EVENT:
-            block, slot = divmod(int(lane.ctl[C_EVENT]), _SLOTS)
             t = float(b.bm.t_hi[k])
-            lane.message = (
-                f"the {GUARD_KINDS[slot]} guard of block {block + 1}, inactive in its mode, fired at t = {t:.17g}"
-            )
+            lane.message = f"{scalar.event_name(int(lane.ctl[C_EVENT]))}, inactive in its mode, fired at t = {t:.17g}"
             _fail(b, lane, abi.RUN_FAILURE, abi.K_FAIL)
             return
         else:  # pragma: no cover - a code the callbacks do not leave

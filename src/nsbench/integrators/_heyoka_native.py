@@ -58,9 +58,10 @@ from nsbench.model.compile import jit
 from nsbench.model.records import copy_into
 from nsbench.problems.friction_spec import GUARD_KINDS, STICK
 
-# the model's terminal events come in the order (block, velocity/upper/lower): the law's guard kind codes
+# the model's guard slots are the law's guard kind codes
 assert all(model.GUARD_SLOT[name] == code for code, name in enumerate(GUARD_KINDS))
 _SLOTS = len(model.GUARD_SLOT)
+_VELOCITY, _UPPER = model.GUARD_SLOT["velocity"], model.GUARD_SLOT["upper"]
 
 #: Slots of this run's arrays in its :class:`~nsbench.model.native.Views` table, after the core's.
 S_HSTATE, S_PARS, S_LAYOUT, S_LOG_T, S_LOG_I, S_CTL, S_DPARS, S_MODES = range(native.S_OWN, native.S_OWN + 8)
@@ -131,9 +132,14 @@ def _guard_event(prob, table, kind, index, t, t_lo, y):
     """
     st = native.run_state(table)
     ctl = native.i1(table, S_CTL)
-    q = native.guard_at(st, kind, index)
+    if kind == model.VELOCITY_OR_UPPER:  # one event for both (model.native_guards): the mode has one of them
+        q = native.guard_at(st, _VELOCITY, index)
+        if q < 0:
+            q = native.guard_at(st, _UPPER, index)
+    else:
+        q = native.guard_at(st, kind, index)
     if q < 0:  # an inactive guard is the constant 1: this cannot happen unless the parameters are wrong
-        ctl[C_CODE], ctl[C_EVENT] = BAD_EVENT, _SLOTS * index + kind
+        ctl[C_CODE], ctl[C_EVENT] = BAD_EVENT, (_SLOTS + 1) * index + kind + 1
         return False
     log_t = native.f1(table, S_LOG_T)
     log_i = native.i2(table, S_LOG_I)
@@ -377,15 +383,13 @@ def compiled(
         if hit is None:
             fp = model.FP_TYPES[precision]
             tic = time.perf_counter()
-            sys, guards, sections = model.system(st)
+            sys, guards, sections = model.native_guards(st)
             kind = _Guard if precision == "double" else _GuardWide
             neg = hy.event_direction.negative
             # no cooldown on a guard (MODEL.md: it could only hide a genuine event)
             events = [
-                hy.t_event(
-                    g - NUDGE, callback=kind(e % _SLOTS, e // _SLOTS), direction=neg, cooldown=fp(0.0), fp_type=fp
-                )
-                for e, g in enumerate(guards)
+                hy.t_event(g - NUDGE, callback=kind(code, block), direction=neg, cooldown=fp(0.0), fp_type=fp)
+                for g, code, block in guards
             ]
             events += [
                 hy.t_event(s, callback=_Section(0, q), direction=_DIRECTIONS[d], fp_type=fp)
@@ -640,6 +644,14 @@ class _Run:
             self.pars[s.section_offset(q) + model.SECTION_ACTIVE] = self.fp(1.0 if on else 0.0)
 
 
+def event_name(code: int) -> str:
+    """What the event of ``ctl[C_EVENT]`` (a bad event: ``(kinds + 1) * block + kind + 1``) stands for."""
+    block, kind = divmod(code, _SLOTS + 1)
+    kind -= 1
+    what = "velocity or upper" if kind == model.VELOCITY_OR_UPPER else GUARD_KINDS[kind]
+    return f"the {what} guard of block {block + 1}"
+
+
 def _write_mode_py(run: _Run) -> bool:
     return bool(_entry(_write_mode, _TABLE, _F1)(run.views.table, run.dpars))
 
@@ -729,8 +741,7 @@ def _drive(r: _Run, request: RunRequest) -> RunReport:
         # a callback stopped heyoka for Python's part: do it, then make the same call again
         if code == BAD_EVENT:
             native.fail(st, abi.RUN_FAILURE, float(ta.time), np.array(r.hstate[:n], dtype=float), abi.K_FAIL)
-            block, slot = divmod(int(r.ctl[C_EVENT]), _SLOTS)
-            message = f"the {GUARD_KINDS[slot]} guard of block {block + 1}, inactive in its mode, fired at t = {float(ta.time):.17g}"
+            message = f"{event_name(int(r.ctl[C_EVENT]))}, inactive in its mode, fired at t = {float(ta.time):.17g}"
             break
         if code == native.NEED_EVENTS:
             rec.grow_events(int(si[SI_RECORDED]))

@@ -357,6 +357,19 @@ def test_the_phases_keep_warm_ups_apart_from_timing(pooled):
     assert_nothing_else_while_timing(timeline)
 
 
+def test_beside_the_first_reference_the_other_worker_warms_up_another_integrator(pooled):
+    # every reference needs exact's kernels, which the first reference's worker compiles on a fresh install:
+    # the other worker does not queue behind it but warms up a case of another integrator (here DOP853)
+    timeline = pooled[1].timeline
+    first = min((r for r in timeline if r.kind == "reference"), key=lambda r: r.start)
+    beside = sorted(
+        (r for r in timeline if r.kind in ("reference", "warm-up") and r.slot != first.slot and r.start < first.end),
+        key=lambda r: r.start,
+    )
+    if beside:  # the other worker was ready before the first reference ended (its start takes seconds)
+        assert beside[0].kind == "warm-up" and "scipy-dop853" in beside[0].label, beside[0]
+
+
 def test_timed_runs_are_taken_in_rounds_over_all_cases(pooled):
     # A case's three runs are spread over the timing phase (a drifting machine speed is
     # sampled, not met three times in one state): no case starts its run k + 1 before

@@ -217,7 +217,9 @@ class Scheduler:
         self.timeline: list[TaskRecord] = []
         #: the 1-minute load average each time a sample was sent (the report's line on the machine's noise)
         self.loads: list[float] = []
-        self._refs_pending = len(references)
+        self._refs_pending = self._refs_total = len(references)
+        #: integrators with a finished warm-up: compiled on this machine, any worker can take their cases
+        self._warm_integrators: set[str] = set()
         self._next_task = 0
         #: rows of timing rounds that came back, stored once the idle workers have their next task
         #: (:meth:`_flush`): writing a row takes the parent 20-30 ms, which the workers would otherwise wait
@@ -280,6 +282,9 @@ class Scheduler:
     def _give_work(self, slot: _Slot) -> None:
         if not self.timing:
             if self.ref_queue:
+                early = self._warm_up_beside_first_reference()
+                if early is not None:
+                    return self._send_warm(slot, early)
                 ref = self.ref_queue.popleft()
                 return self._send(
                     slot,
@@ -288,10 +293,10 @@ class Scheduler:
                     tasks.ComputeReference(0, ref.problem, ref.candidates, ref.t0, ref.t_end, ref.dense_points),
                     ref.key,
                 )
-            while self.queue:
-                state = self.cases[self.queue.popleft()]
-                if not state.done:
-                    return self._send_warm(slot, state)
+            state = self._next_warm_up()
+            if state is not None:
+                return self._send_warm(slot, state)
+            self.queue.clear()  # only cases that are done were left
         elif self._holding():
             if not self._quiet():
                 return  # hold: nothing compiles or warms up while a case is timed
@@ -323,6 +328,60 @@ class Scheduler:
         need = self._needs(slot)
         if need:
             self._send_warm(slot, max(need, key=lambda s: s.estimate))
+
+    def _warm_up_beside_first_reference(self) -> _CaseState | None:
+        """A case to warm up now rather than a reference, or ``None``.
+
+        While the first reference runs and none has finished, its worker compiles the reference
+        integrator's kernels (on a fresh install, a minute or more), which every other reference needs:
+        a second worker given a reference would only wait for that compilation (each function compiles
+        once per machine, :func:`nsbench.model.compile.compiled_once`). It warms up a case of another
+        integrator instead (:meth:`_next_warm_up`). Warm-ups need no reference, and the timing still
+        starts only after every reference and warm-up (the barrier).
+        """
+        running = any(s.task is not None and s.task[1] == "reference" for s in self.slots)
+        if running and self._refs_total == self._refs_pending:  # pending: queued or running
+            return self._next_warm_up(only_free=True)
+        return None
+
+    def _busy_integrators(self) -> set[str]:
+        """Integrators whose first compilation another worker may be doing: the candidates of a running
+        reference while no reference has finished, and those of running warm-ups not yet warm anywhere."""
+        busy: set[str] = set()
+        first_refs = self._refs_total == self._refs_pending
+        for s in self.slots:
+            if s.task is None:
+                continue
+            if s.task[1] == "reference" and first_refs:
+                busy |= {str(c.get("name", "")) for c in s.task[2].candidates}
+            elif s.task[1] == "warm-up" and s.task[2].case.integrator not in self._warm_integrators:
+                busy.add(s.task[2].case.integrator)
+        return busy
+
+    def _next_warm_up(self, only_free: bool = False) -> _CaseState | None:
+        """The next first warm-up: the first queued case whose integrator no other worker is compiling
+        (:meth:`_busy_integrators`), else (unless ``only_free``) the first queued case; taken off the queue.
+
+        The queue keeps the runner's order, in which one integrator's cases follow each other: two
+        workers taking them in turn would compile the same kernels, one waiting for the other's lock
+        (on a fresh install: both workers on ``henon-rk4`` for 41 s, then on OFAPI's and MCPI's
+        Picard kernels for 25 s). Taking another integrator's case compiles its kernels meanwhile.
+        """
+        busy = self._busy_integrators()
+        first = None
+        for case_id in self.queue:
+            state = self.cases[case_id]
+            if state.done:
+                continue
+            if state.case.integrator not in busy:
+                self.queue.remove(case_id)
+                return state
+            if first is None:
+                first = state
+        if only_free or first is None:
+            return None
+        self.queue.remove(first.case.case_id)
+        return first
 
     def _sample_load(self) -> None:
         try:
@@ -456,6 +515,7 @@ class Scheduler:
         elif failed:
             self._final(payload, "error", message.error)
         elif kind == "warm-up":
+            self._warm_integrators.add(payload.case.integrator)
             self._warmed(slot, payload, message.result)
         else:
             self._timed(payload, message.result)

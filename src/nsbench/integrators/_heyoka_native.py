@@ -1,8 +1,9 @@
 """heyoka running the whole hybrid run of a friction problem itself (the whole-run protocol: ``loop = 'native'``).
 
-One ``taylor_adaptive`` per structure, with the per-arc model's field, guards and sections
-(:func:`nsbench.integrators._heyoka_model.system`: the mode, the coefficients and the
-sections are runtime parameters), whose terminal events carry callbacks:
+One ``taylor_adaptive`` per structure, with the per-arc model's field and sections and two
+guard events per block (:func:`nsbench.integrators._heyoka_model.native_guards`: the velocity
+guard and the upper static limit share one, since a mode has one of them; the mode, the
+coefficients and the sections are runtime parameters), whose terminal events carry callbacks:
 
 - a guard's callback hands its crossing to the core's compiled step
   (:func:`nsbench.model.native.event`: the transition of the problem's law, the guards that

@@ -173,28 +173,20 @@ def not_located(row: pd.Series) -> str:
 
 
 def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
-    """Each row's rank in its block (missing for the rows :func:`not_located` names), by the leaderboard's
-    ranking code (:func:`nsbench.bench.tables.ranking`) without timing samples: by cost, equal costs tied."""
-    from nsbench.bench.tables import ranking
-    from nsbench.status import TargetOutcome
+    """Each row's rank in its block (missing for the rows :func:`not_located` names): the rank the
+    leaderboard's ranking code (:func:`nsbench.bench.tables.ranking`) gives one entry per configuration
+    without timing samples, 1 + the number of strictly cheaper ones (equal costs share the best).
 
+    That is pandas' ``rank(method="min")`` of the costs, computed here for a whole block at once:
+    ``ranking`` compares every entry with every other (seconds for a block of thousands of configurations
+    in a large archive); ``tests/archive/test_bifurcations.py`` holds the two to the same ranks."""
     ranks = pd.Series(pd.NA, index=rows.index, dtype="Int64")
     located = rows[rows["reason"] == ""]
-    for _, block in located.groupby(["problem_label", "target", "machine", "environment"], sort=False):
-        # one entry per configuration: its own key as the "integrator" the ranking ranks
-        key = block["run_id"].astype(str) + _KEY + block["row_id"].astype(str)
-        long = pd.DataFrame(
-            {
-                "problem_label": block["problem_label"].astype(str),
-                "target": block["target"].astype(str),
-                "integrator": key,
-                "case_id": key,
-                "outcome": TargetOutcome.REACHED,
-                "wall_time": block["integrator_time"].astype(float),
-            }
-        )
-        rank = ranking(long).set_index("integrator")["rank"]  # the ranking's own rank, ties sharing the best
-        ranks.loc[block.index] = [int(rank[k]) for k in key]
+    if located.empty:
+        return ranks
+    keys = [located[k] for k in ("problem_label", "target", "machine", "environment")]
+    cost = located["integrator_time"].astype(float)  # finite and positive: not_located names the others
+    ranks.loc[located.index] = cost.groupby(keys, sort=False, dropna=False).rank(method="min").astype(int)
     return ranks
 
 

@@ -80,3 +80,30 @@ def test_the_rows_are_converted_column_by_column_into_the_frame_to_frame_makes_o
             assert all(type(x) is float for cell in mine[name] for x in cell), name
         pd.testing.assert_frame_equal(mine.drop(columns=list(LIST_COLUMNS)), theirs.drop(columns=list(LIST_COLUMNS)))
     assert mine["event_t"].iloc[1] == [] and mine["event_t"].iloc[0][0] == 1.0  # a null cell: no values
+
+
+def test_without_the_bulky_columns_the_rows_are_the_same_less_them_and_still_checked(archive, tmp_path):
+    import hashlib
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from nsbench.archive.load import BULKY
+
+    full, lean = nsbench.archive.load(archive), nsbench.archive.load(archive, events=False, bulky=False)
+    assert not set(BULKY) & set(lean.rows.columns) and set(BULKY) <= set(full.rows.columns)
+    pd.testing.assert_frame_equal(lean.rows, full.rows.drop(columns=list(BULKY)))
+    # a dense state changed, the manifest brought up to date: the values' checksum still covers the column
+    path = copy(archive, tmp_path / "arch")
+    folder = sorted((path / layout.RUNS).iterdir())[0]
+    table = pq.read_table(folder / layout.ROWS)
+    cells = table.column("dense_states").to_pylist()
+    cells[0] = cells[0] + " "
+    i = table.column_names.index("dense_states")
+    pq.write_table(table.set_column(i, "dense_states", pa.array(cells, pa.large_string())), folder / layout.ROWS)
+    manifest = json.loads((folder / layout.MANIFEST).read_text())
+    manifest["sha256"][layout.ROWS] = hashlib.sha256((folder / layout.ROWS).read_bytes()).hexdigest()
+    (folder / layout.MANIFEST).write_text(json.dumps(manifest))
+    with pytest.raises(ConfigError, match="rows.parquet is damaged .*do not match the checksum"):
+        nsbench.archive.load(path, events=False, bulky=False)

@@ -217,29 +217,36 @@ def _parts(column: pa.ChunkedArray | pa.Array) -> list[bytes] | None:
     import pyarrow.compute as pc
 
     kind = column.type
-    valid = pc.is_valid(column).to_numpy(zero_copy_only=False).astype("u1").tobytes()
+    whole = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    nulls = whole.null_count
+    # without nulls (nearly every column) the validity is all ones and nothing needs filling
+    valid = (
+        b"\x01" * len(whole) if not nulls else pc.is_valid(whole).to_numpy(zero_copy_only=False).astype("u1").tobytes()
+    )
     if pa.types.is_null(kind):
         return [b"n", valid]
-    if pa.types.is_integer(kind):
-        values = pc.fill_null(column.cast(pa.int64()), 0).to_numpy(zero_copy_only=False).astype("<i8")
-        return [b"i", valid, values.tobytes()]
-    if pa.types.is_floating(kind):
-        values = pc.fill_null(column.cast(pa.float64()), 0.0).to_numpy(zero_copy_only=False).astype("<f8")
-        return [b"f", valid, values.tobytes()]
-    if pa.types.is_boolean(kind):
-        values = pc.fill_null(column, False).to_numpy(zero_copy_only=False).astype("u1")
-        return [b"b", valid, values.tobytes()]
+    if pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_boolean(kind):
+        letter, target, zero, dtype = (
+            (b"i", pa.int64(), 0, "<i8")
+            if pa.types.is_integer(kind)
+            else (b"f", pa.float64(), 0.0, "<f8")
+            if pa.types.is_floating(kind)
+            else (b"b", pa.bool_(), False, "u1")
+        )
+        filled = pc.fill_null(whole.cast(target), zero) if nulls else whole.cast(target)
+        return [letter, valid, filled.to_numpy(zero_copy_only=False).astype(dtype, copy=False).tobytes()]
     if pa.types.is_string(kind) or pa.types.is_large_string(kind) or pa.types.is_string_view(kind):
-        text = pc.fill_null(column.cast(pa.large_string()), "")
-        whole = text.combine_chunks() if isinstance(text, pa.ChunkedArray) else text
-        offsets = np.frombuffer(whole.buffers()[1], "<i8")[whole.offset : whole.offset + len(whole) + 1]
-        data = whole.buffers()[2]
-        body = b"" if data is None or not len(whole) else data.to_pybytes()[offsets[0] : offsets[-1]]
+        text = whole if pa.types.is_large_string(kind) else whole.cast(pa.large_string())
+        text = pc.fill_null(text, "") if nulls else text
+        offsets = np.frombuffer(text.buffers()[1], "<i8")[text.offset : text.offset + len(text) + 1]
+        data = text.buffers()[2]
+        body = b"" if data is None or not len(text) else memoryview(data)[offsets[0] : offsets[-1]].tobytes()
         return [b"s", valid, np.diff(offsets).astype("<i8").tobytes(), body]
     if (pa.types.is_list(kind) or pa.types.is_large_list(kind)) and pa.types.is_floating(kind.value_type):
-        lengths = pc.fill_null(pc.list_value_length(column), 0).to_numpy(zero_copy_only=False).astype("<i8")
-        inner = _parts(pc.list_flatten(column))  # a null list emits no values
-        return None if inner is None else [b"l", valid, lengths.tobytes(), *inner]
+        lengths = pc.list_value_length(whole)
+        lengths = pc.fill_null(lengths, 0) if nulls else lengths
+        inner = _parts(pc.list_flatten(whole))  # a null list emits no values
+        return None if inner is None else [b"l", valid, lengths.to_numpy().astype("<i8").tobytes(), *inner]
     return None
 
 

@@ -86,15 +86,17 @@ def _events(tables: list[pa.Table]) -> pd.DataFrame:
     return frame.astype({name: "string" for name in ("run_id", "case_id", "kind") if name in frame})
 
 
-def _rows(tables: list[pa.Table]) -> pd.DataFrame:
-    """Stored rows tables as one, in the bench's dtypes, with the archive's columns after them."""
+def _rows(tables: list[pa.Table], skip: tuple[str, ...] = ()) -> pd.DataFrame:
+    """Stored rows tables as one, in the bench's dtypes, with the archive's columns after them (those
+    named in ``skip`` left out)."""
     if tables:
         whole = _concat(tables)
-        frame = storage.frame_of_table(whole)
+        frame = storage.frame_of_table(whole.drop_columns([c for c in skip if c in whole.column_names]))
         table = whole.select([c for c in layout.ARCHIVE_COLUMNS if c in whole.column_names]).to_pandas()
     else:
         table = pd.DataFrame(columns=[*COLUMN_NAMES, *layout.ARCHIVE_COLUMNS])
         frame = storage.to_frame(table.to_dict("records"))
+    frame = frame.drop(columns=list(skip))  # frame_of_table gave them as empty text
     frame["run_id"] = table["run_id"].astype("string").to_numpy()
     frame["graded"] = table["graded"].astype("boolean").to_numpy()
     frame["mark"] = table["mark"].astype("string").to_numpy()
@@ -117,14 +119,22 @@ def run_frame(found: list[layout.Run]) -> pd.DataFrame:
     return pd.DataFrame(records, columns=columns)
 
 
-def load(path: str | Path, events: bool = True) -> Tables:
+#: The rows' columns of bulk (the dense states and event log of each case: most of a rows table's bytes)
+#: that the leaderboard and the site do not read: ``load(..., bulky=False)`` leaves them out of ``rows``.
+BULKY = ("dense_states", "event_log")
+
+
+def load(path: str | Path, events: bool = True, bulky: bool = True) -> Tables:
     """The archive at ``path`` as :class:`Tables`.
 
     Every run's files are checked against the SHA-256 its manifest records and each table read
     against the checksum of its values: a damaged file is a ``ConfigError`` naming it, never read as
     data. With ``events=False`` the event tables are checked by their SHA-256 alone and not read
     (``events`` is then empty): the leaderboard needs only the rows, and the events are most of a
-    large archive's values. The bifurcation-target rows (``Tables.bifurcations``) are always read.
+    large archive's values. With ``bulky=False`` the rows' columns :data:`BULKY` are checked (as part of
+    their table's checksums) but left out of ``rows``: ``show`` and ``site`` do not read them, and
+    every selection of rows would carry their hundreds of megabytes along. The bifurcation-target rows
+    (``Tables.bifurcations``) are always read.
     """
     archive = Path(path)
     found = layout.runs(archive)
@@ -140,4 +150,5 @@ def load(path: str | Path, events: bool = True) -> Tables:
     # one conversion to the bench's dtypes for all runs, column by column: per run it cost 40 ms, and a
     # Python dict per row most of a large load
     all_events = _events(tables) if tables else pd.DataFrame(columns=list(layout.EVENT_COLUMNS))
-    return Tables(_rows(rows), all_events, run_frame(found), bifurcation_frame(bifurcations))
+    table = _rows(rows, skip=() if bulky else BULKY)
+    return Tables(table, all_events, run_frame(found), bifurcation_frame(bifurcations))

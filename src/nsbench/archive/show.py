@@ -332,7 +332,8 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     """Print the archive's runs and its leaderboard (every file checked on read: ``ConfigError`` if damaged)."""
     from nsbench.archive.load import load
 
-    tables = load(request.archive, events=False)  # the leaderboard reads only the rows
+    # the leaderboard reads only the rows, and not their dense states and event logs (checked all the same)
+    tables = load(request.archive, events=False, bulky=False)
     labels = set(tables.rows["problem_label"].astype(str)) | set(tables.bifurcations["problem_label"].astype(str))
     if request.problem is not None and request.problem not in labels:
         known = ", ".join(sorted(labels)) or "none"

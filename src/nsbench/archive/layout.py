@@ -15,7 +15,8 @@ found in both archives of a merge, has the same folder. The manifest is written 
 folder without one was never completely added and is ignored on read. Every read checks each
 file against the SHA-256 its manifest records (as the history store does,
 :func:`nsbench.bench.history.verify`), and the Parquet files carry the checksum of their values
-as every nsbench table does (:func:`nsbench.bench.storage.content_digest`).
+as every nsbench table does (:func:`nsbench.bench.storage.content_digest`) and the same values'
+checksum in binary (:func:`values_digest`), the one a read checks where a table has it.
 """
 
 from __future__ import annotations

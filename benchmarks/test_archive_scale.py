@@ -14,8 +14,9 @@ anew). Every grade in it is the one run's real grade, copied: nothing is graded 
 ``python -m pytest benchmarks/test_archive_scale.py --benchmark-only`` (``NSBENCH_ARCHIVE_RUNS=20``
 for a quick look).
 
-Timed, one round each (a round takes up to a minute and a half at N = 1000): ``load`` (events included, every
-file checked), ``load(..., events=False)`` (what ``show`` and ``site`` read), and ``nsbench archive
+Timed, one round each (a round takes up to half a minute at N = 1000): ``load`` (events included, every
+file checked), ``load(..., events=False)`` (what ``show`` and ``site`` read, less the rows' dense states
+and event logs: ``bulky=False``), and ``nsbench archive
 show`` and ``nsbench archive site`` as a user runs them, each a fresh process from its start to its
 exit (the interpreter's start and every import included). Figures in ``extra_info``: ``seconds``,
 ``runs``, ``rows``, ``events`` and the machine's 1-minute load average when the round started. Speed

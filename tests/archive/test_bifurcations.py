@@ -200,6 +200,33 @@ def test_equal_costs_tie_and_another_machine_is_ranked_apart(coarse_run, tmp_pat
     other = board[board["machine"] == "laptop"]
     assert other["rank"].dropna().tolist() == [1, 2] and not other["tie"].any()
     assert "= tied: equal costs" in render_bifurcations(board)
+    assert board["rank"].tolist() == _ranking_ranks(board).tolist()  # ties included
+
+
+def _ranking_ranks(board: pd.DataFrame) -> pd.Series:
+    """The board's ranks as the leaderboard's ranking code (``tables.ranking``) gives them, block by block, one
+    entry per configuration (its row as the "integrator" ranked), without timing samples: what ``show``
+    computes at once with pandas' min-rank."""
+    from nsbench.bench.tables import ranking
+    from nsbench.status import TargetOutcome
+
+    ranks = pd.Series(pd.NA, index=board.index, dtype="Int64")
+    located = board[board["reason"] == ""]
+    for _, block in located.groupby(["problem", "target", "machine", "environment"], sort=False):
+        key = pd.Series([f"row{i}" for i in block.index], index=block.index)
+        long = pd.DataFrame(
+            {
+                "problem_label": block["problem"].astype(str),
+                "target": block["target"].astype(str),
+                "integrator": key,
+                "case_id": key,
+                "outcome": TargetOutcome.REACHED,
+                "wall_time": block["cost (s)"].astype(float),
+            }
+        )
+        rank = ranking(long).set_index("integrator")["rank"]
+        ranks.loc[block.index] = [int(rank[k]) for k in key]
+    return ranks
 
 
 def test_site_shows_them(bif_archive, tmp_path):

@@ -48,6 +48,63 @@ def test_a_value_changed_with_its_manifest_updated_is_still_caught_by_the_tables
         load(path)
 
 
+def test_a_table_without_the_binary_checksum_is_checked_by_its_json_one(archive, tmp_path):
+    # a table written before the binary checksum (nsbench.values-sha256) existed carries only the JSON one:
+    # a value changed there, the manifest brought up to date, is caught by that one
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = copy(archive, tmp_path / "arch")
+    folder = sorted((path / layout.RUNS).iterdir())[0]
+    table = pq.read_table(folder / layout.ROWS)
+    meta = {k: v for k, v in table.schema.metadata.items() if k != layout.VALUES_KEY}
+    pq.write_table(table.replace_schema_metadata(meta), folder / layout.ROWS)
+    manifest = json.loads((folder / layout.MANIFEST).read_text())
+    manifest["sha256"][layout.ROWS] = hashlib.sha256((folder / layout.ROWS).read_bytes()).hexdigest()
+    (folder / layout.MANIFEST).write_text(json.dumps(manifest))
+    assert len(load(path).rows) == 11  # unchanged: read, its JSON checksum holds
+    column = table.column("wall_time").to_pylist()
+    column[0] = column[0] * 2
+    i = table.column_names.index("wall_time")
+    changed = table.set_column(i, "wall_time", pa.array(column)).replace_schema_metadata(meta)
+    pq.write_table(changed, folder / layout.ROWS)
+    manifest["sha256"][layout.ROWS] = hashlib.sha256((folder / layout.ROWS).read_bytes()).hexdigest()
+    (folder / layout.MANIFEST).write_text(json.dumps(manifest))
+    with pytest.raises(ConfigError, match="rows.parquet is damaged .*do not match the checksum"):
+        load(path)
+
+
+def _values_sha256(table) -> str:
+    """The binary value checksum as docs/reference/archive-schema.md defines it, written apart from
+    nsbench's (text by its Python strings, not Arrow's buffers): pyarrow, numpy and hashlib alone."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    def parts(column) -> list[bytes]:
+        kind = column.type
+        valid = bytes(int(v) for v in pc.is_valid(column).to_pylist())
+        values = column.to_pylist()
+        if pa.types.is_integer(kind):
+            return [b"i", valid, np.array([v or 0 for v in values], "<i8").tobytes()]
+        if pa.types.is_floating(kind):
+            return [b"f", valid, np.array([0.0 if v is None else v for v in values], "<f8").tobytes()]
+        if pa.types.is_boolean(kind):
+            return [b"b", valid, bytes(int(bool(v)) for v in values)]
+        if pa.types.is_string(kind) or pa.types.is_large_string(kind):
+            text = [(v or "").encode() for v in values]
+            return [b"s", valid, np.array([len(t) for t in text], "<i8").tobytes(), b"".join(text)]
+        assert pa.types.is_list(kind) or pa.types.is_large_list(kind), kind
+        flat = pa.array([x for v in values if v is not None for x in v], kind.value_type)
+        return [b"l", valid, np.array([len(v or []) for v in values], "<i8").tobytes(), *parts(flat)]
+
+    h = hashlib.sha256()
+    for name in sorted(table.column_names):
+        for part in (name.encode(), *parts(table.column(name))):
+            h.update(len(part).to_bytes(8, "little") + part)
+    return h.hexdigest()
+
+
 def test_a_damaged_manifest_and_a_foreign_folder_are_refused(archive, tmp_path):
     path = copy(archive, tmp_path / "arch")
     manifest = sorted((path / layout.RUNS).iterdir())[0] / layout.MANIFEST
@@ -90,6 +147,8 @@ def test_an_archive_reads_with_pyarrow_and_the_standard_library_alone(archive):
             values = {name: table.column(name).to_pylist() for name in table.column_names}
             text = json.dumps(values, sort_keys=True, default=str).encode()
             assert hashlib.sha256(text).hexdigest() == table.schema.metadata[b"nsbench.sha256"].decode()
+            # and in binary, the checksum nsbench checks on read
+            assert _values_sha256(table) == table.schema.metadata[b"nsbench.values-sha256"].decode()
         assert set(rows.column("run_id").to_pylist()) == {run["run_id"]}
         assert rows.num_rows == run["n_rows"] and sum(rows.column("graded").to_pylist()) == run["n_graded"]
         for column in ("case_id", "problem_label", "integrator", "level", "status", "wall_time", "wall_times"):

@@ -47,3 +47,63 @@ def test_without_events_the_event_tables_are_checked_not_read(archive, tmp_path)
     events.write_bytes(events.read_bytes()[:-1] + b"\x00")
     with pytest.raises(ConfigError, match="events.parquet is damaged"):
         nsbench.archive.load(path, events=False)
+
+
+def test_the_rows_are_converted_column_by_column_into_the_frame_to_frame_makes_of_their_records(archive):
+    # load converts the stored rows column by column (storage.frame_of_table), not by a dict per row:
+    # the same frame, value for value and dtype for dtype, also for nulls, a missing column and a text
+    # column stored as another type (those take to_frame's own conversion)
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from nsbench.bench.schema import LIST_COLUMNS
+
+    tables = [pq.read_table(f) for f in sorted((archive / layout.RUNS).glob(f"*/{layout.ROWS}"))]
+    whole = pa.concat_tables([t.replace_schema_metadata(None) for t in tables])
+    odd = whole.slice(0, 4)
+    odd = odd.set_column(
+        odd.column_names.index("event_t"),
+        "event_t",
+        pa.array([[1.0, None], None, [], [float("nan"), 2.5]], pa.list_(pa.float64())),
+    )
+    odd = odd.set_column(odd.column_names.index("integrator"), "integrator", pa.array([1, None, 3, 4]))
+    odd = odd.set_column(odd.column_names.index("switch_err_max"), "switch_err_max", pa.nulls(4, pa.float64()))
+    odd = odd.drop_columns(["dense_states"])
+    for table in (whole, odd):
+        mine, theirs = storage.frame_of_table(table), storage.to_frame(table.to_pandas().to_dict("records"))
+        assert list(mine.columns) == list(theirs.columns)
+        assert (mine.dtypes == theirs.dtypes).all()
+        for name in LIST_COLUMNS:  # lists of Python floats, NaN where Arrow holds a null
+            assert json.dumps(mine[name].tolist()) == json.dumps(theirs[name].tolist()), name
+            assert all(type(x) is float for cell in mine[name] for x in cell), name
+        pd.testing.assert_frame_equal(mine.drop(columns=list(LIST_COLUMNS)), theirs.drop(columns=list(LIST_COLUMNS)))
+    assert mine["event_t"].iloc[1] == [] and mine["event_t"].iloc[0][0] == 1.0  # a null cell: no values
+
+
+def test_without_the_bulky_columns_the_rows_are_the_same_less_them_and_still_checked(archive, tmp_path):
+    import hashlib
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from nsbench.archive.load import BULKY
+
+    full, lean = nsbench.archive.load(archive), nsbench.archive.load(archive, events=False, bulky=False)
+    assert not set(BULKY) & set(lean.rows.columns) and set(BULKY) <= set(full.rows.columns)
+    pd.testing.assert_frame_equal(lean.rows, full.rows.drop(columns=list(BULKY)))
+    # a dense state changed, the manifest brought up to date: the values' checksum still covers the column
+    path = copy(archive, tmp_path / "arch")
+    folder = sorted((path / layout.RUNS).iterdir())[0]
+    table = pq.read_table(folder / layout.ROWS)
+    cells = table.column("dense_states").to_pylist()
+    cells[0] = cells[0] + " "
+    i = table.column_names.index("dense_states")
+    pq.write_table(table.set_column(i, "dense_states", pa.array(cells, pa.large_string())), folder / layout.ROWS)
+    manifest = json.loads((folder / layout.MANIFEST).read_text())
+    manifest["sha256"][layout.ROWS] = hashlib.sha256((folder / layout.ROWS).read_bytes()).hexdigest()
+    (folder / layout.MANIFEST).write_text(json.dumps(manifest))
+    with pytest.raises(ConfigError, match="rows.parquet is damaged .*do not match the checksum"):
+        nsbench.archive.load(path, events=False, bulky=False)

@@ -15,7 +15,8 @@ found in both archives of a merge, has the same folder. The manifest is written 
 folder without one was never completely added and is ignored on read. Every read checks each
 file against the SHA-256 its manifest records (as the history store does,
 :func:`nsbench.bench.history.verify`), and the Parquet files carry the checksum of their values
-as every nsbench table does (:func:`nsbench.bench.storage.content_digest`).
+as every nsbench table does (:func:`nsbench.bench.storage.content_digest`) and the same values'
+checksum in binary (:func:`values_digest`), the one a read checks where a table has it.
 """
 
 from __future__ import annotations
@@ -163,41 +164,138 @@ def files_of(run: Run) -> tuple[str, ...]:
     return (*CHECKED, *(name for name in OPTIONAL if name in run.sha256))
 
 
-def verify(archive: Path, run: Run) -> None:
-    """``ConfigError`` naming the first file of ``run`` that is not the one it was added with."""
+def verify(archive: Path, run: Run) -> dict[str, bytes]:
+    """``ConfigError`` naming the first file of ``run`` that is not the one it was added with; else the
+    bytes of its files, by name, as checked (a reader parses these, not the file read again)."""
     folder = run_folder(archive, run.run_id)
+    checked = {}
     for name in files_of(run):
         path = folder / name
         try:
-            got = digest(path)
+            data = path.read_bytes()
         except OSError as exc:
             raise ConfigError(f"{path} cannot be read ({exc.strerror or exc}): the archive is damaged") from None
-        if got != run.sha256.get(name):
+        checked[name] = data
+        if hashlib.sha256(data).hexdigest() != run.sha256.get(name):
             raise ConfigError(
                 f"{path} is damaged: its SHA-256 is not the one recorded in {folder / MANIFEST} (edited or "
                 "corrupted since it was added); delete the run's folder and add the run again"
             )
+    return checked
+
+
+#: Schema metadata key of the SHA-256 of a table's values in binary (:func:`values_digest`): the checksum
+#: nsbench checks on read where a table has it, the JSON one (``nsbench.sha256``) where it has not.
+VALUES_KEY = b"nsbench.values-sha256"
+
+
+def values_digest(table: pa.Table) -> str | None:
+    """SHA-256 of every value of ``table`` in binary, column by column in name order (``None`` if a
+    column is of a kind it does not cover: text, integers, floats, flags, lists of floats, nulls).
+
+    The same values as :func:`nsbench.bench.storage.content_digest` covers (a float by its 8 bytes
+    rather than its repr), without a Python object per value: hashing a large archive's rows by their
+    JSON text cost most of reading them. ``docs/reference/archive-schema.md`` gives the rule for
+    another tool: each column's name, then its parts (:func:`_parts`), each part prefixed with its
+    length as 8 little-endian bytes."""
+    h = hashlib.sha256()
+    for name in sorted(table.column_names):
+        parts = _parts(table.column(name))
+        if parts is None:
+            return None
+        for part in (name.encode(), *parts):
+            h.update(len(part).to_bytes(8, "little"))
+            h.update(part)
+    return h.hexdigest()
+
+
+def _parts(column: pa.ChunkedArray | pa.Array) -> list[bytes] | None:
+    """A column's values as bytes independent of how Arrow holds them (chunks, slices, the bytes under a
+    null): its kind letter, one byte per value (1 valid, 0 null), then the values with each null as
+    0, '' or [] (integers as int64, floats as float64, flags as one byte, all little-endian; text as
+    the int64 UTF-8 lengths then the bytes; a list as its int64 lengths then its flat values' parts)."""
+    import numpy as np
+    import pyarrow.compute as pc
+
+    kind = column.type
+    whole = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    nulls = whole.null_count
+    # without nulls (nearly every column) the validity is all ones and nothing needs filling
+    valid = (
+        b"\x01" * len(whole) if not nulls else pc.is_valid(whole).to_numpy(zero_copy_only=False).astype("u1").tobytes()
+    )
+    if pa.types.is_null(kind):
+        return [b"n", valid]
+    if pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_boolean(kind):
+        letter, target, zero, dtype = (
+            (b"i", pa.int64(), 0, "<i8")
+            if pa.types.is_integer(kind)
+            else (b"f", pa.float64(), 0.0, "<f8")
+            if pa.types.is_floating(kind)
+            else (b"b", pa.bool_(), False, "u1")
+        )
+        filled = pc.fill_null(whole.cast(target), zero) if nulls else whole.cast(target)
+        return [letter, valid, filled.to_numpy(zero_copy_only=False).astype(dtype, copy=False).tobytes()]
+    if pa.types.is_string(kind) or pa.types.is_large_string(kind) or pa.types.is_string_view(kind):
+        text = whole if pa.types.is_large_string(kind) else whole.cast(pa.large_string())
+        text = pc.fill_null(text, "") if nulls else text
+        offsets = np.frombuffer(text.buffers()[1], "<i8")[text.offset : text.offset + len(text) + 1]
+        data = text.buffers()[2]
+        body = b"" if data is None or not len(text) else memoryview(data)[offsets[0] : offsets[-1]].tobytes()
+        return [b"s", valid, np.diff(offsets).astype("<i8").tobytes(), body]
+    if (pa.types.is_list(kind) or pa.types.is_large_list(kind)) and pa.types.is_floating(kind.value_type):
+        lengths = pc.list_value_length(whole)
+        lengths = pc.fill_null(lengths, 0) if nulls else lengths
+        inner = _parts(pc.list_flatten(whole))  # a null list emits no values
+        return None if inner is None else [b"l", valid, lengths.to_numpy().astype("<i8").tobytes(), *inner]
+    return None
 
 
 def write_table(frame: pd.DataFrame, path: Path, provenance: dict[str, Any]) -> None:
-    """``frame`` as Parquet with nsbench's provenance and value checksum in its metadata, atomically."""
+    """``frame`` as Parquet with nsbench's provenance and value checksums in its metadata, atomically:
+    the JSON one every nsbench table carries (``nsbench.sha256``, what an older nsbench checks) and the
+    binary one (:data:`VALUES_KEY`, what this one checks)."""
     table = pa.Table.from_pandas(frame, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[storage.PROVENANCE_KEY] = json.dumps(provenance, default=str).encode()
     meta[storage.CONTENT_KEY] = storage.content_digest(table).encode()
+    binary = values_digest(table)
+    if binary is not None:
+        meta[VALUES_KEY] = binary.encode()
     tmp = path.with_name(path.name + ".tmp")
     pq.write_table(table.replace_schema_metadata(meta), tmp)
     tmp.replace(path)
 
 
-def read_table(path: Path) -> pd.DataFrame:
-    """A table of a run, its values checked against their checksum (``ConfigError`` naming it if damaged)."""
+def read_arrow(path: Path, source: Any = None) -> pa.Table:
+    """A table of a run as Arrow (from ``source``, its bytes already read, if given), its values checked
+    against their checksum: the binary one (:data:`VALUES_KEY`) where the table has it, else the JSON
+    one (``ConfigError`` naming it if damaged)."""
     try:
-        return storage.read_table_checked(path).to_pandas()
-    except storage.DamagedFile as exc:
-        raise ConfigError(f"{path} is damaged ({exc})") from None
+        # one file on one thread, unbuffered: half read_table's time for a run's small table (the
+        # threads and the dataset layer pay off for large files, not a thousand of a few hundred kB)
+        with pq.ParquetFile(path if source is None else pa.BufferReader(source), pre_buffer=False) as file:
+            table = file.read(use_threads=False)
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise ConfigError(f"{path} is damaged (not a readable Parquet file: {exc})") from None
+    meta = table.schema.metadata or {}
+    if VALUES_KEY in meta:
+        stored, got = meta[VALUES_KEY].decode(errors="replace"), values_digest(table)
+    elif storage.CONTENT_KEY in meta:
+        stored, got = meta[storage.CONTENT_KEY].decode(errors="replace"), storage.content_digest(table)
+    else:
+        return table
+    if stored != got:
+        raise ConfigError(
+            f"{path} is damaged (its values do not match the checksum stored with them (changed since nsbench "
+            "wrote it))"
+        )
+    return table
+
+
+def read_table(path: Path) -> pd.DataFrame:
+    """A table of a run, its values checked against their checksum (``ConfigError`` naming it if damaged)."""
+    return read_arrow(path).to_pandas()
 
 
 def write_run(

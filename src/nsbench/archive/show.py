@@ -70,20 +70,24 @@ def _block(rows: pd.DataFrame, targets: tuple[float, ...]) -> list[dict[str, Any
     from nsbench.status import TargetOutcome
 
     rows = rows.assign(case_id=rows["run_id"].astype(str) + _KEY + rows["case_id"].astype(str))
-    by_key = rows.set_index("case_id", drop=False)
     long = fixed_target(rows, targets)
     reached = long[long["outcome"] == TargetOutcome.REACHED]
     tested = reached[~reached["integrator"].map(reference_grade).astype(bool)]
-    samples = {key: samples_of(by_key.loc[key]) for key in tested["case_id"]}
+    # each tested row's cells an entry shows, by its key (one row a key: a run's case ids are distinct),
+    # as plain values: a frame's .loc per entry cost seconds in an archive of thousands of runs
+    wanted = rows[rows["case_id"].isin(set(tested["case_id"]))]
+    cells = ["case_id", "wall_times", "wall_time", "machine", "environment", "switch_err_max", "commit", "run_id"]
+    by_key = {r["case_id"]: r for r in wanted[cells].to_dict("records")}
+    samples = {key: samples_of(by_key[key]) for key in tested["case_id"]}
     out = []
     for (problem, target), group in tested.groupby(["problem_label", "target"], sort=True):
         ranks = ranking(group, samples).set_index("integrator")["mean_rank"]
-        for _, entry in group.iterrows():
-            out.append(_entry(problem, target, entry, by_key.loc[entry["case_id"]], int(ranks[entry["integrator"]])))
+        for entry in group[["case_id", "integrator", "options", "level", "wall_time"]].to_dict("records"):
+            out.append(_entry(problem, target, entry, by_key[entry["case_id"]], int(ranks[entry["integrator"]])))
     return out
 
 
-def _entry(problem: str, target: float, entry: pd.Series, row: pd.Series, rank: int) -> dict[str, Any]:
+def _entry(problem: str, target: float, entry: dict[str, Any], row: dict[str, Any], rank: int) -> dict[str, Any]:
     from nsbench.bench.stats import median_interval
     from nsbench.bench.summary import samples_of
 
@@ -151,7 +155,7 @@ BIF_RANKING = (
 )
 
 
-def not_located(row: pd.Series) -> str:
+def not_located(row: pd.Series | dict[str, Any]) -> str:
     """Why a bifurcation-target row is not ranked ('' if it located the bifurcation within its ``xtol``
     of the reference's location and records a cost)."""
     from nsbench.status import ReferenceStatus, Status
@@ -173,28 +177,20 @@ def not_located(row: pd.Series) -> str:
 
 
 def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
-    """Each row's rank in its block (missing for the rows :func:`not_located` names), by the leaderboard's
-    ranking code (:func:`nsbench.bench.tables.ranking`) without timing samples: by cost, equal costs tied."""
-    from nsbench.bench.tables import ranking
-    from nsbench.status import TargetOutcome
+    """Each row's rank in its block (missing for the rows :func:`not_located` names): the rank the
+    leaderboard's ranking code (:func:`nsbench.bench.tables.ranking`) gives one entry per configuration
+    without timing samples, 1 + the number of strictly cheaper ones (equal costs share the best).
 
+    That is pandas' ``rank(method="min")`` of the costs, computed here for a whole block at once:
+    ``ranking`` compares every entry with every other (seconds for a block of thousands of configurations
+    in a large archive); ``tests/archive/test_bifurcations.py`` holds the two to the same ranks."""
     ranks = pd.Series(pd.NA, index=rows.index, dtype="Int64")
     located = rows[rows["reason"] == ""]
-    for _, block in located.groupby(["problem_label", "target", "machine", "environment"], sort=False):
-        # one entry per configuration: its own key as the "integrator" the ranking ranks
-        key = block["run_id"].astype(str) + _KEY + block["row_id"].astype(str)
-        long = pd.DataFrame(
-            {
-                "problem_label": block["problem_label"].astype(str),
-                "target": block["target"].astype(str),
-                "integrator": key,
-                "case_id": key,
-                "outcome": TargetOutcome.REACHED,
-                "wall_time": block["integrator_time"].astype(float),
-            }
-        )
-        rank = ranking(long).set_index("integrator")["rank"]  # the ranking's own rank, ties sharing the best
-        ranks.loc[block.index] = [int(rank[k]) for k in key]
+    if located.empty:
+        return ranks
+    keys = [located[k] for k in ("problem_label", "target", "machine", "environment")]
+    cost = located["integrator_time"].astype(float)  # finite and positive: not_located names the others
+    ranks.loc[located.index] = cost.groupby(keys, sort=False, dropna=False).rank(method="min").astype(int)
     return ranks
 
 
@@ -213,7 +209,7 @@ def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFram
     if rows.empty:
         return pd.DataFrame(columns=[*BIF_KEYS, *BIF_AFTER])
     rows = rows.reset_index(drop=True)
-    rows["reason"] = [not_located(r) for _, r in rows.iterrows()]
+    rows["reason"] = [not_located(r) for r in rows.to_dict("records")]
     rows["rank"] = _bif_ranks(rows)
     rows["tie"] = ties(rows, ["problem_label", "target", "machine", "environment"])
     # within a block the ranked rows by rank (then cost), then the unranked ones in the report's order
@@ -245,7 +241,7 @@ def render_bifurcations(board: pd.DataFrame) -> str:
         lines.append(
             "rank  method                level  status         value            error     probes  cost s    run"
         )
-        for _, e in block.iterrows():
+        for e in block.to_dict("records"):
             error = f"{e['bifurcation_error']:.3g}" if e["bifurcation_error"] == e["bifurcation_error"] else "-"
             rank = "   -  " if pd.isna(e["rank"]) else f"{int(e['rank']):>4}{' =' if e['tie'] else '  '}"
             why = f"  (not ranked: {e['reason']})" if e["reason"] else ""
@@ -336,7 +332,8 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     """Print the archive's runs and its leaderboard (every file checked on read: ``ConfigError`` if damaged)."""
     from nsbench.archive.load import load
 
-    tables = load(request.archive, events=False)  # the leaderboard reads only the rows
+    # the leaderboard reads only the rows, and not their dense states and event logs (checked all the same)
+    tables = load(request.archive, events=False, bulky=False)
     labels = set(tables.rows["problem_label"].astype(str)) | set(tables.bifurcations["problem_label"].astype(str))
     if request.problem is not None and request.problem not in labels:
         known = ", ".join(sorted(labels)) or "none"

@@ -202,7 +202,8 @@ def build_site(request: ArchiveSiteRequest) -> ArchiveSiteOutcome:
     from nsbench.archive.load import load
     from nsbench.files import write_atomic
 
-    tables = load(request.archive, events=False)  # the page shows only the rows
+    # the page shows only the rows, and not their dense states and event logs (checked all the same)
+    tables = load(request.archive, events=False, bulky=False)
     out = Path(request.out)
     out.mkdir(parents=True, exist_ok=True)
     text, figures = page(tables, out)

@@ -110,7 +110,13 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     for name in COLUMN_NAMES:
         if name not in frame:
             frame[name] = None
-    frame = frame[list(COLUMN_NAMES)].copy()
+    return _conform(frame[list(COLUMN_NAMES)].copy())
+
+
+def _conform(frame: pd.DataFrame, done: Iterable[str] = ()) -> pd.DataFrame:
+    """``frame`` (the schema's columns, in order) in the schema's dtypes, its derived columns computed;
+    the columns named in ``done`` are already in their dtype and left as they are."""
+    ready = set(done)
     for name in _INT:
         frame[name] = pd.to_numeric(frame[name], errors="coerce").astype("Int64")
     for name in _FLOAT:
@@ -118,14 +124,56 @@ def to_frame(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     for name in _BOOL:
         frame[name] = frame[name].astype("boolean")
     for name in LIST_COLUMNS:
-        frame[name] = frame[name].apply(_float_list)
+        if name not in ready:
+            frame[name] = frame[name].apply(_float_list)
     for name in COLUMN_NAMES:
-        if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS:
+        if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS and name not in ready:
             frame[name] = frame[name].map(lambda v: "" if v is None else str(v)).astype("string")
     for column in columns.DECLARED:  # derived ones always from the row's own values (an older folder gets them too)
         if column.derive is not None:
             frame[column.name] = column.derive(frame).astype(_PANDAS_DTYPE[column.dtype])
     return frame
+
+
+def frame_of_table(table: pa.Table) -> pd.DataFrame:
+    """The frame :func:`to_frame` makes of a stored table's rows (``table.to_pandas().to_dict("records")``),
+    made column by column: a large table (an archive's rows, :mod:`nsbench.archive`) without a Python dict
+    per row. A list column of floats becomes one Python list per cell from its flat values (a null
+    element NaN, a null cell ``[]``, as :func:`_float_list` reads them); a text column stored as text
+    becomes the ``string`` dtype with a null read as '' (to_frame's rule for a missing cell; nsbench writes
+    no null text). A column of another stored type, or missing, takes :func:`to_frame`'s own cell-by-cell
+    conversion."""
+    import numpy as np
+    import pyarrow.compute as pc
+
+    present = [name for name in COLUMN_NAMES if name in table.column_names]
+    fast_lists = [name for name in LIST_COLUMNS if name in present and _is_float_list(table.schema.field(name).type)]
+    fast_text = [
+        name
+        for name in present
+        if name not in _INT + _FLOAT + _BOOL + LIST_COLUMNS
+        and (pa.types.is_string(kind := table.schema.field(name).type) or pa.types.is_large_string(kind))
+    ]
+    plain = [name for name in present if name not in fast_lists and name not in fast_text]
+    frame = table.select(plain).to_pandas() if plain else pd.DataFrame(index=pd.RangeIndex(table.num_rows))
+    for name in fast_lists:
+        cells = table.column(name)
+        lengths = pc.fill_null(pc.list_value_length(cells), 0).to_numpy(zero_copy_only=False)
+        flat = pc.list_flatten(cells).to_numpy(zero_copy_only=False).astype("float64").tolist()
+        ends = np.cumsum(lengths).tolist()
+        frame[name] = pd.Series([flat[a:b] for a, b in zip([0, *ends[:-1]], ends)], index=frame.index, dtype=object)
+    string = pd.StringDtype()
+    for name in fast_text:
+        text = pc.fill_null(table.column(name), "")
+        frame[name] = pd.Series(text.to_pandas(types_mapper=lambda t: string), index=frame.index)
+    for name in COLUMN_NAMES:
+        if name not in frame:
+            frame[name] = None
+    return _conform(frame[list(COLUMN_NAMES)].copy(), done=[*fast_lists, *fast_text])
+
+
+def _is_float_list(kind: pa.DataType) -> bool:
+    return (pa.types.is_list(kind) or pa.types.is_large_list(kind)) and pa.types.is_floating(kind.value_type)
 
 
 #: The pandas dtype a frame holds each kind of column in (:func:`to_frame`).

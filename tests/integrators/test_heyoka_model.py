@@ -24,6 +24,17 @@ from nsbench.problems.modes import STICK  # noqa: E402
 RNG = np.random.default_rng(11)
 
 
+def _mode_pars(problem, st, mode) -> np.ndarray:
+    """The runtime parameters of ``mode``: the coefficients, each block's stick flag and slip sign; every guard
+    inactive (the caller switches on the mode's guards)."""
+    pars = np.zeros(st.n_pars)
+    pars[: len(coefficient_values(problem))] = coefficient_values(problem)
+    for i, phase in enumerate(mode):
+        pars[st.mode_offset + i] = 1.0 if phase == STICK else 0.0
+        pars[st.mode_offset + st.n_blocks + i] = float(phase)
+    return pars
+
+
 @pytest.mark.parametrize(
     "name, params",
     [
@@ -43,14 +54,10 @@ def test_heyoka_field_and_guards_are_the_law(name, params):
     variables = [lhs for lhs, _ in system]
     field = hy.cfunc([rhs for _, rhs in system], variables)
     guard_fn = hy.cfunc(guards, variables)
-    nb, n = st.n_blocks, st.n_mech
+    n = st.n_mech
     w = problem.forcing_frequency
     for mode in problem.modes:
-        pars = np.zeros(st.n_pars)
-        pars[: len(coefficient_values(problem))] = coefficient_values(problem)
-        for i, phase in enumerate(mode):
-            pars[st.mode_offset + i] = 1.0 if phase == STICK else 0.0
-            pars[st.mode_offset + nb + i] = float(phase)
+        pars = _mode_pars(problem, st, mode)
         for guard in problem.guards(mode):  # active, expected sign +1: the bare guard value
             pars[st.guard_par(guard)] = 1.0
             pars[st.guard_par(guard) + 1] = 1.0
@@ -97,11 +104,7 @@ def test_native_events_are_the_active_guards_bit_for_bit(name, params):
     merged = hy.cfunc([e for e, _, _ in events], variables)
     nb, n = st.n_blocks, st.n_mech
     for mode in problem.modes:
-        pars = np.zeros(st.n_pars)
-        pars[: len(coefficient_values(problem))] = coefficient_values(problem)
-        for i, phase in enumerate(mode):
-            pars[st.mode_offset + i] = 1.0 if phase == STICK else 0.0
-            pars[st.mode_offset + nb + i] = float(phase)
+        pars = _mode_pars(problem, st, mode)
         active = {}
         for guard in problem.guards(mode):
             pars[st.guard_par(guard)] = 1.0

@@ -365,7 +365,8 @@ def _put2(table, k, a):
 def _fill_core(table, st, ev, dense, hits, coeffs, levels, directions, lf, li):
     """The core's slots of a :class:`Views` table (``S_STATE`` to ``S_LIMITS_I``), in one compiled call: the
     bundles unboxed once here cost a few microseconds, where forty ``ndarray.ctypes.data`` reads in Python
-    cost about 65 (a native run's fixed cost, paid again on every run of a sweep)."""
+    cost about 65 (a native run's fixed cost, paid again on every run of a sweep). One call per slot, written
+    out: the bundles' arrays differ in type, so numba cannot index them in a loop."""
     k = S_STATE
     _put1(table, k, st.y)
     _put1(table, k + 1, st.mode)

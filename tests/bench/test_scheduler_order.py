@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections import deque
 
+from nsbench.bench.execute import WarmResult
 from nsbench.bench.scheduler import ReferenceTask, Scheduler, _CaseState, _Slot
 from nsbench.bench.suite import Suite
 
@@ -31,8 +32,11 @@ def _scheduler(integrators: list[str], refs: int = 2) -> tuple[Scheduler, list]:
     s.queue = deque(c.case_id for c in cases)
     s.slots = [_Slot(0), _Slot(1)]
     s._refs_total = s._refs_pending = refs
-    s._warm_integrators = set()
     return s, cases
+
+
+def _warm_result() -> WarmResult:
+    return WarmResult(setup_time=0.1, warmup_time=0.2)  # a finished warm-up's (no final row)
 
 
 def _reference() -> ReferenceTask:
@@ -64,7 +68,7 @@ def test_two_workers_do_not_start_one_integrator_together_while_another_is_queue
     second = s._next_warm_up()
     assert {first.case.integrator, second.case.integrator} == {"henon-rk4", "scipy-dop853"}
     # once the first integrator is warm anywhere, its cases go to any worker again, in the queue's order
-    s._warm_integrators.add(first.case.integrator)
+    first.warm = _warm_result()
     s.slots[1].task = (2, "warm-up", second)
     third = s._next_warm_up()
     assert third.case.integrator == first.case.integrator

@@ -218,8 +218,6 @@ class Scheduler:
         #: the 1-minute load average each time a sample was sent (the report's line on the machine's noise)
         self.loads: list[float] = []
         self._refs_pending = self._refs_total = len(references)
-        #: integrators with a finished warm-up: compiled on this machine, any worker can take their cases
-        self._warm_integrators: set[str] = set()
         self._next_task = 0
         #: rows of timing rounds that came back, stored once the idle workers have their next task
         #: (:meth:`_flush`): writing a row takes the parent 20-30 ms, which the workers would otherwise wait
@@ -340,21 +338,26 @@ class Scheduler:
         starts only after every reference and warm-up (the barrier).
         """
         running = any(s.task is not None and s.task[1] == "reference" for s in self.slots)
-        if running and self._refs_total == self._refs_pending:  # pending: queued or running
+        if running and self._no_reference_finished:
             return self._next_warm_up(only_free=True)
         return None
 
+    @property
+    def _no_reference_finished(self) -> bool:
+        return self._refs_total == self._refs_pending  # pending: queued or running
+
     def _busy_integrators(self) -> set[str]:
         """Integrators whose first compilation another worker may be doing: the candidates of a running
-        reference while no reference has finished, and those of running warm-ups not yet warm anywhere."""
+        reference while no reference has finished, and those of running warm-ups with no case warm yet
+        (a finished warm-up has compiled its integrator's kernels on this machine)."""
+        warm = {s.case.integrator for s in self.cases.values() if s.warm is not None}
         busy: set[str] = set()
-        first_refs = self._refs_total == self._refs_pending
         for s in self.slots:
             if s.task is None:
                 continue
-            if s.task[1] == "reference" and first_refs:
+            if s.task[1] == "reference" and self._no_reference_finished:
                 busy |= {str(c.get("name", "")) for c in s.task[2].candidates}
-            elif s.task[1] == "warm-up" and s.task[2].case.integrator not in self._warm_integrators:
+            elif s.task[1] == "warm-up" and s.task[2].case.integrator not in warm:
                 busy.add(s.task[2].case.integrator)
         return busy
 
@@ -515,7 +518,6 @@ class Scheduler:
         elif failed:
             self._final(payload, "error", message.error)
         elif kind == "warm-up":
-            self._warm_integrators.add(payload.case.integrator)
             self._warmed(slot, payload, message.result)
         else:
             self._timed(payload, message.result)

@@ -122,6 +122,9 @@ def test_show_lists_them_with_the_reports_table_per_machine(bif_archive, bif_run
     assert "two-dof/1, bifurcation target stick1 (" in out and "not re-graded" in out and "no interval" in out
     for _, e in board.iterrows():
         assert f"{e['integrator']:<22}" in out and e["bifurcation_value"] in out
+    assert "Each method's cheapest configuration" in out and "located/of" in out
+    assert main(["archive", "show", str(bif_archive), "--every-configuration"]) == 0
+    assert "Every configuration of every run" in capsys.readouterr().out
     # a second machine's copy of the run is listed in a block of its own
     two = copy(bif_archive, tmp_path / "two")
     edited = tmp_path / "b"
@@ -163,7 +166,7 @@ def _again(run: Path, to: Path, when: str) -> Path:
 
 def test_the_configurations_that_located_it_are_ranked_by_cost_the_others_listed_after(coarse_run, tmp_path):
     assert add_run(coarse_run, tmp_path / "arch").run is not None
-    board = bifurcation_board(load(tmp_path / "arch"))
+    board = bifurcation_board(load(tmp_path / "arch"), per="configuration")
     sent = targets.load_rows(coarse_run)
     assert len(board) == len(sent) == 4 and len(set(board["run_id"])) == 1
     # located within xtol: success and an error within it (by the rows themselves, not the board's code)
@@ -179,8 +182,37 @@ def test_the_configurations_that_located_it_are_ranked_by_cost_the_others_listed
     assert after["options"].tolist() == ["h=0.3", "h=1"] and not after["tie"].any()
     assert after["reason"].iloc[0].startswith("located 0.000218 from the reference's location, beyond its xtol 0.0001")
     assert after["reason"].iloc[1].startswith("no bracket: at the far end v0 = 0.0995")
-    text = render_bifurcations(board)
+    assert board["located"].tolist() == [1, 1, 0, 0] and (board["configurations"] == 1).all()
+    text = render_bifurcations(board, per="configuration")
     assert "   -  henon-rk4" in text and "(not ranked: no bracket" in text and "no interval" in text
+    assert "Every configuration of every run" in text
+
+
+def test_one_entry_per_method_its_cheapest_located_configuration(coarse_run, tmp_path):
+    assert add_run(coarse_run, tmp_path / "arch").run is not None
+    tables = load(tmp_path / "arch")
+    every = bifurcation_board(tables, per="configuration")
+    board = bifurcation_board(tables)  # per method, what show and site list
+    assert sorted(board["integrator"]) == ["henon-rk4", "ofapi"] and (board["reason"] == "").all()
+    henon = board[board["integrator"] == "henon-rk4"].iloc[0]
+    assert henon["options"] == "h=0.01" and (henon["located"], henon["configurations"]) == (1, 3)
+    # the ranks are those of the located configurations: here one per method
+    located = every[every["reason"] == ""]
+    assert board.set_index("integrator")["rank"].to_dict() == located.set_index("integrator")["rank"].to_dict()
+    # a method none of whose configurations located it: its closest one (a finite error before none), unranked
+    without = tables.bifurcations[tables.bifurcations["options"] != '{"h": 0.01}']
+    tables.bifurcations = without
+    board = bifurcation_board(tables)
+    henon = board[board["integrator"] == "henon-rk4"].iloc[0]
+    assert (
+        pd.isna(henon["rank"]) and henon["options"] == "h=0.3" and (henon["located"], henon["configurations"]) == (0, 2)
+    )
+    assert henon["reason"].startswith("located 0.000218 from the reference's location")
+    assert board["rank"].dropna().tolist() == [1]  # ofapi alone ranked
+    text = render_bifurcations(board)
+    assert "0/2" in text and "1/1" in text and "its closest configuration" in text
+    with pytest.raises(ConfigError, match="per = 'run'"):
+        bifurcation_board(tables, per="run")
 
 
 def test_equal_costs_tie_and_another_machine_is_ranked_apart(coarse_run, tmp_path):
@@ -191,7 +223,7 @@ def test_equal_costs_tie_and_another_machine_is_ranked_apart(coarse_run, tmp_pat
     assert add_run(_again(coarse_run, tmp_path / "b", "2026-01-01T00:00:00+00:00"), arch).run is not None
     laptop = _again(coarse_run, tmp_path / "c", "2026-01-02T00:00:00+00:00")
     assert add_run(laptop, arch, machine="laptop").run is not None
-    board = bifurcation_board(load(arch))
+    board = bifurcation_board(load(arch), per="configuration")
     here = board[board["machine"] != "laptop"]
     ranked = here[here["rank"].notna()]
     assert ranked["rank"].tolist() == [1, 1, 3, 3] and ranked["tie"].all()
@@ -199,8 +231,18 @@ def test_equal_costs_tie_and_another_machine_is_ranked_apart(coarse_run, tmp_pat
         assert len(set(pair["run_id"])) == 2 and len(set(pair["cost (s)"])) == 1
     other = board[board["machine"] == "laptop"]
     assert other["rank"].dropna().tolist() == [1, 2] and not other["tie"].any()
-    assert "= tied: equal costs" in render_bifurcations(board)
+    assert "= tied: equal costs" in render_bifurcations(board, per="configuration")
     assert board["rank"].tolist() == _ranking_ranks(board).tolist()  # ties included
+    # one entry per method and block: the two copies' equal costs are one method's, so no tie
+    methods = bifurcation_board(load(arch))
+    for _, block in methods.groupby("machine"):
+        assert sorted(block["integrator"]) == ["henon-rk4", "ofapi"] and block["rank"].tolist() == [1, 2]
+        assert not block["tie"].any() and methods["rank"].tolist() == _ranking_ranks(methods).tolist()
+    counts = methods[methods["machine"] != "laptop"].set_index("integrator")[["located", "configurations"]]
+    assert counts.to_dict("index") == {
+        "henon-rk4": {"located": 2, "configurations": 6},
+        "ofapi": {"located": 2, "configurations": 2},
+    }
 
 
 def _ranking_ranks(board: pd.DataFrame) -> pd.Series:

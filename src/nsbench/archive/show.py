@@ -14,13 +14,16 @@ compared: each (machine, environment) is ranked on its own.
 The bifurcation targets (:func:`bifurcation_board`) have a leaderboard of their own, one block per
 (problem, bifurcation target, machine, environment), each row the report's table of that row
 (:func:`nsbench.bench.targets.report_table`: status, located value, error against the reference's
-location, probes, cost). The configurations that located the bifurcation within its ``xtol`` of the
-reference's location are ranked by their cost, the integrator's own time summed over the probes
-(``integrator_time``, the report's ``cost (s)``), with the same ranking code as above
-(:func:`nsbench.bench.tables.ranking`). That table records one cost per configuration and no timing
-samples, so no interval: the ranking is the one ``ranking`` gives without samples, entries sharing a
-rank only when their costs are equal. The other configurations are listed after, unranked, each with
-the reason. These rows are kept as submitted, not re-graded.
+location, probes, cost). As on the switching-time leaderboard, each method has one entry per block:
+its cheapest configuration that located the bifurcation within its ``xtol`` of the reference's
+location, over every run of the block (``per="configuration"``: every configuration of every run, as
+``show --every-configuration`` prints them). The entries are ranked by their cost, the integrator's own
+time summed over the probes (``integrator_time``, the report's ``cost (s)``), with the same ranking
+code as above (:func:`nsbench.bench.tables.ranking`). That table records one cost per configuration and
+no timing samples, so no interval: the ranking is the one ``ranking`` gives without samples, entries
+sharing a rank only when their costs are equal. A method none of whose configurations located it is
+listed after, unranked, with its closest configuration and the reason. These rows are kept as
+submitted, not re-graded.
 """
 
 from __future__ import annotations
@@ -144,14 +147,24 @@ def leaderboard(tables: Tables, targets: tuple[float, ...] = TARGETS, problem: s
 
 #: The columns of :func:`bifurcation_board` before the report's table's own, and after them.
 BIF_KEYS = ("problem", "machine", "environment", "rank", "tie")
-BIF_AFTER = ("xtol", "reason", "commit", "run_id")
+BIF_AFTER = ("xtol", "reason", "located", "configurations", "commit", "run_id")
+#: The two forms of :func:`bifurcation_board`: one entry per method and block, or every configuration.
+BIF_PER = ("method", "configuration")
 #: What the bifurcation-target leaderboard ranks by, and why without an interval.
 BIF_RANKING = (
-    "Ranked by cost: the integrator's own time summed over the probes (cost (s), as the report's table records it), "
-    "within one machine and environment. The bifurcation-target table records one cost per configuration and no "
-    "timing samples, so no interval: entries share a rank (=) only when their costs are equal. Configurations that "
-    "did not locate the bifurcation within its xtol of the reference's location are listed after, unranked, with "
-    "the reason."
+    "Each method's cheapest configuration that located the bifurcation within its xtol of the reference's location "
+    "(located/of: how many of its configurations in the block did), ranked by cost: the integrator's own time "
+    "summed over the probes (cost (s), as the report's table records it), within one machine and environment. The "
+    "bifurcation-target table records one cost per configuration and no timing samples, so no interval: entries "
+    "share a rank (=) only when their costs are equal. A method none of whose configurations located it is listed "
+    "after, unranked, with its closest configuration and the reason."
+)
+#: The same for ``per="configuration"``: every configuration an entry.
+BIF_RANKING_EVERY = (
+    "Every configuration of every run, ranked by cost: the integrator's own time summed over the probes (cost (s)), "
+    "within one machine and environment; no interval (one cost per configuration): entries share a rank (=) only "
+    "when their costs are equal. The configurations that did not locate the bifurcation within its xtol of the "
+    "reference's location are listed after, unranked, with the reason."
 )
 
 
@@ -194,14 +207,42 @@ def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
     return ranks
 
 
-def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFrame:
+#: A bifurcation-target row's block: costs are ranked within one.
+_BIF_BLOCK = ["problem_label", "target", "machine", "environment"]
+
+
+def _one_per_method(rows: pd.DataFrame) -> pd.DataFrame:
+    """Each method's entry in each block: its cheapest located configuration (equal costs: the first in
+    the report's order, then run id), else its configuration closest to the reference's location (no
+    finite error: the first in that order). ``located`` and ``configurations`` count its rows in the block."""
+    keys = [*_BIF_BLOCK, "integrator"]
+    rows = rows.assign(_located=rows["reason"] == "")
+    group = rows.groupby(keys, sort=False, dropna=False)
+    rows["located"] = group["_located"].transform("sum").astype(int)
+    rows["configurations"] = group["_located"].transform("size").astype(int)
+    cost = rows["integrator_time"].astype(float).where(rows["_located"], math.inf)
+    error = rows["bifurcation_error"].astype(float).where(lambda e: e.notna(), math.inf)
+    rows = rows.assign(_cost=cost, _error=error.where(~rows["_located"], 0.0), _level=rows["level"].astype(float))
+    order = [*keys, "_cost", "_error", "_level", "run_id"]
+    picked = rows.sort_values(order, kind="stable").drop_duplicates(keys, keep="first")
+    return picked.drop(columns=["_located", "_cost", "_error", "_level"]).reset_index(drop=True)
+
+
+def bifurcation_board(tables: Tables, problem: str | None = None, per: str = "method") -> pd.DataFrame:
     """The bifurcation-target leaderboard (module docstring): problem, machine, environment, rank and
     tie, then the report's table (:func:`nsbench.bench.targets.report_table`) row for row, then xtol,
-    the reason a row is not ranked ('' if it is), commit and run id. Sorted by (problem, target,
-    machine, environment); within each, the ranked rows by rank and cost, then the others in the
-    report's order (integrator, level)."""
+    the reason a row is not ranked ('' if it is), ``located`` and ``configurations`` (how many of the
+    method's configurations in the block located it, of how many), commit and run id.
+
+    ``per="method"`` (the default, as ``show`` and ``site`` list it): one entry per method and block,
+    its cheapest located configuration over every run of the block (else its closest one, unranked);
+    ``per="configuration"``: every configuration of every run (``located`` 1 or 0 of 1). Sorted by
+    (problem, target, machine, environment); within each, the ranked rows by rank and cost, then the
+    others in the report's order (integrator, level)."""
     from nsbench.bench.targets import report_table
 
+    if per not in BIF_PER:
+        raise ConfigError(f"per = {per!r}: give one of {', '.join(map(repr, BIF_PER))}")
     runs = tables.runs[["run_id", "machine", "environment", "commit"]]
     rows = tables.bifurcations.merge(runs, on="run_id", how="left")
     if problem is not None:
@@ -210,6 +251,11 @@ def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFram
         return pd.DataFrame(columns=[*BIF_KEYS, *BIF_AFTER])
     rows = rows.reset_index(drop=True)
     rows["reason"] = [not_located(r) for r in rows.to_dict("records")]
+    if per == "method":
+        rows = _one_per_method(rows)
+    else:
+        rows["located"] = (rows["reason"] == "").astype(int)
+        rows["configurations"] = 1
     rows["rank"] = _bif_ranks(rows)
     rows["tie"] = ties(rows, ["problem_label", "target", "machine", "environment"])
     # within a block the ranked rows by rank (then cost), then the unranked ones in the report's order
@@ -223,31 +269,35 @@ def bifurcation_board(tables: Tables, problem: str | None = None) -> pd.DataFram
     front = rows[["problem_label", "machine", "environment", "rank", "tie"]].rename(
         columns={"problem_label": "problem"}
     )
-    return pd.concat([front, view, rows[["xtol", "reason"]], rows[["commit", "run_id"]].astype(str)], axis=1)
+    counts = rows[["xtol", "reason", "located", "configurations"]]
+    return pd.concat([front, view, counts, rows[["commit", "run_id"]].astype(str)], axis=1)
 
 
-def render_bifurcations(board: pd.DataFrame) -> str:
-    """The bifurcation-target leaderboard as text, one table per (problem, target, machine, environment)."""
+def render_bifurcations(board: pd.DataFrame, per: str = "method") -> str:
+    """The bifurcation-target leaderboard as text, one table per (problem, target, machine, environment);
+    ``per`` says which form of :func:`bifurcation_board` ``board`` is."""
     if board.empty:
         return ""
     lines = [
         "Bifurcation targets (as submitted, not re-graded): each configuration locates the bifurcation with its own flow"
     ]
-    lines.append(BIF_RANKING)
+    lines.append(BIF_RANKING if per == "method" else BIF_RANKING_EVERY)
     for (problem, target, machine, env), block in board.groupby(
         ["problem", "target", "machine", "environment"], sort=False
     ):
         lines += ["", f"{problem}, bifurcation target {target} ({machine}, {env})"]
         lines.append(
-            "rank  method                level  status         value            error     probes  cost s    run"
+            "rank  method                level  status         value            error     probes  cost s    located/of  run"
         )
         for e in block.to_dict("records"):
             error = f"{e['bifurcation_error']:.3g}" if e["bifurcation_error"] == e["bifurcation_error"] else "-"
             rank = "   -  " if pd.isna(e["rank"]) else f"{int(e['rank']):>4}{' =' if e['tie'] else '  '}"
             why = f"  (not ranked: {e['reason']})" if e["reason"] else ""
+            of = f"{e['located']}/{e['configurations']}"
             lines.append(
                 f"{rank}{e['integrator']:<22}{e['level']!s:>5}  {e['status']:<13}  {e['bifurcation_value']:<15}  "
-                f"{error:<8}  {e['probes']!s:>6}  {_seconds(float(e['cost (s)'])):<8}  {e['run_id']}{why}"
+                f"{error:<8}  {e['probes']!s:>6}  {_seconds(float(e['cost (s)'])):<8}  "
+                f"{of:>10}  {e['run_id']}{why}"
             )
     if board["tie"].any():
         lines += ["", "= tied: equal costs (no interval is recorded for a bifurcation target's cost)"]
@@ -293,11 +343,15 @@ class ArchiveShowRequest:
         Only this problem label, e.g. ``one-dof/1`` (``None``: every problem).
     target
         One switching-time error target, a positive number (``None``: :data:`TARGETS`).
+    every_configuration
+        List every configuration of every run on the bifurcation-target leaderboard, not one entry per
+        method and block (:func:`bifurcation_board`'s ``per``).
     """
 
     archive: str
     problem: str | None = None
     target: float | str | None = None
+    every_configuration: bool = False
 
     def __post_init__(self) -> None:
         from nsbench.archive import layout
@@ -347,8 +401,9 @@ def show_archive(request: ArchiveShowRequest) -> ArchiveShowOutcome:
     board = leaderboard(tables, request.targets, request.problem)
     print()
     print(render(board))
-    bifurcations = bifurcation_board(tables, request.problem)
+    per = "configuration" if request.every_configuration else "method"
+    bifurcations = bifurcation_board(tables, request.problem, per=per)
     if len(bifurcations):
         print()
-        print(render_bifurcations(bifurcations))
+        print(render_bifurcations(bifurcations, per=per))
     return ArchiveShowOutcome(board, bifurcations)

@@ -8,8 +8,9 @@ over every archived method under test of that machine and environment) and its l
 (:func:`nsbench.archive.show.leaderboard`); then the other machines' blocks, then the runs. Costs are
 compared only within one machine and environment, and the page says so. After the blocks, the
 bifurcation targets' leaderboard, one table per (problem, bifurcation target, machine, environment)
-(:func:`nsbench.archive.show.bifurcation_board`): ranked by cost, the page saying that no interval is
-recorded, and the configurations that did not locate the bifurcation listed after with the reason.
+(:func:`nsbench.archive.show.bifurcation_board`, one entry per method): each method's cheapest configuration
+that located the bifurcation, ranked by cost, the page saying that no interval is recorded, and the methods
+that did not locate it listed after with the reason.
 """
 
 from __future__ import annotations
@@ -141,7 +142,7 @@ def _block(rows: pd.DataFrame, board: pd.DataFrame, out: Path, first: bool) -> t
 
 
 BIF_NOTE = (
-    "Each configuration's bifurcation value, located with its own flow, its error against the reference's "
+    "Each entry's bifurcation value, located with its own flow, its error against the reference's "
     "location and its cost, as the run submitted them (not re-graded by the archive). " + BIF_RANKING
 )
 
@@ -161,7 +162,7 @@ def _bifurcation_section(tables: Tables) -> str:
         shown = shown.assign(
             rank=shown["rank"].map(lambda r: "" if pd.isna(r) else str(int(r))),
             tie=shown["tie"].map({True: "=", False: ""}),
-        ).rename(columns={"tie": "tied", "reason": "not ranked because"})
+        ).rename(columns={"tie": "tied", "reason": "not ranked because", "configurations": "of"})
         parts.append(
             f"<h3>{html.escape(str(problem))}, bifurcation target {html.escape(str(target))} "
             f"({html.escape(str(machine))}, environment {html.escape(str(env))})</h3>"

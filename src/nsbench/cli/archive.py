@@ -30,6 +30,11 @@ def add_parser(sub) -> None:
     s.add_argument("archive", metavar="ARCHIVE", help="the archive")
     s.add_argument("--problem", default=None, help="only this problem label, e.g. one-dof/1")
     s.add_argument("--target", default=None, help="only this switching-time error target (default: 1e-4, 1e-8, 1e-12)")
+    s.add_argument(
+        "--every-configuration",
+        action="store_true",
+        help="bifurcation targets: list every configuration of every run (default: each method's cheapest that located it)",
+    )
     s.set_defaults(handler=show)
 
     m = actions.add_parser("merge", help="join archives into one, each run once")
@@ -52,7 +57,10 @@ def add(args: argparse.Namespace) -> int:
 def show(args: argparse.Namespace) -> int:
     from nsbench.archive.show import ArchiveShowRequest, show_archive
 
-    return show_archive(ArchiveShowRequest(archive=args.archive, problem=args.problem, target=args.target)).exit_code
+    request = ArchiveShowRequest(
+        archive=args.archive, problem=args.problem, target=args.target, every_configuration=args.every_configuration
+    )
+    return show_archive(request).exit_code
 
 
 def merge(args: argparse.Namespace) -> int:

@@ -32,6 +32,7 @@ timeline (:class:`TaskRecord`), which the tests use to check the phases.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import time
@@ -58,6 +59,25 @@ STICKY_SETUP = 1.0
 RISKY_SHARE = 0.5
 #: Consecutive failed starts of a worker after which the run gives up.
 MAX_FAILED_STARTS = 3
+#: The problem part of a :func:`compile_key` that stands for every problem.
+ANY = "*"
+
+
+@functools.lru_cache(maxsize=None)
+def _kernel_group(integrator: str) -> str:
+    from nsbench.integrators import integrator_class
+
+    try:
+        return integrator_class(integrator).kernel_group or integrator
+    except Exception:  # a plug-in that does not load: its own group (its case's row says why)
+        return integrator
+
+
+def compile_key(integrator: str, problem: dict[str, Any]) -> tuple[str, str]:
+    """What a case's first warm-up compiles, as far as the scheduler can tell before it runs: the
+    integrator's kernel group (:attr:`nsbench.integrators.base.Integrator.kernel_group`, else its name)
+    and the problem's registry name (numba compiles a kernel again for another problem's types)."""
+    return _kernel_group(integrator), str(problem.get("name", ""))
 
 
 @dataclass
@@ -346,37 +366,50 @@ class Scheduler:
     def _no_reference_finished(self) -> bool:
         return self._refs_total == self._refs_pending  # pending: queued or running
 
-    def _busy_integrators(self) -> set[str]:
-        """Integrators whose first compilation another worker may be doing: the candidates of a running
-        reference while no reference has finished, and those of running warm-ups with no case warm yet
-        (a finished warm-up has compiled its integrator's kernels on this machine)."""
-        warm = {s.case.integrator for s in self.cases.values() if s.warm is not None}
-        busy: set[str] = set()
+    def _busy_kernels(self) -> set[tuple[str, str]]:
+        """What another worker may be compiling, as :func:`compile_key` pairs (``(group, ANY)``: every
+        problem of the group): the candidates of a running reference (every problem while no reference
+        has finished, its own problem after), and the running warm-ups' (every problem while their group
+        has no warm case, their own problem while it has none on that problem; a finished warm-up has
+        compiled its kernels for that problem on this machine)."""
+        warm = {compile_key(s.case.integrator, s.case.problem) for s in self.cases.values() if s.warm is not None}
+        warm_groups = {group for group, _ in warm}
+        busy: set[tuple[str, str]] = set()
         for s in self.slots:
             if s.task is None:
                 continue
-            if s.task[1] == "reference" and self._no_reference_finished:
-                busy |= {str(c.get("name", "")) for c in s.task[2].candidates}
-            elif s.task[1] == "warm-up" and s.task[2].case.integrator not in warm:
-                busy.add(s.task[2].case.integrator)
+            if s.task[1] == "reference":
+                for c in s.task[2].candidates:
+                    group, problem = compile_key(str(c.get("name", "")), s.task[2].problem)
+                    busy.add((group, ANY if self._no_reference_finished else problem))
+            elif s.task[1] == "warm-up":
+                key = compile_key(s.task[2].case.integrator, s.task[2].case.problem)
+                if key[0] not in warm_groups:
+                    busy.add((key[0], ANY))
+                elif key not in warm:
+                    busy.add(key)
         return busy
 
     def _next_warm_up(self, only_free: bool = False) -> _CaseState | None:
-        """The next first warm-up: the first queued case whose integrator no other worker is compiling
-        (:meth:`_busy_integrators`), else (unless ``only_free``) the first queued case; taken off the queue.
+        """The next first warm-up: the first queued case whose kernels no other worker may be compiling
+        (:meth:`_busy_kernels`), else (unless ``only_free``) the first queued case; taken off the queue.
 
         The queue keeps the runner's order, in which one integrator's cases follow each other: two
         workers taking them in turn would compile the same kernels, one waiting for the other's lock
         (on a fresh install: both workers on ``henon-rk4`` for 41 s, then on OFAPI's and MCPI's
-        Picard kernels for 25 s). Taking another integrator's case compiles its kernels meanwhile.
+        Picard kernels for 25 s). Taking another integrator's case compiles its kernels meanwhile. Two
+        integrators of one kernel group (``ofapi`` and ``mcpi``) count as one, and a kernel compiles again
+        for each kind of problem (a run on 2 idle cores had both on the relay's Picard kernel for 7 s and
+        on Henon-Heiles's for 7 s, after the first problem's 18 s).
         """
-        busy = self._busy_integrators()
+        busy = self._busy_kernels()
         first = None
         for case_id in self.queue:
             state = self.cases[case_id]
             if state.done:
                 continue
-            if state.case.integrator not in busy:
+            group, problem = compile_key(state.case.integrator, state.case.problem)
+            if (group, ANY) not in busy and (group, problem) not in busy:
                 self.queue.remove(case_id)
                 return state
             if first is None:

@@ -484,6 +484,10 @@ class Integrator:
     #: Conformance checks (:mod:`nsbench.testing`) this integrator knowingly does
     #: not pass, as ``{check name: reason}``; reported as expected failures.
     known_gaps: ClassVar[dict[str, str]] = {}
+    #: Integrators that compile the same kernels name one group here (``ofapi`` and ``mcpi`` share their
+    #: Picard kernels); ``''``: its own kernels. A bench run warms up two integrators of one group one
+    #: after the other, not side by side, since the second would only wait for the first's compilation.
+    kernel_group: ClassVar[str] = ""
 
     def __init__(self, **options: Any) -> None:
         values = {}

@@ -80,6 +80,9 @@ def _options(feedback: bool) -> dict[str, Option]:
 class ChebyshevPicard(CompiledArcs):
     """Shared machinery of ``ofapi`` and ``mcpi`` (see the module docstring)."""
 
+    # ofapi and mcpi run one compiled arc function, _picard_arc.picard_arc: one compiles, the other waits
+    kernel_group = "chebyshev-picard"
+
     counter_names = ("iterations", "segments", "halvings", "rejections")
 
     def check_settings(self) -> None:

@@ -413,8 +413,9 @@ class Integrator:
     1. Set the class attributes ``name`` (lowercase kebab-case, the registry
        name), ``capabilities`` (a :class:`Capabilities`) and ``options`` (a dict
        of :class:`Option`; the defaults are the recommended settings), and
-       optionally ``accuracy_levels`` (option sets from loose to tight) and
-       ``known_gaps`` (conformance checks it knowingly fails, with the reason).
+       optionally ``accuracy_levels`` (option sets from loose to tight),
+       ``known_gaps`` (conformance checks it knowingly fails, with the reason) and
+       ``kernel_group`` (a name shared with integrators that compile the same kernels).
     2. Keep every configured instance describable by :meth:`config`, a small
        dict that :meth:`from_config` turns back into an equal integrator.
     3. In :meth:`setup`, do the once-per-problem work (compilation, operators)

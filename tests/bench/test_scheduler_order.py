@@ -121,7 +121,7 @@ def test_a_warm_group_is_still_busy_on_a_problem_it_has_not_compiled_for():
     free = []
     while (picked := s._next_warm_up(only_free=True)) is not None:
         free.append(picked)
-    held = [state for state in picard_on["relay-feedback"][1:]]
+    held = picard_on["relay-feedback"][1:]
     assert len(free) == len(cases) - 2 - len(held) and not set(map(id, free)) & set(map(id, held))
     assert [s.cases[c] for c in s.queue] == held  # left for when the relay's kernel is compiled
     # a reference on a problem keeps its candidates' cases there back once the first has finished too

@@ -189,6 +189,10 @@ def not_located(row: pd.Series | dict[str, Any]) -> str:
     return ""
 
 
+#: A bifurcation-target row's block: costs are ranked within one.
+_BIF_BLOCK = ["problem_label", "target", "machine", "environment"]
+
+
 def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
     """Each row's rank in its block (missing for the rows :func:`not_located` names): the rank the
     leaderboard's ranking code (:func:`nsbench.bench.tables.ranking`) gives one entry per configuration
@@ -201,14 +205,10 @@ def _bif_ranks(rows: pd.DataFrame) -> pd.Series:
     located = rows[rows["reason"] == ""]
     if located.empty:
         return ranks
-    keys = [located[k] for k in ("problem_label", "target", "machine", "environment")]
+    keys = [located[k] for k in _BIF_BLOCK]
     cost = located["integrator_time"].astype(float)  # finite and positive: not_located names the others
     ranks.loc[located.index] = cost.groupby(keys, sort=False, dropna=False).rank(method="min").astype(int)
     return ranks
-
-
-#: A bifurcation-target row's block: costs are ranked within one.
-_BIF_BLOCK = ["problem_label", "target", "machine", "environment"]
 
 
 def _one_per_method(rows: pd.DataFrame) -> pd.DataFrame:
@@ -257,13 +257,13 @@ def bifurcation_board(tables: Tables, problem: str | None = None, per: str = "me
         rows["located"] = (rows["reason"] == "").astype(int)
         rows["configurations"] = 1
     rows["rank"] = _bif_ranks(rows)
-    rows["tie"] = ties(rows, ["problem_label", "target", "machine", "environment"])
+    rows["tie"] = ties(rows, _BIF_BLOCK)
     # within a block the ranked rows by rank (then cost), then the unranked ones in the report's order
     # (integrator, level): their cost is no rank
     rows["_unranked"] = rows["rank"].isna()
     rows["_rank"] = rows["rank"].astype("Float64").fillna(math.inf).astype(float)
     rows["_cost"] = rows["integrator_time"].astype(float).where(~rows["_unranked"], 0.0)
-    order = ["problem_label", "target", "machine", "environment", "_rank", "_cost", "integrator", "level", "run_id"]
+    order = [*_BIF_BLOCK, "_rank", "_cost", "integrator", "level", "run_id"]
     rows = rows.sort_values(order, kind="stable", ignore_index=True)
     view = report_table(rows)  # the report's columns and formatting, row for row
     front = rows[["problem_label", "machine", "environment", "rank", "tie"]].rename(
